@@ -1,0 +1,10 @@
+#pragma once
+// Each CLI subcommand registers itself on the root CLI11 app; apps/main.cpp lists them.
+#include <CLI/CLI.hpp>
+
+namespace voxtier::cli {
+
+void addRenderCommand(CLI::App& app);
+void addInfoCommand(CLI::App& app);
+
+} // namespace voxtier::cli

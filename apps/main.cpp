@@ -1,0 +1,25 @@
+// voxtier: render voxel-entity scenes across LOD tiers. See README.md.
+#include "apps/commands.hpp"
+#include "core/error.hpp"
+
+#include <cstdio>
+#include <exception>
+
+int main(int argc, char** argv) {
+    CLI::App app{"voxtier: hybrid level-of-detail renderer for voxel game entities"};
+    app.require_subcommand(1);
+    voxtier::cli::addRenderCommand(app);
+    voxtier::cli::addInfoCommand(app);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    } catch (const voxtier::InputError& e) {
+        std::fprintf(stderr, "voxtier: error: %s\n", e.what());
+        return 1;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "voxtier: error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

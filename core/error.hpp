@@ -1,0 +1,31 @@
+#pragma once
+// Error channels (STYLE.md): untrusted input -> InputError naming file, field and reason;
+// API misuse -> assert; Vulkan/Embree -> their module's check macro / error callback.
+#include <stdexcept>
+#include <string>
+
+namespace voxtier {
+
+/// Bad user input: a malformed .vox, scene file, CLI argument or a limit exceeded.
+/// what() is one line: "<file>: <field>: <reason>" (field may be empty).
+class InputError : public std::runtime_error {
+public:
+    InputError(std::string file, std::string field, std::string reason);
+
+    const std::string& file() const { return file_; }
+    const std::string& field() const { return field_; }
+    const std::string& reason() const { return reason_; }
+
+private:
+    std::string file_, field_, reason_;
+};
+
+/// A resource limit of the renderer (image size, entity count, cache budget, model size).
+struct Limits {
+    static constexpr int kMaxModelDim = 256;        ///< voxels per axis (MagicaVoxel's own limit)
+    static constexpr int kMaxImageDim = 16384;      ///< pixels per axis of an output image
+    static constexpr int kMaxEntities = 1'000'000;  ///< entities in one scene after crowds expand
+    static constexpr int kMaxFramesPerModel = 4096; ///< animation frames of one model
+};
+
+} // namespace voxtier

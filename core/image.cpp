@@ -1,0 +1,51 @@
+#include "core/image.hpp"
+
+#include "core/sprite_kernel.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cstring>
+
+namespace voxtier {
+
+Image::Image(int w, int h, Rgba8 background) : width(w), height(h) { clear(background); }
+
+void Image::clear(Rgba8 background) {
+    color.assign(pixelCount(), background);
+    depth.assign(pixelCount(), 0.0f);
+    id.assign(pixelCount(), kernel::VT_NO_ENTITY);
+}
+
+void Image::writeIfNearer(std::size_t i, Rgba8 c, float d, std::uint32_t entity) {
+    if (d > depth[i] || (d == depth[i] && entity < id[i])) {
+        color[i] = c;
+        depth[i] = d;
+        id[i] = entity;
+    }
+}
+
+std::size_t Image::countEntity(std::uint32_t entity) const {
+    return std::size_t(std::count(id.begin(), id.end(), entity));
+}
+
+ImageDiff diffImages(const Image& a, const Image& b) {
+    assert(a.width == b.width && a.height == b.height);
+    ImageDiff d;
+    bool first = true;
+    for (std::size_t i = 0; i < a.pixelCount(); ++i) {
+        const bool c = a.color[i] != b.color[i];
+        const bool z = std::memcmp(&a.depth[i], &b.depth[i], sizeof(float)) != 0;
+        const bool e = a.id[i] != b.id[i];
+        d.colorDiffs += c;
+        d.depthDiffs += z;
+        d.idDiffs += e;
+        if ((c || z || e) && first) {
+            first = false;
+            d.firstX = i % std::size_t(a.width);
+            d.firstY = i / std::size_t(a.width);
+        }
+    }
+    return d;
+}
+
+} // namespace voxtier

@@ -1,0 +1,112 @@
+#pragma once
+// A scene: render parameters, camera (and optional camera path), light, models, entities,
+// selector thresholds and scripted edits. Loaded from JSON by core/scene_loader.hpp.
+#include "core/camera.hpp"
+#include "core/voxel_model.hpp"
+
+#include <glm/gtc/quaternion.hpp>
+
+#include <cmath>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace voxtier {
+
+/// Which way each sprite's parallel rays point (DESIGN.md §3.2).
+enum class ViewMode {
+    PerEntity, ///< normalize(model centre - eye): each sprite faces the viewer (default)
+    Parallel,  ///< the camera forward for every sprite (seed 000 §6.1)
+};
+
+struct RenderParams {
+    double voxelSize = 0.1; ///< metres per voxel (before entity scale)
+    double sigma = 1.0;     ///< virtual pixels per voxel (σ)
+    ViewMode viewMode = ViewMode::PerEntity;
+    Rgba8 background = packRgba(40, 44, 52);
+};
+
+/// Directional light; `direction` points from the surface towards the light (world space).
+struct Light {
+    glm::dvec3 direction{-0.35, 0.8, 0.5};
+    double ambient = 0.45;
+    double diffuse = 0.55;
+};
+
+/// Entity tier selector settings (DESIGN.md §5).
+enum class SelectorMetric { Distance, RadiusPx, ErrorPx };
+struct SelectorConfig {
+    SelectorMetric metric = SelectorMetric::Distance;
+    double nearAt = 30.0; ///< far -> near when the metric falls below this
+    double farAt = 40.0;  ///< near -> far when the metric rises past this (> nearAt)
+    double viewHysteresisDeg = 0.0; ///< far tier: switch snapshot view only when closer by this
+    int crossfadeFrames = 0;        ///< 0 = switch instantly
+    int viewSetSize = 26;           ///< 26, 98 or 218 snapshot directions
+};
+
+struct Entity {
+    int model = 0;       ///< index into Scene::models
+    int frame = 0;       ///< animation frame at time 0
+    double fps = 0.0;    ///< animation frames per second (0 = static)
+    glm::dvec3 position{0.0}; ///< world position of the anchor
+    glm::dquat rotation{1.0, 0.0, 0.0, 0.0};
+    double scale = 1.0;  ///< uniform
+    std::optional<glm::dvec3> anchor; ///< voxel-space anchor; default bottom centre (sx/2, sy/2, 0)
+    std::string name;
+
+    /// Animation frame at time t (seconds), wrapped to the model's frame count.
+    int frameAt(const VoxelModel& m, double t) const {
+        return m.wrapFrame(frame + (fps > 0.0 ? static_cast<long long>(std::floor(t * fps)) : 0));
+    }
+};
+
+struct CameraKey {
+    double time = 0.0;
+    glm::dvec3 position{0.0};
+    glm::dvec3 target{0.0};
+    std::optional<glm::dvec3> up;
+    std::optional<double> fovYDeg;
+};
+
+/// Keyframed camera path, linearly interpolated; `fps` turns frame numbers into times.
+struct CameraPath {
+    std::vector<CameraKey> keys; ///< sorted by time, at least one
+    double fps = 30.0;
+    double duration() const { return keys.empty() ? 0.0 : keys.back().time - keys.front().time; }
+    int frameCount() const { return int(std::floor(duration() * fps + 1e-9)) + 1; }
+};
+
+struct ScriptedEdit {
+    enum class Op { Set, Fill, Clear };
+    int atFrame = 0;     ///< applied before rendering this path frame
+    int model = 0;       ///< index into Scene::models
+    int modelFrame = 0;  ///< which animation frame of the model
+    Op op = Op::Set;
+    Box3i box;           ///< Set: a single voxel box
+    std::uint8_t index = 1;
+};
+
+struct Scene {
+    std::string source; ///< file it came from (for messages)
+    RenderParams render;
+    Camera camera;
+    std::optional<CameraPath> path;
+    Light light;
+    SelectorConfig selector;
+    std::vector<std::shared_ptr<VoxelModel>> models;
+    std::vector<Entity> entities;
+    std::vector<ScriptedEdit> edits;
+
+    /// The camera at time t: the path's interpolation when there is a path, else `camera`
+    /// (image size and near plane always come from `camera`).
+    Camera cameraAt(double t) const;
+    double timeOfFrame(int frame) const {
+        return path ? path->keys.front().time + frame / path->fps : frame / 30.0;
+    }
+};
+
+/// The default voxel-space anchor of a model frame: bottom centre (sx/2, sy/2, 0).
+inline glm::dvec3 defaultAnchor(glm::ivec3 dims) { return {dims.x * 0.5, dims.y * 0.5, 0.0}; }
+
+} // namespace voxtier

@@ -1,0 +1,125 @@
+#pragma once
+// The sprite contract of DESIGN.md §3, per entity and frame, in double precision and
+// camera-relative coordinates (the eye is subtracted before anything else, so an entity 10^6 m
+// from the origin renders exactly like one at the origin). Both tiers and the tests call these
+// functions; the per-pixel half lives in core/sprite_kernel.h.
+#include "core/camera.hpp"
+#include "core/scene.hpp"
+#include "core/sprite_kernel.h"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace voxtier {
+
+/// Direction components smaller than this are set to exactly 0 (and the vector renormalised),
+/// so canonical views have exactly zero components in both tiers (DESIGN.md §7). Over a
+/// 256-voxel traversal this moves a ray by < 3e-4 voxel.
+inline constexpr double kDirectionSnap = 1e-6;
+glm::dvec3 snapDirection(glm::dvec3 d);
+
+/// §3.3 + §3.5: the virtual-pixel lattice of a model seen along `dir` (voxel space). Shared
+/// by the near tier (dir = per-entity view direction, up from the camera) and the far tier's
+/// snapshots (dir = -w, up from the model's +Z), so both rasterise the same lattice.
+struct SpriteLattice {
+    glm::dvec3 dir{0.0};   ///< ray direction d, unit, snapped
+    glm::dvec3 right{0.0}; ///< cross(dir, up)
+    glm::dvec3 up{0.0};    ///< unit, perpendicular to dir
+    glm::dvec3 centre{0.0};///< model centre c = dims / 2
+    double gU = 0.0, gV = 0.0; ///< floor(c) projected on the sprite plane, relative to c
+    double sigma = 1.0;
+    double maxDim = 1.0;
+    glm::ivec3 dims{1};
+    /// iMin, iMax, jMin, jMax: a superset of the cells that can be non-empty (incl. outline).
+    glm::ivec4 cellRange{0};
+
+    /// Centre of cell (i, j) on the sprite plane (voxel space).
+    glm::dvec3 cellCentre(int i, int j) const {
+        return centre + (gU + (i + 0.5) / sigma) * right + (gV + (j + 0.5) / sigma) * up;
+    }
+    /// §3.6: the cell's primary ray starts 2*maxDim in front of the plane.
+    glm::dvec3 rayOrigin(int i, int j) const { return cellCentre(i, j) - dir * (2.0 * maxDim); }
+    /// Cell containing the sprite-plane point `p` (voxel space, relative to the centre).
+    glm::ivec2 cellAt(glm::dvec3 p) const;
+    int width() const { return cellRange.y - cellRange.x + 1; }
+    int height() const { return cellRange.w - cellRange.z + 1; }
+};
+
+/// `upHint` must not be parallel to `dir`; `fallbackUp` is used when it nearly is.
+SpriteLattice makeSpriteLattice(glm::dvec3 dir, glm::dvec3 upHint, glm::dvec3 fallbackUp,
+                                glm::ivec3 dims, double sigma);
+
+/// World <-> voxel for one entity (DESIGN.md §2):
+/// worldFromVoxel(p) = position + rotation * swizzle * metresPerVoxel * (p - anchor).
+struct EntityPose {
+    glm::dmat3 worldFromVoxelRotation{1.0}; ///< orthonormal: entity rotation * swizzle
+    glm::dvec3 position{0.0};
+    glm::dvec3 anchor{0.0};
+    double metresPerVoxel = 1.0; ///< voxel size * entity scale
+
+    /// Camera-relative world position of voxel-space point p (eye subtracted first).
+    glm::dvec3 relativeWorld(glm::dvec3 p, glm::dvec3 eye) const {
+        return (position - eye) + worldFromVoxelRotation * ((p - anchor) * metresPerVoxel);
+    }
+    glm::dvec3 voxelDirection(glm::dvec3 worldDir) const {
+        return glm::transpose(worldFromVoxelRotation) * worldDir;
+    }
+    glm::dvec3 worldDirection(glm::dvec3 voxelDir) const { return worldFromVoxelRotation * voxelDir; }
+    /// Voxel-space position of a world point, computed relative to the entity position.
+    glm::dvec3 voxelPoint(glm::dvec3 world) const {
+        return anchor + glm::transpose(worldFromVoxelRotation) * (world - position) / metresPerVoxel;
+    }
+};
+/// Voxel -> world direction swizzle of seed 000 §2: world = (v.x, v.z, -v.y).
+glm::dmat3 worldFromVoxelSwizzle();
+EntityPose makeEntityPose(const Entity& e, glm::ivec3 dims, double voxelSize);
+
+/// Why an entity draws nothing this frame (in every tier: culling is part of the contract).
+enum class CullReason {
+    None,
+    BehindCamera, ///< model centre not in front of the near plane
+    CameraInside, ///< the eye is inside or on the proxy box (§3.9)
+    SubPixel,     ///< projected bounding-sphere radius below half a pixel
+    OffScreen,    ///< the proxy quad misses the viewport
+};
+const char* toString(CullReason r);
+
+/// Everything one tier needs to draw one entity this frame.
+struct SpriteSetup {
+    CullReason cull = CullReason::None;
+    std::uint32_t entityId = 0;
+    int model = 0;
+    int frame = 0;
+    EntityPose pose;
+    SpriteLattice lattice;
+    glm::dvec3 centreRel{0.0}; ///< model centre minus eye (world)
+    double viewDepth = 0.0;    ///< along the camera forward
+    double distance = 0.0;     ///< |centreRel|
+    double radiusPx = 0.0;     ///< projected bounding-sphere radius in pixels
+    glm::ivec4 screenRect{0};  ///< x0, y0, x1, y1 (half-open), clamped to the image
+    kernel::SpriteGpu gpu{};   ///< atlas / palette fields are filled in by the near tier
+    bool visible() const { return cull == CullReason::None; }
+};
+
+/// §3.7 face light factors (16.16) for the six entered-face codes, given the light in world
+/// space and the entity's rotation. Shared by the near kernel and the far blit.
+std::array<std::uint32_t, 6> faceLightFactors(const Light& light, const EntityPose& pose);
+/// Outward normal (voxel space) of the face a ray entered through, by face code 0..5.
+glm::dvec3 faceNormal(unsigned faceCode);
+
+/// The whole per-entity computation of §3.1-§3.10.
+SpriteSetup setupSprite(const CameraFrame& camera, const Entity& entity, std::uint32_t entityId,
+                        const VoxelModel& model, int frame, const RenderParams& params,
+                        const Light& light);
+
+/// setupSprite for every entity of the scene at time t (TBB-parallel). Index = entity id.
+std::vector<SpriteSetup> setupSprites(const Scene& scene, const CameraFrame& camera, double time);
+
+/// The depth / id rule every tier and the compositor share (§6): nearer wins (reversed-Z:
+/// larger depth), equal depths go to the lower entity id, so nothing depends on draw order.
+inline bool winsDepthTest(float depth, std::uint32_t id, float oldDepth, std::uint32_t oldId) {
+    return depth > oldDepth || (depth == oldDepth && id < oldId);
+}
+
+} // namespace voxtier

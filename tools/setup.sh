@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Installs exactly the Debian packages voxtier needs to build, render and test.
+# Idempotent: packages already present are not touched, so a second run takes a second.
+# Usage: tools/setup.sh            (build + run + test packages)
+#        tools/setup.sh --fuzz     (also clang's libFuzzer/sanitizer runtime)
+set -euo pipefail
+
+packages=(
+    # build
+    cmake ninja-build g++ pkgconf
+    libembree-dev libglm-dev libopenimageio-dev libtbb-dev
+    libvulkan-dev glslang-tools nlohmann-json3-dev libcli11-dev
+    # run: the Vulkan driver (Mesa lavapipe works without a GPU)
+    mesa-vulkan-drivers
+    # tests
+    libgtest-dev vulkan-validationlayers
+    # bench plots
+    gnuplot-nox
+)
+if [[ "${1:-}" == "--fuzz" ]]; then
+    packages+=(clang libclang-rt-14-dev llvm)
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+    if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed"; then
+        missing+=("$p")
+    fi
+done
+[[ ${#missing[@]} -eq 0 ]] && exit 0
+
+echo "setup: installing ${missing[*]}" >&2
+sudo=""
+if [[ $(id -u) -ne 0 ]]; then
+    command -v sudo >/dev/null || { echo "setup: need root (or sudo) to install: ${missing[*]}" >&2; exit 1; }
+    sudo="sudo"
+fi
+export DEBIAN_FRONTEND=noninteractive
+# Try without refreshing the package lists first (fast, offline-friendly); refresh once on failure.
+if ! $sudo apt-get install -y --no-install-recommends "${missing[@]}" >/tmp/voxtier-setup.log 2>&1; then
+    $sudo apt-get update >>/tmp/voxtier-setup.log 2>&1 || true
+    $sudo apt-get install -y --no-install-recommends "${missing[@]}" >>/tmp/voxtier-setup.log 2>&1 || {
+        tail -n 20 /tmp/voxtier-setup.log >&2
+        echo "setup: apt-get failed (log: /tmp/voxtier-setup.log)" >&2
+        exit 1
+    }
+fi
