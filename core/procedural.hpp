@@ -1,0 +1,72 @@
+#pragma once
+// Procedural test models. Tests in every module reason about these voxel by voxel, so each
+// layout below is exact and part of the contract: change one and you change every test that
+// counts its pixels.
+//
+// All generators return a single-frame model whose palette is `proceduralPalette()` and whose
+// name is the generator's name ("box", "sphere", "arrow", "shell", "voxel"). Sizes outside
+// 1..Limits::kMaxModelDim per axis throw InputError (from VoxelGrid), like a bad .vox would.
+// Voxel coordinates are voxel space (DESIGN.md §2: Z-up, x fastest in memory).
+#include "core/voxel_model.hpp"
+
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <memory>
+
+namespace voxtier {
+
+/// Palette indices used by the procedural models (see proceduralPalette()).
+namespace proc_index {
+inline constexpr std::uint8_t kRed = 1;    ///< arrow shaft, default for solids
+inline constexpr std::uint8_t kGreen = 2;  ///< arrow head
+inline constexpr std::uint8_t kBlue = 3;   ///< arrow fin (+Z)
+inline constexpr std::uint8_t kYellow = 4; ///< arrow stub (+Y)
+inline constexpr std::uint8_t kMagenta = 5;
+inline constexpr std::uint8_t kCyan = 6;
+inline constexpr std::uint8_t kOrange = 7;
+inline constexpr std::uint8_t kViolet = 8;
+} // namespace proc_index
+
+/// The shared palette of every procedural model:
+/// - 0: transparent black (index 0 is "empty" and never drawn);
+/// - 1..8: distinct saturated colours: red (230,40,40), green (40,200,60), blue (50,90,230),
+///   yellow (240,210,40), magenta (220,50,200), cyan (40,200,220), orange (245,130,30),
+///   violet (140,60,230);
+/// - 9..255: a gradient (i, 255 - i, 128), so 254 = (254,1,128) and 255 = (255,0,128).
+/// Every entry 1..255 is opaque (alpha 255) and distinct from every other entry and from the
+/// outline black, so an image pixel identifies its palette index unambiguously (unlit).
+const Palette& proceduralPalette();
+
+/// A solid box: every voxel of `size` set to `index`. solidCount = size.x * size.y * size.z.
+std::shared_ptr<VoxelModel> makeBox(glm::ivec3 size, std::uint8_t index = proc_index::kRed);
+
+/// A voxelised ball of `radius` (1..128) in a (2r)^3 grid: voxel (x, y, z) is set to `index`
+/// iff its centre (x+½, y+½, z+½) lies within distance r of the grid centre (r, r, r)
+/// (boundary included), evaluated exactly in integers:
+/// (2x+1-2r)² + (2y+1-2r)² + (2z+1-2r)² <= 4r². Symmetric under every axis flip and swap.
+std::shared_ptr<VoxelModel> makeSphere(int radius, std::uint8_t index = proc_index::kRed);
+
+/// An asymmetric model whose orientation is readable from every view: no rotation or mirror
+/// maps it onto itself. `length` L is 8..256; dims = (L, 5, 5); the shaft axis is the line
+/// y = 2, z = 2. Exact layout (all boxes half-open [min, max)):
+/// - shaft, index 1 (red):    x in [0, L-3),        y = 2,        z = 2         (L-3 voxels)
+/// - head,  index 2 (green):  a stepped pyramid pointing +X:
+///                            x = L-3: y, z in [0, 5)  (5x5 = 25)
+///                            x = L-2: y, z in [1, 4)  (3x3 =  9)
+///                            x = L-1: y = 2, z = 2    (1)
+/// - fin,   index 3 (blue):   x in [0, 3),          y = 2,        z in [3, 5)   (6 voxels, +Z)
+/// - stub,  index 4 (yellow): x = L/2 (integer div), y in [3, 5),  z = 2         (2 voxels, +Y)
+/// solidCount = L + 40 (56 for the default L = 16). Nothing occupies y < 2 except the head,
+/// nothing occupies z < 2 except the head.
+std::shared_ptr<VoxelModel> makeArrow(int length = 16);
+
+/// A hollow box: voxel p is set to `index` iff it lies within `thickness` (>= 1) of a face,
+/// i.e. p.a < t or p.a >= size.a - t on some axis a. solidCount = volume - Π max(0, size.a - 2t);
+/// a thickness of at least half the smallest side gives a solid box.
+std::shared_ptr<VoxelModel> makeShell(glm::ivec3 size, int thickness = 1,
+                                      std::uint8_t index = proc_index::kRed);
+
+/// A 1x1x1 model holding one voxel of `index`.
+std::shared_ptr<VoxelModel> makeSingleVoxel(std::uint8_t index = proc_index::kRed);
+
+} // namespace voxtier

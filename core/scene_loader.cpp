@@ -1,0 +1,1158 @@
+#include "core/scene_loader.hpp"
+
+#include "core/error.hpp"
+#include "core/procedural.hpp"
+#include "core/sprite.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <glm/gtc/quaternion.hpp>
+#include <initializer_list>
+#include <limits>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <string_view>
+#include <tuple>
+#include <unordered_map>
+
+namespace voxtier {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Error context and small formatting helpers.
+
+struct Ctx {
+    std::string file;
+    fs::path baseDir;
+};
+
+[[noreturn]] void fail(const Ctx& c, const std::string& path, const std::string& reason) {
+    throw InputError(c.file, path, reason);
+}
+
+std::string child(const std::string& parent, std::string_view key) {
+    return parent.empty() ? std::string(key) : parent + "." + std::string(key);
+}
+std::string element(const std::string& parent, std::size_t i) {
+    return parent + "[" + std::to_string(i) + "]";
+}
+
+std::string fmt(double v) {
+    std::ostringstream s;
+    s.precision(17);
+    s << v;
+    return s.str();
+}
+
+/// Levenshtein distance, for "did you mean" hints on typos.
+std::size_t editDistance(std::string_view a, std::string_view b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diag = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diag = up;
+        }
+    }
+    return row[b.size()];
+}
+
+/// " (did you mean 'x'?)" for a close candidate, else " (expected one of: a, b, c)".
+std::string suggestion(std::string_view got, const std::vector<std::string>& candidates) {
+    std::string best;
+    std::size_t bestD = std::numeric_limits<std::size_t>::max();
+    for (const auto& c : candidates) {
+        const std::size_t d = editDistance(got, c);
+        if (d < bestD) bestD = d, best = c;
+    }
+    if (!best.empty() && bestD <= std::max<std::size_t>(1, best.size() / 3))
+        return " (did you mean '" + best + "'?)";
+    if (candidates.empty() || candidates.size() > 12) return "";
+    std::string s = " (expected one of: ";
+    for (std::size_t i = 0; i < candidates.size(); ++i) s += (i ? ", " : "") + candidates[i];
+    return s + ")";
+}
+
+const char* typeName(const json& v) {
+    switch (v.type()) {
+    case json::value_t::null:
+        return "null";
+    case json::value_t::object:
+        return "an object";
+    case json::value_t::array:
+        return "an array";
+    case json::value_t::string:
+        return "a string";
+    case json::value_t::boolean:
+        return "a boolean";
+    case json::value_t::binary:
+        return "binary data";
+    case json::value_t::discarded:
+        return "nothing";
+    default:
+        return "a number";
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Typed accessors. Each names the JSON path and the expected shape in its error.
+
+double number(const Ctx& c, const json& v, const std::string& path) {
+    if (!v.is_number()) fail(c, path, std::string("expected a finite number, got ") + typeName(v));
+    const double d = v.get<double>();
+    if (!std::isfinite(d)) fail(c, path, "expected a finite number");
+    return d;
+}
+
+double positive(const Ctx& c, const json& v, const std::string& path) {
+    const double d = number(c, v, path);
+    if (!(d > 0.0)) fail(c, path, "expected a positive number, got " + fmt(d));
+    return d;
+}
+
+double nonNegative(const Ctx& c, const json& v, const std::string& path) {
+    const double d = number(c, v, path);
+    if (!(d >= 0.0)) fail(c, path, "expected a number >= 0, got " + fmt(d));
+    return d;
+}
+
+long long integer(const Ctx& c, const json& v, const std::string& path, long long lo,
+                  long long hi) {
+    const std::string expected =
+        "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    long long r = 0;
+    if (v.is_number_unsigned()) {
+        const auto u = v.get<std::uint64_t>();
+        if (u > std::uint64_t(std::numeric_limits<long long>::max())) fail(c, path, expected);
+        r = static_cast<long long>(u);
+    } else if (v.is_number_integer()) {
+        r = v.get<long long>();
+    } else if (v.is_number_float()) {
+        // 3.0 is accepted as 3 (some tools write every number as a float); 3.5 is not.
+        const double d = v.get<double>();
+        if (!std::isfinite(d) || d != std::floor(d) || d < double(lo) || d > double(hi))
+            fail(c, path, expected + ", got " + fmt(d));
+        r = static_cast<long long>(d);
+    } else {
+        fail(c, path, expected + ", got " + typeName(v));
+    }
+    if (r < lo || r > hi) fail(c, path, expected + ", got " + std::to_string(r));
+    return r;
+}
+
+int intIn(const Ctx& c, const json& v, const std::string& path, int lo, int hi) {
+    return static_cast<int>(integer(c, v, path, lo, hi));
+}
+
+std::uint64_t seedValue(const Ctx& c, const json& v, const std::string& path) {
+    if (v.is_number_unsigned()) return v.get<std::uint64_t>();
+    if (v.is_number_integer() && v.get<long long>() >= 0) return std::uint64_t(v.get<long long>());
+    fail(c, path, "expected an unsigned integer seed");
+}
+
+bool boolean(const Ctx& c, const json& v, const std::string& path) {
+    if (!v.is_boolean()) fail(c, path, std::string("expected true or false, got ") + typeName(v));
+    return v.get<bool>();
+}
+
+std::string string(const Ctx& c, const json& v, const std::string& path) {
+    if (!v.is_string()) fail(c, path, std::string("expected a string, got ") + typeName(v));
+    return v.get<std::string>();
+}
+
+std::string nonEmptyString(const Ctx& c, const json& v, const std::string& path) {
+    std::string s = string(c, v, path);
+    if (s.empty()) fail(c, path, "expected a non-empty string");
+    return s;
+}
+
+/// A string that must be one of `options`; returns its position in the list.
+int choice(const Ctx& c, const json& v, const std::string& path,
+           const std::vector<std::string>& options) {
+    const std::string s = string(c, v, path);
+    for (std::size_t i = 0; i < options.size(); ++i)
+        if (s == options[i]) return int(i);
+    fail(c, path, "unknown value '" + s + "'" + suggestion(s, options));
+}
+
+const json& arrayOf(const Ctx& c, const json& v, const std::string& path, std::size_t n,
+                    const char* what) {
+    if (!v.is_array() || v.size() != n)
+        fail(c, path, "expected an array of " + std::to_string(n) + " " + what);
+    return v;
+}
+
+glm::dvec3 vec3(const Ctx& c, const json& v, const std::string& path) {
+    const char* what = "finite numbers";
+    arrayOf(c, v, path, 3, what);
+    glm::dvec3 r;
+    for (int i = 0; i < 3; ++i) {
+        if (!v[std::size_t(i)].is_number()) fail(c, path, "expected an array of 3 finite numbers");
+        r[i] = v[std::size_t(i)].get<double>();
+        if (!std::isfinite(r[i])) fail(c, path, "expected an array of 3 finite numbers");
+    }
+    return r;
+}
+
+glm::dvec2 vec2(const Ctx& c, const json& v, const std::string& path) {
+    arrayOf(c, v, path, 2, "finite numbers");
+    glm::dvec2 r;
+    for (int i = 0; i < 2; ++i) {
+        if (!v[std::size_t(i)].is_number()) fail(c, path, "expected an array of 2 finite numbers");
+        r[i] = v[std::size_t(i)].get<double>();
+        if (!std::isfinite(r[i])) fail(c, path, "expected an array of 2 finite numbers");
+    }
+    return r;
+}
+
+glm::ivec3 ivec3(const Ctx& c, const json& v, const std::string& path, int lo, int hi) {
+    const std::string what = "integers in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    arrayOf(c, v, path, 3, what.c_str());
+    glm::ivec3 r;
+    for (int i = 0; i < 3; ++i)
+        r[i] = intIn(c, v[std::size_t(i)], element(path, std::size_t(i)), lo, hi);
+    return r;
+}
+
+Rgba8 color(const Ctx& c, const json& v, const std::string& path) {
+    arrayOf(c, v, path, 3, "integers in [0, 255] (r, g, b)");
+    glm::ivec3 r;
+    for (int i = 0; i < 3; ++i)
+        r[i] = intIn(c, v[std::size_t(i)], element(path, std::size_t(i)), 0, 255);
+    return packRgba(unsigned(r.x), unsigned(r.y), unsigned(r.z));
+}
+
+/// A JSON object with its path. Keys are looked up by name; `allow` rejects every key not in
+/// the list (plus "comment"), so a typo is an error instead of a silently ignored setting.
+class Obj {
+  public:
+    Obj(const Ctx& c, const json& v, std::string path) : c_(c), v_(v), path_(std::move(path)) {
+        if (!v.is_object()) fail(c, path_, std::string("expected an object, got ") + typeName(v));
+    }
+
+    void allow(std::initializer_list<std::string_view> keys) const {
+        std::vector<std::string> allowed(keys.begin(), keys.end());
+        for (const auto& [k, val] : v_.items()) {
+            if (k == "comment") {
+                string(c_, val, at(k));
+                continue;
+            }
+            if (std::find(allowed.begin(), allowed.end(), k) == allowed.end())
+                fail(c_, at(k), "unknown key '" + k + "'" + suggestion(k, allowed));
+        }
+    }
+
+    const json* get(std::string_view key) const {
+        const auto it = v_.find(std::string(key));
+        return it == v_.end() ? nullptr : &*it;
+    }
+    const json& require(std::string_view key) const {
+        const json* v = get(key);
+        if (!v) fail(c_, path_, "missing required key '" + std::string(key) + "'");
+        return *v;
+    }
+    std::string at(std::string_view key) const { return child(path_, key); }
+    const std::string& path() const { return path_; }
+
+    // Optional typed fields: leave `out` untouched when the key is absent.
+    void num(std::string_view k, double& out) const {
+        if (auto v = get(k)) out = number(c_, *v, at(k));
+    }
+    void pos(std::string_view k, double& out) const {
+        if (auto v = get(k)) out = positive(c_, *v, at(k));
+    }
+    void nonNeg(std::string_view k, double& out) const {
+        if (auto v = get(k)) out = nonNegative(c_, *v, at(k));
+    }
+    void v3(std::string_view k, glm::dvec3& out) const {
+        if (auto v = get(k)) out = vec3(c_, *v, at(k));
+    }
+    void flag(std::string_view k, bool& out) const {
+        if (auto v = get(k)) out = boolean(c_, *v, at(k));
+    }
+    void str(std::string_view k, std::string& out) const {
+        if (auto v = get(k)) out = string(c_, *v, at(k));
+    }
+    void i(std::string_view k, int& out, int lo, int hi) const {
+        if (auto v = get(k)) out = intIn(c_, *v, at(k), lo, hi);
+    }
+
+  private:
+    const Ctx& c_;
+    const json& v_;
+    std::string path_;
+};
+
+const json& array(const Ctx& c, const json& v, const std::string& path) {
+    if (!v.is_array()) fail(c, path, std::string("expected an array, got ") + typeName(v));
+    return v;
+}
+
+// ---------------------------------------------------------------------------------------------
+// JSON text -> json, with the path of the value being parsed tracked, so that errors the
+// parser raises (syntax, number overflow such as 1e999, duplicate keys) name a JSON path too.
+
+struct PathFrame {
+    bool isArray = false;
+    std::size_t index = 0;
+    bool hasKey = false;
+    std::string key;
+    std::set<std::string> seen;
+};
+
+std::string trackedPath(const std::vector<PathFrame>& stack) {
+    std::string p;
+    for (const auto& f : stack) {
+        if (f.isArray)
+            p = element(p, f.index);
+        else if (f.hasKey)
+            p = child(p, f.key);
+    }
+    return p;
+}
+
+std::pair<int, int> lineColumn(const std::string& text, std::size_t byte) {
+    // nlohmann's byte is 1-based: the offending character is text[byte - 1].
+    const std::size_t end = std::min(text.size(), byte > 0 ? byte - 1 : 0);
+    int line = 1, column = 1;
+    for (std::size_t i = 0; i < end; ++i) {
+        if (text[i] == '\n')
+            ++line, column = 1;
+        else
+            ++column;
+    }
+    return {line, column};
+}
+
+/// nlohmann's what() minus its "[json.exception.xxx.nnn] " prefix.
+std::string jsonDetail(const json::exception& e) {
+    std::string s = e.what();
+    if (!s.empty() && s[0] == '[') {
+        const auto close = s.find("] ");
+        if (close != std::string::npos) s = s.substr(close + 2);
+    }
+    // Drop nlohmann's own position prefix: we print ours, computed the same way every time.
+    const auto colon = s.find(": ");
+    if (s.rfind("parse error", 0) == 0 && colon != std::string::npos) s = s.substr(colon + 2);
+    return s;
+}
+
+json parseTracked(const std::string& text, const std::string& file) {
+    std::vector<PathFrame> stack;
+    auto advance = [&] {
+        if (stack.empty()) return;
+        if (stack.back().isArray)
+            ++stack.back().index;
+        else
+            stack.back().hasKey = false;
+    };
+    const json::parser_callback_t cb = [&](int, json::parse_event_t ev, json& parsed) {
+        switch (ev) {
+        case json::parse_event_t::object_start:
+            stack.push_back({});
+            break;
+        case json::parse_event_t::array_start:
+            stack.push_back({true});
+            break;
+        case json::parse_event_t::key: {
+            PathFrame& f = stack.back();
+            f.key = parsed.get<std::string>();
+            f.hasKey = true;
+            // nlohmann keeps the last of duplicate keys; a duplicate is almost always an
+            // editing mistake, so say so instead of silently dropping the first value.
+            if (!f.seen.insert(f.key).second)
+                throw InputError(file, trackedPath(stack), "duplicate key '" + f.key + "'");
+            break;
+        }
+        case json::parse_event_t::object_end:
+        case json::parse_event_t::array_end:
+            stack.pop_back();
+            advance();
+            break;
+        case json::parse_event_t::value:
+            advance();
+            break;
+        }
+        return true;
+    };
+    try {
+        return json::parse(text, cb, /*allow_exceptions=*/true, /*ignore_comments=*/false);
+    } catch (const json::parse_error& e) {
+        const auto [line, column] = lineColumn(text, e.byte);
+        throw InputError(file, trackedPath(stack),
+                         "invalid JSON at line " + std::to_string(line) + ", column " +
+                             std::to_string(column) + ": " + jsonDetail(e));
+    } catch (const json::out_of_range& e) {
+        // 406: a number literal that does not fit a double (1e999): not a finite number.
+        throw InputError(file, trackedPath(stack),
+                         "expected a finite number (" + jsonDetail(e) + ")");
+    } catch (const json::exception& e) {
+        throw InputError(file, trackedPath(stack), "invalid JSON: " + jsonDetail(e));
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Deterministic PRNG: splitmix64 (Steele, Lea, Flood 2014). Its output is fully specified, so
+// a crowd is the same on every platform and standard library (std::*_distribution is not).
+
+struct SplitMix64 {
+    std::uint64_t state;
+    std::uint64_t next() {
+        std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
+        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+        z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+        return z ^ (z >> 31);
+    }
+    /// Uniform in [0, 1) with 53 random bits.
+    double unit() { return double(next() >> 11) * 0x1.0p-53; }
+    /// Uniform in [0, n) (modulo bias < n / 2^64, irrelevant for model picks).
+    std::uint64_t below(std::uint64_t n) { return next() % n; }
+};
+
+// ---------------------------------------------------------------------------------------------
+// Loading state.
+
+struct VoxCacheEntry {
+    VoxFile file;
+    /// (file model, mirror axis) -> Scene::models index, shared by every vox_scenes entry of
+    /// this file, so the far tier bakes each distinct model once.
+    std::map<std::pair<int, int>, int> sceneModels;
+};
+
+struct Loader {
+    Ctx c;
+    Scene s;
+    std::unordered_map<std::string, int> modelByName; ///< declared models only
+    std::vector<std::string> modelNames;
+    std::map<std::string, VoxCacheEntry> voxCache; ///< by resolved path
+
+    // Paths -------------------------------------------------------------------------------
+    fs::path resolve(const json& v, const std::string& path) {
+        const std::string rel = nonEmptyString(c, v, path);
+        fs::path p(rel);
+        if (p.is_relative()) p = c.baseDir / p;
+        std::error_code ec;
+        const auto st = fs::status(p, ec);
+        if (!fs::exists(st)) fail(c, path, "file not found: '" + p.string() + "'");
+        if (fs::is_directory(st)) fail(c, path, "'" + p.string() + "' is a directory, not a file");
+        return p;
+    }
+
+    VoxCacheEntry& vox(const json& v, const std::string& path) {
+        const fs::path p = resolve(v, path);
+        std::error_code ec;
+        fs::path key = fs::weakly_canonical(p, ec);
+        if (ec) key = p;
+        auto it = voxCache.find(key.string());
+        if (it != voxCache.end()) return it->second;
+        VoxCacheEntry e;
+        try {
+            e.file = readVoxFile(p);
+        } catch (const InputError& err) {
+            // The reader's message names the .vox file and chunk; keep it whole.
+            fail(c, path, err.what());
+        } catch (const std::exception& err) {
+            fail(c, path, "cannot read '" + p.string() + "': " + err.what());
+        }
+        return voxCache.emplace(key.string(), std::move(e)).first->second;
+    }
+
+    int modelIndex(const json& v, const std::string& path) {
+        const std::string name = string(c, v, path);
+        const auto it = modelByName.find(name);
+        if (it == modelByName.end())
+            fail(c, path, "unknown model '" + name + "'" + suggestion(name, modelNames));
+        return it->second;
+    }
+
+    void checkEntityBudget(std::size_t adding, const std::string& path) {
+        const std::size_t total = s.entities.size() + adding;
+        if (total > std::size_t(Limits::kMaxEntities))
+            fail(c, path,
+                 "scene would have " + std::to_string(total) + " entities; the limit is " +
+                     std::to_string(Limits::kMaxEntities));
+    }
+
+    // Sections ----------------------------------------------------------------------------
+    void render(const Obj& root) {
+        root.pos("voxel_size", s.render.voxelSize);
+        root.pos("sigma", s.render.sigma);
+        if (auto v = root.get("view_mode"))
+            s.render.viewMode = choice(c, *v, root.at("view_mode"), {"per_entity", "parallel"}) == 0
+                                    ? ViewMode::PerEntity
+                                    : ViewMode::Parallel;
+        if (auto v = root.get("background"))
+            s.render.background = color(c, *v, root.at("background"));
+    }
+
+    /// makeCameraFrame's checks, reported at `path` (it throws with file "" and a field that
+    /// starts with "camera").
+    void checkCamera(const Camera& cam, const std::string& path) {
+        if (!std::isfinite(glm::length(cam.target - cam.position)))
+            fail(c, path + ".target", "position and target are too far apart to subtract");
+        try {
+            makeCameraFrame(cam);
+        } catch (const InputError& e) {
+            std::string field = e.field();
+            if (field.rfind("camera", 0) == 0) field = path + field.substr(6);
+            fail(c, field, e.reason());
+        }
+    }
+
+    void fovField(const Obj& o, std::string_view key, double& out) {
+        if (auto v = o.get(key)) {
+            const double f = number(c, *v, o.at(key));
+            if (!(f > 0.0 && f < 179.0))
+                fail(c, o.at(key), "expected a field of view in (0, 179) degrees, got " + fmt(f));
+            out = f;
+        }
+    }
+
+    void camera(const Obj& root) {
+        const json* v = root.get("camera");
+        if (!v) return;
+        const Obj o(c, *v, root.at("camera"));
+        o.allow({"position", "target", "up", "fov_y", "size", "near"});
+        Camera& cam = s.camera;
+        o.v3("position", cam.position);
+        o.v3("target", cam.target);
+        o.v3("up", cam.up);
+        fovField(o, "fov_y", cam.fovYDeg);
+        if (auto sz = o.get("size")) {
+            const std::string p = o.at("size");
+            arrayOf(c, *sz, p, 2, "integers (width, height)");
+            cam.width = intIn(c, (*sz)[0], element(p, 0), 1, Limits::kMaxImageDim);
+            cam.height = intIn(c, (*sz)[1], element(p, 1), 1, Limits::kMaxImageDim);
+        }
+        o.pos("near", cam.zNear);
+        checkCamera(cam, o.path());
+    }
+
+    void cameraPath(const Obj& root) {
+        const json* v = root.get("camera_path");
+        if (!v) return;
+        const Obj o(c, *v, root.at("camera_path"));
+        o.allow({"fps", "keys"});
+        CameraPath path;
+        o.pos("fps", path.fps);
+        const std::string keysPath = o.at("keys");
+        const json& keys = array(c, o.require("keys"), keysPath);
+        if (keys.empty()) fail(c, keysPath, "expected at least one key");
+        for (std::size_t i = 0; i < keys.size(); ++i) {
+            const Obj k(c, keys[i], element(keysPath, i));
+            k.allow({"time", "position", "target", "up", "fov_y"});
+            CameraKey key;
+            key.time = number(c, k.require("time"), k.at("time"));
+            key.position = vec3(c, k.require("position"), k.at("position"));
+            key.target = vec3(c, k.require("target"), k.at("target"));
+            if (auto u = k.get("up")) key.up = vec3(c, *u, k.at("up"));
+            if (k.get("fov_y")) {
+                double f = 0.0;
+                fovField(k, "fov_y", f);
+                key.fovYDeg = f;
+            }
+            if (i > 0 && !(key.time > path.keys.back().time))
+                fail(c, k.at("time"),
+                     "key times must be strictly increasing: " + fmt(key.time) +
+                         " does not follow " + fmt(path.keys.back().time));
+            Camera cam = s.camera;
+            cam.position = key.position;
+            cam.target = key.target;
+            if (key.up) cam.up = *key.up;
+            if (key.fovYDeg) cam.fovYDeg = *key.fovYDeg;
+            checkCamera(cam, k.path());
+            path.keys.push_back(key);
+        }
+        // Interpolation can pass through a degenerate camera (position crossing the target, up
+        // swinging through the view direction) even when every key is fine, and the renderer
+        // asks for exactly the frame times, so check those.
+        constexpr double kMaxFrames = 1'000'000;
+        const double frames = path.duration() * path.fps;
+        if (!(frames < kMaxFrames))
+            fail(c, o.path(), "the path is " + fmt(frames) + " frames long; the limit is 1000000");
+        s.path = path;
+        const int n = s.path->frameCount();
+        for (int f = 0; f < n; ++f) {
+            const double t = s.timeOfFrame(f);
+            try {
+                makeCameraFrame(s.cameraAt(t));
+            } catch (const InputError& e) {
+                fail(c, o.path(),
+                     "the interpolated camera at frame " + std::to_string(f) + " (t = " + fmt(t) +
+                         " s) is degenerate: " + e.reason());
+            }
+        }
+    }
+
+    void light(const Obj& root) {
+        const json* v = root.get("light");
+        if (!v) return;
+        const Obj o(c, *v, root.at("light"));
+        o.allow({"direction", "ambient", "diffuse"});
+        o.v3("direction", s.light.direction);
+        const double len = glm::length(s.light.direction);
+        if (!(len > 0.0 && std::isfinite(len)))
+            fail(c, o.at("direction"), "expected a non-zero direction");
+        o.nonNeg("ambient", s.light.ambient);
+        o.nonNeg("diffuse", s.light.diffuse);
+    }
+
+    void selector(const Obj& root) {
+        const json* v = root.get("selector");
+        if (!v) return;
+        const Obj o(c, *v, root.at("selector"));
+        o.allow(
+            {"metric", "near_at", "far_at", "view_hysteresis_deg", "crossfade_frames", "view_set"});
+        SelectorConfig& sel = s.selector;
+        if (auto m = o.get("metric"))
+            sel.metric = SelectorMetric(
+                choice(c, *m, o.at("metric"), {"distance", "radius_px", "error_px"}));
+        o.nonNeg("near_at", sel.nearAt);
+        o.nonNeg("far_at", sel.farAt);
+        if (!(sel.farAt > sel.nearAt))
+            fail(c, o.at(o.get("far_at") ? "far_at" : "near_at"),
+                 "far_at must be greater than near_at (got near_at " + fmt(sel.nearAt) +
+                     ", far_at " + fmt(sel.farAt) + ")");
+        o.nonNeg("view_hysteresis_deg", sel.viewHysteresisDeg);
+        if (!(sel.viewHysteresisDeg < 180.0))
+            fail(c, o.at("view_hysteresis_deg"), "expected an angle in [0, 180) degrees");
+        o.i("crossfade_frames", sel.crossfadeFrames, 0, 1'000'000);
+        if (auto vs = o.get("view_set")) {
+            const int n = intIn(c, *vs, o.at("view_set"), 0, 1000);
+            if (n != 26 && n != 98 && n != 218)
+                fail(c, o.at("view_set"), "expected 26, 98 or 218, got " + std::to_string(n));
+            sel.viewSetSize = n;
+        }
+    }
+
+    std::string modelName(const Obj& o) {
+        const std::string name = nonEmptyString(c, o.require("name"), o.at("name"));
+        if (modelByName.count(name)) fail(c, o.at("name"), "duplicate model name '" + name + "'");
+        return name;
+    }
+
+    /// Index of a model in a .vox file with `count` models (the message says how many there are).
+    int fileModelIndex(const json& v, const std::string& path, int count) {
+        const long long m = integer(c, v, path, 0, std::numeric_limits<int>::max());
+        if (m >= count)
+            fail(c, path,
+                 "model index " + std::to_string(m) + " out of range: the file has " +
+                     std::to_string(count) + " model(s)");
+        return int(m);
+    }
+
+    std::shared_ptr<VoxelModel> voxModel(const Obj& o) {
+        o.allow({"name", "vox", "model", "frames"});
+        const std::string name = modelName(o);
+        if (o.get("model") && o.get("frames"))
+            fail(c, o.at("frames"), "give either 'model' or 'frames', not both");
+        const VoxFile& f = vox(o.require("vox"), o.at("vox")).file;
+        const int count = int(f.models.size());
+        if (count == 0) fail(c, o.at("vox"), "the file has no models");
+        std::vector<int> which;
+        if (const json* fr = o.get("frames")) {
+            const std::string p = o.at("frames");
+            if (fr->is_string()) {
+                if (fr->get<std::string>() != "all")
+                    fail(c, p, "expected \"all\" or an array of model indices");
+                for (int i = 0; i < count; ++i) which.push_back(i);
+            } else if (fr->is_array() && !fr->empty()) {
+                for (std::size_t i = 0; i < fr->size(); ++i)
+                    which.push_back(fileModelIndex((*fr)[i], element(p, i), count));
+            } else {
+                fail(c, p, "expected \"all\" or a non-empty array of model indices");
+            }
+            if (which.size() > std::size_t(Limits::kMaxFramesPerModel))
+                fail(c, p,
+                     std::to_string(which.size()) + " frames; the limit is " +
+                         std::to_string(Limits::kMaxFramesPerModel));
+        } else {
+            const json* mv = o.get("model");
+            which.push_back(mv ? fileModelIndex(*mv, o.at("model"), count) : 0);
+        }
+        std::vector<VoxelGrid> frames;
+        frames.reserve(which.size());
+        for (int m : which) frames.push_back(f.models[std::size_t(m)]);
+        return std::make_shared<VoxelModel>(name, f.palette, std::move(frames));
+    }
+
+    std::shared_ptr<VoxelModel> generatorModel(const Obj& o) {
+        static const std::vector<std::string> kinds{"box", "sphere", "arrow", "shell", "voxel"};
+        const int kind = choice(c, o.require("generator"), o.at("generator"), kinds);
+        switch (kind) {
+        case 0:
+            o.allow({"name", "generator", "size", "index", "color"});
+            break;
+        case 1:
+            o.allow({"name", "generator", "radius", "index", "color"});
+            break;
+        case 2:
+            o.allow({"name", "generator", "length"});
+            break;
+        case 3:
+            o.allow({"name", "generator", "size", "thickness", "index", "color"});
+            break;
+        default:
+            o.allow({"name", "generator", "index", "color"});
+            break;
+        }
+        const std::string name = modelName(o);
+        int index = 1;
+        o.i("index", index, 1, 255);
+        const auto idx = std::uint8_t(index);
+        glm::ivec3 size = kind == 3 ? glm::ivec3(16) : glm::ivec3(8);
+        if (auto v = o.get("size")) size = ivec3(c, *v, o.at("size"), 1, Limits::kMaxModelDim);
+        std::shared_ptr<VoxelModel> m;
+        switch (kind) {
+        case 0:
+            m = makeBox(size, idx);
+            break;
+        case 1: {
+            int r = 6;
+            o.i("radius", r, 1, Limits::kMaxModelDim / 2);
+            m = makeSphere(r, idx);
+            break;
+        }
+        case 2: {
+            int len = 16;
+            o.i("length", len, 8, Limits::kMaxModelDim);
+            m = makeArrow(len);
+            break;
+        }
+        case 3: {
+            int t = 1;
+            o.i("thickness", t, 1, Limits::kMaxModelDim);
+            m = makeShell(size, t, idx);
+            break;
+        }
+        default:
+            m = makeSingleVoxel(idx);
+            break;
+        }
+        Palette pal = m->palette();
+        if (auto v = o.get("color")) pal.colors[idx] = color(c, *v, o.at("color"));
+        return std::make_shared<VoxelModel>(name, pal, std::vector<VoxelGrid>{m->frame(0)});
+    }
+
+    void models(const Obj& root) {
+        const std::string path = root.at("models");
+        const json& list = array(c, root.require("models"), path);
+        if (list.empty()) fail(c, path, "expected at least one model");
+        for (std::size_t i = 0; i < list.size(); ++i) {
+            const Obj o(c, list[i], element(path, i));
+            const bool isVox = o.get("vox") != nullptr, isGen = o.get("generator") != nullptr;
+            if (isVox && isGen) fail(c, o.path(), "give either 'vox' or 'generator', not both");
+            if (!isVox && !isGen) {
+                // Report a misspelt key as such before complaining that the source is missing.
+                o.allow({"name", "vox", "model", "frames", "generator", "size", "radius", "length",
+                         "thickness", "index", "color"});
+                fail(c, o.path(), "missing 'vox' (a .vox file) or 'generator'");
+            }
+            auto m = isVox ? voxModel(o) : generatorModel(o);
+            modelByName.emplace(m->name(), int(s.models.size()));
+            modelNames.push_back(m->name());
+            s.models.push_back(std::move(m));
+        }
+    }
+
+    void entities(const Obj& root) {
+        const json* v = root.get("entities");
+        if (!v) return;
+        const std::string path = root.at("entities");
+        const json& list = array(c, *v, path);
+        checkEntityBudget(list.size(), path);
+        for (std::size_t i = 0; i < list.size(); ++i) {
+            const Obj o(c, list[i], element(path, i));
+            o.allow({"model", "position", "rotation_deg", "quaternion", "scale", "anchor", "frame",
+                     "fps", "name"});
+            Entity e;
+            e.model = modelIndex(o.require("model"), o.at("model"));
+            const VoxelModel& m = *s.models[std::size_t(e.model)];
+            o.v3("position", e.position);
+            if (o.get("rotation_deg") && o.get("quaternion"))
+                fail(c, o.at("quaternion"), "give either rotation_deg or quaternion, not both");
+            if (auto r = o.get("rotation_deg"))
+                e.rotation = quatFromEulerDeg(vec3(c, *r, o.at("rotation_deg")));
+            if (auto q = o.get("quaternion")) {
+                const std::string p = o.at("quaternion");
+                arrayOf(c, *q, p, 4, "finite numbers [w, x, y, z]");
+                double w[4];
+                for (int k = 0; k < 4; ++k) {
+                    const json& x = (*q)[std::size_t(k)];
+                    if (!x.is_number() || !std::isfinite(x.get<double>()))
+                        fail(c, p, "expected an array of 4 finite numbers [w, x, y, z]");
+                    w[k] = x.get<double>();
+                }
+                const glm::dquat raw(w[0], w[1], w[2], w[3]);
+                const double len = glm::length(raw);
+                if (!(len >= 1e-12) || !std::isfinite(len))
+                    fail(c, p,
+                         "expected a non-zero quaternion [w, x, y, z] (norm " + fmt(len) + ")");
+                e.rotation = raw / len;
+            }
+            o.pos("scale", e.scale);
+            if (auto a = o.get("anchor")) e.anchor = vec3(c, *a, o.at("anchor"));
+            o.i("frame", e.frame, 0, std::max(0, m.frameCount() - 1));
+            o.nonNeg("fps", e.fps);
+            o.str("name", e.name);
+            s.entities.push_back(std::move(e));
+        }
+    }
+
+    void crowds(const Obj& root) {
+        const json* v = root.get("crowds");
+        if (!v) return;
+        const std::string path = root.at("crowds");
+        const json& list = array(c, *v, path);
+        for (std::size_t i = 0; i < list.size(); ++i) {
+            const Obj o(c, list[i], element(path, i));
+            const bool random = o.get("layout") && choice(c, *o.get("layout"), o.at("layout"),
+                                                          {"grid", "random"}) == 1;
+            if (random)
+                o.allow({"models", "layout", "count", "seed", "random_yaw", "scale", "name", "area",
+                         "y"});
+            else
+                o.allow({"models", "layout", "count", "seed", "random_yaw", "scale", "name",
+                         "origin", "spacing", "columns"});
+
+            const std::string mp = o.at("models");
+            const json& ml = array(c, o.require("models"), mp);
+            if (ml.empty()) fail(c, mp, "expected at least one model name");
+            std::vector<int> pool;
+            for (std::size_t k = 0; k < ml.size(); ++k)
+                pool.push_back(modelIndex(ml[k], element(mp, k)));
+
+            const int count = intIn(c, o.require("count"), o.at("count"), 0, Limits::kMaxEntities);
+            checkEntityBudget(std::size_t(count), o.at("count"));
+            std::uint64_t seed = 1;
+            if (auto sv = o.get("seed")) seed = seedValue(c, *sv, o.at("seed"));
+            bool randomYaw = false;
+            o.flag("random_yaw", randomYaw);
+            double scale = 1.0;
+            o.pos("scale", scale);
+            std::string prefix = element(path, i);
+            o.str("name", prefix);
+
+            SplitMix64 rng{seed};
+            auto make = [&](int model, glm::dvec3 p, int k) {
+                Entity e;
+                e.model = model;
+                e.position = p;
+                e.scale = scale;
+                if (randomYaw) e.rotation = quatFromEulerDeg({0.0, rng.unit() * 360.0, 0.0});
+                e.name = prefix + "#" + std::to_string(k);
+                s.entities.push_back(std::move(e));
+            };
+            s.entities.reserve(s.entities.size() + std::size_t(count));
+            if (random) {
+                const Obj area(c, o.require("area"), o.at("area"));
+                area.allow({"min", "max"});
+                const glm::dvec2 lo = vec2(c, area.require("min"), area.at("min"));
+                const glm::dvec2 hi = vec2(c, area.require("max"), area.at("max"));
+                if (!(lo.x <= hi.x && lo.y <= hi.y))
+                    fail(c, area.at("max"), "expected max >= min on both axes");
+                if (!std::isfinite(hi.x - lo.x) || !std::isfinite(hi.y - lo.y))
+                    fail(c, area.path(), "the area is too large");
+                double y = 0.0;
+                o.num("y", y);
+                for (int k = 0; k < count; ++k) {
+                    const int model = pool[std::size_t(rng.below(pool.size()))];
+                    const double x = lo.x + rng.unit() * (hi.x - lo.x);
+                    const double z = lo.y + rng.unit() * (hi.y - lo.y);
+                    make(model, {x, y, z}, k);
+                }
+            } else {
+                glm::dvec3 origin(0.0);
+                o.v3("origin", origin);
+                glm::dvec2 spacing(2.0);
+                if (auto sp = o.get("spacing")) spacing = vec2(c, *sp, o.at("spacing"));
+                int columns = std::max(1, int(std::ceil(std::sqrt(double(count)))));
+                o.i("columns", columns, 1, Limits::kMaxEntities);
+                for (int k = 0; k < count; ++k) {
+                    const glm::dvec3 p = origin + glm::dvec3(spacing.x * (k % columns), 0.0,
+                                                             spacing.y * (k / columns));
+                    make(pool[std::size_t(k) % pool.size()], p, k);
+                }
+            }
+        }
+    }
+
+    void voxScenes(const Obj& root) {
+        const json* v = root.get("vox_scenes");
+        if (!v) return;
+        const std::string path = root.at("vox_scenes");
+        const json& list = array(c, *v, path);
+        for (std::size_t i = 0; i < list.size(); ++i) {
+            const Obj o(c, list[i], element(path, i));
+            o.allow({"vox", "position", "scale", "include_hidden"});
+            VoxCacheEntry& entry = vox(o.require("vox"), o.at("vox"));
+            glm::dvec3 position(0.0);
+            o.v3("position", position);
+            double scale = 1.0;
+            o.pos("scale", scale);
+            bool hidden = false;
+            o.flag("include_hidden", hidden);
+            FlattenedVoxScene flat;
+            try {
+                flat = flattenVoxScene(entry.file, position, scale, hidden, s.render.voxelSize);
+            } catch (const InputError& e) {
+                fail(c, o.at("vox"), e.what());
+            }
+            checkEntityBudget(flat.entities.size(), o.path());
+            std::vector<int> remap(flat.models.size());
+            for (std::size_t m = 0; m < flat.models.size(); ++m) {
+                auto [it, inserted] =
+                    entry.sceneModels.emplace(flat.modelKeys[m], int(s.models.size()));
+                if (inserted) s.models.push_back(flat.models[m]);
+                remap[m] = it->second;
+            }
+            for (Entity& e : flat.entities) {
+                e.model = remap[std::size_t(e.model)];
+                s.entities.push_back(std::move(e));
+            }
+        }
+    }
+
+    void edits(const Obj& root) {
+        const json* v = root.get("edits");
+        if (!v) return;
+        const std::string path = root.at("edits");
+        const json& list = array(c, *v, path);
+        for (std::size_t i = 0; i < list.size(); ++i) {
+            const Obj o(c, list[i], element(path, i));
+            ScriptedEdit e;
+            if (!o.get("op")) {
+                o.allow({"frame", "model", "model_frame", "op", "at", "min", "max", "index"});
+                o.require("op");
+            }
+            e.op =
+                ScriptedEdit::Op(choice(c, o.require("op"), o.at("op"), {"set", "fill", "clear"}));
+            switch (e.op) {
+            case ScriptedEdit::Op::Set:
+                o.allow({"frame", "model", "model_frame", "op", "at", "index"});
+                break;
+            case ScriptedEdit::Op::Fill:
+                o.allow({"frame", "model", "model_frame", "op", "min", "max", "index"});
+                break;
+            case ScriptedEdit::Op::Clear:
+                o.allow({"frame", "model", "model_frame", "op", "min", "max"});
+                break;
+            }
+            e.atFrame =
+                intIn(c, o.require("frame"), o.at("frame"), 0, std::numeric_limits<int>::max());
+            e.model = modelIndex(o.require("model"), o.at("model"));
+            const VoxelModel& m = *s.models[std::size_t(e.model)];
+            o.i("model_frame", e.modelFrame, 0, m.frameCount() - 1);
+            const glm::ivec3 dims = m.frame(e.modelFrame).dims();
+            const std::string dimsText = std::to_string(dims.x) + "x" + std::to_string(dims.y) +
+                                         "x" + std::to_string(dims.z);
+            if (e.op == ScriptedEdit::Op::Set) {
+                const glm::ivec3 at =
+                    ivec3(c, o.require("at"), o.at("at"), 0, Limits::kMaxModelDim);
+                if (!Box3i{{0, 0, 0}, dims}.contains(at))
+                    fail(c, o.at("at"), "voxel outside the " + dimsText + " model");
+                e.box = {at, at + 1};
+            } else {
+                e.box.min = ivec3(c, o.require("min"), o.at("min"), 0, Limits::kMaxModelDim);
+                e.box.max = ivec3(c, o.require("max"), o.at("max"), 0, Limits::kMaxModelDim);
+                if (glm::any(glm::greaterThanEqual(e.box.min, e.box.max)))
+                    fail(c, o.at("max"), "expected max > min on every axis (max is exclusive)");
+                if (glm::any(glm::greaterThan(e.box.max, dims)))
+                    fail(c, o.at("max"), "box outside the " + dimsText + " model");
+            }
+            int index = e.op == ScriptedEdit::Op::Clear ? 0 : 1;
+            o.i("index", index, 0, 255);
+            e.index = std::uint8_t(index);
+            s.edits.push_back(e);
+        }
+        std::stable_sort(
+            s.edits.begin(), s.edits.end(),
+            [](const ScriptedEdit& a, const ScriptedEdit& b) { return a.atFrame < b.atFrame; });
+    }
+
+    Scene run(const json& j) {
+        if (!j.is_object())
+            fail(c, "", std::string("expected a JSON object at the top level, got ") + typeName(j));
+        const Obj root(c, j, "");
+        root.allow({"description", "voxel_size", "sigma", "view_mode", "background", "camera",
+                    "camera_path", "light", "selector", "models", "entities", "crowds",
+                    "vox_scenes", "edits"});
+        if (auto d = root.get("description")) string(c, *d, "description");
+        s.source = c.file;
+        render(root);
+        camera(root);
+        cameraPath(root);
+        light(root);
+        selector(root);
+        models(root);
+        entities(root);
+        crowds(root);
+        voxScenes(root);
+        edits(root);
+        return std::move(s);
+    }
+};
+
+/// Signed permutation test: every row and column has exactly one non-zero entry, ±1.
+bool isSignedPermutation(const glm::mat<3, 3, int>& r) {
+    for (int a = 0; a < 3; ++a) {
+        int col = 0, row = 0;
+        for (int b = 0; b < 3; ++b) {
+            if (r[a][b] != 0 && r[a][b] != 1 && r[a][b] != -1) return false;
+            col += r[a][b] != 0;
+            row += r[b][a] != 0;
+        }
+        if (col != 1 || row != 1) return false;
+    }
+    return true;
+}
+
+int determinant(const glm::mat<3, 3, int>& m) {
+    return m[0][0] * (m[1][1] * m[2][2] - m[2][1] * m[1][2]) -
+           m[1][0] * (m[0][1] * m[2][2] - m[2][1] * m[0][2]) +
+           m[2][0] * (m[0][1] * m[1][2] - m[1][1] * m[0][2]);
+}
+
+/// quat_cast of a signed permutation rotation, with components snapped to the exact values they
+/// stand for (0, ±½, ±√½, ±1), so identical rotations give bit-identical quaternions.
+glm::dquat exactQuat(const glm::dmat3& m) {
+    glm::dquat q = glm::normalize(glm::quat_cast(m));
+    const double exact[] = {0.0, 0.5, std::sqrt(0.5), 1.0};
+    for (int i = 0; i < 4; ++i)
+        for (double e : exact)
+            if (std::abs(std::abs(q[i]) - e) < 1e-12) q[i] = std::copysign(e, q[i]);
+    // q and -q are the same rotation; prefer w >= 0 (and a positive first non-zero) for stability.
+    for (int i : {3, 0, 1, 2}) { // glm stores x, y, z, w; check w first
+        if (q[i] > 0.0) break;
+        if (q[i] < 0.0) {
+            q = -q;
+            break;
+        }
+    }
+    return q;
+}
+
+} // namespace
+
+// -------------------------------------------------------------------------------------------------
+
+glm::dquat quatFromEulerDeg(glm::dvec3 r) {
+    const glm::dquat qy = glm::angleAxis(glm::radians(r.y), glm::dvec3(0, 1, 0));
+    const glm::dquat qx = glm::angleAxis(glm::radians(r.x), glm::dvec3(1, 0, 0));
+    const glm::dquat qz = glm::angleAxis(glm::radians(r.z), glm::dvec3(0, 0, 1));
+    return glm::normalize(qy * qx * qz);
+}
+
+VoxelGrid mirrorGrid(const VoxelGrid& grid, int axis) {
+    VoxelGrid out(grid.dims());
+    const glm::ivec3 d = grid.dims();
+    for (int z = 0; z < d.z; ++z)
+        for (int y = 0; y < d.y; ++y)
+            for (int x = 0; x < d.x; ++x) {
+                glm::ivec3 q{x, y, z};
+                q[axis] = d[axis] - 1 - q[axis];
+                out.set(q, grid.at({x, y, z}));
+            }
+    return out;
+}
+
+FlattenedVoxScene flattenVoxScene(const VoxFile& file, glm::dvec3 position, double scale,
+                                  bool includeHidden, double voxelSize) {
+    FlattenedVoxScene out;
+    const std::string stem = fs::path(file.source).stem().string();
+    std::map<std::pair<int, int>, int> local;
+    auto modelFor = [&](int m, int axis) {
+        const auto [it, inserted] = local.emplace(std::pair{m, axis}, int(out.models.size()));
+        if (inserted) {
+            const VoxelGrid& src = file.models[std::size_t(m)];
+            std::string name = stem + "#" + std::to_string(m);
+            if (axis >= 0) name += std::string("~mirror-") + "xyz"[axis];
+            std::vector<VoxelGrid> frames{axis >= 0 ? mirrorGrid(src, axis) : src};
+            out.models.push_back(
+                std::make_shared<VoxelModel>(name, file.palette, std::move(frames)));
+            out.modelKeys.emplace_back(m, axis);
+        }
+        return it->second;
+    };
+
+    if (file.instances.empty()) {
+        for (int m = 0; m < int(file.models.size()); ++m) {
+            Entity e;
+            e.model = modelFor(m, -1);
+            e.position = position;
+            e.scale = scale;
+            e.name = stem + "#" + std::to_string(m);
+            out.entities.push_back(std::move(e));
+        }
+        return out;
+    }
+
+    const glm::dmat3 S = worldFromVoxelSwizzle();
+    const double k = voxelSize * scale;
+    for (std::size_t i = 0; i < file.instances.size(); ++i) {
+        const VoxInstance& inst = file.instances[i];
+        if (inst.hidden && !includeHidden) continue;
+        const std::string field = "instances[" + std::to_string(i) + "]";
+        if (inst.model < 0 || inst.model >= int(file.models.size()))
+            throw InputError(file.source, field,
+                             "model index " + std::to_string(inst.model) + " out of range");
+        glm::mat<3, 3, int> R = inst.rotation;
+        if (!isSignedPermutation(R))
+            throw InputError(file.source, field, "rotation is not a signed permutation");
+        const glm::ivec3 dims = file.models[std::size_t(inst.model)].dims();
+        glm::dvec3 anchor = glm::dvec3(dims / 2); // the pivot floor(size/2)
+        int axis = -1;
+        if (determinant(R) < 0) {
+            // R = R' M_a with M_a the flip of voxel axis a: mirror the data along a, keep R'.
+            axis = 0;
+            for (int a = 1; a < 3; ++a)
+                if (R[a][a] < R[axis][axis]) axis = a;
+            R[axis] = -R[axis]; // R' = R M_a negates column a
+            // Mirroring p.a -> size.a - p.a moves the pivot to size.a - floor(size.a / 2).
+            anchor[axis] = double(dims[axis] - dims[axis] / 2);
+        }
+        Entity e;
+        e.model = modelFor(inst.model, axis);
+        e.rotation = exactQuat(S * glm::dmat3(R) * glm::transpose(S));
+        e.anchor = anchor;
+        e.position = position + (S * glm::dvec3(inst.translation)) * k;
+        e.scale = scale;
+        e.name = inst.name.empty() ? stem + "[" + std::to_string(i) + "]" : inst.name;
+        out.entities.push_back(std::move(e));
+    }
+    return out;
+}
+
+Scene loadSceneJson(const json& j, const std::string& sourceName, const fs::path& baseDir) {
+    Loader l{Ctx{sourceName, baseDir}, {}, {}, {}, {}};
+    return l.run(j);
+}
+
+Scene loadScene(const fs::path& file) {
+    const std::string name = file.string();
+    std::error_code ec;
+    const auto st = fs::status(file, ec);
+    if (!fs::exists(st)) throw InputError(name, "", "file not found");
+    if (fs::is_directory(st)) throw InputError(name, "", "is a directory, not a scene file");
+    std::ifstream in(file, std::ios::binary);
+    if (!in) throw InputError(name, "", "cannot open the file for reading");
+    std::ostringstream buf;
+    buf << in.rdbuf();
+    if (in.bad()) throw InputError(name, "", "read error");
+    const json j = parseTracked(buf.str(), name);
+    return loadSceneJson(j, name, file.parent_path());
+}
+
+} // namespace voxtier
