@@ -31,7 +31,7 @@ struct CameraFrame {
 };
 
 /// Throws InputError(file "camera") when the camera is degenerate (target == position, up
-/// parallel to the view direction, non-finite values, fov outside (0, 180), bad image size).
+/// parallel to the view direction, non-finite values, fov outside (0, 179), bad image size).
 CameraFrame makeCameraFrame(const Camera& camera);
 
 /// Camera-relative view-space coordinates (x right, y up, z = depth along forward).

@@ -136,15 +136,15 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     S.radiusPx = S.viewDepth > 0.0 ? glm::length(c) * k / S.viewDepth * cam.focalPx() : 0.0;
 
     // §3.9 culling. The proxy box is the model bounds grown by one virtual pixel (§3.10).
-    if (!(S.viewDepth > cam.zNear)) {
-        S.cull = CullReason::BehindCamera;
-        return S;
-    }
     const glm::dvec3 eyeVoxel = pose.anchor + pose.voxelDirection(-(pose.position - cam.eye)) / k;
     const double margin = 1.0 / sigma;
     if (eyeVoxel.x >= -margin && eyeVoxel.y >= -margin && eyeVoxel.z >= -margin &&
         eyeVoxel.x <= dims.x + margin && eyeVoxel.y <= dims.y + margin && eyeVoxel.z <= dims.z + margin) {
         S.cull = CullReason::CameraInside;
+        return S;
+    }
+    if (!(S.viewDepth > cam.zNear)) {
+        S.cull = CullReason::BehindCamera;
         return S;
     }
     if (S.radiusPx < 0.5) {

@@ -1,0 +1,53 @@
+#pragma once
+// The frame recipe of DESIGN.md §6 (select -> near -> far -> compose). A FrameRenderer keeps
+// what persists between frames of one scene: selector state, the snapshot cache, GPU residency.
+#include "core/image.hpp"
+#include "core/scene.hpp"
+#include "core/sprite.hpp"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace voxtier {
+
+enum class RenderMode {
+    Reference, ///< every entity through the CPU reference tracer (the executable spec)
+};
+RenderMode parseRenderMode(const std::string& name); ///< throws InputError(field "--mode")
+const char* toString(RenderMode m);
+
+struct FrameStats {
+    int entities = 0;
+    int culled = 0;
+    int drawnReference = 0;
+    double setupMs = 0.0;
+    double referenceMs = 0.0;
+    double totalMs = 0.0;
+    std::uint64_t pixelsTested = 0, voxelFetches = 0;
+};
+
+struct FrameResult {
+    Image image;
+    std::vector<SpriteSetup> sprites; ///< per entity id
+    FrameStats stats;
+};
+
+class FrameRenderer {
+public:
+    explicit FrameRenderer(Scene& scene);
+    ~FrameRenderer();
+    FrameRenderer(const FrameRenderer&) = delete;
+    FrameRenderer& operator=(const FrameRenderer&) = delete;
+
+    /// Applies the scene's scripted edits due up to path frame `frame` (each once).
+    void applyEditsThrough(int frame);
+    /// One frame at time t.
+    FrameResult render(double time, RenderMode mode);
+
+private:
+    Scene& scene_;
+    int editsApplied_ = 0; ///< scene.edits are applied in order of atFrame
+};
+
+} // namespace voxtier

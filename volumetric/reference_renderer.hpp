@@ -1,0 +1,49 @@
+#pragma once
+// The CPU reference tracer: the executable form of DESIGN.md §3. It runs the shared sprite
+// kernel (core/sprite_kernel.h) for every pixel of every sprite's screen rectangle, TBB-
+// parallel over rows, and writes with the shared depth/id rule. The Vulkan renderer must
+// produce exactly this image.
+#include "core/image.hpp"
+#include "core/sprite.hpp"
+#include "core/voxel_model.hpp"
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+namespace voxtier {
+
+struct ReferenceStats {
+    std::uint64_t sprites = 0;          ///< sprites drawn
+    std::uint64_t pixelsTested = 0;     ///< pixels of sprite rectangles evaluated ("fragments")
+    std::uint64_t pixelsInSprite = 0;   ///< of those, pixels that map to a lattice cell
+    std::uint64_t pixelsWritten = 0;    ///< solid or outline outcomes
+    std::uint64_t voxelFetches = 0;     ///< DDA steps (one voxel read each)
+    double milliseconds = 0.0;
+};
+
+/// Draws `sprites` (visible ones; culled entries are skipped) into `target`, which keeps what
+/// it already holds (so tiers can draw into one image). Models are indexed by SpriteSetup::model.
+void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                     std::span<const SpriteSetup* const> sprites, Image& target,
+                     ReferenceStats* stats = nullptr);
+
+/// Convenience: every visible sprite of `all`.
+void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                     const std::vector<SpriteSetup>& all, Image& target,
+                     ReferenceStats* stats = nullptr);
+
+/// The kernel evaluated per lattice cell instead of per pixel: a (width x height) grid over
+/// the sprite's cellRange with VT_KIND_* per cell and the palette index / face code of solid
+/// cells. Tests compare this with closed-form silhouettes.
+struct CellImage {
+    glm::ivec4 range{0}; ///< iMin, iMax, jMin, jMax
+    std::vector<std::uint8_t> kind, index, face;
+    int width() const { return range.y - range.x + 1; }
+    int height() const { return range.w - range.z + 1; }
+    std::size_t at(int i, int j) const { return std::size_t(j - range.z) * std::size_t(width()) + std::size_t(i - range.x); }
+};
+CellImage traceCells(const kernel::SpriteGpu& sprite, const VoxelGrid& grid);
+
+} // namespace voxtier
