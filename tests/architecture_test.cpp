@@ -1,0 +1,82 @@
+// DESIGN.md §1 as a test: a module includes only modules to its left, Embree appears only in
+// impostor_cache, Vulkan only in volumetric (and the apps that start it), OIIO only in core's
+// image I/O. Reads the sources, so a forbidden include fails here before it becomes a habit.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::map<std::string, std::set<std::string>> kAllowed = {
+    {"core", {"core"}},
+    {"volumetric", {"core", "volumetric"}},
+    {"impostor_cache", {"core", "impostor_cache"}},
+    {"lod", {"core", "lod"}},
+    {"compose", {"core", "volumetric", "impostor_cache", "lod", "compose"}},
+    {"apps", {"core", "volumetric", "impostor_cache", "lod", "compose", "apps"}},
+};
+
+std::vector<fs::path> sourcesOf(const std::string& module) {
+    std::vector<fs::path> out;
+    const fs::path dir = fs::path(VOXTIER_SOURCE_DIR) / module;
+    if (!fs::exists(dir)) return out;
+    for (const auto& e : fs::recursive_directory_iterator(dir)) {
+        const auto ext = e.path().extension().string();
+        if (ext == ".cpp" || ext == ".hpp" || ext == ".h" || ext == ".glsl" || ext == ".frag" || ext == ".vert" || ext == ".comp")
+            out.push_back(e.path());
+    }
+    return out;
+}
+
+TEST(Architecture, ModulesIncludeOnlyLeftwardModules) {
+    const std::regex include(R"re(#\s*include\s*"([a-z_]+)/)re");
+    for (const auto& [module, allowed] : kAllowed)
+        for (const fs::path& file : sourcesOf(module)) {
+            std::ifstream in(file);
+            std::string line;
+            int n = 0;
+            while (std::getline(in, line)) {
+                ++n;
+                std::smatch m;
+                if (std::regex_search(line, m, include) && kAllowed.count(m[1]) && !allowed.count(m[1]))
+                    ADD_FAILURE() << file.string() << ":" << n << ": " << module << " must not include " << m[1];
+            }
+        }
+}
+
+TEST(Architecture, ThirdPartyLibrariesStayInTheirModules) {
+    struct Rule {
+        std::string pattern;
+        std::set<std::string> modules; // where it may appear
+    };
+    const Rule rules[] = {
+        {"<embree3/", {"impostor_cache"}},
+        {"<vulkan/", {"volumetric"}},
+        {"<OpenImageIO/", {"core"}},
+    };
+    for (const auto& [module, allowed] : kAllowed)
+        for (const fs::path& file : sourcesOf(module)) {
+            std::ifstream in(file);
+            std::string line;
+            while (std::getline(in, line))
+                for (const Rule& r : rules)
+                    if (line.find("#include") != std::string::npos && line.find(r.pattern) != std::string::npos)
+                        EXPECT_TRUE(r.modules.count(module)) << file.string() << " includes " << r.pattern;
+        }
+    // OIIO only in the image I/O file of core.
+    for (const fs::path& file : sourcesOf("core")) {
+        std::ifstream in(file);
+        const std::string text((std::istreambuf_iterator<char>(in)), {});
+        if (text.find("#include <OpenImageIO/") != std::string::npos)
+            EXPECT_EQ(file.stem().string(), "image_io") << file.string();
+    }
+}
+
+} // namespace
