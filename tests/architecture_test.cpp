@@ -66,16 +66,19 @@ TEST(Architecture, ThirdPartyLibrariesStayInTheirModules) {
             std::ifstream in(file);
             std::string line;
             while (std::getline(in, line))
-                for (const Rule& r : rules)
-                    if (line.find("#include") != std::string::npos && line.find(r.pattern) != std::string::npos)
+                for (const Rule& r : rules) {
+                    if (line.find("#include") != std::string::npos && line.find(r.pattern) != std::string::npos) {
                         EXPECT_TRUE(r.modules.count(module)) << file.string() << " includes " << r.pattern;
+                    }
+                }
         }
     // OIIO only in the image I/O file of core.
     for (const fs::path& file : sourcesOf("core")) {
         std::ifstream in(file);
         const std::string text((std::istreambuf_iterator<char>(in)), {});
-        if (text.find("#include <OpenImageIO/") != std::string::npos)
+        if (text.find("#include <OpenImageIO/") != std::string::npos) {
             EXPECT_EQ(file.stem().string(), "image_io") << file.string();
+        }
     }
 }
 
