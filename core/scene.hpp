@@ -35,15 +35,31 @@ struct Light {
 };
 
 /// Entity tier selector settings (DESIGN.md §5).
-enum class SelectorMetric { Distance, RadiusPx, ErrorPx };
+enum class SelectorMetric {
+    Distance, ///< metres from the eye to the model centre: grows with distance
+    RadiusPx, ///< projected bounding-sphere radius in pixels: shrinks with distance
+    ErrorPx,  ///< predicted view-quantisation error r_px * sin(theta): shrinks with distance
+};
+/// Hysteresis (lod/selector.hpp). Distance: near->far when the metric rises past farAt,
+/// far->near when it falls below nearAt < farAt. The pixel metrics shrink with distance, so
+/// their band is mirrored: near->far when the metric falls below farAt, far->near when it rises
+/// past nearAt > farAt. Either way the band width is |farAt - nearAt|.
 struct SelectorConfig {
     SelectorMetric metric = SelectorMetric::Distance;
-    double nearAt = 30.0; ///< far -> near when the metric falls below this
-    double farAt = 40.0;  ///< near -> far when the metric rises past this (> nearAt)
+    double nearAt = 30.0; ///< back to near when the metric crosses this (towards "near")
+    double farAt = 40.0;  ///< to far when the metric crosses this (towards "far")
     double viewHysteresisDeg = 0.0; ///< far tier: switch snapshot view only when closer by this
     int crossfadeFrames = 0;        ///< 0 = switch instantly
     int viewSetSize = 26;           ///< 26, 98 or 218 snapshot directions
 };
+/// Defaults per metric: 30/40 m; 24/16 px radius; 1.0/0.5 px predicted error.
+inline SelectorConfig defaultSelectorFor(SelectorMetric m) {
+    SelectorConfig c;
+    c.metric = m;
+    if (m == SelectorMetric::RadiusPx) c.nearAt = 24.0, c.farAt = 16.0;
+    if (m == SelectorMetric::ErrorPx) c.nearAt = 1.0, c.farAt = 0.5;
+    return c;
+}
 
 struct Entity {
     int model = 0;       ///< index into Scene::models

@@ -619,12 +619,26 @@ struct Loader {
         if (auto m = o.get("metric"))
             sel.metric = SelectorMetric(
                 choice(c, *m, o.at("metric"), {"distance", "radius_px", "error_px"}));
+        // Distance grows with distance; the pixel metrics (projected radius, predicted
+        // view-quantisation error) shrink with it, so their hysteresis band is mirrored:
+        // near->far below far_at, far->near above near_at > far_at (lod/selector.hpp).
+        const bool pixelMetric = sel.metric != SelectorMetric::Distance;
+        if (pixelMetric) {
+            const SelectorConfig d = defaultSelectorFor(sel.metric);
+            sel.nearAt = d.nearAt;
+            sel.farAt = d.farAt;
+        }
         o.nonNeg("near_at", sel.nearAt);
         o.nonNeg("far_at", sel.farAt);
-        if (!(sel.farAt > sel.nearAt))
+        if (!pixelMetric && !(sel.farAt > sel.nearAt))
             fail(c, o.at(o.get("far_at") ? "far_at" : "near_at"),
                  "far_at must be greater than near_at (got near_at " + fmt(sel.nearAt) +
                      ", far_at " + fmt(sel.farAt) + ")");
+        if (pixelMetric && !(sel.nearAt > sel.farAt))
+            fail(c, o.at(o.get("far_at") ? "far_at" : "near_at"),
+                 "for a pixel metric near_at must be greater than far_at (entities go far when "
+                 "they shrink below far_at; got near_at " +
+                     fmt(sel.nearAt) + ", far_at " + fmt(sel.farAt) + ")");
         o.nonNeg("view_hysteresis_deg", sel.viewHysteresisDeg);
         if (!(sel.viewHysteresisDeg < 180.0))
             fail(c, o.at("view_hysteresis_deg"), "expected an angle in [0, 180) degrees");

@@ -25,6 +25,8 @@
 //   "selector": {"metric": "distance" | "radius_px" | "error_px", "near_at": >= 0,
 //                "far_at": > near_at, "view_hysteresis_deg": [0, 180), "crossfade_frames": >= 0,
 //                "view_set": 26 | 98 | 218}
+//       For the pixel metrics (radius_px, error_px) the band is mirrored: near_at > far_at, and
+//       their defaults are 24/16 px and 1.0/0.5 px (core/scene.hpp defaultSelectorFor).
 //   "models" (required, >= 1 entries, unique non-empty names), each one of:
 //       {"name", "vox": path, "model": i}        model i (default 0) of a .vox file
 //       {"name", "vox": path, "frames": "all"}    every model of the file, as animation frames

@@ -527,7 +527,7 @@ TEST(SceneLoader, ParsesEveryTopLevelSetting) {
       "camera": {"position": [1, 2, 3], "target": [1, 2, -3], "up": [0, 1, 0], "fov_y": 40,
                  "size": [320, 200], "near": 0.5},
       "light": {"direction": [0, 1, 0], "ambient": 0.3, "diffuse": 0.7, "comment": "noon"},
-      "selector": {"metric": "error_px", "near_at": 2, "far_at": 3, "view_hysteresis_deg": 5,
+      "selector": {"metric": "error_px", "near_at": 3, "far_at": 2, "view_hysteresis_deg": 5,
                    "crossfade_frames": 8, "view_set": 98},
       "models": [{"name": "v", "generator": "voxel", "index": 5, "color": [10, 20, 30]}]
     })"));

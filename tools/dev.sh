@@ -19,15 +19,17 @@ if [[ -n "${VOXTIER_PRESET:-}" ]]; then
 elif [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
     cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 fi
-cmake --build "$build_dir" -j "$(nproc)"
-
 case "$cmd" in
-build) ;;
+build)
+    cmake --build "$build_dir" -j "$(nproc)"
+    ;;
 render)
+    cmake --build "$build_dir" -j "$(nproc)" --target voxtier_cli
     mkdir -p out
     "$build_dir/voxtier" render scenes/default.json --out out/default.png "$@"
     ;;
 test)
+    cmake --build "$build_dir" -j "$(nproc)"
     ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "$@"
     ;;
 *)

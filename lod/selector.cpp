@@ -1,0 +1,106 @@
+#include "lod/selector.hpp"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+
+namespace voxtier {
+
+const char* toString(Tier t) { return t == Tier::Near ? "near" : "far"; }
+
+double selectorMetric(SelectorMetric metric, const SelectorInput& in) {
+    switch (metric) {
+    case SelectorMetric::Distance: return in.distance;
+    case SelectorMetric::RadiusPx: return in.radiusPx;
+    case SelectorMetric::ErrorPx: return in.radiusPx * std::sin(in.viewAngleRad);
+    }
+    return in.distance;
+}
+
+TierSelector::TierSelector(const SelectorConfig& config) : config_(config) {}
+
+void TierSelector::reset() {
+    state_.clear();
+    initialised_ = false;
+}
+
+bool TierSelector::pastFar(double m) const {
+    return config_.metric == SelectorMetric::Distance ? m > config_.farAt : m < config_.farAt;
+}
+
+bool TierSelector::pastNear(double m) const {
+    return config_.metric == SelectorMetric::Distance ? m < config_.nearAt : m > config_.nearAt;
+}
+
+SelectorStats TierSelector::update(std::span<const SelectorInput> inputs) {
+    SelectorStats st;
+    viewChangesThisFrame_ = 0;
+    if (!initialised_) {
+        state_.assign(inputs.size(), State{});
+        for (std::size_t i = 0; i < inputs.size(); ++i)
+            state_[i].tier = pastFar(selectorMetric(config_.metric, inputs[i])) ? Tier::Far : Tier::Near;
+        initialised_ = true;
+    } else {
+        assert(inputs.size() == state_.size() && "entity count changed: call reset()");
+        for (std::size_t i = 0; i < inputs.size(); ++i) {
+            State& s = state_[i];
+            if (s.fadeLeft > 0) --s.fadeLeft;
+            const double m = selectorMetric(config_.metric, inputs[i]);
+            const Tier before = s.tier;
+            if (s.tier == Tier::Near && pastFar(m)) {
+                s.tier = Tier::Far;
+                ++st.switchesToFar;
+            } else if (s.tier == Tier::Far && pastNear(m)) {
+                s.tier = Tier::Near;
+                s.view = -1; // a later return to far starts from the nearest view again
+                ++st.switchesToNear;
+            }
+            if (s.tier != before && config_.crossfadeFrames > 0) {
+                s.fadeFrom = before;
+                s.fadeLeft = config_.crossfadeFrames;
+            }
+        }
+    }
+    for (const State& s : state_) {
+        (s.tier == Tier::Near ? st.nearCount : st.farCount)++;
+        st.fading += s.fadeLeft > 0;
+    }
+    return st;
+}
+
+bool TierSelector::fading(std::size_t entity, float* fraction, Tier* from) const {
+    const State& s = state_[entity];
+    if (s.fadeLeft <= 0) return false;
+    // Frame k of N after the switch shows k/(N+1) of the new tier: never all-old, never all-new.
+    const int shown = config_.crossfadeFrames - s.fadeLeft + 1;
+    if (fraction) *fraction = float(shown) / float(config_.crossfadeFrames + 1);
+    if (from) *from = s.fadeFrom;
+    return true;
+}
+
+int TierSelector::chooseView(std::size_t entity, glm::dvec3 towardViewer, std::span<const glm::dvec3> views) {
+    assert(!views.empty());
+    int best = 0;
+    double bestDot = glm::dot(views[0], towardViewer);
+    for (std::size_t v = 1; v < views.size(); ++v) {
+        const double d = glm::dot(views[v], towardViewer);
+        if (d > bestDot) bestDot = d, best = int(v);
+    }
+    if (entity >= state_.size()) return best;
+    State& s = state_[entity];
+    if (s.view >= 0 && s.view < int(views.size()) && s.view != best && config_.viewHysteresisDeg > 0.0) {
+        const double len = glm::length(towardViewer);
+        const auto angle = [&](int v) { return std::acos(std::clamp(glm::dot(views[std::size_t(v)], towardViewer) / len, -1.0, 1.0)); };
+        if (angle(s.view) - angle(best) <= glm::radians(config_.viewHysteresisDeg)) return s.view;
+    }
+    if (s.view >= 0 && s.view != best) ++viewChangesThisFrame_;
+    s.view = best;
+    return best;
+}
+
+float ditherThreshold(int x, int y) {
+    static constexpr int bayer[4][4] = {{0, 8, 2, 10}, {12, 4, 14, 6}, {3, 11, 1, 9}, {15, 7, 13, 5}};
+    return (float(bayer[y & 3][x & 3]) + 0.5f) / 16.0f;
+}
+
+} // namespace voxtier

@@ -1,0 +1,89 @@
+#pragma once
+// The tier selector of DESIGN.md §5: per-entity state with distance hysteresis, three
+// metrics, optional angular hysteresis on the far tier's view choice, and an optional
+// time-based cross-fade. Pure logic over per-entity inputs; it knows nothing of Vulkan or
+// snapshots (the compositor passes in the numbers and the view directions it needs).
+#include "core/scene.hpp"
+
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace voxtier {
+
+enum class Tier : std::uint8_t { Near = 0, Far = 1 };
+const char* toString(Tier t);
+
+/// What the selector needs to know about one entity this frame.
+struct SelectorInput {
+    double distance = 0.0;     ///< metres, eye to model centre
+    double radiusPx = 0.0;     ///< projected bounding-sphere radius in pixels
+    double viewAngleRad = 0.0; ///< angle from the entity's view direction to the nearest snapshot view
+};
+
+/// The value compared against near_at / far_at for `metric`.
+/// ErrorPx is the predicted view-quantisation error r_px * sin(theta) (DESIGN.md §5).
+double selectorMetric(SelectorMetric metric, const SelectorInput& in);
+
+struct SelectorStats {
+    int nearCount = 0, farCount = 0;
+    int switchesToFar = 0, switchesToNear = 0;
+    int viewChanges = 0; ///< far entities whose snapshot view changed (filled by the caller
+                         ///< from TierSelector::viewChangesThisFrame after choosing views)
+    int fading = 0;      ///< entities inside a cross-fade
+};
+
+/// Per-entity state. An entity's tier changes only on a crossing of its threshold:
+///   grows-with-distance metric: near -> far when m > far_at;  far -> near when m < near_at
+///   shrinks-with-distance metric: near -> far when m < far_at; far -> near when m > near_at
+/// Hitting a threshold exactly does not switch (strict comparisons), so the outcome at the
+/// threshold is deterministic. The first frame assigns tiers without counting switches:
+/// an entity starts near unless its metric is already past far_at.
+class TierSelector {
+public:
+    explicit TierSelector(const SelectorConfig& config = {});
+
+    const SelectorConfig& config() const { return config_; }
+    /// Advances one frame. `inputs[i]` describes entity i; the entity count may not change
+    /// between frames except through reset().
+    SelectorStats update(std::span<const SelectorInput> inputs);
+    void reset();
+
+    Tier tier(std::size_t entity) const { return state_[entity].tier; }
+    std::size_t size() const { return state_.size(); }
+
+    /// Cross-fade (config.crossfadeFrames > 0): after a switch, for that many frames the
+    /// entity is drawn by both tiers and the compositor shows a dithered mix. Returns true
+    /// while fading; `fraction` is the share of pixels that already show the new tier.
+    bool fading(std::size_t entity, float* fraction, Tier* from) const;
+
+    /// Far view choice with angular hysteresis: the view maximising w.towardViewer, except
+    /// that the entity keeps its current view until another one is closer by more than
+    /// config.viewHysteresisDeg. Ties go to the lowest view index. Counts view changes.
+    int chooseView(std::size_t entity, glm::dvec3 towardViewer, std::span<const glm::dvec3> views);
+    /// View changes counted by chooseView since the last update().
+    int viewChangesThisFrame() const { return viewChangesThisFrame_; }
+
+private:
+    struct State {
+        Tier tier = Tier::Near;
+        Tier fadeFrom = Tier::Near;
+        int fadeLeft = 0; ///< frames of cross-fade still to show
+        int view = -1;
+    };
+    bool pastFar(double m) const;
+    bool pastNear(double m) const;
+
+    SelectorConfig config_;
+    std::vector<State> state_;
+    bool initialised_ = false;
+    int viewChangesThisFrame_ = 0;
+};
+
+/// Ordered-dither threshold in [0, 1) for pixel (x, y) (4x4 Bayer matrix): a cross-fade at
+/// fraction f shows the new tier where threshold < f, so the pattern is stable over frames.
+float ditherThreshold(int x, int y);
+
+} // namespace voxtier
