@@ -1165,8 +1165,12 @@ Scene loadScene(const fs::path& file) {
     std::ostringstream buf;
     buf << in.rdbuf();
     if (in.bad()) throw InputError(name, "", "read error");
-    const json j = parseTracked(buf.str(), name);
-    return loadSceneJson(j, name, file.parent_path());
+    return loadSceneText(buf.str(), name, file.parent_path());
+}
+
+Scene loadSceneText(const std::string& text, const std::string& sourceName, const fs::path& baseDir) {
+    const json j = parseTracked(text, sourceName);
+    return loadSceneJson(j, sourceName, baseDir);
 }
 
 } // namespace voxtier

@@ -83,6 +83,10 @@ namespace voxtier {
 /// Reads, parses and validates a scene file. Scene::source is `file` as given.
 Scene loadScene(const std::filesystem::path& file);
 
+/// Parses and validates scene text (what loadScene does after reading the file).
+Scene loadSceneText(const std::string& text, const std::string& sourceName,
+                    const std::filesystem::path& baseDir);
+
 /// Validates an already parsed document. `sourceName` is used in messages and as
 /// Scene::source; relative paths resolve against `baseDir`.
 Scene loadSceneJson(const nlohmann::json& j, const std::string& sourceName,

@@ -1,24 +1,44 @@
 #!/usr/bin/env bash
 # The README's Quick start in one script.
-#   tools/dev.sh render   set up, build, render scenes/default.json to out/default.png
-#   tools/dev.sh test     set up, build, run the whole test suite (what .ci/run calls)
-#   tools/dev.sh build    set up and build only
-# Environment: VOXTIER_BUILD_DIR (default build), VOXTIER_PRESET (a CMake preset, e.g. asan).
+#   tools/dev.sh render [ARGS]    set up, build the CLI, render scenes/default.json -> out/default.png
+#   tools/dev.sh test [ARGS]      set up, build, run the whole test suite (what .ci/run calls)
+#   tools/dev.sh build            set up and build everything
+#   tools/dev.sh fuzz [SECONDS]   run each libFuzzer target for SECONDS (tools/fuzz.sh)
+# VOXTIER_PRESET=asan|tsan selects a sanitizer build (CMakePresets.json) in build-<preset>.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 cmd="${1:-render}"
 shift || true
+[[ "$cmd" == fuzz ]] && exec bash tools/fuzz.sh "$@"
 
 bash tools/setup.sh
 
-build_dir="${VOXTIER_BUILD_DIR:-build}"
-if [[ -n "${VOXTIER_PRESET:-}" ]]; then
-    cmake --preset "$VOXTIER_PRESET" >/dev/null
-    build_dir="build-$VOXTIER_PRESET"
-elif [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
-    cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+preset="${VOXTIER_PRESET:-default}"
+case "$preset" in
+default) build_dir="${VOXTIER_BUILD_DIR:-build}" ;;
+asan)
+    build_dir="build-asan"
+    # Mesa's lavapipe and the loader keep a few allocations alive until exit: report leaks
+    # only where the stack touches our code (tools/lsan.supp lists the driver frames).
+    export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:check_initialization_order=1"
+    export LSAN_OPTIONS="suppressions=$PWD/tools/lsan.supp:print_suppressions=0"
+    export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+    ;;
+tsan)
+    build_dir="build-tsan"
+    export TSAN_OPTIONS="halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/tools/tsan.supp"
+    ;;
+*) echo "unknown VOXTIER_PRESET '$preset' (default, asan, tsan)" >&2; exit 2 ;;
+esac
+if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
+    if [[ "$preset" == default ]]; then
+        cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+    else
+        cmake --preset "$preset" >/dev/null
+    fi
 fi
+
 case "$cmd" in
 build)
     cmake --build "$build_dir" -j "$(nproc)"
@@ -33,7 +53,7 @@ test)
     ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "$@"
     ;;
 *)
-    echo "usage: tools/dev.sh render|test|build [args...]" >&2
+    echo "usage: tools/dev.sh render|test|build|fuzz [args...]" >&2
     exit 2
     ;;
 esac
