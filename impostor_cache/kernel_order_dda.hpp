@@ -1,0 +1,126 @@
+#pragma once
+// The near kernel's ray traversal (core/sprite_kernel.h, vtTrace) with one addition: it can
+// resume at a parameter tLow given from outside (the Embree lower bound), skipping the empty
+// space before it without stepping through it, and still return exactly what vtTrace returns.
+//
+// Why this is exact. vtTrace recomputes each boundary crossing from the integer cell,
+// t_k(P) = (float(P) - o_k) * invDir_k, a function of the plane P alone (not of the path), and
+// strictly monotone along the ray. So the traversal is the merge of three sorted event lists,
+// ordered by (t, axis) with x < y < z on ties, starting from the entry cell c0 (computed with
+// the kernel's own slab test and floor). The state after "every event with t < tLow" is
+// therefore one exact prefix of that merge, and counting each axis's events below tLow (a
+// binary-free estimate plus a +-1 correction with the same float formula) lands on the very
+// cell vtTrace would be in. Provided no solid voxel is visited before tLow — which is what the
+// Embree pass guarantees, see snapshot_baker.cpp — continuing with the kernel's own step rule
+// finds the kernel's hit, its palette index and its entered face, bit for bit.
+#include "core/sprite_kernel.h"
+
+#include <glm/glm.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+namespace voxtier {
+
+struct KernelOrderHit {
+    bool hit = false;
+    std::uint8_t index = 0;
+    std::uint8_t face = 0; ///< kernel face code 0..5
+    float t = 0.0f;        ///< ray parameter of the entered face (the event that entered the voxel)
+    int steps = 0;         ///< voxel reads after the resume point (cost statistics)
+};
+
+/// The kernel's ray origin of lattice cell (i, j): the same float expression as vtTrace.
+inline glm::vec3 kernelRayOrigin(const kernel::SpriteGpu& s, glm::ivec2 cell) {
+    VT_PRECISE glm::vec3 o = s.rayBase + (float(cell.x) + 0.5f) * s.cellRight + (float(cell.y) + 0.5f) * s.cellUp;
+    return o;
+}
+
+/// `Voxels` provides `unsigned fetch(glm::ivec3) const` (in-range cells only).
+/// `haveBound == false` means "no solid voxel is visited after the entry cell" (Embree found no
+/// candidate): only the entry cell is read. Otherwise the traversal resumes at `tLow`.
+template <class Voxels>
+KernelOrderHit traceKernelOrder(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& voxels, bool haveBound,
+                                float tLow) {
+    using kernel::VT_FAR;
+    KernelOrderHit h;
+    const glm::ivec3 n(int(s.dims.x), int(s.dims.y), int(s.dims.z));
+    // Slab test and entry cell: vtTrace line for line.
+    float tEnter = -VT_FAR;
+    float tExit = VT_FAR;
+    int entryAxis = -1;
+    for (int k = 0; k < 3; ++k) {
+        if (s.dir[k] == 0.0f) {
+            if (o[k] < 0.0f || !(o[k] < float(n[k]))) return h;
+        } else {
+            const float t0 = (0.0f - o[k]) * s.invDir[k];
+            const float t1 = (float(n[k]) - o[k]) * s.invDir[k];
+            const float tNear = std::min(t0, t1);
+            const float tFar = std::max(t0, t1);
+            if (tNear > tEnter) {
+                tEnter = tNear;
+                entryAxis = k;
+            }
+            tExit = std::min(tExit, tFar);
+        }
+    }
+    if (!(tEnter < tExit) || entryAxis < 0) return h;
+    glm::ivec3 c(0), step(0);
+    for (int k = 0; k < 3; ++k) {
+        step[k] = s.dir[k] > 0.0f ? 1 : (s.dir[k] < 0.0f ? -1 : 0);
+        if (k == entryAxis) {
+            c[k] = s.dir[k] > 0.0f ? 0 : n[k] - 1;
+        } else {
+            const float p = o[k] + tEnter * s.dir[k];
+            c[k] = std::clamp(int(std::floor(p)), 0, n[k] - 1);
+        }
+    }
+    auto faceOf = [&](int axis) { return std::uint8_t(2 * axis + (s.dir[axis] > 0.0f ? 0 : 1)); };
+    auto planeT = [&](int k, int plane) { return (float(plane) - o[k]) * s.invDir[k]; };
+    ++h.steps;
+    if (const unsigned v = voxels.fetch(c); v != 0u) return {true, std::uint8_t(v), faceOf(entryAxis), tEnter, h.steps};
+    if (!haveBound) return h;
+
+    // Resume: count, per axis, the crossings with t < tLow (the events the kernel would have
+    // processed by then, all through empty voxels).
+    int axis = entryAxis;
+    float lastT = -VT_FAR;
+    for (int k = 0; k < 3; ++k) {
+        if (step[k] == 0) continue;
+        const int first = c[k] + (step[k] > 0 ? 1 : 0); // the next plane ahead of c0
+        // Estimate from the position at tLow in double, then correct with the kernel formula.
+        const double p = double(o[k]) + double(tLow) * double(s.dir[k]);
+        double est = step[k] > 0 ? std::floor(p) - first + 1.0 : first - std::ceil(p) + 1.0;
+        int m = int(std::clamp(est, 0.0, double(n[k] + 1)));
+        while (m > 0 && !(planeT(k, first + step[k] * (m - 1)) < tLow)) --m;
+        while (m <= n[k] && planeT(k, first + step[k] * m) < tLow) ++m;
+        if (m > 0) {
+            const float tl = planeT(k, first + step[k] * (m - 1));
+            if (tl >= lastT) { // lexicographic max of (t, axis): the later axis wins a tie
+                lastT = tl;
+                axis = k;
+            }
+            c[k] += step[k] * m;
+            if (c[k] < 0 || c[k] >= n[k]) return h; // left the grid before tLow: a miss
+        }
+    }
+    float tCur = lastT;
+    // vtTrace's loop from here on, same comparisons and tie order (x before y before z).
+    const int maxSteps = n.x + n.y + n.z;
+    for (int i = 0; i < maxSteps; ++i) {
+        ++h.steps;
+        if (const unsigned v = voxels.fetch(c); v != 0u) return {true, std::uint8_t(v), faceOf(axis), tCur, h.steps};
+        const float tx = step.x != 0 ? planeT(0, c.x + (step.x > 0 ? 1 : 0)) : VT_FAR;
+        const float ty = step.y != 0 ? planeT(1, c.y + (step.y > 0 ? 1 : 0)) : VT_FAR;
+        const float tz = step.z != 0 ? planeT(2, c.z + (step.z > 0 ? 1 : 0)) : VT_FAR;
+        const int a = (tx <= ty && tx <= tz) ? 0 : (ty <= tz ? 1 : 2);
+        tCur = a == 0 ? tx : (a == 1 ? ty : tz);
+        c[a] += step[a];
+        if (c[a] < 0 || c[a] >= n[a]) return h;
+        axis = a;
+    }
+    return h;
+}
+
+} // namespace voxtier

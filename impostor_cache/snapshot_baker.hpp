@@ -1,0 +1,46 @@
+#pragma once
+// Baking one snapshot (DESIGN.md §4): orthographic rays through every cell of the view's §3.5
+// lattice, traced against a VoxelScene with Embree's packet or stream API, TBB-parallel over
+// rows. Each cell ends up exactly as the near kernel's vtShadeCell would shade it.
+#include "core/voxel_model.hpp"
+#include "impostor_cache/snapshot.hpp"
+#include "impostor_cache/view_set.hpp"
+#include "impostor_cache/voxel_scene.hpp"
+
+#include <cstdint>
+
+namespace voxtier {
+
+enum class TraceApi {
+    Packet8, ///< rtcIntersect8 over runs of 8 cells of a row
+    Stream,  ///< rtcIntersect1M over a whole row
+};
+const char* toString(TraceApi api);
+/// The faster of the two on this project's benchmark (voxtier bake --bench).
+inline constexpr TraceApi kDefaultTraceApi = TraceApi::Packet8;
+
+struct BakeOptions {
+    TraceApi api = kDefaultTraceApi;
+    bool withDepth = false; ///< also store Snapshot::depth
+};
+
+struct BakeStats {
+    std::uint64_t rays = 0;       ///< primary rays = cells of the snapshot
+    std::uint64_t voxelReads = 0; ///< grid reads of the exact traversal (after Embree's bound)
+    double ms = 0.0;
+    BakeStats& operator+=(const BakeStats& o) {
+        rays += o.rays, voxelReads += o.voxelReads, ms += o.ms;
+        return *this;
+    }
+};
+
+/// Bakes view `view` of `set` from `scene` at sigma. Thread-safe (the scene is read-only).
+Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sigma, const BakeOptions& options = {},
+                      BakeStats* stats = nullptr);
+
+/// The same snapshot with no Embree at all: the near kernel's own vtTrace for every cell over
+/// the dense grid (TBB-parallel over rows). The baseline the Embree bake is measured against,
+/// and an independent check of it.
+Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewSet set, int view, double sigma, BakeStats* stats = nullptr);
+
+} // namespace voxtier
