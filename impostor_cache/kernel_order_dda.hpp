@@ -37,22 +37,28 @@ inline glm::vec3 kernelRayOrigin(const kernel::SpriteGpu& s, glm::ivec2 cell) {
     return o;
 }
 
-/// `Voxels` provides `unsigned fetch(glm::ivec3) const` (in-range cells only).
-/// `haveBound == false` means "no solid voxel is visited after the entry cell" (Embree found no
-/// candidate): only the entry cell is read. Otherwise the traversal resumes at `tLow`.
+/// Where a ray stands after the kernel's slab test and its first voxel read.
+struct KernelEntry {
+    enum class Kind { Miss, Hit, Traverse } kind = Kind::Miss;
+    glm::ivec3 cell{0}; ///< the entry cell c0 (Traverse, Hit)
+    int axis = -1;      ///< the entry axis
+    float tEnter = 0.0f;
+    std::uint8_t index = 0; ///< Hit: palette index of c0
+};
+
+/// vtTrace's slab test, entry cell and first read, line for line. `Voxels` provides
+/// `unsigned fetch(glm::ivec3) const` (in-range cells only).
 template <class Voxels>
-KernelOrderHit traceKernelOrder(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& voxels, bool haveBound,
-                                float tLow) {
+KernelEntry kernelEntry(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& voxels) {
     using kernel::VT_FAR;
-    KernelOrderHit h;
+    KernelEntry e;
     const glm::ivec3 n(int(s.dims.x), int(s.dims.y), int(s.dims.z));
-    // Slab test and entry cell: vtTrace line for line.
     float tEnter = -VT_FAR;
     float tExit = VT_FAR;
     int entryAxis = -1;
     for (int k = 0; k < 3; ++k) {
         if (s.dir[k] == 0.0f) {
-            if (o[k] < 0.0f || !(o[k] < float(n[k]))) return h;
+            if (o[k] < 0.0f || !(o[k] < float(n[k]))) return e;
         } else {
             const float t0 = (0.0f - o[k]) * s.invDir[k];
             const float t1 = (float(n[k]) - o[k]) * s.invDir[k];
@@ -65,52 +71,78 @@ KernelOrderHit traceKernelOrder(const kernel::SpriteGpu& s, glm::vec3 o, const V
             tExit = std::min(tExit, tFar);
         }
     }
-    if (!(tEnter < tExit) || entryAxis < 0) return h;
-    glm::ivec3 c(0), step(0);
+    if (!(tEnter < tExit) || entryAxis < 0) return e;
     for (int k = 0; k < 3; ++k) {
-        step[k] = s.dir[k] > 0.0f ? 1 : (s.dir[k] < 0.0f ? -1 : 0);
         if (k == entryAxis) {
-            c[k] = s.dir[k] > 0.0f ? 0 : n[k] - 1;
+            e.cell[k] = s.dir[k] > 0.0f ? 0 : n[k] - 1;
         } else {
             const float p = o[k] + tEnter * s.dir[k];
-            c[k] = std::clamp(int(std::floor(p)), 0, n[k] - 1);
+            e.cell[k] = std::clamp(int(std::floor(p)), 0, n[k] - 1);
         }
     }
-    auto faceOf = [&](int axis) { return std::uint8_t(2 * axis + (s.dir[axis] > 0.0f ? 0 : 1)); };
-    auto planeT = [&](int k, int plane) { return (float(plane) - o[k]) * s.invDir[k]; };
-    ++h.steps;
-    if (const unsigned v = voxels.fetch(c); v != 0u) return {true, std::uint8_t(v), faceOf(entryAxis), tEnter, h.steps};
+    e.axis = entryAxis;
+    e.tEnter = tEnter;
+    const unsigned v = voxels.fetch(e.cell);
+    e.kind = v != 0u ? KernelEntry::Kind::Hit : KernelEntry::Kind::Traverse;
+    e.index = std::uint8_t(v);
+    return e;
+}
+
+inline std::uint8_t kernelFaceCode(const kernel::SpriteGpu& s, int axis) {
+    return std::uint8_t(2 * axis + (s.dir[axis] > 0.0f ? 0 : 1));
+}
+
+/// Continues a Traverse entry. `haveBound == false` means "no solid voxel is visited after
+/// the entry cell" (Embree found no candidate): a miss without reading anything. Otherwise the
+/// traversal resumes at `tLow` (pass -VT_FAR for the plain kernel traversal).
+template <class Voxels>
+KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& voxels, const KernelEntry& e,
+                            bool haveBound, float tLow) {
+    using kernel::VT_FAR;
+    KernelOrderHit h;
     if (!haveBound) return h;
+    const glm::ivec3 n(int(s.dims.x), int(s.dims.y), int(s.dims.z));
+    glm::ivec3 c = e.cell, step(0);
+    for (int k = 0; k < 3; ++k) step[k] = s.dir[k] > 0.0f ? 1 : (s.dir[k] < 0.0f ? -1 : 0);
+    auto planeT = [&](int k, int plane) { return (float(plane) - o[k]) * s.invDir[k]; };
 
     // Resume: count, per axis, the crossings with t < tLow (the events the kernel would have
     // processed by then, all through empty voxels).
-    int axis = entryAxis;
+    int axis = e.axis;
     float lastT = -VT_FAR;
-    for (int k = 0; k < 3; ++k) {
-        if (step[k] == 0) continue;
-        const int first = c[k] + (step[k] > 0 ? 1 : 0); // the next plane ahead of c0
-        // Estimate from the position at tLow in double, then correct with the kernel formula.
-        const double p = double(o[k]) + double(tLow) * double(s.dir[k]);
-        double est = step[k] > 0 ? std::floor(p) - first + 1.0 : first - std::ceil(p) + 1.0;
-        int m = int(std::clamp(est, 0.0, double(n[k] + 1)));
-        while (m > 0 && !(planeT(k, first + step[k] * (m - 1)) < tLow)) --m;
-        while (m <= n[k] && planeT(k, first + step[k] * m) < tLow) ++m;
-        if (m > 0) {
-            const float tl = planeT(k, first + step[k] * (m - 1));
-            if (tl >= lastT) { // lexicographic max of (t, axis): the later axis wins a tie
-                lastT = tl;
-                axis = k;
+    if (tLow > -VT_FAR) {
+        for (int k = 0; k < 3; ++k) {
+            if (step[k] == 0) continue;
+            const int first = c[k] + (step[k] > 0 ? 1 : 0); // the next plane ahead of c0
+            // Estimate from the position at tLow in double, then correct with the kernel formula.
+            const double p = double(o[k]) + double(tLow) * double(s.dir[k]);
+            const double est = step[k] > 0 ? std::floor(p) - first + 1.0 : first - std::ceil(p) + 1.0;
+            int m = int(std::clamp(est, 0.0, double(n[k] + 1)));
+            while (m > 0 && !(planeT(k, first + step[k] * (m - 1)) < tLow)) --m;
+            while (m <= n[k] && planeT(k, first + step[k] * m) < tLow) ++m;
+            if (m > 0) {
+                const float tl = planeT(k, first + step[k] * (m - 1));
+                if (tl >= lastT) { // lexicographic max of (t, axis): the later axis wins a tie
+                    lastT = tl;
+                    axis = k;
+                }
+                c[k] += step[k] * m;
+                if (c[k] < 0 || c[k] >= n[k]) return h; // left the grid before tLow: a miss
             }
-            c[k] += step[k] * m;
-            if (c[k] < 0 || c[k] >= n[k]) return h; // left the grid before tLow: a miss
         }
     }
     float tCur = lastT;
-    // vtTrace's loop from here on, same comparisons and tie order (x before y before z).
+    // vtTrace's loop from here on, same comparisons and tie order (x before y before z). The
+    // entry cell was read by kernelEntry, so a cell is read here only after a step into it,
+    // except when the resume moved the ray (then the resumed cell is read first).
+    bool read = c != e.cell;
     const int maxSteps = n.x + n.y + n.z;
     for (int i = 0; i < maxSteps; ++i) {
-        ++h.steps;
-        if (const unsigned v = voxels.fetch(c); v != 0u) return {true, std::uint8_t(v), faceOf(axis), tCur, h.steps};
+        if (read) {
+            ++h.steps;
+            if (const unsigned v = voxels.fetch(c); v != 0u) return {true, std::uint8_t(v), kernelFaceCode(s, axis), tCur, h.steps};
+        }
+        read = true;
         const float tx = step.x != 0 ? planeT(0, c.x + (step.x > 0 ? 1 : 0)) : VT_FAR;
         const float ty = step.y != 0 ? planeT(1, c.y + (step.y > 0 ? 1 : 0)) : VT_FAR;
         const float tz = step.z != 0 ? planeT(2, c.z + (step.z > 0 ? 1 : 0)) : VT_FAR;
@@ -120,6 +152,18 @@ KernelOrderHit traceKernelOrder(const kernel::SpriteGpu& s, glm::vec3 o, const V
         if (c[a] < 0 || c[a] >= n[a]) return h;
         axis = a;
     }
+    return h;
+}
+
+/// Both halves: exactly vtTrace's answer when no solid voxel is visited before `tLow`.
+template <class Voxels>
+KernelOrderHit traceKernelOrder(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& voxels, bool haveBound,
+                                float tLow) {
+    const KernelEntry e = kernelEntry(s, o, voxels);
+    if (e.kind == KernelEntry::Kind::Miss) return {};
+    if (e.kind == KernelEntry::Kind::Hit) return {true, e.index, kernelFaceCode(s, e.axis), e.tEnter, 1};
+    KernelOrderHit h = kernelResume(s, o, voxels, e, haveBound, tLow);
+    ++h.steps;
     return h;
 }
 

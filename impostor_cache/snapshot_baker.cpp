@@ -1,5 +1,7 @@
 #include "impostor_cache/snapshot_baker.hpp"
 
+
+#include "core/error.hpp"
 #include "impostor_cache/detail/bake_context.hpp"
 #include "impostor_cache/detail/embree_device.hpp"
 #include "impostor_cache/kernel_order_dda.hpp"
@@ -64,7 +66,107 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 } // namespace
 
-const char* toString(TraceApi api) { return api == TraceApi::Packet8 ? "packet8" : "stream"; }
+namespace {
+
+/// Embree's packet types by width.
+template <int N> struct Packet;
+template <> struct Packet<8> {
+    using RayHit = RTCRayHit8;
+    static void intersect(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RayHit* rh) {
+        rtcIntersect8(valid, scene, ctx, rh);
+    }
+};
+template <> struct Packet<16> {
+    using RayHit = RTCRayHit16;
+    static void intersect(const int* valid, RTCScene scene, RTCIntersectContext* ctx, RayHit* rh) {
+        rtcIntersect16(valid, scene, ctx, rh);
+    }
+};
+
+/// Traces rays `origin[0..count)` (direction `dir`) and returns, per ray, whether Embree found
+/// a candidate and its parameter. Runs with FTZ/DAZ set (restored on return).
+struct EmbreeBatch {
+    RTCScene scene;
+    detail::BakeIntersectContext* ctx;
+    glm::vec3 dir;
+    std::vector<RTCRayHit> stream; // scratch for the stream API
+
+    template <int N> void packets(const glm::vec3* origin, std::size_t count, unsigned char* have, float* tHit) {
+        using P = Packet<N>;
+        for (std::size_t b = 0; b < count; b += N) {
+            alignas(64) typename P::RayHit p;
+            alignas(64) int valid[N];
+            for (int l = 0; l < N; ++l) {
+                const std::size_t r = std::min(b + std::size_t(l), count - 1);
+                valid[l] = b + std::size_t(l) < count ? -1 : 0;
+                p.ray.org_x[l] = origin[r].x, p.ray.org_y[l] = origin[r].y, p.ray.org_z[l] = origin[r].z;
+                p.ray.dir_x[l] = dir.x, p.ray.dir_y[l] = dir.y, p.ray.dir_z[l] = dir.z;
+                p.ray.tnear[l] = 0.0f;
+                p.ray.tfar[l] = std::numeric_limits<float>::infinity();
+                p.ray.time[l] = 0.0f;
+                p.ray.mask[l] = 0xFFFFFFFFu;
+                p.ray.id[l] = 0;
+                p.ray.flags[l] = 0;
+                p.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
+                p.hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
+            }
+            P::intersect(valid, scene, &ctx->base, &p);
+            for (int l = 0; l < N && b + std::size_t(l) < count; ++l) {
+                have[b + std::size_t(l)] = p.hit.geomID[l] != RTC_INVALID_GEOMETRY_ID;
+                tHit[b + std::size_t(l)] = p.ray.tfar[l];
+            }
+        }
+    }
+
+    void streamed(const glm::vec3* origin, std::size_t count, unsigned char* have, float* tHit) {
+        stream.resize(count);
+        for (std::size_t r = 0; r < count; ++r) {
+            RTCRayHit& rh = stream[r];
+            rh.ray.org_x = origin[r].x, rh.ray.org_y = origin[r].y, rh.ray.org_z = origin[r].z;
+            rh.ray.dir_x = dir.x, rh.ray.dir_y = dir.y, rh.ray.dir_z = dir.z;
+            rh.ray.tnear = 0.0f;
+            rh.ray.tfar = std::numeric_limits<float>::infinity();
+            rh.ray.time = 0.0f;
+            rh.ray.mask = 0xFFFFFFFFu;
+            rh.ray.id = unsigned(r);
+            rh.ray.flags = 0;
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        }
+        rtcIntersect1M(scene, &ctx->base, stream.data(), unsigned(count), sizeof(RTCRayHit));
+        for (std::size_t r = 0; r < count; ++r) {
+            have[r] = stream[r].hit.geomID != RTC_INVALID_GEOMETRY_ID;
+            tHit[r] = stream[r].ray.tfar;
+        }
+    }
+
+    void trace(TraceApi api, const glm::vec3* origin, std::size_t count, unsigned char* have, float* tHit) {
+        detail::FlushDenormalsScope ftz; // restored before the float-exact traversal
+        switch (api) {
+        case TraceApi::Packet8: packets<8>(origin, count, have, tHit); break;
+        case TraceApi::Packet16: packets<16>(origin, count, have, tHit); break;
+        case TraceApi::Stream: streamed(origin, count, have, tHit); break;
+        }
+    }
+};
+
+} // namespace
+
+const char* toString(TraceApi api) {
+    switch (api) {
+    case TraceApi::Packet8: return "packet8";
+    case TraceApi::Packet16: return "packet16";
+    case TraceApi::Stream: return "stream";
+    }
+    return "?";
+}
+
+TraceApi parseTraceApi(const std::string& name) {
+    if (name == "packet8") return TraceApi::Packet8;
+    if (name == "packet16") return TraceApi::Packet16;
+    if (name == "stream") return TraceApi::Stream;
+    throw InputError("", "--api", "expected packet8, packet16 or stream, got '" + name + "'");
+}
 
 Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sigma, const BakeOptions& options,
                       BakeStats* stats) {
@@ -92,80 +194,47 @@ Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sig
     ctx.base.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT; // parallel rays in lattice order
     ctx.dir = frame.dir;
     ctx.invDir = frame.invDir;
-    RTCScene handle = scene.handle();
     const bool useEmbree = !scene.empty() && !exactOnly;
 
+    auto store = [&](std::size_t k, std::uint8_t index, std::uint8_t face, float t) {
+        snap.cells[k] = {index, std::uint8_t(snapshot_code::kSolid0 + face)};
+        if (options.withDepth) snap.depth[k] = t - maxDim2;
+    };
     tbb::combinable<std::uint64_t> reads;
-    tbb::parallel_for(tbb::blocked_range<int>(0, H, 2), [&](const tbb::blocked_range<int>& rows) {
-        std::vector<RTCRayHit> stream;
-        std::vector<float> bound(std::size_t(W), -kernel::VT_FAR);
-        std::vector<unsigned char> have(std::size_t(W), exactOnly ? 1 : 0);
-        std::vector<glm::vec3> origin(static_cast<std::size_t>(W));
+    // Blocks of rows: the kernel's slab test and entry read settle every ray that misses the
+    // model box or starts in a solid voxel; only the rest go to Embree, compacted, so packets
+    // carry no dead lanes.
+    constexpr int kRowsPerTask = 4;
+    tbb::parallel_for(tbb::blocked_range<int>(0, H, kRowsPerTask), [&](const tbb::blocked_range<int>& rows) {
+        EmbreeBatch batch{scene.handle(), &ctx, frame.dir, {}};
+        std::vector<glm::vec3> origin;
+        std::vector<std::size_t> cellOf;
+        std::vector<KernelEntry> entry;
         std::uint64_t localReads = 0;
-        for (int y = rows.begin(); y < rows.end(); ++y) {
-            const int j = range.z + y;
-            for (int x = 0; x < W; ++x) origin[std::size_t(x)] = kernelRayOrigin(frame, {range.x + x, j});
-            if (useEmbree) {
-                detail::FlushDenormalsScope ftz; // restored before the exact traversal below
-                auto initRay = [&](RTCRay& r, glm::vec3 o) {
-                    r.org_x = o.x, r.org_y = o.y, r.org_z = o.z;
-                    r.dir_x = frame.dir.x, r.dir_y = frame.dir.y, r.dir_z = frame.dir.z;
-                    r.tnear = 0.0f;
-                    r.tfar = std::numeric_limits<float>::infinity();
-                    r.time = 0.0f;
-                    r.mask = 0xFFFFFFFFu;
-                    r.id = 0;
-                    r.flags = 0;
-                };
-                if (options.api == TraceApi::Stream) {
-                    stream.resize(std::size_t(W));
-                    for (int x = 0; x < W; ++x) {
-                        initRay(stream[std::size_t(x)].ray, origin[std::size_t(x)]);
-                        stream[std::size_t(x)].hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                        stream[std::size_t(x)].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-                    }
-                    rtcIntersect1M(handle, &ctx.base, stream.data(), unsigned(W), sizeof(RTCRayHit));
-                    for (int x = 0; x < W; ++x) {
-                        const RTCRayHit& rh = stream[std::size_t(x)];
-                        have[std::size_t(x)] = rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
-                        bound[std::size_t(x)] = rh.ray.tfar;
-                    }
-                } else {
-                    for (int x0 = 0; x0 < W; x0 += 8) {
-                        alignas(32) RTCRayHit8 p;
-                        alignas(32) int valid[8];
-                        for (int l = 0; l < 8; ++l) {
-                            const int x = std::min(x0 + l, W - 1);
-                            valid[l] = x0 + l < W ? -1 : 0;
-                            const glm::vec3 o = origin[std::size_t(x)];
-                            p.ray.org_x[l] = o.x, p.ray.org_y[l] = o.y, p.ray.org_z[l] = o.z;
-                            p.ray.dir_x[l] = frame.dir.x, p.ray.dir_y[l] = frame.dir.y, p.ray.dir_z[l] = frame.dir.z;
-                            p.ray.tnear[l] = 0.0f;
-                            p.ray.tfar[l] = std::numeric_limits<float>::infinity();
-                            p.ray.time[l] = 0.0f;
-                            p.ray.mask[l] = 0xFFFFFFFFu;
-                            p.ray.id[l] = 0;
-                            p.ray.flags[l] = 0;
-                            p.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
-                            p.hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
-                        }
-                        rtcIntersect8(valid, handle, &ctx.base, &p);
-                        for (int l = 0; l < 8 && x0 + l < W; ++l) {
-                            have[std::size_t(x0 + l)] = p.hit.geomID[l] != RTC_INVALID_GEOMETRY_ID;
-                            bound[std::size_t(x0 + l)] = p.ray.tfar[l];
-                        }
-                    }
-                }
-            }
+        for (int y = rows.begin(); y < rows.end(); ++y)
             for (int x = 0; x < W; ++x) {
-                const float tLow = exactOnly ? -kernel::VT_FAR : margin.apply(bound[std::size_t(x)]);
-                const KernelOrderHit h = traceKernelOrder(frame, origin[std::size_t(x)], voxels, have[std::size_t(x)] != 0, tLow);
-                localReads += std::uint64_t(h.steps);
-                if (!h.hit) continue;
+                const glm::vec3 o = kernelRayOrigin(frame, {range.x + x, range.z + y});
+                const KernelEntry e = kernelEntry(frame, o, voxels);
+                if (e.kind == KernelEntry::Kind::Miss) continue;
+                ++localReads;
                 const std::size_t k = std::size_t(y) * std::size_t(W) + std::size_t(x);
-                snap.cells[k] = {h.index, std::uint8_t(snapshot_code::kSolid0 + h.face)};
-                if (options.withDepth) snap.depth[k] = h.t - maxDim2;
+                if (e.kind == KernelEntry::Kind::Hit) {
+                    store(k, e.index, kernelFaceCode(frame, e.axis), e.tEnter);
+                    continue;
+                }
+                origin.push_back(o);
+                cellOf.push_back(k);
+                entry.push_back(e);
             }
+        const std::size_t n = origin.size();
+        std::vector<unsigned char> have(n, exactOnly ? 1 : 0);
+        std::vector<float> tHit(n, -kernel::VT_FAR);
+        if (useEmbree && n > 0) batch.trace(options.api, origin.data(), n, have.data(), tHit.data());
+        for (std::size_t r = 0; r < n; ++r) {
+            const float tLow = exactOnly ? -kernel::VT_FAR : margin.apply(tHit[r]);
+            const KernelOrderHit h = kernelResume(frame, origin[r], voxels, entry[r], have[r] != 0, tLow);
+            localReads += std::uint64_t(h.steps);
+            if (h.hit) store(cellOf[r], h.index, h.face, h.t);
         }
         reads.local() += localReads;
     });

@@ -8,14 +8,17 @@
 #include "impostor_cache/voxel_scene.hpp"
 
 #include <cstdint>
+#include <string>
 
 namespace voxtier {
 
 enum class TraceApi {
-    Packet8, ///< rtcIntersect8 over runs of 8 cells of a row
-    Stream,  ///< rtcIntersect1M over a whole row
+    Packet8,  ///< rtcIntersect8 over runs of 8 rays
+    Packet16, ///< rtcIntersect16 over runs of 16 rays
+    Stream,   ///< rtcIntersect1M over a block of rows
 };
 const char* toString(TraceApi api);
+TraceApi parseTraceApi(const std::string& name); ///< packet8 | packet16 | stream, else InputError
 /// The faster of the two on this project's benchmark (voxtier bake --bench).
 inline constexpr TraceApi kDefaultTraceApi = TraceApi::Packet8;
 

@@ -3,7 +3,6 @@
 #include "core/error.hpp"
 #include "impostor_cache/detail/bake_context.hpp"
 #include "impostor_cache/detail/embree_device.hpp"
-#include "impostor_cache/surface_voxels.hpp"
 
 #include <tbb/task_arena.h>
 
@@ -17,26 +16,30 @@ namespace voxtier {
 namespace {
 
 struct BoxUserData {
-    const std::uint32_t* voxels;
+    const VoxelRun* boxes;
     float pad;
 };
 
 void boxBounds(const RTCBoundsFunctionArguments* args) {
     const auto* d = static_cast<const BoxUserData*>(args->geometryUserPtr);
-    const glm::vec3 lo = glm::vec3(unpackVoxel(d->voxels[args->primID])) - d->pad;
+    const VoxelRun& r = d->boxes[args->primID];
     RTCBounds* b = args->bounds_o;
-    b->lower_x = lo.x, b->lower_y = lo.y, b->lower_z = lo.z;
-    b->upper_x = lo.x + 1.0f + 2.0f * d->pad, b->upper_y = lo.y + 1.0f + 2.0f * d->pad, b->upper_z = lo.z + 1.0f + 2.0f * d->pad;
+    b->lower_x = float(r.min.x) - d->pad, b->lower_y = float(r.min.y) - d->pad, b->lower_z = float(r.min.z) - d->pad;
+    b->upper_x = float(r.max.x) + d->pad, b->upper_y = float(r.max.y) + d->pad, b->upper_z = float(r.max.z) + d->pad;
 }
 
-/// Robust ray / padded-box test. It reports the parameter where the ray enters the padded
-/// box: a lower bound of where the kernel traversal can enter the voxel. The hit that counts
-/// (index, entered face, tie order) is decided afterwards by the kernel-order traversal.
+/// Robust ray / padded-box slab test (zero direction components take their own branch, no
+/// 0 * inf). It reports where the ray enters the padded box, and the entered face as the
+/// geometric normal. That parameter is a lower bound of where the kernel's traversal can
+/// enter the voxels; the hit that counts (index, entered face, tie order) is decided
+/// afterwards by the kernel-order traversal, because no float box test can reproduce the
+/// kernel's own rounding and tie rules bit for bit.
 void boxIntersect(const RTCIntersectFunctionNArguments* args) {
     const auto* d = static_cast<const BoxUserData*>(args->geometryUserPtr);
     const auto* ctx = reinterpret_cast<const detail::BakeIntersectContext*>(args->context);
-    const glm::vec3 lo = glm::vec3(unpackVoxel(d->voxels[args->primID])) - d->pad;
-    const glm::vec3 hi = lo + (1.0f + 2.0f * d->pad);
+    const VoxelRun& run = d->boxes[args->primID];
+    const glm::vec3 lo = glm::vec3(run.min) - d->pad;
+    const glm::vec3 hi = glm::vec3(run.max) + d->pad;
     RTCRayN* ray = RTCRayHitN_RayN(args->rayhit, args->N);
     RTCHitN* hit = RTCRayHitN_HitN(args->rayhit, args->N);
     const unsigned N = args->N;
@@ -46,6 +49,7 @@ void boxIntersect(const RTCIntersectFunctionNArguments* args) {
         float t0 = RTCRayN_tnear(ray, N, i);
         float t1 = RTCRayN_tfar(ray, N, i);
         const float tfar = t1;
+        int axis = -1;
         bool miss = false;
         for (int k = 0; k < 3 && !miss; ++k) {
             if (ctx->dir[k] == 0.0f) {
@@ -53,17 +57,20 @@ void boxIntersect(const RTCIntersectFunctionNArguments* args) {
             } else {
                 const float a = (lo[k] - o[k]) * ctx->invDir[k];
                 const float b = (hi[k] - o[k]) * ctx->invDir[k];
-                t0 = std::max(t0, std::min(a, b));
+                const float tn = std::min(a, b);
+                if (tn > t0) t0 = tn, axis = k;
                 t1 = std::min(t1, std::max(a, b));
             }
         }
         // Strictly nearer than the current candidate: among equal bounds the first one found
         // stays, which is harmless because only the bound's value is used.
         if (miss || !(t0 <= t1) || !(t0 < tfar)) continue;
+        glm::vec3 ng(0.0f);
+        if (axis >= 0) ng[axis] = ctx->dir[axis] > 0.0f ? -1.0f : 1.0f;
         RTCRayN_tfar(ray, N, i) = t0;
-        RTCHitN_Ng_x(hit, N, i) = 0.0f;
-        RTCHitN_Ng_y(hit, N, i) = 0.0f;
-        RTCHitN_Ng_z(hit, N, i) = 0.0f;
+        RTCHitN_Ng_x(hit, N, i) = ng.x;
+        RTCHitN_Ng_y(hit, N, i) = ng.y;
+        RTCHitN_Ng_z(hit, N, i) = ng.z;
         RTCHitN_u(hit, N, i) = 0.0f;
         RTCHitN_v(hit, N, i) = 0.0f;
         RTCHitN_primID(hit, N, i) = args->primID;
@@ -75,8 +82,9 @@ void boxIntersect(const RTCIntersectFunctionNArguments* args) {
 void boxOccluded(const RTCOccludedFunctionNArguments* args) {
     // Not used by the baker; a conservative answer (any padded box overlap occludes).
     const auto* d = static_cast<const BoxUserData*>(args->geometryUserPtr);
-    const glm::vec3 lo = glm::vec3(unpackVoxel(d->voxels[args->primID])) - d->pad;
-    const glm::vec3 hi = lo + (1.0f + 2.0f * d->pad);
+    const VoxelRun& run = d->boxes[args->primID];
+    const glm::vec3 lo = glm::vec3(run.min) - d->pad;
+    const glm::vec3 hi = glm::vec3(run.max) + d->pad;
     const unsigned N = args->N;
     for (unsigned i = 0; i < N; ++i) {
         if (!args->valid[i]) continue;
@@ -129,13 +137,14 @@ VoxelScene::VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options) : grid_
         rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
         rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
         if (options_.geometry == BakeGeometry::Boxes) {
-            boxVoxels_ = surfaceVoxels(grid_, options_.surfaceOnly);
-            primitives_ = boxVoxels_.size();
+            boxes_ = surfaceBoxes(grid_, options_.surfaceOnly, options_.mergePrimitives);
+            primitives_ = boxes_.size();
             if (primitives_ > 0) {
                 RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
                 rtcSetGeometryUserPrimitiveCount(geom, unsigned(primitives_));
                 // The user data must outlive the scene: it lives in this object, which owns the scene.
-                auto* data = new BoxUserData{boxVoxels_.data(), padding_};
+                auto* data = new BoxUserData{boxes_.data(), padding_};
+                userData_ = data;
                 rtcSetGeometryUserData(geom, data);
                 rtcSetGeometryBoundsFunction(geom, boxBounds, data);
                 rtcSetGeometryIntersectFunction(geom, boxIntersect);
@@ -143,10 +152,9 @@ VoxelScene::VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options) : grid_
                 rtcCommitGeometry(geom);
                 rtcAttachGeometry(scene, geom);
                 rtcReleaseGeometry(geom); // the scene holds its own reference
-                userData_ = data;
             }
         } else {
-            const std::vector<VoxelFace> faces = exposedFaces(grid_, options_.surfaceOnly);
+            const std::vector<FaceRect> faces = exposedFaces(grid_, options_.surfaceOnly, options_.mergePrimitives);
             primitives_ = faces.size();
             if (primitives_ > 0) {
                 RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_QUAD);
@@ -156,17 +164,16 @@ VoxelScene::VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options) : grid_
                                                                          4 * sizeof(unsigned), primitives_));
                 const float pad = padding_;
                 for (std::size_t f = 0; f < primitives_; ++f) {
-                    const glm::ivec3 p = unpackVoxel(faces[f].voxel);
-                    const int a = faces[f].face / 2, b = (a + 1) % 3, c = (a + 2) % 3;
-                    // The face's own plane, grown by `pad` within the plane only: a ray the
-                    // kernel sends through this face crosses that plane inside the grown quad.
-                    const float plane = float(p[a] + (faces[f].face % 2));
-                    const float b0 = float(p[b]) - pad, b1 = float(p[b] + 1) + pad;
-                    const float c0 = float(p[c]) - pad, c1 = float(p[c] + 1) + pad;
+                    const FaceRect& r = faces[f];
+                    const int a = r.face / 2, b = (a + 1) % 3, c = (a + 2) % 3;
+                    // The faces' own plane, grown by `pad` within the plane only: a ray the
+                    // kernel sends through one of these faces crosses the plane inside the quad.
+                    const float b0 = float(r.lo.x) - pad, b1 = float(r.hi.x) + pad;
+                    const float c0 = float(r.lo.y) - pad, c1 = float(r.hi.y) + pad;
                     const float corners[4][2] = {{b0, c0}, {b1, c0}, {b1, c1}, {b0, c1}};
                     for (int k = 0; k < 4; ++k) {
                         float* out = v + 3 * (4 * f + std::size_t(k));
-                        out[a] = plane;
+                        out[a] = float(r.plane);
                         out[b] = corners[k][0];
                         out[c] = corners[k][1];
                         q[4 * f + std::size_t(k)] = unsigned(4 * f + std::size_t(k));
@@ -182,7 +189,7 @@ VoxelScene::VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options) : grid_
     });
     detail::throwOnEmbreeError("scene build");
     embreeBytes_ = std::size_t(std::max<std::int64_t>(0, detail::embreeBytesInUse() - before));
-    bytes_ = sizeof(*this) + grid_.data().capacity() + boxVoxels_.capacity() * sizeof(std::uint32_t) + embreeBytes_;
+    bytes_ = sizeof(*this) + grid_.data().capacity() + boxes_.capacity() * sizeof(VoxelRun) + embreeBytes_;
     buildMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 

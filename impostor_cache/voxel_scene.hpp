@@ -3,6 +3,7 @@
 // can hit first, built once and shared by every view baked from it (and, later, by incremental
 // re-bakes). Snapshots are the per-view half (snapshot_baker.hpp).
 #include "core/voxel_model.hpp"
+#include "impostor_cache/surface_voxels.hpp"
 
 #include <cstddef>
 #include <cstdint>
@@ -24,13 +25,16 @@ enum class BakeGeometry {
 const char* toString(BakeGeometry g);
 BakeGeometry parseBakeGeometry(const std::string& name); ///< "boxes" | "quads", else InputError
 /// The faster of the two on this project's benchmark (voxtier bake --bench), used by default.
-inline constexpr BakeGeometry kDefaultBakeGeometry = BakeGeometry::Quads;
+inline constexpr BakeGeometry kDefaultBakeGeometry = BakeGeometry::Boxes;
 
 struct VoxelSceneOptions {
     BakeGeometry geometry = kDefaultBakeGeometry;
     /// Only voxels with an empty or out-of-bounds 6-neighbour (HARD_CASES 19). false puts every
     /// solid voxel in (tests prove both give the same snapshots).
     bool surfaceOnly = true;
+    /// Runs of surface voxels along x as one box, rectangles of coplanar exposed faces as one
+    /// quad (surface_voxels.hpp). Same snapshots, fewer primitives.
+    bool mergePrimitives = true;
 };
 
 class VoxelScene {
@@ -58,7 +62,7 @@ public:
 private:
     VoxelGrid grid_;
     VoxelSceneOptions options_;
-    std::vector<std::uint32_t> boxVoxels_; ///< Boxes: packed voxel per primitive
+    std::vector<VoxelRun> boxes_; ///< Boxes: the voxel box of each primitive
     std::size_t primitives_ = 0;
     float padding_ = 0.0f;
     std::size_t bytes_ = 0, embreeBytes_ = 0;
