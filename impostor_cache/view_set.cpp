@@ -63,7 +63,12 @@ struct Tables {
     Tables() {
         for (int n = 1; n <= 3; ++n) {
             points[std::size_t(n - 1)] = latticeSet(n);
-            for (glm::ivec3 p : points[std::size_t(n - 1)]) dirs[std::size_t(n - 1)].push_back(glm::normalize(glm::dvec3(p)));
+            // The canonical prefix is normalised from the unit-lattice vector, so view i < 26 is
+            // the very same double vector in every set (normalising (2,2,0) and (1,1,0) can
+            // differ in the last bit).
+            const auto& pts = points[std::size_t(n - 1)];
+            for (std::size_t i = 0; i < pts.size(); ++i)
+                dirs[std::size_t(n - 1)].push_back(glm::normalize(glm::dvec3(i < 26 ? pts[i] / n : pts[i])));
         }
     }
 };
