@@ -132,10 +132,12 @@ void runBench(const BakeArgs& a) {
     struct Config {
         BakeGeometry geometry;
         TraceApi api;
+        int traverseFirst = 0;
     };
-    const std::vector<Config> configs = {{BakeGeometry::Boxes, TraceApi::Packet8}, {BakeGeometry::Boxes, TraceApi::Packet16},
-                                         {BakeGeometry::Boxes, TraceApi::Stream},  {BakeGeometry::Quads, TraceApi::Packet8},
-                                         {BakeGeometry::Quads, TraceApi::Packet16}, {BakeGeometry::Quads, TraceApi::Stream}};
+    const std::vector<Config> configs = {{BakeGeometry::Boxes, TraceApi::Packet8},  {BakeGeometry::Boxes, TraceApi::Packet16},
+                                         {BakeGeometry::Boxes, TraceApi::Stream},   {BakeGeometry::Quads, TraceApi::Packet8},
+                                         {BakeGeometry::Quads, TraceApi::Packet16}, {BakeGeometry::Quads, TraceApi::Stream},
+                                         {kDefaultBakeGeometry, kDefaultTraceApi, 16}};
     for (const NamedModel& nm : models) {
         const VoxelGrid& grid = nm.model->frame(0);
         std::unique_ptr<VoxelScene> scenes[2];
@@ -164,8 +166,11 @@ void runBench(const BakeArgs& a) {
             for (std::size_t c = 0; c < configs.size(); ++c) {
                 const VoxelScene& sc = *scenes[configs[c].geometry == BakeGeometry::Boxes ? 0 : 1];
                 BakeStats es;
+                BakeOptions bo;
+                bo.api = configs[c].api;
+                bo.traverseFirst = configs[c].traverseFirst;
                 for (int v = 0; v < viewCount(set); ++v) {
-                    const Snapshot snap = bakeSnapshot(sc, set, v, a.sigma, {configs[c].api, false}, &es);
+                    const Snapshot snap = bakeSnapshot(sc, set, v, a.sigma, bo, &es);
                     if (r == 0 && snap.cells != reference[std::size_t(v)].cells) identical = false;
                 }
                 configMs[c].push_back(es.ms);
@@ -175,11 +180,12 @@ void runBench(const BakeArgs& a) {
         std::printf("%-22s %s, %zu voxels, %llu rays; snapshots identical to the scalar DDA: %s\n", nm.name.c_str(),
                     dimsText(grid.dims()).c_str(), grid.solidCount(), static_cast<unsigned long long>(rays),
                     identical ? "yes" : "NO");
-        std::printf("  %-22s %9.2f ms  %7.2f Mrays/s\n", "scalar DDA", scalar, rays / scalar / 1e3);
+        std::printf("  %-36s %9.2f ms  %7.2f Mrays/s\n", "scalar DDA (near kernel vtTrace)", scalar, rays / scalar / 1e3);
         for (std::size_t c = 0; c < configs.size(); ++c) {
             const double ms = median(configMs[c]);
-            const std::string label = std::string("embree ") + toString(configs[c].geometry) + " " + toString(configs[c].api);
-            std::printf("  %-22s %9.2f ms  %7.2f Mrays/s  %5.2fx scalar\n", label.c_str(), ms, rays / ms / 1e3, scalar / ms);
+            std::string label = std::string("embree ") + toString(configs[c].geometry) + " " + toString(configs[c].api);
+            if (configs[c].traverseFirst > 0) label += " +" + std::to_string(configs[c].traverseFirst) + " reads first";
+            std::printf("  %-36s %9.2f ms  %7.2f Mrays/s  %5.2fx scalar\n", label.c_str(), ms, rays / ms / 1e3, scalar / ms);
         }
         std::printf("  memory per cached model (%d views, sigma %g): snapshots %.1f KB; + Embree scene: boxes %.1f KB "
                     "(%zu prims, build %.1f ms), quads %.1f KB (%zu prims, build %.1f ms)\n\n",

@@ -29,6 +29,7 @@ struct KernelOrderHit {
     std::uint8_t face = 0; ///< kernel face code 0..5
     float t = 0.0f;        ///< ray parameter of the entered face (the event that entered the voxel)
     int steps = 0;         ///< voxel reads after the resume point (cost statistics)
+    bool unresolved = false; ///< stopped after `maxReads` reads without an answer
 };
 
 /// The kernel's ray origin of lattice cell (i, j): the same float expression as vtTrace.
@@ -94,10 +95,11 @@ inline std::uint8_t kernelFaceCode(const kernel::SpriteGpu& s, int axis) {
 
 /// Continues a Traverse entry. `haveBound == false` means "no solid voxel is visited after
 /// the entry cell" (Embree found no candidate): a miss without reading anything. Otherwise the
-/// traversal resumes at `tLow` (pass -VT_FAR for the plain kernel traversal).
+/// traversal resumes at `tLow` (pass -VT_FAR for the plain kernel traversal). With `maxReads`,
+/// it gives up after that many voxel reads and says so (`unresolved`).
 template <class Voxels>
 KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& voxels, const KernelEntry& e,
-                            bool haveBound, float tLow) {
+                            bool haveBound, float tLow, int maxReads = 1 << 30) {
     using kernel::VT_FAR;
     KernelOrderHit h;
     if (!haveBound) return h;
@@ -136,20 +138,26 @@ KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxel
     // entry cell was read by kernelEntry, so a cell is read here only after a step into it,
     // except when the resume moved the ray (then the resumed cell is read first).
     bool read = c != e.cell;
+    // The next crossing per axis. planeT is a pure function of the plane, so keeping the two
+    // axes that did not step instead of recomputing them gives the kernel's values exactly.
+    float tn[3];
+    for (int k = 0; k < 3; ++k) tn[k] = step[k] != 0 ? planeT(k, c[k] + (step[k] > 0 ? 1 : 0)) : VT_FAR;
     const int maxSteps = n.x + n.y + n.z;
     for (int i = 0; i < maxSteps; ++i) {
         if (read) {
+            if (h.steps >= maxReads) {
+                h.unresolved = true;
+                return h;
+            }
             ++h.steps;
             if (const unsigned v = voxels.fetch(c); v != 0u) return {true, std::uint8_t(v), kernelFaceCode(s, axis), tCur, h.steps};
         }
         read = true;
-        const float tx = step.x != 0 ? planeT(0, c.x + (step.x > 0 ? 1 : 0)) : VT_FAR;
-        const float ty = step.y != 0 ? planeT(1, c.y + (step.y > 0 ? 1 : 0)) : VT_FAR;
-        const float tz = step.z != 0 ? planeT(2, c.z + (step.z > 0 ? 1 : 0)) : VT_FAR;
-        const int a = (tx <= ty && tx <= tz) ? 0 : (ty <= tz ? 1 : 2);
-        tCur = a == 0 ? tx : (a == 1 ? ty : tz);
+        const int a = (tn[0] <= tn[1] && tn[0] <= tn[2]) ? 0 : (tn[1] <= tn[2] ? 1 : 2);
+        tCur = tn[a];
         c[a] += step[a];
         if (c[a] < 0 || c[a] >= n[a]) return h;
+        tn[a] = planeT(a, c[a] + (step[a] > 0 ? 1 : 0));
         axis = a;
     }
     return h;

@@ -200,27 +200,41 @@ Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sig
         snap.cells[k] = {index, std::uint8_t(snapshot_code::kSolid0 + face)};
         if (options.withDepth) snap.depth[k] = t - maxDim2;
     };
-    tbb::combinable<std::uint64_t> reads;
+    struct Counts {
+        std::uint64_t reads = 0, embree = 0;
+    };
+    tbb::combinable<Counts> counts;
     // Blocks of rows: the kernel's slab test and entry read settle every ray that misses the
-    // model box or starts in a solid voxel; only the rest go to Embree, compacted, so packets
-    // carry no dead lanes.
+    // model box or starts in a solid voxel, and a few more reads settle most of the rest on
+    // compact models; only the remaining rays go to Embree, compacted, so packets carry no
+    // dead lanes.
     constexpr int kRowsPerTask = 4;
+    const int first = useEmbree ? std::max(0, options.traverseFirst) : (1 << 30);
     tbb::parallel_for(tbb::blocked_range<int>(0, H, kRowsPerTask), [&](const tbb::blocked_range<int>& rows) {
         EmbreeBatch batch{scene.handle(), &ctx, frame.dir, {}};
         std::vector<glm::vec3> origin;
         std::vector<std::size_t> cellOf;
         std::vector<KernelEntry> entry;
-        std::uint64_t localReads = 0;
+        Counts local;
         for (int y = rows.begin(); y < rows.end(); ++y)
             for (int x = 0; x < W; ++x) {
                 const glm::vec3 o = kernelRayOrigin(frame, {range.x + x, range.z + y});
                 const KernelEntry e = kernelEntry(frame, o, voxels);
                 if (e.kind == KernelEntry::Kind::Miss) continue;
-                ++localReads;
+                ++local.reads;
                 const std::size_t k = std::size_t(y) * std::size_t(W) + std::size_t(x);
                 if (e.kind == KernelEntry::Kind::Hit) {
                     store(k, e.index, kernelFaceCode(frame, e.axis), e.tEnter);
                     continue;
+                }
+                // An empty scene cannot be hit past the entry cell: nothing to traverse.
+                if (!scene.empty() && first > 0) {
+                    const KernelOrderHit h = kernelResume(frame, o, voxels, e, true, -kernel::VT_FAR, first);
+                    local.reads += std::uint64_t(h.steps);
+                    if (!h.unresolved) {
+                        if (h.hit) store(k, h.index, h.face, h.t);
+                        continue;
+                    }
                 }
                 origin.push_back(o);
                 cellOf.push_back(k);
@@ -229,19 +243,26 @@ Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sig
         const std::size_t n = origin.size();
         std::vector<unsigned char> have(n, exactOnly ? 1 : 0);
         std::vector<float> tHit(n, -kernel::VT_FAR);
-        if (useEmbree && n > 0) batch.trace(options.api, origin.data(), n, have.data(), tHit.data());
+        if (useEmbree && n > 0) {
+            batch.trace(options.api, origin.data(), n, have.data(), tHit.data());
+            local.embree += n;
+        }
         for (std::size_t r = 0; r < n; ++r) {
             const float tLow = exactOnly ? -kernel::VT_FAR : margin.apply(tHit[r]);
             const KernelOrderHit h = kernelResume(frame, origin[r], voxels, entry[r], have[r] != 0, tLow);
-            localReads += std::uint64_t(h.steps);
+            local.reads += std::uint64_t(h.steps);
             if (h.hit) store(cellOf[r], h.index, h.face, h.t);
         }
-        reads.local() += localReads;
+        counts.local().reads += local.reads;
+        counts.local().embree += local.embree;
     });
     applyCardinalOutline(snap);
     if (stats) {
         stats->rays += std::uint64_t(W) * std::uint64_t(H);
-        stats->voxelReads += reads.combine([](std::uint64_t a, std::uint64_t b) { return a + b; });
+        counts.combine_each([&](const Counts& c) {
+            stats->voxelReads += c.reads;
+            stats->embreeRays += c.embree;
+        });
         stats->ms += msSince(t0);
     }
     return snap;

@@ -70,7 +70,9 @@ TEST(EmbreeBake, EveryCellEqualsTheNearKernelsShadeCell) {
                         if (k.kind[a] == kernel::VT_KIND_SOLID) want = std::uint8_t(snapshot_code::kSolid0 + k.face[a]);
                         if (k.kind[a] == kernel::VT_KIND_OUTLINE) want = snapshot_code::kOutline;
                         ASSERT_EQ(c.code, want) << m->name() << " sigma " << sigma << " view " << v << " cell " << i << "," << j;
-                        if (k.kind[a] == kernel::VT_KIND_SOLID) ASSERT_EQ(c.index, k.index[a]);
+                        if (k.kind[a] == kernel::VT_KIND_SOLID) {
+                            ASSERT_EQ(c.index, k.index[a]);
+                        }
                     }
             }
         }
@@ -230,7 +232,9 @@ TEST(EmbreeBake, SingleVoxelFaceViewIsSigmaBlockWithCardinalOutline) {
             for (const SnapshotCell& c : s.cells) {
                 solid += snapshot_code::isSolid(c.code);
                 outline += c.code == snapshot_code::kOutline;
-                if (snapshot_code::isSolid(c.code)) EXPECT_EQ(c.index, 255);
+                if (snapshot_code::isSolid(c.code)) {
+                    EXPECT_EQ(c.index, 255);
+                }
             }
             EXPECT_EQ(solid, std::size_t(sigma * sigma));
             EXPECT_EQ(outline, std::size_t(4 * sigma));
@@ -249,7 +253,9 @@ TEST(EmbreeBake, OptionalDepthIsTheEnteredFaceDistanceFromTheSpritePlane) {
         ASSERT_EQ(s.depth.size(), s.cells.size());
         const double half = 0.5 * glm::ivec3(6, 4, 10)[v / 2];
         for (std::size_t k = 0; k < s.cells.size(); ++k)
-            if (snapshot_code::isSolid(s.cells[k].code)) ASSERT_NEAR(s.depth[k], -half, 1e-3) << "view " << v;
+            if (snapshot_code::isSolid(s.cells[k].code)) {
+                ASSERT_NEAR(s.depth[k], -half, 1e-3) << "view " << v;
+            }
         EXPECT_TRUE(bakeSnapshot(scene, ViewSet::Cube26, v, 1.0).depth.empty());
     }
 }
