@@ -34,7 +34,8 @@ struct KernelOrderHit {
 
 /// The kernel's ray origin of lattice cell (i, j): the same float expression as vtTrace.
 inline glm::vec3 kernelRayOrigin(const kernel::SpriteGpu& s, glm::ivec2 cell) {
-    VT_PRECISE glm::vec3 o = s.rayBase + (float(cell.x) + 0.5f) * s.cellRight + (float(cell.y) + 0.5f) * s.cellUp;
+    VT_PRECISE glm::vec3 o =
+        s.rayBase + (float(cell.x) + 0.5f) * s.cellRight + (float(cell.y) + 0.5f) * s.cellUp;
     return o;
 }
 
@@ -98,8 +99,9 @@ inline std::uint8_t kernelFaceCode(const kernel::SpriteGpu& s, int axis) {
 /// traversal resumes at `tLow` (pass -VT_FAR for the plain kernel traversal). With `maxReads`,
 /// it gives up after that many voxel reads and says so (`unresolved`).
 template <class Voxels>
-KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& voxels, const KernelEntry& e,
-                            bool haveBound, float tLow, int maxReads = 1 << 30) {
+KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& voxels,
+                            const KernelEntry& e, bool haveBound, float tLow,
+                            int maxReads = 1 << 30) {
     using kernel::VT_FAR;
     KernelOrderHit h;
     if (!haveBound) return h;
@@ -112,14 +114,27 @@ KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxel
     // processed by then, all through empty voxels).
     int axis = e.axis;
     float lastT = -VT_FAR;
-    if (tLow > -VT_FAR) {
+    // A bound only a few crossings ahead is cheaper to walk to than to count exactly: the
+    // plain traversal from c0 is the kernel's own and needs no bound at all.
+    int estimate[3] = {0, 0, 0};
+    int ahead = 0;
+    if (tLow > -VT_FAR)
         for (int k = 0; k < 3; ++k) {
             if (step[k] == 0) continue;
             const int first = c[k] + (step[k] > 0 ? 1 : 0); // the next plane ahead of c0
-            // Estimate from the position at tLow in double, then correct with the kernel formula.
-            const double p = double(o[k]) + double(tLow) * double(s.dir[k]);
-            const double est = step[k] > 0 ? std::floor(p) - first + 1.0 : first - std::ceil(p) + 1.0;
-            int m = int(std::clamp(est, 0.0, double(n[k] + 1)));
+            const float p = o[k] + tLow * s.dir[k];
+            const float est = step[k] > 0 ? std::floor(p) - float(first) + 1.0f
+                                          : float(first) - std::ceil(p) + 1.0f;
+            estimate[k] = int(std::clamp(est, 0.0f, float(n[k] + 1)));
+            ahead += estimate[k];
+        }
+    constexpr int kWalkInstead = 6;
+    if (ahead > kWalkInstead) {
+        for (int k = 0; k < 3; ++k) {
+            if (step[k] == 0) continue;
+            const int first = c[k] + (step[k] > 0 ? 1 : 0);
+            // Correct the estimate with the kernel's own formula: m = #{planes with t < tLow}.
+            int m = estimate[k];
             while (m > 0 && !(planeT(k, first + step[k] * (m - 1)) < tLow)) --m;
             while (m <= n[k] && planeT(k, first + step[k] * m) < tLow) ++m;
             if (m > 0) {
@@ -141,7 +156,8 @@ KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxel
     // The next crossing per axis. planeT is a pure function of the plane, so keeping the two
     // axes that did not step instead of recomputing them gives the kernel's values exactly.
     float tn[3];
-    for (int k = 0; k < 3; ++k) tn[k] = step[k] != 0 ? planeT(k, c[k] + (step[k] > 0 ? 1 : 0)) : VT_FAR;
+    for (int k = 0; k < 3; ++k)
+        tn[k] = step[k] != 0 ? planeT(k, c[k] + (step[k] > 0 ? 1 : 0)) : VT_FAR;
     const int maxSteps = n.x + n.y + n.z;
     for (int i = 0; i < maxSteps; ++i) {
         if (read) {
@@ -150,7 +166,8 @@ KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxel
                 return h;
             }
             ++h.steps;
-            if (const unsigned v = voxels.fetch(c); v != 0u) return {true, std::uint8_t(v), kernelFaceCode(s, axis), tCur, h.steps};
+            if (const unsigned v = voxels.fetch(c); v != 0u)
+                return {true, std::uint8_t(v), kernelFaceCode(s, axis), tCur, h.steps};
         }
         read = true;
         const int a = (tn[0] <= tn[1] && tn[0] <= tn[2]) ? 0 : (tn[1] <= tn[2] ? 1 : 2);
@@ -165,11 +182,12 @@ KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxel
 
 /// Both halves: exactly vtTrace's answer when no solid voxel is visited before `tLow`.
 template <class Voxels>
-KernelOrderHit traceKernelOrder(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& voxels, bool haveBound,
-                                float tLow) {
+KernelOrderHit traceKernelOrder(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& voxels,
+                                bool haveBound, float tLow) {
     const KernelEntry e = kernelEntry(s, o, voxels);
     if (e.kind == KernelEntry::Kind::Miss) return {};
-    if (e.kind == KernelEntry::Kind::Hit) return {true, e.index, kernelFaceCode(s, e.axis), e.tEnter, 1};
+    if (e.kind == KernelEntry::Kind::Hit)
+        return {true, e.index, kernelFaceCode(s, e.axis), e.tEnter, 1};
     KernelOrderHit h = kernelResume(s, o, voxels, e, haveBound, tLow);
     ++h.steps;
     return h;
