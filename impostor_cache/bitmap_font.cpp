@@ -87,7 +87,8 @@ void drawText(Image& image, int x, int y, std::string_view text, Rgba8 color, in
                 for (int sy = 0; sy < scale; ++sy)
                     for (int sx = 0; sx < scale; ++sx) {
                         const int px = gx + c * scale + sx, py = y + r * scale + sy;
-                        if (px >= 0 && py >= 0 && px < image.width && py < image.height) image.color[image.index(px, py)] = color;
+                        if (px >= 0 && py >= 0 && px < image.width && py < image.height)
+                            image.color[image.index(px, py)] = color;
                     }
             }
     }

@@ -12,14 +12,14 @@
 namespace voxtier {
 
 struct ContactSheetOptions {
-    int columns = 0;        ///< 0: about square
+    int columns = 0;         ///< 0: about square
     int maxTilePixels = 200; ///< cells are magnified by an integer factor to about this size
     Rgba8 background = packRgba(40, 44, 52);
     Rgba8 tileBackground = packRgba(70, 76, 88);
     Rgba8 text = packRgba(235, 235, 235);
 };
 
-Image makeContactSheet(const std::vector<std::shared_ptr<const Snapshot>>& snapshots, const Palette& palette,
-                       const ContactSheetOptions& options = {});
+Image makeContactSheet(const std::vector<std::shared_ptr<const Snapshot>>& snapshots,
+                       const Palette& palette, const ContactSheetOptions& options = {});
 
 } // namespace voxtier

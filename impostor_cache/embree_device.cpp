@@ -26,7 +26,9 @@ struct Device {
     RTCDevice handle = nullptr;
     Device() {
         handle = rtcNewDevice(nullptr);
-        if (!handle) throw std::runtime_error("embree: rtcNewDevice failed (error " + std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
+        if (!handle)
+            throw std::runtime_error("embree: rtcNewDevice failed (error " +
+                                     std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
         rtcSetDeviceErrorFunction(handle, onError, nullptr);
         rtcSetDeviceMemoryMonitorFunction(handle, onMemory, nullptr);
     }
@@ -40,11 +42,15 @@ RTCDevice embreeDevice() {
     return device.handle;
 }
 
-std::int64_t embreeBytesInUse() { return gBytes.load(std::memory_order_relaxed); }
+std::int64_t embreeBytesInUse() {
+    return gBytes.load(std::memory_order_relaxed);
+}
 
 void throwOnEmbreeError(const char* what) {
     const RTCError e = rtcGetDeviceError(embreeDevice());
-    if (e != RTC_ERROR_NONE) throw std::runtime_error(std::string("embree: ") + what + " failed (error " + std::to_string(int(e)) + ")");
+    if (e != RTC_ERROR_NONE)
+        throw std::runtime_error(std::string("embree: ") + what + " failed (error " +
+                                 std::to_string(int(e)) + ")");
 }
 
 } // namespace voxtier::detail

@@ -7,7 +7,9 @@
 
 namespace voxtier {
 
-int chooseFarView(const SpriteSetup& sprite, ViewSet set) { return nearestView(set, -sprite.lattice.dir); }
+int chooseFarView(const SpriteSetup& sprite, ViewSet set) {
+    return nearestView(set, -sprite.lattice.dir);
+}
 
 namespace {
 struct RowCounters {
@@ -25,38 +27,43 @@ void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* st
         const FarSprite& f = sprites[s];
         if (!f.sprite || !f.snapshot || !f.palette || !f.sprite->visible()) continue;
         ++drawn;
-        for (int y = f.sprite->screenRect.y; y < std::min(f.sprite->screenRect.w, target.height); ++y)
+        for (int y = f.sprite->screenRect.y; y < std::min(f.sprite->screenRect.w, target.height);
+             ++y)
             rows[std::size_t(y)].push_back(s);
     }
     tbb::combinable<RowCounters> counters;
-    tbb::parallel_for(tbb::blocked_range<int>(0, target.height, 4), [&](const tbb::blocked_range<int>& r) {
-        RowCounters& rc = counters.local();
-        for (int y = r.begin(); y < r.end(); ++y) {
-            const float py = float(y) + 0.5f;
-            for (std::uint32_t s : rows[std::size_t(y)]) {
-                const FarSprite& f = sprites[s];
-                const SpriteSetup& sp = *f.sprite;
-                const SpriteLattice& L = sp.lattice;
-                const Snapshot& snap = *f.snapshot;
-                const kernel::SpriteGpu& g = sp.gpu;
-                for (int x = sp.screenRect.x; x < sp.screenRect.z; ++x) {
-                    ++rc.tested;
-                    glm::ivec2 cell;
-                    if (!kernel::vtPixelCell(g, glm::vec2(float(x) + 0.5f, py), cell)) continue;
-                    // The near cell's centre, relative to the model centre (voxel space).
-                    const glm::dvec3 q = (L.gU + (cell.x + 0.5) / L.sigma) * L.right + (L.gV + (cell.y + 0.5) / L.sigma) * L.up;
-                    const glm::ivec2 sc = snap.lattice.cellAt(q);
-                    const SnapshotCell c = snap.at(sc.x, sc.y);
-                    if (c.code == snapshot_code::kEmpty) continue;
-                    ++rc.written;
-                    const Rgba8 color = snapshot_code::isSolid(c.code)
-                                            ? kernel::vtLit(f.palette->colors[c.index], kernel::vtFaceLight(g, snapshot_code::face(c.code)))
-                                            : kernel::VT_OUTLINE_RGBA;
-                    target.writeIfNearer(target.index(x, y), color, g.depth, sp.entityId);
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, target.height, 4), [&](const tbb::blocked_range<int>& r) {
+            RowCounters& rc = counters.local();
+            for (int y = r.begin(); y < r.end(); ++y) {
+                const float py = float(y) + 0.5f;
+                for (std::uint32_t s : rows[std::size_t(y)]) {
+                    const FarSprite& f = sprites[s];
+                    const SpriteSetup& sp = *f.sprite;
+                    const SpriteLattice& L = sp.lattice;
+                    const Snapshot& snap = *f.snapshot;
+                    const kernel::SpriteGpu& g = sp.gpu;
+                    for (int x = sp.screenRect.x; x < sp.screenRect.z; ++x) {
+                        ++rc.tested;
+                        glm::ivec2 cell;
+                        if (!kernel::vtPixelCell(g, glm::vec2(float(x) + 0.5f, py), cell)) continue;
+                        // The near cell's centre, relative to the model centre (voxel space).
+                        const glm::dvec3 q = (L.gU + (cell.x + 0.5) / L.sigma) * L.right +
+                                             (L.gV + (cell.y + 0.5) / L.sigma) * L.up;
+                        const glm::ivec2 sc = snap.lattice.cellAt(q);
+                        const SnapshotCell c = snap.at(sc.x, sc.y);
+                        if (c.code == snapshot_code::kEmpty) continue;
+                        ++rc.written;
+                        const Rgba8 color =
+                            snapshot_code::isSolid(c.code)
+                                ? kernel::vtLit(f.palette->colors[c.index],
+                                                kernel::vtFaceLight(g, snapshot_code::face(c.code)))
+                                : kernel::VT_OUTLINE_RGBA;
+                        target.writeIfNearer(target.index(x, y), color, g.depth, sp.entityId);
+                    }
                 }
             }
-        }
-    });
+        });
     if (stats) {
         RowCounters total;
         counters.combine_each([&](const RowCounters& c) {
@@ -66,7 +73,9 @@ void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* st
         stats->sprites += drawn;
         stats->pixelsTested += total.tested;
         stats->pixelsWritten += total.written;
-        stats->milliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        stats->milliseconds +=
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count();
     }
 }
 

@@ -23,9 +23,9 @@ struct FarSprite {
 };
 
 struct FarBlitStats {
-    std::uint64_t sprites = 0;        ///< sprites drawn
-    std::uint64_t pixelsTested = 0;   ///< pixels of sprite rectangles evaluated
-    std::uint64_t pixelsWritten = 0;  ///< solid or outline snapshot cells read
+    std::uint64_t sprites = 0;       ///< sprites drawn
+    std::uint64_t pixelsTested = 0;  ///< pixels of sprite rectangles evaluated
+    std::uint64_t pixelsWritten = 0; ///< solid or outline snapshot cells read
     double milliseconds = 0.0;
 };
 

@@ -9,12 +9,13 @@
 
 namespace voxtier {
 
-void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models, std::span<const FarRequest> requests,
-                    SnapshotCache& cache, ViewSet set, Image& target, FarFrameStats* stats) {
+void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                    std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
+                    Image& target, FarFrameStats* stats) {
     const auto t0 = std::chrono::steady_clock::now();
     const std::uint64_t bakesBefore = cache.counters().bakes;
-    // Distinct (model, frame, view, sigma) of the visible sprites; each is looked up (and baked) once,
-    // in parallel, then shared by every sprite that shows it.
+    // Distinct (model, frame, view, sigma) of the visible sprites; each is looked up (and baked)
+    // once, in parallel, then shared by every sprite that shows it.
     using Need = std::tuple<int, int, int, double>;
     std::map<Need, std::size_t> slot;
     std::vector<Need> needs;
@@ -33,14 +34,16 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models, std:
         const auto [m, f, v, sigma] = needs[i];
         snaps[i] = cache.get(*models.at(std::size_t(m)), f, set, v, sigma);
     });
-    const double ensureMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const double ensureMs =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 
     std::vector<FarSprite> draws;
     draws.reserve(requests.size());
     for (std::size_t r = 0; r < requests.size(); ++r) {
         if (spriteSlot[r] == SIZE_MAX) continue;
         const SpriteSetup* sp = requests[r].sprite;
-        draws.push_back({sp, snaps[spriteSlot[r]].get(), &models.at(std::size_t(sp->model))->palette()});
+        draws.push_back(
+            {sp, snaps[spriteSlot[r]].get(), &models.at(std::size_t(sp->model))->palette()});
     }
     FarBlitStats blit;
     blitFar(draws, target, &blit);

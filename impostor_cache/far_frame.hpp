@@ -15,10 +15,10 @@
 namespace voxtier {
 
 struct FarFrameStats {
-    std::uint64_t sprites = 0;        ///< visible sprites drawn through the cache
-    std::uint64_t snapshotsUsed = 0;  ///< distinct snapshots this frame
-    std::uint64_t bakes = 0;          ///< of those, baked during this frame
-    double ensureMs = 0.0;            ///< lookups + bakes
+    std::uint64_t sprites = 0;       ///< visible sprites drawn through the cache
+    std::uint64_t snapshotsUsed = 0; ///< distinct snapshots this frame
+    std::uint64_t bakes = 0;         ///< of those, baked during this frame
+    double ensureMs = 0.0;           ///< lookups + bakes
     FarBlitStats blit;
 };
 
@@ -31,7 +31,8 @@ struct FarRequest {
 
 /// Draws `requests` (culled sprites are skipped) through `cache` into `target`. Models are
 /// indexed by SpriteSetup::model; each sprite's snapshot has the sprite's own sigma.
-void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models, std::span<const FarRequest> requests,
-                    SnapshotCache& cache, ViewSet set, Image& target, FarFrameStats* stats = nullptr);
+void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                    std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
+                    Image& target, FarFrameStats* stats = nullptr);
 
 } // namespace voxtier

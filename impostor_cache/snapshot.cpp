@@ -13,7 +13,9 @@ float toKernelFloat(double v) {
     const float f = static_cast<float>(v);
     return std::abs(f) < 1.17549435e-38f ? 0.0f : f;
 }
-glm::vec3 toKernel(glm::dvec3 v) { return {toKernelFloat(v.x), toKernelFloat(v.y), toKernelFloat(v.z)}; }
+glm::vec3 toKernel(glm::dvec3 v) {
+    return {toKernelFloat(v.x), toKernelFloat(v.y), toKernelFloat(v.z)};
+}
 
 } // namespace
 
@@ -30,7 +32,8 @@ kernel::SpriteGpu snapshotRayFrame(const SpriteLattice& L) {
     g.cellRight = toKernel(L.right / L.sigma);
     g.cellUp = toKernel(L.up / L.sigma);
     g.dir = toKernel(L.dir);
-    g.invDir = toKernel(glm::dvec3(L.dir.x != 0.0 ? 1.0 / L.dir.x : 0.0, L.dir.y != 0.0 ? 1.0 / L.dir.y : 0.0,
+    g.invDir = toKernel(glm::dvec3(L.dir.x != 0.0 ? 1.0 / L.dir.x : 0.0,
+                                   L.dir.y != 0.0 ? 1.0 / L.dir.y : 0.0,
                                    L.dir.z != 0.0 ? 1.0 / L.dir.z : 0.0));
     g.cellRange = L.cellRange;
     g.dims = glm::uvec4(glm::uvec3(L.dims), 0u);
@@ -38,7 +41,8 @@ kernel::SpriteGpu snapshotRayFrame(const SpriteLattice& L) {
 }
 
 std::size_t Snapshot::bytes() const {
-    return sizeof(Snapshot) + cells.capacity() * sizeof(SnapshotCell) + depth.capacity() * sizeof(float);
+    return sizeof(Snapshot) + cells.capacity() * sizeof(SnapshotCell) +
+           depth.capacity() * sizeof(float);
 }
 
 std::size_t Snapshot::solidCount() const {
@@ -50,7 +54,9 @@ std::size_t Snapshot::solidCount() const {
 void applyCardinalOutline(Snapshot& s) {
     const int w = s.width(), h = s.height();
     auto solid = [&](int x, int y) {
-        return x >= 0 && y >= 0 && x < w && y < h && snapshot_code::isSolid(s.cells[std::size_t(y) * std::size_t(w) + std::size_t(x)].code);
+        return x >= 0 && y >= 0 && x < w && y < h &&
+               snapshot_code::isSolid(
+                   s.cells[std::size_t(y) * std::size_t(w) + std::size_t(x)].code);
     };
     // Decide every cell from the solid mask before writing, so new outline cells never feed
     // the dilation.
@@ -59,7 +65,8 @@ void applyCardinalOutline(Snapshot& s) {
         for (int x = 0; x < w; ++x) {
             const std::size_t k = std::size_t(y) * std::size_t(w) + std::size_t(x);
             if (s.cells[k].code != snapshot_code::kEmpty) continue;
-            if (solid(x - 1, y) || solid(x + 1, y) || solid(x, y - 1) || solid(x, y + 1)) outline.push_back(k);
+            if (solid(x - 1, y) || solid(x + 1, y) || solid(x, y - 1) || solid(x, y + 1))
+                outline.push_back(k);
         }
     for (std::size_t k : outline) s.cells[k] = {0, snapshot_code::kOutline};
 }

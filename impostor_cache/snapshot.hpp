@@ -19,8 +19,12 @@ inline constexpr std::uint8_t kEmpty = 0;
 /// A voxel was hit through entered face f (0..5, kernel face codes): code kSolid0 + f.
 inline constexpr std::uint8_t kSolid0 = 1;
 inline constexpr std::uint8_t kOutline = 7; ///< no hit, a cardinal neighbour cell hit
-inline bool isSolid(std::uint8_t code) { return code >= kSolid0 && code < kSolid0 + 6; }
-inline unsigned face(std::uint8_t code) { return unsigned(code - kSolid0); }
+inline bool isSolid(std::uint8_t code) {
+    return code >= kSolid0 && code < kSolid0 + 6;
+}
+inline unsigned face(std::uint8_t code) {
+    return unsigned(code - kSolid0);
+}
 } // namespace snapshot_code
 
 struct SnapshotCell {
@@ -57,13 +61,17 @@ struct Snapshot {
     int width() const { return lattice.width(); }
     int height() const { return lattice.height(); }
     std::size_t cellIndex(int i, int j) const {
-        return std::size_t(j - lattice.cellRange.z) * std::size_t(width()) + std::size_t(i - lattice.cellRange.x);
+        return std::size_t(j - lattice.cellRange.z) * std::size_t(width()) +
+               std::size_t(i - lattice.cellRange.x);
     }
     bool inRange(int i, int j) const {
-        return i >= lattice.cellRange.x && i <= lattice.cellRange.y && j >= lattice.cellRange.z && j <= lattice.cellRange.w;
+        return i >= lattice.cellRange.x && i <= lattice.cellRange.y && j >= lattice.cellRange.z &&
+               j <= lattice.cellRange.w;
     }
     /// The cell at lattice coordinates (i, j); empty outside the stored range.
-    SnapshotCell at(int i, int j) const { return inRange(i, j) ? cells[cellIndex(i, j)] : SnapshotCell{}; }
+    SnapshotCell at(int i, int j) const {
+        return inRange(i, j) ? cells[cellIndex(i, j)] : SnapshotCell{};
+    }
     /// Bytes held (payload + depth + the object itself): what the cache budget counts.
     std::size_t bytes() const;
     std::size_t solidCount() const;

@@ -1,6 +1,5 @@
 #include "impostor_cache/snapshot_baker.hpp"
 
-
 #include "core/error.hpp"
 #include "impostor_cache/detail/bake_context.hpp"
 #include "impostor_cache/detail/embree_device.hpp"
@@ -31,10 +30,13 @@ namespace {
 struct GridVoxels {
     const std::uint8_t* data;
     std::size_t sx, sxy;
-    unsigned fetch(glm::ivec3 c) const { return data[std::size_t(c.x) + sx * std::size_t(c.y) + sxy * std::size_t(c.z)]; }
+    unsigned fetch(glm::ivec3 c) const {
+        return data[std::size_t(c.x) + sx * std::size_t(c.y) + sxy * std::size_t(c.z)];
+    }
 };
 GridVoxels voxelsOf(const VoxelGrid& g) {
-    return {g.data().data(), std::size_t(g.dims().x), std::size_t(g.dims().x) * std::size_t(g.dims().y)};
+    return {g.data().data(), std::size_t(g.dims().x),
+            std::size_t(g.dims().x) * std::size_t(g.dims().y)};
 }
 
 Snapshot emptySnapshot(const VoxelGrid& grid, ViewSet set, int view, double sigma) {
@@ -91,7 +93,8 @@ struct EmbreeBatch {
     glm::vec3 dir;
     std::vector<RTCRayHit> stream; // scratch for the stream API
 
-    template <int N> void packets(const glm::vec3* origin, std::size_t count, unsigned char* have, float* tHit) {
+    template <int N>
+    void packets(const glm::vec3* origin, std::size_t count, unsigned char* have, float* tHit) {
         using P = Packet<N>;
         for (std::size_t b = 0; b < count; b += N) {
             alignas(64) typename P::RayHit p;
@@ -99,7 +102,8 @@ struct EmbreeBatch {
             for (int l = 0; l < N; ++l) {
                 const std::size_t r = std::min(b + std::size_t(l), count - 1);
                 valid[l] = b + std::size_t(l) < count ? -1 : 0;
-                p.ray.org_x[l] = origin[r].x, p.ray.org_y[l] = origin[r].y, p.ray.org_z[l] = origin[r].z;
+                p.ray.org_x[l] = origin[r].x, p.ray.org_y[l] = origin[r].y,
+                p.ray.org_z[l] = origin[r].z;
                 p.ray.dir_x[l] = dir.x, p.ray.dir_y[l] = dir.y, p.ray.dir_z[l] = dir.z;
                 p.ray.tnear[l] = 0.0f;
                 p.ray.tfar[l] = std::numeric_limits<float>::infinity();
@@ -140,12 +144,19 @@ struct EmbreeBatch {
         }
     }
 
-    void trace(TraceApi api, const glm::vec3* origin, std::size_t count, unsigned char* have, float* tHit) {
+    void trace(TraceApi api, const glm::vec3* origin, std::size_t count, unsigned char* have,
+               float* tHit) {
         detail::FlushDenormalsScope ftz; // restored before the float-exact traversal
         switch (api) {
-        case TraceApi::Packet8: packets<8>(origin, count, have, tHit); break;
-        case TraceApi::Packet16: packets<16>(origin, count, have, tHit); break;
-        case TraceApi::Stream: streamed(origin, count, have, tHit); break;
+        case TraceApi::Packet8:
+            packets<8>(origin, count, have, tHit);
+            break;
+        case TraceApi::Packet16:
+            packets<16>(origin, count, have, tHit);
+            break;
+        case TraceApi::Stream:
+            streamed(origin, count, have, tHit);
+            break;
         }
     }
 };
@@ -154,9 +165,12 @@ struct EmbreeBatch {
 
 const char* toString(TraceApi api) {
     switch (api) {
-    case TraceApi::Packet8: return "packet8";
-    case TraceApi::Packet16: return "packet16";
-    case TraceApi::Stream: return "stream";
+    case TraceApi::Packet8:
+        return "packet8";
+    case TraceApi::Packet16:
+        return "packet16";
+    case TraceApi::Stream:
+        return "stream";
     }
     return "?";
 }
@@ -168,8 +182,8 @@ TraceApi parseTraceApi(const std::string& name) {
     throw InputError("", "--api", "expected packet8, packet16 or stream, got '" + name + "'");
 }
 
-Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sigma, const BakeOptions& options,
-                      BakeStats* stats) {
+Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sigma,
+                      const BakeOptions& options, BakeStats* stats) {
     const auto t0 = std::chrono::steady_clock::now();
     const VoxelGrid& grid = scene.grid();
     Snapshot snap = emptySnapshot(grid, set, view, sigma);
@@ -210,52 +224,55 @@ Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sig
     // dead lanes.
     constexpr int kRowsPerTask = 4;
     const int first = useEmbree ? std::max(0, options.traverseFirst) : (1 << 30);
-    tbb::parallel_for(tbb::blocked_range<int>(0, H, kRowsPerTask), [&](const tbb::blocked_range<int>& rows) {
-        EmbreeBatch batch{scene.handle(), &ctx, frame.dir, {}};
-        std::vector<glm::vec3> origin;
-        std::vector<std::size_t> cellOf;
-        std::vector<KernelEntry> entry;
-        Counts local;
-        for (int y = rows.begin(); y < rows.end(); ++y)
-            for (int x = 0; x < W; ++x) {
-                const glm::vec3 o = kernelRayOrigin(frame, {range.x + x, range.z + y});
-                const KernelEntry e = kernelEntry(frame, o, voxels);
-                if (e.kind == KernelEntry::Kind::Miss) continue;
-                ++local.reads;
-                const std::size_t k = std::size_t(y) * std::size_t(W) + std::size_t(x);
-                if (e.kind == KernelEntry::Kind::Hit) {
-                    store(k, e.index, kernelFaceCode(frame, e.axis), e.tEnter);
-                    continue;
-                }
-                // An empty scene cannot be hit past the entry cell: nothing to traverse.
-                if (!scene.empty() && first > 0) {
-                    const KernelOrderHit h = kernelResume(frame, o, voxels, e, true, -kernel::VT_FAR, first);
-                    local.reads += std::uint64_t(h.steps);
-                    if (!h.unresolved) {
-                        if (h.hit) store(k, h.index, h.face, h.t);
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, H, kRowsPerTask), [&](const tbb::blocked_range<int>& rows) {
+            EmbreeBatch batch{scene.handle(), &ctx, frame.dir, {}};
+            std::vector<glm::vec3> origin;
+            std::vector<std::size_t> cellOf;
+            std::vector<KernelEntry> entry;
+            Counts local;
+            for (int y = rows.begin(); y < rows.end(); ++y)
+                for (int x = 0; x < W; ++x) {
+                    const glm::vec3 o = kernelRayOrigin(frame, {range.x + x, range.z + y});
+                    const KernelEntry e = kernelEntry(frame, o, voxels);
+                    if (e.kind == KernelEntry::Kind::Miss) continue;
+                    ++local.reads;
+                    const std::size_t k = std::size_t(y) * std::size_t(W) + std::size_t(x);
+                    if (e.kind == KernelEntry::Kind::Hit) {
+                        store(k, e.index, kernelFaceCode(frame, e.axis), e.tEnter);
                         continue;
                     }
+                    // An empty scene cannot be hit past the entry cell: nothing to traverse.
+                    if (!scene.empty() && first > 0) {
+                        const KernelOrderHit h =
+                            kernelResume(frame, o, voxels, e, true, -kernel::VT_FAR, first);
+                        local.reads += std::uint64_t(h.steps);
+                        if (!h.unresolved) {
+                            if (h.hit) store(k, h.index, h.face, h.t);
+                            continue;
+                        }
+                    }
+                    origin.push_back(o);
+                    cellOf.push_back(k);
+                    entry.push_back(e);
                 }
-                origin.push_back(o);
-                cellOf.push_back(k);
-                entry.push_back(e);
+            const std::size_t n = origin.size();
+            std::vector<unsigned char> have(n, exactOnly ? 1 : 0);
+            std::vector<float> tHit(n, -kernel::VT_FAR);
+            if (useEmbree && n > 0) {
+                batch.trace(options.api, origin.data(), n, have.data(), tHit.data());
+                local.embree += n;
             }
-        const std::size_t n = origin.size();
-        std::vector<unsigned char> have(n, exactOnly ? 1 : 0);
-        std::vector<float> tHit(n, -kernel::VT_FAR);
-        if (useEmbree && n > 0) {
-            batch.trace(options.api, origin.data(), n, have.data(), tHit.data());
-            local.embree += n;
-        }
-        for (std::size_t r = 0; r < n; ++r) {
-            const float tLow = exactOnly ? -kernel::VT_FAR : margin.apply(tHit[r]);
-            const KernelOrderHit h = kernelResume(frame, origin[r], voxels, entry[r], have[r] != 0, tLow);
-            local.reads += std::uint64_t(h.steps);
-            if (h.hit) store(cellOf[r], h.index, h.face, h.t);
-        }
-        counts.local().reads += local.reads;
-        counts.local().embree += local.embree;
-    });
+            for (std::size_t r = 0; r < n; ++r) {
+                const float tLow = exactOnly ? -kernel::VT_FAR : margin.apply(tHit[r]);
+                const KernelOrderHit h =
+                    kernelResume(frame, origin[r], voxels, entry[r], have[r] != 0, tLow);
+                local.reads += std::uint64_t(h.steps);
+                if (h.hit) store(cellOf[r], h.index, h.face, h.t);
+            }
+            counts.local().reads += local.reads;
+            counts.local().embree += local.embree;
+        });
     applyCardinalOutline(snap);
     if (stats) {
         stats->rays += std::uint64_t(W) * std::uint64_t(H);
@@ -268,7 +285,8 @@ Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sig
     return snap;
 }
 
-Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewSet set, int view, double sigma, BakeStats* stats) {
+Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewSet set, int view, double sigma,
+                            BakeStats* stats) {
     const auto t0 = std::chrono::steady_clock::now();
     Snapshot snap = emptySnapshot(grid, set, view, sigma);
     const kernel::SpriteGpu frame = snapshotRayFrame(snap.lattice);
@@ -281,8 +299,8 @@ Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewSet set, int view, double
             for (int x = 0; x < W; ++x) {
                 kernel::uint index, face;
                 if (!tracer.vtTrace(frame, {range.x + x, range.z + y}, index, face)) continue;
-                snap.cells[std::size_t(y) * std::size_t(W) + std::size_t(x)] = {std::uint8_t(index),
-                                                                               std::uint8_t(snapshot_code::kSolid0 + face)};
+                snap.cells[std::size_t(y) * std::size_t(W) + std::size_t(x)] = {
+                    std::uint8_t(index), std::uint8_t(snapshot_code::kSolid0 + face)};
             }
     });
     applyCardinalOutline(snap);

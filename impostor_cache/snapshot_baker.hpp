@@ -35,8 +35,9 @@ struct BakeOptions {
 };
 
 struct BakeStats {
-    std::uint64_t rays = 0;       ///< primary rays = cells of the snapshot
-    std::uint64_t voxelReads = 0; ///< grid reads of the exact traversal (before and after Embree's bound)
+    std::uint64_t rays = 0; ///< primary rays = cells of the snapshot
+    std::uint64_t voxelReads =
+        0; ///< grid reads of the exact traversal (before and after Embree's bound)
     std::uint64_t embreeRays = 0; ///< rays handed to Embree
     double ms = 0.0;
     BakeStats& operator+=(const BakeStats& o) {
@@ -46,12 +47,13 @@ struct BakeStats {
 };
 
 /// Bakes view `view` of `set` from `scene` at sigma. Thread-safe (the scene is read-only).
-Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sigma, const BakeOptions& options = {},
-                      BakeStats* stats = nullptr);
+Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sigma,
+                      const BakeOptions& options = {}, BakeStats* stats = nullptr);
 
 /// The same snapshot with no Embree at all: the near kernel's own vtTrace for every cell over
 /// the dense grid (TBB-parallel over rows). The baseline the Embree bake is measured against,
 /// and an independent check of it.
-Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewSet set, int view, double sigma, BakeStats* stats = nullptr);
+Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewSet set, int view, double sigma,
+                            BakeStats* stats = nullptr);
 
 } // namespace voxtier

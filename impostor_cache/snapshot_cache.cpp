@@ -14,8 +14,8 @@ struct SnapshotCache::Entry {
     tbb::collaborative_once_flag once;
     std::shared_ptr<const Snapshot> snapshot; // set once, under `once`
     std::size_t bytes = 0;
-    bool listed = false;                      // in lru_ (ready and not evicted); mutex_
-    std::list<SnapshotKey>::iterator lruPos;  // valid when listed; mutex_
+    bool listed = false;                     // in lru_ (ready and not evicted); mutex_
+    std::list<SnapshotKey>::iterator lruPos; // valid when listed; mutex_
 };
 
 struct SnapshotCache::SceneEntry {
@@ -26,7 +26,9 @@ struct SnapshotCache::SceneEntry {
 };
 
 namespace {
-std::size_t mix(std::size_t h, std::size_t v) { return h ^ (v + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2)); }
+std::size_t mix(std::size_t h, std::size_t v) {
+    return h ^ (v + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2));
+}
 } // namespace
 
 std::size_t SnapshotCache::KeyHash::operator()(const SnapshotKey& k) const {
@@ -39,7 +41,8 @@ std::size_t SnapshotCache::KeyHash::operator()(const SnapshotKey& k) const {
 }
 
 std::size_t SnapshotCache::SceneKeyHash::operator()(const SceneKey& k) const {
-    return mix(mix(std::hash<std::uint64_t>{}(k.modelUid), std::hash<int>{}(k.frame)), std::hash<std::uint64_t>{}(k.version));
+    return mix(mix(std::hash<std::uint64_t>{}(k.modelUid), std::hash<int>{}(k.frame)),
+               std::hash<std::uint64_t>{}(k.version));
 }
 
 SnapshotCache::SnapshotCache(SnapshotCacheConfig config) : config_(config) {}
@@ -84,7 +87,8 @@ std::shared_ptr<const VoxelScene> SnapshotCache::scene(const VoxelModel& model, 
     return e->scene;
 }
 
-std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int frame, ViewSet set, int view, double sigma) {
+std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int frame, ViewSet set,
+                                                   int view, double sigma) {
     const SnapshotKey key{model.uid(), frame, model.version(), set, view, sigma};
     std::shared_ptr<Entry> e;
     {
@@ -109,7 +113,8 @@ std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int 
         // ask model.dirtySince(old) and re-trace only the cells whose rays cross the box.
         const std::shared_ptr<const VoxelScene> sc = scene(model, frame);
         BakeStats stats;
-        auto snap = std::make_shared<const Snapshot>(bakeSnapshot(*sc, set, view, sigma, config_.bake, &stats));
+        auto snap = std::make_shared<const Snapshot>(
+            bakeSnapshot(*sc, set, view, sigma, config_.bake, &stats));
         std::lock_guard lock(mutex_);
         e->snapshot = snap;
         e->bytes = snap->bytes();

@@ -38,9 +38,9 @@ struct SnapshotCacheConfig {
 };
 
 struct SnapshotCacheCounters {
-    std::uint64_t hits = 0;      ///< requests answered from the cache (incl. joining a bake in flight)
-    std::uint64_t misses = 0;    ///< requests that started a bake
-    std::uint64_t bakes = 0;     ///< snapshots baked
+    std::uint64_t hits = 0;   ///< requests answered from the cache (incl. joining a bake in flight)
+    std::uint64_t misses = 0; ///< requests that started a bake
+    std::uint64_t bakes = 0;  ///< snapshots baked
     std::uint64_t evictions = 0; ///< snapshots dropped for the budget
     std::uint64_t bytes = 0;     ///< snapshot bytes held now
     std::uint64_t snapshots = 0; ///< snapshots held now
@@ -51,7 +51,7 @@ struct SnapshotCacheCounters {
 };
 
 class SnapshotCache {
-public:
+  public:
     explicit SnapshotCache(SnapshotCacheConfig config = {});
     ~SnapshotCache();
     SnapshotCache(const SnapshotCache&) = delete;
@@ -60,7 +60,8 @@ public:
     /// The snapshot of `view` for the model's current version of `frame`, baked now if
     /// missing. Thread-safe; concurrent requests for one key bake once (the callers that wait
     /// help with that bake's parallel work). The returned pointer stays valid after eviction.
-    std::shared_ptr<const Snapshot> get(const VoxelModel& model, int frame, ViewSet set, int view, double sigma);
+    std::shared_ptr<const Snapshot> get(const VoxelModel& model, int frame, ViewSet set, int view,
+                                        double sigma);
     /// The cached snapshot or nullptr; never bakes, does not count or touch the LRU order.
     std::shared_ptr<const Snapshot> find(const SnapshotKey& key) const;
     /// The Embree scene of the model's current version of `frame` (built once, shared).
@@ -75,7 +76,7 @@ public:
         std::size_t operator()(const SnapshotKey& k) const;
     };
 
-private:
+  private:
     struct Entry;
     struct SceneEntry;
     struct SceneKey {

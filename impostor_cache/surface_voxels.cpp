@@ -4,7 +4,8 @@ namespace voxtier {
 
 namespace {
 /// kNeighbour[k] is the neighbour across face code k (code 2a: the - side of axis a).
-constexpr glm::ivec3 kNeighbour[6] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
+constexpr glm::ivec3 kNeighbour[6] = {{-1, 0, 0}, {1, 0, 0},  {0, -1, 0},
+                                      {0, 1, 0},  {0, 0, -1}, {0, 0, 1}};
 } // namespace
 
 bool isSurfaceVoxel(const VoxelGrid& grid, glm::ivec3 p) {
@@ -52,7 +53,9 @@ std::vector<FaceRect> exposedFaces(const VoxelGrid& grid, bool surfaceOnly, bool
                 for (int vb = 0; vb < nb; ++vb) {
                     glm::ivec3 p;
                     p[a] = s, p[b] = vb, p[c] = vc;
-                    const bool exposed = grid.at(p) != 0 && (!surfaceOnly || grid.atOrEmpty(p + kNeighbour[face]) == 0);
+                    const bool exposed =
+                        grid.at(p) != 0 &&
+                        (!surfaceOnly || grid.atOrEmpty(p + kNeighbour[face]) == 0);
                     mask[std::size_t(vc) * std::size_t(nb) + std::size_t(vb)] = exposed;
                     any |= exposed;
                 }
@@ -64,15 +67,20 @@ std::vector<FaceRect> exposedFaces(const VoxelGrid& grid, bool surfaceOnly, bool
                     if (!mask[std::size_t(vc) * std::size_t(nb) + std::size_t(vb)]) continue;
                     int b1 = vb + 1, c1 = vc + 1;
                     if (merge) {
-                        while (b1 < nb && mask[std::size_t(vc) * std::size_t(nb) + std::size_t(b1)]) ++b1;
+                        while (b1 < nb && mask[std::size_t(vc) * std::size_t(nb) + std::size_t(b1)])
+                            ++b1;
                         for (bool grow = true; grow && c1 < nc;) {
-                            for (int k = vb; k < b1 && grow; ++k) grow = mask[std::size_t(c1) * std::size_t(nb) + std::size_t(k)] != 0;
+                            for (int k = vb; k < b1 && grow; ++k)
+                                grow =
+                                    mask[std::size_t(c1) * std::size_t(nb) + std::size_t(k)] != 0;
                             if (grow) ++c1;
                         }
                     }
                     for (int cc = vc; cc < c1; ++cc)
-                        for (int k = vb; k < b1; ++k) mask[std::size_t(cc) * std::size_t(nb) + std::size_t(k)] = 0;
-                    out.push_back({std::uint8_t(face), plane, glm::u16vec2(vb, vc), glm::u16vec2(b1, c1)});
+                        for (int k = vb; k < b1; ++k)
+                            mask[std::size_t(cc) * std::size_t(nb) + std::size_t(k)] = 0;
+                    out.push_back(
+                        {std::uint8_t(face), plane, glm::u16vec2(vb, vc), glm::u16vec2(b1, c1)});
                 }
         }
     }

@@ -18,8 +18,12 @@
 namespace voxtier {
 
 /// Packs a voxel coordinate (each 0..1023) into 30 bits.
-inline std::uint32_t packVoxel(glm::ivec3 p) { return std::uint32_t(p.x) | std::uint32_t(p.y) << 10 | std::uint32_t(p.z) << 20; }
-inline glm::ivec3 unpackVoxel(std::uint32_t v) { return {int(v & 1023u), int((v >> 10) & 1023u), int(v >> 20)}; }
+inline std::uint32_t packVoxel(glm::ivec3 p) {
+    return std::uint32_t(p.x) | std::uint32_t(p.y) << 10 | std::uint32_t(p.z) << 20;
+}
+inline glm::ivec3 unpackVoxel(std::uint32_t v) {
+    return {int(v & 1023u), int((v >> 10) & 1023u), int(v >> 20)};
+}
 
 /// Is p a surface voxel (solid, with an empty or out-of-bounds 6-neighbour)?
 bool isSurfaceVoxel(const VoxelGrid& grid, glm::ivec3 p);
@@ -30,7 +34,8 @@ struct VoxelRun {
 };
 /// Surface voxels (every solid voxel with `surfaceOnly == false`) as boxes: single voxels, or
 /// with `merge`, maximal runs of consecutive such voxels along x. Memory order.
-std::vector<VoxelRun> surfaceBoxes(const VoxelGrid& grid, bool surfaceOnly = true, bool merge = true);
+std::vector<VoxelRun> surfaceBoxes(const VoxelGrid& grid, bool surfaceOnly = true,
+                                   bool merge = true);
 
 /// A rectangle of exposed faces in one plane: face code (kernel codes: 2*axis, +1 for the face
 /// on the + side), the plane coordinate along the axis, and the covered range [lo, hi) of the
@@ -43,6 +48,7 @@ struct FaceRect {
 /// Faces of solid voxels whose neighbour across the face is empty or out of bounds (all six
 /// faces of every solid voxel with `surfaceOnly == false`); with `merge`, greedily merged into
 /// rectangles per plane, else one rectangle per face.
-std::vector<FaceRect> exposedFaces(const VoxelGrid& grid, bool surfaceOnly = true, bool merge = true);
+std::vector<FaceRect> exposedFaces(const VoxelGrid& grid, bool surfaceOnly = true,
+                                   bool merge = true);
 
 } // namespace voxtier

@@ -50,9 +50,12 @@ std::vector<glm::ivec3> latticeSet(int n) {
 
 int latticeN(ViewSet set) {
     switch (set) {
-    case ViewSet::Cube26: return 1;
-    case ViewSet::Cube98: return 2;
-    case ViewSet::Cube218: return 3;
+    case ViewSet::Cube26:
+        return 1;
+    case ViewSet::Cube98:
+        return 2;
+    case ViewSet::Cube218:
+        return 3;
     }
     return 1;
 }
@@ -68,7 +71,8 @@ struct Tables {
             // differ in the last bit).
             const auto& pts = points[std::size_t(n - 1)];
             for (std::size_t i = 0; i < pts.size(); ++i)
-                dirs[std::size_t(n - 1)].push_back(glm::normalize(glm::dvec3(i < 26 ? pts[i] / n : pts[i])));
+                dirs[std::size_t(n - 1)].push_back(
+                    glm::normalize(glm::dvec3(i < 26 ? pts[i] / n : pts[i])));
         }
     }
 };
@@ -86,7 +90,9 @@ ViewSet viewSetFromSize(int size, const std::string& field) {
     throw InputError("", field, "expected 26, 98 or 218 views, got " + std::to_string(size));
 }
 
-int viewCount(ViewSet set) { return int(set); }
+int viewCount(ViewSet set) {
+    return int(set);
+}
 
 const std::vector<glm::ivec3>& viewLatticePoints(ViewSet set) {
     return tables().points[std::size_t(latticeN(set) - 1)];

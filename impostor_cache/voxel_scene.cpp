@@ -24,8 +24,10 @@ void boxBounds(const RTCBoundsFunctionArguments* args) {
     const auto* d = static_cast<const BoxUserData*>(args->geometryUserPtr);
     const VoxelRun& r = d->boxes[args->primID];
     RTCBounds* b = args->bounds_o;
-    b->lower_x = float(r.min.x) - d->pad, b->lower_y = float(r.min.y) - d->pad, b->lower_z = float(r.min.z) - d->pad;
-    b->upper_x = float(r.max.x) + d->pad, b->upper_y = float(r.max.y) + d->pad, b->upper_z = float(r.max.z) + d->pad;
+    b->lower_x = float(r.min.x) - d->pad, b->lower_y = float(r.min.y) - d->pad,
+    b->lower_z = float(r.min.z) - d->pad;
+    b->upper_x = float(r.max.x) + d->pad, b->upper_y = float(r.max.y) + d->pad,
+    b->upper_z = float(r.max.z) + d->pad;
 }
 
 /// Robust ray / padded-box slab test (zero direction components take their own branch, no
@@ -45,7 +47,8 @@ void boxIntersect(const RTCIntersectFunctionNArguments* args) {
     const unsigned N = args->N;
     for (unsigned i = 0; i < N; ++i) {
         if (!args->valid[i]) continue;
-        const glm::vec3 o{RTCRayN_org_x(ray, N, i), RTCRayN_org_y(ray, N, i), RTCRayN_org_z(ray, N, i)};
+        const glm::vec3 o{RTCRayN_org_x(ray, N, i), RTCRayN_org_y(ray, N, i),
+                          RTCRayN_org_z(ray, N, i)};
         float t0 = RTCRayN_tnear(ray, N, i);
         float t1 = RTCRayN_tfar(ray, N, i);
         const float tfar = t1;
@@ -88,8 +91,10 @@ void boxOccluded(const RTCOccludedFunctionNArguments* args) {
     const unsigned N = args->N;
     for (unsigned i = 0; i < N; ++i) {
         if (!args->valid[i]) continue;
-        const glm::vec3 o{RTCRayN_org_x(args->ray, N, i), RTCRayN_org_y(args->ray, N, i), RTCRayN_org_z(args->ray, N, i)};
-        const glm::vec3 dir{RTCRayN_dir_x(args->ray, N, i), RTCRayN_dir_y(args->ray, N, i), RTCRayN_dir_z(args->ray, N, i)};
+        const glm::vec3 o{RTCRayN_org_x(args->ray, N, i), RTCRayN_org_y(args->ray, N, i),
+                          RTCRayN_org_z(args->ray, N, i)};
+        const glm::vec3 dir{RTCRayN_dir_x(args->ray, N, i), RTCRayN_dir_y(args->ray, N, i),
+                            RTCRayN_dir_z(args->ray, N, i)};
         float t0 = RTCRayN_tnear(args->ray, N, i), t1 = RTCRayN_tfar(args->ray, N, i);
         bool miss = false;
         for (int k = 0; k < 3 && !miss; ++k) {
@@ -101,7 +106,8 @@ void boxOccluded(const RTCOccludedFunctionNArguments* args) {
                 t1 = std::min(t1, std::max(a, b));
             }
         }
-        if (!miss && t0 <= t1) RTCRayN_tfar(args->ray, N, i) = -std::numeric_limits<float>::infinity();
+        if (!miss && t0 <= t1)
+            RTCRayN_tfar(args->ray, N, i) = -std::numeric_limits<float>::infinity();
     }
 }
 
@@ -112,7 +118,9 @@ std::mutex gBuildMutex;
 
 } // namespace
 
-const char* toString(BakeGeometry g) { return g == BakeGeometry::Boxes ? "boxes" : "quads"; }
+const char* toString(BakeGeometry g) {
+    return g == BakeGeometry::Boxes ? "boxes" : "quads";
+}
 
 BakeGeometry parseBakeGeometry(const std::string& name) {
     if (name == "boxes") return BakeGeometry::Boxes;
@@ -120,7 +128,8 @@ BakeGeometry parseBakeGeometry(const std::string& name) {
     throw InputError("", "--geometry", "expected 'quads' or 'boxes', got '" + name + "'");
 }
 
-VoxelScene::VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options) : grid_(grid), options_(options) {
+VoxelScene::VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options)
+    : grid_(grid), options_(options) {
     const auto t0 = std::chrono::steady_clock::now();
     const glm::ivec3 n = grid_.dims();
     // Slack for float rounding (see snapshot_baker.cpp): the kernel's crossing parameters are
@@ -142,7 +151,8 @@ VoxelScene::VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options) : grid_
             if (primitives_ > 0) {
                 RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
                 rtcSetGeometryUserPrimitiveCount(geom, unsigned(primitives_));
-                // The user data must outlive the scene: it lives in this object, which owns the scene.
+                // The user data must outlive the scene: it lives in this object, which owns the
+                // scene.
                 auto* data = new BoxUserData{boxes_.data(), padding_};
                 userData_ = data;
                 rtcSetGeometryUserData(geom, data);
@@ -154,14 +164,17 @@ VoxelScene::VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options) : grid_
                 rtcReleaseGeometry(geom); // the scene holds its own reference
             }
         } else {
-            const std::vector<FaceRect> faces = exposedFaces(grid_, options_.surfaceOnly, options_.mergePrimitives);
+            const std::vector<FaceRect> faces =
+                exposedFaces(grid_, options_.surfaceOnly, options_.mergePrimitives);
             primitives_ = faces.size();
             if (primitives_ > 0) {
                 RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_QUAD);
-                auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                                      3 * sizeof(float), 4 * primitives_));
-                auto* q = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4,
-                                                                         4 * sizeof(unsigned), primitives_));
+                auto* v = static_cast<float*>(
+                    rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                            3 * sizeof(float), 4 * primitives_));
+                auto* q = static_cast<unsigned*>(
+                    rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4,
+                                            4 * sizeof(unsigned), primitives_));
                 const float pad = padding_;
                 for (std::size_t f = 0; f < primitives_; ++f) {
                     const FaceRect& r = faces[f];
@@ -189,8 +202,10 @@ VoxelScene::VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options) : grid_
     });
     detail::throwOnEmbreeError("scene build");
     embreeBytes_ = std::size_t(std::max<std::int64_t>(0, detail::embreeBytesInUse() - before));
-    bytes_ = sizeof(*this) + grid_.data().capacity() + boxes_.capacity() * sizeof(VoxelRun) + embreeBytes_;
-    buildMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    bytes_ = sizeof(*this) + grid_.data().capacity() + boxes_.capacity() * sizeof(VoxelRun) +
+             embreeBytes_;
+    buildMs_ =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
 VoxelScene::~VoxelScene() {

@@ -38,7 +38,7 @@ struct VoxelSceneOptions {
 };
 
 class VoxelScene {
-public:
+  public:
     /// Copies the grid (the scene must describe one fixed version even if the model is edited
     /// later) and builds the Embree BVH. Throws std::runtime_error on an Embree error.
     VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options);
@@ -59,7 +59,7 @@ public:
     bool empty() const { return primitives_ == 0; }
     RTCSceneTy* handle() const { return scene_; }
 
-private:
+  private:
     VoxelGrid grid_;
     VoxelSceneOptions options_;
     std::vector<VoxelRun> boxes_; ///< Boxes: the voxel box of each primitive

@@ -1,9 +1,8 @@
 // The far tier's baker (DESIGN.md §4, HARD_CASES 16-21): every snapshot cell equals the near
 // kernel's vtShadeCell for the same lattice cell, whatever Embree geometry, trace API, thread
 // count or primitive set produced it; solid boxes match an independent closed form.
-#include "far_test_support.hpp"
-
 #include "core/procedural.hpp"
+#include "far_test_support.hpp"
 #include "impostor_cache/snapshot_baker.hpp"
 #include "impostor_cache/surface_voxels.hpp"
 #include "impostor_cache/voxel_scene.hpp"
@@ -24,7 +23,8 @@ std::shared_ptr<VoxelModel> checkerboard(glm::ivec3 dims) {
     VoxelGrid g(dims);
     for (int z = 0; z < dims.z; ++z)
         for (int y = 0; y < dims.y; ++y)
-            for (int x = 0; x < dims.x; ++x) g.set({x, y, z}, std::uint8_t(1 + (x + y + z) % 2 + 2 * (z % 2)));
+            for (int x = 0; x < dims.x; ++x)
+                g.set({x, y, z}, std::uint8_t(1 + (x + y + z) % 2 + 2 * (z % 2)));
     return std::make_shared<VoxelModel>("checker", proceduralPalette(), std::vector<VoxelGrid>{g});
 }
 
@@ -38,17 +38,25 @@ std::shared_ptr<VoxelModel> randomSparse(glm::ivec3 dims, double fill, unsigned 
 }
 
 std::vector<std::shared_ptr<VoxelModel>> bakeModels() {
-    return {makeArrow(16), makeSphere(6), makeShell({9, 7, 12}, 1), makeBox({3, 5, 8}), makeSingleVoxel(254),
-            checkerboard({6, 5, 4}), randomSparse({13, 11, 9}, 0.2, 7), randomSparse({20, 20, 20}, 0.02, 11)};
+    return {makeArrow(16),
+            makeSphere(6),
+            makeShell({9, 7, 12}, 1),
+            makeBox({3, 5, 8}),
+            makeSingleVoxel(254),
+            checkerboard({6, 5, 4}),
+            randomSparse({13, 11, 9}, 0.2, 7),
+            randomSparse({20, 20, 20}, 0.02, 11)};
 }
 
 /// First differing cell, or empty.
 std::string compareCells(const Snapshot& a, const Snapshot& b) {
-    if (a.cells.size() != b.cells.size() || a.lattice.cellRange != b.lattice.cellRange) return "different lattices";
+    if (a.cells.size() != b.cells.size() || a.lattice.cellRange != b.lattice.cellRange)
+        return "different lattices";
     for (std::size_t k = 0; k < a.cells.size(); ++k)
         if (!(a.cells[k] == b.cells[k]))
-            return "cell " + std::to_string(k) + ": " + std::to_string(a.cells[k].index) + "/" + std::to_string(a.cells[k].code) +
-                   " vs " + std::to_string(b.cells[k].index) + "/" + std::to_string(b.cells[k].code);
+            return "cell " + std::to_string(k) + ": " + std::to_string(a.cells[k].index) + "/" +
+                   std::to_string(a.cells[k].code) + " vs " + std::to_string(b.cells[k].index) +
+                   "/" + std::to_string(b.cells[k].code);
     return {};
 }
 
@@ -67,9 +75,11 @@ TEST(EmbreeBake, EveryCellEqualsTheNearKernelsShadeCell) {
                         const std::size_t a = k.at(i, j);
                         const SnapshotCell c = s.at(i, j);
                         std::uint8_t want = snapshot_code::kEmpty;
-                        if (k.kind[a] == kernel::VT_KIND_SOLID) want = std::uint8_t(snapshot_code::kSolid0 + k.face[a]);
+                        if (k.kind[a] == kernel::VT_KIND_SOLID)
+                            want = std::uint8_t(snapshot_code::kSolid0 + k.face[a]);
                         if (k.kind[a] == kernel::VT_KIND_OUTLINE) want = snapshot_code::kOutline;
-                        ASSERT_EQ(c.code, want) << m->name() << " sigma " << sigma << " view " << v << " cell " << i << "," << j;
+                        ASSERT_EQ(c.code, want) << m->name() << " sigma " << sigma << " view " << v
+                                                << " cell " << i << "," << j;
                         if (k.kind[a] == kernel::VT_KIND_SOLID) {
                             ASSERT_EQ(c.index, k.index[a]);
                         }
@@ -88,10 +98,13 @@ TEST(EmbreeBake, QuadsAndBoxesEveryApiEqualTheScalarKernelBake) {
                 for (ViewSet set : {ViewSet::Cube26, ViewSet::Cube98})
                     for (double sigma : {1.0, 2.0})
                         for (int v = 0; v < viewCount(set); ++v) {
-                            const std::string d = compareCells(bakeSnapshot(scene, set, v, sigma, {api, false}),
-                                                               bakeSnapshotScalar(m->frame(0), set, v, sigma));
-                            ASSERT_TRUE(d.empty()) << m->name() << " " << toString(geo) << " " << toString(api) << " set "
-                                                   << viewCount(set) << " view " << v << " sigma " << sigma << ": " << d;
+                            const std::string d =
+                                compareCells(bakeSnapshot(scene, set, v, sigma, {api, false}),
+                                             bakeSnapshotScalar(m->frame(0), set, v, sigma));
+                            ASSERT_TRUE(d.empty())
+                                << m->name() << " " << toString(geo) << " " << toString(api)
+                                << " set " << viewCount(set) << " view " << v << " sigma " << sigma
+                                << ": " << d;
                         }
         }
 }
@@ -100,14 +113,17 @@ TEST(EmbreeBake, View218SetEqualsTheScalarKernelBake) {
     const auto m = randomSparse({12, 10, 14}, 0.25, 3);
     const VoxelScene scene(m->frame(0), {});
     for (int v = 0; v < 218; ++v)
-        ASSERT_TRUE(compareCells(bakeSnapshot(scene, ViewSet::Cube218, v, 1.0), bakeSnapshotScalar(m->frame(0), ViewSet::Cube218, v, 1.0)).empty())
+        ASSERT_TRUE(compareCells(bakeSnapshot(scene, ViewSet::Cube218, v, 1.0),
+                                 bakeSnapshotScalar(m->frame(0), ViewSet::Cube218, v, 1.0))
+                        .empty())
             << "view " << v;
 }
 
 // HARD_CASES 19: interior voxels can never be the first hit, so leaving them out changes
 // nothing; merging primitives (runs, rectangles) changes nothing either.
 TEST(EmbreeBake, SurfaceOnlyBakeEqualsBakeOverEveryVoxel) {
-    for (const auto& m : {makeSphere(7), makeBox({6, 5, 7}), makeShell({10, 8, 6}, 2), randomSparse({10, 10, 10}, 0.6, 5)})
+    for (const auto& m : {makeSphere(7), makeBox({6, 5, 7}), makeShell({10, 8, 6}, 2),
+                          randomSparse({10, 10, 10}, 0.6, 5)})
         for (BakeGeometry geo : {BakeGeometry::Boxes, BakeGeometry::Quads}) {
             const VoxelScene surface(m->frame(0), {geo, true, true});
             const VoxelScene every(m->frame(0), {geo, false, true});
@@ -118,9 +134,16 @@ TEST(EmbreeBake, SurfaceOnlyBakeEqualsBakeOverEveryVoxel) {
             for (int v = 0; v < 26; ++v)
                 for (double sigma : {1.0, 2.0}) {
                     const Snapshot a = bakeSnapshot(surface, ViewSet::Cube26, v, sigma);
-                    EXPECT_TRUE(compareCells(a, bakeSnapshot(every, ViewSet::Cube26, v, sigma)).empty()) << m->name() << " view " << v;
-                    EXPECT_TRUE(compareCells(a, bakeSnapshot(unmerged, ViewSet::Cube26, v, sigma)).empty()) << m->name() << " view " << v;
-                    EXPECT_TRUE(compareCells(a, bakeSnapshot(everyUnmerged, ViewSet::Cube26, v, sigma)).empty()) << m->name() << " view " << v;
+                    EXPECT_TRUE(
+                        compareCells(a, bakeSnapshot(every, ViewSet::Cube26, v, sigma)).empty())
+                        << m->name() << " view " << v;
+                    EXPECT_TRUE(
+                        compareCells(a, bakeSnapshot(unmerged, ViewSet::Cube26, v, sigma)).empty())
+                        << m->name() << " view " << v;
+                    EXPECT_TRUE(
+                        compareCells(a, bakeSnapshot(everyUnmerged, ViewSet::Cube26, v, sigma))
+                            .empty())
+                        << m->name() << " view " << v;
                 }
         }
 }
@@ -131,7 +154,8 @@ TEST(SurfaceVoxels, InteriorOfASolidBlockIsExcluded) {
     EXPECT_EQ(single.size(), std::size_t(5 * 4 * 3 - 3 * 2 * 1));
     EXPECT_EQ(surfaceBoxes(m->frame(0), false, false).size(), std::size_t(5 * 4 * 3));
     // Exposed faces of a box: its surface area; merged: one rectangle per side.
-    EXPECT_EQ(exposedFaces(m->frame(0), true, false).size(), std::size_t(2 * (5 * 4 + 4 * 3 + 5 * 3)));
+    EXPECT_EQ(exposedFaces(m->frame(0), true, false).size(),
+              std::size_t(2 * (5 * 4 + 4 * 3 + 5 * 3)));
     EXPECT_EQ(exposedFaces(m->frame(0), true, true).size(), 6u);
 }
 
@@ -143,9 +167,12 @@ TEST(EmbreeBake, IdenticalSnapshotsWithOneThreadAndAllThreads) {
         for (int v = 0; v < 26; ++v) all.push_back(bakeSnapshot(scene, ViewSet::Cube26, v, 2.0));
         tbb::task_arena single(1);
         single.execute([&] {
-            for (int v = 0; v < 26; ++v) one.push_back(bakeSnapshot(scene, ViewSet::Cube26, v, 2.0));
+            for (int v = 0; v < 26; ++v)
+                one.push_back(bakeSnapshot(scene, ViewSet::Cube26, v, 2.0));
         });
-        for (int v = 0; v < 26; ++v) EXPECT_TRUE(compareCells(all[std::size_t(v)], one[std::size_t(v)]).empty()) << "view " << v;
+        for (int v = 0; v < 26; ++v)
+            EXPECT_TRUE(compareCells(all[std::size_t(v)], one[std::size_t(v)]).empty())
+                << "view " << v;
     }
 }
 
@@ -165,7 +192,10 @@ TEST(EmbreeBake, EqualParameterTiesAreDeterministicAndFollowTheKernel) {
         for (int run = 0; run < 3; ++run)
             for (const VoxelScene* sc : {&boxes, &quads})
                 for (TraceApi api : {TraceApi::Packet8, TraceApi::Stream})
-                    EXPECT_TRUE(compareCells(bakeSnapshot(*sc, ViewSet::Cube26, v, 1.0, {api, false}), ref).empty()) << "view " << v;
+                    EXPECT_TRUE(
+                        compareCells(bakeSnapshot(*sc, ViewSet::Cube26, v, 1.0, {api, false}), ref)
+                            .empty())
+                        << "view " << v;
     }
 }
 
@@ -176,22 +206,27 @@ TEST(EmbreeBake, EqualParameterTiesAreDeterministicAndFollowTheKernel) {
 // edges, where the float kernel and a double closed form may legitimately round apart (the
 // kernel is what the snapshot must equal, and does: see the tests above).
 TEST(EmbreeBake, SolidBoxesAndSlabsMatchTheClosedFormAtEveryView) {
-    for (glm::ivec3 dims : {glm::ivec3(12, 9, 1), glm::ivec3(1, 12, 9), glm::ivec3(9, 1, 12), glm::ivec3(4, 4, 4), glm::ivec3(5, 3, 8)})
+    for (glm::ivec3 dims : {glm::ivec3(12, 9, 1), glm::ivec3(1, 12, 9), glm::ivec3(9, 1, 12),
+                            glm::ivec3(4, 4, 4), glm::ivec3(5, 3, 8)})
         for (double sigma : {1.0, 2.0, 3.0, 1.5}) {
             const auto m = makeBox(dims);
             const VoxelScene scene(m->frame(0), {});
             for (int v = 0; v < 26; ++v) {
                 if (sigma != std::floor(sigma) && v >= 6) continue;
                 const Snapshot s = bakeSnapshot(scene, ViewSet::Cube26, v, sigma);
-                const test::ExpectedCells e = test::expectedBoxCells(dims, s.lattice.dir, s.lattice.up, sigma);
+                const test::ExpectedCells e =
+                    test::expectedBoxCells(dims, s.lattice.dir, s.lattice.up, sigma);
                 std::size_t solid = 0;
                 for (int j = e.range.z; j <= e.range.w; ++j)
                     for (int i = e.range.x; i <= e.range.y; ++i) {
                         const int kind = e.kind[e.at(i, j)];
                         const SnapshotCell c = s.at(i, j);
-                        const int got = snapshot_code::isSolid(c.code) ? 1 : (c.code == snapshot_code::kOutline ? 2 : 0);
-                        ASSERT_EQ(got, kind) << dims.x << "x" << dims.y << "x" << dims.z << " sigma " << sigma << " view " << v
-                                             << " cell " << i << "," << j;
+                        const int got = snapshot_code::isSolid(c.code)
+                                            ? 1
+                                            : (c.code == snapshot_code::kOutline ? 2 : 0);
+                        ASSERT_EQ(got, kind)
+                            << dims.x << "x" << dims.y << "x" << dims.z << " sigma " << sigma
+                            << " view " << v << " cell " << i << "," << j;
                         if (kind == 1) {
                             ++solid;
                             ASSERT_EQ(int(snapshot_code::face(c.code)), e.face[e.at(i, j)]);
@@ -201,7 +236,8 @@ TEST(EmbreeBake, SolidBoxesAndSlabsMatchTheClosedFormAtEveryView) {
                 // A face view of a slab at integer sigma is a full rectangle of sigma-cells.
                 if (v < 6 && sigma == std::floor(sigma)) {
                     const int axis = v / 2;
-                    const std::size_t area = std::size_t(dims[(axis + 1) % 3] * dims[(axis + 2) % 3] * sigma * sigma);
+                    const std::size_t area =
+                        std::size_t(dims[(axis + 1) % 3] * dims[(axis + 2) % 3] * sigma * sigma);
                     EXPECT_EQ(s.solidCount(), area) << "holes in the face view " << v;
                 }
             }
@@ -211,7 +247,8 @@ TEST(EmbreeBake, SolidBoxesAndSlabsMatchTheClosedFormAtEveryView) {
 // HARD_CASES 20: an empty model bakes empty snapshots (and an empty scene); a single voxel is
 // a sigma x sigma block with a four-sided outline.
 TEST(EmbreeBake, EmptyModelYieldsEmptySnapshots) {
-    const auto m = std::make_shared<VoxelModel>("empty", proceduralPalette(), std::vector<VoxelGrid>{VoxelGrid({7, 5, 3})});
+    const auto m = std::make_shared<VoxelModel>("empty", proceduralPalette(),
+                                                std::vector<VoxelGrid>{VoxelGrid({7, 5, 3})});
     for (BakeGeometry geo : {BakeGeometry::Boxes, BakeGeometry::Quads}) {
         const VoxelScene scene(m->frame(0), {geo});
         EXPECT_TRUE(scene.empty());

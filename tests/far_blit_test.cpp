@@ -1,13 +1,12 @@
 // The far blit (DESIGN.md §4): upright, unmirrored snapshots read through the near tier's
 // virtual-pixel grid; nothing drawn for culled, empty, sub-pixel or behind-camera entities;
 // lighting applied at blit time; the frame's Far mode.
-#include "far_test_support.hpp"
-
 #include "compose/frame.hpp"
 #include "core/procedural.hpp"
+#include "far_test_support.hpp"
 
-#include <gtest/gtest.h>
 #include <glm/gtc/quaternion.hpp>
+#include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
 #include <cmath>
@@ -49,25 +48,32 @@ Scene arrowScene(glm::dvec3 towardViewer, double sigma = 2.0) {
 // degrees away from any snapshot, so no tier flips or mirrors anything.
 TEST(FarBlit, ArrowHeadFinAndStubPointTheSameWayAsInTheNearTier) {
     const Palette& pal = proceduralPalette();
-    const std::vector<glm::dvec3> dirs = {
-        {0, -1, 0},         {0, 1, 0},           {0, -1, 1},          {1, -1, 1},           // canonical
-        {0.2, -1.0, 0.35},  {-0.3, -1.0, 0.15},  {0.25, 0.9, 0.4},    {0.1, -0.6, 0.8},     // off-canonical
-        {-0.45, -0.8, -0.3}, {0.5, -0.55, 0.65}, {-0.2, 0.35, 0.95},  {0.05, -0.98, -0.12}};
+    const std::vector<glm::dvec3> dirs = {{0, -1, 0},          {0, 1, 0},
+                                          {0, -1, 1},          {1, -1, 1}, // canonical
+                                          {0.2, -1.0, 0.35},   {-0.3, -1.0, 0.15},
+                                          {0.25, 0.9, 0.4},    {0.1, -0.6, 0.8}, // off-canonical
+                                          {-0.45, -0.8, -0.3}, {0.5, -0.55, 0.65},
+                                          {-0.2, 0.35, 0.95},  {0.05, -0.98, -0.12}};
     for (glm::dvec3 w : dirs) {
         const Scene s = arrowScene(glm::normalize(w));
         SnapshotCache cache;
         const Image nearImg = test::renderNear(s), farImg = test::renderFar(s, cache);
-        const auto hn = centroid(nearImg, pal.colors[proc_index::kGreen]), hf = centroid(farImg, pal.colors[proc_index::kGreen]);
-        const auto tn = centroid(nearImg, pal.colors[proc_index::kRed]), tf = centroid(farImg, pal.colors[proc_index::kRed]);
+        const auto hn = centroid(nearImg, pal.colors[proc_index::kGreen]),
+                   hf = centroid(farImg, pal.colors[proc_index::kGreen]);
+        const auto tn = centroid(nearImg, pal.colors[proc_index::kRed]),
+                   tf = centroid(farImg, pal.colors[proc_index::kRed]);
         ASSERT_TRUE(hn && hf && tn && tf) << "w " << w.x << "," << w.y << "," << w.z;
         // Shaft -> head: same direction on screen (within the view quantisation, <~28 degrees,
         // which foreshortening can widen a little on screen), similar position.
         const glm::dvec2 an = *hn - *tn, af = *hf - *tf;
         const double cosAngle = glm::dot(an, af) / (glm::length(an) * glm::length(af));
-        EXPECT_GT(cosAngle, std::cos(glm::radians(45.0))) << "w " << w.x << "," << w.y << "," << w.z;
-        EXPECT_LT(glm::length(*hn - *hf), 0.5 * glm::length(an)) << "w " << w.x << "," << w.y << "," << w.z;
+        EXPECT_GT(cosAngle, std::cos(glm::radians(45.0)))
+            << "w " << w.x << "," << w.y << "," << w.z;
+        EXPECT_LT(glm::length(*hn - *hf), 0.5 * glm::length(an))
+            << "w " << w.x << "," << w.y << "," << w.z;
         // The fin (+Z, blue) sits above the shaft whenever it is visible in both (camera up = +Z).
-        const auto fn = centroid(nearImg, pal.colors[proc_index::kBlue]), ff = centroid(farImg, pal.colors[proc_index::kBlue]);
+        const auto fn = centroid(nearImg, pal.colors[proc_index::kBlue]),
+                   ff = centroid(farImg, pal.colors[proc_index::kBlue]);
         if (fn && ff && std::abs(w.z) < 0.9) {
             EXPECT_LT(fn->y, tn->y + 1.0) << "near fin below shaft";
             EXPECT_LT(ff->y, tf->y + 1.0) << "far fin below shaft";
@@ -110,7 +116,8 @@ TEST(FarBlit, CulledSpritesDrawNothingAndBakeNothing) {
 }
 
 TEST(FarBlit, EmptyModelDrawsNothing) {
-    const auto m = std::make_shared<VoxelModel>("empty", proceduralPalette(), std::vector<VoxelGrid>{VoxelGrid({6, 6, 6})});
+    const auto m = std::make_shared<VoxelModel>("empty", proceduralPalette(),
+                                                std::vector<VoxelGrid>{VoxelGrid({6, 6, 6})});
     SnapshotCache cache;
     for (glm::ivec3 w : test::canonicalDirections()) {
         const auto v = test::viewAlong(m, glm::dvec3(w), 2.0, 2);
@@ -191,7 +198,8 @@ TEST(FarMode, FrameRendererDrawsEveryEntityThroughItsCache) {
     const FrameResult second = r.render(0.0, RenderMode::Far);
     EXPECT_EQ(second.stats.farBakes, 0); // cached
     EXPECT_TRUE(diffImages(first.image, second.image).identical());
-    for (std::size_t i = 0; i < s.entities.size(); ++i) EXPECT_GT(first.image.countEntity(std::uint32_t(i)), 0u) << i;
+    for (std::size_t i = 0; i < s.entities.size(); ++i)
+        EXPECT_GT(first.image.countEntity(std::uint32_t(i)), 0u) << i;
 }
 
 } // namespace

@@ -1,8 +1,7 @@
 // The snapshot cache (DESIGN.md §4): lazy, shared by every entity of a model, one bake under
 // concurrent requests, LRU eviction within a byte budget, a model edit (version bump) misses.
-#include "far_test_support.hpp"
-
 #include "core/procedural.hpp"
+#include "far_test_support.hpp"
 
 #include <gtest/gtest.h>
 #include <tbb/parallel_for.h>
@@ -71,7 +70,9 @@ TEST(SnapshotCache, ConcurrentRequestsForOneKeyBakeOnce) {
     const auto m = makeSphere(12);
     SnapshotCache cache;
     std::vector<const Snapshot*> got(3000);
-    tbb::parallel_for(0, 3000, [&](int i) { got[std::size_t(i)] = cache.get(*m, 0, ViewSet::Cube26, 18 + i % 3, 2.0).get(); });
+    tbb::parallel_for(0, 3000, [&](int i) {
+        got[std::size_t(i)] = cache.get(*m, 0, ViewSet::Cube26, 18 + i % 3, 2.0).get();
+    });
     const auto c = cache.counters();
     EXPECT_EQ(c.bakes, 3u);
     EXPECT_EQ(c.misses, 3u);
@@ -83,7 +84,8 @@ TEST(SnapshotCache, ConcurrentRequestsForOneKeyBakeOnce) {
 }
 
 TEST(SnapshotCache, ConcurrentRequestsAcrossModelsAndViewsBakeEachKeyOnce) {
-    std::vector<std::shared_ptr<VoxelModel>> models = {makeSphere(6), makeArrow(20), makeBox({5, 7, 9})};
+    std::vector<std::shared_ptr<VoxelModel>> models = {makeSphere(6), makeArrow(20),
+                                                       makeBox({5, 7, 9})};
     SnapshotCache cache;
     tbb::parallel_for(0, 2000, [&](int i) {
         const auto& m = *models[std::size_t(i % 3)];
@@ -102,7 +104,9 @@ TEST(SnapshotCache, LruEvictionKeepsTheBudgetAndDropsTheLeastRecentlyUsed) {
     SnapshotCacheConfig cfg;
     cfg.budgetBytes = 3 * one + one / 2;
     SnapshotCache cache(cfg);
-    auto key = [&](int v) { return SnapshotKey{m->uid(), 0, m->version(), ViewSet::Cube26, v, 1.0}; };
+    auto key = [&](int v) {
+        return SnapshotKey{m->uid(), 0, m->version(), ViewSet::Cube26, v, 1.0};
+    };
     for (int v : {0, 1, 2}) cache.get(*m, 0, ViewSet::Cube26, v, 1.0);
     EXPECT_EQ(cache.counters().evictions, 0u);
     cache.get(*m, 0, ViewSet::Cube26, 0, 1.0); // touch 0: now 1 is the oldest
@@ -149,7 +153,8 @@ TEST(SnapshotCache, VersionBumpMissesAndBakesTheEditedModel) {
 
 TEST(SnapshotCache, KeysSeparateSigmaViewSetAndFrame) {
     const VoxelGrid a = makeArrow(16)->frame(0), b = makeSphere(4)->frame(0);
-    const auto m = std::make_shared<VoxelModel>("two frames", proceduralPalette(), std::vector<VoxelGrid>{a, b});
+    const auto m = std::make_shared<VoxelModel>("two frames", proceduralPalette(),
+                                                std::vector<VoxelGrid>{a, b});
     SnapshotCache cache;
     const auto s1 = cache.get(*m, 0, ViewSet::Cube26, 2, 1.0);
     const auto s2 = cache.get(*m, 0, ViewSet::Cube26, 2, 2.0);

@@ -31,14 +31,17 @@ CliRun run(const std::string& args) {
 }
 
 fs::path tempDir() {
-    const fs::path d = fs::temp_directory_path() / ("voxtier_far_cli_" + std::to_string(::getpid()));
+    const fs::path d =
+        fs::temp_directory_path() / ("voxtier_far_cli_" + std::to_string(::getpid()));
     fs::create_directories(d);
     return d;
 }
 
 TEST(BakeCommand, BakesAllViewsPrintsCostsAndWritesALabelledContactSheet) {
     const fs::path sheet = tempDir() / "cop_sheet.png";
-    const CliRun r = run("bake scenes/vox/mmmm/chr_cop1.vox --views 26 --sigma 2 --geometry quads --sheet " + sheet.string());
+    const CliRun r =
+        run("bake scenes/vox/mmmm/chr_cop1.vox --views 26 --sigma 2 --geometry quads --sheet " +
+            sheet.string());
     ASSERT_EQ(r.status, 0) << r.out;
     EXPECT_NE(r.out.find("baked 26 views"), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("Mrays/s"), std::string::npos) << r.out;

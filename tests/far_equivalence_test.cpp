@@ -16,14 +16,13 @@
 // kernel rays have different float origins in the two lattices" and print how many there are.
 // Grouping the offsets, rayBase + ((i+1/2) cellRight + (j+1/2) cellUp), makes the origins
 // bit-identical under every quarter-turn roll (commutative sum of the same products).
-#include "far_test_support.hpp"
-
 #include "core/procedural.hpp"
 #include "core/vox_reader.hpp"
+#include "far_test_support.hpp"
 #include "impostor_cache/kernel_order_dda.hpp"
 
-#include <gtest/gtest.h>
 #include <glm/gtc/quaternion.hpp>
+#include <gtest/gtest.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -42,15 +41,19 @@ struct VoxCase {
     bool allowOriginUlps = false; // see the file comment
     std::string label;
 };
-void PrintTo(const VoxCase& c, std::ostream* os) { *os << c.file << " " << c.label; }
+void PrintTo(const VoxCase& c, std::ostream* os) {
+    *os << c.file << " " << c.label;
+}
 
 const std::vector<int> kAllRolls = {0, 1, 2, 3};
 
 std::vector<std::shared_ptr<VoxelModel>> modelsOf(const std::string& file) {
-    const VoxFile vox = readVoxFile(std::filesystem::path(VOXTIER_SOURCE_DIR) / "scenes" / "vox" / file);
+    const VoxFile vox =
+        readVoxFile(std::filesystem::path(VOXTIER_SOURCE_DIR) / "scenes" / "vox" / file);
     std::vector<std::shared_ptr<VoxelModel>> out;
     for (std::size_t i = 0; i < vox.models.size(); ++i)
-        out.push_back(std::make_shared<VoxelModel>(file + "#" + std::to_string(i), vox.palette, std::vector<VoxelGrid>{vox.models[i]}));
+        out.push_back(std::make_shared<VoxelModel>(file + "#" + std::to_string(i), vox.palette,
+                                                   std::vector<VoxelGrid>{vox.models[i]}));
     return out;
 }
 
@@ -64,23 +67,29 @@ int canonicalIndex(glm::ivec3 w) {
 /// Differing pixels whose near cell (or a cardinal neighbour, for outline pixels) has a ray
 /// origin that is not bit-identical to the origin of the snapshot cell it maps to: the
 /// differences the kernel's summation order explains. Returns (explained, unexplained).
-std::pair<std::size_t, std::size_t> classifyDifferences(const Image& a, const Image& b, const SpriteSetup& sp,
+std::pair<std::size_t, std::size_t> classifyDifferences(const Image& a, const Image& b,
+                                                        const SpriteSetup& sp,
                                                         const VoxelModel& model, glm::ivec3 w) {
-    const SpriteLattice snapLattice = snapshotLattice(glm::dvec3(w), model.frame(0).dims(), sp.lattice.sigma);
+    const SpriteLattice snapLattice =
+        snapshotLattice(glm::dvec3(w), model.frame(0).dims(), sp.lattice.sigma);
     const kernel::SpriteGpu snapFrame = snapshotRayFrame(snapLattice);
     const SpriteLattice& L = sp.lattice;
     std::size_t explained = 0, unexplained = 0;
     for (int y = 0; y < a.height; ++y)
         for (int x = 0; x < a.width; ++x) {
             const std::size_t p = a.index(x, y);
-            if (a.color[p] == b.color[p] && a.depth[p] == b.depth[p] && a.id[p] == b.id[p]) continue;
+            if (a.color[p] == b.color[p] && a.depth[p] == b.depth[p] && a.id[p] == b.id[p])
+                continue;
             glm::ivec2 cell;
             bool originDiffers = false;
             if (kernel::vtPixelCell(sp.gpu, glm::vec2(x + 0.5f, y + 0.5f), cell))
-                for (glm::ivec2 d : {glm::ivec2(0, 0), glm::ivec2(1, 0), glm::ivec2(-1, 0), glm::ivec2(0, 1), glm::ivec2(0, -1)}) {
+                for (glm::ivec2 d : {glm::ivec2(0, 0), glm::ivec2(1, 0), glm::ivec2(-1, 0),
+                                     glm::ivec2(0, 1), glm::ivec2(0, -1)}) {
                     const glm::ivec2 c = cell + d;
-                    const glm::dvec3 q = (L.gU + (c.x + 0.5) / L.sigma) * L.right + (L.gV + (c.y + 0.5) / L.sigma) * L.up;
-                    originDiffers |= kernelRayOrigin(sp.gpu, c) != kernelRayOrigin(snapFrame, snapLattice.cellAt(q));
+                    const glm::dvec3 q = (L.gU + (c.x + 0.5) / L.sigma) * L.right +
+                                         (L.gV + (c.y + 0.5) / L.sigma) * L.up;
+                    originDiffers |= kernelRayOrigin(sp.gpu, c) !=
+                                     kernelRayOrigin(snapFrame, snapLattice.cellAt(q));
                 }
             (originDiffers ? explained : unexplained)++;
         }
@@ -89,8 +98,9 @@ std::pair<std::size_t, std::size_t> classifyDifferences(const Image& a, const Im
 
 /// Renders `model` along every canonical direction at (sigma, roll) through both tiers and
 /// records failures; the cache is shared across views and rolls (one bake per view).
-void expectFarEqualsNear(const std::shared_ptr<VoxelModel>& model, double sigma, const std::vector<int>& rolls,
-                         SnapshotCache& cache, Views views = Views::All, bool allowOriginUlps = false) {
+void expectFarEqualsNear(const std::shared_ptr<VoxelModel>& model, double sigma,
+                         const std::vector<int>& rolls, SnapshotCache& cache,
+                         Views views = Views::All, bool allowOriginUlps = false) {
     std::size_t explainedTotal = 0, pixelsTotal = 0;
     for (glm::ivec3 w : test::canonicalDirections())
         for (int roll : rolls) {
@@ -106,23 +116,28 @@ void expectFarEqualsNear(const std::shared_ptr<VoxelModel>& model, double sigma,
             const std::string diff = test::firstDifference(nearImg, farImg);
             pixelsTotal += nearImg.pixelCount();
             if (!diff.empty() && allowOriginUlps) {
-                const auto [explained, unexplained] = classifyDifferences(nearImg, farImg, sprites[0], *model, w);
+                const auto [explained, unexplained] =
+                    classifyDifferences(nearImg, farImg, sprites[0], *model, w);
                 explainedTotal += explained;
-                EXPECT_EQ(unexplained, 0u) << model->name() << " sigma " << sigma << " view (" << w.x << "," << w.y << ","
-                                           << w.z << ") roll " << roll * 90 << ": " << diff;
+                EXPECT_EQ(unexplained, 0u)
+                    << model->name() << " sigma " << sigma << " view (" << w.x << "," << w.y << ","
+                    << w.z << ") roll " << roll * 90 << ": " << diff;
                 if (unexplained == 0) {
-                    std::printf("[ known    ] %s view (%d,%d,%d) roll %d: %s -- all from one-ulp ray-origin differences "
+                    std::printf("[ known    ] %s view (%d,%d,%d) roll %d: %s -- all from one-ulp "
+                                "ray-origin differences "
                                 "(kernel summation order)\n",
                                 model->name().c_str(), w.x, w.y, w.z, roll * 90, diff.c_str());
                     continue;
                 }
             }
-            EXPECT_TRUE(diff.empty()) << model->name() << " sigma " << sigma << " view (" << w.x << "," << w.y << ","
-                                      << w.z << ") roll " << roll * 90 << ": " << diff;
+            EXPECT_TRUE(diff.empty())
+                << model->name() << " sigma " << sigma << " view (" << w.x << "," << w.y << ","
+                << w.z << ") roll " << roll * 90 << ": " << diff;
             if (!diff.empty()) return; // one report per model and sigma is enough to debug
         }
     // Rare by construction: at most one pixel in 100 000.
-    EXPECT_LE(explainedTotal * 100000, pixelsTotal) << explainedTotal << " explained differences in " << pixelsTotal;
+    EXPECT_LE(explainedTotal * 100000, pixelsTotal)
+        << explainedTotal << " explained differences in " << pixelsTotal;
 }
 
 class FarEqualsNearOnVoxFiles : public ::testing::TestWithParam<VoxCase> {};
@@ -134,24 +149,29 @@ TEST_P(FarEqualsNearOnVoxFiles, EveryModelEveryCanonicalViewUprightAndRolled) {
     SnapshotCache cache;
     for (std::size_t i = 0; i < models.size(); ++i) {
         if (c.model >= 0 && int(i) != c.model) continue;
-        for (double sigma : c.sigmas) expectFarEqualsNear(models[i], sigma, c.rolls, cache, c.views, c.allowOriginUlps);
+        for (double sigma : c.sigmas)
+            expectFarEqualsNear(models[i], sigma, c.rolls, cache, c.views, c.allowOriginUlps);
     }
     EXPECT_GT(cache.counters().bakes, 0u);
 }
 
 INSTANTIATE_TEST_SUITE_P(
     ScenesVox, FarEqualsNearOnVoxFiles,
-    ::testing::Values(VoxCase{"mmmm/obj_splatter1.vox", {1.0, 2.0}, kAllRolls}, VoxCase{"mmmm/chr_cop1.vox", {1.0, 2.0}, kAllRolls},
-                      VoxCase{"mmmm/obj_house7.vox", {1.0, 2.0}, kAllRolls}, VoxCase{"mmmm/veh_fire.vox", {1.0, 2.0}, kAllRolls},
-                      VoxCase{"mmmm/scene_house2.vox", {1.0, 2.0}, kAllRolls}, VoxCase{"dot_vox/axes.vox", {1.0, 2.0}, kAllRolls},
-                      VoxCase{"dot_vox/single-voxel-with-material.vox", {1.0, 2.0}, kAllRolls},
-                      VoxCase{"opengametools/test_multiple_model_scene.vox", {1.0, 2.0}, kAllRolls},
-                      VoxCase{"opengametools/test_meta_chunk.vox", {1.0, 2.0}, kAllRolls},
-                      VoxCase{"bevy_vox_scene/test.vox", {1.0, 2.0}, kAllRolls},
-                      VoxCase{"blender_magicavoxel/hierarchy.vox", {1.0, 2.0}, kAllRolls},
-                      VoxCase{"vox-reader.js/tree.vox", {1.0}, {0}, 0, Views::All, false, "_model0_upright"},
-                      VoxCase{"vox-reader.js/tree.vox", {1.0}, {0}, 1, Views::All, false, "_model1_upright"},
-                      VoxCase{"vox-reader.js/tree.vox", {1.0}, {1}, -1, Views::Corners, true, "_rolled_corners"}),
+    ::testing::Values(
+        VoxCase{"mmmm/obj_splatter1.vox", {1.0, 2.0}, kAllRolls},
+        VoxCase{"mmmm/chr_cop1.vox", {1.0, 2.0}, kAllRolls},
+        VoxCase{"mmmm/obj_house7.vox", {1.0, 2.0}, kAllRolls},
+        VoxCase{"mmmm/veh_fire.vox", {1.0, 2.0}, kAllRolls},
+        VoxCase{"mmmm/scene_house2.vox", {1.0, 2.0}, kAllRolls},
+        VoxCase{"dot_vox/axes.vox", {1.0, 2.0}, kAllRolls},
+        VoxCase{"dot_vox/single-voxel-with-material.vox", {1.0, 2.0}, kAllRolls},
+        VoxCase{"opengametools/test_multiple_model_scene.vox", {1.0, 2.0}, kAllRolls},
+        VoxCase{"opengametools/test_meta_chunk.vox", {1.0, 2.0}, kAllRolls},
+        VoxCase{"bevy_vox_scene/test.vox", {1.0, 2.0}, kAllRolls},
+        VoxCase{"blender_magicavoxel/hierarchy.vox", {1.0, 2.0}, kAllRolls},
+        VoxCase{"vox-reader.js/tree.vox", {1.0}, {0}, 0, Views::All, false, "_model0_upright"},
+        VoxCase{"vox-reader.js/tree.vox", {1.0}, {0}, 1, Views::All, false, "_model1_upright"},
+        VoxCase{"vox-reader.js/tree.vox", {1.0}, {1}, -1, Views::Corners, true, "_rolled_corners"}),
     [](const auto& info) {
         std::string n = info.param.file + info.param.label;
         for (char& ch : n)
@@ -162,7 +182,8 @@ INSTANTIATE_TEST_SUITE_P(
 // Procedural models with known asymmetry and thin parts, non-cubic sizes, and sigma 3.
 TEST(FarEqualsNear, ProceduralModelsAtSigmaOneTwoThree) {
     SnapshotCache cache;
-    for (const auto& m : {makeArrow(16), makeShell({9, 7, 12}, 1), makeSphere(5), makeBox({3, 5, 8}), makeSingleVoxel()})
+    for (const auto& m : {makeArrow(16), makeShell({9, 7, 12}, 1), makeSphere(5),
+                          makeBox({3, 5, 8}), makeSingleVoxel()})
         for (double sigma : {1.0, 2.0, 3.0}) expectFarEqualsNear(m, sigma, kAllRolls, cache);
 }
 
@@ -175,15 +196,16 @@ TEST(FarEqualsNear, CameraStraightDownOverQuarterTurnYawedEntities) {
             for (int yaw = 0; yaw < 4; ++yaw)
                 for (int roll : kAllRolls) {
                     auto v = test::viewAlong(m, glm::dvec3(0, 0, 1), sigma, 2, roll);
-                    v.scene.entities[0].rotation = glm::angleAxis(glm::radians(90.0 * yaw), glm::dvec3(0, 1, 0));
+                    v.scene.entities[0].rotation =
+                        glm::angleAxis(glm::radians(90.0 * yaw), glm::dvec3(0, 1, 0));
                     std::vector<SpriteSetup> sprites;
                     const Image nearImg = test::renderNear(v.scene);
                     const Image farImg = test::renderFar(v.scene, cache, ViewSet::Cube26, &sprites);
                     EXPECT_EQ(chooseFarView(sprites[0], ViewSet::Cube26), 4); // +Z
                     EXPECT_GT(test::drawnPixels(nearImg), 0u);
                     const std::string diff = test::firstDifference(nearImg, farImg);
-                    EXPECT_TRUE(diff.empty()) << m->name() << " sigma " << sigma << " yaw " << 90 * yaw << " roll "
-                                              << 90 * roll << ": " << diff;
+                    EXPECT_TRUE(diff.empty()) << m->name() << " sigma " << sigma << " yaw "
+                                              << 90 * yaw << " roll " << 90 * roll << ": " << diff;
                 }
 }
 
@@ -192,8 +214,10 @@ TEST(FarEqualsNear, OneMillionMetresFromTheOrigin) {
     SnapshotCache cache;
     const auto m = makeArrow(16);
     for (glm::ivec3 w : {glm::ivec3(1, 0, 0), glm::ivec3(1, -1, 0), glm::ivec3(-1, 1, 1)}) {
-        const auto v = test::viewAlong(m, glm::dvec3(w), 2.0, 2, 1, glm::dvec3(1048576.0, 0.0, -1048576.0));
-        const std::string diff = test::firstDifference(test::renderNear(v.scene), test::renderFar(v.scene, cache));
+        const auto v =
+            test::viewAlong(m, glm::dvec3(w), 2.0, 2, 1, glm::dvec3(1048576.0, 0.0, -1048576.0));
+        const std::string diff =
+            test::firstDifference(test::renderNear(v.scene), test::renderFar(v.scene, cache));
         EXPECT_TRUE(diff.empty()) << diff;
     }
 }

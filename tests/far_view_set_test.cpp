@@ -12,7 +12,8 @@ namespace voxtier {
 namespace {
 
 TEST(ViewSets, SizesAre26_98_218AndEveryPointIsOnTheCubeSurface) {
-    for (auto [set, n] : {std::pair{ViewSet::Cube26, 1}, {ViewSet::Cube98, 2}, {ViewSet::Cube218, 3}}) {
+    for (auto [set, n] :
+         {std::pair{ViewSet::Cube26, 1}, {ViewSet::Cube98, 2}, {ViewSet::Cube218, 3}}) {
         const auto& pts = viewLatticePoints(set);
         const auto& dirs = viewDirections(set);
         EXPECT_EQ(int(pts.size()), viewCount(set));
@@ -32,7 +33,8 @@ TEST(ViewSets, SizesAre26_98_218AndEveryPointIsOnTheCubeSurface) {
 
 TEST(ViewSets, CanonicalOrderFacesThenEdgesThenCornersAndAPrefixOfEverySet) {
     const auto& c = viewLatticePoints(ViewSet::Cube26);
-    const std::vector<glm::ivec3> faces = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    const std::vector<glm::ivec3> faces = {{1, 0, 0},  {-1, 0, 0}, {0, 1, 0},
+                                           {0, -1, 0}, {0, 0, 1},  {0, 0, -1}};
     for (int i = 0; i < 6; ++i) EXPECT_EQ(c[std::size_t(i)], faces[std::size_t(i)]);
     auto nonZero = [](glm::ivec3 p) { return (p.x != 0) + (p.y != 0) + (p.z != 0); };
     for (int i = 6; i < 18; ++i) EXPECT_EQ(nonZero(c[std::size_t(i)]), 2) << i;
@@ -43,7 +45,9 @@ TEST(ViewSets, CanonicalOrderFacesThenEdgesThenCornersAndAPrefixOfEverySet) {
     // Face views are exact axis vectors.
     EXPECT_EQ(viewDirections(ViewSet::Cube26)[3], glm::dvec3(0, -1, 0));
     for (ViewSet set : {ViewSet::Cube98, ViewSet::Cube218})
-        for (int i = 0; i < 26; ++i) EXPECT_EQ(viewDirections(set)[std::size_t(i)], viewDirections(ViewSet::Cube26)[std::size_t(i)]);
+        for (int i = 0; i < 26; ++i)
+            EXPECT_EQ(viewDirections(set)[std::size_t(i)],
+                      viewDirections(ViewSet::Cube26)[std::size_t(i)]);
 }
 
 TEST(ViewSets, NearestViewOfAViewIsItselfAndOfANeighbourhoodToo) {
@@ -51,7 +55,8 @@ TEST(ViewSets, NearestViewOfAViewIsItselfAndOfANeighbourhoodToo) {
         const auto& dirs = viewDirections(set);
         for (int i = 0; i < viewCount(set); ++i) {
             EXPECT_EQ(nearestView(set, dirs[std::size_t(i)]), i);
-            const glm::dvec3 nudged = glm::normalize(dirs[std::size_t(i)] + glm::dvec3(0.01, -0.02, 0.015));
+            const glm::dvec3 nudged =
+                glm::normalize(dirs[std::size_t(i)] + glm::dvec3(0.01, -0.02, 0.015));
             EXPECT_EQ(nearestView(set, nudged), i);
         }
     }

@@ -3,7 +3,6 @@
 // (Embree passes the pointer through to user-geometry callbacks unchanged), so the box
 // callback gets the view's exact reciprocal direction without recomputing it per call.
 #include <embree3/rtcore.h>
-
 #include <glm/glm.hpp>
 
 namespace voxtier::detail {

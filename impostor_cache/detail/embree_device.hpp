@@ -21,13 +21,13 @@ void throwOnEmbreeError(const char* what);
 /// around the call emulates the near kernel's float arithmetic exactly, and that kernel runs
 /// without FTZ/DAZ.
 class FlushDenormalsScope {
-public:
+  public:
     FlushDenormalsScope() : saved_(_mm_getcsr()) { _mm_setcsr(saved_ | kFtzDaz); }
     ~FlushDenormalsScope() { _mm_setcsr(saved_); }
     FlushDenormalsScope(const FlushDenormalsScope&) = delete;
     FlushDenormalsScope& operator=(const FlushDenormalsScope&) = delete;
 
-private:
+  private:
     static constexpr unsigned kFtzDaz = 0x8040u; // MXCSR bits 15 (FTZ) and 6 (DAZ)
     unsigned saved_;
 };
