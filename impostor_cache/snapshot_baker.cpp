@@ -264,7 +264,8 @@ Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sig
                 local.embree += n;
             }
             for (std::size_t r = 0; r < n; ++r) {
-                const float tLow = exactOnly ? -kernel::VT_FAR : margin.apply(tHit[r]);
+                // No candidate: tHit is +inf and no bound is needed (or computed: inf - inf).
+                const float tLow = exactOnly || !have[r] ? -kernel::VT_FAR : margin.apply(tHit[r]);
                 const KernelOrderHit h =
                     kernelResume(frame, origin[r], voxels, entry[r], have[r] != 0, tLow);
                 local.reads += std::uint64_t(h.steps);

@@ -7,6 +7,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <limits>
 #include <mutex>
@@ -14,6 +15,9 @@
 namespace voxtier {
 
 namespace {
+
+/// Box-callback invocations that found FTZ/DAZ off (HARD_CASES 21); tests expect 0.
+std::atomic<std::uint64_t> gCallsWithoutFtz{0};
 
 struct BoxUserData {
     const VoxelRun* boxes;
@@ -37,6 +41,8 @@ void boxBounds(const RTCBoundsFunctionArguments* args) {
 /// afterwards by the kernel-order traversal, because no float box test can reproduce the
 /// kernel's own rounding and tie rules bit for bit.
 void boxIntersect(const RTCIntersectFunctionNArguments* args) {
+    if ((_mm_getcsr() & 0x8040u) != 0x8040u)
+        gCallsWithoutFtz.fetch_add(1, std::memory_order_relaxed);
     const auto* d = static_cast<const BoxUserData*>(args->geometryUserPtr);
     const auto* ctx = reinterpret_cast<const detail::BakeIntersectContext*>(args->context);
     const VoxelRun& run = d->boxes[args->primID];
@@ -117,6 +123,10 @@ void boxOccluded(const RTCOccludedFunctionNArguments* args) {
 std::mutex gBuildMutex;
 
 } // namespace
+
+std::uint64_t embreeCallsWithoutFlushDenormals() {
+    return gCallsWithoutFtz.load(std::memory_order_relaxed);
+}
 
 const char* toString(BakeGeometry g) {
     return g == BakeGeometry::Boxes ? "boxes" : "quads";

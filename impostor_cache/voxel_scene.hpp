@@ -27,6 +27,10 @@ BakeGeometry parseBakeGeometry(const std::string& name); ///< "boxes" | "quads",
 /// The faster of the two on this project's benchmark (voxtier bake --bench), used by default.
 inline constexpr BakeGeometry kDefaultBakeGeometry = BakeGeometry::Boxes;
 
+/// How many times an Embree callback of this module ran in a thread without FTZ/DAZ set
+/// (HARD_CASES 21: every worker that calls Embree must set them). Tests expect 0.
+std::uint64_t embreeCallsWithoutFlushDenormals();
+
 struct VoxelSceneOptions {
     BakeGeometry geometry = kDefaultBakeGeometry;
     /// Only voxels with an empty or out-of-bounds 6-neighbour (HARD_CASES 19). false puts every

@@ -8,10 +8,13 @@
 #include "impostor_cache/voxel_scene.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <atomic>
 #include <random>
 #include <set>
+#include <xmmintrin.h>
 
 namespace voxtier {
 namespace {
@@ -174,6 +177,25 @@ TEST(EmbreeBake, IdenticalSnapshotsWithOneThreadAndAllThreads) {
             EXPECT_TRUE(compareCells(all[std::size_t(v)], one[std::size_t(v)]).empty())
                 << "view " << v;
     }
+}
+
+// HARD_CASES 21: Embree runs with FTZ/DAZ in every worker, and the workers' MXCSR control bits
+// are restored afterwards (the exact traversal and the rest of the program run without them).
+// The low six bits are sticky exception flags, not modes, and are not compared.
+TEST(EmbreeBake, EveryEmbreeCallRunsWithFlushToZeroAndTheWorkersAreRestored) {
+    const auto m = randomSparse({24, 24, 24}, 0.1, 13);
+    const VoxelScene scene(m->frame(0), {BakeGeometry::Boxes});
+    constexpr unsigned kControl = ~0x3Fu;
+    const unsigned before = _mm_getcsr() & kControl;
+    std::atomic<int> changed{0};
+    tbb::parallel_for(0, 26, [&](int v) {
+        const unsigned mine = _mm_getcsr() & kControl;
+        bakeSnapshot(scene, ViewSet::Cube26, v, 2.0);
+        if ((_mm_getcsr() & kControl) != mine) ++changed;
+    });
+    EXPECT_EQ(embreeCallsWithoutFlushDenormals(), 0u);
+    EXPECT_EQ(changed.load(), 0);
+    EXPECT_EQ(_mm_getcsr() & kControl, before);
 }
 
 // HARD_CASES 17: equal-t ties between adjacent voxels of different colours resolve the same
