@@ -108,7 +108,7 @@ void addRenderCommand(CLI::App& app) {
     CLI::App* cmd = app.add_subcommand("render", "Render one frame of a scene (.json) or a single model (.vox)");
     cmd->add_option("input", args->input, "Scene file (.json) or MagicaVoxel model (.vox)")->required();
     cmd->add_option("-o,--out", args->out, "Output image (.png, or .exr with Z and id channels); default out/<name>.png");
-    cmd->add_option("--mode", args->mode, "reference (CPU reference tracer)")->capture_default_str();
+    cmd->add_option("--mode", args->mode, "reference (CPU reference tracer) or far (every entity through the far tier's snapshot cache)")->capture_default_str();
     auto* t = cmd->add_option("--time", args->time, "Time in seconds along the camera path");
     auto* f = cmd->add_option("--frame", args->frame, "Frame number of the camera path (applies scripted edits up to it)");
     t->excludes(f);

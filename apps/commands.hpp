@@ -6,5 +6,6 @@ namespace voxtier::cli {
 
 void addRenderCommand(CLI::App& app);
 void addInfoCommand(CLI::App& app);
+void addBakeCommand(CLI::App& app);
 
 } // namespace voxtier::cli

@@ -1,6 +1,7 @@
 #include "compose/frame.hpp"
 
 #include "core/error.hpp"
+#include "impostor_cache/far_frame.hpp"
 #include "volumetric/reference_renderer.hpp"
 
 #include <algorithm>
@@ -16,17 +17,19 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 RenderMode parseRenderMode(const std::string& name) {
     if (name == "reference") return RenderMode::Reference;
-    throw InputError("", "--mode", "unknown render mode '" + name + "' (expected: reference)");
+    if (name == "far") return RenderMode::Far;
+    throw InputError("", "--mode", "unknown render mode '" + name + "' (expected: reference, far)");
 }
 
 const char* toString(RenderMode m) {
     switch (m) {
     case RenderMode::Reference: return "reference";
+    case RenderMode::Far: return "far";
     }
     return "?";
 }
 
-FrameRenderer::FrameRenderer(Scene& scene) : scene_(scene) {
+FrameRenderer::FrameRenderer(Scene& scene) : scene_(scene), cache_(std::make_unique<SnapshotCache>()) {
     std::stable_sort(scene_.edits.begin(), scene_.edits.end(),
                      [](const ScriptedEdit& a, const ScriptedEdit& b) { return a.atFrame < b.atFrame; });
 }
@@ -66,6 +69,18 @@ FrameResult FrameRenderer::render(double time, RenderMode mode) {
         out.stats.referenceMs = rs.milliseconds;
         out.stats.pixelsTested = rs.pixelsTested;
         out.stats.voxelFetches = rs.voxelFetches;
+        break;
+    }
+    case RenderMode::Far: {
+        std::vector<FarRequest> requests;
+        requests.reserve(out.sprites.size());
+        for (const auto& s : out.sprites) requests.push_back({&s, std::nullopt});
+        FarFrameStats fs;
+        drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize), out.image, &fs);
+        out.stats.drawnFar = int(fs.sprites);
+        out.stats.farBakes = int(fs.bakes);
+        out.stats.farMs = fs.ensureMs + fs.blit.milliseconds;
+        out.stats.pixelsTested = fs.blit.pixelsTested;
         break;
     }
     }

@@ -13,6 +13,7 @@ namespace voxtier {
 
 enum class RenderMode {
     Reference, ///< every entity through the CPU reference tracer (the executable spec)
+    Far,       ///< every entity through the far tier's snapshot cache (DESIGN.md §4)
 };
 RenderMode parseRenderMode(const std::string& name); ///< throws InputError(field "--mode")
 const char* toString(RenderMode m);
@@ -21,6 +22,9 @@ struct FrameStats {
     int entities = 0;
     int culled = 0;
     int drawnReference = 0;
+    int drawnFar = 0;
+    double farMs = 0.0;    ///< snapshot lookups and bakes + blit
+    int farBakes = 0;      ///< snapshots baked during this frame
     double setupMs = 0.0;
     double referenceMs = 0.0;
     double totalMs = 0.0;
@@ -33,6 +37,8 @@ struct FrameResult {
     FrameStats stats;
 };
 
+class SnapshotCache;
+
 class FrameRenderer {
 public:
     explicit FrameRenderer(Scene& scene);
@@ -44,10 +50,13 @@ public:
     void applyEditsThrough(int frame);
     /// One frame at time t.
     FrameResult render(double time, RenderMode mode);
+    /// The far tier's snapshot cache; it persists across frames of this renderer.
+    SnapshotCache& snapshotCache() { return *cache_; }
 
 private:
     Scene& scene_;
     int editsApplied_ = 0; ///< scene.edits are applied in order of atFrame
+    std::unique_ptr<SnapshotCache> cache_;
 };
 
 } // namespace voxtier

@@ -1,0 +1,38 @@
+#pragma once
+// The far half of a frame (DESIGN.md §6): choose each far sprite's view, make sure the
+// snapshots it needs exist (lazy, parallel over distinct snapshots), then blit them.
+#include "core/image.hpp"
+#include "core/sprite.hpp"
+#include "core/voxel_model.hpp"
+#include "impostor_cache/far_blit.hpp"
+#include "impostor_cache/snapshot_cache.hpp"
+
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+namespace voxtier {
+
+struct FarFrameStats {
+    std::uint64_t sprites = 0;       ///< visible sprites drawn through the cache
+    std::uint64_t snapshotsUsed = 0; ///< distinct snapshots this frame
+    std::uint64_t bakes = 0;         ///< of those, baked during this frame
+    double ensureMs = 0.0;           ///< lookups + bakes
+    FarBlitStats blit;
+};
+
+/// One far sprite to draw; `view` overrides the nearest-view choice (e.g. a selector applying
+/// angular hysteresis), nullopt = chooseFarView.
+struct FarRequest {
+    const SpriteSetup* sprite = nullptr;
+    std::optional<int> view;
+};
+
+/// Draws `requests` (culled sprites are skipped) through `cache` into `target`. Models are
+/// indexed by SpriteSetup::model; each sprite's snapshot has the sprite's own sigma.
+void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                    std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
+                    Image& target, FarFrameStats* stats = nullptr);
+
+} // namespace voxtier

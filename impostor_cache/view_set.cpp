@@ -1,0 +1,119 @@
+#include "impostor_cache/view_set.hpp"
+
+#include "core/error.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstdlib>
+
+namespace voxtier {
+
+namespace {
+
+std::vector<glm::ivec3> canonical26() {
+    std::vector<glm::ivec3> v;
+    for (int axis = 0; axis < 3; ++axis)
+        for (int s : {1, -1}) {
+            glm::ivec3 p(0);
+            p[axis] = s;
+            v.push_back(p);
+        }
+    // Edge pairs of axes (x,y), (x,z), (y,z); signs of the first axis vary slowest.
+    const std::array<std::pair<int, int>, 3> pairs{{{0, 1}, {0, 2}, {1, 2}}};
+    for (auto [a, b] : pairs)
+        for (int sa : {1, -1})
+            for (int sb : {1, -1}) {
+                glm::ivec3 p(0);
+                p[a] = sa;
+                p[b] = sb;
+                v.push_back(p);
+            }
+    for (int sx : {1, -1})
+        for (int sy : {1, -1})
+            for (int sz : {1, -1}) v.push_back({sx, sy, sz});
+    return v;
+}
+
+std::vector<glm::ivec3> latticeSet(int n) {
+    std::vector<glm::ivec3> v;
+    for (glm::ivec3 c : canonical26()) v.push_back(c * n);
+    for (int x = -n; x <= n; ++x)
+        for (int y = -n; y <= n; ++y)
+            for (int z = -n; z <= n; ++z) {
+                const glm::ivec3 p{x, y, z};
+                if (std::max({std::abs(x), std::abs(y), std::abs(z)}) != n) continue;
+                if (std::find(v.begin(), v.begin() + 26, p) != v.begin() + 26) continue;
+                v.push_back(p);
+            }
+    return v;
+}
+
+int latticeN(ViewSet set) {
+    switch (set) {
+    case ViewSet::Cube26:
+        return 1;
+    case ViewSet::Cube98:
+        return 2;
+    case ViewSet::Cube218:
+        return 3;
+    }
+    return 1;
+}
+
+struct Tables {
+    std::array<std::vector<glm::ivec3>, 3> points;
+    std::array<std::vector<glm::dvec3>, 3> dirs;
+    Tables() {
+        for (int n = 1; n <= 3; ++n) {
+            points[std::size_t(n - 1)] = latticeSet(n);
+            // The canonical prefix is normalised from the unit-lattice vector, so view i < 26 is
+            // the very same double vector in every set (normalising (2,2,0) and (1,1,0) can
+            // differ in the last bit).
+            const auto& pts = points[std::size_t(n - 1)];
+            for (std::size_t i = 0; i < pts.size(); ++i)
+                dirs[std::size_t(n - 1)].push_back(
+                    glm::normalize(glm::dvec3(i < 26 ? pts[i] / n : pts[i])));
+        }
+    }
+};
+const Tables& tables() {
+    static const Tables t;
+    return t;
+}
+
+} // namespace
+
+ViewSet viewSetFromSize(int size, const std::string& field) {
+    if (size == 26) return ViewSet::Cube26;
+    if (size == 98) return ViewSet::Cube98;
+    if (size == 218) return ViewSet::Cube218;
+    throw InputError("", field, "expected 26, 98 or 218 views, got " + std::to_string(size));
+}
+
+int viewCount(ViewSet set) {
+    return int(set);
+}
+
+const std::vector<glm::ivec3>& viewLatticePoints(ViewSet set) {
+    return tables().points[std::size_t(latticeN(set) - 1)];
+}
+
+const std::vector<glm::dvec3>& viewDirections(ViewSet set) {
+    return tables().dirs[std::size_t(latticeN(set) - 1)];
+}
+
+int nearestView(ViewSet set, glm::dvec3 towardViewer) {
+    const auto& dirs = viewDirections(set);
+    int best = 0;
+    double bestDot = glm::dot(dirs[0], towardViewer);
+    for (int i = 1; i < int(dirs.size()); ++i) {
+        const double d = glm::dot(dirs[std::size_t(i)], towardViewer);
+        if (d > bestDot) {
+            bestDot = d;
+            best = i;
+        }
+    }
+    return best;
+}
+
+} // namespace voxtier

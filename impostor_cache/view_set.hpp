@@ -1,0 +1,39 @@
+#pragma once
+// The far tier's snapshot directions (DESIGN.md §4). A view is the unit vector w from the model
+// centre towards the viewer, in voxel space; its snapshot is the near image seen along d = -w.
+#include <glm/glm.hpp>
+
+#include <string>
+#include <vector>
+
+namespace voxtier {
+
+/// Which directions are baked: the cube lattice {-n..n}^3 restricted to the cube's surface
+/// (max |component| = n), normalised. n = 1 is the 26 canonical directions.
+enum class ViewSet {
+    Cube26 = 26,   ///< n = 1: 6 faces, 12 edges, 8 corners
+    Cube98 = 98,   ///< n = 2
+    Cube218 = 218, ///< n = 3
+};
+/// 26, 98 or 218 -> the set; anything else throws InputError(field `field`).
+ViewSet viewSetFromSize(int size, const std::string& field = "view_set");
+int viewCount(ViewSet set);
+
+/// The integer lattice vectors of a set, in the fixed order that view indices refer to:
+///  - indices 0..5, the faces: +X, -X, +Y, -Y, +Z, -Z;
+///  - 6..17, the edges: (±1,±1,0) then (±1,0,±1) then (0,±1,±1), within each group the
+///    first non-zero component's sign varies slowest, + before -;
+///  - 18..25, the corners (±1,±1,±1), x's sign slowest, then y, then z, + before -;
+///  - for the denser sets, the canonical 26 come first (scaled by n, so index i < 26 is the
+///    same direction in every set), then the remaining surface points in lexicographic order
+///    of (x, y, z), each from -n to n.
+const std::vector<glm::ivec3>& viewLatticePoints(ViewSet set);
+/// The same, normalised (double precision; face views are exact axis vectors).
+const std::vector<glm::dvec3>& viewDirections(ViewSet set);
+
+/// The view w* maximising w . towardViewer (DESIGN.md §4: towardViewer = -d, d the entity's
+/// per-entity ray direction in voxel space). Ties go to the lower index, so the choice is a
+/// deterministic function of the direction.
+int nearestView(ViewSet set, glm::dvec3 towardViewer);
+
+} // namespace voxtier
