@@ -65,7 +65,7 @@ struct SpriteGpu {
     float denMax;   // larger denominators hit the sprite plane nearer than 2*zNear: not drawn
     vec3 mapDen;    // denominator: the pixel ray's component along the view direction
     float reserved0;
-    vec3 rayBase;   // voxel-space origin of the ray of cell (i, j) is rayBase + (i+.5) cellRight + (j+.5) cellUp
+    vec3 rayBase;   // voxel-space origin of the ray of cell (i, j) is rayBase + ((i+.5) cellRight + (j+.5) cellUp)
     float reserved1;
     vec3 cellRight; // sprite right / sigma (voxel space)
     float reserved2;
@@ -103,6 +103,15 @@ VT_FN bool vtPixelCell(VT_IN(SpriteGpu) s, vec2 pc, VT_OUT(ivec2) cell) {
     return true;
 }
 
+// §3.6: origin of the primary ray of lattice cell (i, j), voxel space. The two cell offsets
+// are summed before the base: a quarter-turn roll swaps (and negates) cellRight and cellUp,
+// and this grouping keeps the origin bit-identical under it, so a far snapshot's rays equal
+// the near rays at canonical views whatever the camera roll.
+VT_FN vec3 vtCellRayOrigin(VT_IN(SpriteGpu) s, ivec2 cell) {
+    VT_PRECISE vec3 o = s.rayBase + ((float(cell.x) + 0.5f) * s.cellRight + (float(cell.y) + 0.5f) * s.cellUp);
+    return o;
+}
+
 // §3.7 lighting on 8-bit channels with 16.16 fixed-point factors: exact integer arithmetic, so
 // no float-to-unorm conversion rule of any driver is involved.
 VT_FN uint vtLit(uint rgba, uint factor) {
@@ -134,8 +143,7 @@ template <class Voxels> struct SpriteTracer {
     VT_FN bool vtTrace(VT_IN(SpriteGpu) s, ivec2 cell, VT_OUT(uint) index, VT_OUT(uint) face) {
         index = 0u;
         face = 0u;
-        VT_PRECISE vec3 o = s.rayBase + (float(cell.x) + 0.5f) * s.cellRight +
-                            (float(cell.y) + 0.5f) * s.cellUp;
+        VT_PRECISE vec3 o = vtCellRayOrigin(s, cell);
         ivec3 n = ivec3(int(s.dims.x), int(s.dims.y), int(s.dims.z));
         // Slab test; axis priority x < y < z on equal entry times (strict >).
         VT_PRECISE float tEnter = -VT_FAR;

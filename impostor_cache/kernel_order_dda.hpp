@@ -34,9 +34,7 @@ struct KernelOrderHit {
 
 /// The kernel's ray origin of lattice cell (i, j): the same float expression as vtTrace.
 inline glm::vec3 kernelRayOrigin(const kernel::SpriteGpu& s, glm::ivec2 cell) {
-    VT_PRECISE glm::vec3 o =
-        s.rayBase + (float(cell.x) + 0.5f) * s.cellRight + (float(cell.y) + 0.5f) * s.cellUp;
-    return o;
+    return kernel::vtCellRayOrigin(s, cell);
 }
 
 /// Where a ray stands after the kernel's slab test and its first voxel read.
