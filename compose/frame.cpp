@@ -1,6 +1,7 @@
 #include "compose/frame.hpp"
 
 #include "core/error.hpp"
+#include "volumetric/near_renderer.hpp"
 #include "volumetric/reference_renderer.hpp"
 
 #include <algorithm>
@@ -16,12 +17,14 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 RenderMode parseRenderMode(const std::string& name) {
     if (name == "reference") return RenderMode::Reference;
-    throw InputError("", "--mode", "unknown render mode '" + name + "' (expected: reference)");
+    if (name == "near") return RenderMode::Near;
+    throw InputError("", "--mode", "unknown render mode '" + name + "' (expected: reference, near)");
 }
 
 const char* toString(RenderMode m) {
     switch (m) {
     case RenderMode::Reference: return "reference";
+    case RenderMode::Near: return "near";
     }
     return "?";
 }
@@ -32,6 +35,8 @@ FrameRenderer::FrameRenderer(Scene& scene) : scene_(scene) {
 }
 
 FrameRenderer::~FrameRenderer() = default;
+
+std::string FrameRenderer::nearDeviceName() const { return near_ ? near_->deviceName() : std::string(); }
 
 void FrameRenderer::applyEditsThrough(int frame) {
     while (editsApplied_ < int(scene_.edits.size()) && scene_.edits[std::size_t(editsApplied_)].atFrame <= frame) {
@@ -66,6 +71,15 @@ FrameResult FrameRenderer::render(double time, RenderMode mode) {
         out.stats.referenceMs = rs.milliseconds;
         out.stats.pixelsTested = rs.pixelsTested;
         out.stats.voxelFetches = rs.voxelFetches;
+        break;
+    }
+    case RenderMode::Near: {
+        // Created on first use: reference-only runs never touch Vulkan.
+        if (!near_) near_ = std::make_unique<NearRenderer>();
+        NearStats ns;
+        out.image = near_->render(cam, scene_.models, out.sprites, scene_.render.background, {}, &ns);
+        out.stats.drawnNear = int(ns.sprites);
+        out.stats.nearMs = ns.uploadMs + ns.drawMs + ns.readbackMs;
         break;
     }
     }

@@ -11,8 +11,11 @@
 
 namespace voxtier {
 
+class NearRenderer;
+
 enum class RenderMode {
     Reference, ///< every entity through the CPU reference tracer (the executable spec)
+    Near,      ///< every entity through the Vulkan near tier (volumetric/near_renderer.hpp)
 };
 RenderMode parseRenderMode(const std::string& name); ///< throws InputError(field "--mode")
 const char* toString(RenderMode m);
@@ -21,8 +24,10 @@ struct FrameStats {
     int entities = 0;
     int culled = 0;
     int drawnReference = 0;
+    int drawnNear = 0;
     double setupMs = 0.0;
     double referenceMs = 0.0;
+    double nearMs = 0.0; ///< near tier: upload + draw + readback
     double totalMs = 0.0;
     std::uint64_t pixelsTested = 0, voxelFetches = 0;
 };
@@ -44,9 +49,12 @@ public:
     void applyEditsThrough(int frame);
     /// One frame at time t.
     FrameResult render(double time, RenderMode mode);
+    /// The Vulkan device of the near tier ("" until a Near frame created it).
+    std::string nearDeviceName() const;
 
 private:
     Scene& scene_;
+    std::unique_ptr<NearRenderer> near_; ///< created by the first Near frame (owns the Vulkan device)
     int editsApplied_ = 0; ///< scene.edits are applied in order of atFrame
 };
 
