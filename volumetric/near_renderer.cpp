@@ -420,6 +420,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     const ResidencyStats up = residency.update(models, visible);
     stats.bytesUploaded = up.bytesUploaded;
     stats.uploadRegions = up.regions;
+    stats.atlasGrowths = up.atlasGrowths;
     stats.uploadMs = up.milliseconds;
 
     const auto tDraw = Clock::now();

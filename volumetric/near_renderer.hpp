@@ -53,8 +53,9 @@ struct NearStats {
     std::uint64_t kernelFragments = 0, voxelFetches = 0;
     std::uint64_t bytesUploaded = 0; ///< voxel bytes copied to the atlas for this frame
     std::uint64_t uploadRegions = 0;
-    double uploadMs = 0.0;   ///< residency: pack + copy + wait
-    double drawMs = 0.0;     ///< record + submit + wait of the draw
+    std::uint64_t atlasGrowths = 0; ///< the atlas was re-created larger this frame
+    double uploadMs = 0.0;          ///< residency: pack + copy + wait
+    double drawMs = 0.0;            ///< record + submit + wait of the draw
     double readbackMs = 0.0; ///< copy of the three targets to host memory + unpack into Image
 };
 
