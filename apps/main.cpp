@@ -10,6 +10,7 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     voxtier::cli::addRenderCommand(app);
     voxtier::cli::addInfoCommand(app);
+    voxtier::cli::addBenchCommand(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
