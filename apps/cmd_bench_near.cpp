@@ -1,10 +1,10 @@
 // `voxtier bench near`: the Vulkan near tier against the CPU reference on the same frames, side
 // by side in one run (DESIGN.md §8: speed next to the error it costs). For each entity count it
-// builds a crowd of near entities, warms up, and reports medians over the repeats of: Vulkan
-// draw (record + submit + wait) and readback ms, the CPU reference ms (TBB), their ratio,
-// fragments shaded, DDA steps per fragment, and how many pixels differ from the reference.
-// Besides the default (quad proxy, one instanced draw) it measures the two alternatives:
-// the rasterised proxy box, and one draw per entity.
+// builds a crowd of near entities (characters, props, a few vehicles), warms up, and reports
+// medians over the repeats of: Vulkan draw (record + submit + wait) and readback ms, the CPU
+// reference ms (TBB), their ratio, fragments shaded, DDA steps per fragment, and how many pixels
+// differ from the reference. Besides the default (quad proxy, one instanced draw) it measures the
+// two alternatives: the rasterised proxy box, and one draw per entity.
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
@@ -69,31 +69,50 @@ std::shared_ptr<VoxelModel> voxModel(const std::filesystem::path& file, int inde
                                         std::vector<VoxelGrid>{vox.models.at(std::size_t(index))});
 }
 
-/// The bench models: real .vox files (characters, a vehicle, a house) or procedural stand-ins.
-std::vector<std::shared_ptr<VoxelModel>> benchModels(const BenchArgs& a) {
-    if (a.models == "procedural")
-        return {makeArrow(16), makeSphere(6, proc_index::kCyan),
-                makeShell({16, 16, 12}, 1, proc_index::kViolet),
-                makeBox({6, 6, 10}, proc_index::kOrange)};
-    if (a.models != "vox")
+/// The bench models, entity-sized: a character (weight 5), four 8^3 props (weight 4) and a fire
+/// truck (weight 1), from the bundled .vox files, or procedural stand-ins of similar sizes.
+struct BenchModels {
+    std::vector<std::shared_ptr<VoxelModel>> models;
+    std::vector<int> pick; ///< model index per slot of a 10-slot wheel
+};
+
+BenchModels benchModels(const BenchArgs& a) {
+    BenchModels m;
+    if (a.models == "procedural") {
+        m.models = {makeBox({8, 6, 11}, proc_index::kOrange),
+                    makeSphere(4, proc_index::kCyan),
+                    makeArrow(8),
+                    makeShell({8, 8, 8}, 1, proc_index::kViolet),
+                    makeSingleVoxel(5),
+                    makeBox({24, 58, 20})};
+    } else if (a.models == "vox") {
+        const std::filesystem::path dir(a.voxDir);
+        if (!std::filesystem::exists(dir / "mmmm"))
+            throw InputError(
+                a.voxDir, "--vox-dir",
+                "bundled models not found (run from the repository root, pass --vox-dir, or use "
+                "--models procedural)");
+        const auto props = dir / "opengametools/test_multiple_model_scene.vox";
+        m.models = {voxModel(dir / "mmmm/chr_cop1.vox"),
+                    voxModel(props, 0),
+                    voxModel(props, 1),
+                    voxModel(props, 2),
+                    voxModel(props, 3),
+                    voxModel(dir / "mmmm/veh_fire.vox")};
+    } else {
         throw InputError("", "--models", "expected vox or procedural, got '" + a.models + "'");
-    const std::filesystem::path dir(a.voxDir);
-    if (!std::filesystem::exists(dir / "mmmm"))
-        throw InputError(a.voxDir, "--vox-dir",
-                         "bundled models not found (run from the repository root, "
-                         "pass --vox-dir, or use --models procedural)");
-    return {voxModel(dir / "mmmm/chr_cop1.vox"), voxModel(dir / "mmmm/veh_fire.vox"),
-            voxModel(dir / "mmmm/obj_house7.vox"), voxModel(dir / "dot_vox/axes.vox", 0)};
+    }
+    m.pick = {0, 0, 0, 0, 0, 1, 2, 3, 4, 5};
+    return m;
 }
 
-/// A seeded crowd of `n` entities, all in front of the camera at 6..26 m (the near band of the
-/// default selector), random model and yaw. Raw mt19937 words, so the layout is the same with
-/// every standard library.
-Scene benchScene(const std::vector<std::shared_ptr<VoxelModel>>& models, int n, int width,
-                 int height) {
+/// A seeded crowd of `n` entities standing on the ground in front of the camera at 6..26 m (the
+/// near band of the default selector), random model and yaw. Raw mt19937 words, so the layout
+/// is the same with every standard library.
+Scene benchScene(const BenchModels& models, int n, int width, int height) {
     Scene s;
     s.source = "bench near";
-    s.models = models;
+    s.models = models.models;
     s.camera.position = {0.0, 3.0, 6.0};
     s.camera.target = {0.0, 0.5, -10.0};
     s.camera.fovYDeg = 50.0;
@@ -105,7 +124,7 @@ Scene benchScene(const std::vector<std::shared_ptr<VoxelModel>>& models, int n, 
     };
     for (int i = 0; i < n; ++i) {
         Entity e;
-        e.model = int(rng() % models.size());
+        e.model = models.pick[rng() % models.pick.size()];
         const double z = uniform(-20.0, 0.0);
         const double halfWidth = 0.55 * (6.0 - z); // stay inside the horizontal field of view
         e.position = {uniform(-halfWidth, halfWidth), 0.0, z};
@@ -164,7 +183,7 @@ void run(const BenchArgs& a) {
                "pixels\n";
     }
 
-    const auto models = benchModels(a);
+    const BenchModels models = benchModels(a);
     NearRenderer near; // validation follows VOXTIER_VALIDATION (off for honest timings)
     std::printf("Vulkan device: %s%s; CPU reference: TBB; %dx%d, %d repeats (median), %d warm-up\n",
                 near.deviceName().c_str(),
