@@ -197,14 +197,18 @@ void run(const BenchArgs& a) {
         const char* name;
         NearOptions options;
     };
-    std::vector<Variant> variants = {{"quad-instanced", {}}};
+    auto variant = [](const char* name, NearProxy proxy, NearDraws draws) {
+        NearOptions o;
+        o.proxy = proxy;
+        o.draws = draws;
+        return Variant{name, o};
+    };
+    std::vector<Variant> variants = {
+        variant("quad-instanced", NearProxy::Quad, NearDraws::Instanced)};
     if (a.alternatives) {
-        NearOptions perEntity;
-        perEntity.draws = NearDraws::PerEntity;
-        NearOptions box;
-        box.proxy = NearProxy::Box;
-        variants.push_back({"quad-per-entity", perEntity});
-        variants.push_back({"box-instanced", box});
+        variants.push_back(variant("quad-per-entity", NearProxy::Quad, NearDraws::PerEntity));
+        variants.push_back(variant("box-instanced", NearProxy::Box, NearDraws::Instanced));
+        variants.push_back(variant("hull-instanced", NearProxy::Hull, NearDraws::Instanced));
     }
 
     for (int n : counts) {

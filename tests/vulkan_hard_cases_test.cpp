@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <unistd.h>
 
 namespace voxtier {
 namespace {
@@ -40,22 +41,27 @@ class CanonicalBoxViewsOnVulkan : public VulkanTest,
 
 // Direction components of exactly 0 (face views: two, edge views: one), even and odd sizes,
 // integer and non-integer sigma: the GPU image is the closed-form silhouette with outline,
-// lighting, billboard depth and id, and equals the reference.
+// lighting, billboard depth and id, and equals the reference, with the hull and the quad proxy.
 TEST_P(CanonicalBoxViewsOnVulkan, MatchClosedFormAndReferenceAlongAll26Directions) {
     const CubeCase cc = GetParam();
     const auto model = test::solidBox(glm::ivec3(cc.size));
-    for (glm::ivec3 w : test::canonicalDirections()) {
-        const auto v = test::viewAlong(model, glm::dvec3(w), cc.sigma, 4);
-        const auto r = test::renderBoth(nearRenderer(), v.scene);
-        int zeros = 0;
-        for (int k = 0; k < 3; ++k) zeros += r.sprites[0].gpu.dir[k] == 0.0f;
-        EXPECT_EQ(zeros, (w.x == 0) + (w.y == 0) + (w.z == 0))
-            << "view " << str(w) << ": direction not snapped";
-        std::string first;
-        EXPECT_EQ(test::countClosedFormMismatches(v, glm::dvec3(w), r.near, &first), 0)
-            << "view " << str(w) << ": " << first;
-        EXPECT_EQ(test::describeDifference(r.near, r.reference), "") << "view " << str(w);
-    }
+    for (glm::ivec3 w : test::canonicalDirections())
+        for (NearProxy proxy : {NearProxy::Hull, NearProxy::Quad}) {
+            const auto v = test::viewAlong(model, glm::dvec3(w), cc.sigma, 4);
+            NearOptions options;
+            options.proxy = proxy;
+            const auto r = test::renderBoth(nearRenderer(), v.scene, 0.0, options);
+            const char* name = proxy == NearProxy::Hull ? " (hull)" : " (quad)";
+            int zeros = 0;
+            for (int k = 0; k < 3; ++k) zeros += r.sprites[0].gpu.dir[k] == 0.0f;
+            EXPECT_EQ(zeros, (w.x == 0) + (w.y == 0) + (w.z == 0))
+                << "view " << str(w) << ": direction not snapped";
+            std::string first;
+            EXPECT_EQ(test::countClosedFormMismatches(v, glm::dvec3(w), r.near, &first), 0)
+                << "view " << str(w) << name << ": " << first;
+            EXPECT_EQ(test::describeDifference(r.near, r.reference), "")
+                << "view " << str(w) << name;
+        }
 }
 
 INSTANTIATE_TEST_SUITE_P(EvenOddIntegerAndFractionalSigma, CanonicalBoxViewsOnVulkan,
@@ -360,7 +366,8 @@ int runCli(const std::string& env, const std::string& args, const std::string& e
 }
 
 TEST(VulkanThreads, ImageIdenticalForLpNumThreads0And1And2) {
-    const std::string dir = ::testing::TempDir() + "voxtier_lp_threads";
+    const std::string dir =
+        ::testing::TempDir() + "voxtier_lp_threads_" + std::to_string(::getpid());
     std::filesystem::create_directories(dir);
     const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/default.json";
     std::string first;
@@ -385,6 +392,7 @@ TEST(VulkanThreads, ImageIdenticalForLpNumThreads0And1And2) {
     ASSERT_EQ(
         runCli("", "render " + scene + " --mode reference --out " + ref, dir + "/err_ref.txt"), 0);
     EXPECT_TRUE(withoutDateTime(readFile(ref)) == first) << "near EXR differs from reference EXR";
+    std::filesystem::remove_all(dir);
 }
 
 } // namespace

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <random>
 #include <set>
+#include <tuple>
 
 namespace voxtier {
 namespace {
@@ -47,29 +48,37 @@ const std::vector<std::string> kVoxFiles = {
     "blender_magicavoxel/hierarchy.vox",
 };
 
-class SceneIdentity : public test::VulkanTest, public ::testing::WithParamInterface<std::string> {};
+class SceneIdentity : public test::VulkanTest,
+                      public ::testing::WithParamInterface<std::tuple<std::string, NearProxy>> {};
 
-// Every golden scene and the default scene (its path frames too: the camera flies in from above).
+// Every golden scene and the default scene (its path frames too: the camera flies in from
+// above), with the default hull proxy and with the quad.
 TEST_P(SceneIdentity, VulkanImageEqualsReferenceImage) {
-    Scene scene = loadScene(sourcePath(GetParam()));
+    const auto [file, proxy] = GetParam();
+    Scene scene = loadScene(sourcePath(file));
     std::vector<double> times = {0.0};
     if (scene.path) times = {0.0, scene.timeOfFrame(scene.path->frameCount() / 2)};
+    NearOptions options;
+    options.proxy = proxy;
     for (double t : times) {
-        const auto r = test::renderBoth(nearRenderer(), scene, t);
-        EXPECT_EQ(test::describeDifference(r.near, r.reference), "") << GetParam() << " at t=" << t;
+        const auto r = test::renderBoth(nearRenderer(), scene, t, options);
+        EXPECT_EQ(test::describeDifference(r.near, r.reference), "") << file << " at t=" << t;
         EXPECT_GT(test::drawnPixels(r.reference), 100u) << "the scene should draw something";
         EXPECT_EQ(r.nearStats.sprites, r.referenceStats.sprites);
     }
 }
 
-INSTANTIATE_TEST_SUITE_P(GoldenAndDefault, SceneIdentity,
-                         ::testing::Values("scenes/golden/arrows.json", "scenes/golden/crowd.json",
-                                           "scenes/golden/equal_depth.json",
-                                           "scenes/golden/far_origin.json",
-                                           "scenes/golden/topdown.json", "scenes/default.json"),
-                         [](const auto& info) {
-                             return std::filesystem::path(info.param).stem().string();
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    GoldenAndDefault, SceneIdentity,
+    ::testing::Combine(::testing::Values("scenes/golden/arrows.json", "scenes/golden/crowd.json",
+                                         "scenes/golden/equal_depth.json",
+                                         "scenes/golden/far_origin.json",
+                                         "scenes/golden/topdown.json", "scenes/default.json"),
+                       ::testing::Values(NearProxy::Hull, NearProxy::Quad)),
+    [](const auto& info) {
+        return std::filesystem::path(std::get<0>(info.param)).stem().string() +
+               (std::get<1>(info.param) == NearProxy::Hull ? "_hull" : "_quad");
+    });
 
 /// Voxel-space direction (model centre -> viewer) as the azimuth / elevation of a ModelView:
 /// the entity is unrotated, so world = (v.x, v.z, -v.y). The trigonometry does not return exact

@@ -21,30 +21,37 @@ std::string sourcePath(const std::string& rel) {
 }
 
 TEST_F(NearMeasurements, StepCounterVariantCountsExactlyTheReferenceVoxelReads) {
-    for (const char* file : {"scenes/golden/crowd.json", "scenes/golden/arrows.json"}) {
-        const Scene s = loadScene(sourcePath(file));
-        NearOptions counting;
-        counting.countSteps = true;
-        const auto r = test::renderBoth(nearRenderer(), s, 0.0, counting);
-        EXPECT_EQ(test::describeDifference(r.near, r.reference), "")
-            << file << ": the variant draws the same image";
-        // The quad covers every pixel whose cell is in range, and so does the reference's
-        // rectangle: both run the kernel on exactly the pixels that can read voxels.
-        EXPECT_EQ(r.nearStats.voxelFetches, r.referenceStats.voxelFetches) << file;
-        EXPECT_GE(r.nearStats.kernelFragments, r.referenceStats.pixelsInSprite) << file;
-        if (r.nearStats.fragmentInvocations > 0) {
-            EXPECT_GE(r.nearStats.fragmentInvocations, r.nearStats.kernelFragments) << file;
+    for (const char* file : {"scenes/golden/crowd.json", "scenes/golden/arrows.json"})
+        for (NearProxy proxy : {NearProxy::Quad, NearProxy::Hull}) {
+            const Scene s = loadScene(sourcePath(file));
+            NearOptions counting;
+            counting.countSteps = true;
+            counting.proxy = proxy;
+            const auto r = test::renderBoth(nearRenderer(), s, 0.0, counting);
+            const char* name = proxy == NearProxy::Quad ? "quad" : "hull";
+            EXPECT_EQ(test::describeDifference(r.near, r.reference), "")
+                << file << " " << name << ": the variant draws the same image";
+            // Both proxies cover every pixel whose cell is in range (the quad all of cellRange, the
+            // hull every cell that can be drawn), and the reference's rectangle does too: the GPU
+            // and the CPU run the tracer on exactly the same cells.
+            EXPECT_EQ(r.nearStats.voxelFetches, r.referenceStats.voxelFetches)
+                << file << " " << name;
+            if (proxy == NearProxy::Quad) {
+                EXPECT_GE(r.nearStats.kernelFragments, r.referenceStats.pixelsInSprite) << file;
+            }
+            if (r.nearStats.fragmentInvocations > 0) {
+                EXPECT_GE(r.nearStats.fragmentInvocations, r.nearStats.kernelFragments) << file;
+            }
+            std::printf(
+                "%s %s: %llu fragments (pipeline statistics), %llu kernel fragments, %llu voxel "
+                "reads (reference: %llu pixels tested, %llu in a sprite, %llu reads)\n",
+                file, name, (unsigned long long)r.nearStats.fragmentInvocations,
+                (unsigned long long)r.nearStats.kernelFragments,
+                (unsigned long long)r.nearStats.voxelFetches,
+                (unsigned long long)r.referenceStats.pixelsTested,
+                (unsigned long long)r.referenceStats.pixelsInSprite,
+                (unsigned long long)r.referenceStats.voxelFetches);
         }
-        std::printf(
-            "%s: %llu fragments (pipeline statistics), %llu kernel fragments, %llu voxel reads "
-            "(reference: %llu pixels tested, %llu in a sprite, %llu reads)\n",
-            file, (unsigned long long)r.nearStats.fragmentInvocations,
-            (unsigned long long)r.nearStats.kernelFragments,
-            (unsigned long long)r.nearStats.voxelFetches,
-            (unsigned long long)r.referenceStats.pixelsTested,
-            (unsigned long long)r.referenceStats.pixelsInSprite,
-            (unsigned long long)r.referenceStats.voxelFetches);
-    }
 }
 
 TEST_F(NearMeasurements, OneDrawPerEntityGivesTheSameImageAsOneInstancedDraw) {
@@ -55,6 +62,27 @@ TEST_F(NearMeasurements, OneDrawPerEntityGivesTheSameImageAsOneInstancedDraw) {
     EXPECT_EQ(r.nearStats.drawCalls, r.nearStats.sprites);
     EXPECT_GT(r.nearStats.sprites, 1u);
     EXPECT_EQ(test::describeDifference(r.near, r.reference), "");
+}
+
+// The hull proxy (the default: the model box's parallel projection grown by the kernel's reach and
+// 2 px) is exact like the quad, with fewer fragments: on every golden scene and the default scene.
+TEST_F(NearMeasurements, HullProxyIsExactWithFewerFragmentsThanTheQuad) {
+    for (const char* file :
+         {"scenes/golden/arrows.json", "scenes/golden/crowd.json", "scenes/golden/equal_depth.json",
+          "scenes/golden/far_origin.json", "scenes/golden/topdown.json", "scenes/default.json"}) {
+        const Scene s = loadScene(sourcePath(file));
+        NearOptions hull;
+        hull.proxy = NearProxy::Hull;
+        const auto r = test::renderBoth(nearRenderer(), s, 0.0, hull);
+        EXPECT_EQ(test::describeDifference(r.near, r.reference), "") << file;
+        NearOptions quad;
+        quad.proxy = NearProxy::Quad;
+        const auto q = test::renderBoth(nearRenderer(), s, 0.0, quad);
+        EXPECT_LT(r.nearStats.fragmentInvocations, q.nearStats.fragmentInvocations) << file;
+        std::printf("%s: hull %llu fragments, quad %llu\n", file,
+                    (unsigned long long)r.nearStats.fragmentInvocations,
+                    (unsigned long long)q.nearStats.fragmentInvocations);
+    }
 }
 
 /// Every pixel where the box image differs from the reference is one the box lost: the reference

@@ -12,6 +12,7 @@
 // SPIR-V generated at build time by glslangValidator (volumetric/CMakeLists.txt).
 #include "shaders/near_box_vert.h"
 #include "shaders/near_frag.h"
+#include "shaders/near_hull_vert.h"
 #include "shaders/near_quad_vert.h"
 #include "shaders/near_steps_frag.h"
 
@@ -43,6 +44,55 @@ std::array<glm::dvec4, 8> NearRenderer::proxyBoxClipCorners(const CameraFrame& c
     return out;
 }
 
+std::vector<glm::dvec4> NearRenderer::proxyHullClipCorners(const CameraFrame& cam,
+                                                           const SpriteSetup& s) {
+    const SpriteLattice& L = s.lattice;
+    const double k = s.pose.metresPerVoxel;
+    // A pixel can be non-empty only if its sprite-plane point lies in a cell whose centre, or a
+    // cardinal neighbour's centre, sends a parallel ray into the model box [0, N]^3, i.e. within
+    // 1.5 cells (per axis) of the box's parallel projection H. Two pixels more (measured at the
+    // centre's depth, an over-estimate of a pixel on the plane near the sprite) keep the
+    // rasteriser's rounding away from every pixel that matters, as with the quad (DESIGN §3.10).
+    const double m = 1.5 / L.sigma + 2.0 * cam.pixelScale() * s.viewDepth / k;
+    std::vector<glm::dvec2> pts;
+    pts.reserve(32);
+    for (int c = 0; c < 8; ++c) {
+        const glm::dvec3 p =
+            glm::dvec3((c & 1) ? L.dims.x : 0, (c & 2) ? L.dims.y : 0, (c & 4) ? L.dims.z : 0) -
+            L.centre;
+        const double u = glm::dot(p, L.right), v = glm::dot(p, L.up);
+        for (int q = 0; q < 4; ++q) pts.push_back({u + ((q & 1) ? m : -m), v + ((q & 2) ? m : -m)});
+    }
+    // Andrew's monotone chain; collinear points dropped, counter-clockwise order.
+    std::sort(pts.begin(), pts.end(),
+              [](glm::dvec2 a, glm::dvec2 b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+    auto cross = [](glm::dvec2 o, glm::dvec2 a, glm::dvec2 b) {
+        return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+    };
+    std::vector<glm::dvec2> hull(2 * pts.size());
+    std::size_t h = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+        while (h >= 2 && cross(hull[h - 2], hull[h - 1], pts[i]) <= 0.0) --h;
+        hull[h++] = pts[i];
+    }
+    for (std::size_t i = pts.size() - 1, lower = h + 1; i-- > 0;) {
+        while (h >= lower && cross(hull[h - 2], hull[h - 1], pts[i]) <= 0.0) --h;
+        hull[h++] = pts[i];
+    }
+    hull.resize(h - 1); // the last point repeats the first
+    std::vector<glm::dvec4> out;
+    if (hull.size() > near_gpu::NEAR_HULL_MAX_VERTICES || hull.size() < 3) {
+        // Cannot happen for a box (hexagon + square: at most 10 corners), but never draw less
+        // than the quad: its corners in fan order.
+        for (int i : {0, 1, 3, 2}) out.push_back(glm::dvec4(s.gpu.quad[i]));
+        return out;
+    }
+    const glm::dvec3 rW = s.pose.worldDirection(L.right), uW = s.pose.worldDirection(L.up);
+    for (glm::dvec2 p : hull)
+        out.push_back(clipFromCameraRelative(cam, s.centreRel + k * (p.x * rW + p.y * uW)));
+    return out;
+}
+
 struct NearRenderer::Impl {
     VulkanDevice device;
     VoxelResidency residency;
@@ -53,7 +103,7 @@ struct NearRenderer::Impl {
     VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
     VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
     VkRenderPass renderPass = VK_NULL_HANDLE;
-    VkPipeline pipelines[2][2] = {}; ///< [proxy][countSteps], created on first use
+    VkPipeline pipelines[3][2] = {}; ///< [proxy][countSteps], created on first use
     VkQueryPool statsPool = VK_NULL_HANDLE;
     VkCommandBuffer drawCb = VK_NULL_HANDLE;
     VkCommandBuffer readCb = VK_NULL_HANDLE;
@@ -65,7 +115,7 @@ struct NearRenderer::Impl {
     VulkanBuffer readback;
 
     // Per-frame data (host-visible, coherent) and the step counters.
-    VulkanBuffer sprites, boxes, counters;
+    VulkanBuffer sprites, boxes, hulls, counters;
 
     Impl(const VulkanDeviceOptions& options, std::shared_ptr<VulkanMessageLog> log)
         : device(options, std::move(log)), residency(device) {
@@ -112,6 +162,8 @@ void NearRenderer::Impl::create() {
          nullptr},
         {NEAR_BINDING_BOXES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT,
          nullptr},
+        {NEAR_BINDING_HULLS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT,
+         nullptr},
     };
     VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
     dli.bindingCount = std::uint32_t(std::size(bindings));
@@ -123,7 +175,7 @@ void NearRenderer::Impl::create() {
     pli.pSetLayouts = &setLayout;
     VK_CHECK(vkCreatePipelineLayout(dev, &pli, nullptr, &pipelineLayout));
 
-    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4},
+    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5},
                                           {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1}};
     VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     dpi.maxSets = 1;
@@ -195,6 +247,7 @@ void NearRenderer::Impl::create() {
                      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
     ensureBuffer(sprites, sizeof(kernel::SpriteGpu) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     ensureBuffer(boxes, sizeof(near_gpu::NearBox) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(hulls, sizeof(near_gpu::NearHull) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
 }
 
 void NearRenderer::Impl::destroy() noexcept {
@@ -214,6 +267,7 @@ void NearRenderer::Impl::destroy() noexcept {
     readback.reset();
     sprites.reset();
     boxes.reset();
+    hulls.reset();
     counters.reset();
     device.freeCommandBuffer(drawCb);
     device.freeCommandBuffer(readCb);
@@ -233,7 +287,7 @@ void NearRenderer::Impl::destroy() noexcept {
 }
 
 VkPipeline NearRenderer::Impl::pipeline(NearProxy proxy, bool countSteps) {
-    VkPipeline& slot = pipelines[proxy == NearProxy::Box][countSteps];
+    VkPipeline& slot = pipelines[int(proxy)][countSteps];
     if (slot) return slot;
     VkDevice dev = device.device();
     auto makeModule = [&](const std::uint32_t* code, std::size_t bytes) {
@@ -244,8 +298,9 @@ VkPipeline NearRenderer::Impl::pipeline(NearProxy proxy, bool countSteps) {
         VK_CHECK(vkCreateShaderModule(dev, &mi, nullptr, &m));
         return m;
     };
-    VkShaderModule vert = proxy == NearProxy::Box
-                              ? makeModule(near_box_vert, sizeof(near_box_vert))
+    VkShaderModule vert = proxy == NearProxy::Box ? makeModule(near_box_vert, sizeof(near_box_vert))
+                          : proxy == NearProxy::Hull
+                              ? makeModule(near_hull_vert, sizeof(near_hull_vert))
                               : makeModule(near_quad_vert, sizeof(near_quad_vert));
     VkShaderModule frag = VK_NULL_HANDLE;
     try {
@@ -271,8 +326,8 @@ VkPipeline NearRenderer::Impl::pipeline(NearProxy proxy, bool countSteps) {
             VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
         VkPipelineInputAssemblyStateCreateInfo ia{
             VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
-        ia.topology = proxy == NearProxy::Box ? VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST
-                                              : VK_PRIMITIVE_TOPOLOGY_TRIANGLE_STRIP;
+        ia.topology = proxy != NearProxy::Quad ? VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST
+                                               : VK_PRIMITIVE_TOPOLOGY_TRIANGLE_STRIP;
         VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
         vp.viewportCount = 1;
         vp.scissorCount = 1;
@@ -377,13 +432,14 @@ void NearRenderer::Impl::writeDescriptors() {
     const VkDescriptorBufferInfo paletteInfo{residency.paletteBuffer(), 0, VK_WHOLE_SIZE};
     const VkDescriptorBufferInfo counterInfo{counters.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorBufferInfo boxInfo{boxes.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo hullInfo{hulls.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorImageInfo atlasInfo{sampler, residency.atlasView(),
                                           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-    VkWriteDescriptorSet w[5]{};
-    const std::uint32_t binding[5] = {NEAR_BINDING_SPRITES, NEAR_BINDING_ATLAS,
+    VkWriteDescriptorSet w[6]{};
+    const std::uint32_t binding[6] = {NEAR_BINDING_SPRITES,  NEAR_BINDING_ATLAS,
                                       NEAR_BINDING_PALETTES, NEAR_BINDING_COUNTERS,
-                                      NEAR_BINDING_BOXES};
-    for (int i = 0; i < 5; ++i) {
+                                      NEAR_BINDING_BOXES,    NEAR_BINDING_HULLS};
+    for (int i = 0; i < 6; ++i) {
         w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
         w[i].dstSet = descriptorSet;
         w[i].dstBinding = binding[i];
@@ -396,7 +452,8 @@ void NearRenderer::Impl::writeDescriptors() {
     w[2].pBufferInfo = &paletteInfo;
     w[3].pBufferInfo = &counterInfo;
     w[4].pBufferInfo = &boxInfo;
-    vkUpdateDescriptorSets(device.device(), 5, w, 0, nullptr);
+    w[5].pBufferInfo = &hullInfo;
+    vkUpdateDescriptorSets(device.device(), 6, w, 0, nullptr);
 }
 
 Image NearRenderer::Impl::render(const CameraFrame& cam,
@@ -444,6 +501,17 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
             for (int k = 0; k < 8; ++k) box[i].corner[k] = glm::vec4(corners[std::size_t(k)]);
         }
     }
+    if (opt.proxy == NearProxy::Hull) {
+        ensureBuffer(hulls, std::max<std::size_t>(n, 1) * sizeof(near_gpu::NearHull),
+                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+        auto* hull = static_cast<near_gpu::NearHull*>(hulls.mapped());
+        for (std::size_t i = 0; i < n; ++i) {
+            const auto corners = proxyHullClipCorners(cam, *visible[i]);
+            hull[i].count = std::uint32_t(corners.size());
+            for (std::size_t k = 0; k < corners.size(); ++k)
+                hull[i].corner[k] = glm::vec4(corners[k]);
+        }
+    }
     writeDescriptors();
     const VkPipeline pipe = n ? pipeline(opt.proxy, opt.countSteps) : VK_NULL_HANDLE;
     const bool query = opt.pipelineStatistics && statsPool && n;
@@ -487,7 +555,9 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
         vkCmdSetScissor(cb, 0, 1, &scissor);
         if (query) vkCmdBeginQuery(cb, statsPool, 0, 0);
         const std::uint32_t vertices = opt.proxy == NearProxy::Box ? near_gpu::NEAR_BOX_VERTICES
-                                                                   : near_gpu::NEAR_QUAD_VERTICES;
+                                       : opt.proxy == NearProxy::Hull
+                                           ? near_gpu::NEAR_HULL_VERTICES
+                                           : near_gpu::NEAR_QUAD_VERTICES;
         if (opt.draws == NearDraws::Instanced) {
             vkCmdDraw(cb, vertices, std::uint32_t(n), 0, 0);
             stats.drawCalls = 1;

@@ -1,10 +1,11 @@
 #pragma once
 // The near tier on Vulkan (DESIGN.md §3, §6): every visible sprite is one instance of a single
-// instanced draw, in ascending entity id, into an R32_UINT colour target (the kernel's packed
-// RGBA8), an R32_UINT entity-id target and a D32_SFLOAT reversed-Z depth target (test GREATER:
-// at equal depth the first, lower-id fragment stays, exactly like Image::writeIfNearer). The
-// fragment shader runs the shared kernel (core/sprite_kernel.h), so the image equals the CPU
-// reference pixel for pixel. Voxels live in one 3D atlas (volumetric/voxel_residency.hpp).
+// instanced draw of its proxy polygon (NearProxy), in ascending entity id, into an R32_UINT colour
+// target (the kernel's packed RGBA8), an R32_UINT entity-id target and a D32_SFLOAT reversed-Z
+// depth target (test GREATER: at equal depth the first, lower-id fragment stays, exactly like
+// Image::writeIfNearer). The fragment shader runs the shared kernel (core/sprite_kernel.h), so the
+// image equals the CPU reference pixel for pixel. Voxels live in one 3D atlas
+// (volumetric/voxel_residency.hpp).
 //
 // No Vulkan types here: compose/ and apps/ use this header (DESIGN.md §1).
 #include "core/camera.hpp"
@@ -22,10 +23,21 @@
 
 namespace voxtier {
 
-/// What the GPU rasterises per sprite (DESIGN.md §3.10).
+/// What the GPU rasterises per sprite (DESIGN.md §3.10). Quad and Hull cover every pixel whose
+/// kernel outcome can be non-empty, with margin, so the image is exact with either; they differ
+/// only in how many fragments run the kernel to find out it is empty.
 enum class NearProxy {
-    Quad, ///< the camera-facing quad of SpriteGpu::quad (default: covers every kernel pixel)
-    Box,  ///< the proxy box (model bounds + 1/sigma); loses outline pixels at close range
+    /// The camera-facing quad of SpriteGpu::quad: the bounding rectangle of the cells that can be
+    /// non-empty plus one cell and two pixels.
+    Quad,
+    /// The proxy box (model bounds + 1/sigma), rasterised in perspective: loses outline pixels at
+    /// close range, where eye rays diverge from the sprite's parallel rays. Measured only.
+    Box,
+    /// Default. The model box projected along the sprite's parallel rays onto the sprite plane (a
+    /// hexagon), grown by the kernel's exact reach (outline ring + half a cell = 1.5 cells) and
+    /// two pixels, drawn as a fan of at most 10 triangles. Exact like the quad with ~35% fewer
+    /// fragments in `voxtier bench near` (the quad's rectangle corners and extra cells go).
+    Hull,
 };
 /// How the sprites are submitted.
 enum class NearDraws {
@@ -35,7 +47,7 @@ enum class NearDraws {
 };
 
 struct NearOptions {
-    NearProxy proxy = NearProxy::Quad;
+    NearProxy proxy = NearProxy::Hull;
     NearDraws draws = NearDraws::Instanced;
     /// Use the shader variant compiled with -DVT_COUNT_STEPS (counts voxel reads; slower).
     bool countSteps = false;
@@ -89,6 +101,10 @@ class NearRenderer {
 
     /// The clip-space corners of a sprite's proxy box (model bounds grown by 1/sigma voxel),
     /// corner k = (k & 1, k >> 1 & 1, k >> 2), computed in double, camera-relative.
+    /// The clip-space corners of a sprite's hull proxy (NearProxy::Hull), a convex polygon in fan
+    /// order with at most 12 corners, computed in double, camera-relative.
+    static std::vector<glm::dvec4> proxyHullClipCorners(const CameraFrame& camera,
+                                                        const SpriteSetup& sprite);
     static std::array<glm::dvec4, 8> proxyBoxClipCorners(const CameraFrame& camera,
                                                          const SpriteSetup& sprite);
 
