@@ -14,6 +14,7 @@
 #include <fstream>
 #include <iterator>
 #include <sstream>
+#include <unistd.h>
 
 namespace voxtier {
 namespace {
@@ -120,9 +121,24 @@ std::string slurp(const std::string& path) {
     return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
-CliRun runCli(const std::string& env, const std::string& args) {
-    const std::string dir = ::testing::TempDir() + "voxtier_cli_device";
+/// A scratch directory of this test alone: CTest runs the tests of this file in parallel
+/// processes, so shared file names would race.
+std::string scratchDir() {
+    const std::string dir = ::testing::TempDir() + "voxtier_" +
+                            ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" +
+                            std::to_string(::getpid());
     std::filesystem::create_directories(dir);
+    return dir;
+}
+
+/// Removes the scratch directory when a CLI test ends.
+class VulkanCli : public ::testing::Test {
+  protected:
+    void TearDown() override { std::filesystem::remove_all(scratchDir()); }
+};
+
+CliRun runCli(const std::string& env, const std::string& args) {
+    const std::string dir = scratchDir();
     const std::string out = dir + "/stdout.txt", err = dir + "/stderr.txt";
     const std::string cmd = env + " " + VOXTIER_CLI + " " + args + " >" + out + " 2>" + err;
     const int st = std::system(cmd.c_str());
@@ -143,9 +159,9 @@ std::size_t lineCount(const std::string& s) {
 const std::string kNoDriver = "VK_DRIVER_FILES=/nonexistent/voxtier_none.json "
                               "VK_ICD_FILENAMES=/nonexistent/voxtier_none.json";
 
-TEST(VulkanCli, NoVulkanDeviceIsOneClearLineAndNonZeroExit) {
+TEST_F(VulkanCli, NoVulkanDeviceIsOneClearLineAndNonZeroExit) {
     const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
-    const std::string out = ::testing::TempDir() + "voxtier_no_device.png";
+    const std::string out = scratchDir() + "/no_device.png";
     for (const std::string& extra : {std::string(), std::string(" VOXTIER_VALIDATION=1")}) {
         const CliRun r = runCli(kNoDriver + extra, "render " + scene + " --mode near --out " + out);
         EXPECT_NE(r.status, 0);
@@ -155,7 +171,7 @@ TEST(VulkanCli, NoVulkanDeviceIsOneClearLineAndNonZeroExit) {
         EXPECT_EQ(lineCount(r.err), 1u);
     }
     // An empty driver manifest is the same situation.
-    const std::string empty = ::testing::TempDir() + "voxtier_empty_icd.json";
+    const std::string empty = scratchDir() + "/empty_icd.json";
     std::ofstream(empty) << "{}\n";
     const CliRun r = runCli("VK_DRIVER_FILES=" + empty + " VK_ICD_FILENAMES=" + empty,
                             "render " + scene + " --mode near --out " + out);
@@ -165,19 +181,19 @@ TEST(VulkanCli, NoVulkanDeviceIsOneClearLineAndNonZeroExit) {
         << r.err;
 }
 
-TEST(VulkanCli, ReferenceModeWorksWithoutAnyVulkanDriver) {
+TEST_F(VulkanCli, ReferenceModeWorksWithoutAnyVulkanDriver) {
     const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
-    const std::string out = ::testing::TempDir() + "voxtier_no_device_reference.png";
+    const std::string out = scratchDir() + "/reference.png";
     const CliRun r = runCli(kNoDriver, "render " + scene + " --mode reference --out " + out);
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(r.err, "");
     EXPECT_TRUE(std::filesystem::exists(out));
 }
 
-TEST(VulkanCli, NearModePrintsTheDeviceAndMatchesReferenceFile) {
+TEST_F(VulkanCli, NearModePrintsTheDeviceAndMatchesReferenceFile) {
     const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/topdown.json";
-    const std::string nearPng = ::testing::TempDir() + "voxtier_cli_near.png";
-    const std::string refPng = ::testing::TempDir() + "voxtier_cli_reference.png";
+    const std::string nearPng = scratchDir() + "/near.png";
+    const std::string refPng = scratchDir() + "/reference.png";
     const CliRun n =
         runCli("VOXTIER_VALIDATION=1", "render " + scene + " --mode near --out " + nearPng);
     ASSERT_EQ(n.status, 0) << n.err;
@@ -188,9 +204,9 @@ TEST(VulkanCli, NearModePrintsTheDeviceAndMatchesReferenceFile) {
     EXPECT_TRUE(slurp(nearPng) == slurp(refPng));
 }
 
-TEST(VulkanCli, ValidationWithoutTheLayerInstalledIsAClearError) {
+TEST_F(VulkanCli, ValidationWithoutTheLayerInstalledIsAClearError) {
     const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
-    const std::string out = ::testing::TempDir() + "voxtier_no_layer.png";
+    const std::string out = scratchDir() + "/no_layer.png";
     // VK_LAYER_PATH replaces the loader's explicit-layer search path: no validation layer found.
     const CliRun r = runCli("VOXTIER_VALIDATION=1 VK_LAYER_PATH=/nonexistent/layers",
                             "render " + scene + " --mode near --out " + out);
