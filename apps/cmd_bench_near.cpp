@@ -26,6 +26,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <time.h>
 #include <vector>
 
 namespace voxtier::cli {
@@ -135,6 +136,14 @@ Scene benchScene(const BenchModels& models, int n, int width, int height) {
     return s;
 }
 
+/// CPU time of the whole process, every thread (lavapipe's rasteriser threads and TBB's workers
+/// included): on a shared machine wall-clock ms move with the neighbours' load, CPU ms much less.
+double processCpuMs() {
+    timespec ts{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
+}
+
 double median(std::vector<double> v) {
     if (v.empty()) return 0.0;
     std::sort(v.begin(), v.end());
@@ -147,6 +156,7 @@ struct Row {
     int visible = 0;
     std::string variant;
     double vkDrawMs = 0, vkReadbackMs = 0, refMs = 0;
+    double vkCpuMs = 0, refCpuMs = 0; ///< process CPU time (all threads): work, whatever the load
     std::uint64_t fragments = 0, kernelFragments = 0, fetches = 0;
     std::size_t differing = 0, drawn = 0;
     double vkFrameMs() const { return vkDrawMs + vkReadbackMs; }
@@ -179,7 +189,7 @@ void run(const BenchArgs& a) {
         csv.open(a.out);
         if (!csv) throw InputError(a.out, "--out", "cannot open for writing");
         csv << "entities,visible,variant,vk_draw_ms,vk_readback_ms,vk_frame_ms,reference_ms,"
-               "reference_over_vk,"
+               "reference_over_vk,vk_cpu_ms,reference_cpu_ms,"
                "fragments_shaded,kernel_fragments,dda_steps_per_fragment,differing_pixels,drawn_"
                "pixels\n";
     }
@@ -190,9 +200,9 @@ void run(const BenchArgs& a) {
                 near.deviceName().c_str(),
                 near.validationEnabled() ? " (validation ON: timings inflated)" : "", width, height,
                 a.repeat, a.warmup);
-    std::printf("%8s %7s %-18s %9s %9s %9s %9s %7s %11s %11s %8s %9s\n", "entities", "visible",
-                "variant", "vk_draw", "vk_read", "vk_frame", "ref_ms", "ref/vk", "fragments",
-                "kernel_frg", "steps/f", "mismatch");
+    std::printf("%8s %7s %-16s %8s %7s %8s %8s %6s %8s %8s %6s %10s %10s %7s %8s\n", "entities",
+                "visible", "variant", "vk_draw", "vk_read", "vk_frame", "ref_ms", "ref/vk",
+                "vk_cpu", "ref_cpu", "cpu_r", "fragments", "kernel_frg", "steps/f", "mismatch");
 
     struct Variant {
         const char* name;
@@ -240,48 +250,59 @@ void run(const BenchArgs& a) {
             row.fetches = cs.voxelFetches;
             for (int w = 0; w < a.warmup; ++w)
                 near.render(cam, scene.models, sprites, scene.render.background, v.options);
-            std::vector<double> draw, readback, ref;
+            std::vector<double> draw, readback, ref, vkCpu, refCpu;
             Image img;
             for (int r = 0; r < a.repeat; ++r) {
                 NearStats ns;
+                const double c0 = processCpuMs();
                 img = near.render(cam, scene.models, sprites, scene.render.background, v.options,
                                   &ns);
+                vkCpu.push_back(processCpuMs() - c0);
                 draw.push_back(ns.drawMs);
                 readback.push_back(ns.readbackMs);
                 row.fragments = ns.fragmentInvocations;
                 Image cpu(cam.width, cam.height, scene.render.background);
                 ReferenceStats rs;
+                const double c1 = processCpuMs();
                 renderReference(scene.models, sprites, cpu, &rs);
+                refCpu.push_back(processCpuMs() - c1);
                 ref.push_back(rs.milliseconds);
             }
             row.vkDrawMs = median(draw);
             row.vkReadbackMs = median(readback);
             row.refMs = median(ref);
+            row.vkCpuMs = median(vkCpu);
+            row.refCpuMs = median(refCpu);
             row.differing = differingPixels(img, reference);
             if (differingPixels(counted, img) != 0)
                 throw InputError("", "bench",
                                  "the step-counting shader drew a different image (a bug)");
             for (auto id : img.id) row.drawn += id != kernel::VT_NO_ENTITY;
 
-            std::printf("%8d %7d %-18s %9.2f %9.2f %9.2f %9.2f %7.2f %11llu %11llu %8.2f %9zu\n",
-                        row.entities, row.visible, row.variant.c_str(), row.vkDrawMs,
-                        row.vkReadbackMs, row.vkFrameMs(), row.refMs, row.ratio(),
-                        (unsigned long long)row.fragments, (unsigned long long)row.kernelFragments,
-                        row.stepsPerFragment(), row.differing);
+            std::printf(
+                "%8d %7d %-16s %8.1f %7.1f %8.1f %8.1f %6.2f %8.1f %8.1f %6.2f %10llu %10llu "
+                "%7.2f %8zu\n",
+                row.entities, row.visible, row.variant.c_str(), row.vkDrawMs, row.vkReadbackMs,
+                row.vkFrameMs(), row.refMs, row.ratio(), row.vkCpuMs, row.refCpuMs,
+                row.vkCpuMs > 0 ? row.refCpuMs / row.vkCpuMs : 0.0,
+                (unsigned long long)row.fragments, (unsigned long long)row.kernelFragments,
+                row.stepsPerFragment(), row.differing);
             std::fflush(stdout);
             if (csv)
                 csv << row.entities << ',' << row.visible << ',' << row.variant << ','
                     << row.vkDrawMs << ',' << row.vkReadbackMs << ',' << row.vkFrameMs() << ','
-                    << row.refMs << ',' << row.ratio() << ',' << row.fragments << ','
-                    << row.kernelFragments << ',' << row.stepsPerFragment() << ',' << row.differing
-                    << ',' << row.drawn << '\n';
+                    << row.refMs << ',' << row.ratio() << ',' << row.vkCpuMs << ',' << row.refCpuMs
+                    << ',' << row.fragments << ',' << row.kernelFragments << ','
+                    << row.stepsPerFragment() << ',' << row.differing << ',' << row.drawn << '\n';
         }
     }
     std::printf(
         "vk_draw: record + submit + wait of the draw; vk_read: copy of colour/id/depth to host + "
         "unpack;\n"
-        "ref/vk = reference_ms / vk_frame_ms; fragments: pipeline statistics "
-        "(FRAGMENT_SHADER_INVOCATIONS);\n"
+        "ref/vk = reference_ms / vk_frame_ms; vk_cpu, ref_cpu: process CPU ms (all threads) of the "
+        "whole\n"
+        "near render call and of the reference, cpu_r = ref_cpu / vk_cpu (robust to other load);\n"
+        "fragments: pipeline statistics (FRAGMENT_SHADER_INVOCATIONS);\n"
         "kernel_frg: fragments that ran the kernel; steps/f: voxel reads (DDA steps incl. outline "
         "rays) per\n"
         "kernel fragment; mismatch: pixels differing from the reference (colour, depth or id).\n");
