@@ -96,6 +96,7 @@ void run(const RenderArgs& a) {
     if (!a.ids.empty()) writeIdImage(a.ids, r.image);
     std::size_t drawnPixels = 0;
     for (auto id : r.image.id) drawnPixels += id != kernel::VT_NO_ENTITY;
+    if (mode == RenderMode::Near) std::printf("Vulkan device: %s\n", renderer.nearDeviceName().c_str());
     std::printf("%s: %s, t=%.3f s, %dx%d, %d entities (%d culled), %zu sprite pixels, %.1f ms -> %s\n",
                 a.input.c_str(), toString(mode), time, r.image.width, r.image.height, r.stats.entities,
                 r.stats.culled, drawnPixels, r.stats.totalMs, out.c_str());
@@ -108,7 +109,10 @@ void addRenderCommand(CLI::App& app) {
     CLI::App* cmd = app.add_subcommand("render", "Render one frame of a scene (.json) or a single model (.vox)");
     cmd->add_option("input", args->input, "Scene file (.json) or MagicaVoxel model (.vox)")->required();
     cmd->add_option("-o,--out", args->out, "Output image (.png, or .exr with Z and id channels); default out/<name>.png");
-    cmd->add_option("--mode", args->mode, "reference (CPU reference tracer) or far (every entity through the far tier's snapshot cache)")->capture_default_str();
+    cmd->add_option("--mode", args->mode,
+                    "reference (CPU reference tracer), near (Vulkan near tier; VOXTIER_VALIDATION=1 "
+                    "enables validation) or far (every entity through the far tier's snapshot cache)")
+        ->capture_default_str();
     auto* t = cmd->add_option("--time", args->time, "Time in seconds along the camera path");
     auto* f = cmd->add_option("--frame", args->frame, "Frame number of the camera path (applies scripted edits up to it)");
     t->excludes(f);

@@ -7,5 +7,6 @@ namespace voxtier::cli {
 void addRenderCommand(CLI::App& app);
 void addInfoCommand(CLI::App& app);
 void addBakeCommand(CLI::App& app);
+void addBenchCommand(CLI::App& app); ///< `bench near` (apps/cmd_bench_near.cpp)
 
 } // namespace voxtier::cli

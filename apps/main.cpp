@@ -11,6 +11,7 @@ int main(int argc, char** argv) {
     voxtier::cli::addRenderCommand(app);
     voxtier::cli::addInfoCommand(app);
     voxtier::cli::addBakeCommand(app);
+    voxtier::cli::addBenchCommand(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -2,6 +2,7 @@
 
 #include "core/error.hpp"
 #include "impostor_cache/far_frame.hpp"
+#include "volumetric/near_renderer.hpp"
 #include "volumetric/reference_renderer.hpp"
 
 #include <algorithm>
@@ -17,14 +18,16 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 RenderMode parseRenderMode(const std::string& name) {
     if (name == "reference") return RenderMode::Reference;
+    if (name == "near") return RenderMode::Near;
     if (name == "far") return RenderMode::Far;
-    throw InputError("", "--mode", "unknown render mode '" + name + "' (expected: reference, far)");
+    throw InputError("", "--mode", "unknown render mode '" + name + "' (expected: reference, near, far)");
 }
 
 const char* toString(RenderMode m) {
     switch (m) {
     case RenderMode::Reference: return "reference";
     case RenderMode::Far: return "far";
+    case RenderMode::Near: return "near";
     }
     return "?";
 }
@@ -35,6 +38,8 @@ FrameRenderer::FrameRenderer(Scene& scene) : scene_(scene), cache_(std::make_uni
 }
 
 FrameRenderer::~FrameRenderer() = default;
+
+std::string FrameRenderer::nearDeviceName() const { return near_ ? near_->deviceName() : std::string(); }
 
 void FrameRenderer::applyEditsThrough(int frame) {
     while (editsApplied_ < int(scene_.edits.size()) && scene_.edits[std::size_t(editsApplied_)].atFrame <= frame) {
@@ -81,6 +86,15 @@ FrameResult FrameRenderer::render(double time, RenderMode mode) {
         out.stats.farBakes = int(fs.bakes);
         out.stats.farMs = fs.ensureMs + fs.blit.milliseconds;
         out.stats.pixelsTested = fs.blit.pixelsTested;
+        break;
+    }
+    case RenderMode::Near: {
+        // Created on first use: reference-only runs never touch Vulkan.
+        if (!near_) near_ = std::make_unique<NearRenderer>();
+        NearStats ns;
+        out.image = near_->render(cam, scene_.models, out.sprites, scene_.render.background, {}, &ns);
+        out.stats.drawnNear = int(ns.sprites);
+        out.stats.nearMs = ns.uploadMs + ns.drawMs + ns.readbackMs;
         break;
     }
     }

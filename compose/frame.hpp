@@ -11,9 +11,12 @@
 
 namespace voxtier {
 
+class NearRenderer;
+
 enum class RenderMode {
     Reference, ///< every entity through the CPU reference tracer (the executable spec)
     Far,       ///< every entity through the far tier's snapshot cache (DESIGN.md §4)
+    Near,      ///< every entity through the Vulkan near tier (volumetric/near_renderer.hpp)
 };
 RenderMode parseRenderMode(const std::string& name); ///< throws InputError(field "--mode")
 const char* toString(RenderMode m);
@@ -25,8 +28,10 @@ struct FrameStats {
     int drawnFar = 0;
     double farMs = 0.0;    ///< snapshot lookups and bakes + blit
     int farBakes = 0;      ///< snapshots baked during this frame
+    int drawnNear = 0;
     double setupMs = 0.0;
     double referenceMs = 0.0;
+    double nearMs = 0.0; ///< near tier: upload + draw + readback
     double totalMs = 0.0;
     std::uint64_t pixelsTested = 0, voxelFetches = 0;
 };
@@ -52,9 +57,12 @@ public:
     FrameResult render(double time, RenderMode mode);
     /// The far tier's snapshot cache; it persists across frames of this renderer.
     SnapshotCache& snapshotCache() { return *cache_; }
+    /// The Vulkan device of the near tier ("" until a Near frame created it).
+    std::string nearDeviceName() const;
 
 private:
     Scene& scene_;
+    std::unique_ptr<NearRenderer> near_; ///< created by the first Near frame (owns the Vulkan device)
     int editsApplied_ = 0; ///< scene.edits are applied in order of atFrame
     std::unique_ptr<SnapshotCache> cache_;
 };

@@ -4,13 +4,18 @@
 #include "core/image.hpp"
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
+#include "volumetric/near_renderer.hpp"
+#include "volumetric/reference_renderer.hpp"
 
 #include <glm/glm.hpp>
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace voxtier::test {
@@ -147,6 +152,144 @@ inline Rgba8 expectedLit(Rgba8 base, const Light& light, glm::dvec3 normalVoxel,
     unsigned ch[3];
     for (int i = 0; i < 3; ++i) ch[i] = unsigned(std::min<long long>(255, (channel(base, i) * f + 32768) >> 16));
     return packRgba(ch[0], ch[1], ch[2], 255);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The Vulkan near tier in tests.
+
+/// One NearRenderer per test process, shared by every Vulkan test in it: lavapipe JIT-compiles a
+/// pipeline on first use, which would otherwise dominate the suite. Validation (with
+/// synchronization validation) is always on; messages are recorded, not printed. There is no
+/// "skip when no device": on a machine without Vulkan these tests fail, loudly.
+/// Register it in each Vulkan test file with
+///   const auto* kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRendererEnvironment);
+/// Its TearDown destroys the renderer and device and asserts that the layer reported nothing,
+/// leaked objects included (those are reported while the device and instance are destroyed).
+class NearRendererEnvironment : public ::testing::Environment {
+public:
+    static NearRenderer& renderer() {
+        if (!instance()) {
+            VulkanDeviceOptions options;
+            options.validation = true;
+            options.echoMessages = false;
+            instance() = std::make_unique<NearRenderer>(options, log());
+        }
+        return *instance();
+    }
+    static const std::shared_ptr<VulkanMessageLog>& log() {
+        static const auto l = std::make_shared<VulkanMessageLog>();
+        return l;
+    }
+    void TearDown() override {
+        instance().reset();
+        EXPECT_EQ(log()->count(), 0u) << "Vulkan validation / loader messages:\n" << log()->joined();
+    }
+
+private:
+    static std::unique_ptr<NearRenderer>& instance() {
+        static std::unique_ptr<NearRenderer> r;
+        return r;
+    }
+};
+
+/// Fixture for Vulkan tests: every test ends with zero validation messages.
+class VulkanTest : public ::testing::Test {
+protected:
+    static NearRenderer& nearRenderer() { return NearRendererEnvironment::renderer(); }
+    void TearDown() override {
+        const auto& log = NearRendererEnvironment::log();
+        EXPECT_EQ(log->count(), 0u) << "Vulkan validation messages:\n" << log->joined();
+    }
+};
+
+/// A frame of a scene through the CPU reference and through the Vulkan near tier.
+struct NearAndReference {
+    Image near, reference;
+    std::vector<SpriteSetup> sprites;
+    NearStats nearStats;
+    ReferenceStats referenceStats;
+};
+inline NearAndReference renderBoth(NearRenderer& renderer, const Scene& scene, double time = 0.0,
+                                   const NearOptions& options = {}) {
+    NearAndReference r;
+    const CameraFrame cam = makeCameraFrame(scene.cameraAt(time));
+    r.sprites = setupSprites(scene, cam, time);
+    r.reference = Image(cam.width, cam.height, scene.render.background);
+    renderReference(scene.models, r.sprites, r.reference, &r.referenceStats);
+    r.near = renderer.render(cam, scene.models, r.sprites, scene.render.background, options, &r.nearStats);
+    return r;
+}
+
+/// "" when the images are identical (colour, depth bits, id); otherwise the number of differing
+/// pixels and the first one with both values and the entity each image has there.
+inline std::string describeDifference(const Image& vulkan, const Image& reference) {
+    if (vulkan.width != reference.width || vulkan.height != reference.height)
+        return "image sizes differ: " + std::to_string(vulkan.width) + "x" + std::to_string(vulkan.height) +
+               " vs " + std::to_string(reference.width) + "x" + std::to_string(reference.height);
+    const ImageDiff d = diffImages(vulkan, reference);
+    if (d.identical()) return "";
+    const std::size_t p = vulkan.index(int(d.firstX), int(d.firstY));
+    char buf[400];
+    std::snprintf(buf, sizeof buf,
+                  "%zu colour, %zu depth, %zu id pixels differ; first at (%zu,%zu): vulkan colour %08x depth %.9g "
+                  "entity %d, reference colour %08x depth %.9g entity %d",
+                  d.colorDiffs, d.depthDiffs, d.idDiffs, d.firstX, d.firstY, vulkan.color[p], double(vulkan.depth[p]),
+                  int(vulkan.id[p]), reference.color[p], double(reference.depth[p]), int(reference.id[p]));
+    return buf;
+}
+
+inline std::size_t drawnPixels(const Image& img) {
+    return std::size_t(std::count_if(img.id.begin(), img.id.end(), [](std::uint32_t v) { return v != kernel::VT_NO_ENTITY; }));
+}
+
+/// The closed-form check of tests/reference_golden_test.cpp (compareWithClosedForm), shared
+/// here so the Vulkan tests hold the GPU image to the same independent answer: a solid box from
+/// viewAlong(towardViewer) must be exactly the double-precision silhouette, outline, lighting,
+/// depth and id. Returns the number of wrong pixels and describes the first.
+inline int countClosedFormMismatches(const ViewSetup& v, glm::dvec3 towardViewer, const Image& img, std::string* first = nullptr) {
+    const Scene& s = v.scene;
+    const CameraFrame cam = makeCameraFrame(s.camera);
+    const glm::dmat3 voxelFromWorld = glm::transpose(worldFromVoxelSwizzle());
+    const glm::dvec3 dir = -glm::normalize(towardViewer);
+    const glm::dvec3 upVoxel = voxelFromWorld * cam.up;
+    const double sigma = s.render.sigma;
+    const glm::ivec3 dims = s.models[0]->frame(0).dims();
+    const ExpectedCells e = expectedBoxCells(dims, dir, upVoxel, sigma);
+    const glm::dvec3 up = glm::normalize(upVoxel - glm::dot(upVoxel, dir) * dir);
+    const glm::dvec3 right = glm::cross(dir, up);
+    const glm::dvec3 c = glm::dvec3(dims) * 0.5;
+    const glm::dvec3 g = glm::floor(c) - c;
+    const double gu = glm::dot(g, right), gv = glm::dot(g, up);
+    const double m = double(std::lround(s.render.voxelSize / (sigma * cam.pixelScale() * v.distance)));
+    const glm::dvec3 lightVoxel = voxelFromWorld * glm::normalize(s.light.direction);
+    const float depth = float(cam.zNear / v.distance);
+    int count = 0;
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) {
+            const double su = (x + 0.5 - img.width * 0.5) / m;
+            const double sv = -(y + 0.5 - img.height * 0.5) / m;
+            const int i = int(std::floor(su - sigma * gu)), j = int(std::floor(sv - sigma * gv));
+            int kind = 0, face = -1;
+            if (i >= e.range.x && i <= e.range.y && j >= e.range.z && j <= e.range.w) {
+                kind = e.kind[e.at(i, j)];
+                face = e.face[e.at(i, j)];
+            }
+            const std::size_t p = img.index(x, y);
+            Rgba8 want = s.render.background;
+            if (kind == 1) want = expectedLit(s.models[0]->palette().colors[1], s.light, faceNormal(unsigned(face)), lightVoxel);
+            if (kind == 2) want = packRgba(0, 0, 0, 255);
+            const bool idOk = kind == 0 ? img.id[p] == kernel::VT_NO_ENTITY : img.id[p] == 0u;
+            const bool depthOk = kind == 0 ? img.depth[p] == 0.0f : std::abs(img.depth[p] - depth) <= 1e-6f * depth;
+            if (img.color[p] != want || !idOk || !depthOk) {
+                if (count++ == 0 && first) {
+                    char buf[200];
+                    std::snprintf(buf, sizeof buf, "pixel (%d,%d) cell (%d,%d): expected kind %d colour %08x, got colour %08x id %u",
+                                  x, y, i, j, kind, want, img.color[p], img.id[p]);
+                    *first = buf;
+                }
+            }
+        }
+    return count;
 }
 
 } // namespace voxtier::test

@@ -1,0 +1,220 @@
+// The headless Vulkan device: it exists here (lavapipe), validation is on in tests and catches
+// what it should (a deliberately leaked buffer is reported at teardown, so "zero messages" in the
+// other suites means something), a full render-and-destroy cycle leaks nothing, and without any
+// Vulkan driver the CLI fails with one clear line while --mode reference keeps working.
+#include "test_support.hpp"
+#include "volumetric/vulkan_device.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <unistd.h>
+
+namespace voxtier {
+namespace {
+
+const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRendererEnvironment);
+
+using test::VulkanTest;
+class NearDevice : public VulkanTest {};
+
+VulkanDeviceOptions validated() {
+    VulkanDeviceOptions o;
+    o.validation = true;
+    o.echoMessages = false;
+    return o;
+}
+
+TEST_F(NearDevice, DeviceExistsAndRunsWithValidation) {
+    NearRenderer& nr = nearRenderer();
+    EXPECT_FALSE(nr.deviceName().empty());
+    EXPECT_TRUE(nr.validationEnabled());
+    std::printf("Vulkan device: %s (%s)\n", nr.deviceName().c_str(),
+                nr.deviceIsCpu() ? "CPU" : "GPU");
+}
+
+TEST(VulkanDevice, PrefersAGpuAndFallsBackToLavapipe) {
+    auto log = std::make_shared<VulkanMessageLog>();
+    VulkanDevice dev(validated(), log);
+    // This machine has no GPU: the fallback must be the CPU rasterizer.
+    std::uint32_t n = 0;
+    vkEnumeratePhysicalDevices(dev.instance(), &n, nullptr);
+    std::vector<VkPhysicalDevice> all(n);
+    vkEnumeratePhysicalDevices(dev.instance(), &n, all.data());
+    bool anyGpu = false;
+    for (VkPhysicalDevice pd : all) {
+        VkPhysicalDeviceProperties p{};
+        vkGetPhysicalDeviceProperties(pd, &p);
+        anyGpu |= p.deviceType == VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU ||
+                  p.deviceType == VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU;
+    }
+    EXPECT_EQ(dev.isCpu(), !anyGpu) << dev.name();
+    EXPECT_GE(dev.properties().apiVersion, VK_API_VERSION_1_2);
+    EXPECT_TRUE(dev.hasPipelineStatistics());
+    EXPECT_TRUE(dev.hasFragmentAtomics());
+}
+
+// The teardown check is real: a buffer that is never destroyed is reported while the device is
+// destroyed, into the log that outlives it.
+TEST(VulkanDevice, ValidationReportsALeakedObjectAtTeardown) {
+    auto log = std::make_shared<VulkanMessageLog>();
+    {
+        VulkanDevice dev(validated(), log);
+        VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+        bci.size = 256;
+        bci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+        VkBuffer leaked = VK_NULL_HANDLE;
+        VK_CHECK(vkCreateBuffer(dev.device(), &bci, nullptr, &leaked));
+        EXPECT_EQ(log->count(), 0u);
+    }
+    ASSERT_GE(log->count(), 1u);
+    EXPECT_NE(log->joined().find("VkBuffer"), std::string::npos) << log->joined();
+}
+
+// A whole renderer lifecycle (pipelines, atlas growth, targets, queries, counters) destroys
+// everything it created: no leak report at teardown, no message at all.
+TEST(VulkanDevice, RenderAndTeardownLeaveNoValidationMessages) {
+    auto log = std::make_shared<VulkanMessageLog>();
+    {
+        NearRenderer nr(validated(), log);
+        const auto v = test::viewAlong(test::solidBox({5, 7, 3}), glm::dvec3(1, 2, -1), 2.0, 3);
+        for (NearProxy proxy : {NearProxy::Quad, NearProxy::Box}) {
+            NearOptions o;
+            o.proxy = proxy;
+            o.countSteps = true;
+            const auto r = test::renderBoth(nr, v.scene, 0.0, o);
+            EXPECT_GT(test::drawnPixels(r.near), 0u);
+        }
+    }
+    EXPECT_EQ(log->count(), 0u) << log->joined();
+}
+
+TEST(VulkanCheck, FailedCallThrowsVulkanErrorNamingCallAndResult) {
+    try {
+        VK_CHECK(VK_ERROR_DEVICE_LOST);
+        FAIL() << "VK_CHECK did not throw";
+    } catch (const VulkanError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("VK_ERROR_DEVICE_LOST"), std::string::npos) << what;
+        EXPECT_NE(what.find("vulkan_device_test.cpp"), std::string::npos) << what;
+        EXPECT_EQ(what.find('\n'), std::string::npos);
+        EXPECT_EQ(e.result(), VK_ERROR_DEVICE_LOST);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The CLI as a child process.
+
+struct CliRun {
+    int status = -1;
+    std::string out, err;
+};
+
+std::string slurp(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+/// A scratch directory of this test alone: CTest runs the tests of this file in parallel
+/// processes, so shared file names would race.
+std::string scratchDir() {
+    const std::string dir = ::testing::TempDir() + "voxtier_" +
+                            ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" +
+                            std::to_string(::getpid());
+    std::filesystem::create_directories(dir);
+    return dir;
+}
+
+/// Removes the scratch directory when a CLI test ends.
+class VulkanCli : public ::testing::Test {
+  protected:
+    void TearDown() override { std::filesystem::remove_all(scratchDir()); }
+};
+
+CliRun runCli(const std::string& env, const std::string& args) {
+    const std::string dir = scratchDir();
+    const std::string out = dir + "/stdout.txt", err = dir + "/stderr.txt";
+    const std::string cmd = env + " " + VOXTIER_CLI + " " + args + " >" + out + " 2>" + err;
+    const int st = std::system(cmd.c_str());
+    CliRun r;
+    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+}
+
+std::size_t lineCount(const std::string& s) {
+    std::size_t n = 0;
+    for (char c : s) n += c == '\n';
+    return n + (!s.empty() && s.back() != '\n');
+}
+
+// Both variables: VK_DRIVER_FILES is the current name, VK_ICD_FILENAMES the older one.
+const std::string kNoDriver = "VK_DRIVER_FILES=/nonexistent/voxtier_none.json "
+                              "VK_ICD_FILENAMES=/nonexistent/voxtier_none.json";
+
+TEST_F(VulkanCli, NoVulkanDeviceIsOneClearLineAndNonZeroExit) {
+    const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
+    const std::string out = scratchDir() + "/no_device.png";
+    for (const std::string& extra : {std::string(), std::string(" VOXTIER_VALIDATION=1")}) {
+        const CliRun r = runCli(kNoDriver + extra, "render " + scene + " --mode near --out " + out);
+        EXPECT_NE(r.status, 0);
+        EXPECT_EQ(r.err, std::string("voxtier: error: ") + kNoVulkanDeviceMessage + "\n")
+            << "stderr was:\n"
+            << r.err;
+        EXPECT_EQ(lineCount(r.err), 1u);
+    }
+    // An empty driver manifest is the same situation.
+    const std::string empty = scratchDir() + "/empty_icd.json";
+    std::ofstream(empty) << "{}\n";
+    const CliRun r = runCli("VK_DRIVER_FILES=" + empty + " VK_ICD_FILENAMES=" + empty,
+                            "render " + scene + " --mode near --out " + out);
+    EXPECT_NE(r.status, 0);
+    EXPECT_EQ(r.err, std::string("voxtier: error: ") + kNoVulkanDeviceMessage + "\n")
+        << "stderr was:\n"
+        << r.err;
+}
+
+TEST_F(VulkanCli, ReferenceModeWorksWithoutAnyVulkanDriver) {
+    const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
+    const std::string out = scratchDir() + "/reference.png";
+    const CliRun r = runCli(kNoDriver, "render " + scene + " --mode reference --out " + out);
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(r.err, "");
+    EXPECT_TRUE(std::filesystem::exists(out));
+}
+
+TEST_F(VulkanCli, NearModePrintsTheDeviceAndMatchesReferenceFile) {
+    const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/topdown.json";
+    const std::string nearPng = scratchDir() + "/near.png";
+    const std::string refPng = scratchDir() + "/reference.png";
+    const CliRun n =
+        runCli("VOXTIER_VALIDATION=1", "render " + scene + " --mode near --out " + nearPng);
+    ASSERT_EQ(n.status, 0) << n.err;
+    EXPECT_EQ(n.err, "") << "validation messages";
+    EXPECT_NE(n.out.find("Vulkan device: "), std::string::npos) << n.out;
+    const CliRun r = runCli("", "render " + scene + " --mode reference --out " + refPng);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_TRUE(slurp(nearPng) == slurp(refPng));
+}
+
+TEST_F(VulkanCli, ValidationWithoutTheLayerInstalledIsAClearError) {
+    const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
+    const std::string out = scratchDir() + "/no_layer.png";
+    // VK_LAYER_PATH replaces the loader's explicit-layer search path: no validation layer found.
+    const CliRun r = runCli("VOXTIER_VALIDATION=1 VK_LAYER_PATH=/nonexistent/layers",
+                            "render " + scene + " --mode near --out " + out);
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.err.find("VK_LAYER_KHRONOS_validation is not installed"), std::string::npos)
+        << r.err;
+    EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+}
+
+} // namespace
+} // namespace voxtier

@@ -1,0 +1,679 @@
+#include "volumetric/near_renderer.hpp"
+
+#include "volumetric/shaders/near_shared.h"
+#include "volumetric/voxel_residency.hpp"
+#include "volumetric/vulkan_device.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstring>
+
+// SPIR-V generated at build time by glslangValidator (volumetric/CMakeLists.txt).
+#include "shaders/near_box_vert.h"
+#include "shaders/near_frag.h"
+#include "shaders/near_hull_vert.h"
+#include "shaders/near_quad_vert.h"
+#include "shaders/near_steps_frag.h"
+
+namespace voxtier {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+constexpr VkFormat kColorFormat = VK_FORMAT_R32_UINT; // packed RGBA8 from the kernel, bit-exact
+constexpr VkFormat kIdFormat = VK_FORMAT_R32_UINT;
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT; // the kernel's float depth, stored as is
+
+} // namespace
+
+std::array<glm::dvec4, 8> NearRenderer::proxyBoxClipCorners(const CameraFrame& cam,
+                                                            const SpriteSetup& s) {
+    // §3.10: model bounds grown by one virtual pixel (1/sigma voxel) on every side.
+    const double m = 1.0 / s.lattice.sigma;
+    const glm::dvec3 lo(-m), hi = glm::dvec3(s.lattice.dims) + m;
+    std::array<glm::dvec4, 8> out;
+    for (int k = 0; k < 8; ++k) {
+        const glm::dvec3 p{(k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z};
+        out[std::size_t(k)] = clipFromCameraRelative(cam, s.pose.relativeWorld(p, cam.eye));
+    }
+    return out;
+}
+
+std::vector<glm::dvec4> NearRenderer::proxyHullClipCorners(const CameraFrame& cam,
+                                                           const SpriteSetup& s) {
+    const SpriteLattice& L = s.lattice;
+    const double k = s.pose.metresPerVoxel;
+    // A pixel can be non-empty only if its sprite-plane point lies in a cell whose centre, or a
+    // cardinal neighbour's centre, sends a parallel ray into the model box [0, N]^3, i.e. within
+    // 1.5 cells (per axis) of the box's parallel projection H. Two pixels more (measured at the
+    // centre's depth, an over-estimate of a pixel on the plane near the sprite) keep the
+    // rasteriser's rounding away from every pixel that matters, as with the quad (DESIGN §3.10).
+    const double m = 1.5 / L.sigma + 2.0 * cam.pixelScale() * s.viewDepth / k;
+    std::vector<glm::dvec2> pts;
+    pts.reserve(32);
+    for (int c = 0; c < 8; ++c) {
+        const glm::dvec3 p =
+            glm::dvec3((c & 1) ? L.dims.x : 0, (c & 2) ? L.dims.y : 0, (c & 4) ? L.dims.z : 0) -
+            L.centre;
+        const double u = glm::dot(p, L.right), v = glm::dot(p, L.up);
+        for (int q = 0; q < 4; ++q) pts.push_back({u + ((q & 1) ? m : -m), v + ((q & 2) ? m : -m)});
+    }
+    // Andrew's monotone chain; collinear points dropped, counter-clockwise order.
+    std::sort(pts.begin(), pts.end(),
+              [](glm::dvec2 a, glm::dvec2 b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+    auto cross = [](glm::dvec2 o, glm::dvec2 a, glm::dvec2 b) {
+        return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+    };
+    std::vector<glm::dvec2> hull(2 * pts.size());
+    std::size_t h = 0;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+        while (h >= 2 && cross(hull[h - 2], hull[h - 1], pts[i]) <= 0.0) --h;
+        hull[h++] = pts[i];
+    }
+    for (std::size_t i = pts.size() - 1, lower = h + 1; i-- > 0;) {
+        while (h >= lower && cross(hull[h - 2], hull[h - 1], pts[i]) <= 0.0) --h;
+        hull[h++] = pts[i];
+    }
+    hull.resize(h - 1); // the last point repeats the first
+    std::vector<glm::dvec4> out;
+    if (hull.size() > near_gpu::NEAR_HULL_MAX_VERTICES || hull.size() < 3) {
+        // Cannot happen for a box (hexagon + square: at most 10 corners), but never draw less
+        // than the quad: its corners in fan order.
+        for (int i : {0, 1, 3, 2}) out.push_back(glm::dvec4(s.gpu.quad[i]));
+        return out;
+    }
+    const glm::dvec3 rW = s.pose.worldDirection(L.right), uW = s.pose.worldDirection(L.up);
+    for (glm::dvec2 p : hull)
+        out.push_back(clipFromCameraRelative(cam, s.centreRel + k * (p.x * rW + p.y * uW)));
+    return out;
+}
+
+struct NearRenderer::Impl {
+    VulkanDevice device;
+    VoxelResidency residency;
+
+    VkSampler sampler = VK_NULL_HANDLE;
+    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+    VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
+    VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
+    VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
+    VkRenderPass renderPass = VK_NULL_HANDLE;
+    VkPipeline pipelines[3][2] = {}; ///< [proxy][countSteps], created on first use
+    VkQueryPool statsPool = VK_NULL_HANDLE;
+    VkCommandBuffer drawCb = VK_NULL_HANDLE;
+    VkCommandBuffer readCb = VK_NULL_HANDLE;
+
+    // Render targets, re-created when the image size changes.
+    int width = 0, height = 0;
+    VulkanImage color, id, depth;
+    VkFramebuffer framebuffer = VK_NULL_HANDLE;
+    VulkanBuffer readback;
+
+    // Per-frame data (host-visible, coherent) and the step counters.
+    VulkanBuffer sprites, boxes, hulls, counters;
+
+    Impl(const VulkanDeviceOptions& options, std::shared_ptr<VulkanMessageLog> log)
+        : device(options, std::move(log)), residency(device) {
+        try {
+            create();
+        } catch (...) {
+            destroy();
+            throw;
+        }
+    }
+    ~Impl() { destroy(); }
+
+    void create();
+    void destroy() noexcept;
+    VkPipeline pipeline(NearProxy proxy, bool countSteps);
+    void ensureTargets(int w, int h);
+    void ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes, VkBufferUsageFlags usage);
+    void writeDescriptors();
+    Image render(const CameraFrame& cam, const std::vector<std::shared_ptr<VoxelModel>>& models,
+                 std::span<const SpriteSetup* const> sprites, Rgba8 background,
+                 const NearOptions& opt, NearStats* stats);
+};
+
+void NearRenderer::Impl::create() {
+    VkDevice dev = device.device();
+
+    VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+    // texelFetch ignores the sampler's filtering; nearest keeps the integer format legal.
+    sci.magFilter = VK_FILTER_NEAREST;
+    sci.minFilter = VK_FILTER_NEAREST;
+    sci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+    sci.addressModeU = sci.addressModeV = sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    VK_CHECK(vkCreateSampler(dev, &sci, nullptr, &sampler));
+
+    using namespace near_gpu;
+    const VkShaderStageFlags vf = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+    const VkDescriptorSetLayoutBinding bindings[] = {
+        {NEAR_BINDING_SPRITES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, vf, nullptr},
+        {NEAR_BINDING_ATLAS, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
+         VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+        {NEAR_BINDING_PALETTES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
+         nullptr},
+        {NEAR_BINDING_COUNTERS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
+         nullptr},
+        {NEAR_BINDING_BOXES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT,
+         nullptr},
+        {NEAR_BINDING_HULLS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT,
+         nullptr},
+    };
+    VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+    dli.bindingCount = std::uint32_t(std::size(bindings));
+    dli.pBindings = bindings;
+    VK_CHECK(vkCreateDescriptorSetLayout(dev, &dli, nullptr, &setLayout));
+
+    VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+    pli.setLayoutCount = 1;
+    pli.pSetLayouts = &setLayout;
+    VK_CHECK(vkCreatePipelineLayout(dev, &pli, nullptr, &pipelineLayout));
+
+    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5},
+                                          {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1}};
+    VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    dpi.maxSets = 1;
+    dpi.poolSizeCount = std::uint32_t(std::size(sizes));
+    dpi.pPoolSizes = sizes;
+    VK_CHECK(vkCreateDescriptorPool(dev, &dpi, nullptr, &descriptorPool));
+    VkDescriptorSetAllocateInfo dsa{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+    dsa.descriptorPool = descriptorPool;
+    dsa.descriptorSetCount = 1;
+    dsa.pSetLayouts = &setLayout;
+    VK_CHECK(vkAllocateDescriptorSets(dev, &dsa, &descriptorSet));
+
+    // Colour + id + depth, cleared on load, kept for the copy to host memory.
+    VkAttachmentDescription att[3]{};
+    for (int i = 0; i < 3; ++i) {
+        att[i].format = i == 2 ? kDepthFormat : (i == 0 ? kColorFormat : kIdFormat);
+        att[i].samples = VK_SAMPLE_COUNT_1_BIT;
+        att[i].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+        att[i].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+        att[i].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+        att[i].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+        att[i].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+        att[i].finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    }
+    const VkAttachmentReference colorRefs[2] = {{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+                                                {1, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL}};
+    const VkAttachmentReference depthRef{2, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
+    VkSubpassDescription sub{};
+    sub.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+    sub.colorAttachmentCount = 2;
+    sub.pColorAttachments = colorRefs;
+    sub.pDepthStencilAttachment = &depthRef;
+    const VkPipelineStageFlags attachmentStages = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT |
+                                                  VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT |
+                                                  VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+    const VkAccessFlags attachmentAccess =
+        VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT |
+        VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT;
+    const VkSubpassDependency deps[2] = {
+        // The previous frame's copy-out must finish reading before the clear overwrites.
+        {VK_SUBPASS_EXTERNAL, 0, VK_PIPELINE_STAGE_TRANSFER_BIT, attachmentStages, 0,
+         attachmentAccess, 0},
+        // The copy-out reads what the subpass wrote.
+        {0, VK_SUBPASS_EXTERNAL, attachmentStages, VK_PIPELINE_STAGE_TRANSFER_BIT,
+         VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+         VK_ACCESS_TRANSFER_READ_BIT, 0},
+    };
+    VkRenderPassCreateInfo rpi{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+    rpi.attachmentCount = 3;
+    rpi.pAttachments = att;
+    rpi.subpassCount = 1;
+    rpi.pSubpasses = &sub;
+    rpi.dependencyCount = 2;
+    rpi.pDependencies = deps;
+    VK_CHECK(vkCreateRenderPass(dev, &rpi, nullptr, &renderPass));
+
+    if (device.hasPipelineStatistics()) {
+        VkQueryPoolCreateInfo qpi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+        qpi.queryType = VK_QUERY_TYPE_PIPELINE_STATISTICS;
+        qpi.queryCount = 1;
+        qpi.pipelineStatistics = VK_QUERY_PIPELINE_STATISTIC_FRAGMENT_SHADER_INVOCATIONS_BIT;
+        VK_CHECK(vkCreateQueryPool(dev, &qpi, nullptr, &statsPool));
+    }
+
+    drawCb = device.allocateCommandBuffer();
+    readCb = device.allocateCommandBuffer();
+    counters =
+        VulkanBuffer(device, sizeof(near_gpu::NearCounters),
+                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+    ensureBuffer(sprites, sizeof(kernel::SpriteGpu) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(boxes, sizeof(near_gpu::NearBox) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(hulls, sizeof(near_gpu::NearHull) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+}
+
+void NearRenderer::Impl::destroy() noexcept {
+    VkDevice dev = device.device();
+    if (!dev) return;
+    vkDeviceWaitIdle(dev);
+    for (auto& perProxy : pipelines)
+        for (VkPipeline& p : perProxy) {
+            if (p) vkDestroyPipeline(dev, p, nullptr);
+            p = VK_NULL_HANDLE;
+        }
+    if (framebuffer) vkDestroyFramebuffer(dev, framebuffer, nullptr);
+    framebuffer = VK_NULL_HANDLE;
+    color.reset();
+    id.reset();
+    depth.reset();
+    readback.reset();
+    sprites.reset();
+    boxes.reset();
+    hulls.reset();
+    counters.reset();
+    device.freeCommandBuffer(drawCb);
+    device.freeCommandBuffer(readCb);
+    drawCb = readCb = VK_NULL_HANDLE;
+    if (statsPool) vkDestroyQueryPool(dev, statsPool, nullptr);
+    if (renderPass) vkDestroyRenderPass(dev, renderPass, nullptr);
+    if (descriptorPool) vkDestroyDescriptorPool(dev, descriptorPool, nullptr); // frees the set
+    if (pipelineLayout) vkDestroyPipelineLayout(dev, pipelineLayout, nullptr);
+    if (setLayout) vkDestroyDescriptorSetLayout(dev, setLayout, nullptr);
+    if (sampler) vkDestroySampler(dev, sampler, nullptr);
+    statsPool = VK_NULL_HANDLE;
+    renderPass = VK_NULL_HANDLE;
+    descriptorPool = VK_NULL_HANDLE;
+    pipelineLayout = VK_NULL_HANDLE;
+    setLayout = VK_NULL_HANDLE;
+    sampler = VK_NULL_HANDLE;
+}
+
+VkPipeline NearRenderer::Impl::pipeline(NearProxy proxy, bool countSteps) {
+    VkPipeline& slot = pipelines[int(proxy)][countSteps];
+    if (slot) return slot;
+    VkDevice dev = device.device();
+    auto makeModule = [&](const std::uint32_t* code, std::size_t bytes) {
+        VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+        mi.codeSize = bytes;
+        mi.pCode = code;
+        VkShaderModule m = VK_NULL_HANDLE;
+        VK_CHECK(vkCreateShaderModule(dev, &mi, nullptr, &m));
+        return m;
+    };
+    VkShaderModule vert = proxy == NearProxy::Box ? makeModule(near_box_vert, sizeof(near_box_vert))
+                          : proxy == NearProxy::Hull
+                              ? makeModule(near_hull_vert, sizeof(near_hull_vert))
+                              : makeModule(near_quad_vert, sizeof(near_quad_vert));
+    VkShaderModule frag = VK_NULL_HANDLE;
+    try {
+        frag = countSteps ? makeModule(near_steps_frag, sizeof(near_steps_frag))
+                          : makeModule(near_frag, sizeof(near_frag));
+
+        VkPipelineShaderStageCreateInfo stages[2]{};
+        stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                     nullptr,
+                     0,
+                     VK_SHADER_STAGE_VERTEX_BIT,
+                     vert,
+                     "main",
+                     nullptr};
+        stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                     nullptr,
+                     0,
+                     VK_SHADER_STAGE_FRAGMENT_BIT,
+                     frag,
+                     "main",
+                     nullptr};
+        VkPipelineVertexInputStateCreateInfo vin{
+            VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+        VkPipelineInputAssemblyStateCreateInfo ia{
+            VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+        ia.topology = proxy != NearProxy::Quad ? VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST
+                                               : VK_PRIMITIVE_TOPOLOGY_TRIANGLE_STRIP;
+        VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+        vp.viewportCount = 1;
+        vp.scissorCount = 1;
+        VkPipelineRasterizationStateCreateInfo rs{
+            VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+        rs.polygonMode = VK_POLYGON_MODE_FILL;
+        // The quad may face either way after projection; the box is drawn by its front faces
+        // only, so each covered pixel runs the kernel once (see near_box.vert for the winding).
+        rs.cullMode = proxy == NearProxy::Box ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE;
+        rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+        rs.lineWidth = 1.0f;
+        VkPipelineMultisampleStateCreateInfo ms{
+            VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+        ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+        VkPipelineDepthStencilStateCreateInfo ds{
+            VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+        // Reversed-Z: nearer is larger. GREATER (not GREATER_OR_EQUAL) keeps the first fragment
+        // at equal depth, i.e. the lower entity id, because instances are in ascending id.
+        ds.depthTestEnable = VK_TRUE;
+        ds.depthWriteEnable = VK_TRUE;
+        ds.depthCompareOp = VK_COMPARE_OP_GREATER;
+        VkPipelineColorBlendAttachmentState blend[2]{};
+        for (auto& b : blend)
+            b.colorWriteMask = VK_COLOR_COMPONENT_R_BIT; // integer targets: no blending
+        VkPipelineColorBlendStateCreateInfo cb{
+            VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+        cb.attachmentCount = 2;
+        cb.pAttachments = blend;
+        const VkDynamicState dynamic[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+        VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+        dyn.dynamicStateCount = 2;
+        dyn.pDynamicStates = dynamic;
+
+        VkGraphicsPipelineCreateInfo gpi{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+        gpi.stageCount = 2;
+        gpi.pStages = stages;
+        gpi.pVertexInputState = &vin;
+        gpi.pInputAssemblyState = &ia;
+        gpi.pViewportState = &vp;
+        gpi.pRasterizationState = &rs;
+        gpi.pMultisampleState = &ms;
+        gpi.pDepthStencilState = &ds;
+        gpi.pColorBlendState = &cb;
+        gpi.pDynamicState = &dyn;
+        gpi.layout = pipelineLayout;
+        gpi.renderPass = renderPass;
+        gpi.subpass = 0;
+        VK_CHECK(vkCreateGraphicsPipelines(dev, VK_NULL_HANDLE, 1, &gpi, nullptr, &slot));
+    } catch (...) {
+        vkDestroyShaderModule(dev, vert, nullptr);
+        if (frag) vkDestroyShaderModule(dev, frag, nullptr);
+        throw;
+    }
+    vkDestroyShaderModule(dev, vert, nullptr);
+    vkDestroyShaderModule(dev, frag, nullptr);
+    return slot;
+}
+
+void NearRenderer::Impl::ensureTargets(int w, int h) {
+    if (w == width && h == height && framebuffer) return;
+    VkDevice dev = device.device();
+    if (framebuffer) vkDestroyFramebuffer(dev, framebuffer, nullptr);
+    framebuffer = VK_NULL_HANDLE;
+    const VkExtent3D extent{std::uint32_t(w), std::uint32_t(h), 1};
+    const VkImageUsageFlags colorUsage =
+        VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    color = VulkanImage(device, VK_IMAGE_TYPE_2D, kColorFormat, extent, colorUsage,
+                        VK_IMAGE_ASPECT_COLOR_BIT);
+    id = VulkanImage(device, VK_IMAGE_TYPE_2D, kIdFormat, extent, colorUsage,
+                     VK_IMAGE_ASPECT_COLOR_BIT);
+    depth =
+        VulkanImage(device, VK_IMAGE_TYPE_2D, kDepthFormat, extent,
+                    VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                    VK_IMAGE_ASPECT_DEPTH_BIT);
+    const VkImageView views[3] = {color.view(), id.view(), depth.view()};
+    VkFramebufferCreateInfo fci{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+    fci.renderPass = renderPass;
+    fci.attachmentCount = 3;
+    fci.pAttachments = views;
+    fci.width = std::uint32_t(w);
+    fci.height = std::uint32_t(h);
+    fci.layers = 1;
+    VK_CHECK(vkCreateFramebuffer(dev, &fci, nullptr, &framebuffer));
+    readback = VulkanBuffer(device, VkDeviceSize(w) * VkDeviceSize(h) * 12,
+                            VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+    width = w;
+    height = h;
+}
+
+void NearRenderer::Impl::ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes,
+                                      VkBufferUsageFlags usage) {
+    if (b && b.size() >= bytes) return;
+    VkDeviceSize size = b ? b.size() : 4096;
+    while (size < bytes) size *= 2;
+    b = VulkanBuffer(device, size, usage, true);
+}
+
+void NearRenderer::Impl::writeDescriptors() {
+    // Rewritten every frame: cheap, and the set is never in use here (every frame is waited for).
+    using namespace near_gpu;
+    const VkDescriptorBufferInfo spriteInfo{sprites.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo paletteInfo{residency.paletteBuffer(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo counterInfo{counters.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo boxInfo{boxes.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo hullInfo{hulls.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorImageInfo atlasInfo{sampler, residency.atlasView(),
+                                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    VkWriteDescriptorSet w[6]{};
+    const std::uint32_t binding[6] = {NEAR_BINDING_SPRITES,  NEAR_BINDING_ATLAS,
+                                      NEAR_BINDING_PALETTES, NEAR_BINDING_COUNTERS,
+                                      NEAR_BINDING_BOXES,    NEAR_BINDING_HULLS};
+    for (int i = 0; i < 6; ++i) {
+        w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+        w[i].dstSet = descriptorSet;
+        w[i].dstBinding = binding[i];
+        w[i].descriptorCount = 1;
+        w[i].descriptorType =
+            i == 1 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    }
+    w[0].pBufferInfo = &spriteInfo;
+    w[1].pImageInfo = &atlasInfo;
+    w[2].pBufferInfo = &paletteInfo;
+    w[3].pBufferInfo = &counterInfo;
+    w[4].pBufferInfo = &boxInfo;
+    w[5].pBufferInfo = &hullInfo;
+    vkUpdateDescriptorSets(device.device(), 6, w, 0, nullptr);
+}
+
+Image NearRenderer::Impl::render(const CameraFrame& cam,
+                                 const std::vector<std::shared_ptr<VoxelModel>>& models,
+                                 std::span<const SpriteSetup* const> all, Rgba8 background,
+                                 const NearOptions& opt, NearStats* statsOut) {
+    NearStats stats;
+    if (opt.countSteps && !device.hasFragmentAtomics())
+        throw VulkanError("near tier: counting DDA steps needs fragmentStoresAndAtomics, which " +
+                          device.name() + " lacks");
+    // §6: ascending entity id, so that depth GREATER resolves ties to the lower id.
+    std::vector<const SpriteSetup*> visible;
+    visible.reserve(all.size());
+    for (const SpriteSetup* s : all)
+        if (s->visible()) visible.push_back(s);
+    std::stable_sort(
+        visible.begin(), visible.end(),
+        [](const SpriteSetup* a, const SpriteSetup* b) { return a->entityId < b->entityId; });
+    stats.sprites = visible.size();
+
+    const ResidencyStats up = residency.update(models, visible);
+    stats.bytesUploaded = up.bytesUploaded;
+    stats.uploadRegions = up.regions;
+    stats.atlasGrowths = up.atlasGrowths;
+    stats.uploadMs = up.milliseconds;
+
+    const auto tDraw = Clock::now();
+    ensureTargets(cam.width, cam.height);
+    const std::size_t n = visible.size();
+    ensureBuffer(sprites, std::max<std::size_t>(n, 1) * sizeof(kernel::SpriteGpu),
+                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    auto* gpu = static_cast<kernel::SpriteGpu*>(sprites.mapped());
+    for (std::size_t i = 0; i < n; ++i) {
+        const SpriteSetup& s = *visible[i];
+        gpu[i] = s.gpu;
+        // The only field the near tier adds to what core computed: where the voxels are.
+        gpu[i].atlas = residency.entry(*models.at(std::size_t(s.model)), s.frame);
+    }
+    if (opt.proxy == NearProxy::Box) {
+        ensureBuffer(boxes, std::max<std::size_t>(n, 1) * sizeof(near_gpu::NearBox),
+                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+        auto* box = static_cast<near_gpu::NearBox*>(boxes.mapped());
+        for (std::size_t i = 0; i < n; ++i) {
+            const auto corners = proxyBoxClipCorners(cam, *visible[i]);
+            for (int k = 0; k < 8; ++k) box[i].corner[k] = glm::vec4(corners[std::size_t(k)]);
+        }
+    }
+    if (opt.proxy == NearProxy::Hull) {
+        ensureBuffer(hulls, std::max<std::size_t>(n, 1) * sizeof(near_gpu::NearHull),
+                     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+        auto* hull = static_cast<near_gpu::NearHull*>(hulls.mapped());
+        for (std::size_t i = 0; i < n; ++i) {
+            const auto corners = proxyHullClipCorners(cam, *visible[i]);
+            hull[i].count = std::uint32_t(corners.size());
+            for (std::size_t k = 0; k < corners.size(); ++k)
+                hull[i].corner[k] = glm::vec4(corners[k]);
+        }
+    }
+    writeDescriptors();
+    const VkPipeline pipe = n ? pipeline(opt.proxy, opt.countSteps) : VK_NULL_HANDLE;
+    const bool query = opt.pipelineStatistics && statsPool && n;
+
+    VkCommandBuffer cb = drawCb;
+    VK_CHECK(vkResetCommandBuffer(cb, 0));
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    VK_CHECK(vkBeginCommandBuffer(cb, &bi));
+    if (query) vkCmdResetQueryPool(cb, statsPool, 0, 1);
+    if (opt.countSteps) {
+        vkCmdFillBuffer(cb, counters.handle(), 0, VK_WHOLE_SIZE, 0);
+        VkBufferMemoryBarrier b{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
+        b.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+        b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.buffer = counters.handle();
+        b.size = VK_WHOLE_SIZE;
+        vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                             VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, 0, nullptr, 1, &b, 0,
+                             nullptr);
+    }
+    VkClearValue clears[3]{};
+    clears[0].color.uint32[0] = background;
+    clears[1].color.uint32[0] = kernel::VT_NO_ENTITY;
+    clears[2].depthStencil = {0.0f, 0}; // reversed-Z: 0 = infinitely far, nothing drawn
+    VkRenderPassBeginInfo rbi{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+    rbi.renderPass = renderPass;
+    rbi.framebuffer = framebuffer;
+    rbi.renderArea = {{0, 0}, {std::uint32_t(width), std::uint32_t(height)}};
+    rbi.clearValueCount = 3;
+    rbi.pClearValues = clears;
+    vkCmdBeginRenderPass(cb, &rbi, VK_SUBPASS_CONTENTS_INLINE);
+    if (n) {
+        vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipe);
+        vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout, 0, 1,
+                                &descriptorSet, 0, nullptr);
+        const VkViewport viewport{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
+        const VkRect2D scissor{{0, 0}, {std::uint32_t(width), std::uint32_t(height)}};
+        vkCmdSetViewport(cb, 0, 1, &viewport);
+        vkCmdSetScissor(cb, 0, 1, &scissor);
+        if (query) vkCmdBeginQuery(cb, statsPool, 0, 0);
+        const std::uint32_t vertices = opt.proxy == NearProxy::Box ? near_gpu::NEAR_BOX_VERTICES
+                                       : opt.proxy == NearProxy::Hull
+                                           ? near_gpu::NEAR_HULL_VERTICES
+                                           : near_gpu::NEAR_QUAD_VERTICES;
+        if (opt.draws == NearDraws::Instanced) {
+            vkCmdDraw(cb, vertices, std::uint32_t(n), 0, 0);
+            stats.drawCalls = 1;
+        } else {
+            // Same order, one draw each: gl_InstanceIndex = firstInstance selects the sprite.
+            for (std::uint32_t i = 0; i < n; ++i) vkCmdDraw(cb, vertices, 1, 0, i);
+            stats.drawCalls = n;
+        }
+        if (query) vkCmdEndQuery(cb, statsPool, 0);
+    }
+    vkCmdEndRenderPass(cb);
+    if (opt.countSteps) {
+        VkBufferMemoryBarrier b{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
+        b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+        b.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+        b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.buffer = counters.handle();
+        b.size = VK_WHOLE_SIZE;
+        vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                             0, 0, nullptr, 1, &b, 0, nullptr);
+    }
+    VK_CHECK(vkEndCommandBuffer(cb));
+    device.submitAndWait(cb);
+    stats.drawMs = msSince(tDraw);
+
+    // Read back: the three targets into one host buffer (colour, id, depth), then unpack.
+    const auto tRead = Clock::now();
+    const VkDeviceSize plane = VkDeviceSize(width) * VkDeviceSize(height) * 4;
+    cb = readCb;
+    VK_CHECK(vkResetCommandBuffer(cb, 0));
+    VK_CHECK(vkBeginCommandBuffer(cb, &bi));
+    const VulkanImage* planes[3] = {&color, &id, &depth};
+    for (int i = 0; i < 3; ++i) {
+        VkBufferImageCopy region{};
+        region.bufferOffset = plane * VkDeviceSize(i);
+        region.imageSubresource = {planes[i]->aspect(), 0, 0, 1};
+        region.imageExtent = {std::uint32_t(width), std::uint32_t(height), 1};
+        vkCmdCopyImageToBuffer(cb, planes[i]->handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                               readback.handle(), 1, &region);
+    }
+    VkBufferMemoryBarrier hb{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
+    hb.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    hb.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    hb.srcQueueFamilyIndex = hb.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    hb.buffer = readback.handle();
+    hb.size = VK_WHOLE_SIZE;
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 0,
+                         nullptr, 1, &hb, 0, nullptr);
+    VK_CHECK(vkEndCommandBuffer(cb));
+    device.submitAndWait(cb);
+    Image img;
+    img.width = width;
+    img.height = height;
+    const std::size_t count = img.pixelCount();
+    img.color.resize(count);
+    img.id.resize(count);
+    img.depth.resize(count);
+    const auto* base = static_cast<const std::uint8_t*>(readback.mapped());
+    std::memcpy(img.color.data(), base, count * 4);
+    std::memcpy(img.id.data(), base + plane, count * 4);
+    std::memcpy(img.depth.data(), base + 2 * plane, count * 4);
+    stats.readbackMs = msSince(tRead);
+
+    if (query) {
+        std::uint64_t invocations = 0;
+        VK_CHECK(vkGetQueryPoolResults(device.device(), statsPool, 0, 1, sizeof invocations,
+                                       &invocations, sizeof invocations,
+                                       VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+        stats.fragmentInvocations = invocations;
+    }
+    if (opt.countSteps) {
+        const auto* c = static_cast<const near_gpu::NearCounters*>(counters.mapped());
+        stats.voxelFetches = (std::uint64_t(c->fetchesHi) << 32) | c->fetchesLo;
+        stats.kernelFragments = (std::uint64_t(c->fragmentsHi) << 32) | c->fragmentsLo;
+    }
+    if (statsOut) *statsOut = stats;
+    return img;
+}
+
+NearRenderer::NearRenderer(const VulkanDeviceOptions& options,
+                           std::shared_ptr<VulkanMessageLog> log)
+    : impl_(std::make_unique<Impl>(options, std::move(log))) {}
+
+NearRenderer::~NearRenderer() = default;
+
+const std::string& NearRenderer::deviceName() const {
+    return impl_->device.name();
+}
+bool NearRenderer::deviceIsCpu() const {
+    return impl_->device.isCpu();
+}
+bool NearRenderer::validationEnabled() const {
+    return impl_->device.validationEnabled();
+}
+const std::shared_ptr<VulkanMessageLog>& NearRenderer::messageLog() const {
+    return impl_->device.messageLog();
+}
+std::uint64_t NearRenderer::totalBytesUploaded() const {
+    return impl_->residency.totals().bytesUploaded;
+}
+
+Image NearRenderer::render(const CameraFrame& camera,
+                           const std::vector<std::shared_ptr<VoxelModel>>& models,
+                           std::span<const SpriteSetup* const> sprites, Rgba8 background,
+                           const NearOptions& options, NearStats* stats) {
+    return impl_->render(camera, models, sprites, background, options, stats);
+}
+
+Image NearRenderer::render(const CameraFrame& camera,
+                           const std::vector<std::shared_ptr<VoxelModel>>& models,
+                           const std::vector<SpriteSetup>& sprites, Rgba8 background,
+                           const NearOptions& options, NearStats* stats) {
+    std::vector<const SpriteSetup*> ptrs;
+    ptrs.reserve(sprites.size());
+    for (const auto& s : sprites) ptrs.push_back(&s);
+    return impl_->render(camera, models, ptrs, background, options, stats);
+}
+
+} // namespace voxtier

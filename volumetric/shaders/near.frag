@@ -1,0 +1,68 @@
+#version 450
+// Near tier fragment shader: one pixel of one voxel sprite, evaluated by the shared kernel
+// (core/sprite_kernel.h, the very code the CPU reference runs), so the Vulkan image equals the
+// reference image bit for bit. Outputs: packed RGBA8 colour and entity id as R32_UINT (exact
+// integers, no unorm conversion) and the sprite's billboard depth (reversed-Z, DESIGN.md §3.8).
+// Compiled twice: as is, and with -DVT_COUNT_STEPS, which also counts voxel reads.
+#extension GL_GOOGLE_include_directive : require
+#include "volumetric/shaders/near_shared.h"
+
+layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
+
+// The kernel's voxel source: the model frame's block of the shared atlas. The block origin is
+// per sprite; main() sets it before tracing.
+ivec3 vtAtlasBase;
+#ifdef VT_COUNT_STEPS
+uint vtFetches = 0u;
+#endif
+uint vtFetchVoxel(ivec3 cell) {
+#ifdef VT_COUNT_STEPS
+    vtFetches += 1u;
+#endif
+    return texelFetch(vtAtlas, vtAtlasBase + cell, 0).r;
+}
+#include "core/sprite_kernel.h"
+
+layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites {
+    SpriteGpu vtSprites[];
+};
+layout(std430, set = 0, binding = NEAR_BINDING_PALETTES) readonly buffer Palettes {
+    uint vtPalettes[];
+};
+#ifdef VT_COUNT_STEPS
+layout(std430, set = 0, binding = NEAR_BINDING_COUNTERS) buffer Counters {
+    NearCounters vtCounters;
+};
+// 64-bit add on a (low, high) pair: the returned old low word tells whether this add wrapped.
+void vtCount64(uint which, uint amount) {
+    if (amount == 0u) return;
+    if (which == 0u) {
+        uint old = atomicAdd(vtCounters.fetchesLo, amount);
+        if (old > 0xFFFFFFFFu - amount) atomicAdd(vtCounters.fetchesHi, 1u);
+    } else {
+        uint old = atomicAdd(vtCounters.fragmentsLo, amount);
+        if (old > 0xFFFFFFFFu - amount) atomicAdd(vtCounters.fragmentsHi, 1u);
+    }
+}
+#endif
+
+layout(location = 0) flat in uint vInstance;
+layout(location = 0) out uint outColor;
+layout(location = 1) out uint outEntity;
+
+void main() {
+    SpriteGpu s = vtSprites[vInstance];
+    vtAtlasBase = ivec3(s.atlas.xyz);
+    uint index;
+    uint face;
+    uint kind = vtShadePixel(s, gl_FragCoord.xy, index, face);
+#ifdef VT_COUNT_STEPS
+    vtCount64(0u, vtFetches);
+    vtCount64(1u, 1u);
+#endif
+    if (kind == VT_KIND_EMPTY) discard;
+    outColor = kind == VT_KIND_SOLID ? vtLit(vtPalettes[s.atlas.w + index], vtFaceLight(s, face))
+                                     : VT_OUTLINE_RGBA;
+    outEntity = s.dims.w;
+    gl_FragDepth = s.depth;
+}

@@ -1,0 +1,72 @@
+// Constants and buffer layouts shared by the near-tier shaders (volumetric/shaders/near.*) and
+// their C++ host (volumetric/near_renderer.cpp), written in the common subset of GLSL 4.50 and
+// C++ like core/sprite_kernel.h, so a binding number or a field offset exists exactly once.
+#ifndef VOXTIER_NEAR_SHARED_H
+#define VOXTIER_NEAR_SHARED_H
+
+#ifdef __cplusplus
+#include <glm/glm.hpp>
+
+#include <cstddef>
+#include <cstdint>
+namespace voxtier::near_gpu {
+using glm::vec4;
+using uint = std::uint32_t;
+#define VT_NEAR_CONST inline constexpr
+#else
+#define VT_NEAR_CONST const
+#endif
+
+// Descriptor set 0 of the near pipeline.
+VT_NEAR_CONST uint NEAR_BINDING_SPRITES = 0u;  // SpriteGpu[]: one per drawn sprite, ascending entity id
+VT_NEAR_CONST uint NEAR_BINDING_ATLAS = 1u;    // usampler3D: R8_UINT voxel atlas (palette indices)
+VT_NEAR_CONST uint NEAR_BINDING_PALETTES = 2u; // uint[]: 256 packed RGBA8 colours per resident model
+VT_NEAR_CONST uint NEAR_BINDING_COUNTERS = 3u; // NearCounters (written by the VT_COUNT_STEPS variant)
+VT_NEAR_CONST uint NEAR_BINDING_BOXES = 4u;    // NearBox[]: proxy-box corners (box proxy only)
+VT_NEAR_CONST uint NEAR_BINDING_HULLS = 5u;    // NearHull[]: silhouette polygons (hull proxy, default)
+
+// Vertices per instance: the quad is a 4-vertex triangle strip (SpriteGpu::quad); the box is a
+// 36-vertex triangle list (12 triangles) indexed by NEAR_BOX_TRIANGLES.
+VT_NEAR_CONST uint NEAR_QUAD_VERTICES = 4u;
+VT_NEAR_CONST uint NEAR_BOX_VERTICES = 36u;
+// The hull is a convex polygon of at most NEAR_HULL_MAX_VERTICES corners drawn as a triangle fan
+// in a triangle list of NEAR_HULL_MAX_VERTICES - 2 triangles; unused triangles are degenerate.
+VT_NEAR_CONST uint NEAR_HULL_MAX_VERTICES = 12u;
+VT_NEAR_CONST uint NEAR_HULL_VERTICES = 3u * (NEAR_HULL_MAX_VERTICES - 2u);
+
+// 64-bit counters as (low, high) word pairs: the shader carries into the high word itself, so
+// no 64-bit atomics feature is needed and a frame of a billion voxel reads does not wrap.
+struct NearCounters {
+    uint fetchesLo;   // vtFetchVoxel calls (DDA steps incl. the outline neighbour rays)
+    uint fetchesHi;
+    uint fragmentsLo; // fragment invocations that ran the kernel
+    uint fragmentsHi;
+};
+
+// The rasterised proxy box of DESIGN.md §3.10 (measured alternative to the quad): the clip-space
+// corners of the model bounds grown by one virtual pixel, corner k = (k & 1, k >> 1 & 1, k >> 2)
+// of [-1/sigma, dims + 1/sigma] in voxel space, computed on the CPU in double.
+struct NearBox {
+    vec4 corner[8];
+};
+
+// The hull proxy (the default): the parallel projection of the model box
+// onto the sprite plane, grown by the kernel's reach (outline ring + half a cell) and two pixels,
+// as clip-space corners of a convex polygon in fan order, computed on the CPU in double.
+struct NearHull {
+    vec4 corner[NEAR_HULL_MAX_VERTICES];
+    uint count; // 3..NEAR_HULL_MAX_VERTICES
+    uint pad0;
+    uint pad1;
+    uint pad2;
+};
+
+#ifdef __cplusplus
+static_assert(sizeof(NearHull) == 208 && offsetof(NearHull, count) == 192,
+              "NearHull must match the std430 array stride in GLSL");
+static_assert(sizeof(NearCounters) == 16 && offsetof(NearCounters, fragmentsLo) == 8);
+static_assert(sizeof(NearBox) == 128, "NearBox must match the std430 array stride in GLSL");
+} // namespace voxtier::near_gpu
+#endif
+
+#endif // VOXTIER_NEAR_SHARED_H

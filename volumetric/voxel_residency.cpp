@@ -1,0 +1,236 @@
+#include "volumetric/voxel_residency.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <stdexcept>
+
+namespace voxtier {
+
+namespace {
+
+constexpr int kAtlasSide = 512; ///< slice width and height (>= the largest model side, 256)
+constexpr std::uint32_t kInitialDepth = 64;
+
+VkDeviceSize roundUp4(VkDeviceSize v) {
+    return (v + 3) & ~VkDeviceSize(3);
+}
+
+} // namespace
+
+ResidencyStats& ResidencyStats::operator+=(const ResidencyStats& o) {
+    bytesUploaded += o.bytesUploaded;
+    regions += o.regions;
+    fullFrames += o.fullFrames;
+    atlasGrowths += o.atlasGrowths;
+    milliseconds += o.milliseconds;
+    return *this;
+}
+
+VoxelResidency::VoxelResidency(VulkanDevice& device)
+    : device_(device),
+      packer_(std::min<int>(kAtlasSide, int(device.properties().limits.maxImageDimension3D)),
+              std::min<int>(kAtlasSide, int(device.properties().limits.maxImageDimension3D)),
+              int(device.properties().limits.maxImageDimension3D)) {
+    cb_ = device_.allocateCommandBuffer();
+    try {
+        // An atlas exists from the start (in the layout the shader reads), so the descriptor set
+        // is always complete, even for a frame with nothing to draw.
+        VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+        bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+        VK_CHECK(vkBeginCommandBuffer(cb_, &bi));
+        createAtlas(kInitialDepth, cb_, false);
+        imageBarrier(cb_, atlas_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
+                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                     VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+        VK_CHECK(vkEndCommandBuffer(cb_));
+        device_.submitAndWait(cb_);
+        ensurePaletteCapacity(256);
+    } catch (...) {
+        device_.freeCommandBuffer(cb_);
+        throw;
+    }
+}
+
+VoxelResidency::~VoxelResidency() {
+    device_.freeCommandBuffer(cb_);
+}
+
+void VoxelResidency::createAtlas(std::uint32_t depth, VkCommandBuffer cb, bool copyOld) {
+    VulkanImage fresh(device_, VK_IMAGE_TYPE_3D, VK_FORMAT_R8_UINT,
+                      {std::uint32_t(packer_.width()), std::uint32_t(packer_.height()), depth},
+                      VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT |
+                          VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                      VK_IMAGE_ASPECT_COLOR_BIT);
+    imageBarrier(cb, fresh.handle(), VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, 0,
+                 VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+    if (copyOld) {
+        // Growing keeps every block where it was: copy the old atlas into the top of the new one.
+        imageBarrier(cb, atlas_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
+                     VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                     VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                     VK_ACCESS_TRANSFER_READ_BIT);
+        VkImageCopy region{};
+        region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.extent = atlas_.extent();
+        vkCmdCopyImage(cb, atlas_.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, fresh.handle(),
+                       VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+        // The uploads that follow write into the same image: order them after this copy.
+        imageBarrier(cb, fresh.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
+                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                     VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                     VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+    }
+    retired_ = std::move(atlas_);
+    atlas_ = std::move(fresh);
+    ++generation_;
+}
+
+void VoxelResidency::ensurePaletteCapacity(std::size_t entries) {
+    const VkDeviceSize need = VkDeviceSize(entries) * sizeof(std::uint32_t);
+    if (palettes_ && palettes_.size() >= need) return;
+    VkDeviceSize size = palettes_ ? palettes_.size() : 64 * 256 * sizeof(std::uint32_t);
+    while (size < need) size *= 2;
+    palettes_ = VulkanBuffer(device_, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
+    std::memset(palettes_.mapped(), 0, std::size_t(size));
+    std::memcpy(palettes_.mapped(), paletteMirror_.data(),
+                paletteMirror_.size() * sizeof(std::uint32_t));
+    ++generation_;
+}
+
+glm::uvec4 VoxelResidency::entry(const VoxelModel& model, int frame) const {
+    const auto it = residents_.find(model.uid());
+    if (it == residents_.end() || frame < 0 || std::size_t(frame) >= it->second.present.size() ||
+        !it->second.present[std::size_t(frame)])
+        throw std::logic_error("VoxelResidency::entry: frame not resident (call update first)");
+    const glm::ivec3 o = it->second.origin[std::size_t(frame)];
+    return {std::uint32_t(o.x), std::uint32_t(o.y), std::uint32_t(o.z), it->second.paletteBase};
+}
+
+ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                                      std::span<const SpriteSetup* const> sprites) {
+    const auto t0 = std::chrono::steady_clock::now();
+    ResidencyStats stats;
+    std::vector<Upload> uploads;
+    // Undo list: if placing a block fails (atlas full), nothing recorded here was uploaded.
+    std::vector<std::pair<Resident*, int>> placed;
+    std::vector<std::pair<Resident*, std::uint64_t>> synced;
+    try {
+        for (const SpriteSetup* sp : sprites) {
+            if (!sp->visible()) continue;
+            const VoxelModel& model = *models.at(std::size_t(sp->model));
+            auto [it, inserted] = residents_.try_emplace(model.uid());
+            Resident& r = it->second;
+            if (inserted) {
+                r.version = model.version();
+                r.paletteBase = nextPaletteSlot_++ * 256u;
+                r.origin.assign(std::size_t(model.frameCount()), glm::ivec3(0));
+                r.present.assign(std::size_t(model.frameCount()), false);
+                paletteMirror_.insert(paletteMirror_.end(), model.palette().colors.begin(),
+                                      model.palette().colors.end());
+                ensurePaletteCapacity(paletteMirror_.size());
+                std::memcpy(static_cast<std::uint32_t*>(palettes_.mapped()) + r.paletteBase,
+                            model.palette().colors.data(), 256 * sizeof(std::uint32_t));
+            } else if (r.version != model.version()) {
+                // Edited since the last upload: each resident frame re-sends only its dirty box.
+                synced.emplace_back(&r, r.version);
+                for (int f = 0; f < model.frameCount(); ++f) {
+                    if (!r.present[std::size_t(f)]) continue;
+                    const VoxelGrid& grid = model.frame(f);
+                    const Box3i whole{glm::ivec3(0), grid.dims()};
+                    const std::optional<Box3i> dirty = model.dirtySince(r.version, f);
+                    const Box3i box = dirty ? dirty->intersected(whole) : whole;
+                    if (box.empty()) continue;
+                    uploads.push_back({&grid, box, r.origin[std::size_t(f)]});
+                    stats.fullFrames += box == whole;
+                }
+                r.version = model.version();
+            }
+            const std::size_t f = std::size_t(sp->frame);
+            if (!r.present[f]) {
+                const VoxelGrid& grid = model.frame(sp->frame);
+                r.origin[f] = packer_.allocate(grid.dims());
+                r.present[f] = true;
+                placed.emplace_back(&r, sp->frame);
+                uploads.push_back({&grid, {glm::ivec3(0), grid.dims()}, r.origin[f]});
+                ++stats.fullFrames;
+            }
+        }
+    } catch (const std::length_error& e) {
+        for (auto [r, f] : placed) r->present[std::size_t(f)] = false;
+        for (auto [r, v] : synced) r->version = v;
+        throw VulkanError(std::string("near tier: ") + e.what());
+    }
+    const bool grow = std::uint32_t(packer_.usedDepth()) > atlas_.extent().depth;
+    if (uploads.empty() && !grow) return stats;
+
+    // Pack every region tightly into one staging buffer (rows of the box, x fastest).
+    VkDeviceSize total = 0;
+    for (const Upload& u : uploads) total = roundUp4(total + VkDeviceSize(u.box.volume()));
+    if (!staging_ || staging_.size() < total) {
+        VkDeviceSize size = 1 << 16;
+        while (size < total) size *= 2;
+        staging_ = VulkanBuffer(device_, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+    }
+    std::vector<VkBufferImageCopy> regions;
+    regions.reserve(uploads.size());
+    VkDeviceSize offset = 0;
+    auto* dst = static_cast<std::uint8_t*>(staging_.mapped());
+    for (const Upload& u : uploads) {
+        const glm::ivec3 size = u.box.max - u.box.min;
+        VkBufferImageCopy region{};
+        region.bufferOffset = offset;
+        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.imageOffset = {u.origin.x + u.box.min.x, u.origin.y + u.box.min.y,
+                              u.origin.z + u.box.min.z};
+        region.imageExtent = {std::uint32_t(size.x), std::uint32_t(size.y), std::uint32_t(size.z)};
+        regions.push_back(region);
+        std::uint8_t* out = dst + offset;
+        for (int z = u.box.min.z; z < u.box.max.z; ++z)
+            for (int y = u.box.min.y; y < u.box.max.y; ++y) {
+                std::memcpy(out, u.grid->data().data() + u.grid->linearIndex({u.box.min.x, y, z}),
+                            std::size_t(size.x));
+                out += size.x;
+            }
+        stats.bytesUploaded += std::uint64_t(u.box.volume());
+        offset = roundUp4(offset + VkDeviceSize(u.box.volume()));
+    }
+    stats.regions = regions.size();
+
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    VK_CHECK(vkResetCommandBuffer(cb_, 0));
+    VK_CHECK(vkBeginCommandBuffer(cb_, &bi));
+    if (grow) {
+        std::uint32_t depth = atlas_.extent().depth;
+        while (depth < std::uint32_t(packer_.usedDepth())) depth *= 2;
+        depth = std::min(depth, std::uint32_t(packer_.maxDepth()));
+        createAtlas(depth, cb_, true);
+        ++stats.atlasGrowths;
+    } else {
+        imageBarrier(cb_, atlas_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
+                     VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                     VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                     VK_ACCESS_TRANSFER_WRITE_BIT);
+    }
+    if (!regions.empty())
+        vkCmdCopyBufferToImage(cb_, staging_.handle(), atlas_.handle(),
+                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, std::uint32_t(regions.size()),
+                               regions.data());
+    imageBarrier(cb_, atlas_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
+                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                 VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                 VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+    VK_CHECK(vkEndCommandBuffer(cb_));
+    device_.submitAndWait(cb_);
+    retired_.reset();
+    stats.milliseconds =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    totals_ += stats;
+    return stats;
+}
+
+} // namespace voxtier

@@ -1,0 +1,490 @@
+#include "volumetric/vulkan_device.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <utility>
+
+namespace voxtier {
+
+// ---------------------------------------------------------------------------------------------
+// Errors
+
+const char* vkResultName(VkResult r) {
+    switch (r) {
+#define VT_CASE(x)                                                                                 \
+    case x:                                                                                        \
+        return #x;
+        VT_CASE(VK_SUCCESS)
+        VT_CASE(VK_NOT_READY)
+        VT_CASE(VK_TIMEOUT)
+        VT_CASE(VK_INCOMPLETE)
+        VT_CASE(VK_ERROR_OUT_OF_HOST_MEMORY)
+        VT_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
+        VT_CASE(VK_ERROR_INITIALIZATION_FAILED)
+        VT_CASE(VK_ERROR_DEVICE_LOST)
+        VT_CASE(VK_ERROR_MEMORY_MAP_FAILED)
+        VT_CASE(VK_ERROR_LAYER_NOT_PRESENT)
+        VT_CASE(VK_ERROR_EXTENSION_NOT_PRESENT)
+        VT_CASE(VK_ERROR_FEATURE_NOT_PRESENT)
+        VT_CASE(VK_ERROR_INCOMPATIBLE_DRIVER)
+        VT_CASE(VK_ERROR_TOO_MANY_OBJECTS)
+        VT_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED)
+        VT_CASE(VK_ERROR_FRAGMENTED_POOL)
+        VT_CASE(VK_ERROR_OUT_OF_POOL_MEMORY)
+        VT_CASE(VK_ERROR_UNKNOWN)
+#undef VT_CASE
+    default:
+        return "VkResult(?)";
+    }
+}
+
+void throwVulkanFailure(VkResult r, const char* call, const char* file, int line) {
+    // Keep the call short: the function name is what a reader needs, not its arguments.
+    std::string name(call);
+    if (const auto paren = name.find('('); paren != std::string::npos) name.resize(paren);
+    const char* base = std::strrchr(file, '/');
+    throw VulkanError(name + " failed: " + vkResultName(r) + " (" + (base ? base + 1 : file) + ":" +
+                          std::to_string(line) + ")",
+                      r);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Message log
+
+bool validationRequestedByEnvironment() {
+    const char* v = std::getenv("VOXTIER_VALIDATION");
+    return v && std::strcmp(v, "1") == 0;
+}
+
+void VulkanMessageLog::add(std::string message) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    messages_.push_back(std::move(message));
+}
+
+std::size_t VulkanMessageLog::count() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return messages_.size();
+}
+
+std::vector<std::string> VulkanMessageLog::messages() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return messages_;
+}
+
+std::string VulkanMessageLog::joined() const {
+    std::string out;
+    for (const auto& m : messages()) out += m + "\n";
+    return out;
+}
+
+namespace {
+
+constexpr const char* kValidationLayer = "VK_LAYER_KHRONOS_validation";
+
+bool hasInstanceExtension(const char* name, const char* layer = nullptr) {
+    std::uint32_t n = 0;
+    if (vkEnumerateInstanceExtensionProperties(layer, &n, nullptr) != VK_SUCCESS) return false;
+    std::vector<VkExtensionProperties> props(n);
+    if (vkEnumerateInstanceExtensionProperties(layer, &n, props.data()) != VK_SUCCESS) return false;
+    return std::any_of(props.begin(), props.end(),
+                       [&](const auto& p) { return std::strcmp(p.extensionName, name) == 0; });
+}
+
+bool hasLayer(const char* name) {
+    std::uint32_t n = 0;
+    if (vkEnumerateInstanceLayerProperties(&n, nullptr) != VK_SUCCESS) return false;
+    std::vector<VkLayerProperties> props(n);
+    if (vkEnumerateInstanceLayerProperties(&n, props.data()) != VK_SUCCESS) return false;
+    return std::any_of(props.begin(), props.end(),
+                       [&](const auto& p) { return std::strcmp(p.layerName, name) == 0; });
+}
+
+/// Lower is better: a real GPU first, lavapipe (CPU) last.
+int deviceRank(VkPhysicalDeviceType t) {
+    switch (t) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
+        return 0;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
+        return 1;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
+        return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU:
+        return 3;
+    default:
+        return 4;
+    }
+}
+
+bool supportsFormat(VkPhysicalDevice pd, VkFormat f, VkFormatFeatureFlags need) {
+    VkFormatProperties p{};
+    vkGetPhysicalDeviceFormatProperties(pd, f, &p);
+    return (p.optimalTilingFeatures & need) == need;
+}
+
+/// The graphics queue family of a device that can run the near tier, or -1.
+int usableQueueFamily(VkPhysicalDevice pd) {
+    VkPhysicalDeviceProperties props{};
+    vkGetPhysicalDeviceProperties(pd, &props);
+    if (props.apiVersion < VK_API_VERSION_1_2) return -1;
+    // The formats the near tier renders into and samples from (exact integers, float depth).
+    if (!supportsFormat(pd, VK_FORMAT_R32_UINT,
+                        VK_FORMAT_FEATURE_COLOR_ATTACHMENT_BIT |
+                            VK_FORMAT_FEATURE_TRANSFER_SRC_BIT) ||
+        !supportsFormat(pd, VK_FORMAT_D32_SFLOAT,
+                        VK_FORMAT_FEATURE_DEPTH_STENCIL_ATTACHMENT_BIT |
+                            VK_FORMAT_FEATURE_TRANSFER_SRC_BIT) ||
+        !supportsFormat(pd, VK_FORMAT_R8_UINT,
+                        VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT | VK_FORMAT_FEATURE_TRANSFER_DST_BIT))
+        return -1;
+    std::uint32_t n = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &n, nullptr);
+    std::vector<VkQueueFamilyProperties> families(n);
+    vkGetPhysicalDeviceQueueFamilyProperties(pd, &n, families.data());
+    for (std::uint32_t i = 0; i < n; ++i)
+        if (families[i].queueFlags & VK_QUEUE_GRAPHICS_BIT) return int(i);
+    return -1;
+}
+
+} // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Device
+
+VKAPI_ATTR VkBool32 VKAPI_CALL VulkanDevice::onMessage(
+    VkDebugUtilsMessageSeverityFlagBitsEXT severity, VkDebugUtilsMessageTypeFlagsEXT type,
+    const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
+    const auto* sink = static_cast<const MessageSink*>(user);
+    std::string text = (type & VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT)    ? "validation"
+                       : (type & VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT) ? "performance"
+                                                                                  : "general";
+    text += (severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT) ? " error: " : " warning: ";
+    text += data && data->pMessage ? data->pMessage : "(no text)";
+    // Loader chatter ("general") is recorded but not echoed: when there is no driver at all the
+    // loader explains itself in several lines, and the CLI promises one line (ours).
+    if (sink->echo && !(type & VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT))
+        std::fprintf(stderr, "voxtier: vulkan %s\n", text.c_str());
+    sink->log->add(std::move(text));
+    return VK_FALSE;
+}
+
+VulkanDevice::VulkanDevice(const VulkanDeviceOptions& options,
+                           std::shared_ptr<VulkanMessageLog> log)
+    : log_(log ? std::move(log) : std::make_shared<VulkanMessageLog>()),
+      validation_(options.validation || validationRequestedByEnvironment()),
+      echo_(options.echoMessages) {
+    try {
+        sink_ = std::make_unique<MessageSink>(MessageSink{log_.get(), echo_});
+        const bool debugUtils = hasInstanceExtension(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+        if (validation_ && !hasLayer(kValidationLayer))
+            throw VulkanError(std::string("validation requested but ") + kValidationLayer +
+                              " is not installed (Debian: vulkan-validationlayers)");
+        if (validation_ && !debugUtils)
+            throw VulkanError("validation requested but the loader lacks VK_EXT_debug_utils");
+
+        VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+        app.pApplicationName = "voxtier";
+        app.pEngineName = "voxtier";
+        app.apiVersion = VK_API_VERSION_1_2;
+
+        std::vector<const char*> extensions;
+        std::vector<const char*> layers;
+        if (debugUtils) extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+        if (validation_) layers.push_back(kValidationLayer);
+
+        // Warnings and errors only: the loader's and the layer's info output is not a finding.
+        VkDebugUtilsMessengerCreateInfoEXT messengerInfo{
+            VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+        messengerInfo.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
+                                        VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+        messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
+                                    VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                                    VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+        messengerInfo.pfnUserCallback = onMessage;
+        messengerInfo.pUserData = sink_.get();
+
+        VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+        ici.pApplicationInfo = &app;
+        ici.enabledExtensionCount = std::uint32_t(extensions.size());
+        ici.ppEnabledExtensionNames = extensions.data();
+        ici.enabledLayerCount = std::uint32_t(layers.size());
+        ici.ppEnabledLayerNames = layers.data();
+        // Chained messenger: also catches what the loader says during vkCreateInstance and what
+        // the layer reports during vkDestroyInstance (leaked objects), and keeps the loader from
+        // printing to stderr itself.
+        const void* chain = nullptr;
+        if (debugUtils) {
+            messengerInfo.pNext = chain;
+            chain = &messengerInfo;
+        }
+        const VkValidationFeatureEnableEXT syncValidation =
+            VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
+        VkValidationFeaturesEXT features{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+        if (validation_ && options.synchronizationValidation &&
+            hasInstanceExtension(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME, kValidationLayer)) {
+            features.enabledValidationFeatureCount = 1;
+            features.pEnabledValidationFeatures = &syncValidation;
+            features.pNext = chain;
+            chain = &features;
+            extensions.push_back(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME);
+            ici.enabledExtensionCount = std::uint32_t(extensions.size());
+            ici.ppEnabledExtensionNames = extensions.data();
+        }
+        ici.pNext = chain;
+
+        const VkResult created = vkCreateInstance(&ici, nullptr, &instance_);
+        if (created == VK_ERROR_INCOMPATIBLE_DRIVER)
+            throw VulkanError(kNoVulkanDeviceMessage, created);
+        VK_CHECK(created);
+
+        if (debugUtils) {
+            auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+                vkGetInstanceProcAddr(instance_, "vkCreateDebugUtilsMessengerEXT"));
+            if (create) {
+                messengerInfo.pNext = nullptr;
+                VK_CHECK(create(instance_, &messengerInfo, nullptr, &messenger_));
+            }
+        }
+
+        // Pick the best usable device: a GPU if present, lavapipe otherwise.
+        std::uint32_t count = 0;
+        VK_CHECK(vkEnumeratePhysicalDevices(instance_, &count, nullptr));
+        std::vector<VkPhysicalDevice> devices(count);
+        if (count) VK_CHECK(vkEnumeratePhysicalDevices(instance_, &count, devices.data()));
+        int bestRank = 1 << 30;
+        int bestFamily = -1;
+        for (VkPhysicalDevice pd : devices) {
+            const int family = usableQueueFamily(pd);
+            if (family < 0) continue;
+            VkPhysicalDeviceProperties props{};
+            vkGetPhysicalDeviceProperties(pd, &props);
+            if (deviceRank(props.deviceType) < bestRank) {
+                bestRank = deviceRank(props.deviceType);
+                bestFamily = family;
+                physical_ = pd;
+            }
+        }
+        if (!physical_) throw VulkanError(kNoVulkanDeviceMessage, VK_ERROR_INCOMPATIBLE_DRIVER);
+        queueFamily_ = std::uint32_t(bestFamily);
+        vkGetPhysicalDeviceProperties(physical_, &properties_);
+        vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
+        name_ = properties_.deviceName;
+
+        VkPhysicalDeviceFeatures available{};
+        vkGetPhysicalDeviceFeatures(physical_, &available);
+        VkPhysicalDeviceFeatures enabled{};
+        pipelineStatistics_ = available.pipelineStatisticsQuery == VK_TRUE;
+        fragmentAtomics_ = available.fragmentStoresAndAtomics == VK_TRUE;
+        enabled.pipelineStatisticsQuery = available.pipelineStatisticsQuery;
+        enabled.fragmentStoresAndAtomics = available.fragmentStoresAndAtomics;
+
+        const float priority = 1.0f;
+        VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+        qci.queueFamilyIndex = queueFamily_;
+        qci.queueCount = 1;
+        qci.pQueuePriorities = &priority;
+        VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+        dci.queueCreateInfoCount = 1;
+        dci.pQueueCreateInfos = &qci;
+        dci.pEnabledFeatures = &enabled;
+        VK_CHECK(vkCreateDevice(physical_, &dci, nullptr, &device_));
+        vkGetDeviceQueue(device_, queueFamily_, 0, &queue_);
+
+        VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+        pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+        pci.queueFamilyIndex = queueFamily_;
+        VK_CHECK(vkCreateCommandPool(device_, &pci, nullptr, &pool_));
+        VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+        VK_CHECK(vkCreateFence(device_, &fci, nullptr, &fence_));
+    } catch (...) {
+        destroy();
+        throw;
+    }
+}
+
+VulkanDevice::~VulkanDevice() {
+    destroy();
+}
+
+void VulkanDevice::destroy() noexcept {
+    if (device_) {
+        vkDeviceWaitIdle(device_);
+        if (fence_) vkDestroyFence(device_, fence_, nullptr);
+        if (pool_) vkDestroyCommandPool(device_, pool_, nullptr);
+        vkDestroyDevice(device_, nullptr);
+    }
+    fence_ = VK_NULL_HANDLE;
+    pool_ = VK_NULL_HANDLE;
+    device_ = VK_NULL_HANDLE;
+    if (instance_) {
+        if (messenger_) {
+            auto destroyMessenger = reinterpret_cast<PFN_vkDestroyDebugUtilsMessengerEXT>(
+                vkGetInstanceProcAddr(instance_, "vkDestroyDebugUtilsMessengerEXT"));
+            if (destroyMessenger) destroyMessenger(instance_, messenger_, nullptr);
+        }
+        vkDestroyInstance(instance_, nullptr);
+    }
+    messenger_ = VK_NULL_HANDLE;
+    instance_ = VK_NULL_HANDLE;
+}
+
+std::uint32_t VulkanDevice::memoryType(std::uint32_t typeBits,
+                                       VkMemoryPropertyFlags required) const {
+    for (std::uint32_t i = 0; i < memory_.memoryTypeCount; ++i)
+        if ((typeBits & (1u << i)) && (memory_.memoryTypes[i].propertyFlags & required) == required)
+            return i;
+    throw VulkanError("no Vulkan memory type with the required properties",
+                      VK_ERROR_OUT_OF_DEVICE_MEMORY);
+}
+
+VkCommandBuffer VulkanDevice::allocateCommandBuffer() {
+    VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    ai.commandPool = pool_;
+    ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    ai.commandBufferCount = 1;
+    VkCommandBuffer cb = VK_NULL_HANDLE;
+    VK_CHECK(vkAllocateCommandBuffers(device_, &ai, &cb));
+    return cb;
+}
+
+void VulkanDevice::freeCommandBuffer(VkCommandBuffer cb) {
+    if (cb) vkFreeCommandBuffers(device_, pool_, 1, &cb);
+}
+
+void VulkanDevice::submitAndWait(VkCommandBuffer cb) {
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cb;
+    VK_CHECK(vkResetFences(device_, 1, &fence_));
+    VK_CHECK(vkQueueSubmit(queue_, 1, &si, fence_));
+    VK_CHECK(vkWaitForFences(device_, 1, &fence_, VK_TRUE, UINT64_MAX));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Resources
+
+VulkanBuffer::VulkanBuffer(VulkanDevice& device, VkDeviceSize size, VkBufferUsageFlags usage,
+                           bool hostVisible)
+    : device_(device.device()), size_(size) {
+    try {
+        VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+        bci.size = size;
+        bci.usage = usage;
+        bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+        VK_CHECK(vkCreateBuffer(device_, &bci, nullptr, &buffer_));
+        VkMemoryRequirements req{};
+        vkGetBufferMemoryRequirements(device_, buffer_, &req);
+        VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+        mai.allocationSize = req.size;
+        // Host-visible buffers are coherent, so the renderer never flushes or invalidates.
+        mai.memoryTypeIndex = device.memoryType(
+            req.memoryTypeBits,
+            hostVisible ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
+                        : VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+        VK_CHECK(vkAllocateMemory(device_, &mai, nullptr, &memory_));
+        VK_CHECK(vkBindBufferMemory(device_, buffer_, memory_, 0));
+        if (hostVisible) VK_CHECK(vkMapMemory(device_, memory_, 0, VK_WHOLE_SIZE, 0, &mapped_));
+    } catch (...) {
+        reset();
+        throw;
+    }
+}
+
+VulkanBuffer& VulkanBuffer::operator=(VulkanBuffer&& o) noexcept {
+    if (this != &o) {
+        reset();
+        std::swap(device_, o.device_);
+        std::swap(buffer_, o.buffer_);
+        std::swap(memory_, o.memory_);
+        std::swap(size_, o.size_);
+        std::swap(mapped_, o.mapped_);
+    }
+    return *this;
+}
+
+void VulkanBuffer::reset() noexcept {
+    if (buffer_) vkDestroyBuffer(device_, buffer_, nullptr);
+    if (memory_) vkFreeMemory(device_, memory_, nullptr); // unmaps implicitly
+    buffer_ = VK_NULL_HANDLE;
+    memory_ = VK_NULL_HANDLE;
+    mapped_ = nullptr;
+    size_ = 0;
+}
+
+VulkanImage::VulkanImage(VulkanDevice& device, VkImageType type, VkFormat format, VkExtent3D extent,
+                         VkImageUsageFlags usage, VkImageAspectFlags aspect)
+    : device_(device.device()), extent_(extent), format_(format), aspect_(aspect) {
+    try {
+        VkImageCreateInfo ici{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+        ici.imageType = type;
+        ici.format = format;
+        ici.extent = extent;
+        ici.mipLevels = 1;
+        ici.arrayLayers = 1;
+        ici.samples = VK_SAMPLE_COUNT_1_BIT;
+        ici.tiling = VK_IMAGE_TILING_OPTIMAL;
+        ici.usage = usage;
+        ici.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+        ici.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+        VK_CHECK(vkCreateImage(device_, &ici, nullptr, &image_));
+        VkMemoryRequirements req{};
+        vkGetImageMemoryRequirements(device_, image_, &req);
+        VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+        mai.allocationSize = req.size;
+        mai.memoryTypeIndex =
+            device.memoryType(req.memoryTypeBits, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+        VK_CHECK(vkAllocateMemory(device_, &mai, nullptr, &memory_));
+        VK_CHECK(vkBindImageMemory(device_, image_, memory_, 0));
+        VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+        vci.image = image_;
+        vci.viewType = type == VK_IMAGE_TYPE_3D ? VK_IMAGE_VIEW_TYPE_3D : VK_IMAGE_VIEW_TYPE_2D;
+        vci.format = format;
+        vci.subresourceRange = {aspect, 0, 1, 0, 1};
+        VK_CHECK(vkCreateImageView(device_, &vci, nullptr, &view_));
+    } catch (...) {
+        reset();
+        throw;
+    }
+}
+
+VulkanImage& VulkanImage::operator=(VulkanImage&& o) noexcept {
+    if (this != &o) {
+        reset();
+        std::swap(device_, o.device_);
+        std::swap(image_, o.image_);
+        std::swap(view_, o.view_);
+        std::swap(memory_, o.memory_);
+        std::swap(extent_, o.extent_);
+        std::swap(format_, o.format_);
+        std::swap(aspect_, o.aspect_);
+    }
+    return *this;
+}
+
+void VulkanImage::reset() noexcept {
+    if (view_) vkDestroyImageView(device_, view_, nullptr);
+    if (image_) vkDestroyImage(device_, image_, nullptr);
+    if (memory_) vkFreeMemory(device_, memory_, nullptr);
+    view_ = VK_NULL_HANDLE;
+    image_ = VK_NULL_HANDLE;
+    memory_ = VK_NULL_HANDLE;
+    extent_ = {0, 0, 0};
+}
+
+void imageBarrier(VkCommandBuffer cb, VkImage image, VkImageAspectFlags aspect, VkImageLayout from,
+                  VkImageLayout to, VkPipelineStageFlags srcStage, VkAccessFlags srcAccess,
+                  VkPipelineStageFlags dstStage, VkAccessFlags dstAccess) {
+    VkImageMemoryBarrier b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
+    b.srcAccessMask = srcAccess;
+    b.dstAccessMask = dstAccess;
+    b.oldLayout = from;
+    b.newLayout = to;
+    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = image;
+    b.subresourceRange = {aspect, 0, 1, 0, 1};
+    vkCmdPipelineBarrier(cb, srcStage, dstStage, 0, 0, nullptr, 0, nullptr, 1, &b);
+}
+
+} // namespace voxtier

@@ -1,0 +1,42 @@
+#pragma once
+// What a caller outside volumetric/ needs to configure and inspect the Vulkan device, without
+// including Vulkan headers (DESIGN.md §1: Vulkan stays inside volumetric/).
+#include <cstddef>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace voxtier {
+
+/// The message (what() of the VulkanError) when the loader finds no usable device.
+inline constexpr const char* kNoVulkanDeviceMessage =
+    "no Vulkan device: install mesa-vulkan-drivers for the CPU rasterizer lavapipe";
+
+struct VulkanDeviceOptions {
+    /// Enable VK_LAYER_KHRONOS_validation (also on when the environment has VOXTIER_VALIDATION=1).
+    bool validation = false;
+    /// With validation: also run synchronization validation (missing or wrong barriers).
+    bool synchronizationValidation = true;
+    /// Print each validation message to stderr as it arrives (tests read the log instead).
+    bool echoMessages = true;
+};
+
+/// True when the environment variable VOXTIER_VALIDATION is set to 1.
+bool validationRequestedByEnvironment();
+
+/// Warnings and errors from the validation layer and the loader. Shared, so it can outlive the
+/// device: leak reports arrive while vkDestroyDevice / vkDestroyInstance run.
+class VulkanMessageLog {
+  public:
+    void add(std::string message);
+    std::size_t count() const;
+    std::vector<std::string> messages() const;
+    /// All messages, one per line (for test failure output).
+    std::string joined() const;
+
+  private:
+    mutable std::mutex mutex_;
+    std::vector<std::string> messages_;
+};
+
+} // namespace voxtier
