@@ -13,12 +13,7 @@
 namespace voxtier::test {
 
 inline Image renderNear(const Scene& s, std::vector<SpriteSetup>* setups = nullptr) {
-    const CameraFrame cam = makeCameraFrame(s.camera);
-    auto sprites = setupSprites(s, cam, 0.0);
-    Image img(cam.width, cam.height, s.render.background);
-    renderReference(s.models, sprites, img);
-    if (setups) *setups = std::move(sprites);
-    return img;
+    return renderReferenceImage(s, setups);
 }
 
 inline Image renderFar(const Scene& s, SnapshotCache& cache, ViewSet set = ViewSet::Cube26,
@@ -36,33 +31,7 @@ inline Image renderFar(const Scene& s, SnapshotCache& cache, ViewSet set = ViewS
 
 /// Empty when identical, else the first differing pixel with both values.
 inline std::string firstDifference(const Image& nearImg, const Image& farImg) {
-    if (nearImg.width != farImg.width || nearImg.height != farImg.height)
-        return "image sizes differ";
-    for (int y = 0; y < nearImg.height; ++y)
-        for (int x = 0; x < nearImg.width; ++x) {
-            const std::size_t p = nearImg.index(x, y);
-            if (nearImg.color[p] == farImg.color[p] && nearImg.depth[p] == farImg.depth[p] &&
-                nearImg.id[p] == farImg.id[p])
-                continue;
-            std::size_t count = 0;
-            for (std::size_t q = 0; q < nearImg.pixelCount(); ++q)
-                count += nearImg.color[q] != farImg.color[q] ||
-                         nearImg.depth[q] != farImg.depth[q] || nearImg.id[q] != farImg.id[q];
-            char buf[256];
-            std::snprintf(buf, sizeof buf,
-                          "%zu pixels differ; first at (%d,%d): near colour %08x depth %.9g id %u, "
-                          "far colour %08x depth %.9g id %u",
-                          count, x, y, nearImg.color[p], double(nearImg.depth[p]), nearImg.id[p],
-                          farImg.color[p], double(farImg.depth[p]), farImg.id[p]);
-            return buf;
-        }
-    return {};
-}
-
-inline std::size_t drawnPixels(const Image& img) {
-    std::size_t n = 0;
-    for (auto id : img.id) n += id != kernel::VT_NO_ENTITY;
-    return n;
+    return describeDifference(nearImg, farImg, "near", "far");
 }
 
 } // namespace voxtier::test

@@ -15,13 +15,7 @@ namespace {
 
 using test::ExpectedCells;
 
-Image renderScene(const Scene& s) {
-    const CameraFrame cam = makeCameraFrame(s.camera);
-    const auto sprites = setupSprites(s, cam, 0.0);
-    Image img(cam.width, cam.height, s.render.background);
-    renderReference(s.models, sprites, img);
-    return img;
-}
+Image renderScene(const Scene& s) { return test::renderReferenceImage(s); }
 
 struct Mismatch {
     int count = 0;

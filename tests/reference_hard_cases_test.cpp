@@ -13,14 +13,7 @@
 namespace voxtier {
 namespace {
 
-Image render(const Scene& s, std::vector<SpriteSetup>* setups = nullptr) {
-    const CameraFrame cam = makeCameraFrame(s.camera);
-    auto sprites = setupSprites(s, cam, 0.0);
-    Image img(cam.width, cam.height, s.render.background);
-    renderReference(s.models, sprites, img);
-    if (setups) *setups = sprites;
-    return img;
-}
+Image render(const Scene& s, std::vector<SpriteSetup>* setups = nullptr) { return test::renderReferenceImage(s, setups); }
 
 /// A bar along voxel +X (index 1) with a marker voxel (index 2) at the +X end on the +Y side:
 /// asymmetric under every mirror, so a flipped axis anywhere shows.

@@ -222,20 +222,31 @@ inline NearAndReference renderBoth(NearRenderer& renderer, const Scene& scene, d
 
 /// "" when the images are identical (colour, depth bits, id); otherwise the number of differing
 /// pixels and the first one with both values and the entity each image has there.
-inline std::string describeDifference(const Image& vulkan, const Image& reference) {
-    if (vulkan.width != reference.width || vulkan.height != reference.height)
-        return "image sizes differ: " + std::to_string(vulkan.width) + "x" + std::to_string(vulkan.height) +
-               " vs " + std::to_string(reference.width) + "x" + std::to_string(reference.height);
-    const ImageDiff d = diffImages(vulkan, reference);
+inline std::string describeDifference(const Image& a, const Image& b, const char* nameA = "vulkan",
+                                      const char* nameB = "reference") {
+    if (a.width != b.width || a.height != b.height)
+        return "image sizes differ: " + std::to_string(a.width) + "x" + std::to_string(a.height) + " vs " +
+               std::to_string(b.width) + "x" + std::to_string(b.height);
+    const ImageDiff d = diffImages(a, b);
     if (d.identical()) return "";
-    const std::size_t p = vulkan.index(int(d.firstX), int(d.firstY));
+    const std::size_t p = a.index(int(d.firstX), int(d.firstY));
     char buf[400];
     std::snprintf(buf, sizeof buf,
-                  "%zu colour, %zu depth, %zu id pixels differ; first at (%zu,%zu): vulkan colour %08x depth %.9g "
-                  "entity %d, reference colour %08x depth %.9g entity %d",
-                  d.colorDiffs, d.depthDiffs, d.idDiffs, d.firstX, d.firstY, vulkan.color[p], double(vulkan.depth[p]),
-                  int(vulkan.id[p]), reference.color[p], double(reference.depth[p]), int(reference.id[p]));
+                  "%zu colour, %zu depth, %zu id pixels differ; first at (%zu,%zu): %s colour %08x depth %.9g "
+                  "entity %d, %s colour %08x depth %.9g entity %d",
+                  d.colorDiffs, d.depthDiffs, d.idDiffs, d.firstX, d.firstY, nameA, a.color[p], double(a.depth[p]),
+                  int(a.id[p]), nameB, b.color[p], double(b.depth[p]), int(b.id[p]));
     return buf;
+}
+
+/// A frame of `s` at time t through the CPU reference tracer (the executable spec).
+inline Image renderReferenceImage(const Scene& s, std::vector<SpriteSetup>* setups = nullptr, double time = 0.0) {
+    const CameraFrame cam = makeCameraFrame(s.cameraAt(time));
+    auto sprites = setupSprites(s, cam, time);
+    Image img(cam.width, cam.height, s.render.background);
+    renderReference(s.models, sprites, img);
+    if (setups) *setups = std::move(sprites);
+    return img;
 }
 
 inline std::size_t drawnPixels(const Image& img) {
