@@ -1,5 +1,5 @@
 #pragma once
-// Error channels (STYLE.md): untrusted input -> InputError naming file, field and reason;
+// Error channels (docs/STYLE.md): untrusted input -> InputError naming file, field and reason;
 // API misuse -> assert; Vulkan/Embree -> their module's check macro / error callback.
 #include <stdexcept>
 #include <string>
