@@ -19,7 +19,10 @@ namespace {
 struct RenderArgs {
     std::string input;
     std::string out;
-    std::string mode = "reference";
+    std::string mode = "hybrid";
+    std::string nearBackend = "vulkan";
+    bool path = false;
+    std::string overlay, csv, pops;
     std::optional<double> time;
     std::optional<int> frame;
     std::string ids;
@@ -73,33 +76,82 @@ Scene loadInput(const RenderArgs& a) {
     return s;
 }
 
+std::string numbered(const std::string& pattern, int frame) {
+    // out/x.png -> out/x_0007.png
+    const std::filesystem::path p(pattern);
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "_%04d", frame);
+    return (p.parent_path() / (p.stem().string() + buf + p.extension().string())).string();
+}
+
+std::FILE* openCsv(const std::string& file, const char* header) {
+    if (file.empty()) return nullptr;
+    const std::filesystem::path p(file);
+    if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
+    std::FILE* f = std::fopen(file.c_str(), "w");
+    if (!f) throw InputError(file, "", "cannot open for writing");
+    std::fputs(header, f);
+    return f;
+}
+
 void run(const RenderArgs& a) {
     Scene scene = loadInput(a);
     const RenderMode mode = parseRenderMode(a.mode);
-    int frame = 0;
-    double time = 0.0;
-    if (a.frame) {
-        if (*a.frame < 0) throw InputError("", "--frame", "must be >= 0");
-        frame = *a.frame;
-        time = scene.timeOfFrame(frame);
-    } else if (a.time) {
-        time = *a.time;
-        frame = scene.path ? int(std::floor((time - scene.path->keys.front().time) * scene.path->fps + 1e-9)) : 0;
-    }
-    FrameRenderer renderer(scene);
-    renderer.applyEditsThrough(frame);
-    const FrameResult r = renderer.render(time, mode);
-
+    FrameOptions opt;
+    opt.nearBackend = parseNearBackend(a.nearBackend);
+    opt.overlay = !a.overlay.empty();
+    opt.measurePops = !a.pops.empty();
+    FrameRenderer renderer(scene, opt);
     std::string out = a.out;
     if (out.empty()) out = "out/" + std::filesystem::path(a.input).stem().string() + ".png";
-    writeImage(out, r.image, scene.cameraAt(time).zNear);
-    if (!a.ids.empty()) writeIdImage(a.ids, r.image);
-    std::size_t drawnPixels = 0;
-    for (auto id : r.image.id) drawnPixels += id != kernel::VT_NO_ENTITY;
-    if (mode == RenderMode::Near) std::printf("Vulkan device: %s\n", renderer.nearDeviceName().c_str());
-    std::printf("%s: %s, t=%.3f s, %dx%d, %d entities (%d culled), %zu sprite pixels, %.1f ms -> %s\n",
-                a.input.c_str(), toString(mode), time, r.image.width, r.image.height, r.stats.entities,
-                r.stats.culled, drawnPixels, r.stats.totalMs, out.c_str());
+
+    // Which frames: one (--time / --frame, default t = 0) or the whole camera path (--path).
+    int first = 0, last = 0;
+    std::optional<double> fixedTime;
+    if (a.path) {
+        if (!scene.path) throw InputError(a.input, "--path", "the scene has no camera_path");
+        last = scene.path->frameCount() - 1;
+    } else if (a.frame) {
+        if (*a.frame < 0) throw InputError("", "--frame", "must be >= 0");
+        first = last = *a.frame;
+    } else if (a.time) {
+        if (!std::isfinite(*a.time)) throw InputError("", "--time", "must be a finite number");
+        fixedTime = *a.time;
+        first = last = scene.path ? int(std::floor((*a.time - scene.path->keys.front().time) * scene.path->fps + 1e-9)) : 0;
+        first = last = std::max(0, first);
+    }
+    std::FILE* csv = openCsv(a.csv, "frame,time,entities,culled,near,far,fading,switches_to_far,switches_to_near,"
+                                    "view_changes,bakes,cache_bytes,setup_ms,select_ms,near_ms,far_ms,bake_ms,total_ms\n");
+    std::FILE* pops = openCsv(a.pops, "frame,entity,kind,changed_pixels,changed_fraction,displacement_px,radius_px\n");
+    // A lone frame starts the selector fresh (tiers from the metric alone); --path runs the
+    // frames in order, so hysteresis and cross-fades behave as in a game.
+    for (int frame = first; frame <= last; ++frame) {
+        const double time = fixedTime ? *fixedTime : scene.timeOfFrame(frame);
+        renderer.applyEditsThrough(frame);
+        const FrameResult r = renderer.render(time, mode, frame);
+        const std::string file = a.path ? numbered(out, frame) : out;
+        writeImage(file, r.image, scene.cameraAt(time).zNear);
+        if (r.overlay) writeImage(a.path ? numbered(a.overlay, frame) : a.overlay, *r.overlay);
+        if (!a.ids.empty()) writeIdImage(a.path ? numbered(a.ids, frame) : a.ids, r.image);
+        const FrameStats& st = r.stats;
+        if (csv)
+            std::fprintf(csv, "%d,%.6f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", frame, time,
+                         st.entities, st.culled, st.nearDrawn, st.farDrawn, st.fading, st.switchesToFar,
+                         st.switchesToNear, st.viewChanges, st.farBakes, st.cacheBytes, st.setupMs, st.selectMs,
+                         st.nearMs, st.farMs, st.bakeMs, st.totalMs);
+        for (const PopEvent& e : r.pops)
+            std::fprintf(pops, "%d,%u,%s,%zu,%.6f,%.3f,%.3f\n", e.frame, e.entity, toString(e.kind), e.changedPixels,
+                         e.changedFraction, e.displacementPx, e.radiusPx);
+        if (frame == first && !renderer.nearDeviceName().empty())
+            std::printf("Vulkan device: %s\n", renderer.nearDeviceName().c_str());
+        std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, %d fading), "
+                    "%d switches, %d bakes, %.1f ms -> %s\n",
+                    a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height, st.entities,
+                    st.culled, st.nearDrawn, st.farDrawn, st.fading, st.switchesToFar + st.switchesToNear,
+                    st.farBakes, st.totalMs, file.c_str());
+    }
+    if (csv) std::fclose(csv);
+    if (pops) std::fclose(pops);
 }
 
 } // namespace
@@ -110,9 +162,17 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_option("input", args->input, "Scene file (.json) or MagicaVoxel model (.vox)")->required();
     cmd->add_option("-o,--out", args->out, "Output image (.png, or .exr with Z and id channels); default out/<name>.png");
     cmd->add_option("--mode", args->mode,
-                    "reference (CPU reference tracer), near (Vulkan near tier; VOXTIER_VALIDATION=1 "
-                    "enables validation) or far (every entity through the far tier's snapshot cache)")
+                    "hybrid (the selector hands entities between the tiers), near (Vulkan near tier for "
+                    "every entity; VOXTIER_VALIDATION=1 enables validation), far (every entity through "
+                    "the snapshot cache) or reference (CPU reference tracer)")
         ->capture_default_str();
+    cmd->add_option("--near-backend", args->nearBackend,
+                    "vulkan, or reference (the CPU tracer draws the near tier; same image)")
+        ->capture_default_str();
+    cmd->add_flag("--path", args->path, "Render every frame of the camera path (OUT becomes OUT_0000.png ...)");
+    cmd->add_option("--overlay", args->overlay, "Also write the tier overlay (near blue, far orange, fading magenta)");
+    cmd->add_option("--csv", args->csv, "Per-frame CSV: tier counts, switches, bakes, timings");
+    cmd->add_option("--pops", args->pops, "Per-switch CSV: the image change each tier/view switch causes alone");
     auto* t = cmd->add_option("--time", args->time, "Time in seconds along the camera path");
     auto* f = cmd->add_option("--frame", args->frame, "Frame number of the camera path (applies scripted edits up to it)");
     t->excludes(f);

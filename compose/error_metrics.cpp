@@ -105,7 +105,9 @@ std::vector<double> squaredDistanceTransform(const std::vector<std::uint8_t>& ma
     return g;
 }
 
-std::vector<EntityError> entityErrors(const Image& truth, const Image& test, const std::vector<std::uint32_t>& entities) {
+std::vector<EntityError> entityErrors(const Image& truth, const Image& test, const std::vector<std::uint32_t>& entities,
+                                      std::optional<glm::ivec4> rect) {
+    const glm::ivec4 r = rect.value_or(glm::ivec4(0, 0, truth.width, truth.height));
     std::unordered_map<std::uint32_t, std::size_t> slot;
     std::vector<EntityError> out(entities.size());
     std::vector<Box> boxes(entities.size());
@@ -113,8 +115,8 @@ std::vector<EntityError> entityErrors(const Image& truth, const Image& test, con
         slot[entities[i]] = i;
         out[i].entity = entities[i];
     }
-    for (int y = 0; y < truth.height; ++y)
-        for (int x = 0; x < truth.width; ++x) {
+    for (int y = std::max(0, r.y); y < std::min(truth.height, r.w); ++y)
+        for (int x = std::max(0, r.x); x < std::min(truth.width, r.z); ++x) {
             const std::size_t p = truth.index(x, y);
             const std::uint32_t a = truth.id[p], b = test.id[p];
             auto visit = [&](std::uint32_t e) {

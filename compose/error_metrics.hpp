@@ -4,7 +4,10 @@
 // the all-near render of the same frame.
 #include "core/image.hpp"
 
+#include <glm/glm.hpp>
+
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace voxtier {
@@ -26,7 +29,9 @@ struct EntityError {
 EntityError entityError(const Image& truth, const Image& test, std::uint32_t entity);
 
 /// Errors of many entities in one pass over the images (entities absent from both are skipped).
-std::vector<EntityError> entityErrors(const Image& truth, const Image& test, const std::vector<std::uint32_t>& entities);
+/// `rect` (x0, y0, x1, y1, half-open) limits the pass when the footprints are known to lie in it.
+std::vector<EntityError> entityErrors(const Image& truth, const Image& test, const std::vector<std::uint32_t>& entities,
+                                      std::optional<glm::ivec4> rect = std::nullopt);
 
 struct FrameError {
     std::size_t entities = 0;

@@ -1,38 +1,76 @@
+// The frame recipe (DESIGN.md §6). FrameRenderer::render reads top to bottom as the recipe;
+// everything else in this file is a step it calls.
 #include "compose/frame.hpp"
 
+#include "compose/error_metrics.hpp"
 #include "core/error.hpp"
 #include "impostor_cache/far_frame.hpp"
+#include "impostor_cache/snapshot_cache.hpp"
+#include "impostor_cache/view_set.hpp"
 #include "volumetric/near_renderer.hpp"
 #include "volumetric/reference_renderer.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 namespace voxtier {
 
 namespace {
-double msSince(std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+/// A copy of a sprite that draws only its share of a cross-fade: `keepBelow` keeps the pixels
+/// whose dither threshold is below the fade share (the new tier), the others keep the rest.
+SpriteSetup fadedCopy(const SpriteSetup& s, float share, bool keepBelow) {
+    SpriteSetup c = s;
+    c.gpu.fade = share;
+    c.gpu.fadeSide = keepBelow ? 1.0f : -1.0f;
+    return c;
 }
+
 } // namespace
 
 RenderMode parseRenderMode(const std::string& name) {
     if (name == "reference") return RenderMode::Reference;
     if (name == "near") return RenderMode::Near;
     if (name == "far") return RenderMode::Far;
-    throw InputError("", "--mode", "unknown render mode '" + name + "' (expected: reference, near, far)");
+    if (name == "hybrid") return RenderMode::Hybrid;
+    throw InputError("", "--mode", "unknown render mode '" + name + "' (expected: hybrid, near, far, reference)");
 }
 
 const char* toString(RenderMode m) {
     switch (m) {
     case RenderMode::Reference: return "reference";
-    case RenderMode::Far: return "far";
     case RenderMode::Near: return "near";
+    case RenderMode::Far: return "far";
+    case RenderMode::Hybrid: return "hybrid";
     }
     return "?";
 }
 
-FrameRenderer::FrameRenderer(Scene& scene) : scene_(scene), cache_(std::make_unique<SnapshotCache>()) {
+NearBackend parseNearBackend(const std::string& name) {
+    if (name == "vulkan") return NearBackend::Vulkan;
+    if (name == "reference") return NearBackend::Reference;
+    throw InputError("", "--near-backend", "unknown near backend '" + name + "' (expected: vulkan, reference)");
+}
+
+const char* toString(PopEvent::Kind k) {
+    switch (k) {
+    case PopEvent::Kind::TierSwitch: return "tier";
+    case PopEvent::Kind::ViewSwitch: return "view";
+    case PopEvent::Kind::FadeStep: return "fade";
+    }
+    return "?";
+}
+
+FrameRenderer::FrameRenderer(Scene& scene, FrameOptions options)
+    : scene_(scene), options_(options), selector_(scene.selector), cache_(std::make_unique<SnapshotCache>()),
+      backend_(options.nearBackend) {
+    cache_->setBudget(options_.cacheBudgetBytes);
     std::stable_sort(scene_.edits.begin(), scene_.edits.end(),
                      [](const ScriptedEdit& a, const ScriptedEdit& b) { return a.atFrame < b.atFrame; });
 }
@@ -53,53 +91,190 @@ void FrameRenderer::applyEditsThrough(int frame) {
     }
 }
 
-FrameResult FrameRenderer::render(double time, RenderMode mode) {
-    const auto t0 = std::chrono::steady_clock::now();
+FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
+    const auto t0 = Clock::now();
     FrameResult out;
+    FrameStats& st = out.stats;
+
+    // 1. Camera and per-entity sprite set-up (DESIGN.md §3: double precision, camera-relative).
     const CameraFrame cam = makeCameraFrame(scene_.cameraAt(time));
-    out.image = Image(cam.width, cam.height, scene_.render.background);
-
-    // 1. Per-entity sprite set-up (DESIGN.md §3, double precision, camera-relative).
     out.sprites = setupSprites(scene_, cam, time);
-    out.stats.entities = int(out.sprites.size());
-    for (const auto& s : out.sprites) out.stats.culled += !s.visible();
-    out.stats.setupMs = msSince(t0);
+    st.entities = int(out.sprites.size());
+    for (const auto& s : out.sprites) st.culled += !s.visible();
+    st.setupMs = msSince(t0);
 
-    // 2. Draw.
-    switch (mode) {
-    case RenderMode::Reference: {
-        ReferenceStats rs;
-        renderReference(scene_.models, out.sprites, out.image, &rs);
-        out.stats.drawnReference = int(rs.sprites);
-        out.stats.referenceMs = rs.milliseconds;
-        out.stats.pixelsTested = rs.pixelsTested;
-        out.stats.voxelFetches = rs.voxelFetches;
-        break;
-    }
-    case RenderMode::Far: {
-        std::vector<FarRequest> requests;
-        requests.reserve(out.sprites.size());
-        for (const auto& s : out.sprites) requests.push_back({&s, std::nullopt});
-        FarFrameStats fs;
-        drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize), out.image, &fs);
-        out.stats.drawnFar = int(fs.sprites);
-        out.stats.farBakes = int(fs.bakes);
-        out.stats.farMs = fs.ensureMs + fs.blit.milliseconds;
-        out.stats.pixelsTested = fs.blit.pixelsTested;
-        break;
-    }
-    case RenderMode::Near: {
-        // Created on first use: reference-only runs never touch Vulkan.
-        if (!near_) near_ = std::make_unique<NearRenderer>();
-        NearStats ns;
-        out.image = near_->render(cam, scene_.models, out.sprites, scene_.render.background, {}, &ns);
-        out.stats.drawnNear = int(ns.sprites);
-        out.stats.nearMs = ns.uploadMs + ns.drawMs + ns.readbackMs;
-        break;
-    }
-    }
-    out.stats.totalMs = msSince(t0);
+    // 2. Select each entity's tier (DESIGN.md §5), its cross-fade and its far view.
+    const auto t1 = Clock::now();
+    out.plan = planFrame(out.sprites, mode, st);
+    st.selectMs = msSince(t1);
+
+    // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z. The mode
+    // decides who draws near: reference mode is the CPU tracer by definition, near mode is Vulkan.
+    backend_ = mode == RenderMode::Reference ? NearBackend::Reference
+               : mode == RenderMode::Near    ? NearBackend::Vulkan
+                                             : options_.nearBackend;
+    out.image = draw(cam, out.sprites, out.plan, &st);
+
+    // Debugging and measurement outputs.
+    if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
+    if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
+    previousPlan_ = out.plan;
+    st.cacheBytes = std::size_t(cache_->counters().bytes);
+    st.totalMs = msSince(t0);
     return out;
+}
+
+std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>& sprites, RenderMode mode, FrameStats& st) {
+    std::vector<EntityPlan> plan(sprites.size());
+    if (mode == RenderMode::Reference || mode == RenderMode::Near) return plan; // all near
+    const ViewSet set = viewSetFromSize(scene_.selector.viewSetSize);
+    const auto& views = viewDirections(set);
+    auto towardViewer = [](const SpriteSetup& s) { return -s.lattice.dir; };
+
+    // The selector sees distance, projected radius and the angle to the nearest snapshot view.
+    std::vector<SelectorInput> inputs(sprites.size());
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        const SpriteSetup& s = sprites[i];
+        inputs[i].distance = s.distance;
+        inputs[i].radiusPx = s.radiusPx;
+        if (s.visible()) {
+            const glm::dvec3 w = views[std::size_t(nearestView(set, towardViewer(s)))];
+            inputs[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
+        }
+    }
+    const SelectorStats ss = selector_.update(inputs);
+    st.switchesToFar = ss.switchesToFar;
+    st.switchesToNear = ss.switchesToNear;
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        EntityPlan& p = plan[i];
+        p.tier = mode == RenderMode::Far ? Tier::Far : selector_.tier(i);
+        if (mode == RenderMode::Hybrid) {
+            float share = 0.0f;
+            Tier from = p.tier;
+            if (selector_.fading(i, &share, &from)) p.fade = share, p.fadeFrom = from;
+        }
+        if (p.drawsFar() && sprites[i].visible()) p.view = selector_.chooseView(i, towardViewer(sprites[i]), views);
+        st.fading += p.fade > 0.0f;
+    }
+    st.viewChanges = selector_.viewChangesThisFrame();
+    return plan;
+}
+
+Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,
+                          const std::vector<EntityPlan>& plan, FrameStats* stats, std::optional<Tier> onlyTier) {
+    FrameStats local;
+    FrameStats& st = stats ? *stats : local;
+    // Which sprites each tier draws; a cross-fading sprite is drawn by both, each with the
+    // complementary half of the dither pattern (the new tier takes the pixels below the share).
+    std::vector<SpriteSetup> faded;
+    faded.reserve(2 * std::size_t(std::count_if(plan.begin(), plan.end(), [](const EntityPlan& p) { return p.fade > 0.0f; })));
+    std::vector<const SpriteSetup*> nearSprites;
+    std::vector<FarRequest> farRequests;
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        const SpriteSetup& s = sprites[i];
+        const EntityPlan& p = plan[i];
+        if (!s.visible()) continue;
+        if (p.drawsNear() && onlyTier != Tier::Far) {
+            if (p.fade > 0.0f) faded.push_back(fadedCopy(s, p.fade, /*keepBelow=*/p.tier == Tier::Near));
+            nearSprites.push_back(p.fade > 0.0f ? &faded.back() : &s);
+        }
+        if (p.drawsFar() && onlyTier != Tier::Near) {
+            if (p.fade > 0.0f) faded.push_back(fadedCopy(s, p.fade, /*keepBelow=*/p.tier == Tier::Far));
+            farRequests.push_back({p.fade > 0.0f ? &faded.back() : &s, p.view >= 0 ? std::optional<int>(p.view) : std::nullopt});
+        }
+    }
+    st.nearDrawn = int(nearSprites.size());
+    st.farDrawn = int(farRequests.size());
+
+    // 3. Near tier: one instanced Vulkan draw in ascending entity id (or the CPU reference).
+    const auto t0 = Clock::now();
+    Image image;
+    if (backend_ == NearBackend::Vulkan && !nearSprites.empty()) {
+        if (!near_) near_ = std::make_unique<NearRenderer>(); // reference/far-only runs never touch Vulkan
+        NearStats ns;
+        image = near_->render(cam, scene_.models, nearSprites, scene_.render.background, {}, &ns);
+        st.nearPixelsTested += ns.fragmentInvocations;
+    } else {
+        image = Image(cam.width, cam.height, scene_.render.background);
+        ReferenceStats rs;
+        renderReference(scene_.models, nearSprites, image, &rs);
+        st.nearPixelsTested += rs.pixelsTested;
+        st.voxelFetches += rs.voxelFetches;
+    }
+    st.nearMs = msSince(t0);
+
+    // 4-5. Far tier: make sure every needed snapshot exists (lazy bakes, parallel over distinct
+    // snapshots), then blit into the same image; the blit writes with the shared min-z/id rule,
+    // which is the composition (composeMinZ is the same rule for two finished images).
+    if (!farRequests.empty()) {
+        FarFrameStats fs;
+        drawFarSprites(scene_.models, farRequests, *cache_, viewSetFromSize(scene_.selector.viewSetSize), image, &fs);
+        st.farBakes += int(fs.bakes);
+        st.bakeMs += fs.ensureMs;
+        st.farMs += fs.ensureMs + fs.blit.milliseconds;
+        st.farPixelsTested += fs.blit.pixelsTested;
+    }
+    return image;
+}
+
+std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,
+                                                 const std::vector<EntityPlan>& plan, int frame) {
+    std::vector<PopEvent> pops;
+    if (previousPlan_.size() != plan.size()) return pops;
+    // Each entity whose plan changed is drawn alone, once as last frame planned it and once as
+    // this frame does, with this frame's camera: the difference is the switch's own pop. The CPU
+    // reference stands in for Vulkan here (the same image by contract, and one sprite is cheap).
+    const NearBackend saved = backend_;
+    backend_ = NearBackend::Reference;
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        const EntityPlan& now = plan[i];
+        const EntityPlan& before = previousPlan_[i];
+        if (now == before || !sprites[i].visible()) continue;
+        PopEvent e;
+        e.frame = frame;
+        e.entity = std::uint32_t(i);
+        e.radiusPx = sprites[i].radiusPx;
+        e.kind = now.tier != before.tier ? PopEvent::Kind::TierSwitch
+                 : (now.fade != before.fade || now.fadeFrom != before.fadeFrom) ? PopEvent::Kind::FadeStep
+                                                                                : PopEvent::Kind::ViewSwitch;
+        const std::vector<SpriteSetup> one = {sprites[i]};
+        EntityPlan oldPlan = before;
+        if (oldPlan.drawsFar() && oldPlan.view < 0) oldPlan.view = nearestView(viewSetFromSize(scene_.selector.viewSetSize), -sprites[i].lattice.dir);
+        std::vector<SpriteSetup> alone = one;
+        alone[0].entityId = std::uint32_t(i);
+        const Image a = draw(cam, alone, {oldPlan});
+        const Image b = draw(cam, alone, {now});
+        const auto err = entityErrors(a, b, {std::uint32_t(i)}, sprites[i].screenRect);
+        if (!err.empty()) {
+            e.changedPixels = err[0].mismatched;
+            e.changedFraction = err[0].mismatchFraction();
+            e.displacementPx = err[0].silhouetteDisplacementPx;
+        }
+        pops.push_back(e);
+    }
+    backend_ = saved;
+    return pops;
+}
+
+Image FrameRenderer::tierOverlay(const Image& image, const std::vector<EntityPlan>& plan) const {
+    // Near entities tinted blue, far ones orange, cross-fading ones magenta; outlines stay black.
+    Image o = image;
+    const Rgba8 tints[3] = {packRgba(60, 140, 255), packRgba(255, 150, 40), packRgba(230, 60, 230)};
+    tbb::parallel_for(std::size_t(0), o.pixelCount(), [&](std::size_t p) {
+        const std::uint32_t e = o.id[p];
+        if (e == kernel::VT_NO_ENTITY || e >= plan.size() || o.color[p] == kernel::VT_OUTLINE_RGBA) return;
+        const Rgba8 t = tints[plan[e].fade > 0.0f ? 2 : int(plan[e].tier)];
+        const Rgba8 c = o.color[p];
+        o.color[p] = packRgba((channel(c, 0) + channel(t, 0)) / 2, (channel(c, 1) + channel(t, 1)) / 2,
+                              (channel(c, 2) + channel(t, 2)) / 2, 255);
+    });
+    return o;
+}
+
+void composeMinZ(Image& near, const Image& far) {
+    tbb::parallel_for(std::size_t(0), near.pixelCount(), [&](std::size_t p) {
+        if (far.id[p] != kernel::VT_NO_ENTITY) near.writeIfNearer(p, far.color[p], far.depth[p], far.id[p]);
+    });
 }
 
 } // namespace voxtier

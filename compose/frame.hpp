@@ -1,70 +1,136 @@
 #pragma once
-// The frame recipe of DESIGN.md §6 (select -> near -> far -> compose). A FrameRenderer keeps
-// what persists between frames of one scene: selector state, the snapshot cache, GPU residency.
+// The frame recipe of DESIGN.md §6: select tiers -> draw near sprites (Vulkan) -> ensure the
+// snapshots far sprites need (lazy, parallel) -> blit far sprites -> compose by min-z. A
+// FrameRenderer keeps what persists between frames of one scene: the selector's per-entity
+// state, the snapshot cache and the Vulkan device with its voxel atlas.
 #include "core/image.hpp"
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
+#include "lod/selector.hpp"
 
+#include <cstddef>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace voxtier {
 
 class NearRenderer;
+class SnapshotCache;
 
 enum class RenderMode {
     Reference, ///< every entity through the CPU reference tracer (the executable spec)
-    Far,       ///< every entity through the far tier's snapshot cache (DESIGN.md §4)
     Near,      ///< every entity through the Vulkan near tier (volumetric/near_renderer.hpp)
+    Far,       ///< every entity through the far tier's snapshot cache (DESIGN.md §4)
+    Hybrid,    ///< the selector decides per entity (DESIGN.md §5): the product's main job
 };
 RenderMode parseRenderMode(const std::string& name); ///< throws InputError(field "--mode")
 const char* toString(RenderMode m);
 
+/// Who draws the near tier. Both produce the same image (the near tier's contract), so tests
+/// and measurements that are not about the GPU may use the cheaper one.
+enum class NearBackend { Vulkan, Reference };
+NearBackend parseNearBackend(const std::string& name); ///< "vulkan" | "reference"
+
+struct FrameOptions {
+    NearBackend nearBackend = NearBackend::Vulkan;
+    bool overlay = false;          ///< also produce FrameResult::overlay (tier tint)
+    bool measurePops = false;      ///< FrameResult::pops: the change each switch causes alone
+    std::size_t cacheBudgetBytes = std::size_t(256) << 20; ///< far snapshot cache budget
+};
+
+/// What one entity does this frame: its tier, an optional cross-fade (both tiers draw it, with
+/// complementary dither masks) and the snapshot view the far tier uses.
+struct EntityPlan {
+    Tier tier = Tier::Near;
+    float fade = 0.0f;       ///< share of pixels already showing `tier` (0 = no cross-fade)
+    Tier fadeFrom = Tier::Near;
+    int view = -1;           ///< far view index (when the far tier draws the entity)
+    bool drawsNear() const { return tier == Tier::Near || (fade > 0.0f && fadeFrom == Tier::Near); }
+    bool drawsFar() const { return tier == Tier::Far || (fade > 0.0f && fadeFrom == Tier::Far); }
+    bool operator==(const EntityPlan&) const = default;
+};
+
+/// The image change one switch causes on its own (DESIGN.md §8 "pop magnitude"): the entity
+/// rendered alone with its previous plan and with its new one, same camera.
+struct PopEvent {
+    enum class Kind { TierSwitch, ViewSwitch, FadeStep };
+    int frame = 0;
+    std::uint32_t entity = 0;
+    Kind kind = Kind::TierSwitch;
+    std::size_t changedPixels = 0;   ///< pixels of the entity's footprint union that changed
+    double changedFraction = 0.0;    ///< changedPixels / footprint union
+    double displacementPx = 0.0;     ///< largest silhouette displacement
+    double radiusPx = 0.0;           ///< projected radius of the entity at the switch
+};
+const char* toString(PopEvent::Kind k);
+
 struct FrameStats {
-    int entities = 0;
-    int culled = 0;
-    int drawnReference = 0;
-    int drawnFar = 0;
-    double farMs = 0.0;    ///< snapshot lookups and bakes + blit
-    int farBakes = 0;      ///< snapshots baked during this frame
-    int drawnNear = 0;
-    double setupMs = 0.0;
-    double referenceMs = 0.0;
-    double nearMs = 0.0; ///< near tier: upload + draw + readback
-    double totalMs = 0.0;
-    std::uint64_t pixelsTested = 0, voxelFetches = 0;
+    int entities = 0, culled = 0;
+    int nearDrawn = 0, farDrawn = 0;      ///< visible sprites drawn by each tier
+    int fading = 0;                       ///< entities drawn by both tiers (cross-fade)
+    int switchesToFar = 0, switchesToNear = 0, viewChanges = 0;
+    int farBakes = 0;                     ///< snapshots baked during this frame
+    std::size_t cacheBytes = 0;           ///< snapshot bytes held after the frame
+    double setupMs = 0.0, selectMs = 0.0, nearMs = 0.0, farMs = 0.0, bakeMs = 0.0, totalMs = 0.0;
+    std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;
 };
 
 struct FrameResult {
     Image image;
-    std::vector<SpriteSetup> sprites; ///< per entity id
+    std::optional<Image> overlay;      ///< with FrameOptions::overlay
+    std::vector<SpriteSetup> sprites;  ///< per entity id
+    std::vector<EntityPlan> plan;      ///< per entity id
+    std::vector<PopEvent> pops;        ///< with FrameOptions::measurePops
     FrameStats stats;
 };
 
-class SnapshotCache;
-
 class FrameRenderer {
 public:
-    explicit FrameRenderer(Scene& scene);
+    explicit FrameRenderer(Scene& scene, FrameOptions options = {});
     ~FrameRenderer();
     FrameRenderer(const FrameRenderer&) = delete;
     FrameRenderer& operator=(const FrameRenderer&) = delete;
 
     /// Applies the scene's scripted edits due up to path frame `frame` (each once).
     void applyEditsThrough(int frame);
-    /// One frame at time t.
-    FrameResult render(double time, RenderMode mode);
-    /// The far tier's snapshot cache; it persists across frames of this renderer.
+    /// One frame at time t; `frame` only labels pop events. Consecutive calls are consecutive
+    /// frames for the selector (hysteresis, cross-fades).
+    FrameResult render(double time, RenderMode mode, int frame = 0);
+
+    /// Draws `sprites` as `plan` says, with no selector involved: near sprites (and the near
+    /// half of fades) by the near backend, then far ones through the cache, composed by min-z.
+    /// `onlyTier` draws just that tier's share (for tests and debugging).
+    Image draw(const CameraFrame& camera, const std::vector<SpriteSetup>& sprites,
+               const std::vector<EntityPlan>& plan, FrameStats* stats = nullptr,
+               std::optional<Tier> onlyTier = std::nullopt);
+
     SnapshotCache& snapshotCache() { return *cache_; }
-    /// The Vulkan device of the near tier ("" until a Near frame created it).
+    TierSelector& selector() { return selector_; }
+    const FrameOptions& options() const { return options_; }
+    /// The Vulkan device of the near tier ("" until a frame needed it).
     std::string nearDeviceName() const;
 
 private:
+    std::vector<EntityPlan> planFrame(const std::vector<SpriteSetup>& sprites, RenderMode mode, FrameStats& st);
+    std::vector<PopEvent> measurePops(const CameraFrame& camera, const std::vector<SpriteSetup>& sprites,
+                                      const std::vector<EntityPlan>& plan, int frame);
+    Image tierOverlay(const Image& image, const std::vector<EntityPlan>& plan) const;
+
     Scene& scene_;
-    std::unique_ptr<NearRenderer> near_; ///< created by the first Near frame (owns the Vulkan device)
-    int editsApplied_ = 0; ///< scene.edits are applied in order of atFrame
+    FrameOptions options_;
+    TierSelector selector_;
     std::unique_ptr<SnapshotCache> cache_;
+    std::unique_ptr<NearRenderer> near_; ///< created by the first frame that draws near on Vulkan
+    NearBackend backend_;                ///< who draws near sprites in the current frame
+    std::vector<EntityPlan> previousPlan_;
+    int editsApplied_ = 0; ///< scene.edits are applied in order of atFrame
 };
+
+/// Composes `far` into `near` by the shared depth/id rule (core/sprite.hpp winsDepthTest).
+/// The frame itself blits far sprites straight into the near image with the same rule; this is
+/// the same operation for two finished images.
+void composeMinZ(Image& near, const Image& far);
 
 } // namespace voxtier

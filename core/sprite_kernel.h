@@ -64,9 +64,9 @@ struct SpriteGpu {
     vec3 mapJ;      // same for sigma*(v - g_v)
     float denMax;   // larger denominators hit the sprite plane nearer than 2*zNear: not drawn
     vec3 mapDen;    // denominator: the pixel ray's component along the view direction
-    float reserved0;
+    float fade;     // cross-fade share in (0, 1) while the entity changes tier, 0 otherwise
     vec3 rayBase;   // voxel-space origin of the ray of cell (i, j) is rayBase + ((i+.5) cellRight + (j+.5) cellUp)
-    float reserved1;
+    float fadeSide; // > 0: draw the pixels whose dither threshold is below `fade`; else the others
     vec3 cellRight; // sprite right / sigma (voxel space)
     float reserved2;
     vec3 cellUp;    // sprite up / sigma (voxel space)
@@ -83,12 +83,31 @@ struct SpriteGpu {
     vec4 quad[4];      // clip-space corners of the proxy quad on the sprite plane (triangle strip)
 };
 
+// DESIGN.md §5 transition: ordered-dither threshold of a pixel (4x4 Bayer matrix, built from
+// the bits of x^y and y), in (0, 1). A cross-fade at share f draws the new tier where the
+// threshold is below f and the old tier elsewhere: complementary, stable from frame to frame.
+VT_FN float vtDitherThreshold(ivec2 p) {
+    int x = p.x & 3;
+    int y = p.y & 3;
+    int a = x ^ y;
+    int v = ((a & 1) << 3) | ((y & 1) << 2) | ((a >> 1) << 1) | (y >> 1);
+    return (float(v) + 0.5f) / 16.0f;
+}
+
+// Whether this tier draws the pixel of a sprite that is mid cross-fade (always, when not).
+VT_FN bool vtDitherKeeps(VT_IN(SpriteGpu) s, vec2 pc) {
+    if (!(s.fade > 0.0f)) return true;
+    bool below = vtDitherThreshold(ivec2(int(floor(pc.x)), int(floor(pc.y)))) < s.fade;
+    return s.fadeSide > 0.0f ? below : !below;
+}
+
 // §3.4-§3.5: pixel centre -> virtual-pixel cell (i, j) of the sprite lattice. The mapping is
 // the exact eye-ray / sprite-plane intersection written as a ratio of two affine functions of
 // the pixel centre. False when the pixel's ray misses the plane, meets it nearer than 2*zNear,
-// or lands in a cell that cannot be drawn.
+// or lands in a cell that cannot be drawn, and when a cross-fade gives the pixel to the other tier.
 VT_FN bool vtPixelCell(VT_IN(SpriteGpu) s, vec2 pc, VT_OUT(ivec2) cell) {
     cell = ivec2(0, 0);
+    if (!vtDitherKeeps(s, pc)) return false;
     VT_PRECISE float den = s.mapDen.x * pc.x + s.mapDen.y * pc.y + s.mapDen.z;
     if (!(den > 0.0f) || den > s.denMax) return false;
     VT_PRECISE float inv = 1.0f / den;

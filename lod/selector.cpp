@@ -1,5 +1,7 @@
 #include "lod/selector.hpp"
 
+#include "core/sprite_kernel.h"
+
 #include <algorithm>
 #include <cassert>
 #include <cmath>
@@ -98,9 +100,6 @@ int TierSelector::chooseView(std::size_t entity, glm::dvec3 towardViewer, std::s
     return best;
 }
 
-float ditherThreshold(int x, int y) {
-    static constexpr int bayer[4][4] = {{0, 8, 2, 10}, {12, 4, 14, 6}, {3, 11, 1, 9}, {15, 7, 13, 5}};
-    return (float(bayer[y & 3][x & 3]) + 0.5f) / 16.0f;
-}
+float ditherThreshold(int x, int y) { return kernel::vtDitherThreshold({x, y}); }
 
 } // namespace voxtier

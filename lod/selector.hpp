@@ -82,8 +82,9 @@ private:
     int viewChangesThisFrame_ = 0;
 };
 
-/// Ordered-dither threshold in [0, 1) for pixel (x, y) (4x4 Bayer matrix): a cross-fade at
-/// fraction f shows the new tier where threshold < f, so the pattern is stable over frames.
+/// Ordered-dither threshold in (0, 1) for pixel (x, y) (4x4 Bayer matrix; the kernel's
+/// vtDitherThreshold, which every tier applies while drawing): a cross-fade at fraction f shows
+/// the new tier where threshold < f, so the pattern is stable over frames.
 float ditherThreshold(int x, int y);
 
 } // namespace voxtier

@@ -192,7 +192,7 @@ TEST(FarMode, FrameRendererDrawsEveryEntityThroughItsCache) {
     FrameRenderer r(s);
     EXPECT_EQ(parseRenderMode("far"), RenderMode::Far);
     const FrameResult first = r.render(0.0, RenderMode::Far);
-    EXPECT_EQ(first.stats.drawnFar, first.stats.entities - first.stats.culled);
+    EXPECT_EQ(first.stats.farDrawn, first.stats.entities - first.stats.culled);
     EXPECT_GT(first.stats.farBakes, 0);
     EXPECT_GT(test::drawnPixels(first.image), 500u);
     const FrameResult second = r.render(0.0, RenderMode::Far);

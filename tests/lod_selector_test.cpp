@@ -156,6 +156,12 @@ TEST(CrossFade, FractionRisesOverTheConfiguredFramesThenStops) {
     EXPECT_FLOAT_EQ(seen[2], 0.75f);
 }
 
+TEST(CrossFade, DitherIsTheStandardFourByFourBayerMatrix) {
+    const int bayer[4][4] = {{0, 8, 2, 10}, {12, 4, 14, 6}, {3, 11, 1, 9}, {15, 7, 13, 5}};
+    for (int y = 0; y < 8; ++y)
+        for (int x = 0; x < 8; ++x) EXPECT_EQ(ditherThreshold(x, y), (bayer[y % 4][x % 4] + 0.5f) / 16.0f) << x << "," << y;
+}
+
 TEST(CrossFade, DitherShowsTheRequestedShareOfPixels) {
     for (float f : {0.25f, 0.5f, 0.75f}) {
         int shown = 0;
