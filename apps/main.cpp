@@ -15,7 +15,11 @@ int main(int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // --help and friends print and exit 0; real argument errors get the same one-line form
+        // as every other bad input (CLI11's own printer adds a second line).
+        if (e.get_exit_code() == 0) return app.exit(e);
+        std::fprintf(stderr, "voxtier: error: %s (see --help)\n", e.what());
+        return 2;
     } catch (const voxtier::InputError& e) {
         std::fprintf(stderr, "voxtier: error: %s\n", e.what());
         return 1;

@@ -190,7 +190,8 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
     const auto t0 = Clock::now();
     Image image;
     if (backend_ == NearBackend::Vulkan && !nearSprites.empty()) {
-        if (!near_) near_ = std::make_unique<NearRenderer>(); // reference/far-only runs never touch Vulkan
+        // Created on first use: reference- and far-only runs never touch Vulkan.
+        if (!near_) near_ = std::make_unique<NearRenderer>(options_.vulkan, options_.vulkanLog);
         NearStats ns;
         image = near_->render(cam, scene_.models, nearSprites, scene_.render.background, {}, &ns);
         st.nearPixelsTested += ns.fragmentInvocations;

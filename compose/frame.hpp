@@ -7,6 +7,7 @@
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
 #include "lod/selector.hpp"
+#include "volumetric/vulkan_options.hpp"
 
 #include <cstddef>
 #include <memory>
@@ -35,6 +36,8 @@ NearBackend parseNearBackend(const std::string& name); ///< "vulkan" | "referenc
 
 struct FrameOptions {
     NearBackend nearBackend = NearBackend::Vulkan;
+    VulkanDeviceOptions vulkan;                     ///< device options when Vulkan is used
+    std::shared_ptr<VulkanMessageLog> vulkanLog;    ///< validation messages (outlives the device)
     bool overlay = false;          ///< also produce FrameResult::overlay (tier tint)
     bool measurePops = false;      ///< FrameResult::pops: the change each switch causes alone
     std::size_t cacheBudgetBytes = std::size_t(256) << 20; ///< far snapshot cache budget

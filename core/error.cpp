@@ -9,9 +9,13 @@ std::string oneLine(std::string s) {
     return s;
 }
 std::string format(const std::string& file, const std::string& field, const std::string& reason) {
-    std::string msg = file.empty() ? std::string("<input>") : file;
-    if (!field.empty()) msg += ": " + field;
-    msg += ": " + reason;
+    // "file: field: reason"; parts that are empty (a CLI argument has no file) are left out.
+    std::string msg = file;
+    for (const std::string* part : {&field, &reason}) {
+        if (part->empty()) continue;
+        if (!msg.empty()) msg += ": ";
+        msg += *part;
+    }
     return oneLine(msg);
 }
 } // namespace

@@ -2,6 +2,8 @@
 // --bench` on a small model, `voxtier render --mode far`.
 #include "core/image_io.hpp"
 
+#include "cli_support.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -15,20 +17,13 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct CliRun {
-    int status = -1;
-    std::string out;
-};
-CliRun run(const std::string& args) {
-    CliRun r;
-    const std::string cmd = std::string(VOXTIER_CLI) + " " + args + " 2>&1";
-    std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(cmd.c_str(), "r"), pclose);
-    if (!pipe) return r;
-    char buf[512];
-    while (fgets(buf, sizeof buf, pipe.get())) r.out += buf;
-    r.status = pclose(pipe.release());
+/// The CLI with stderr folded into stdout (these tests read both as one text).
+voxtier::test::CliRun run(const std::string& args) {
+    voxtier::test::CliRun r = voxtier::test::runCli(args);
+    r.out += r.err;
     return r;
 }
+using voxtier::test::CliRun;
 
 fs::path tempDir() {
     const fs::path d =

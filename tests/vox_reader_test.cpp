@@ -3,6 +3,7 @@
 // bytes decoded by hand in this file, and malformed files built here from the format
 // description, byte by byte.
 #include "core/error.hpp"
+#include "cli_support.hpp"
 #include "core/vox_reader.hpp"
 
 #include <algorithm>
@@ -827,31 +828,8 @@ TEST(VoxReader, AcceptsUnknownVersionsAndSkipsUnknownChunks) {
 
 // --- voxtier info ----------------------------------------------------------------------------
 
-struct RunResult {
-    int status = -1;
-    std::string out, err;
-};
-
-RunResult runCli(const std::string& args) {
-    // Unique per process and test: CTest may run the test cases in parallel.
-    const std::string stem = ::testing::TempDir() + "/vox_info_" + std::to_string(getpid()) + "_" +
-                             ::testing::UnitTest::GetInstance()->current_test_info()->name();
-    const std::string outFile = stem + ".out", errFile = stem + ".err";
-    const std::string cmd =
-        std::string("'") + VOXTIER_CLI + "' " + args + " >'" + outFile + "' 2>'" + errFile + "'";
-    RunResult r;
-    const int raw = std::system(cmd.c_str());
-    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-    auto slurp = [](const std::string& p) {
-        std::ifstream in(p);
-        return std::string(std::istreambuf_iterator<char>(in), {});
-    };
-    r.out = slurp(outFile);
-    r.err = slurp(errFile);
-    std::remove(outFile.c_str());
-    std::remove(errFile.c_str());
-    return r;
-}
+using RunResult = test::CliRun;
+using test::runCli;
 
 TEST(VoxInfoCli, PrintsModelSizesAndCounts) {
     const RunResult r = runCli("info '" + voxPath("bevy_vox_scene/test.vox") + "'");

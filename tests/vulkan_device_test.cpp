@@ -5,6 +5,8 @@
 #include "test_support.hpp"
 #include "volumetric/vulkan_device.hpp"
 
+#include "cli_support.hpp"
+
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -111,11 +113,6 @@ TEST(VulkanCheck, FailedCallThrowsVulkanErrorNamingCallAndResult) {
 // ---------------------------------------------------------------------------------------------
 // The CLI as a child process.
 
-struct CliRun {
-    int status = -1;
-    std::string out, err;
-};
-
 std::string slurp(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     return std::string(std::istreambuf_iterator<char>(in), {});
@@ -137,23 +134,8 @@ class VulkanCli : public ::testing::Test {
     void TearDown() override { std::filesystem::remove_all(scratchDir()); }
 };
 
-CliRun runCli(const std::string& env, const std::string& args) {
-    const std::string dir = scratchDir();
-    const std::string out = dir + "/stdout.txt", err = dir + "/stderr.txt";
-    const std::string cmd = env + " " + VOXTIER_CLI + " " + args + " >" + out + " 2>" + err;
-    const int st = std::system(cmd.c_str());
-    CliRun r;
-    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
-}
-
-std::size_t lineCount(const std::string& s) {
-    std::size_t n = 0;
-    for (char c : s) n += c == '\n';
-    return n + (!s.empty() && s.back() != '\n');
-}
+using test::CliRun;
+using test::lineCount;
 
 // Both variables: VK_DRIVER_FILES is the current name, VK_ICD_FILENAMES the older one.
 const std::string kNoDriver = "VK_DRIVER_FILES=/nonexistent/voxtier_none.json "
@@ -163,7 +145,7 @@ TEST_F(VulkanCli, NoVulkanDeviceIsOneClearLineAndNonZeroExit) {
     const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
     const std::string out = scratchDir() + "/no_device.png";
     for (const std::string& extra : {std::string(), std::string(" VOXTIER_VALIDATION=1")}) {
-        const CliRun r = runCli(kNoDriver + extra, "render " + scene + " --mode near --out " + out);
+        const CliRun r = test::runCli("render " + scene + " --mode near --out " + out, kNoDriver + extra);
         EXPECT_NE(r.status, 0);
         EXPECT_EQ(r.err, std::string("voxtier: error: ") + kNoVulkanDeviceMessage + "\n")
             << "stderr was:\n"
@@ -173,8 +155,7 @@ TEST_F(VulkanCli, NoVulkanDeviceIsOneClearLineAndNonZeroExit) {
     // An empty driver manifest is the same situation.
     const std::string empty = scratchDir() + "/empty_icd.json";
     std::ofstream(empty) << "{}\n";
-    const CliRun r = runCli("VK_DRIVER_FILES=" + empty + " VK_ICD_FILENAMES=" + empty,
-                            "render " + scene + " --mode near --out " + out);
+    const CliRun r = test::runCli("render " + scene + " --mode near --out " + out, "VK_DRIVER_FILES=" + empty + " VK_ICD_FILENAMES=" + empty);
     EXPECT_NE(r.status, 0);
     EXPECT_EQ(r.err, std::string("voxtier: error: ") + kNoVulkanDeviceMessage + "\n")
         << "stderr was:\n"
@@ -184,7 +165,7 @@ TEST_F(VulkanCli, NoVulkanDeviceIsOneClearLineAndNonZeroExit) {
 TEST_F(VulkanCli, ReferenceModeWorksWithoutAnyVulkanDriver) {
     const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
     const std::string out = scratchDir() + "/reference.png";
-    const CliRun r = runCli(kNoDriver, "render " + scene + " --mode reference --out " + out);
+    const CliRun r = test::runCli("render " + scene + " --mode reference --out " + out, kNoDriver);
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(r.err, "");
     EXPECT_TRUE(std::filesystem::exists(out));
@@ -195,11 +176,11 @@ TEST_F(VulkanCli, NearModePrintsTheDeviceAndMatchesReferenceFile) {
     const std::string nearPng = scratchDir() + "/near.png";
     const std::string refPng = scratchDir() + "/reference.png";
     const CliRun n =
-        runCli("VOXTIER_VALIDATION=1", "render " + scene + " --mode near --out " + nearPng);
+        test::runCli("render " + scene + " --mode near --out " + nearPng, "VOXTIER_VALIDATION=1");
     ASSERT_EQ(n.status, 0) << n.err;
     EXPECT_EQ(n.err, "") << "validation messages";
     EXPECT_NE(n.out.find("Vulkan device: "), std::string::npos) << n.out;
-    const CliRun r = runCli("", "render " + scene + " --mode reference --out " + refPng);
+    const CliRun r = test::runCli("render " + scene + " --mode reference --out " + refPng, "");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(slurp(nearPng) == slurp(refPng));
 }
@@ -208,8 +189,7 @@ TEST_F(VulkanCli, ValidationWithoutTheLayerInstalledIsAClearError) {
     const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
     const std::string out = scratchDir() + "/no_layer.png";
     // VK_LAYER_PATH replaces the loader's explicit-layer search path: no validation layer found.
-    const CliRun r = runCli("VOXTIER_VALIDATION=1 VK_LAYER_PATH=/nonexistent/layers",
-                            "render " + scene + " --mode near --out " + out);
+    const CliRun r = test::runCli("render " + scene + " --mode near --out " + out, "VOXTIER_VALIDATION=1 VK_LAYER_PATH=/nonexistent/layers");
     EXPECT_NE(r.status, 0);
     EXPECT_NE(r.err.find("VK_LAYER_KHRONOS_validation is not installed"), std::string::npos)
         << r.err;

@@ -1,0 +1,50 @@
+#pragma once
+// Running the built `voxtier` binary from a test: exit status, stdout and stderr separately.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace voxtier::test {
+
+struct CliRun {
+    int status = -1;        ///< exit code; -1 when the process died from a signal
+    std::string out, err;
+};
+
+/// Runs `VOXTIER_CLI args` with `env` assignments prefixed (e.g. "LP_NUM_THREADS=1"). Output
+/// files are unique per process and test case, so CTest may run cases in parallel.
+inline CliRun runCli(const std::string& args, const std::string& env = "") {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::string name = info ? std::string(info->test_suite_name()) + "_" + info->name() : "cli";
+    for (char& c : name)
+        if (c == '/') c = '_';
+    const std::string stem = ::testing::TempDir() + "/voxtier_cli_" + std::to_string(getpid()) + "_" + name;
+    const std::string outFile = stem + ".out", errFile = stem + ".err";
+    const std::string cmd = env + " '" + VOXTIER_CLI + "' " + args + " >'" + outFile + "' 2>'" + errFile + "'";
+    CliRun r;
+    const int raw = std::system(cmd.c_str());
+    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    auto slurp = [](const std::string& p) {
+        std::ifstream in(p);
+        return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    r.out = slurp(outFile);
+    r.err = slurp(errFile);
+    std::remove(outFile.c_str());
+    std::remove(errFile.c_str());
+    return r;
+}
+
+inline std::size_t lineCount(const std::string& s) {
+    std::size_t n = 0;
+    for (char c : s) n += c == '\n';
+    return n + (!s.empty() && s.back() != '\n');
+}
+
+} // namespace voxtier::test
