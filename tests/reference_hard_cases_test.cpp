@@ -15,35 +15,8 @@ namespace {
 
 Image render(const Scene& s, std::vector<SpriteSetup>* setups = nullptr) { return test::renderReferenceImage(s, setups); }
 
-/// A bar along voxel +X (index 1) with a marker voxel (index 2) at the +X end on the +Y side:
-/// asymmetric under every mirror, so a flipped axis anywhere shows.
-std::shared_ptr<VoxelModel> markedBar() {
-    auto m = test::solidBox({6, 2, 1}, 1);
-    VoxelGrid g = m->frame(0);
-    g.set({5, 1, 0}, 2);
-    Palette p = m->palette();
-    p.colors[2] = packRgba(20, 220, 60);
-    return std::make_shared<VoxelModel>("bar", p, std::vector<VoxelGrid>{g});
-}
-
-Scene smallWorld(glm::dvec3 offset) {
-    Scene s;
-    s.render.sigma = 2.0;
-    s.models = {test::solidBox({8, 6, 5}), test::solidBox({3, 3, 9}, 7), markedBar()};
-    const glm::dvec3 spots[] = {{0.25, 0.0, -3.5}, {1.5, 0.5, -6.0}, {-2.0, 0.25, -9.5}, {0.75, -0.5, -4.25}};
-    for (int i = 0; i < 4; ++i) {
-        Entity e;
-        e.model = i % 3;
-        e.position = offset + spots[i];
-        e.rotation = glm::angleAxis(0.3 * i + 0.1, glm::normalize(glm::dvec3(0.2, 1.0, 0.1 * i)));
-        s.entities.push_back(e);
-    }
-    s.camera.position = offset + glm::dvec3(0.5, 1.25, 2.0);
-    s.camera.target = offset + glm::dvec3(0.0, 0.0, -5.0);
-    s.camera.width = 320;
-    s.camera.height = 200;
-    return s;
-}
+using test::markedBar;
+Scene smallWorld(glm::dvec3 offset) { return test::hardCaseWorld(offset); }
 
 // Everything is computed relative to the eye in double before rounding to float, so moving the
 // whole world 2^20 m (or 2^17 m) away changes nothing. Offsets are powers of two and positions

@@ -257,7 +257,8 @@ inline std::size_t drawnPixels(const Image& img) {
 /// here so the Vulkan tests hold the GPU image to the same independent answer: a solid box from
 /// viewAlong(towardViewer) must be exactly the double-precision silhouette, outline, lighting,
 /// depth and id. Returns the number of wrong pixels and describes the first.
-inline int countClosedFormMismatches(const ViewSetup& v, glm::dvec3 towardViewer, const Image& img, std::string* first = nullptr) {
+inline int countClosedFormMismatches(const ViewSetup& v, glm::dvec3 towardViewer, const Image& img,
+                                     std::string* first = nullptr, ExpectedCells* expected = nullptr) {
     const Scene& s = v.scene;
     const CameraFrame cam = makeCameraFrame(s.camera);
     const glm::dmat3 voxelFromWorld = glm::transpose(worldFromVoxelSwizzle());
@@ -266,6 +267,7 @@ inline int countClosedFormMismatches(const ViewSetup& v, glm::dvec3 towardViewer
     const double sigma = s.render.sigma;
     const glm::ivec3 dims = s.models[0]->frame(0).dims();
     const ExpectedCells e = expectedBoxCells(dims, dir, upVoxel, sigma);
+    if (expected) *expected = e;
     const glm::dvec3 up = glm::normalize(upVoxel - glm::dot(upVoxel, dir) * dir);
     const glm::dvec3 right = glm::cross(dir, up);
     const glm::dvec3 c = glm::dvec3(dims) * 0.5;
@@ -301,6 +303,39 @@ inline int countClosedFormMismatches(const ViewSetup& v, glm::dvec3 towardViewer
             }
         }
     return count;
+}
+
+/// A bar along voxel +X (index 1) with a marker voxel (index 2) at the +X end on the +Y side:
+/// asymmetric under every mirror, so a flipped axis anywhere shows.
+inline std::shared_ptr<VoxelModel> markedBar() {
+    auto m = solidBox({6, 2, 1}, 1);
+    VoxelGrid g = m->frame(0);
+    g.set({5, 1, 0}, 2);
+    Palette p = m->palette();
+    p.colors[2] = packRgba(20, 220, 60);
+    return std::make_shared<VoxelModel>("bar", p, std::vector<VoxelGrid>{g});
+}
+
+/// Four rotated entities of three models in front of a camera, the whole thing moved by
+/// `offset`. Positions are dyadic so that, with a power-of-two offset, every camera-relative
+/// double is bit-identical to the unshifted world (the far-from-origin hard case).
+inline Scene hardCaseWorld(glm::dvec3 offset) {
+    Scene s;
+    s.render.sigma = 2.0;
+    s.models = {solidBox({8, 6, 5}), solidBox({3, 3, 9}, 7), markedBar()};
+    const glm::dvec3 spots[] = {{0.25, 0.0, -3.5}, {1.5, 0.5, -6.0}, {-2.0, 0.25, -9.5}, {0.75, -0.5, -4.25}};
+    for (int i = 0; i < 4; ++i) {
+        Entity e;
+        e.model = i % 3;
+        e.position = offset + spots[i];
+        e.rotation = glm::angleAxis(0.3 * i + 0.1, glm::normalize(glm::dvec3(0.2, 1.0, 0.1 * i)));
+        s.entities.push_back(e);
+    }
+    s.camera.position = offset + glm::dvec3(0.5, 1.25, 2.0);
+    s.camera.target = offset + glm::dvec3(0.0, 0.0, -5.0);
+    s.camera.width = 320;
+    s.camera.height = 200;
+    return s;
 }
 
 } // namespace voxtier::test

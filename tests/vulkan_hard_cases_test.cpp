@@ -87,36 +87,8 @@ TEST_F(NearHardCases, RolledCameraMatchesClosedForm) {
         }
 }
 
-/// A bar along voxel +X with a marker voxel at the +X end on the +Y side (no mirror symmetry).
-std::shared_ptr<VoxelModel> markedBar() {
-    auto m = test::solidBox({6, 2, 1}, 1);
-    VoxelGrid g = m->frame(0);
-    g.set({5, 1, 0}, 2);
-    Palette p = m->palette();
-    p.colors[2] = packRgba(20, 220, 60);
-    return std::make_shared<VoxelModel>("bar", p, std::vector<VoxelGrid>{g});
-}
-
-/// Four rotated entities of three models in front of a camera, the whole thing offset.
-Scene smallWorld(glm::dvec3 offset) {
-    Scene s;
-    s.render.sigma = 2.0;
-    s.models = {test::solidBox({8, 6, 5}), test::solidBox({3, 3, 9}, 7), markedBar()};
-    const glm::dvec3 spots[] = {
-        {0.25, 0.0, -3.5}, {1.5, 0.5, -6.0}, {-2.0, 0.25, -9.5}, {0.75, -0.5, -4.25}};
-    for (int i = 0; i < 4; ++i) {
-        Entity e;
-        e.model = i % 3;
-        e.position = offset + spots[i];
-        e.rotation = glm::angleAxis(0.3 * i + 0.1, glm::normalize(glm::dvec3(0.2, 1.0, 0.1 * i)));
-        s.entities.push_back(e);
-    }
-    s.camera.position = offset + glm::dvec3(0.5, 1.25, 2.0);
-    s.camera.target = offset + glm::dvec3(0.0, 0.0, -5.0);
-    s.camera.width = 320;
-    s.camera.height = 200;
-    return s;
-}
+using test::markedBar;
+Scene smallWorld(glm::dvec3 offset) { return test::hardCaseWorld(offset); }
 
 // Camera-relative double precision: the world moved 2^20 m renders the same GPU image.
 TEST_F(NearHardCases, WorldAtTwoToTheTwentyMetresEqualsWorldAtOrigin) {
