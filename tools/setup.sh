@@ -10,6 +10,9 @@ packages=(
     cmake ninja-build g++ pkgconf
     libembree-dev libglm-dev libopenimageio-dev libtbb-dev
     libvulkan-dev glslang-tools nlohmann-json3-dev libcli11-dev
+    # Debian's OpenImageIO CMake config (OpenImageIOTargets.cmake) refuses to load unless the
+    # command-line tools it exports (/usr/bin/iconvert, ...) exist; they live in this package.
+    openimageio-tools
     # run: the Vulkan driver (Mesa lavapipe works without a GPU)
     mesa-vulkan-drivers
     # tests
