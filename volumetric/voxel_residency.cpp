@@ -96,8 +96,10 @@ void VoxelResidency::ensurePaletteCapacity(std::size_t entries) {
     while (size < need) size *= 2;
     palettes_ = VulkanBuffer(device_, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
     std::memset(palettes_.mapped(), 0, std::size_t(size));
-    std::memcpy(palettes_.mapped(), paletteMirror_.data(),
-                paletteMirror_.size() * sizeof(std::uint32_t));
+    // memcpy from an empty vector's data() (null) is undefined even for 0 bytes.
+    if (!paletteMirror_.empty())
+        std::memcpy(palettes_.mapped(), paletteMirror_.data(),
+                    paletteMirror_.size() * sizeof(std::uint32_t));
     ++generation_;
 }
 
