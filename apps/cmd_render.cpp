@@ -26,12 +26,12 @@ struct RenderArgs {
     std::optional<double> time;
     std::optional<int> frame;
     std::string ids;
-    // MODEL.vox only
-    std::string view = "30,20";
-    double distance = 0.0;
-    double sigma = 1.0;
-    std::string size = "640x480";
-    int model = 0;
+    // Image size and sigma override a scene's; the rest describe the camera of a MODEL.vox render.
+    std::optional<std::string> size; ///< default 640x480 for a .vox
+    std::optional<double> sigma;     ///< default 1 for a .vox
+    std::optional<std::string> view; ///< default 30,20
+    std::optional<double> distance;  ///< default 0 (fit)
+    std::optional<int> model;        ///< default 0
 };
 
 bool endsWith(const std::string& s, const std::string& suffix) {
@@ -55,22 +55,41 @@ std::pair<double, double> parsePair(const std::string& text, char sep, const std
     }
 }
 
-Scene loadInput(const RenderArgs& a) {
-    if (!endsWith(a.input, ".vox")) return loadScene(a.input);
-    const VoxFile vox = readVoxFile(a.input);
-    if (a.model < 0 || a.model >= int(vox.models.size()))
-        throw InputError(a.input, "--model", "file has " + std::to_string(vox.models.size()) + " models");
-    auto model = std::make_shared<VoxelModel>(std::filesystem::path(a.input).stem().string(), vox.palette,
-                                              std::vector<VoxelGrid>{vox.models[std::size_t(a.model)]});
-    ModelView v;
-    std::tie(v.azimuthDeg, v.elevationDeg) = parsePair(a.view, ',', "--view");
-    const auto [w, h] = parsePair(a.size, 'x', "--size");
+glm::ivec2 parseImageSize(const std::string& text) {
+    const auto [w, h] = parsePair(text, 'x', "--size");
     if (w < 1 || h < 1 || w > Limits::kMaxImageDim || h > Limits::kMaxImageDim || w != std::floor(w) || h != std::floor(h))
         throw InputError("", "--size", "expected WxH with integers 1.." + std::to_string(Limits::kMaxImageDim));
-    v.width = int(w);
-    v.height = int(h);
-    v.distance = a.distance;
-    v.sigma = a.sigma;
+    return {int(w), int(h)};
+}
+
+Scene loadInput(const RenderArgs& a) {
+    if (!endsWith(a.input, ".vox")) {
+        // A scene brings its own camera: the single-model options would be silently ignored.
+        if (a.view) throw InputError(a.input, "--view", "applies to a .vox input only (a scene has its camera)");
+        if (a.distance) throw InputError(a.input, "--distance", "applies to a .vox input only (a scene has its camera)");
+        if (a.model) throw InputError(a.input, "--model", "applies to a .vox input only (a scene names its models)");
+        Scene s = loadScene(a.input);
+        if (a.size) {
+            const glm::ivec2 wh = parseImageSize(*a.size);
+            s.camera.width = wh.x;
+            s.camera.height = wh.y;
+        }
+        if (a.sigma) s.render.sigma = Limits::checkedSigma(*a.sigma, "", "--sigma");
+        return s;
+    }
+    const VoxFile vox = readVoxFile(a.input);
+    const int index = a.model.value_or(0);
+    if (index < 0 || index >= int(vox.models.size()))
+        throw InputError(a.input, "--model", "file has " + std::to_string(vox.models.size()) + " models");
+    auto model = std::make_shared<VoxelModel>(std::filesystem::path(a.input).stem().string(), vox.palette,
+                                              std::vector<VoxelGrid>{vox.models[std::size_t(index)]});
+    ModelView v;
+    std::tie(v.azimuthDeg, v.elevationDeg) = parsePair(a.view.value_or("30,20"), ',', "--view");
+    const glm::ivec2 wh = parseImageSize(a.size.value_or("640x480"));
+    v.width = wh.x;
+    v.height = wh.y;
+    v.distance = a.distance.value_or(0.0);
+    v.sigma = a.sigma.value_or(1.0); // checked by sceneForModel
     Scene s = sceneForModel(std::move(model), v);
     s.source = a.input;
     return s;
@@ -177,12 +196,12 @@ void addRenderCommand(CLI::App& app) {
     auto* f = cmd->add_option("--frame", args->frame, "Frame number of the camera path (applies scripted edits up to it)");
     t->excludes(f);
     cmd->add_option("--ids", args->ids, "Also write the entity-id buffer as a colour-coded PNG");
+    cmd->add_option("--size", args->size, "Image size WxH (default: the scene's camera; 640x480 for a .vox)");
+    cmd->add_option("--sigma", args->sigma, "Virtual pixels per voxel (default: the scene's; 1 for a .vox)");
     auto* vox = cmd->add_option_group("single model (.vox input)");
-    vox->add_option("--view", args->view, "AZIMUTH,ELEVATION in degrees")->capture_default_str();
-    vox->add_option("--distance", args->distance, "Camera distance in metres (0 = fit)")->capture_default_str();
-    vox->add_option("--sigma", args->sigma, "Virtual pixels per voxel")->capture_default_str();
-    vox->add_option("--size", args->size, "Image size WxH")->capture_default_str();
-    vox->add_option("--model", args->model, "Which model of a multi-model file")->capture_default_str();
+    vox->add_option("--view", args->view, "AZIMUTH,ELEVATION in degrees (default 30,20)");
+    vox->add_option("--distance", args->distance, "Camera distance in metres (default 0 = fit)");
+    vox->add_option("--model", args->model, "Which model of a multi-model file (default 0)");
     cmd->callback([args] { run(*args); });
 }
 

@@ -1,5 +1,7 @@
 #include "core/error.hpp"
 
+#include <cmath>
+
 namespace voxtier {
 
 namespace {
@@ -23,5 +25,13 @@ std::string format(const std::string& file, const std::string& field, const std:
 InputError::InputError(std::string file, std::string field, std::string reason)
     : std::runtime_error(format(file, field, reason)), file_(std::move(file)),
       field_(std::move(field)), reason_(std::move(reason)) {}
+
+double Limits::checkedSigma(double sigma, const std::string& file, const std::string& field) {
+    if (!std::isfinite(sigma) || !(sigma > 0.0) || sigma > kMaxSigma)
+        throw InputError(file, field,
+                         "expected virtual pixels per voxel in (0, " + std::to_string(int(kMaxSigma)) +
+                             "], got " + std::to_string(sigma));
+    return sigma;
+}
 
 } // namespace voxtier

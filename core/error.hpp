@@ -26,6 +26,11 @@ struct Limits {
     static constexpr int kMaxImageDim = 16384;      ///< pixels per axis of an output image
     static constexpr int kMaxEntities = 1'000'000;  ///< entities in one scene after crowds expand
     static constexpr int kMaxFramesPerModel = 4096; ///< animation frames of one model
+    /// Virtual pixels per voxel. A far snapshot has (2σ|c|)² cells: σ = 16 keeps the largest
+    /// (256³) model's snapshot near 100 MB instead of letting a typo allocate terabytes.
+    static constexpr double kMaxSigma = 16.0;
+    /// `sigma` if it is in (0, kMaxSigma], else InputError(file, field, reason).
+    static double checkedSigma(double sigma, const std::string& file, const std::string& field);
 };
 
 } // namespace voxtier

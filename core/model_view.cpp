@@ -7,7 +7,7 @@
 namespace voxtier {
 
 Scene sceneForModel(std::shared_ptr<VoxelModel> model, const ModelView& v) {
-    if (!(v.sigma > 0.0) || !std::isfinite(v.sigma)) throw InputError("", "--sigma", "must be a positive number");
+    Limits::checkedSigma(v.sigma, "", "--sigma");
     if (!std::isfinite(v.azimuthDeg) || !std::isfinite(v.elevationDeg) || !(v.elevationDeg >= -90.0 && v.elevationDeg <= 90.0))
         throw InputError("", "--view", "azimuth must be finite and elevation within -90..90 degrees");
     if (!(v.distance >= 0.0) || !std::isfinite(v.distance)) throw InputError("", "--distance", "must be a non-negative number");

@@ -489,6 +489,9 @@ struct Loader {
     void render(const Obj& root) {
         root.pos("voxel_size", s.render.voxelSize);
         root.pos("sigma", s.render.sigma);
+        if (s.render.sigma > Limits::kMaxSigma)
+            fail(c, root.at("sigma"), "expected at most " + std::to_string(int(Limits::kMaxSigma)) +
+                                          " virtual pixels per voxel (snapshot memory grows with its square)");
         if (auto v = root.get("view_mode"))
             s.render.viewMode = choice(c, *v, root.at("view_mode"), {"per_entity", "parallel"}) == 0
                                     ? ViewMode::PerEntity

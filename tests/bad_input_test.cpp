@@ -4,9 +4,11 @@
 // Each case prints "[ input    ] <class> | <what the user sees>" so the table in the issue note
 // is this test's output.
 #include "cli_support.hpp"
+#include "core/image_io.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -105,10 +107,34 @@ TEST(BadInput, BadArgumentsAreOneLineErrors) {
         {"bad image size", "render " + vox + " --size 0x0", "--size"},
         {"bad view", "render " + vox + " --view north,up", "--view"},
         {"negative sigma", "render " + vox + " --sigma -1", "--sigma"},
+        {"sigma over the limit", "render " + vox + " --sigma 1000", "--sigma"},
+        {"sigma over the limit on a scene", "render " + scene + " --sigma 17", "--sigma"},
+        {"view on a scene", "render " + scene + " --view 10,10", "--view"},
+        {"distance on a scene", "render " + scene + " --distance 5", "--distance"},
+        {"model index on a scene", "render " + scene + " --model 1", "--model"},
         {"model index out of range", "render " + vox + " --model 7", "--model"},
         {"no subcommand", "", "subcommand"},
     };
     for (const Case& c : cases) expectOneLineError(c);
+}
+
+// --size and --sigma override a scene's camera size and sigma (instead of being ignored).
+TEST(BadInput, SizeAndSigmaOverrideTheScene) {
+    const std::string scene = write("override.json", kScene);
+    auto render = [&](const std::string& sigma) {
+        const std::string out = (scratch() / ("override_" + sigma + ".png")).string();
+        const test::CliRun r = test::runCli("render " + scene + " --mode reference --size 320x240 --sigma " + sigma + " -o " + out);
+        EXPECT_EQ(r.status, 0) << r.err;
+        return readColorImage(out);
+    };
+    const Image one = render("1"), two = render("2");
+    EXPECT_EQ(one.width, 320);
+    EXPECT_EQ(one.height, 240);
+    // The sprite keeps its screen size; twice the virtual pixels per voxel makes each virtual
+    // pixel, and so the one-virtual-pixel outline, half as wide on screen.
+    auto outline = [](const Image& im) { return std::count(im.color.begin(), im.color.end(), packRgba(0, 0, 0)); };
+    EXPECT_GT(outline(one), 0);
+    EXPECT_LT(outline(two), outline(one));
 }
 
 // Without any Vulkan driver the GPU modes fail with one clear line; the CPU modes still work.

@@ -299,6 +299,7 @@ TEST(SceneLoader, MalformedScenesNameFileJsonPathAndExpectation) {
         {"negative voxel size", [](json& j) { j["voxel_size"] = -0.1; }, "voxel_size",
          "expected a positive number"},
         {"zero sigma", [](json& j) { j["sigma"] = 0; }, "sigma", "expected a positive number"},
+        {"sigma over the limit", [](json& j) { j["sigma"] = 17; }, "sigma", "at most 16"},
         {"zero scale", [](json& j) { j["entities"][0]["scale"] = 0; }, "entities[0].scale",
          "positive"},
         {"image too wide",
