@@ -226,7 +226,10 @@ Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sig
     const int first = useEmbree ? std::max(0, options.traverseFirst) : (1 << 30);
     tbb::parallel_for(
         tbb::blocked_range<int>(0, H, kRowsPerTask), [&](const tbb::blocked_range<int>& rows) {
-            EmbreeBatch batch{scene.handle(), &ctx, frame.dir, {}};
+            // One context per task: Embree pushes the instance id into it while traversing a
+            // brick (voxel_scene.hpp), so it must not be shared between threads.
+            detail::BakeIntersectContext taskCtx = ctx;
+            EmbreeBatch batch{scene.handle(), &taskCtx, frame.dir, {}};
             std::vector<glm::vec3> origin;
             std::vector<std::size_t> cellOf;
             std::vector<KernelEntry> entry;
