@@ -709,16 +709,16 @@ TEST(FarEditScene, QuadScenesUpdateToo) {
 // ---------------------------------------------------------------------------------------------
 // Concurrency (meaningful under TSan: VOXTIER_PRESET=tsan bash tools/dev.sh test -R Edit).
 
-// One thread edits model A and refreshes its views (in parallel, as a frame does) while two
-// others render and bake model B through the same cache, read its counters and look keys up;
-// the budget is small, so evictions of either model's snapshots interleave with refreshes.
-// Afterwards every snapshot of both models equals the scalar bake.
+// One thread edits model A and refreshes its views (in parallel, as a frame does) and checks
+// one against the scalar bake after each edit, while two others render model B through the same
+// cache from every canonical direction at two sigmas (52 snapshots, more than the budget holds,
+// so evictions interleave with the refreshes), read its counters and look keys up. Afterwards
+// every snapshot of both models equals the scalar bake.
 TEST(FarEditConcurrency, EditsAndRendersOnDifferentModelsAreSafe) {
     const auto a = blobModel({20, 20, 20}, {{2, 2, 2}, {18, 18, 18}});
     const auto b = blobModel({18, 22, 16}, {{1, 1, 1}, {17, 21, 15}});
     SnapshotCache probe;
     SnapshotCacheConfig cfg;
-    // Room for A's views and part of B's 52: B alone forces evictions.
     cfg.budgetBytes = 40 * probe.get(*a, 0, ViewSet::Cube26, 0, 1.0)->bytes();
     cfg.maxScenes = 3;
     SnapshotCache cache(cfg);
@@ -728,27 +728,30 @@ TEST(FarEditConcurrency, EditsAndRendersOnDifferentModelsAreSafe) {
         RandomEditor edits{std::mt19937(7), {10, 10, 10}};
         for (int step = 0; step < 40; ++step) {
             edits.edit(*a);
+            std::vector<std::shared_ptr<const Snapshot>> got(6);
             tbb::parallel_for(0, 6, [&](int k) {
                 const int view = 5 * k; // the same six views every step: refreshed each time
-                const auto s = cache.get(*a, 0, ViewSet::Cube26, view, 1.0 + 0.5 * (k % 2));
-                if (!s || s->view != view) ++failures;
+                got[std::size_t(k)] = cache.get(*a, 0, ViewSet::Cube26, view, 1.0 + 0.5 * (k % 2));
             });
+            const int k = step % 6;
+            const Snapshot want =
+                bakeSnapshotScalar(a->frame(0), ViewSet::Cube26, 5 * k, 1.0 + 0.5 * (k % 2));
+            if (!compareSnapshots(*got[std::size_t(k)], want).empty()) ++failures;
         }
         done = true;
     });
-    auto renderer = [&](unsigned seed) {
-        std::mt19937 rng(seed);
-        while (!done) {
-            const glm::ivec3 w = test::canonicalDirections()[rng() % 26];
-            const auto v = test::viewAlong(b, glm::dvec3(w), 1.0 + double(rng() % 2), 1);
+    auto renderer = [&](int offset) {
+        for (int i = 0; !done || i < 52; ++i) {
+            const int r = (i + offset) % 52;
+            const glm::ivec3 w = test::canonicalDirections()[std::size_t(r % 26)];
+            const auto v = test::viewAlong(b, glm::dvec3(w), 1.0 + double(r / 26), 1);
             const Image img = test::renderFar(v.scene, cache);
             if (test::drawnPixels(img) == 0) ++failures;
-            const SnapshotCacheCounters c = cache.counters();
-            if (c.bytes > cfg.budgetBytes) ++failures;
-            cache.find({b->uid(), 0, b->version(), ViewSet::Cube26, int(rng() % 26), 1.0});
+            if (cache.counters().bytes > cfg.budgetBytes) ++failures;
+            cache.find({b->uid(), 0, b->version(), ViewSet::Cube26, r % 26, 1.0});
         }
     };
-    std::thread r1(renderer, 1u), r2(renderer, 2u);
+    std::thread r1(renderer, 0), r2(renderer, 17);
     editor.join();
     r1.join();
     r2.join();
