@@ -35,14 +35,15 @@ inline constexpr BakeGeometry kDefaultBakeGeometry = BakeGeometry::Boxes;
 std::uint64_t embreeCallsWithoutFlushDenormals();
 
 /// Edge (voxels) of the bricks a scene is split into once its model is edited; see
-/// VoxelSceneOptions. Measured with `voxtier bench edits` (2 shared cores, Embree 3.13, medians;
-/// the other engineers' builds made single numbers noisy by +-10%): after a single-voxel edit the
-/// scene update costs 0.14-0.2 ms with 16^3 bricks against 6-8 ms for rebuilding the flat scene
-/// (64^3 ball), 0.4-0.5 ms against 38-50 ms (128^3 ball), 2.4-3.3 ms against 510-550 ms (tree.vox,
-/// 256^3, most of it the copy of the grid); 32^3 bricks update 2-5x slower at 64^3-128^3. The
-/// price is trace speed: a full bake through bricks ran 0.86-1.02x the flat scene's speed on the
-/// balls (0.57-0.99x on small noisy runs), which is why a scene built from scratch stays flat
-/// until its model is first edited.
+/// VoxelSceneOptions. Measured with `voxtier bench edits` (2 cores shared with other builds,
+/// Embree 3.13, medians of 5-7): after a single-voxel edit the scene update takes 0.12-0.16 ms
+/// with 16^3 bricks against 6-8 ms to rebuild the flat scene (64^3 ball), 0.33-0.39 ms against
+/// 29-36 ms (128^3 ball) and 2.0 ms against 310-390 ms (tree.vox, 256^3; ~0.9 ms of it is the
+/// copy of the 16 MiB grid); 32^3 bricks update 2-6x slower. The price is trace speed: a full bake
+/// through bricks ran at 0.91-0.99x the flat scene's speed (0.86-1.02x on a loaded machine).
+/// Built from scratch, bricks cost the same as the flat scene on a loaded machine and up to 2x
+/// less on an idle one (they build in parallel). Most models are never edited, so a scene built
+/// from scratch stays flat (flatUntilEdited) and the first edit pays one bricked build.
 inline constexpr int kDefaultBrickSize = 16;
 inline constexpr bool kDefaultFlatUntilEdited = true;
 
