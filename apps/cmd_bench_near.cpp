@@ -333,6 +333,7 @@ void addBenchCommand(CLI::App& app) {
     cmd->add_flag("!--no-alternatives", args->alternatives,
                   "Only the default variant (hull proxy, one instanced draw)");
     cmd->callback([args] { run(*args); });
+    addBenchEditsCommand(*bench);
 }
 
 } // namespace voxtier::cli

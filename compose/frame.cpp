@@ -195,6 +195,7 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
         NearStats ns;
         image = near_->render(cam, scene_.models, nearSprites, scene_.render.background, {}, &ns);
         st.nearPixelsTested += ns.fragmentInvocations;
+        st.nearBytesUploaded += ns.bytesUploaded;
     } else {
         image = Image(cam.width, cam.height, scene_.render.background);
         ReferenceStats rs;
@@ -211,6 +212,9 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
         FarFrameStats fs;
         drawFarSprites(scene_.models, farRequests, *cache_, viewSetFromSize(scene_.selector.viewSetSize), image, &fs);
         st.farBakes += int(fs.bakes);
+        st.farRefreshes += int(fs.refreshes);
+        st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
+        st.farCellsRetraced += fs.cellsRetraced;
         st.bakeMs += fs.ensureMs;
         st.farMs += fs.ensureMs + fs.blit.milliseconds;
         st.farPixelsTested += fs.blit.pixelsTested;

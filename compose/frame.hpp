@@ -75,6 +75,11 @@ struct FrameStats {
     int fading = 0;                       ///< entities drawn by both tiers (cross-fade)
     int switchesToFar = 0, switchesToNear = 0, viewChanges = 0;
     int farBakes = 0;                     ///< snapshots baked during this frame
+    /// Edits (DESIGN.md §4): of the bakes, stale snapshots refreshed after an edit, how many of
+    /// those only where the edit reaches, and the cells they re-traced; the voxel bytes the near
+    /// tier copied to the GPU (whole frames when new, only dirty boxes after edits).
+    int farRefreshes = 0, farIncrementalRefreshes = 0;
+    std::uint64_t farCellsRetraced = 0, nearBytesUploaded = 0;
     std::size_t cacheBytes = 0;           ///< snapshot bytes held after the frame
     double setupMs = 0.0, selectMs = 0.0, nearMs = 0.0, farMs = 0.0, bakeMs = 0.0, totalMs = 0.0;
     std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;

@@ -13,7 +13,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
                     Image& target, FarFrameStats* stats) {
     const auto t0 = std::chrono::steady_clock::now();
-    const std::uint64_t bakesBefore = cache.counters().bakes;
+    const SnapshotCacheCounters before = cache.counters();
     // Distinct (model, frame, view, sigma) of the visible sprites; each is looked up (and baked)
     // once, in parallel, then shared by every sprite that shows it.
     using Need = std::tuple<int, int, int, double>;
@@ -50,7 +50,11 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
     if (stats) {
         stats->sprites += draws.size();
         stats->snapshotsUsed += needs.size();
-        stats->bakes += cache.counters().bakes - bakesBefore;
+        const SnapshotCacheCounters after = cache.counters();
+        stats->bakes += after.bakes - before.bakes;
+        stats->refreshes += after.refreshes - before.refreshes;
+        stats->incrementalRefreshes += after.incrementalRefreshes - before.incrementalRefreshes;
+        stats->cellsRetraced += after.cellsRetraced - before.cellsRetraced;
         stats->ensureMs += ensureMs;
         stats->blit.sprites += blit.sprites;
         stats->blit.pixelsTested += blit.pixelsTested;

@@ -1,5 +1,6 @@
 #include "impostor_cache/snapshot.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace voxtier {
@@ -52,23 +53,26 @@ std::size_t Snapshot::solidCount() const {
 }
 
 void applyCardinalOutline(Snapshot& s) {
+    refreshCardinalOutline(s, {0, s.width() - 1, 0, s.height() - 1});
+}
+
+void refreshCardinalOutline(Snapshot& s, glm::ivec4 cells) {
     const int w = s.width(), h = s.height();
     auto solid = [&](int x, int y) {
         return x >= 0 && y >= 0 && x < w && y < h &&
                snapshot_code::isSolid(
                    s.cells[std::size_t(y) * std::size_t(w) + std::size_t(x)].code);
     };
-    // Decide every cell from the solid mask before writing, so new outline cells never feed
-    // the dilation.
-    std::vector<std::size_t> outline;
-    for (int y = 0; y < h; ++y)
-        for (int x = 0; x < w; ++x) {
-            const std::size_t k = std::size_t(y) * std::size_t(w) + std::size_t(x);
-            if (s.cells[k].code != snapshot_code::kEmpty) continue;
-            if (solid(x - 1, y) || solid(x + 1, y) || solid(x, y - 1) || solid(x, y + 1))
-                outline.push_back(k);
+    // Only non-solid cells are written, and only solidity is read: writing in place never feeds
+    // a new outline cell into the dilation.
+    for (int y = std::max(0, cells.z); y <= std::min(h - 1, cells.w); ++y)
+        for (int x = std::max(0, cells.x); x <= std::min(w - 1, cells.y); ++x) {
+            SnapshotCell& c = s.cells[std::size_t(y) * std::size_t(w) + std::size_t(x)];
+            if (snapshot_code::isSolid(c.code)) continue;
+            const bool outline =
+                solid(x - 1, y) || solid(x + 1, y) || solid(x, y - 1) || solid(x, y + 1);
+            c = {0, outline ? snapshot_code::kOutline : snapshot_code::kEmpty};
         }
-    for (std::size_t k : outline) s.cells[k] = {0, snapshot_code::kOutline};
 }
 
 } // namespace voxtier

@@ -81,5 +81,9 @@ struct Snapshot {
 /// 2D dilation of the coverage mask, which equals the near kernel's neighbour-ray rule because
 /// the neighbour rays are the neighbour cells' own primary rays).
 void applyCardinalOutline(Snapshot& s);
+/// The same rule for the cells of `cells` only (inclusive range of stored-cell coordinates x0,
+/// x1, y0, y1, clipped to the snapshot): every cell there that is not solid becomes outline or
+/// empty from the current solid mask. Used after re-tracing part of a snapshot.
+void refreshCardinalOutline(Snapshot& s, glm::ivec4 cells);
 
 } // namespace voxtier

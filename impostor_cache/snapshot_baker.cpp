@@ -182,15 +182,19 @@ TraceApi parseTraceApi(const std::string& name) {
     throw InputError("", "--api", "expected packet8, packet16 or stream, got '" + name + "'");
 }
 
-Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sigma,
-                      const BakeOptions& options, BakeStats* stats) {
-    const auto t0 = std::chrono::steady_clock::now();
+namespace {
+
+/// Traces the stored cells x0..x1, y0..y1 (inclusive, `rect`) of `snap` against `scene` and
+/// writes the solid ones (the others are left as they are: callers pass them empty). Every cell
+/// is decided by its own ray alone, exactly as vtTrace decides it, so tracing a part of a
+/// snapshot gives the very bytes a full bake gives there. Adds to stats' rays, reads and
+/// Embree rays.
+void traceRect(const VoxelScene& scene, Snapshot& snap, glm::ivec4 rect, const BakeOptions& options,
+               BakeStats* stats) {
     const VoxelGrid& grid = scene.grid();
-    Snapshot snap = emptySnapshot(grid, set, view, sigma);
-    if (options.withDepth) snap.depth.assign(snap.cells.size(), 0.0f);
     const kernel::SpriteGpu frame = snapshotRayFrame(snap.lattice);
     const GridVoxels voxels = voxelsOf(grid);
-    const int W = snap.width(), H = snap.height();
+    const int W = snap.width();
     const glm::ivec4 range = snap.lattice.cellRange;
 
     float dMin = 1.0f;
@@ -202,6 +206,7 @@ Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sig
     BoundMargin margin;
     margin.absolute = quads ? 2.0f * scene.padding() / dMin : scene.padding();
     const float maxDim2 = float(2.0 * snap.lattice.maxDim);
+    const bool withDepth = !snap.depth.empty();
 
     detail::BakeIntersectContext ctx;
     rtcInitIntersectContext(&ctx.base);
@@ -212,7 +217,7 @@ Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sig
 
     auto store = [&](std::size_t k, std::uint8_t index, std::uint8_t face, float t) {
         snap.cells[k] = {index, std::uint8_t(snapshot_code::kSolid0 + face)};
-        if (options.withDepth) snap.depth[k] = t - maxDim2;
+        if (withDepth) snap.depth[k] = t - maxDim2;
     };
     struct Counts {
         std::uint64_t reads = 0, embree = 0;
@@ -225,14 +230,18 @@ Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sig
     constexpr int kRowsPerTask = 4;
     const int first = useEmbree ? std::max(0, options.traverseFirst) : (1 << 30);
     tbb::parallel_for(
-        tbb::blocked_range<int>(0, H, kRowsPerTask), [&](const tbb::blocked_range<int>& rows) {
-            EmbreeBatch batch{scene.handle(), &ctx, frame.dir, {}};
+        tbb::blocked_range<int>(rect.z, rect.w + 1, kRowsPerTask),
+        [&](const tbb::blocked_range<int>& rows) {
+            // One context per task: Embree pushes the instance id into it while traversing a
+            // brick (voxel_scene.hpp), so it must not be shared between threads.
+            detail::BakeIntersectContext taskCtx = ctx;
+            EmbreeBatch batch{scene.handle(), &taskCtx, frame.dir, {}};
             std::vector<glm::vec3> origin;
             std::vector<std::size_t> cellOf;
             std::vector<KernelEntry> entry;
             Counts local;
             for (int y = rows.begin(); y < rows.end(); ++y)
-                for (int x = 0; x < W; ++x) {
+                for (int x = rect.x; x <= rect.y; ++x) {
                     const glm::vec3 o = kernelRayOrigin(frame, {range.x + x, range.z + y});
                     const KernelEntry e = kernelEntry(frame, o, voxels);
                     if (e.kind == KernelEntry::Kind::Miss) continue;
@@ -274,13 +283,104 @@ Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sig
             counts.local().reads += local.reads;
             counts.local().embree += local.embree;
         });
-    applyCardinalOutline(snap);
     if (stats) {
-        stats->rays += std::uint64_t(W) * std::uint64_t(H);
+        stats->rays += std::uint64_t(rect.y - rect.x + 1) * std::uint64_t(rect.w - rect.z + 1);
         counts.combine_each([&](const Counts& c) {
             stats->voxelReads += c.reads;
             stats->embreeRays += c.embree;
         });
+    }
+}
+
+} // namespace
+
+Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sigma,
+                      const BakeOptions& options, BakeStats* stats) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Snapshot snap = emptySnapshot(scene.grid(), set, view, sigma);
+    if (options.withDepth) snap.depth.assign(snap.cells.size(), 0.0f);
+    traceRect(scene, snap, {0, snap.width() - 1, 0, snap.height() - 1}, options, stats);
+    applyCardinalOutline(snap);
+    if (stats) {
+        stats->cells += snap.cells.size();
+        stats->ms += msSince(t0);
+    }
+    return snap;
+}
+
+// Why cellsReachingBox is enough. vtTrace visits a sequence of voxels that depends on the ray
+// alone (entry cell, then one step per boundary crossing), reads them in order and stops at the
+// first solid one; a ray none of whose visited voxels lies in the dirty box reads the same values
+// before and after the edit and gives the same cell. The voxels it visits are those the float
+// ray passes through: the float origin and crossing parameters are within a few ulps of the
+// exact ray through the double cell centre (coordinates <= ~3.5 * maxDim, so ~1e-4 voxel at
+// 256), so every visited voxel meets the exact line grown by that much. A cell whose exact line
+// stays 1/64 voxel clear of the dirty box (two orders of magnitude more) therefore cannot read
+// it. The lines are parallel, so "line meets the grown box" is "cell centre lies in the box's
+// projection on the sprite plane", bounded here by the rectangle of its 8 projected corners; one
+// more cell on every side is slack against any slip in that argument (a grazing ray, a tie), and
+// the outline, which depends on the four neighbours, is recomputed one cell further out.
+glm::ivec4 cellsReachingBox(const SpriteLattice& L, Box3i box) {
+    if (box.empty()) return {1, 0, 1, 0};
+    constexpr double kSlack = 1.0 / 64.0;
+    const glm::dvec3 lo = glm::dvec3(box.min) - kSlack, hi = glm::dvec3(box.max) + kSlack;
+    double aMin = 1e300, aMax = -1e300, bMin = 1e300, bMax = -1e300;
+    for (int corner = 0; corner < 8; ++corner) {
+        const glm::dvec3 p((corner & 1) ? hi.x : lo.x, (corner & 2) ? hi.y : lo.y,
+                           (corner & 4) ? hi.z : lo.z);
+        const glm::dvec3 q = p - L.centre;
+        // Cell i's ray passes the plane at u = gU + (i + 1/2) / sigma: a = i there.
+        const double a = L.sigma * (glm::dot(q, L.right) - L.gU) - 0.5;
+        const double b = L.sigma * (glm::dot(q, L.up) - L.gV) - 0.5;
+        aMin = std::min(aMin, a), aMax = std::max(aMax, a);
+        bMin = std::min(bMin, b), bMax = std::max(bMax, b);
+    }
+    const glm::ivec4 r{int(std::floor(aMin)) - 1, int(std::ceil(aMax)) + 1,
+                       int(std::floor(bMin)) - 1, int(std::ceil(bMax)) + 1};
+    const glm::ivec4 c = L.cellRange;
+    const glm::ivec4 out{std::max(r.x, c.x), std::min(r.y, c.y), std::max(r.z, c.z),
+                         std::min(r.w, c.w)};
+    if (out.x > out.y || out.z > out.w) return {1, 0, 1, 0};
+    return out;
+}
+
+Snapshot rebakeSnapshot(const VoxelScene& scene, const Snapshot& previous, Box3i dirty,
+                        const BakeOptions& options, BakeStats* stats) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const SpriteLattice& L = previous.lattice;
+    const bool fits = L.dims == scene.grid().dims() &&
+                      previous.cells.size() == std::size_t(L.width()) * std::size_t(L.height()) &&
+                      (!options.withDepth || previous.depth.size() == previous.cells.size());
+    const glm::ivec4 reach = cellsReachingBox(L, dirty);
+    const bool none = reach.x > reach.y;
+    const std::uint64_t area =
+        none ? 0 : std::uint64_t(reach.y - reach.x + 1) * std::uint64_t(reach.w - reach.z + 1);
+    if (!fits || double(area) > options.maxIncrementalShare * double(previous.cells.size()))
+        return bakeSnapshot(scene, previous.set, previous.view, L.sigma, options, stats);
+
+    Snapshot snap = previous;
+    if (!options.withDepth) snap.depth.clear();
+    if (!none) {
+        // Stored-cell coordinates of the rectangle; its cells start empty, as in a full bake.
+        const glm::ivec4 rect{reach.x - L.cellRange.x, reach.y - L.cellRange.x,
+                              reach.z - L.cellRange.z, reach.w - L.cellRange.z};
+        const int W = snap.width();
+        for (int y = rect.z; y <= rect.w; ++y) {
+            const std::size_t row = std::size_t(y) * std::size_t(W);
+            std::fill(snap.cells.begin() + std::ptrdiff_t(row + std::size_t(rect.x)),
+                      snap.cells.begin() + std::ptrdiff_t(row + std::size_t(rect.y) + 1),
+                      SnapshotCell{});
+            if (!snap.depth.empty())
+                std::fill(snap.depth.begin() + std::ptrdiff_t(row + std::size_t(rect.x)),
+                          snap.depth.begin() + std::ptrdiff_t(row + std::size_t(rect.y) + 1), 0.0f);
+        }
+        traceRect(scene, snap, rect, options, stats);
+        // A cell next to the rectangle may gain or lose its outline with the cells inside it.
+        refreshCardinalOutline(snap, {rect.x - 1, rect.y + 1, rect.z - 1, rect.w + 1});
+    }
+    if (stats) {
+        stats->cells += snap.cells.size();
+        stats->incremental += 1;
         stats->ms += msSince(t0);
     }
     return snap;
@@ -307,6 +407,7 @@ Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewSet set, int view, double
     applyCardinalOutline(snap);
     if (stats) {
         stats->rays += std::uint64_t(W) * std::uint64_t(H);
+        stats->cells += snap.cells.size();
         stats->ms += msSince(t0);
     }
     return snap;

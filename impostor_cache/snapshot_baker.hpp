@@ -34,16 +34,23 @@ struct BakeOptions {
     /// wasted before Embree runs anyway (126x126x64 house: 1.6x slower at 16). `voxtier bake
     /// --bench` prints both; the default leaves the empty-space skipping to Embree.
     int traverseFirst = 0;
+    /// rebakeSnapshot: when the cells to re-trace cover more than this share of the snapshot,
+    /// it bakes the snapshot whole instead (copying the rest would save little).
+    double maxIncrementalShare = 0.5;
 };
 
 struct BakeStats {
-    std::uint64_t rays = 0; ///< primary rays = cells of the snapshot
+    std::uint64_t rays = 0;  ///< primary rays traced: every cell of a full bake, the re-traced
+                             ///< rectangle of an incremental one
+    std::uint64_t cells = 0; ///< cells of the snapshots produced (rays / cells: share re-traced)
     std::uint64_t voxelReads =
         0; ///< grid reads of the exact traversal (before and after Embree's bound)
-    std::uint64_t embreeRays = 0; ///< rays handed to Embree
+    std::uint64_t embreeRays = 0;  ///< rays handed to Embree
+    std::uint64_t incremental = 0; ///< snapshots re-baked incrementally (rebakeSnapshot)
     double ms = 0.0;
     BakeStats& operator+=(const BakeStats& o) {
-        rays += o.rays, voxelReads += o.voxelReads, embreeRays += o.embreeRays, ms += o.ms;
+        rays += o.rays, cells += o.cells, voxelReads += o.voxelReads, embreeRays += o.embreeRays;
+        incremental += o.incremental, ms += o.ms;
         return *this;
     }
 };
@@ -51,6 +58,22 @@ struct BakeStats {
 /// Bakes view `view` of `set` from `scene` at sigma. Thread-safe (the scene is read-only).
 Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sigma,
                       const BakeOptions& options = {}, BakeStats* stats = nullptr);
+
+/// Cells of the snapshot lattice whose primary ray can visit a voxel of `box` (voxel
+/// coordinates, half-open), as an inclusive lattice range (iMin, iMax, jMin, jMax) clamped to
+/// lattice.cellRange, with one cell of margin on every side; iMin > iMax when `box` is empty.
+/// Only these cells can change when the voxels of `box` change (snapshot_baker.cpp says why).
+glm::ivec4 cellsReachingBox(const SpriteLattice& lattice, Box3i box);
+
+/// `previous` (a snapshot of the same view, sigma and set, baked from an earlier version of
+/// scene.grid() that differs from it only inside `dirty`) brought up to date: a copy in which
+/// only cellsReachingBox(dirty) are traced again, with the same code as bakeSnapshot, and the
+/// outline recomputed one cell around them. Equals bakeSnapshot(scene, ...) byte for byte. Falls
+/// back to a full bake when the cells to re-trace exceed options.maxIncrementalShare, or when
+/// `previous` does not fit (other lattice, depth wanted but not stored); stats->incremental says
+/// which happened.
+Snapshot rebakeSnapshot(const VoxelScene& scene, const Snapshot& previous, Box3i dirty,
+                        const BakeOptions& options = {}, BakeStats* stats = nullptr);
 
 /// The same snapshot with no Embree at all: the near kernel's own vtTrace for every cell over
 /// the dense grid (TBB-parallel over rows). The baseline the Embree bake is measured against,

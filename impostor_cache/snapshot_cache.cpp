@@ -2,8 +2,10 @@
 
 #include <tbb/collaborative_call_once.h>
 
+#include <algorithm>
 #include <chrono>
 #include <functional>
+#include <optional>
 
 namespace voxtier {
 
@@ -48,6 +50,49 @@ std::size_t SnapshotCache::SceneKeyHash::operator()(const SceneKey& k) const {
 SnapshotCache::SnapshotCache(SnapshotCacheConfig config) : config_(config) {}
 SnapshotCache::~SnapshotCache() = default;
 
+namespace {
+SnapshotKey viewKeyOf(SnapshotKey k) {
+    k.version = 0;
+    return k;
+}
+} // namespace
+
+std::shared_ptr<const Snapshot> SnapshotCache::staleLocked(const SnapshotKey& key,
+                                                           std::uint64_t* version) const {
+    const auto l = latest_.find(viewKeyOf(key));
+    if (l == latest_.end() || l->second >= key.version) return nullptr;
+    SnapshotKey old = key;
+    old.version = l->second;
+    const auto it = entries_.find(old);
+    if (it == entries_.end() || !it->second->listed) return nullptr;
+    *version = old.version;
+    return it->second->snapshot;
+}
+
+std::shared_ptr<const VoxelScene> SnapshotCache::staleSceneLocked(const SceneKey& key,
+                                                                  std::uint64_t* version) const {
+    const auto l = latestScene_.find({key.modelUid, key.frame, 0});
+    if (l == latestScene_.end() || l->second >= key.version) return nullptr;
+    const auto it = scenes_.find({key.modelUid, key.frame, l->second});
+    if (it == scenes_.end() || !it->second->listed) return nullptr;
+    *version = l->second;
+    return it->second->scene;
+}
+
+void SnapshotCache::dropSceneLocked(const SceneKey key) {
+    const auto it = scenes_.find(key);
+    if (it == scenes_.end()) return;
+    SceneEntry& e = *it->second;
+    if (e.listed) {
+        sceneLru_.erase(e.lruPos);
+        e.listed = false;
+        counters_.sceneBytes -= e.scene ? e.scene->bytes() : 0;
+    }
+    const auto l = latestScene_.find({key.modelUid, key.frame, 0});
+    if (l != latestScene_.end() && l->second == key.version) latestScene_.erase(l);
+    scenes_.erase(it); // bakes in flight hold their own reference
+}
+
 std::shared_ptr<const VoxelScene> SnapshotCache::scene(const VoxelModel& model, int frame) {
     const SceneKey key{model.uid(), frame, model.version()};
     std::shared_ptr<SceneEntry> e;
@@ -58,31 +103,51 @@ std::shared_ptr<const VoxelScene> SnapshotCache::scene(const VoxelModel& model, 
         e = slot;
     }
     tbb::collaborative_call_once(e->once, [&] {
-        e->scene = std::make_shared<const VoxelScene>(model.frame(frame), config_.scene);
+        // After an edit: derive the scene from the previous version's, rebuilding only the
+        // bricks the edit reaches; when nothing in this frame changed it is that very scene.
+        std::uint64_t oldVersion = 0;
+        std::shared_ptr<const VoxelScene> previous;
+        {
+            std::lock_guard lock(mutex_);
+            previous = staleSceneLocked(key, &oldVersion);
+        }
+        const std::optional<Box3i> dirty =
+            previous ? model.dirtySince(oldVersion, frame) : std::nullopt;
+        bool built = true;
+        if (dirty && dirty->empty()) {
+            e->scene = previous;
+            built = false;
+        } else if (dirty) {
+            e->scene = std::make_shared<const VoxelScene>(*previous, model.frame(frame), *dirty);
+        } else {
+            e->scene = std::make_shared<const VoxelScene>(model.frame(frame), config_.scene);
+        }
         std::lock_guard lock(mutex_);
-        ++counters_.scenesBuilt;
-        counters_.sceneMs += e->scene->buildMs();
+        if (built) {
+            ++counters_.scenesBuilt;
+            counters_.sceneMs += e->scene->buildMs();
+        }
+        if (built && dirty) {
+            ++counters_.scenesUpdated;
+            counters_.bricksRebuilt += e->scene->buildStats().bricksBuilt;
+        }
         counters_.sceneBytes += e->scene->bytes();
+        // The superseded version is never asked for again (keys carry the current version).
+        if (previous) dropSceneLocked({key.modelUid, key.frame, oldVersion});
+        auto& newest = latestScene_[{key.modelUid, key.frame, 0}];
+        newest = std::max(newest, key.version);
+        // Listed here, under the same lock as the byte count, so the count always matches.
+        e->listed = true;
+        sceneLru_.push_front(key);
+        e->lruPos = sceneLru_.begin();
     });
     std::lock_guard lock(mutex_);
     // LRU over scenes: bakers in flight hold their own reference, so dropping one here never
-    // pulls it from under a bake. A newer version of the same model frame simply outlives the
-    // older one in this order.
+    // pulls it from under a bake.
     auto it = scenes_.find(key);
-    if (it != scenes_.end() && it->second == e) {
-        if (e->listed) sceneLru_.erase(e->lruPos);
-        sceneLru_.push_front(key);
-        e->lruPos = sceneLru_.begin();
-        e->listed = true;
-        while (sceneLru_.size() > config_.maxScenes) {
-            const SceneKey old = sceneLru_.back();
-            sceneLru_.pop_back();
-            auto o = scenes_.find(old);
-            if (o != scenes_.end()) {
-                counters_.sceneBytes -= o->second->scene ? o->second->scene->bytes() : 0;
-                scenes_.erase(o);
-            }
-        }
+    if (it != scenes_.end() && it->second == e && e->listed) {
+        sceneLru_.splice(sceneLru_.begin(), sceneLru_, e->lruPos);
+        while (sceneLru_.size() > config_.maxScenes) dropSceneLocked(sceneLru_.back());
     }
     return e->scene;
 }
@@ -108,19 +173,54 @@ std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int 
     // A bake in flight (or a failed one, which is retried): join it or run it. Completion of
     // the once orders the write of e->snapshot before the read below.
     tbb::collaborative_call_once(e->once, [&] {
-        // The per-(model, frame, version) scene first (shared by all views), then this view.
-        // An incremental path would slot in here: find the same key with an older version,
-        // ask model.dirtySince(old) and re-trace only the cells whose rays cross the box.
-        const std::shared_ptr<const VoxelScene> sc = scene(model, frame);
+        // A stale snapshot of this view (an older version of the model) is brought up to date
+        // where the edits since reach, if the model's log still knows what they were; otherwise
+        // the per-(model, frame, version) scene (shared by all views) bakes this view whole.
+        std::uint64_t oldVersion = 0;
+        std::shared_ptr<const Snapshot> stale;
+        {
+            std::lock_guard lock(mutex_);
+            stale = staleLocked(key, &oldVersion);
+        }
+        const std::optional<Box3i> dirty =
+            stale ? model.dirtySince(oldVersion, frame) : std::nullopt;
         BakeStats stats;
-        auto snap = std::make_shared<const Snapshot>(
-            bakeSnapshot(*sc, set, view, sigma, config_.bake, &stats));
+        std::shared_ptr<const Snapshot> snap;
+        if (dirty && dirty->empty()) {
+            snap = stale; // edits in other frames of the model: the same bytes
+            stats.incremental = 1;
+            stats.cells = snap->cells.size();
+        } else if (dirty) {
+            const std::shared_ptr<const VoxelScene> sc = scene(model, frame);
+            snap = std::make_shared<const Snapshot>(
+                rebakeSnapshot(*sc, *stale, *dirty, config_.bake, &stats));
+        } else {
+            const std::shared_ptr<const VoxelScene> sc = scene(model, frame);
+            snap = std::make_shared<const Snapshot>(
+                bakeSnapshot(*sc, set, view, sigma, config_.bake, &stats));
+        }
         std::lock_guard lock(mutex_);
         e->snapshot = snap;
         e->bytes = snap->bytes();
         ++counters_.bakes;
         counters_.raysTraced += stats.rays;
         counters_.bakeMs += stats.ms;
+        if (stale) {
+            ++counters_.refreshes;
+            if (stats.incremental) {
+                ++counters_.incrementalRefreshes;
+                counters_.cellsRetraced += stats.rays;
+                counters_.cellsRefreshed += stats.cells;
+            } else {
+                ++counters_.fullRefreshes;
+            }
+            SnapshotKey old = key;
+            old.version = oldVersion;
+            if (entries_.count(old)) {
+                dropLocked(old);
+                ++counters_.staleDropped;
+            }
+        }
         // Still wanted (not dropped by a concurrent eviction of a never-listed entry): list it.
         auto it = entries_.find(key);
         if (it != entries_.end() && it->second == e) {
@@ -129,23 +229,33 @@ std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int 
             e->listed = true;
             counters_.bytes += e->bytes;
             ++counters_.snapshots;
+            auto& newest = latest_[viewKeyOf(key)];
+            newest = std::max(newest, key.version);
             evictLocked();
         }
     });
     return e->snapshot;
 }
 
+void SnapshotCache::dropLocked(const SnapshotKey key) {
+    const auto it = entries_.find(key);
+    if (it == entries_.end()) return;
+    Entry& e = *it->second;
+    if (e.listed) {
+        lru_.erase(e.lruPos);
+        e.listed = false;
+        counters_.bytes -= e.bytes;
+        --counters_.snapshots;
+    }
+    const auto l = latest_.find(viewKeyOf(key));
+    if (l != latest_.end() && l->second == key.version) latest_.erase(l);
+    entries_.erase(it); // holders of the snapshot keep it alive
+}
+
 void SnapshotCache::evictLocked() {
     while (counters_.bytes > config_.budgetBytes && !lru_.empty()) {
-        const SnapshotKey old = lru_.back();
-        lru_.pop_back();
-        auto it = entries_.find(old);
-        if (it == entries_.end()) continue;
-        it->second->listed = false;
-        counters_.bytes -= it->second->bytes;
-        --counters_.snapshots;
+        dropLocked(lru_.back());
         ++counters_.evictions;
-        entries_.erase(it); // holders of the snapshot keep it alive
     }
 }
 

@@ -3,8 +3,17 @@
 // version, view set, view, sigma), baked the first time someone asks for it, shared by every
 // entity of the model, baked once however many threads ask at the same time, and evicted
 // least-recently-used over a byte budget. The Embree scene of a (model, frame, version) is kept
-// apart from the per-view snapshots, so a later incremental re-bake after an edit can reuse the
-// snapshot of the previous version and re-trace only the dirty cells.
+// apart from the per-view snapshots.
+//
+// Invalidation (DESIGN.md §4): an edit bumps the model version, so every key of the model goes
+// stale at once and nothing stale is ever returned. Nothing is re-baked at edit time: the first
+// request for a view at the new version finds that view's snapshot of the previous version, asks
+// the model what changed since (VoxelModel::dirtySince) and re-traces only the cells whose rays
+// can reach the dirty box (rebakeSnapshot); the new scene likewise rebuilds only the bricks the
+// edit reaches (VoxelScene's derived constructor). The superseded snapshot and scene are dropped
+// when their successor lands, so old versions never sit in the budget. Views nobody asks for stay
+// stale until they are asked for, evicted, or the edit log no longer reaches back to them (then
+// they are baked whole). A model shared by many entities is refreshed once per view.
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"
 #include "impostor_cache/snapshot_baker.hpp"
@@ -48,6 +57,19 @@ struct SnapshotCacheCounters {
     std::uint64_t scenesBuilt = 0;
     std::uint64_t sceneBytes = 0; ///< bytes of the Embree scenes held now
     double bakeMs = 0.0, sceneMs = 0.0;
+    // Invalidation: what edits cost.
+    std::uint64_t refreshes = 0; ///< bakes that replaced a stale snapshot of the same view (a
+                                 ///< subset of bakes; only views that are requested)
+    std::uint64_t incrementalRefreshes = 0; ///< of those, only the cells the edit can reach
+                                            ///< re-traced (none when the edit was elsewhere)
+    std::uint64_t fullRefreshes = 0;  ///< of those, baked whole: the edit log no longer reached the
+                                      ///< stale version, or the edit covers most of the snapshot
+    std::uint64_t cellsRetraced = 0;  ///< rays traced by incremental refreshes (also in raysTraced)
+    std::uint64_t cellsRefreshed = 0; ///< cells of the snapshots refreshed incrementally
+    std::uint64_t staleDropped = 0;   ///< superseded snapshots dropped when their refresh landed
+    std::uint64_t scenesUpdated = 0;  ///< scenes derived from the previous version's by rebuilding
+                                      ///< only the bricks the edit reaches (subset of scenesBuilt)
+    std::uint64_t bricksRebuilt = 0;  ///< bricks built by those derived scenes
 };
 
 class SnapshotCache {
@@ -88,14 +110,28 @@ class SnapshotCache {
     struct SceneKeyHash {
         std::size_t operator()(const SceneKey& k) const;
     };
-    void evictLocked(); // mutex_ held
+    // mutex_ held for all of these.
+    void evictLocked();
+    /// Removes a snapshot (budget, stale). By value: callers pass keys that live in lru_.
+    void dropLocked(SnapshotKey key);
+    void dropSceneLocked(SceneKey key);
+    /// The newest listed snapshot of the same view, model frame and sigma with a version older
+    /// than `key`'s, or null (then *version is untouched).
+    std::shared_ptr<const Snapshot> staleLocked(const SnapshotKey& key,
+                                                std::uint64_t* version) const;
+    std::shared_ptr<const VoxelScene> staleSceneLocked(const SceneKey& key,
+                                                       std::uint64_t* version) const;
 
     SnapshotCacheConfig config_;
     mutable std::mutex mutex_;
     std::unordered_map<SnapshotKey, std::shared_ptr<Entry>, KeyHash> entries_;
     std::list<SnapshotKey> lru_; ///< ready snapshots, most recent first
+    /// Per key with version 0: the version of the newest listed snapshot of that view (the base
+    /// of the next incremental refresh).
+    std::unordered_map<SnapshotKey, std::uint64_t, KeyHash> latest_;
     std::unordered_map<SceneKey, std::shared_ptr<SceneEntry>, SceneKeyHash> scenes_;
     std::list<SceneKey> sceneLru_;
+    std::unordered_map<SceneKey, std::uint64_t, SceneKeyHash> latestScene_; ///< same, for scenes
     SnapshotCacheCounters counters_;
 };
 

@@ -13,6 +13,7 @@
 #include <glm/glm.hpp>
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace voxtier {
@@ -33,9 +34,11 @@ struct VoxelRun {
     glm::u16vec3 min, max;
 };
 /// Surface voxels (every solid voxel with `surfaceOnly == false`) as boxes: single voxels, or
-/// with `merge`, maximal runs of consecutive such voxels along x. Memory order.
+/// with `merge`, maximal runs of consecutive such voxels along x. Memory order. With a `region`
+/// (clipped to the grid) only the voxels inside it, runs cut at its faces: a brick of a bricked
+/// scene (voxel_scene.hpp). Surface status still looks at neighbours outside the region.
 std::vector<VoxelRun> surfaceBoxes(const VoxelGrid& grid, bool surfaceOnly = true,
-                                   bool merge = true);
+                                   bool merge = true, std::optional<Box3i> region = std::nullopt);
 
 /// A rectangle of exposed faces in one plane: face code (kernel codes: 2*axis, +1 for the face
 /// on the + side), the plane coordinate along the axis, and the covered range [lo, hi) of the
@@ -47,8 +50,9 @@ struct FaceRect {
 };
 /// Faces of solid voxels whose neighbour across the face is empty or out of bounds (all six
 /// faces of every solid voxel with `surfaceOnly == false`); with `merge`, greedily merged into
-/// rectangles per plane, else one rectangle per face.
+/// rectangles per plane, else one rectangle per face. With a `region`, only the faces of voxels
+/// inside it, rectangles cut at its faces.
 std::vector<FaceRect> exposedFaces(const VoxelGrid& grid, bool surfaceOnly = true,
-                                   bool merge = true);
+                                   bool merge = true, std::optional<Box3i> region = std::nullopt);
 
 } // namespace voxtier

@@ -4,10 +4,12 @@
 #include "impostor_cache/detail/bake_context.hpp"
 #include "impostor_cache/detail/embree_device.hpp"
 
+#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <chrono>
 #include <limits>
 #include <mutex>
@@ -138,8 +140,99 @@ BakeGeometry parseBakeGeometry(const std::string& name) {
     throw InputError("", "--geometry", "expected 'quads' or 'boxes', got '" + name + "'");
 }
 
+struct VoxelScene::Brick {
+    Box3i region;
+    std::vector<VoxelRun> boxes; ///< Boxes: the voxel box of each primitive
+    BoxUserData data{};          ///< Boxes: the callbacks' data (points into `boxes`)
+    RTCScene scene = nullptr;    ///< bricked: this brick's own scene, instanced by the top level
+    std::size_t primitives = 0;
+    std::size_t embreeBytes = 0; ///< share of what Embree allocated for the build that made it
+    ~Brick() {
+        if (scene) rtcReleaseScene(scene);
+    }
+};
+
+namespace {
+
+/// The committed Embree geometry of the primitives inside `region`, or nullptr when there are
+/// none. Boxes keep their primitive array in `brick` (the callbacks read it at trace time).
+RTCGeometry makeGeometry(RTCDevice device, const VoxelGrid& grid, const VoxelSceneOptions& options,
+                         float pad, Box3i region, std::vector<VoxelRun>& boxes, BoxUserData& data,
+                         std::size_t& primitives) {
+    if (options.geometry == BakeGeometry::Boxes) {
+        boxes = surfaceBoxes(grid, options.surfaceOnly, options.mergePrimitives, region);
+        boxes.shrink_to_fit();
+        primitives = boxes.size();
+        if (primitives == 0) return nullptr;
+        RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
+        rtcSetGeometryUserPrimitiveCount(geom, unsigned(primitives));
+        // The user data must outlive every scene using the geometry: it lives in the brick, which
+        // the scenes that instance it hold.
+        data = BoxUserData{boxes.data(), pad};
+        rtcSetGeometryUserData(geom, &data);
+        rtcSetGeometryBoundsFunction(geom, boxBounds, &data);
+        rtcSetGeometryIntersectFunction(geom, boxIntersect);
+        rtcSetGeometryOccludedFunction(geom, boxOccluded);
+        rtcCommitGeometry(geom);
+        return geom;
+    }
+    const std::vector<FaceRect> faces =
+        exposedFaces(grid, options.surfaceOnly, options.mergePrimitives, region);
+    primitives = faces.size();
+    if (primitives == 0) return nullptr;
+    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_QUAD);
+    auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), 4 * primitives));
+    auto* q = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4, 4 * sizeof(unsigned), primitives));
+    for (std::size_t f = 0; f < primitives; ++f) {
+        const FaceRect& r = faces[f];
+        const int a = r.face / 2, b = (a + 1) % 3, c = (a + 2) % 3;
+        // The faces' own plane, grown by `pad` within the plane only: a ray the kernel sends
+        // through one of these faces crosses the plane inside the quad.
+        const float b0 = float(r.lo.x) - pad, b1 = float(r.hi.x) + pad;
+        const float c0 = float(r.lo.y) - pad, c1 = float(r.hi.y) + pad;
+        const float corners[4][2] = {{b0, c0}, {b1, c0}, {b1, c1}, {b0, c1}};
+        for (int k = 0; k < 4; ++k) {
+            float* out = v + 3 * (4 * f + std::size_t(k));
+            out[a] = float(r.plane);
+            out[b] = corners[k][0];
+            out[c] = corners[k][1];
+            q[4 * f + std::size_t(k)] = unsigned(4 * f + std::size_t(k));
+        }
+    }
+    rtcCommitGeometry(geom);
+    return geom;
+}
+
+RTCScene newScene(RTCDevice device) {
+    RTCScene scene = rtcNewScene(device);
+    rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
+    return scene;
+}
+
+} // namespace
+
 VoxelScene::VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options)
     : grid_(grid), options_(options) {
+    build(nullptr, Box3i{}, /*derived=*/false);
+}
+
+VoxelScene::VoxelScene(const VoxelScene& previous, const VoxelGrid& grid, Box3i dirty)
+    : grid_(grid), options_(previous.options_) {
+    // Another size is another model: nothing to share (API misuse, but a full build is correct).
+    assert(previous.grid_.dims() == grid.dims());
+    const bool sameShape = previous.grid_.dims() == grid.dims();
+    build(sameShape ? &previous : nullptr, dirty.expanded(1), /*derived=*/true);
+}
+
+std::size_t VoxelScene::brickCount() const {
+    return std::size_t(
+        std::count_if(bricks_.begin(), bricks_.end(), [](const auto& b) { return b != nullptr; }));
+}
+
+void VoxelScene::build(const VoxelScene* previous, Box3i rebuild, bool derived) {
     const auto t0 = std::chrono::steady_clock::now();
     const glm::ivec3 n = grid_.dims();
     // Slack for float rounding (see snapshot_baker.cpp): the kernel's crossing parameters are
@@ -147,80 +240,130 @@ VoxelScene::VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options)
     // 1/64 + maxDim/4096 is 20-50x that and costs only a rare extra traversal step.
     padding_ = 1.0f / 64.0f + float(std::max({n.x, n.y, n.z})) / 4096.0f;
 
+    const int edge = options_.brickSize;
+    const bool flat = edge <= 0 || (!derived && options_.flatUntilEdited);
+    bricked_ = !flat;
+    brickGrid_ = flat ? glm::ivec3(1) : (n + edge - 1) / edge;
+    // Bricks are shared only between bricked scenes (the first one after a flat scene builds all).
+    if (previous && !previous->bricked_) previous = nullptr;
+    const std::size_t slots =
+        std::size_t(brickGrid_.x) * std::size_t(brickGrid_.y) * std::size_t(brickGrid_.z);
+    bricks_.assign(slots, nullptr);
+    std::vector<std::size_t> todo;
+    for (std::size_t slot = 0; slot < slots; ++slot) {
+        Box3i region{{0, 0, 0}, n};
+        if (!flat) {
+            const glm::ivec3 b(int(slot % std::size_t(brickGrid_.x)),
+                               int(slot / std::size_t(brickGrid_.x) % std::size_t(brickGrid_.y)),
+                               int(slot / (std::size_t(brickGrid_.x) * std::size_t(brickGrid_.y))));
+            region = Box3i{b * edge, glm::min(b * edge + edge, n)};
+        }
+        if (previous && !flat && region.intersected(rebuild).empty()) {
+            bricks_[slot] = previous->bricks_[slot]; // untouched by the edit: shared
+        } else {
+            auto brick = std::make_shared<Brick>();
+            brick->region = region;
+            bricks_[slot] = std::move(brick);
+            todo.push_back(slot);
+        }
+    }
+
     RTCDevice device = detail::embreeDevice();
     std::lock_guard lock(gBuildMutex);
     const std::int64_t before = detail::embreeBytesInUse();
+    std::size_t topBytes = 0;
+    RTCGeometry flatGeometry = nullptr;
     tbb::this_task_arena::isolate([&] {
         detail::FlushDenormalsScope ftz;
-        RTCScene scene = rtcNewScene(device);
-        rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
-        rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
-        if (options_.geometry == BakeGeometry::Boxes) {
-            boxes_ = surfaceBoxes(grid_, options_.surfaceOnly, options_.mergePrimitives);
-            primitives_ = boxes_.size();
-            if (primitives_ > 0) {
-                RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_USER);
-                rtcSetGeometryUserPrimitiveCount(geom, unsigned(primitives_));
-                // The user data must outlive the scene: it lives in this object, which owns the
-                // scene.
-                auto* data = new BoxUserData{boxes_.data(), padding_};
-                userData_ = data;
-                rtcSetGeometryUserData(geom, data);
-                rtcSetGeometryBoundsFunction(geom, boxBounds, data);
-                rtcSetGeometryIntersectFunction(geom, boxIntersect);
-                rtcSetGeometryOccludedFunction(geom, boxOccluded);
-                rtcCommitGeometry(geom);
-                rtcAttachGeometry(scene, geom);
-                rtcReleaseGeometry(geom); // the scene holds its own reference
+        // The bricks to build, in parallel (each brick's build is small; Embree's own parallel
+        // build only pays on big ones). Bricks are built apart from one another, so one brick's
+        // primitives never depend on which others are rebuilt: the same grid gives the same
+        // bricks whether they were built fresh or after an edit.
+        auto buildBrick = [&](std::size_t slot) {
+            detail::FlushDenormalsScope workerFtz; // TBB workers do not inherit MXCSR
+            auto* brick = const_cast<Brick*>(bricks_[slot].get());
+            RTCGeometry geom = makeGeometry(device, grid_, options_, padding_, brick->region,
+                                            brick->boxes, brick->data, brick->primitives);
+            if (!geom) return;
+            if (flat) {
+                flatGeometry = geom; // attached to the top-level scene below
+                return;
+            }
+            brick->scene = newScene(device);
+            rtcAttachGeometry(brick->scene, geom);
+            rtcReleaseGeometry(geom); // the scene holds its own reference
+            rtcCommitScene(brick->scene);
+        };
+        if (todo.size() == 1)
+            buildBrick(todo[0]);
+        else
+            tbb::parallel_for(std::size_t(0), todo.size(),
+                              [&](std::size_t k) { buildBrick(todo[k]); });
+        const std::int64_t afterBricks = detail::embreeBytesInUse();
+        // Embree reports memory per device: the bricks built here share what it allocated,
+        // in proportion to their primitives.
+        std::size_t builtPrimitives = 0;
+        for (std::size_t slot : todo) builtPrimitives += bricks_[slot]->primitives;
+        const double brickBytes = double(std::max<std::int64_t>(0, afterBricks - before));
+        for (std::size_t slot : todo) {
+            auto* brick = const_cast<Brick*>(bricks_[slot].get());
+            brick->embreeBytes =
+                builtPrimitives
+                    ? std::size_t(brickBytes * double(brick->primitives) / double(builtPrimitives))
+                    : 0;
+        }
+        build_.bricksBuilt = todo.size();
+        build_.primitivesBuilt = builtPrimitives;
+
+        RTCScene scene = newScene(device);
+        if (flat) {
+            if (flatGeometry) {
+                rtcAttachGeometry(scene, flatGeometry);
+                rtcReleaseGeometry(flatGeometry);
             }
         } else {
-            const std::vector<FaceRect> faces =
-                exposedFaces(grid_, options_.surfaceOnly, options_.mergePrimitives);
-            primitives_ = faces.size();
-            if (primitives_ > 0) {
-                RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_QUAD);
-                auto* v = static_cast<float*>(
-                    rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                            3 * sizeof(float), 4 * primitives_));
-                auto* q = static_cast<unsigned*>(
-                    rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4,
-                                            4 * sizeof(unsigned), primitives_));
-                const float pad = padding_;
-                for (std::size_t f = 0; f < primitives_; ++f) {
-                    const FaceRect& r = faces[f];
-                    const int a = r.face / 2, b = (a + 1) % 3, c = (a + 2) % 3;
-                    // The faces' own plane, grown by `pad` within the plane only: a ray the
-                    // kernel sends through one of these faces crosses the plane inside the quad.
-                    const float b0 = float(r.lo.x) - pad, b1 = float(r.hi.x) + pad;
-                    const float c0 = float(r.lo.y) - pad, c1 = float(r.hi.y) + pad;
-                    const float corners[4][2] = {{b0, c0}, {b1, c0}, {b1, c1}, {b0, c1}};
-                    for (int k = 0; k < 4; ++k) {
-                        float* out = v + 3 * (4 * f + std::size_t(k));
-                        out[a] = float(r.plane);
-                        out[b] = corners[k][0];
-                        out[c] = corners[k][1];
-                        q[4 * f + std::size_t(k)] = unsigned(4 * f + std::size_t(k));
-                    }
-                }
-                rtcCommitGeometry(geom);
-                rtcAttachGeometry(scene, geom);
-                rtcReleaseGeometry(geom);
+            // Identity instances: the rays reach each brick unchanged (instancing only splits
+            // the BVH into parts that can be rebuilt on their own).
+            static constexpr float kIdentity[12] = {1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+            for (std::size_t slot = 0; slot < slots; ++slot) {
+                const Brick* brick = bricks_[slot].get();
+                if (!brick || !brick->scene) continue;
+                RTCGeometry inst = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_INSTANCE);
+                rtcSetGeometryInstancedScene(inst, brick->scene);
+                rtcSetGeometryTransform(inst, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, kIdentity);
+                rtcCommitGeometry(inst);
+                rtcAttachGeometryByID(scene, inst, unsigned(slot));
+                rtcReleaseGeometry(inst);
             }
         }
         rtcCommitScene(scene);
         scene_ = scene;
+        topBytes = std::size_t(std::max<std::int64_t>(0, detail::embreeBytesInUse() - afterBricks));
     });
     detail::throwOnEmbreeError("scene build");
-    embreeBytes_ = std::size_t(std::max<std::int64_t>(0, detail::embreeBytesInUse() - before));
-    bytes_ = sizeof(*this) + grid_.data().capacity() + boxes_.capacity() * sizeof(VoxelRun) +
-             embreeBytes_;
-    buildMs_ =
+    // Empty bricks are dropped, so brickCount() and sharing only see bricks with primitives.
+    for (auto& b : bricks_)
+        if (b && b->primitives == 0) b.reset();
+    if (previous)
+        for (std::size_t slot = 0; slot < slots; ++slot)
+            build_.bricksReused +=
+                bricks_[slot] && bricks_[slot] == previous->bricks_[slot] ? 1u : 0u;
+    primitives_ = 0;
+    embreeBytes_ = topBytes;
+    bytes_ = sizeof(*this) + grid_.data().capacity() + bricks_.capacity() * sizeof(bricks_[0]);
+    for (const auto& b : bricks_) {
+        if (!b) continue;
+        primitives_ += b->primitives;
+        embreeBytes_ += b->embreeBytes;
+        bytes_ += sizeof(Brick) + b->boxes.capacity() * sizeof(VoxelRun) + b->embreeBytes;
+    }
+    bytes_ += topBytes;
+    build_.ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
 VoxelScene::~VoxelScene() {
     if (scene_) rtcReleaseScene(scene_);
-    delete static_cast<BoxUserData*>(userData_);
 }
 
 } // namespace voxtier

@@ -34,6 +34,19 @@ inline constexpr BakeGeometry kDefaultBakeGeometry = BakeGeometry::Boxes;
 /// (HARD_CASES 21: every worker that calls Embree must set them). Tests expect 0.
 std::uint64_t embreeCallsWithoutFlushDenormals();
 
+/// Edge (voxels) of the bricks a scene is split into once its model is edited; see
+/// VoxelSceneOptions. Measured with `voxtier bench edits` (2 cores shared with other builds,
+/// Embree 3.13, medians of 5-7): after a single-voxel edit the scene update takes 0.12-0.16 ms
+/// with 16^3 bricks against 6-8 ms to rebuild the flat scene (64^3 ball), 0.33-0.39 ms against
+/// 29-36 ms (128^3 ball) and 2.0 ms against 310-390 ms (tree.vox, 256^3; ~0.9 ms of it is the
+/// copy of the 16 MiB grid); 32^3 bricks update 2-6x slower. The price is trace speed: a full bake
+/// through bricks ran at 0.91-0.99x the flat scene's speed (0.86-1.02x on a loaded machine).
+/// Built from scratch, bricks cost the same as the flat scene on a loaded machine and up to 2x
+/// less on an idle one (they build in parallel). Most models are never edited, so a scene built
+/// from scratch stays flat (flatUntilEdited) and the first edit pays one bricked build.
+inline constexpr int kDefaultBrickSize = 16;
+inline constexpr bool kDefaultFlatUntilEdited = true;
+
 struct VoxelSceneOptions {
     BakeGeometry geometry = kDefaultBakeGeometry;
     /// Only voxels with an empty or out-of-bounds 6-neighbour (HARD_CASES 19). false puts every
@@ -42,6 +55,23 @@ struct VoxelSceneOptions {
     /// Runs of surface voxels along x as one box, rectangles of coplanar exposed faces as one
     /// quad (surface_voxels.hpp). Same snapshots, fewer primitives.
     bool mergePrimitives = true;
+    /// > 0: the grid is cut into bricks of this edge, each its own Embree scene, instanced
+    /// (identity transform) into a top-level scene, so the scene of an edited model rebuilds only
+    /// the bricks the edit reaches (DESIGN.md §4 invalidation). 0: one flat scene, rebuilt whole
+    /// after every edit. Same snapshots either way (the exact hit never comes from Embree).
+    int brickSize = kDefaultBrickSize;
+    /// With bricks: a scene built from scratch is still one flat BVH (it traces faster), and the
+    /// first scene derived after an edit builds every brick; from then on only the bricks an edit
+    /// reaches are rebuilt. So models that are never edited never pay for the bricks.
+    bool flatUntilEdited = kDefaultFlatUntilEdited;
+};
+
+/// What building a scene cost: for a derived scene (after an edit) only the bricks it rebuilt.
+struct SceneBuildStats {
+    std::size_t bricksBuilt = 0;  ///< bricks (or the one flat scene) built by this constructor
+    std::size_t bricksReused = 0; ///< bricks shared with the previous version
+    std::size_t primitivesBuilt = 0;
+    double ms = 0.0;
 };
 
 class VoxelScene {
@@ -49,6 +79,13 @@ class VoxelScene {
     /// Copies the grid (the scene must describe one fixed version even if the model is edited
     /// later) and builds the Embree BVH. Throws std::runtime_error on an Embree error.
     VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options);
+    /// The scene of `grid`, a later version of `previous.grid()` that differs from it only inside
+    /// `dirty` (VoxelModel::dirtySince). A voxel's surface status depends on its 6 neighbours, so
+    /// the primitives can change only inside `dirty` grown by one voxel: the bricks that box
+    /// reaches are rebuilt, every other brick (its BVH and primitives) is shared with `previous`
+    /// and only the top-level scene is committed again. A flat scene (brickSize 0) is rebuilt
+    /// whole. Same options and dims as `previous`.
+    VoxelScene(const VoxelScene& previous, const VoxelGrid& grid, Box3i dirty);
     ~VoxelScene();
     VoxelScene(const VoxelScene&) = delete;
     VoxelScene& operator=(const VoxelScene&) = delete;
@@ -60,22 +97,33 @@ class VoxelScene {
     /// slack that makes Embree's answer a safe lower bound despite float rounding.
     float padding() const { return padding_; }
     /// Grid copy + primitive arrays + what Embree allocated while building (memory monitor).
+    /// Bricks shared with other versions are counted in each scene that holds them.
     std::size_t bytes() const { return bytes_; }
     std::size_t embreeBytes() const { return embreeBytes_; }
-    double buildMs() const { return buildMs_; }
+    double buildMs() const { return build_.ms; }
+    const SceneBuildStats& buildStats() const { return build_; }
+    /// Bricks holding at least one primitive (1 for a flat scene that is not empty).
+    std::size_t brickCount() const;
+    /// Built as bricks under a top-level scene (else one flat BVH).
+    bool bricked() const { return bricked_; }
     bool empty() const { return primitives_ == 0; }
     RTCSceneTy* handle() const { return scene_; }
 
   private:
+    struct Brick;
+    void build(const VoxelScene* previous, Box3i rebuild, bool derived);
+
     VoxelGrid grid_;
     VoxelSceneOptions options_;
-    std::vector<VoxelRun> boxes_; ///< Boxes: the voxel box of each primitive
+    /// Per brick slot (x fastest), null where a brick holds no primitive; one slot when flat.
+    std::vector<std::shared_ptr<const Brick>> bricks_;
+    glm::ivec3 brickGrid_{1};
+    bool bricked_ = false;
     std::size_t primitives_ = 0;
     float padding_ = 0.0f;
     std::size_t bytes_ = 0, embreeBytes_ = 0;
-    double buildMs_ = 0.0;
+    SceneBuildStats build_;
     RTCSceneTy* scene_ = nullptr;
-    void* userData_ = nullptr; ///< Boxes: the callbacks' data (owned)
 };
 
 } // namespace voxtier
