@@ -702,9 +702,25 @@ struct Loader {
         return std::make_shared<VoxelModel>(name, f.palette, std::move(frames));
     }
 
+    /// {"generator": "tank", "seed", "frames", "size"}: an animated model, kept whole.
+    std::shared_ptr<VoxelModel> tankModel(const Obj& o) {
+        o.allow({"name", "generator", "seed", "frames", "size"});
+        const std::string name = modelName(o);
+        std::uint64_t seed = 1;
+        if (auto v = o.get("seed")) seed = seedValue(c, *v, o.at("seed"));
+        int frames = 8;
+        o.i("frames", frames, 1, Limits::kMaxFramesPerModel);
+        glm::ivec3 size(32, 32, 16);
+        if (auto v = o.get("size")) size = ivec3(c, *v, o.at("size"), 8, Limits::kMaxModelDim);
+        auto m = makeTank(seed, frames, size);
+        m->setName(name);
+        return m;
+    }
+
     std::shared_ptr<VoxelModel> generatorModel(const Obj& o) {
-        static const std::vector<std::string> kinds{"box", "sphere", "arrow", "shell", "voxel"};
+        static const std::vector<std::string> kinds{"box", "sphere", "arrow", "shell", "voxel", "tank"};
         const int kind = choice(c, o.require("generator"), o.at("generator"), kinds);
+        if (kind == 5) return tankModel(o);
         switch (kind) {
         case 0:
             o.allow({"name", "generator", "size", "index", "color"});
@@ -771,7 +787,7 @@ struct Loader {
             if (!isVox && !isGen) {
                 // Report a misspelt key as such before complaining that the source is missing.
                 o.allow({"name", "vox", "model", "frames", "generator", "size", "radius", "length",
-                         "thickness", "index", "color"});
+                         "thickness", "index", "color", "seed"});
                 fail(c, o.path(), "missing 'vox' (a .vox file) or 'generator'");
             }
             auto m = isVox ? voxModel(o) : generatorModel(o);

@@ -568,6 +568,24 @@ TEST(SceneLoader, GeneratorsBuildTheProceduralModels) {
     EXPECT_EQ(s.models[2]->name(), "a");
 }
 
+TEST(SceneLoader, TankGeneratorKeepsItsFramesSeedAndSize) {
+    const Scene s = loadJson(json::parse(R"({"models": [
+        {"name": "t", "generator": "tank", "seed": 4, "frames": 3, "size": [16, 16, 8]},
+        {"name": "d", "generator": "tank"}]})"));
+    ASSERT_EQ(s.models.size(), 2u);
+    const auto expected = makeTank(4, 3, {16, 16, 8});
+    ASSERT_EQ(s.models[0]->frameCount(), 3);
+    for (int f = 0; f < 3; ++f) EXPECT_EQ(s.models[0]->frame(f).data(), expected->frame(f).data());
+    EXPECT_EQ(s.models[0]->name(), "t");
+    EXPECT_EQ(s.models[0]->palette(), tankPalette());
+    EXPECT_EQ(s.models[1]->frameCount(), 8);
+    EXPECT_EQ(s.models[1]->frame(0).data(), makeTank(1)->frame(0).data());
+    EXPECT_THROW(loadJson(json::parse(R"({"models": [{"name": "t", "generator": "tank", "size": [4, 32, 16]}]})")),
+                 InputError);
+    EXPECT_THROW(loadJson(json::parse(R"({"models": [{"name": "t", "generator": "tank", "radius": 3}]})")),
+                 InputError);
+}
+
 glm::dvec3 rotate(const glm::dquat& q, glm::dvec3 v) {
     return q * v;
 }
