@@ -852,10 +852,10 @@ struct Loader {
                                                           {"grid", "random"}) == 1;
             if (random)
                 o.allow({"models", "layout", "count", "seed", "random_yaw", "scale", "name", "area",
-                         "y"});
+                         "y", "fps", "random_frame"});
             else
                 o.allow({"models", "layout", "count", "seed", "random_yaw", "scale", "name",
-                         "origin", "spacing", "columns"});
+                         "origin", "spacing", "columns", "fps", "random_frame"});
 
             const std::string mp = o.at("models");
             const json& ml = array(c, o.require("models"), mp);
@@ -872,6 +872,10 @@ struct Loader {
             o.flag("random_yaw", randomYaw);
             double scale = 1.0;
             o.pos("scale", scale);
+            double fps = 0.0;
+            o.nonNeg("fps", fps);
+            bool randomFrame = false;
+            o.flag("random_frame", randomFrame);
             std::string prefix = element(path, i);
             o.str("name", prefix);
 
@@ -882,6 +886,9 @@ struct Loader {
                 e.position = p;
                 e.scale = scale;
                 if (randomYaw) e.rotation = quatFromEulerDeg({0.0, rng.unit() * 360.0, 0.0});
+                const int frames = s.models[std::size_t(model)]->frameCount();
+                if (randomFrame) e.frame = int(rng.below(std::uint64_t(frames)));
+                e.fps = fps;
                 e.name = prefix + "#" + std::to_string(k);
                 s.entities.push_back(std::move(e));
             };

@@ -50,13 +50,15 @@
 //   "crowds": [{"models": [name, ...] (required, >= 1), "layout": "grid" | "random" (default grid),
 //               "count": >= 0 (required), "seed": unsigned integer (default 1),
 //               "random_yaw": bool (default false), "scale": > 0, "name": prefix,
+//               "fps": >= 0 (animation, default 0), "random_frame": bool (default false: frame 0),
 //               grid only:   "origin": [x,y,z], "spacing": [dx, dz] (default [2, 2]),
 //                            "columns": >= 1 (default ceil(sqrt(count))),
 //               random only: "area": {"min": [x, z], "max": [x, z]} (required, min <= max),
 //                            "y": height (default 0)}]
 //       Grid entity k sits at origin + (dx * (k % columns), 0, dz * (k / columns)) with model
 //       models[k % n]. Random entities draw, in this order from a splitmix64 stream seeded with
-//       `seed`: model (random layout only), x, z (random layout only), then yaw (if random_yaw).
+//       `seed`: model (random layout only), x, z (random layout only), then yaw (if random_yaw),
+//       then the start frame (if random_frame: next % the model's frame count).
 //       The result depends only on the scene file, never on the standard library.
 //   "vox_scenes": [{"vox": path (required), "position": [x,y,z], "scale": > 0,
 //                   "include_hidden": false}]

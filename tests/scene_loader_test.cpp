@@ -770,6 +770,34 @@ TEST(SceneLoader, RandomCrowdIsPinnedToSplitMix64) {
     EXPECT_EQ(s.entities[2].rotation, glm::dquat(1, 0, 0, 0)); // random_yaw defaults to false
 }
 
+TEST(SceneLoader, CrowdAnimationAddsTheStartFrameLastInTheStream) {
+    // The same crowd with and without random_frame: the first entity is placed identically (its
+    // frame is drawn after its position and yaw), the crowd is deterministic, frames stay within
+    // each model's frame count, fps is copied.
+    auto scene = [](bool randomFrame) {
+        json j = {{"models", {{{"name", "t"}, {"generator", "tank"}, {"frames", 5}},
+                              {{"name", "b"}, {"generator", "box"}}}},
+                  {"crowds", {{{"models", {"t", "b"}}, {"layout", "random"}, {"count", 40}, {"seed", 9},
+                               {"random_yaw", true}, {"fps", 6}, {"random_frame", randomFrame},
+                               {"area", {{"min", {0, 0}}, {"max", {10, 10}}}}}}}};
+        return loadJson(j);
+    };
+    const Scene a = scene(true), b = scene(false);
+    ASSERT_EQ(a.entities.size(), 40u);
+    EXPECT_TRUE(sameEntities({a.entities[0]}, {b.entities[0]}));
+    EXPECT_TRUE(sameEntities(a.entities, scene(true).entities));
+    for (std::size_t i = 0; i < a.entities.size(); ++i) EXPECT_EQ(a.entities[i].frame, scene(true).entities[i].frame);
+    std::set<int> starts;
+    for (const Entity& e : a.entities) {
+        EXPECT_EQ(e.fps, 6.0);
+        EXPECT_GE(e.frame, 0);
+        EXPECT_LT(e.frame, a.models[std::size_t(e.model)]->frameCount());
+        if (e.model == 0) starts.insert(e.frame);
+    }
+    for (const Entity& e : b.entities) EXPECT_EQ(e.frame, 0);
+    EXPECT_GT(starts.size(), 1u);
+}
+
 TEST(SceneLoader, GridCrowdCyclesModelsRowByRow) {
     json j = baseScene();
     j["crowds"] = {{{"models", {"b", "a"}},
