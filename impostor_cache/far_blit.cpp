@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <chrono>
+#include <climits>
 
 namespace voxtier {
 
@@ -43,23 +44,33 @@ void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* st
                     const SpriteLattice& L = sp.lattice;
                     const Snapshot& snap = *f.snapshot;
                     const kernel::SpriteGpu& g = sp.gpu;
+                    // What a pixel shows depends only on its near cell, and neighbouring pixels
+                    // mostly share one: the last cell's outcome is reused along the row.
+                    glm::ivec2 lastCell(INT_MIN, INT_MIN);
+                    bool lastDrawn = false;
+                    Rgba8 lastColor = 0;
+                    const std::size_t rowBase = target.index(0, y);
                     for (int x = sp.screenRect.x; x < sp.screenRect.z; ++x) {
                         ++rc.tested;
                         glm::ivec2 cell;
                         if (!kernel::vtPixelCell(g, glm::vec2(float(x) + 0.5f, py), cell)) continue;
-                        // The near cell's centre, relative to the model centre (voxel space).
-                        const glm::dvec3 q = (L.gU + (cell.x + 0.5) / L.sigma) * L.right +
-                                             (L.gV + (cell.y + 0.5) / L.sigma) * L.up;
-                        const glm::ivec2 sc = snap.lattice.cellAt(q);
-                        const SnapshotCell c = snap.at(sc.x, sc.y);
-                        if (c.code == snapshot_code::kEmpty) continue;
+                        if (cell != lastCell) {
+                            lastCell = cell;
+                            // The near cell's centre, relative to the model centre (voxel space).
+                            const glm::dvec3 q = (L.gU + (cell.x + 0.5) / L.sigma) * L.right +
+                                                 (L.gV + (cell.y + 0.5) / L.sigma) * L.up;
+                            const glm::ivec2 sc = snap.lattice.cellAt(q);
+                            const SnapshotCell c = snap.at(sc.x, sc.y);
+                            lastDrawn = c.code != snapshot_code::kEmpty;
+                            if (lastDrawn)
+                                lastColor = snapshot_code::isSolid(c.code)
+                                                ? kernel::vtLit(f.palette->colors[c.index],
+                                                                kernel::vtFaceLight(g, snapshot_code::face(c.code)))
+                                                : kernel::VT_OUTLINE_RGBA;
+                        }
+                        if (!lastDrawn) continue;
                         ++rc.written;
-                        const Rgba8 color =
-                            snapshot_code::isSolid(c.code)
-                                ? kernel::vtLit(f.palette->colors[c.index],
-                                                kernel::vtFaceLight(g, snapshot_code::face(c.code)))
-                                : kernel::VT_OUTLINE_RGBA;
-                        target.writeIfNearer(target.index(x, y), color, g.depth, sp.entityId);
+                        target.writeIfNearer(rowBase + std::size_t(x), lastColor, g.depth, sp.entityId);
                     }
                 }
             }
