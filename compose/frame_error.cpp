@@ -19,6 +19,7 @@ struct Accumulator {
         ++s.entities;
         const double m = e.mismatchFraction();
         s.meanMismatch += m;
+        s.meanCoverageMismatch += e.coverageMismatchFraction();
         if (m > s.worstMismatch) s.worstMismatch = m, s.worstMismatchEntity = e.entity;
         if (!std::isfinite(e.silhouetteDisplacementPx)) {
             ++s.missing;
@@ -28,10 +29,11 @@ struct Accumulator {
         s.meanDisplacementPx += e.silhouetteDisplacementPx;
         s.worstDisplacementPx = std::max(s.worstDisplacementPx, e.silhouetteDisplacementPx);
         const double cells = e.silhouetteDisplacementPx / std::max(1.0, cellPx);
+        s.overOneCell += cells > 1.0;
         if (cells > s.worstDisplacementCells) s.worstDisplacementCells = cells, s.worstDisplacementEntity = e.entity;
     }
     EntityErrorSummary done() {
-        if (s.entities) s.meanMismatch /= double(s.entities);
+        if (s.entities) s.meanMismatch /= double(s.entities), s.meanCoverageMismatch /= double(s.entities);
         if (displaced) s.meanDisplacementPx /= double(displaced);
         return s;
     }

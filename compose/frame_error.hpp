@@ -15,6 +15,7 @@ namespace voxtier {
 struct EntityErrorSummary {
     std::size_t entities = 0;
     double meanMismatch = 0.0, worstMismatch = 0.0; ///< footprint mismatch fraction (0..1)
+    double meanCoverageMismatch = 0.0; ///< the same counting only pixels owned in one image
     std::uint32_t worstMismatchEntity = 0;
     /// Silhouette displacement (EntityError::silhouetteDisplacementPx), screen pixels; entities
     /// present in only one image are counted in `missing`, not here.
@@ -24,6 +25,7 @@ struct EntityErrorSummary {
     /// silhouette by less than a pixel).
     double worstDisplacementCells = 0.0;
     std::uint32_t worstDisplacementEntity = 0;
+    std::size_t overOneCell = 0; ///< entities displaced by more than one virtual pixel
     std::size_t missing = 0; ///< drawn in exactly one of the two images
 };
 
