@@ -415,7 +415,11 @@ Measurement aggregate(const Set& set, const Row& row) {
     const Config& c = *set.configs[std::size_t(row.config)];
     Measurement m = row.meta;
     const Config* truth = c.isTruth ? &c : c.truth >= 0 ? set.configs[std::size_t(c.truth)].get() : nullptr;
-    if (truth) m.baselineMs = pathMeanMs(*truth);
+    if (truth) {
+        m.baselineMs = pathMeanMs(*truth);
+        for (const auto& passes : truth->samples)
+            m.baselineFragments += medianStats(passes).nearPixelsTested / double(truth->samples.size());
+    }
     m.selector = selectorSummary(c.scene);
     m.truth = c.isTruth ? "itself" : c.truth >= 0 ? set.configs[std::size_t(c.truth)]->name : "";
     const std::size_t F = set.frames.size();
@@ -463,6 +467,9 @@ Measurement aggregate(const Set& set, const Row& row) {
             const FrameErrorReport& e = fr.error;
             ++errorFrames;
             m.mismatchMean += e.all.meanMismatch;
+            m.coverageMismatchMean += e.all.meanCoverageMismatch;
+            m.farAloneEntities += double(e.farIsolated.entities);
+            m.farOverOneCell += double(e.farIsolated.overOneCell);
             m.mismatchWorst = std::max(m.mismatchWorst, e.all.worstMismatch);
             if (e.far.entities) {
                 ++farFrames;
@@ -488,6 +495,9 @@ Measurement aggregate(const Set& set, const Row& row) {
     if (errorFrames) {
         m.hasError = true;
         m.mismatchMean /= errorFrames;
+        m.coverageMismatchMean /= errorFrames;
+        m.farAloneEntities /= errorFrames;
+        m.farOverOneCell /= errorFrames;
         m.rmseMean /= errorFrames;
         m.differingPixels /= errorFrames;
         m.psnrMin = psnrMin;
@@ -647,7 +657,7 @@ Plan makePlan(const SuiteOptions& o) {
         p.pathFrames = 2;
         p.distanceFarAt = {15, 40};
         p.radiusFarAt = {24, 8};
-        p.errorFarAt = {2, 1, 0.5};
+        p.errorFarAt = {2, 1, 0.5, 0.25};
         p.viewSets = {26, 98};
         p.sigmas = {1, 2};
         p.crossfades = {0, 8};

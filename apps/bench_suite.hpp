@@ -94,6 +94,9 @@ struct Measurement {
     /// silhouette displacement in screen and virtual pixels.
     double farIsolatedMismatchMean = 0, displacementWorstPx = 0, displacementWorstCells = 0;
     double farVisibleDisplacementWorstPx = 0; ///< in the frame (occluders' changes included)
+    double coverageMismatchMean = 0; ///< like mismatchMean, counting only pixels owned in one image
+    double farAloneEntities = 0, farOverOneCell = 0; ///< per frame (mean): far entities, those displaced > 1 virtual px
+    double baselineFragments = 0; ///< near fragments of the all-near (Vulkan) frames: fragments / this = the near share
     double rmseMean = 0, psnrMin = 0;
     double differingPixels = 0; ///< mean per frame (colour, depth or id)
     std::size_t missing = 0;    ///< entities drawn in only one image, summed over frames
