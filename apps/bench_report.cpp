@@ -325,8 +325,8 @@ PlotSet drawPlots(const SuiteResults& r, const fs::path& dir) {
             files.push_back({file, d.str()});
             const bool single = name.rfind("mode ", 0) == 0;
             const std::string color = std::string(" lc rgb '") + kColors[(k - 1) % 12] + "'";
-            const std::string style = (single ? "with points pt " + std::to_string(4 + 2 * (k % 4)) + " ps 1.8"
-                                              : "with linespoints pt " + std::to_string(5 + 2 * (k % 4)) + " ps 1.2 lw 2") +
+            const std::string style = (single ? "with points pt " + std::to_string(5 + 2 * (k % 4)) + " ps 2.2"
+                                              : "with linespoints pt " + std::to_string(5 + 2 * (k % 4)) + " ps 1.1 lw 2") +
                                       color;
             plotsA += (plotsA.empty() ? "" : ", ") + std::string("'") + file + "' using 1:3 " + style + " title '" + name + "'";
             plotsB += (plotsB.empty() ? "" : ", ") + std::string("'") + file + "' using 2:3 " + style + " title '" + name + "'";
@@ -344,13 +344,16 @@ PlotSet drawPlots(const SuiteResults& r, const fs::path& dir) {
                 ", '" + file + "' using 1:2 with steps lw 3 lc rgb '#555555' dt 2 title 'Pareto front', '" + file +
                 "' using 1:2 with points pt 6 ps 2.6 lw 2 lc rgb '#000000' notitle";
         }
-        gp << "set output 'speed_error.png'\nset multiplot layout 1,2 title '" << first
+        gp << "set terminal pngcairo size 1400,760 font ',10' noenhanced\n"
+           << "set output 'speed_error.png'\nset multiplot layout 1,2 title '" << first
            << ": frame ms against error (each point: median frame ms, mean over path frames)'\n"
-              "set logscale y\nset xlabel 'mean per-entity footprint mismatch (%)'\nset ylabel 'frame ms (log)'\n"
-              "set key inside center center font ',8' box opaque\n"
+              "set logscale y\nset xlabel ''\nset title 'x: mean per-entity footprint mismatch (%)'\n"
+              "set ylabel 'frame ms (log)'\n"
+              "set key outside bottom center horizontal maxrows 3 font ',9'\n"
            << "plot " << plotsA << "\n"
-           << "set xlabel 'worst far-entity silhouette displacement (virtual pixels)'\n"
-           << "plot " << plotsB << "\nunset multiplot\nunset logscale\n";
+           << "set title 'x: worst silhouette displacement of a far entity drawn alone (virtual pixels)'\n"
+           << "plot " << plotsB << "\nunset multiplot\nunset logscale\nunset title\n"
+           << "set terminal pngcairo size 1400,620 font ',10' noenhanced\nset key default\n";
         out.pngs.push_back("speed_error.png");
     }
 

@@ -352,12 +352,19 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
         c->countedFragments.assign(F, 0);
     }
     const int passes = plan.warmup + set.repeats;
+    std::size_t truths = 0;
+    while (truths < set.configs.size() && set.configs[truths]->isTruth) ++truths;
     for (int pass = 0; pass < passes; ++pass) {
+        // Truths first (their images are compared with in the last pass), the others rotated by
+        // one place per pass, so no configuration always runs right after the same neighbour.
+        std::vector<std::size_t> order;
+        for (std::size_t i = 0; i < set.configs.size(); ++i)
+            order.push_back(i < truths ? i : truths + (i - truths + std::size_t(pass)) % (set.configs.size() - truths));
         const bool timed = pass >= plan.warmup, last = pass == passes - 1;
         for (auto& c : set.configs) c->renderer->selector().reset(); // a pass is the path from its start
         for (std::size_t fi = 0; fi < F; ++fi) {
             std::vector<Image> truthImages(set.configs.size());
-            for (std::size_t ci = 0; ci < set.configs.size(); ++ci) {
+            for (const std::size_t ci : order) {
                 Config& c = *set.configs[ci];
                 progress.step(set.label + ": " + c.name + ", frame " + std::to_string(set.frames[fi]) +
                               (timed ? ", pass " + std::to_string(pass - plan.warmup + 1) + "/" + std::to_string(set.repeats)

@@ -5,7 +5,8 @@
 // device), so the ratios between them see the same machine load:
 //
 //   pass 0 (warm-up: pipeline compiles, atlas uploads, cold snapshot bakes, recorded separately)
-//   passes 1..R (timed): for each sampled path frame, for each configuration: render
+//   passes 1..R (timed): for each sampled path frame, for each configuration: render (the
+//   non-truth configurations in an order rotated by one place per pass)
 //
 // The selector state restarts with each pass (a pass is the camera path from its start). Times
 // are medians over the R passes, per frame, then averaged over the path frames. In the last pass
