@@ -14,6 +14,7 @@ std::vector<std::string> writeReport(SuiteResults results, const std::string& di
 
 /// Indices of the rows (into `rows`) that no other row beats on both frame time and `error`
 /// (lower is better on both), in order of increasing frame time.
-std::vector<std::size_t> paretoFront(const std::vector<const Measurement*>& rows, double (*error)(const Measurement&));
+std::vector<std::size_t> paretoFront(const std::vector<const Measurement*>& rows,
+                                     double (*error)(const Measurement&));
 
 } // namespace voxtier::bench

@@ -29,7 +29,9 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
 
-double secondsSince(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+double secondsSince(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 
 double median(std::vector<double> v) {
     if (v.empty()) return 0.0;
@@ -44,7 +46,8 @@ std::string fmt(double v) {
     return buf;
 }
 
-template <class T> std::vector<T> parseList(const std::string& text, const char* flag, double lo, double hi) {
+template <class T>
+std::vector<T> parseList(const std::string& text, const char* flag, double lo, double hi) {
     std::vector<T> out;
     std::stringstream ss(text);
     std::string item;
@@ -56,8 +59,9 @@ template <class T> std::vector<T> parseList(const std::string& text, const char*
             if (std::is_integral_v<T> && v != std::floor(v)) throw std::invalid_argument("");
             out.push_back(T(v));
         } catch (const std::exception&) {
-            throw InputError("", flag, "expected a comma-separated list of numbers in [" + fmt(lo) + ", " + fmt(hi) +
-                                           "], got '" + text + "'");
+            throw InputError("", flag,
+                             "expected a comma-separated list of numbers in [" + fmt(lo) + ", " +
+                                 fmt(hi) + "], got '" + text + "'");
         }
     }
     if (out.empty()) throw InputError("", flag, "expected at least one value");
@@ -69,23 +73,24 @@ template <class T> std::vector<T> parseList(const std::string& text, const char*
 // otherwise (logs and tests).
 
 class Progress {
-public:
-    explicit Progress(std::size_t total) : total_(std::max<std::size_t>(total, 1)), t0_(Clock::now()), tty_(isatty(2)) {}
+  public:
+    explicit Progress(std::size_t total)
+        : total_(std::max<std::size_t>(total, 1)), t0_(Clock::now()), tty_(isatty(2)) {}
     void step(const std::string& what) {
         ++done_;
         const double t = secondsSince(t0_);
         if (!tty_ && t - lastPrint_ < 5.0 && done_ < total_) return;
         lastPrint_ = t;
         const int pct = int(100.0 * double(done_) / double(total_));
-        std::fprintf(stderr, "%s[%3d%%] %5.0f s  %s%s", tty_ ? "\r\033[K" : "", std::min(pct, 100), t, what.c_str(),
-                     tty_ ? "" : "\n");
+        std::fprintf(stderr, "%s[%3d%%] %5.0f s  %s%s", tty_ ? "\r\033[K" : "", std::min(pct, 100),
+                     t, what.c_str(), tty_ ? "" : "\n");
         std::fflush(stderr);
     }
     void finish() {
         if (tty_) std::fprintf(stderr, "\n");
     }
 
-private:
+  private:
     std::size_t total_, done_ = 0;
     Clock::time_point t0_;
     bool tty_;
@@ -125,22 +130,28 @@ struct Set {
     std::vector<Row> rows;
 };
 
-std::string sceneName(const std::string& file) { return fs::path(file).stem().string(); }
+std::string sceneName(const std::string& file) {
+    return fs::path(file).stem().string();
+}
 
 const char* metricName(SelectorMetric m) {
     switch (m) {
-    case SelectorMetric::Distance: return "distance";
-    case SelectorMetric::RadiusPx: return "radius_px";
-    case SelectorMetric::ErrorPx: return "error_px";
+    case SelectorMetric::Distance:
+        return "distance";
+    case SelectorMetric::RadiusPx:
+        return "radius_px";
+    case SelectorMetric::ErrorPx:
+        return "error_px";
     }
     return "?";
 }
 
 std::string selectorSummary(const Scene& s) {
     const SelectorConfig& c = s.selector;
-    return std::string(metricName(c.metric)) + " near_at " + fmt(c.nearAt) + " far_at " + fmt(c.farAt) + ", " +
-           std::to_string(c.viewSetSize) + " views, sigma " + fmt(s.render.sigma) + ", fade " +
-           std::to_string(c.crossfadeFrames) + (c.viewHysteresisDeg > 0 ? ", view hysteresis " + fmt(c.viewHysteresisDeg) : "");
+    return std::string(metricName(c.metric)) + " near_at " + fmt(c.nearAt) + " far_at " +
+           fmt(c.farAt) + ", " + std::to_string(c.viewSetSize) + " views, sigma " +
+           fmt(s.render.sigma) + ", fade " + std::to_string(c.crossfadeFrames) +
+           (c.viewHysteresisDeg > 0 ? ", view hysteresis " + fmt(c.viewHysteresisDeg) : "");
 }
 
 /// Adds a configuration; the truth of a near_vulkan configuration is itself.
@@ -159,7 +170,8 @@ int addConfig(Set& set, const Scene& scene, const std::string& mode, const std::
 }
 
 Measurement label(const std::string& group, const std::string& scene, const std::string& mode,
-                  const std::string& family = "", const std::string& setting = "", double param = 0.0) {
+                  const std::string& family = "", const std::string& setting = "",
+                  double param = 0.0) {
     Measurement m;
     m.group = group;
     m.scene = scene;
@@ -170,9 +182,11 @@ Measurement label(const std::string& group, const std::string& scene, const std:
     return m;
 }
 
-/// The four modes of one scene, truth first. Returns the indices near_vulkan, reference, far, hybrid.
+/// The four modes of one scene, truth first. Returns the indices near_vulkan, reference, far,
+/// hybrid.
 std::array<int, 4> addModes(Set& set, const Scene& scene) {
-    return {addConfig(set, scene, "near_vulkan", "near_vulkan"), addConfig(set, scene, "near_reference", "near_reference"),
+    return {addConfig(set, scene, "near_vulkan", "near_vulkan"),
+            addConfig(set, scene, "near_reference", "near_reference"),
             addConfig(set, scene, "far", "far"), addConfig(set, scene, "hybrid", "hybrid")};
 }
 
@@ -182,7 +196,8 @@ void linkTruths(Set& set) {
     for (auto& c : set.configs) {
         if (c->isTruth) continue;
         for (std::size_t t = 0; t < set.configs.size(); ++t)
-            if (set.configs[t]->isTruth && set.configs[t]->scene.render.sigma == c->scene.render.sigma) {
+            if (set.configs[t]->isTruth &&
+                set.configs[t]->scene.render.sigma == c->scene.render.sigma) {
                 c->truth = int(t);
                 break;
             }
@@ -191,7 +206,8 @@ void linkTruths(Set& set) {
     for (std::size_t i = 0; i < set.configs.size(); ++i)
         if (!set.configs[i]->isTruth)
             for (std::size_t j = i + 1; j < set.configs.size(); ++j)
-                if (set.configs[j]->isTruth) throw std::logic_error("bench: truth configurations must come first");
+                if (set.configs[j]->isTruth)
+                    throw std::logic_error("bench: truth configurations must come first");
 }
 
 std::pair<std::vector<int>, std::vector<double>> pathSamples(const Scene& s, int count) {
@@ -199,7 +215,8 @@ std::pair<std::vector<int>, std::vector<double>> pathSamples(const Scene& s, int
     if (s.path && count > 1) {
         const int n = s.path->frameCount();
         const int k = std::min(count, n);
-        for (int i = 0; i < k; ++i) frames.push_back(k == 1 ? 0 : int(std::lround(double(i) * (n - 1) / (k - 1))));
+        for (int i = 0; i < k; ++i)
+            frames.push_back(k == 1 ? 0 : int(std::lround(double(i) * (n - 1) / (k - 1))));
     } else {
         frames.push_back(0);
     }
@@ -213,7 +230,7 @@ std::pair<std::vector<int>, std::vector<double>> pathSamples(const Scene& s, int
 
 struct SceneSource {
     std::string file;
-    json doc;   ///< the file's JSON (already validated by loadScene)
+    json doc; ///< the file's JSON (already validated by loadScene)
     Scene scene;
 };
 
@@ -249,7 +266,8 @@ std::optional<json> withEntityCount(json doc, int total) {
     for (std::size_t i = 0; i < doc["crowds"].size(); ++i) {
         json& c = doc["crowds"][i];
         const bool last = i + 1 == doc["crowds"].size();
-        const int n = last ? want - assigned : int(std::lround(double(c.value("count", 0)) * want / double(crowd)));
+        const int n = last ? want - assigned
+                           : int(std::lround(double(c.value("count", 0)) * want / double(crowd)));
         c["count"] = std::max(0, n);
         assigned += std::max(0, n);
     }
@@ -338,7 +356,8 @@ FrameStats medianStats(const std::vector<FrameStats>& v) {
     return m;
 }
 
-void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& near, Progress& progress) {
+void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& near,
+            Progress& progress) {
     const std::size_t F = set.frames.size();
     for (auto& c : set.configs) {
         FrameOptions o;
@@ -359,15 +378,20 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
         // one place per pass, so no configuration always runs right after the same neighbour.
         std::vector<std::size_t> order;
         for (std::size_t i = 0; i < set.configs.size(); ++i)
-            order.push_back(i < truths ? i : truths + (i - truths + std::size_t(pass)) % (set.configs.size() - truths));
+            order.push_back(i < truths ? i
+                                       : truths + (i - truths + std::size_t(pass)) %
+                                                      (set.configs.size() - truths));
         const bool timed = pass >= plan.warmup, last = pass == passes - 1;
-        for (auto& c : set.configs) c->renderer->selector().reset(); // a pass is the path from its start
+        for (auto& c : set.configs)
+            c->renderer->selector().reset(); // a pass is the path from its start
         for (std::size_t fi = 0; fi < F; ++fi) {
             std::vector<Image> truthImages(set.configs.size());
             for (const std::size_t ci : order) {
                 Config& c = *set.configs[ci];
-                progress.step(set.label + ": " + c.name + ", frame " + std::to_string(set.frames[fi]) +
-                              (timed ? ", pass " + std::to_string(pass - plan.warmup + 1) + "/" + std::to_string(set.repeats)
+                progress.step(set.label + ": " + c.name + ", frame " +
+                              std::to_string(set.frames[fi]) +
+                              (timed ? ", pass " + std::to_string(pass - plan.warmup + 1) + "/" +
+                                           std::to_string(set.repeats)
                                      : ", warm-up"));
                 FrameResult r = c.renderer->render(set.times[fi], c.renderMode, set.frames[fi]);
                 if (pass == 0) {
@@ -382,11 +406,13 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
                 if (c.isTruth) {
                     truthImages[ci] = std::move(r.image);
                 } else if (c.truth >= 0) {
-                    c.errors[fi] = measureFrameError(truthImages[std::size_t(c.truth)], r.image, r.sprites, r.plan);
+                    c.errors[fi] = measureFrameError(truthImages[std::size_t(c.truth)], r.image,
+                                                     r.sprites, r.plan);
                     if (r.stats.farDrawn > 0)
                         c.errors[fi].farIsolated = summarizeEntities(
-                            isolatedFarErrors(c.scene, makeCameraFrame(c.scene.cameraAt(set.times[fi])), r.sprites, r.plan,
-                                              c.renderer->snapshotCache()),
+                            isolatedFarErrors(c.scene,
+                                              makeCameraFrame(c.scene.cameraAt(set.times[fi])),
+                                              r.sprites, r.plan, c.renderer->snapshotCache()),
                             r.sprites);
                     c.hasError[fi] = 1;
                 }
@@ -421,16 +447,20 @@ double pathMeanMs(const Config& c) {
 Measurement aggregate(const Set& set, const Row& row) {
     const Config& c = *set.configs[std::size_t(row.config)];
     Measurement m = row.meta;
-    const Config* truth = c.isTruth ? &c : c.truth >= 0 ? set.configs[std::size_t(c.truth)].get() : nullptr;
+    const Config* truth = c.isTruth      ? &c
+                          : c.truth >= 0 ? set.configs[std::size_t(c.truth)].get()
+                                         : nullptr;
     if (truth) {
         m.baselineMs = pathMeanMs(*truth);
         for (const auto& passes : truth->samples)
-            m.baselineFragments += medianStats(passes).nearPixelsTested / double(truth->samples.size());
+            m.baselineFragments +=
+                medianStats(passes).nearPixelsTested / double(truth->samples.size());
     }
     m.selector = selectorSummary(c.scene);
     m.truth = c.isTruth ? "itself" : c.truth >= 0 ? set.configs[std::size_t(c.truth)]->name : "";
     const std::size_t F = set.frames.size();
-    double steps = 0, stepMs = 0, blitPx = 0, blitMs = 0, psnrMin = std::numeric_limits<double>::infinity();
+    double steps = 0, stepMs = 0, blitPx = 0, blitMs = 0,
+           psnrMin = std::numeric_limits<double>::infinity();
     int errorFrames = 0, farFrames = 0;
     for (std::size_t fi = 0; fi < F; ++fi) {
         FrameRow fr;
@@ -438,7 +468,8 @@ Measurement aggregate(const Set& set, const Row& row) {
         fr.time = set.times[fi];
         fr.median = medianStats(c.samples[fi]);
         fr.minMs = 1e300;
-        for (const FrameStats& s : c.samples[fi]) fr.minMs = std::min(fr.minMs, s.totalMs), fr.maxMs = std::max(fr.maxMs, s.totalMs);
+        for (const FrameStats& s : c.samples[fi])
+            fr.minMs = std::min(fr.minMs, s.totalMs), fr.maxMs = std::max(fr.maxMs, s.totalMs);
         fr.hasError = c.hasError[fi];
         fr.error = c.errors[fi];
         fr.countedSteps = c.countedSteps[fi];
@@ -462,7 +493,8 @@ Measurement aggregate(const Set& set, const Row& row) {
         m.farDrawn += s.farDrawn / n;
         m.fading += s.fading / n;
         m.fragments += double(s.nearPixelsTested) / n;
-        const double frameSteps = c.mode == "near_vulkan" ? double(fr.countedSteps) : double(s.voxelFetches);
+        const double frameSteps =
+            c.mode == "near_vulkan" ? double(fr.countedSteps) : double(s.voxelFetches);
         m.voxelSteps += frameSteps / n;
         steps += frameSteps;
         stepMs += c.mode == "near_vulkan" ? s.nearDrawMs : s.nearMs;
@@ -483,9 +515,12 @@ Measurement aggregate(const Set& set, const Row& row) {
                 m.farMismatchMean += e.far.meanMismatch;
                 m.farIsolatedMismatchMean += e.farIsolated.meanMismatch;
             }
-            m.farVisibleDisplacementWorstPx = std::max(m.farVisibleDisplacementWorstPx, e.far.worstDisplacementPx);
-            m.displacementWorstPx = std::max(m.displacementWorstPx, e.farIsolated.worstDisplacementPx);
-            m.displacementWorstCells = std::max(m.displacementWorstCells, e.farIsolated.worstDisplacementCells);
+            m.farVisibleDisplacementWorstPx =
+                std::max(m.farVisibleDisplacementWorstPx, e.far.worstDisplacementPx);
+            m.displacementWorstPx =
+                std::max(m.displacementWorstPx, e.farIsolated.worstDisplacementPx);
+            m.displacementWorstCells =
+                std::max(m.displacementWorstCells, e.farIsolated.worstDisplacementCells);
             m.rmseMean += e.rmse;
             psnrMin = std::min(psnrMin, e.psnr);
             m.differingPixels += double(e.differingPixels);
@@ -515,7 +550,8 @@ Measurement aggregate(const Set& set, const Row& row) {
     m.coldBakeMs = c.cold.bakeMs;
     m.coldBakes = c.cold.farBakes;
     m.coldRays = double(c.cold.raysTraced);
-    if (c.cold.bakeMs > 0 && c.cold.raysTraced) m.raysPerS = double(c.cold.raysTraced) / c.cold.bakeMs * 1e3;
+    if (c.cold.bakeMs > 0 && c.cold.raysTraced)
+        m.raysPerS = double(c.cold.raysTraced) / c.cold.bakeMs * 1e3;
     return m;
 }
 
@@ -530,8 +566,9 @@ struct SweepPoint {
 };
 
 std::string configKey(const SelectorConfig& c, double sigma) {
-    return std::string(metricName(c.metric)) + "/" + fmt(c.nearAt) + "/" + fmt(c.farAt) + "/" + std::to_string(c.viewSetSize) +
-           "/" + std::to_string(c.crossfadeFrames) + "/" + fmt(c.viewHysteresisDeg) + "/" + fmt(sigma);
+    return std::string(metricName(c.metric)) + "/" + fmt(c.nearAt) + "/" + fmt(c.farAt) + "/" +
+           std::to_string(c.viewSetSize) + "/" + std::to_string(c.crossfadeFrames) + "/" +
+           fmt(c.viewHysteresisDeg) + "/" + fmt(sigma);
 }
 
 std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
@@ -548,7 +585,8 @@ std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
             p.selector.nearAt = v * nearFactor;
             p.sigma = sigma0;
             p.param = v;
-            p.setting = std::string(metricName(metric)) + " far_at=" + fmt(v) + " near_at=" + fmt(v * nearFactor);
+            p.setting = std::string(metricName(metric)) + " far_at=" + fmt(v) +
+                        " near_at=" + fmt(v * nearFactor);
             pts.push_back(p);
         }
     };
@@ -562,7 +600,9 @@ std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
     }
     for (double s : plan.sigmas) pts.push_back({"sigma", "sigma=" + fmt(s), s, s0, s});
     for (int n : plan.crossfades) {
-        SweepPoint p{"cross-fade", n ? "cross-fade " + std::to_string(n) + " frames" : "no cross-fade", double(n), s0, sigma0};
+        SweepPoint p{"cross-fade",
+                     n ? "cross-fade " + std::to_string(n) + " frames" : "no cross-fade", double(n),
+                     s0, sigma0};
         p.selector.crossfadeFrames = n;
         pts.push_back(p);
     }
@@ -571,7 +611,8 @@ std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
 
 /// A scene's set: the four modes and, for the first scene, every sweep point (hybrid). The
 /// truths (all near on Vulkan, one per sigma in use) come first and are shared.
-Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps, std::vector<std::string>& notes) {
+Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps,
+             std::vector<std::string>& notes) {
     Set set;
     const std::string name = sceneName(src.file);
     set.label = name;
@@ -579,8 +620,11 @@ Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps, std::vec
     applyOverrides(base, plan, /*capEntities=*/true);
     std::tie(set.frames, set.times) = pathSamples(base, plan.pathFrames);
     set.repeats = plan.repeats;
-    if (!base.edits.empty()) notes.push_back(name + ": its scripted edits are not applied (`bench edits` measures edits).");
-    const std::vector<SweepPoint> pts = withSweeps ? sweepPoints(plan, base) : std::vector<SweepPoint>{};
+    if (!base.edits.empty())
+        notes.push_back(name +
+                        ": its scripted edits are not applied (`bench edits` measures edits).");
+    const std::vector<SweepPoint> pts =
+        withSweeps ? sweepPoints(plan, base) : std::vector<SweepPoint>{};
 
     const int truth0 = addConfig(set, base, "near_vulkan", "near_vulkan");
     set.rows.push_back({truth0, label("modes", name, "near_vulkan")});
@@ -591,9 +635,11 @@ Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps, std::vec
         sc.render.sigma = p.sigma;
         const int t = addConfig(set, sc, "near_vulkan", "near_vulkan sigma=" + fmt(p.sigma));
         truthBySigma[p.sigma] = t;
-        set.rows.push_back({t, label("sweep", name, "near_vulkan", "sigma (all near)", "all near, sigma=" + fmt(p.sigma), p.sigma)});
+        set.rows.push_back({t, label("sweep", name, "near_vulkan", "sigma (all near)",
+                                     "all near, sigma=" + fmt(p.sigma), p.sigma)});
     }
-    set.rows.push_back({addConfig(set, base, "near_reference", "near_reference"), label("modes", name, "near_reference")});
+    set.rows.push_back({addConfig(set, base, "near_reference", "near_reference"),
+                        label("modes", name, "near_reference")});
     set.rows.push_back({addConfig(set, base, "far", "far"), label("modes", name, "far")});
     const int hybrid = addConfig(set, base, "hybrid", "hybrid");
     set.rows.push_back({hybrid, label("modes", name, "hybrid")});
@@ -607,15 +653,16 @@ Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps, std::vec
             sc.render.sigma = p.sigma;
             byKey[key] = addConfig(set, sc, "hybrid", "hybrid " + p.setting);
         }
-        set.rows.push_back({byKey[key], label("sweep", name, "hybrid", p.family, p.setting, p.param)});
+        set.rows.push_back(
+            {byKey[key], label("sweep", name, "hybrid", p.family, p.setting, p.param)});
     }
     linkTruths(set);
     return set;
 }
 
 /// One point of a scaling curve: the four modes on one frame (the camera at t = 0).
-Set scalingSet(const SceneSource& src, const json& doc, const Plan& plan, const std::string& group, double param,
-               const std::string& what) {
+Set scalingSet(const SceneSource& src, const json& doc, const Plan& plan, const std::string& group,
+               double param, const std::string& what) {
     Set set;
     const std::string name = sceneName(src.file);
     set.label = name + " " + what;
@@ -627,7 +674,8 @@ Set scalingSet(const SceneSource& src, const json& doc, const Plan& plan, const 
     const auto modes = addModes(set, s);
     const char* modeNames[4] = {"near_vulkan", "near_reference", "far", "hybrid"};
     for (int i = 0; i < 4; ++i)
-        set.rows.push_back({modes[std::size_t(i)], label(group, name, modeNames[i], group, what, param)});
+        set.rows.push_back(
+            {modes[std::size_t(i)], label(group, name, modeNames[i], group, what, param)});
     linkTruths(set);
     return set;
 }
@@ -692,7 +740,10 @@ Plan makePlan(const SuiteOptions& o) {
         p.repeats = o.repeats;
     }
     if (o.warmup != -1) {
-        if (o.warmup < 1) throw InputError("", "--warmup", "must be >= 1 (the cold bakes are measured in the first warm-up pass)");
+        if (o.warmup < 1)
+            throw InputError(
+                "", "--warmup",
+                "must be >= 1 (the cold bakes are measured in the first warm-up pass)");
         p.warmup = o.warmup;
     }
     if (o.pathFrames != -1) {
@@ -702,14 +753,17 @@ Plan makePlan(const SuiteOptions& o) {
     if (!o.size.empty()) {
         int w = 0, h = 0;
         char tail = 0;
-        if (std::sscanf(o.size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1 || w > Limits::kMaxImageDim ||
-            h > Limits::kMaxImageDim)
-            throw InputError("", "--size", "expected WxH with integers 1.." + std::to_string(Limits::kMaxImageDim) + ", got '" +
-                                               o.size + "'");
+        if (std::sscanf(o.size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1 ||
+            w > Limits::kMaxImageDim || h > Limits::kMaxImageDim)
+            throw InputError("", "--size",
+                             "expected WxH with integers 1.." +
+                                 std::to_string(Limits::kMaxImageDim) + ", got '" + o.size + "'");
         p.width = w, p.height = h;
     }
-    if (!o.entityCounts.empty()) p.entityCounts = parseList<int>(o.entityCounts, "--entity-counts", 1, 100000);
-    if (!o.modelSides.empty()) p.modelSides = parseList<int>(o.modelSides, "--model-sides", 8, Limits::kMaxModelDim);
+    if (!o.entityCounts.empty())
+        p.entityCounts = parseList<int>(o.entityCounts, "--entity-counts", 1, 100000);
+    if (!o.modelSides.empty())
+        p.modelSides = parseList<int>(o.modelSides, "--model-sides", 8, Limits::kMaxModelDim);
     p.sweeps = o.sweeps;
     p.scaling = o.scaling;
     return p;
@@ -730,7 +784,8 @@ SuiteResults runSuite(const SuiteOptions& options) {
     if (sources.empty()) throw InputError("", "SCENES", "no scene to measure");
 
     std::vector<Set> sets;
-    for (std::size_t i = 0; i < sources.size(); ++i) sets.push_back(modesSet(sources[i], plan, i == 0 && plan.sweeps, res.notes));
+    for (std::size_t i = 0; i < sources.size(); ++i)
+        sets.push_back(modesSet(sources[i], plan, i == 0 && plan.sweeps, res.notes));
     if (plan.scaling) {
         const SceneSource& src = sources.front();
         const std::string name = sceneName(src.file);
@@ -738,22 +793,26 @@ SuiteResults runSuite(const SuiteOptions& options) {
         for (int n : plan.entityCounts) {
             const auto doc = withEntityCount(src.doc, n);
             if (!doc) {
-                res.notes.push_back("Entity-count curve skipped: " + name + " has no crowd to resize.");
+                res.notes.push_back("Entity-count curve skipped: " + name +
+                                    " has no crowd to resize.");
                 ok = false;
                 break;
             }
-            sets.push_back(scalingSet(src, *doc, plan, "scaling_entities", n, std::to_string(n) + " entities"));
+            sets.push_back(scalingSet(src, *doc, plan, "scaling_entities", n,
+                                      std::to_string(n) + " entities"));
         }
         (void)ok;
         for (int side : plan.modelSides) {
             const auto counted = withEntityCount(src.doc, plan.sizeEntities);
             const auto doc = withTankSide(counted ? *counted : src.doc, side);
             if (!doc) {
-                res.notes.push_back("Model-size curve skipped: " + name + " has no tank generator to resize.");
+                res.notes.push_back("Model-size curve skipped: " + name +
+                                    " has no tank generator to resize.");
                 break;
             }
             sets.push_back(scalingSet(src, *doc, plan, "scaling_size", side,
-                                      std::to_string(side) + "x" + std::to_string(side) + "x" + std::to_string(std::max(8, side / 2)) + " tanks"));
+                                      std::to_string(side) + "x" + std::to_string(side) + "x" +
+                                          std::to_string(std::max(8, side / 2)) + " tanks"));
         }
     }
 
@@ -761,12 +820,14 @@ SuiteResults runSuite(const SuiteOptions& options) {
     for (const Set& s : sets) {
         std::size_t truths = 0;
         for (const auto& c : s.configs) truths += c->isTruth;
-        total += s.frames.size() * (std::size_t(plan.warmup + s.repeats) * s.configs.size() + truths);
+        total +=
+            s.frames.size() * (std::size_t(plan.warmup + s.repeats) * s.configs.size() + truths);
     }
     // One Vulkan device for the whole run; validation (VOXTIER_VALIDATION=1) inflates timings.
     auto near = std::make_shared<NearRenderer>();
     res.vulkanDevice = near->deviceName();
-    if (near->validationEnabled()) res.notes.push_back("Vulkan validation was ON: every Vulkan timing is inflated.");
+    if (near->validationEnabled())
+        res.notes.push_back("Vulkan validation was ON: every Vulkan timing is inflated.");
     Progress progress(total);
     for (Set& set : sets) {
         runSet(set, plan, near, progress);

@@ -23,14 +23,15 @@
 namespace voxtier::bench {
 
 struct SuiteOptions {
-    std::vector<std::string> scenes; ///< scene files; the first also gets the sweeps and scaling curves
+    std::vector<std::string>
+        scenes; ///< scene files; the first also gets the sweeps and scaling curves
     std::string out = "out/bench";
     bool quick = false;
-    bool smoke = false; ///< test-only: tiny scenes, one repeat, one sweep point
-    int repeats = -1;   ///< -1: the preset's
-    int warmup = -1;    ///< -1: the preset's (at least 1: the cold bakes are measured there)
+    bool smoke = false;  ///< test-only: tiny scenes, one repeat, one sweep point
+    int repeats = -1;    ///< -1: the preset's
+    int warmup = -1;     ///< -1: the preset's (at least 1: the cold bakes are measured there)
     int pathFrames = -1; ///< -1: the preset's
-    std::string size;   ///< WxH override of every scene's image size ("" = the scene's)
+    std::string size;    ///< WxH override of every scene's image size ("" = the scene's)
     bool sweeps = true, scaling = true;
     std::string entityCounts, modelSides; ///< comma-separated overrides of the scaling points
 };
@@ -55,22 +56,23 @@ struct Plan {
 struct FrameRow {
     int frame = 0;
     double time = 0.0;
-    FrameStats median;      ///< field-wise medians over the timed passes
+    FrameStats median;               ///< field-wise medians over the timed passes
     double minMs = 0.0, maxMs = 0.0; ///< spread of totalMs over the passes
     bool hasError = false;
     FrameErrorReport error; ///< against the all-near (Vulkan) image of the frame (last pass)
-    std::uint64_t countedSteps = 0, countedFragments = 0; ///< Vulkan step-counting pass (near_vulkan)
+    std::uint64_t countedSteps = 0,
+                  countedFragments = 0; ///< Vulkan step-counting pass (near_vulkan)
 };
 
 struct Measurement {
-    std::string group;   ///< "modes", "sweep", "scaling_entities", "scaling_size"
-    std::string scene;   ///< scene name (file stem)
-    std::string mode;    ///< near_vulkan, near_reference, far, hybrid
-    std::string family;  ///< sweep family ("" outside sweeps)
-    std::string setting; ///< human-readable settings of the configuration
-    double param = 0.0;  ///< the swept / scaled value
-    std::string selector;///< selector summary, e.g. "error_px 1/0.5, 26 views, sigma 1, fade 0"
-    std::string truth;   ///< configuration the errors are measured against
+    std::string group;    ///< "modes", "sweep", "scaling_entities", "scaling_size"
+    std::string scene;    ///< scene name (file stem)
+    std::string mode;     ///< near_vulkan, near_reference, far, hybrid
+    std::string family;   ///< sweep family ("" outside sweeps)
+    std::string setting;  ///< human-readable settings of the configuration
+    double param = 0.0;   ///< the swept / scaled value
+    std::string selector; ///< selector summary, e.g. "error_px 1/0.5, 26 views, sigma 1, fade 0"
+    std::string truth;    ///< configuration the errors are measured against
     std::vector<FrameRow> frames;
 
     // Speed (ms).
@@ -80,8 +82,9 @@ struct Measurement {
     double speedup = 0;    ///< baselineMs / totalMs
     // Work.
     double entities = 0, visible = 0, nearDrawn = 0, farDrawn = 0, fading = 0;
-    double fragments = 0;       ///< near: fragments shaded (Vulkan) or pixels tested (reference)
-    double voxelSteps = 0;      ///< near: voxel reads per frame (reference: every frame; Vulkan: counting pass)
+    double fragments = 0; ///< near: fragments shaded (Vulkan) or pixels tested (reference)
+    double voxelSteps =
+        0; ///< near: voxel reads per frame (reference: every frame; Vulkan: counting pass)
     double voxelStepsPerS = 0;
     double blitPixels = 0, blitPixelsPerS = 0, memcpyPixelsPerS = 0; ///< memcpy of the same bytes
     double cacheBytes = 0;
@@ -96,8 +99,10 @@ struct Measurement {
     double farIsolatedMismatchMean = 0, displacementWorstPx = 0, displacementWorstCells = 0;
     double farVisibleDisplacementWorstPx = 0; ///< in the frame (occluders' changes included)
     double coverageMismatchMean = 0; ///< like mismatchMean, counting only pixels owned in one image
-    double farAloneEntities = 0, farOverOneCell = 0; ///< per frame (mean): far entities, those displaced > 1 virtual px
-    double baselineFragments = 0; ///< near fragments of the all-near (Vulkan) frames: fragments / this = the near share
+    double farAloneEntities = 0,
+           farOverOneCell = 0; ///< per frame (mean): far entities, those displaced > 1 virtual px
+    double baselineFragments =
+        0; ///< near fragments of the all-near (Vulkan) frames: fragments / this = the near share
     double rmseMean = 0, psnrMin = 0;
     double differingPixels = 0; ///< mean per frame (colour, depth or id)
     std::size_t missing = 0;    ///< entities drawn in only one image, summed over frames

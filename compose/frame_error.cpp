@@ -30,10 +30,12 @@ struct Accumulator {
         s.worstDisplacementPx = std::max(s.worstDisplacementPx, e.silhouetteDisplacementPx);
         const double cells = e.silhouetteDisplacementPx / std::max(1.0, cellPx);
         s.overOneCell += cells > 1.0;
-        if (cells > s.worstDisplacementCells) s.worstDisplacementCells = cells, s.worstDisplacementEntity = e.entity;
+        if (cells > s.worstDisplacementCells)
+            s.worstDisplacementCells = cells, s.worstDisplacementEntity = e.entity;
     }
     EntityErrorSummary done() {
-        if (s.entities) s.meanMismatch /= double(s.entities), s.meanCoverageMismatch /= double(s.entities);
+        if (s.entities)
+            s.meanMismatch /= double(s.entities), s.meanCoverageMismatch /= double(s.entities);
         if (displaced) s.meanDisplacementPx /= double(displaced);
         return s;
     }
@@ -42,11 +44,13 @@ struct Accumulator {
 } // namespace
 
 double cellSizePx(const SpriteSetup& sprite) {
-    const double radiusCells = glm::length(glm::dvec3(sprite.lattice.dims) * 0.5) * sprite.lattice.sigma;
+    const double radiusCells =
+        glm::length(glm::dvec3(sprite.lattice.dims) * 0.5) * sprite.lattice.sigma;
     return radiusCells > 0.0 ? sprite.radiusPx / radiusCells : 0.0;
 }
 
-EntityErrorSummary summarizeEntities(const std::vector<EntityError>& errors, const std::vector<SpriteSetup>& sprites) {
+EntityErrorSummary summarizeEntities(const std::vector<EntityError>& errors,
+                                     const std::vector<SpriteSetup>& sprites) {
     Accumulator a;
     for (const EntityError& e : errors) a.add(e, cellSizePx(sprites.at(e.entity)));
     return a.done();
@@ -54,7 +58,8 @@ EntityErrorSummary summarizeEntities(const std::vector<EntityError>& errors, con
 
 std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame& cam,
                                            const std::vector<SpriteSetup>& sprites,
-                                           const std::vector<EntityPlan>& plan, SnapshotCache& cache) {
+                                           const std::vector<EntityPlan>& plan,
+                                           SnapshotCache& cache) {
     // Passes of entities whose screen rectangles share no 8x8 tile.
     constexpr int kTile = 8;
     const int tw = (cam.width + kTile - 1) / kTile, th = (cam.height + kTile - 1) / kTile;
@@ -64,7 +69,8 @@ std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame
         const SpriteSetup& s = sprites[i];
         if (!s.visible() || !plan[i].drawsFar()) continue;
         const glm::ivec4 r = s.screenRect;
-        const int x0 = r.x / kTile, y0 = r.y / kTile, x1 = (r.z - 1) / kTile, y1 = (r.w - 1) / kTile;
+        const int x0 = r.x / kTile, y0 = r.y / kTile, x1 = (r.z - 1) / kTile,
+                  y1 = (r.w - 1) / kTile;
         auto fits = [&](const std::vector<std::uint8_t>& u) {
             for (int y = y0; y <= y1; ++y)
                 for (int x = x0; x <= x1; ++x)
@@ -73,7 +79,8 @@ std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame
         };
         std::size_t p = 0;
         while (p < passes.size() && !fits(used[p])) ++p;
-        if (p == passes.size()) used.emplace_back(std::size_t(tw) * std::size_t(th), 0), passes.emplace_back();
+        if (p == passes.size())
+            used.emplace_back(std::size_t(tw) * std::size_t(th), 0), passes.emplace_back();
         for (int y = y0; y <= y1; ++y)
             for (int x = x0; x <= x1; ++x) used[p][std::size_t(y * tw + x)] = 1;
         passes[p].push_back(s.entityId);
@@ -87,7 +94,8 @@ std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame
         std::vector<FarRequest> far;
         for (std::uint32_t id : ids) {
             near.push_back(&sprites[id]);
-            far.push_back({&sprites[id], plan[id].view >= 0 ? std::optional<int>(plan[id].view) : std::nullopt});
+            far.push_back({&sprites[id],
+                           plan[id].view >= 0 ? std::optional<int>(plan[id].view) : std::nullopt});
         }
         renderReference(scene.models, near, truth);
         drawFarSprites(scene.models, far, cache, set, test);
@@ -108,7 +116,8 @@ std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame
     return out;
 }
 
-FrameErrorReport measureFrameError(const Image& truth, const Image& test, const std::vector<SpriteSetup>& sprites,
+FrameErrorReport measureFrameError(const Image& truth, const Image& test,
+                                   const std::vector<SpriteSetup>& sprites,
                                    const std::vector<EntityPlan>& plan) {
     std::vector<std::uint32_t> ids;
     ids.reserve(sprites.size());

@@ -26,17 +26,19 @@ struct EntityErrorSummary {
     double worstDisplacementCells = 0.0;
     std::uint32_t worstDisplacementEntity = 0;
     std::size_t overOneCell = 0; ///< entities displaced by more than one virtual pixel
-    std::size_t missing = 0; ///< drawn in exactly one of the two images
+    std::size_t missing = 0;     ///< drawn in exactly one of the two images
 };
 
 struct FrameErrorReport {
     EntityErrorSummary all; ///< every entity drawn in either image
     EntityErrorSummary far; ///< of those, the ones the far tier drew (alone or in a cross-fade)
-    /// The far tier's own error: each far-drawn entity drawn alone by both tiers (isolatedFarErrors),
-    /// so nothing in front of it changes its footprint. Filled in by the caller (it re-draws).
+    /// The far tier's own error: each far-drawn entity drawn alone by both tiers
+    /// (isolatedFarErrors), so nothing in front of it changes its footprint. Filled in by the
+    /// caller (it re-draws).
     EntityErrorSummary farIsolated;
-    double rmse = 0.0, psnr = 0.0; ///< colour, OpenImageIO's compare (psnr is +inf for equal images)
-    std::size_t changedPixels = 0; ///< colour differs
+    double rmse = 0.0,
+           psnr = 0.0; ///< colour, OpenImageIO's compare (psnr is +inf for equal images)
+    std::size_t changedPixels = 0;   ///< colour differs
     std::size_t differingPixels = 0; ///< colour, depth or entity id differs
 };
 
@@ -45,7 +47,8 @@ struct FrameErrorReport {
 double cellSizePx(const SpriteSetup& sprite);
 
 /// Mean and worst of `errors`; `sprites` (indexed by entity id) give each entity's cell size.
-EntityErrorSummary summarizeEntities(const std::vector<EntityError>& errors, const std::vector<SpriteSetup>& sprites);
+EntityErrorSummary summarizeEntities(const std::vector<EntityError>& errors,
+                                     const std::vector<SpriteSetup>& sprites);
 
 /// The far tier's own error per entity, free of occlusion: every entity `plan` has the far tier
 /// draw (alone or in a cross-fade) is drawn alone, whole, by the near tier's CPU reference (the
@@ -54,11 +57,13 @@ EntityErrorSummary summarizeEntities(const std::vector<EntityError>& errors, con
 /// image per tier. `cache` should be the one that drew the frame (its snapshots are warm).
 std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame& camera,
                                            const std::vector<SpriteSetup>& sprites,
-                                           const std::vector<EntityPlan>& plan, SnapshotCache& cache);
+                                           const std::vector<EntityPlan>& plan,
+                                           SnapshotCache& cache);
 
 /// `truth` is the all-near image of the frame `sprites` describe; `plan` the plan `test` was
 /// drawn with (empty: every entity counts as near). Sprites are indexed by entity id.
-FrameErrorReport measureFrameError(const Image& truth, const Image& test, const std::vector<SpriteSetup>& sprites,
+FrameErrorReport measureFrameError(const Image& truth, const Image& test,
+                                   const std::vector<SpriteSetup>& sprites,
                                    const std::vector<EntityPlan>& plan);
 
 } // namespace voxtier

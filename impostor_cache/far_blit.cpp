@@ -3,8 +3,8 @@
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
-#include <chrono>
 #include <algorithm>
+#include <chrono>
 #include <climits>
 #include <cmath>
 #include <limits>
@@ -45,19 +45,23 @@ struct RowCounters {
 /// is up to several times its footprint for close, oblique sprites, and every pixel skipped is a
 /// reciprocal and two affine forms saved.
 std::pair<int, int> candidateColumns(const kernel::SpriteGpu& g, double py, int rx0, int rx1) {
-    double lo = -std::numeric_limits<double>::infinity(), hi = std::numeric_limits<double>::infinity();
+    double lo = -std::numeric_limits<double>::infinity(),
+           hi = std::numeric_limits<double>::infinity();
     bool empty = false;
     auto keep = [&](double a, double b) { // keep x with a x + b >= 0
-        if (a > 0.0) lo = std::max(lo, -b / a);
-        else if (a < 0.0) hi = std::min(hi, -b / a);
-        else if (b < 0.0) empty = true;
+        if (a > 0.0)
+            lo = std::max(lo, -b / a);
+        else if (a < 0.0)
+            hi = std::min(hi, -b / a);
+        else if (b < 0.0)
+            empty = true;
     };
     const double d = g.mapDen.x, e = double(g.mapDen.y) * py + double(g.mapDen.z);
     keep(d, e); // denominator >= 0
     auto axis = [&](const glm::vec3& m, int first, int last) {
         const double a = m.x, b = double(m.y) * py + double(m.z);
         const double qlo = first - 1.0, qhi = last + 2.0;
-        keep(a - qlo * d, b - qlo * e);    // q >= qlo
+        keep(a - qlo * d, b - qlo * e);       // q >= qlo
         keep(-(a - qhi * d), -(b - qhi * e)); // q <= qhi
     };
     axis(g.mapI, g.cellRange.x, g.cellRange.y);
@@ -104,25 +108,29 @@ void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* st
                     bool lastDrawn = false;
                     Rgba8 lastColor = 0;
                     const std::size_t rowBase = target.index(0, y);
-                    const auto [x0, x1] = candidateColumns(g, double(py), sp.screenRect.x, sp.screenRect.z);
+                    const auto [x0, x1] =
+                        candidateColumns(g, double(py), sp.screenRect.x, sp.screenRect.z);
                     for (int x = x0; x < x1; ++x) {
                         ++rc.tested;
                         glm::ivec2 cell;
                         if (!kernel::vtPixelCell(g, glm::vec2(float(x) + 0.5f, py), cell)) continue;
                         if (cell != lastCell) {
                             lastCell = cell;
-                            const glm::ivec2 sc = map(cell); // the snapshot cell under the near cell's centre
+                            const glm::ivec2 sc =
+                                map(cell); // the snapshot cell under the near cell's centre
                             const SnapshotCell c = snap.at(sc.x, sc.y);
                             lastDrawn = c.code != snapshot_code::kEmpty;
                             if (lastDrawn)
                                 lastColor = snapshot_code::isSolid(c.code)
                                                 ? kernel::vtLit(f.palette->colors[c.index],
-                                                                kernel::vtFaceLight(g, snapshot_code::face(c.code)))
+                                                                kernel::vtFaceLight(
+                                                                    g, snapshot_code::face(c.code)))
                                                 : kernel::VT_OUTLINE_RGBA;
                         }
                         if (!lastDrawn) continue;
                         ++rc.written;
-                        target.writeIfNearer(rowBase + std::size_t(x), lastColor, g.depth, sp.entityId);
+                        target.writeIfNearer(rowBase + std::size_t(x), lastColor, g.depth,
+                                             sp.entityId);
                     }
                 }
             }

@@ -24,8 +24,9 @@ struct FarSprite {
 };
 
 struct FarBlitStats {
-    std::uint64_t sprites = 0;       ///< sprites drawn
-    std::uint64_t pixelsTested = 0;  ///< pixels evaluated (of each row, the columns that can hold a cell)
+    std::uint64_t sprites = 0; ///< sprites drawn
+    std::uint64_t pixelsTested =
+        0; ///< pixels evaluated (of each row, the columns that can hold a cell)
     std::uint64_t pixelsWritten = 0; ///< solid or outline snapshot cells read
     double milliseconds = 0.0;
 };
@@ -37,7 +38,8 @@ struct FarBlitStats {
 struct SnapshotCellMap {
     double u0 = 0, ui = 0, uj = 0, v0 = 0, vi = 0, vj = 0;
     glm::ivec2 operator()(glm::ivec2 cell) const {
-        return {floorToInt(u0 + ui * cell.x + uj * cell.y), floorToInt(v0 + vi * cell.x + vj * cell.y)};
+        return {floorToInt(u0 + ui * cell.x + uj * cell.y),
+                floorToInt(v0 + vi * cell.x + vj * cell.y)};
     }
     /// floor() for |x| < 2^31, which every cell of a lattice of at most 256-voxel models at any
     /// sane sigma is. Without SSE4.1 (the x86-64 baseline) std::floor compiles to a slow sequence;
@@ -47,7 +49,8 @@ struct SnapshotCellMap {
         return t - (x < double(t));
     }
 };
-SnapshotCellMap snapshotCellMap(const SpriteLattice& nearLattice, const SpriteLattice& snapshotLattice);
+SnapshotCellMap snapshotCellMap(const SpriteLattice& nearLattice,
+                                const SpriteLattice& snapshotLattice);
 
 /// The view the far tier shows for a sprite: w* = argmax w . (-d), d = sprite.lattice.dir
 /// (the per-entity direction the near tier uses, so the tiers agree on it).

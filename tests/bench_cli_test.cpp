@@ -1,11 +1,10 @@
 // `voxtier bench` end to end, at the smallest size (--smoke: tiny images and entity counts, one
 // timed pass, one sweep point): the outputs exist and agree with each other and with what can be
 // worked out without the bench. No timings are asserted (the machine is shared).
+#include "cli_support.hpp"
 #include "core/scene_loader.hpp"
 #include "core/sprite.hpp"
 #include "impostor_cache/view_set.hpp"
-
-#include "cli_support.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -33,7 +32,8 @@ struct ScratchDir {
     fs::path path;
     ScratchDir() {
         const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        path = fs::temp_directory_path() / ("voxtier_bench_" + std::to_string(::getpid()) + "_" + info->name());
+        path = fs::temp_directory_path() /
+               ("voxtier_bench_" + std::to_string(::getpid()) + "_" + info->name());
         fs::remove_all(path);
         fs::create_directories(path);
     }
@@ -52,9 +52,10 @@ std::string slurp(const fs::path& p) {
 /// rays straight down, entities turned by multiples of 90 degrees, so every sprite's view is the
 /// canonical +Z snapshot with a quarter-turn roll.
 void writeExactScene(const fs::path& file) {
-    json models = json::array({{{"name", "tank"}, {"generator", "tank"}, {"seed", 3}, {"frames", 2}},
-                               {{"name", "arrow"}, {"generator", "arrow"}},
-                               {{"name", "box"}, {"generator", "box"}, {"size", {6, 4, 3}}, {"index", 5}}});
+    json models =
+        json::array({{{"name", "tank"}, {"generator", "tank"}, {"seed", 3}, {"frames", 2}},
+                     {{"name", "arrow"}, {"generator", "arrow"}},
+                     {{"name", "box"}, {"generator", "box"}, {"size", {6, 4, 3}}, {"index", 5}}});
     json entities = json::array();
     const char* names[] = {"tank", "arrow", "box"};
     for (int k = 0; k < 9; ++k)
@@ -63,8 +64,12 @@ void writeExactScene(const fs::path& file) {
                             {"rotation_deg", {0, 90 * (k % 4), 0}},
                             {"frame", k % 6 == 3 ? 1 : 0}}); // the tank (k % 3 == 0) has two frames
     const json scene = {{"view_mode", "parallel"},
-                        {"camera", {{"position", {0, 16, 0}}, {"target", {0, 0, 0}}, {"up", {0, 0, -1}}, {"fov_y", 50},
-                                    {"size", {240, 136}}}},
+                        {"camera",
+                         {{"position", {0, 16, 0}},
+                          {"target", {0, 0, 0}},
+                          {"up", {0, 0, -1}},
+                          {"fov_y", 50},
+                          {"size", {240, 136}}}},
                         {"models", models},
                         {"entities", entities}};
     std::ofstream(file) << scene.dump(1);
@@ -77,9 +82,12 @@ std::vector<std::string> csvFields(const std::string& line) {
     for (std::size_t i = 0; i < line.size(); ++i) {
         const char c = line[i];
         if (quoted) {
-            if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') out.back() += '"', ++i;
-            else if (c == '"') quoted = false;
-            else out.back() += c;
+            if (c == '"' && i + 1 < line.size() && line[i + 1] == '"')
+                out.back() += '"', ++i;
+            else if (c == '"')
+                quoted = false;
+            else
+                out.back() += c;
         } else if (c == '"') {
             quoted = true;
         } else if (c == ',') {
@@ -91,7 +99,8 @@ std::vector<std::string> csvFields(const std::string& line) {
     return out;
 }
 
-const json* row(const json& rows, const std::string& group, const std::string& scene, const std::string& mode) {
+const json* row(const json& rows, const std::string& group, const std::string& scene,
+                const std::string& mode) {
     for (const json& r : rows)
         if (r["group"] == group && r["scene"] == scene && r["mode"] == mode) return &r;
     return nullptr;
@@ -101,9 +110,11 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     ScratchDir dir;
     const fs::path exact = dir.path / "exact.json", out = dir.path / "out";
     writeExactScene(exact);
-    const CliRun r = runCli("bench --smoke --out '" + out.string() + "' scenes/bench/tank_army.json '" + exact.string() + "'");
+    const CliRun r = runCli("bench --smoke --out '" + out.string() +
+                            "' scenes/bench/tank_army.json '" + exact.string() + "'");
     ASSERT_EQ(r.status, 0) << r.out << r.err;
-    for (const char* f : {"report.md", "results.csv", "results.json"}) ASSERT_TRUE(fs::exists(out / f)) << f;
+    for (const char* f : {"report.md", "results.csv", "results.json"})
+        ASSERT_TRUE(fs::exists(out / f)) << f;
 
     // results.json: the four modes for each scene, the sweep point, both scaling curves.
     const json j = json::parse(slurp(out / "results.json"));
@@ -150,7 +161,8 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
             if (!sp.visible()) continue;
             const glm::dvec3 w = -sp.lattice.dir;
             double best = -1.0;
-            for (const glm::dvec3& v : viewDirections(ViewSet::Cube26)) best = std::max(best, glm::dot(v, w));
+            for (const glm::dvec3& v : viewDirections(ViewSet::Cube26))
+                best = std::max(best, glm::dot(v, w));
             worstAngle = std::max(worstAngle, std::acos(std::min(1.0, best)) * 180.0 / M_PI);
         }
         ASSERT_GT(worstAngle, 5.0);
@@ -163,10 +175,12 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         if (!m["error"].is_null()) {
             EXPECT_GE(m["error"]["mismatch_mean"].get<double>(), 0.0);
             EXPECT_LE(m["error"]["mismatch_worst"].get<double>(), 1.0);
-            EXPECT_GE(m["error"]["mismatch_worst"].get<double>(), m["error"]["mismatch_mean"].get<double>());
+            EXPECT_GE(m["error"]["mismatch_worst"].get<double>(),
+                      m["error"]["mismatch_mean"].get<double>());
         }
         EXPECT_NEAR(m["speedup_vs_all_near_vulkan"].get<double>() * m["frame_ms"].get<double>(),
-                    m["all_near_vulkan_ms"].get<double>(), 1e-6 * m["all_near_vulkan_ms"].get<double>());
+                    m["all_near_vulkan_ms"].get<double>(),
+                    1e-6 * m["all_near_vulkan_ms"].get<double>());
     }
     int sweeps = 0;
     std::set<double> counts, sides;
@@ -186,9 +200,10 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     const auto header = csvFields(line);
     std::map<std::string, std::size_t> col;
     for (std::size_t i = 0; i < header.size(); ++i) col[header[i]] = i;
-    for (const char* c : {"group", "scene", "mode", "frame_ms", "speedup_vs_all_near_vulkan", "mismatch_mean",
-                          "far_displacement_worst_vpx", "rays_per_s", "voxel_steps_per_s", "blit_pixels_per_s",
-                          "memcpy_pixels_per_s", "cache_bytes", "near_entities", "far_entities", "cold_bake_ms"})
+    for (const char* c :
+         {"group", "scene", "mode", "frame_ms", "speedup_vs_all_near_vulkan", "mismatch_mean",
+          "far_displacement_worst_vpx", "rays_per_s", "voxel_steps_per_s", "blit_pixels_per_s",
+          "memcpy_pixels_per_s", "cache_bytes", "near_entities", "far_entities", "cold_bake_ms"})
         ASSERT_TRUE(col.count(c)) << c;
     std::size_t n = 0;
     while (std::getline(csv, line)) {
@@ -197,7 +212,8 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         EXPECT_GT(std::stod(f[col["frame_ms"]]), 0.0) << line;
         const json& m = rows[n];
         EXPECT_EQ(f[col["mode"]], m["mode"].get<std::string>());
-        EXPECT_NEAR(std::stod(f[col["frame_ms"]]), m["frame_ms"].get<double>(), 1e-5 * m["frame_ms"].get<double>());
+        EXPECT_NEAR(std::stod(f[col["frame_ms"]]), m["frame_ms"].get<double>(),
+                    1e-5 * m["frame_ms"].get<double>());
         ++n;
     }
     EXPECT_EQ(n, rows.size());
@@ -208,17 +224,20 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     EXPECT_NE(report.find("exact"), std::string::npos);
     std::set<std::string> embedded;
     const std::regex image(R"(!\[[^\]]*\]\(([^)]+)\))");
-    for (auto it = std::sregex_iterator(report.begin(), report.end(), image); it != std::sregex_iterator(); ++it)
+    for (auto it = std::sregex_iterator(report.begin(), report.end(), image);
+         it != std::sregex_iterator(); ++it)
         embedded.insert((*it)[1]);
     for (const std::string& png : embedded) EXPECT_TRUE(fs::exists(out / png)) << png;
     std::set<std::string> listed;
     for (const json& p : j["plots"]) listed.insert(p.get<std::string>());
     EXPECT_EQ(embedded, listed);
     if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
-        EXPECT_EQ(listed, (std::set<std::string>{"speed_error.png", "scaling_entities.png", "scaling_size.png"}))
+        EXPECT_EQ(listed, (std::set<std::string>{"speed_error.png", "scaling_entities.png",
+                                                 "scaling_size.png"}))
             << j["plot_note"];
     } else {
-        EXPECT_NE(report.find("gnuplot"), std::string::npos); // the report says why there are no plots
+        EXPECT_NE(report.find("gnuplot"),
+                  std::string::npos); // the report says why there are no plots
     }
 }
 
@@ -233,16 +252,19 @@ TEST(BenchCommand, BadInputIsOneLineNamingTheFileOrFlag) {
     expectOneLine(runCli("bench --smoke no/such/scene.json" + out), "no/such/scene.json");
     const fs::path file = dir.path / "a_file";
     std::ofstream(file) << "x";
-    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --out '" + file.string() + "'"), "--out");
+    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --out '" + file.string() + "'"),
+                  "--out");
     expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --size 0x5" + out), "--size");
-    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --repeats 0" + out), "--repeats");
-    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --entity-counts 10,x" + out), "--entity-counts");
+    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --repeats 0" + out),
+                  "--repeats");
+    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --entity-counts 10,x" + out),
+                  "--entity-counts");
     EXPECT_FALSE(fs::exists(dir.path / "out" / "results.csv"));
 }
 
 TEST(BenchCommand, NearSubcommandStillRunsBesideTheSceneBench) {
-    const CliRun r =
-        runCli("bench near --entities 3 --repeat 1 --warmup 0 --no-alternatives --models procedural --size 160x90");
+    const CliRun r = runCli("bench near --entities 3 --repeat 1 --warmup 0 --no-alternatives "
+                            "--models procedural --size 160x90");
     ASSERT_EQ(r.status, 0) << r.out << r.err;
     EXPECT_NE(r.out.find("hull-instanced"), std::string::npos) << r.out;
     EXPECT_EQ(r.out.find("quad-instanced"), std::string::npos) << r.out;

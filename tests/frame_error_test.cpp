@@ -62,7 +62,8 @@ TEST(FrameError, AllFarFrameOfCanonicalViewsHasNoError) {
     Scene s;
     s.render.viewMode = ViewMode::Parallel;
     s.models = {makeTank(4, 1), makeArrow(16)};
-    for (int k = 0; k < 6; ++k) s.entities.push_back(at(k % 2, {-3.0 + 1.5 * k, 0, (k % 3) - 1.0}, 90.0 * k));
+    for (int k = 0; k < 6; ++k)
+        s.entities.push_back(at(k % 2, {-3.0 + 1.5 * k, 0, (k % 3) - 1.0}, 90.0 * k));
     s.camera.position = {0, 12, 0};
     s.camera.target = {0, 0, 0};
     s.camera.up = {0, 0, -1};
@@ -76,14 +77,16 @@ TEST(FrameError, AllFarFrameOfCanonicalViewsHasNoError) {
     EXPECT_EQ(e.far.entities, 6u);
     EXPECT_EQ(e.differingPixels, 0u);
     EXPECT_EQ(e.all.worstMismatch, 0.0);
-    const auto alone = isolatedFarErrors(s, makeCameraFrame(s.camera), far.sprites, far.plan, r.snapshotCache());
+    const auto alone =
+        isolatedFarErrors(s, makeCameraFrame(s.camera), far.sprites, far.plan, r.snapshotCache());
     ASSERT_EQ(alone.size(), 6u);
     for (const EntityError& a : alone) {
         EXPECT_EQ(a.mismatched, 0u) << a.entity;
         EXPECT_EQ(a.silhouetteDisplacementPx, 0.0) << a.entity;
     }
     // The near frame compared with itself: nothing is far, nothing differs.
-    const FrameErrorReport self = measureFrameError(truth.image, truth.image, truth.sprites, truth.plan);
+    const FrameErrorReport self =
+        measureFrameError(truth.image, truth.image, truth.sprites, truth.plan);
     EXPECT_EQ(self.far.entities, 0u);
     EXPECT_EQ(self.differingPixels, 0u);
 }
@@ -118,12 +121,14 @@ TEST(FrameError, AloneErrorOfAFarEntityIgnoresWhatStandsInFrontOfIt) {
     const FrameErrorReport inMixed = measureFrameError(truth.image, mixed, far.sprites, arrowFar);
     EXPECT_EQ(inMixed.far.entities, 1u);
     EXPECT_EQ(inAll.far.entities, 2u);
-    const EntityError visibleAll = entityError(truth.image, far.image, 0), visibleMixed = entityError(truth.image, mixed, 0);
+    const EntityError visibleAll = entityError(truth.image, far.image, 0),
+                      visibleMixed = entityError(truth.image, mixed, 0);
     EXPECT_NE(visibleAll.footprintTest, visibleMixed.footprintTest);
     // Summaries of the alone errors use the entities' own cell sizes.
     const EntityErrorSummary sum = summarizeEntities(aloneAll, far.sprites);
     EXPECT_EQ(sum.entities, 2u);
-    EXPECT_GE(sum.worstDisplacementPx, sum.worstDisplacementCells); // a virtual pixel is at least one pixel
+    EXPECT_GE(sum.worstDisplacementPx,
+              sum.worstDisplacementCells); // a virtual pixel is at least one pixel
 }
 
 } // namespace
