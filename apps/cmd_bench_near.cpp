@@ -311,11 +311,9 @@ void run(const BenchArgs& a) {
 
 } // namespace
 
-void addBenchCommand(CLI::App& app) {
-    CLI::App* bench = app.add_subcommand("bench", "Benchmarks");
-    bench->require_subcommand(1);
+void addBenchNearCommand(CLI::App& bench) {
     auto args = std::make_shared<BenchArgs>();
-    CLI::App* cmd = bench->add_subcommand(
+    CLI::App* cmd = bench.add_subcommand(
         "near", "Vulkan near tier vs the CPU reference, same frames, side by side");
     cmd->add_option("--entities", args->entities, "Comma-separated entity counts")
         ->capture_default_str();
@@ -333,7 +331,6 @@ void addBenchCommand(CLI::App& app) {
     cmd->add_flag("!--no-alternatives", args->alternatives,
                   "Only the default variant (hull proxy, one instanced draw)");
     cmd->callback([args] { run(*args); });
-    addBenchEditsCommand(*bench);
 }
 
 } // namespace voxtier::cli

@@ -7,7 +7,9 @@ namespace voxtier::cli {
 void addRenderCommand(CLI::App& app);
 void addInfoCommand(CLI::App& app);
 void addBakeCommand(CLI::App& app);
-void addBenchCommand(CLI::App& app); ///< `bench near` (apps/cmd_bench_near.cpp)
+/// `bench [SCENES...]` and its subcommands (apps/cmd_bench.cpp registers them all).
+void addBenchCommand(CLI::App& app);
+void addBenchNearCommand(CLI::App& bench); ///< `bench near` (apps/cmd_bench_near.cpp)
 void addBenchEditsCommand(CLI::App& bench); ///< `bench edits` (apps/cmd_bench_edits.cpp)
 
 } // namespace voxtier::cli

@@ -128,6 +128,7 @@ std::vector<EntityError> entityErrors(const Image& truth, const Image& test, con
                 r.footprintTest += inB;
                 ++r.unionPixels;
                 if (inA != inB || truth.color[p] != test.color[p]) ++r.mismatched;
+                r.coverageMismatched += inA != inB;
                 boxes[it->second].add(x, y);
             };
             if (a != kernel::VT_NO_ENTITY) visit(a);

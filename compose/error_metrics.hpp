@@ -18,11 +18,15 @@ struct EntityError {
     std::size_t footprintTest = 0;  ///< pixels it owns in the test image
     std::size_t unionPixels = 0;    ///< owned in either
     std::size_t mismatched = 0;     ///< of the union: owned by only one, or owned by both with different colour
+    std::size_t coverageMismatched = 0; ///< of the union: owned by only one (silhouette, colour ignored)
     /// Largest distance (pixels) from a pixel owned in one image but not the other to the
     /// nearest pixel owned in the other: how far the silhouette moved. 0 when the footprints
     /// agree; +inf when the entity is missing from exactly one image.
     double silhouetteDisplacementPx = 0.0;
     double mismatchFraction() const { return unionPixels ? double(mismatched) / double(unionPixels) : 0.0; }
+    double coverageMismatchFraction() const {
+        return unionPixels ? double(coverageMismatched) / double(unionPixels) : 0.0;
+    }
 };
 
 /// Error of one entity between two images of the same frame.

@@ -191,11 +191,20 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
     Image image;
     if (backend_ == NearBackend::Vulkan && !nearSprites.empty()) {
         // Created on first use: reference- and far-only runs never touch Vulkan.
-        if (!near_) near_ = std::make_unique<NearRenderer>(options_.vulkan, options_.vulkanLog);
+        if (!near_)
+            near_ = options_.sharedNear ? options_.sharedNear
+                                        : std::make_shared<NearRenderer>(options_.vulkan, options_.vulkanLog);
+        NearOptions no;
+        no.countSteps = options_.nearCountSteps;
         NearStats ns;
-        image = near_->render(cam, scene_.models, nearSprites, scene_.render.background, {}, &ns);
+        image = near_->render(cam, scene_.models, nearSprites, scene_.render.background, no, &ns);
         st.nearPixelsTested += ns.fragmentInvocations;
         st.nearBytesUploaded += ns.bytesUploaded;
+        st.voxelFetches += ns.voxelFetches;
+        st.nearKernelFragments += ns.kernelFragments;
+        st.nearUploadMs += ns.uploadMs;
+        st.nearDrawMs += ns.drawMs;
+        st.nearReadbackMs += ns.readbackMs;
     } else {
         image = Image(cam.width, cam.height, scene_.render.background);
         ReferenceStats rs;
@@ -210,14 +219,18 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
     // which is the composition (composeMinZ is the same rule for two finished images).
     if (!farRequests.empty()) {
         FarFrameStats fs;
+        const std::uint64_t raysBefore = cache_->counters().raysTraced;
         drawFarSprites(scene_.models, farRequests, *cache_, viewSetFromSize(scene_.selector.viewSetSize), image, &fs);
         st.farBakes += int(fs.bakes);
         st.farRefreshes += int(fs.refreshes);
         st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
         st.farCellsRetraced += fs.cellsRetraced;
         st.bakeMs += fs.ensureMs;
+        st.blitMs += fs.blit.milliseconds;
         st.farMs += fs.ensureMs + fs.blit.milliseconds;
         st.farPixelsTested += fs.blit.pixelsTested;
+        st.farPixelsWritten += fs.blit.pixelsWritten;
+        st.raysTraced += cache_->counters().raysTraced - raysBefore;
     }
     return image;
 }

@@ -41,6 +41,12 @@ struct FrameOptions {
     bool overlay = false;          ///< also produce FrameResult::overlay (tier tint)
     bool measurePops = false;      ///< FrameResult::pops: the change each switch causes alone
     std::size_t cacheBudgetBytes = std::size_t(256) << 20; ///< far snapshot cache budget
+    /// Near tier on Vulkan: the shader variant that counts voxel reads (FrameStats::voxelFetches,
+    /// nearKernelFragments). Same image, slower: for measuring, never for timing.
+    bool nearCountSteps = false;
+    /// A near renderer to draw with instead of creating one: several FrameRenderers (bench
+    /// configurations, views of one world) can share one Vulkan device. Null: created on first use.
+    std::shared_ptr<NearRenderer> sharedNear;
 };
 
 /// What one entity does this frame: its tier, an optional cross-fade (both tiers draw it, with
@@ -69,6 +75,10 @@ struct PopEvent {
 };
 const char* toString(PopEvent::Kind k);
 
+/// Where one frame's time went (wall-clock ms) and how much work each tier did. The step times
+/// add up to totalMs except for small glue (image moves, bookkeeping):
+/// totalMs ~ setupMs + selectMs + nearMs + farMs, nearMs ~ nearUploadMs + nearDrawMs +
+/// nearReadbackMs on Vulkan, farMs = bakeMs + blitMs.
 struct FrameStats {
     int entities = 0, culled = 0;
     int nearDrawn = 0, farDrawn = 0;      ///< visible sprites drawn by each tier
@@ -81,8 +91,16 @@ struct FrameStats {
     int farRefreshes = 0, farIncrementalRefreshes = 0;
     std::uint64_t farCellsRetraced = 0, nearBytesUploaded = 0;
     std::size_t cacheBytes = 0;           ///< snapshot bytes held after the frame
+    /// bakeMs: the far tier making sure its snapshots exist (cache lookups + the bakes they start).
     double setupMs = 0.0, selectMs = 0.0, nearMs = 0.0, farMs = 0.0, bakeMs = 0.0, totalMs = 0.0;
+    /// The Vulkan near tier's split of nearMs: voxel uploads to the atlas, record + submit + wait
+    /// of the draw, copy of the three targets to host memory (0 with the reference backend).
+    double nearUploadMs = 0.0, nearDrawMs = 0.0, nearReadbackMs = 0.0;
+    double blitMs = 0.0;                  ///< the far blit alone
     std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;
+    std::uint64_t farPixelsWritten = 0;   ///< blit pixels that read a solid or outline cell
+    std::uint64_t nearKernelFragments = 0; ///< with nearCountSteps: fragments that ran the kernel
+    std::uint64_t raysTraced = 0;         ///< by this frame's bakes
 };
 
 struct FrameResult {
@@ -117,6 +135,8 @@ public:
     SnapshotCache& snapshotCache() { return *cache_; }
     TierSelector& selector() { return selector_; }
     const FrameOptions& options() const { return options_; }
+    /// Changes apply from the next frame (the cache budget only through snapshotCache().setBudget).
+    FrameOptions& options() { return options_; }
     /// The Vulkan device of the near tier ("" until a frame needed it).
     std::string nearDeviceName() const;
 
@@ -130,7 +150,7 @@ private:
     FrameOptions options_;
     TierSelector selector_;
     std::unique_ptr<SnapshotCache> cache_;
-    std::unique_ptr<NearRenderer> near_; ///< created by the first frame that draws near on Vulkan
+    std::shared_ptr<NearRenderer> near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan
     NearBackend backend_;                ///< who draws near sprites in the current frame
     std::vector<EntityPlan> previousPlan_;
     int editsApplied_ = 0; ///< scene.edits are applied in order of atFrame

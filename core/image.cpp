@@ -16,14 +16,6 @@ void Image::clear(Rgba8 background) {
     id.assign(pixelCount(), kernel::VT_NO_ENTITY);
 }
 
-void Image::writeIfNearer(std::size_t i, Rgba8 c, float d, std::uint32_t entity) {
-    if (d > depth[i] || (d == depth[i] && entity < id[i])) {
-        color[i] = c;
-        depth[i] = d;
-        id[i] = entity;
-    }
-}
-
 std::size_t Image::countEntity(std::uint32_t entity) const {
     return std::size_t(std::count(id.begin(), id.end(), entity));
 }

@@ -20,8 +20,15 @@ struct Image {
     std::size_t pixelCount() const { return std::size_t(width) * std::size_t(height); }
     /// Resets every pixel to the background: colour, depth 0, no entity.
     void clear(Rgba8 background);
-    /// Writes one sprite pixel when it wins the shared depth/id rule (core/sprite.hpp).
-    void writeIfNearer(std::size_t i, Rgba8 c, float d, std::uint32_t entity);
+    /// Writes one sprite pixel when it wins the shared depth/id rule (core/sprite.hpp). Inline:
+    /// the CPU tiers call it per pixel.
+    void writeIfNearer(std::size_t i, Rgba8 c, float d, std::uint32_t entity) {
+        if (d > depth[i] || (d == depth[i] && entity < id[i])) {
+            color[i] = c;
+            depth[i] = d;
+            id[i] = entity;
+        }
+    }
     /// Number of pixels an entity owns in the id buffer.
     std::size_t countEntity(std::uint32_t entity) const;
 };

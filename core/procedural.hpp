@@ -3,8 +3,9 @@
 // layout below is exact and part of the contract: change one and you change every test that
 // counts its pixels.
 //
-// All generators return a single-frame model whose palette is `proceduralPalette()` and whose
-// name is the generator's name ("box", "sphere", "arrow", "shell", "voxel"). Sizes outside
+// All generators but the tank return a single-frame model whose palette is `proceduralPalette()`
+// and whose name is the generator's name ("box", "sphere", "arrow", "shell", "voxel"). The tank
+// (the bench's "tank army", seed 002 §7) is animated, seeded and has its own palette. Sizes outside
 // 1..Limits::kMaxModelDim per axis throw InputError (from VoxelGrid), like a bad .vox would.
 // Voxel coordinates are voxel space (DESIGN.md §2: Z-up, x fastest in memory).
 #include "core/voxel_model.hpp"
@@ -68,5 +69,24 @@ std::shared_ptr<VoxelModel> makeShell(glm::ivec3 size, int thickness = 1,
 
 /// A 1x1x1 model holding one voxel of `index`.
 std::shared_ptr<VoxelModel> makeSingleVoxel(std::uint8_t index = proc_index::kRed);
+
+/// The tank of seed 002 §7: an animated model of `frames` (1..Limits::kMaxFramesPerModel)
+/// frames, dims `size` (default 32x32x16, each axis 8..256), front towards +X, up +Z. Parts:
+/// two tracks along X at the low and high Y sides, a hull on and between them with a sloped
+/// front, a round turret, a barrel, a hatch and an antenna (at the high-Y rear, so no mirror
+/// maps the tank onto itself). `seed` picks the type: hull and turret colours, track width and
+/// height, hull height, turret radius and position, barrel length and starting yaw. Frame f
+/// rolls the track treads by f voxels and turns the turret (with its barrel and hatch) by
+/// 360°·f/frames, so no two frames are equal. Same seed, size and frames: same voxels (a
+/// splitmix64 stream, independent of the standard library). Name "tank", palette
+/// `tankPalette()`. Solid voxels reach the grid's front, back (tracks), bottom (tracks) and top
+/// (antenna) faces.
+std::shared_ptr<VoxelModel> makeTank(std::uint64_t seed = 1, int frames = 8,
+                                     glm::ivec3 size = {32, 32, 16});
+
+/// Palette of the tank: `proceduralPalette()` with entries 32..47 replaced by military tones
+/// (hull colours 32..39, tracks, wheels, barrel, hatch, grille, antenna 40..46, turret trim
+/// 47). Every entry 1..255 stays opaque, distinct and different from the outline black.
+const Palette& tankPalette();
 
 } // namespace voxtier

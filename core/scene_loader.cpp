@@ -705,9 +705,25 @@ struct Loader {
         return std::make_shared<VoxelModel>(name, f.palette, std::move(frames));
     }
 
+    /// {"generator": "tank", "seed", "frames", "size"}: an animated model, kept whole.
+    std::shared_ptr<VoxelModel> tankModel(const Obj& o) {
+        o.allow({"name", "generator", "seed", "frames", "size"});
+        const std::string name = modelName(o);
+        std::uint64_t seed = 1;
+        if (auto v = o.get("seed")) seed = seedValue(c, *v, o.at("seed"));
+        int frames = 8;
+        o.i("frames", frames, 1, Limits::kMaxFramesPerModel);
+        glm::ivec3 size(32, 32, 16);
+        if (auto v = o.get("size")) size = ivec3(c, *v, o.at("size"), 8, Limits::kMaxModelDim);
+        auto m = makeTank(seed, frames, size);
+        m->setName(name);
+        return m;
+    }
+
     std::shared_ptr<VoxelModel> generatorModel(const Obj& o) {
-        static const std::vector<std::string> kinds{"box", "sphere", "arrow", "shell", "voxel"};
+        static const std::vector<std::string> kinds{"box", "sphere", "arrow", "shell", "voxel", "tank"};
         const int kind = choice(c, o.require("generator"), o.at("generator"), kinds);
+        if (kind == 5) return tankModel(o);
         switch (kind) {
         case 0:
             o.allow({"name", "generator", "size", "index", "color"});
@@ -774,7 +790,7 @@ struct Loader {
             if (!isVox && !isGen) {
                 // Report a misspelt key as such before complaining that the source is missing.
                 o.allow({"name", "vox", "model", "frames", "generator", "size", "radius", "length",
-                         "thickness", "index", "color"});
+                         "thickness", "index", "color", "seed"});
                 fail(c, o.path(), "missing 'vox' (a .vox file) or 'generator'");
             }
             auto m = isVox ? voxModel(o) : generatorModel(o);
@@ -839,10 +855,10 @@ struct Loader {
                                                           {"grid", "random"}) == 1;
             if (random)
                 o.allow({"models", "layout", "count", "seed", "random_yaw", "scale", "name", "area",
-                         "y"});
+                         "y", "fps", "random_frame"});
             else
                 o.allow({"models", "layout", "count", "seed", "random_yaw", "scale", "name",
-                         "origin", "spacing", "columns"});
+                         "origin", "spacing", "columns", "fps", "random_frame"});
 
             const std::string mp = o.at("models");
             const json& ml = array(c, o.require("models"), mp);
@@ -859,6 +875,10 @@ struct Loader {
             o.flag("random_yaw", randomYaw);
             double scale = 1.0;
             o.pos("scale", scale);
+            double fps = 0.0;
+            o.nonNeg("fps", fps);
+            bool randomFrame = false;
+            o.flag("random_frame", randomFrame);
             std::string prefix = element(path, i);
             o.str("name", prefix);
 
@@ -869,6 +889,9 @@ struct Loader {
                 e.position = p;
                 e.scale = scale;
                 if (randomYaw) e.rotation = quatFromEulerDeg({0.0, rng.unit() * 360.0, 0.0});
+                const int frames = s.models[std::size_t(model)]->frameCount();
+                if (randomFrame) e.frame = int(rng.below(std::uint64_t(frames)));
+                e.fps = fps;
                 e.name = prefix + "#" + std::to_string(k);
                 s.entities.push_back(std::move(e));
             };

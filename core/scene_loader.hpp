@@ -37,7 +37,9 @@
 //       {"name", "generator": "shell",  "size" (default [16,16,16]), "thickness" (default 1),
 //                                       "index", "color"}
 //       {"name", "generator": "voxel",  "index", "color"}
-//     Generators are those of core/procedural.hpp. "index" (1..255, default 1) is the palette
+//       {"name", "generator": "tank",   "seed": unsigned (default 1), "frames": 1..4096 (default 8),
+//                                       "size": [x,y,z] each 8..256 (default [32,32,16])}
+//     Generators are those of core/procedural.hpp (the tank keeps its own palette and frames). "index" (1..255, default 1) is the palette
 //     index the solid uses; "color": [r, g, b] overrides that palette entry for this model.
 //   "entities": [{"model": name (required), "position": [x,y,z], "rotation_deg": [rx,ry,rz] |
 //                 "quaternion": [w,x,y,z] (non-zero; normalised), "scale": > 0,
@@ -48,13 +50,15 @@
 //   "crowds": [{"models": [name, ...] (required, >= 1), "layout": "grid" | "random" (default grid),
 //               "count": >= 0 (required), "seed": unsigned integer (default 1),
 //               "random_yaw": bool (default false), "scale": > 0, "name": prefix,
+//               "fps": >= 0 (animation, default 0), "random_frame": bool (default false: frame 0),
 //               grid only:   "origin": [x,y,z], "spacing": [dx, dz] (default [2, 2]),
 //                            "columns": >= 1 (default ceil(sqrt(count))),
 //               random only: "area": {"min": [x, z], "max": [x, z]} (required, min <= max),
 //                            "y": height (default 0)}]
 //       Grid entity k sits at origin + (dx * (k % columns), 0, dz * (k / columns)) with model
 //       models[k % n]. Random entities draw, in this order from a splitmix64 stream seeded with
-//       `seed`: model (random layout only), x, z (random layout only), then yaw (if random_yaw).
+//       `seed`: model (random layout only), x, z (random layout only), then yaw (if random_yaw),
+//       then the start frame (if random_frame: next % the model's frame count).
 //       The result depends only on the scene file, never on the standard library.
 //   "vox_scenes": [{"vox": path (required), "position": [x,y,z], "scale": > 0,
 //                   "include_hidden": false}]

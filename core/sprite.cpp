@@ -40,11 +40,6 @@ glm::dvec3 snapDirection(glm::dvec3 d) {
     return glm::normalize(snapComponents(d));
 }
 
-glm::ivec2 SpriteLattice::cellAt(glm::dvec3 p) const {
-    return {int(std::floor(sigma * (glm::dot(p, right) - gU))),
-            int(std::floor(sigma * (glm::dot(p, up) - gV)))};
-}
-
 SpriteLattice makeSpriteLattice(glm::dvec3 dir, glm::dvec3 upHint, glm::dvec3 fallbackUp,
                                 glm::ivec3 dims, double sigma) {
     SpriteLattice L;

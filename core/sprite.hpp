@@ -8,6 +8,7 @@
 #include "core/sprite_kernel.h"
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -40,8 +41,11 @@ struct SpriteLattice {
     }
     /// §3.6: the cell's primary ray starts 2*maxDim in front of the plane.
     glm::dvec3 rayOrigin(int i, int j) const { return cellCentre(i, j) - dir * (2.0 * maxDim); }
-    /// Cell containing the sprite-plane point `p` (voxel space, relative to the centre).
-    glm::ivec2 cellAt(glm::dvec3 p) const;
+    /// Cell containing the sprite-plane point `p` (voxel space, relative to the centre). Inline:
+    /// the far blit calls it per footprint pixel.
+    glm::ivec2 cellAt(glm::dvec3 p) const {
+        return {int(std::floor(sigma * (glm::dot(p, right) - gU))), int(std::floor(sigma * (glm::dot(p, up) - gV)))};
+    }
     int width() const { return cellRange.y - cellRange.x + 1; }
     int height() const { return cellRange.w - cellRange.z + 1; }
 };

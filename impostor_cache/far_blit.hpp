@@ -11,6 +11,7 @@
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"
 
+#include <cmath>
 #include <cstdint>
 #include <span>
 
@@ -23,11 +24,33 @@ struct FarSprite {
 };
 
 struct FarBlitStats {
-    std::uint64_t sprites = 0;       ///< sprites drawn
-    std::uint64_t pixelsTested = 0;  ///< pixels of sprite rectangles evaluated
+    std::uint64_t sprites = 0; ///< sprites drawn
+    std::uint64_t pixelsTested =
+        0; ///< pixels evaluated (of each row, the columns that can hold a cell)
     std::uint64_t pixelsWritten = 0; ///< solid or outline snapshot cells read
     double milliseconds = 0.0;
 };
+
+/// Which snapshot cell the blit reads for near cell (i, j): the centre of the near cell on the
+/// sprite plane, (gU + (i+½)/σ) right + (gV + (j+½)/σ) up, expressed on the snapshot lattice,
+/// floor(σs (q·right_s − gU_s)) and floor(σs (q·up_s − gV_s)). Affine in (i, j), so it is set up
+/// once per sprite (double) and costs two multiply-adds per axis and cell.
+struct SnapshotCellMap {
+    double u0 = 0, ui = 0, uj = 0, v0 = 0, vi = 0, vj = 0;
+    glm::ivec2 operator()(glm::ivec2 cell) const {
+        return {floorToInt(u0 + ui * cell.x + uj * cell.y),
+                floorToInt(v0 + vi * cell.x + vj * cell.y)};
+    }
+    /// floor() for |x| < 2^31, which every cell of a lattice of at most 256-voxel models at any
+    /// sane sigma is. Without SSE4.1 (the x86-64 baseline) std::floor compiles to a slow sequence;
+    /// this is a truncation and a compare.
+    static int floorToInt(double x) {
+        const int t = int(x);
+        return t - (x < double(t));
+    }
+};
+SnapshotCellMap snapshotCellMap(const SpriteLattice& nearLattice,
+                                const SpriteLattice& snapshotLattice);
 
 /// The view the far tier shows for a sprite: w* = argmax w . (-d), d = sprite.lattice.dir
 /// (the per-entity direction the near tier uses, so the tiers agree on it).

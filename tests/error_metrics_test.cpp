@@ -46,6 +46,7 @@ TEST(EntityError, ShiftedSquareReportsShiftAsDisplacement) {
     EXPECT_EQ(e.footprintTest, 64u);
     EXPECT_EQ(e.unionPixels, 88u);  // 8 rows x 11 columns
     EXPECT_EQ(e.mismatched, 48u);   // 3 columns on each side
+    EXPECT_EQ(e.coverageMismatched, 48u); // same colour: every mismatch is coverage
     EXPECT_DOUBLE_EQ(e.silhouetteDisplacementPx, 3.0);
 }
 
@@ -54,6 +55,7 @@ TEST(EntityError, IdenticalFootprintWithOtherColourHasNoDisplacement) {
     const Image b = withSquare(5, 5, 6, 1, packRgba(10, 20, 31));
     const EntityError e = entityError(a, b, 1);
     EXPECT_EQ(e.mismatchFraction(), 1.0);
+    EXPECT_EQ(e.coverageMismatchFraction(), 0.0);
     EXPECT_EQ(e.silhouetteDisplacementPx, 0.0);
 }
 

@@ -201,6 +201,106 @@ TEST(Procedural, OutOfRangeParametersAreInputErrors) {
     EXPECT_THROW(makeBox({4, 257, 4}), InputError);
 }
 
+// The tank (seed 002 §7). Its layout is drawn from a seed, so these tests pin the properties the
+// bench relies on, each computed here from the voxels alone.
+
+/// Voxel p of `g` mapped by flipping the axes whose bit is set in `flips`.
+bool equalUnderFlips(const VoxelGrid& g, int flips) {
+    const glm::ivec3 d = g.dims();
+    for (int z = 0; z < d.z; ++z)
+        for (int y = 0; y < d.y; ++y)
+            for (int x = 0; x < d.x; ++x) {
+                glm::ivec3 q{x, y, z};
+                for (int a = 0; a < 3; ++a)
+                    if (flips & (1 << a)) q[a] = d[a] - 1 - q[a];
+                if (g.at({x, y, z}) != g.at(q)) return false;
+            }
+    return true;
+}
+
+TEST(Procedural, TankHasTheSeedsDimsFramesAndIsDeterministic) {
+    const auto t = makeTank(7);
+    EXPECT_EQ(t->name(), "tank");
+    ASSERT_EQ(t->frameCount(), 8);
+    for (int f = 0; f < 8; ++f) EXPECT_EQ(t->frame(f).dims(), glm::ivec3(32, 32, 16)) << f;
+    const auto again = makeTank(7);
+    for (int f = 0; f < 8; ++f) EXPECT_EQ(t->frame(f).data(), again->frame(f).data()) << f;
+    EXPECT_NE(t->uid(), again->uid());
+    const auto custom = makeTank(7, 3, {64, 48, 24});
+    ASSERT_EQ(custom->frameCount(), 3);
+    EXPECT_EQ(custom->frame(2).dims(), glm::ivec3(64, 48, 24));
+    EXPECT_EQ(makeTank(7, 1)->frameCount(), 1);
+}
+
+TEST(Procedural, TankTypesDifferBySeedAndNoMirrorMapsATankOntoItself) {
+    std::vector<std::vector<std::uint8_t>> types;
+    for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+        SCOPED_TRACE(seed);
+        const auto t = makeTank(seed, 2);
+        const VoxelGrid& g = t->frame(0);
+        for (const auto& other : types) EXPECT_NE(g.data(), other);
+        types.push_back(g.data());
+        // Mirror in x, in y, and the half turn about z (x and y flipped together).
+        for (int flips : {1, 2, 3}) EXPECT_FALSE(equalUnderFlips(g, flips)) << "flips=" << flips;
+        // The voxels reach the front, back, bottom and top of the grid.
+        const Box3i b = g.contentBounds();
+        EXPECT_EQ(b.min.x, 0);
+        EXPECT_EQ(b.max.x, 32);
+        EXPECT_EQ(b.min.z, 0);
+        EXPECT_EQ(b.max.z, 16);
+        // It stands on two tracks: the bottom layer is empty in the middle quarter of the width.
+        for (int y = 12; y < 20; ++y)
+            for (int x = 0; x < 32; ++x) ASSERT_EQ(g.at({x, y, 0}), 0) << x << "," << y;
+        // Solid enough to be a vehicle, far from full.
+        EXPECT_GT(g.solidCount(), 32u * 32u * 16u / 5u);
+        EXPECT_LT(g.solidCount(), 32u * 32u * 16u * 3u / 4u);
+    }
+}
+
+TEST(Procedural, TankFramesAllDifferAndTheTreadsRollOneVoxelPerFrame) {
+    const auto t = makeTank(3, 8);
+    for (int a = 0; a < 8; ++a)
+        for (int b = a + 1; b < 8; ++b) EXPECT_NE(t->frame(a).data(), t->frame(b).data()) << a << " vs " << b;
+    // The bottom row of the low-Y track (the first y with a voxel on the ground) moves by +1 in
+    // x per frame, away from the rounded ends.
+    int y = 0;
+    while (y < 32 && t->frame(0).at({16, y, 0}) == 0) ++y;
+    ASSERT_LT(y, 12);
+    for (int f = 0; f + 1 < 8; ++f)
+        for (int x = 3; x < 29; ++x) {
+            ASSERT_NE(t->frame(f).at({x, y, 0}), 0) << f << "," << x;
+            ASSERT_EQ(t->frame(f + 1).at({x, y, 0}), t->frame(f).at({x - 1, y, 0})) << f << "," << x;
+        }
+    // The treads are not uniform, so rolling is visible.
+    std::set<std::uint8_t> row;
+    for (int x = 3; x < 29; ++x) row.insert(t->frame(0).at({x, y, 0}));
+    EXPECT_GE(row.size(), 2u);
+}
+
+TEST(Procedural, TankPaletteIsOpaqueDistinctAndNeverOutlineBlack) {
+    const Palette& p = tankPalette();
+    std::set<Rgba8> seen;
+    for (int i = 1; i < 256; ++i) {
+        const Rgba8 c = p.colors[std::size_t(i)];
+        EXPECT_EQ(channel(c, 3), 255u) << i;
+        EXPECT_NE(c & 0xffffffu, 0u) << i;
+        EXPECT_TRUE(seen.insert(c).second) << "duplicate colour at index " << i;
+    }
+    EXPECT_EQ(makeTank(1)->palette(), p);
+    // Every voxel of every frame uses an entry the palette defines on purpose (32..47).
+    const auto t = makeTank(5, 4);
+    for (int f = 0; f < 4; ++f)
+        for (auto v : t->frame(f).data()) ASSERT_TRUE(v == 0 || (v >= 32 && v <= 47)) << int(v);
+}
+
+TEST(Procedural, TankParametersOutOfRangeAreInputErrors) {
+    EXPECT_THROW(makeTank(1, 0), InputError);
+    EXPECT_THROW(makeTank(1, Limits::kMaxFramesPerModel + 1), InputError);
+    EXPECT_THROW(makeTank(1, 1, {7, 32, 16}), InputError);
+    EXPECT_THROW(makeTank(1, 1, {32, 32, 257}), InputError);
+    EXPECT_NO_THROW(makeTank(1, 1, {8, 8, 8}));
+}
+
 TEST(Procedural, EveryCallReturnsAFreshModelWithItsOwnUid) {
     // Tests edit these models; two calls must never share state.
     const auto a = makeBox({2, 2, 2}), b = makeBox({2, 2, 2});

@@ -569,6 +569,24 @@ TEST(SceneLoader, GeneratorsBuildTheProceduralModels) {
     EXPECT_EQ(s.models[2]->name(), "a");
 }
 
+TEST(SceneLoader, TankGeneratorKeepsItsFramesSeedAndSize) {
+    const Scene s = loadJson(json::parse(R"({"models": [
+        {"name": "t", "generator": "tank", "seed": 4, "frames": 3, "size": [16, 16, 8]},
+        {"name": "d", "generator": "tank"}]})"));
+    ASSERT_EQ(s.models.size(), 2u);
+    const auto expected = makeTank(4, 3, {16, 16, 8});
+    ASSERT_EQ(s.models[0]->frameCount(), 3);
+    for (int f = 0; f < 3; ++f) EXPECT_EQ(s.models[0]->frame(f).data(), expected->frame(f).data());
+    EXPECT_EQ(s.models[0]->name(), "t");
+    EXPECT_EQ(s.models[0]->palette(), tankPalette());
+    EXPECT_EQ(s.models[1]->frameCount(), 8);
+    EXPECT_EQ(s.models[1]->frame(0).data(), makeTank(1)->frame(0).data());
+    EXPECT_THROW(loadJson(json::parse(R"({"models": [{"name": "t", "generator": "tank", "size": [4, 32, 16]}]})")),
+                 InputError);
+    EXPECT_THROW(loadJson(json::parse(R"({"models": [{"name": "t", "generator": "tank", "radius": 3}]})")),
+                 InputError);
+}
+
 glm::dvec3 rotate(const glm::dquat& q, glm::dvec3 v) {
     return q * v;
 }
@@ -751,6 +769,34 @@ TEST(SceneLoader, RandomCrowdIsPinnedToSplitMix64) {
     EXPECT_EQ(s.entities[2].model, 0);
     EXPECT_EQ(s.entities[2].position, glm::dvec3(0.27528749941108965, 0, 0.43779353926260767));
     EXPECT_EQ(s.entities[2].rotation, glm::dquat(1, 0, 0, 0)); // random_yaw defaults to false
+}
+
+TEST(SceneLoader, CrowdAnimationAddsTheStartFrameLastInTheStream) {
+    // The same crowd with and without random_frame: the first entity is placed identically (its
+    // frame is drawn after its position and yaw), the crowd is deterministic, frames stay within
+    // each model's frame count, fps is copied.
+    auto scene = [](bool randomFrame) {
+        json j = {{"models", {{{"name", "t"}, {"generator", "tank"}, {"frames", 5}},
+                              {{"name", "b"}, {"generator", "box"}}}},
+                  {"crowds", {{{"models", {"t", "b"}}, {"layout", "random"}, {"count", 40}, {"seed", 9},
+                               {"random_yaw", true}, {"fps", 6}, {"random_frame", randomFrame},
+                               {"area", {{"min", {0, 0}}, {"max", {10, 10}}}}}}}};
+        return loadJson(j);
+    };
+    const Scene a = scene(true), b = scene(false);
+    ASSERT_EQ(a.entities.size(), 40u);
+    EXPECT_TRUE(sameEntities({a.entities[0]}, {b.entities[0]}));
+    EXPECT_TRUE(sameEntities(a.entities, scene(true).entities));
+    for (std::size_t i = 0; i < a.entities.size(); ++i) EXPECT_EQ(a.entities[i].frame, scene(true).entities[i].frame);
+    std::set<int> starts;
+    for (const Entity& e : a.entities) {
+        EXPECT_EQ(e.fps, 6.0);
+        EXPECT_GE(e.frame, 0);
+        EXPECT_LT(e.frame, a.models[std::size_t(e.model)]->frameCount());
+        if (e.model == 0) starts.insert(e.frame);
+    }
+    for (const Entity& e : b.entities) EXPECT_EQ(e.frame, 0);
+    EXPECT_GT(starts.size(), 1u);
 }
 
 TEST(SceneLoader, GridCrowdCyclesModelsRowByRow) {

@@ -612,13 +612,14 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     img.width = width;
     img.height = height;
     const std::size_t count = img.pixelCount();
-    img.color.resize(count);
-    img.id.resize(count);
-    img.depth.resize(count);
+    // assign() copies straight in; resize() + memcpy would write every byte twice.
     const auto* base = static_cast<const std::uint8_t*>(readback.mapped());
-    std::memcpy(img.color.data(), base, count * 4);
-    std::memcpy(img.id.data(), base + plane, count * 4);
-    std::memcpy(img.depth.data(), base + 2 * plane, count * 4);
+    const auto* colors = reinterpret_cast<const Rgba8*>(base);
+    const auto* ids = reinterpret_cast<const std::uint32_t*>(base + plane);
+    const auto* depths = reinterpret_cast<const float*>(base + 2 * plane);
+    img.color.assign(colors, colors + count);
+    img.id.assign(ids, ids + count);
+    img.depth.assign(depths, depths + count);
     stats.readbackMs = msSince(tRead);
 
     if (query) {

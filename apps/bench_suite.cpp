@@ -1,0 +1,844 @@
+// `voxtier bench`: the measurement side (apps/bench_suite.hpp says how it measures).
+#include "apps/bench_suite.hpp"
+
+#include "core/error.hpp"
+#include "core/scene_loader.hpp"
+#include "volumetric/near_renderer.hpp"
+
+#include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <thread>
+#include <unistd.h>
+
+namespace voxtier::bench {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+double secondsSince(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    const std::size_t m = v.size() / 2;
+    return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+std::string fmt(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+}
+
+template <class T>
+std::vector<T> parseList(const std::string& text, const char* flag, double lo, double hi) {
+    std::vector<T> out;
+    std::stringstream ss(text);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+        try {
+            std::size_t used = 0;
+            const double v = std::stod(item, &used);
+            if (used != item.size() || !(v >= lo && v <= hi)) throw std::invalid_argument("");
+            if (std::is_integral_v<T> && v != std::floor(v)) throw std::invalid_argument("");
+            out.push_back(T(v));
+        } catch (const std::exception&) {
+            throw InputError("", flag,
+                             "expected a comma-separated list of numbers in [" + fmt(lo) + ", " +
+                                 fmt(hi) + "], got '" + text + "'");
+        }
+    }
+    if (out.empty()) throw InputError("", flag, "expected at least one value");
+    return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Progress: one line on stderr, rewritten in place on a terminal, a line every few seconds
+// otherwise (logs and tests).
+
+class Progress {
+  public:
+    explicit Progress(std::size_t total)
+        : total_(std::max<std::size_t>(total, 1)), t0_(Clock::now()), tty_(isatty(2)) {}
+    void step(const std::string& what) {
+        ++done_;
+        const double t = secondsSince(t0_);
+        if (!tty_ && t - lastPrint_ < 5.0 && done_ < total_) return;
+        lastPrint_ = t;
+        const int pct = int(100.0 * double(done_) / double(total_));
+        std::fprintf(stderr, "%s[%3d%%] %5.0f s  %s%s", tty_ ? "\r\033[K" : "", std::min(pct, 100),
+                     t, what.c_str(), tty_ ? "" : "\n");
+        std::fflush(stderr);
+    }
+    void finish() {
+        if (tty_) std::fprintf(stderr, "\n");
+    }
+
+  private:
+    std::size_t total_, done_ = 0;
+    Clock::time_point t0_;
+    bool tty_;
+    double lastPrint_ = -1e9;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Configurations and sets.
+
+struct Config {
+    std::string name; ///< for the progress line and the "truth" column
+    std::string mode; ///< near_vulkan, near_reference, far, hybrid
+    RenderMode renderMode = RenderMode::Near;
+    bool isTruth = false;
+    int truth = -1; ///< index (in the set) of the all-near image the errors are measured against
+    Scene scene;    ///< this configuration's copy (the FrameRenderer keeps a reference to it)
+    std::unique_ptr<FrameRenderer> renderer;
+    std::vector<std::vector<FrameStats>> samples; ///< [frame][timed pass]
+    FrameStats cold;
+    double coldFirstMs = 0.0;
+    std::vector<FrameErrorReport> errors;
+    std::vector<char> hasError;
+    std::vector<std::uint64_t> countedSteps, countedFragments;
+};
+
+struct Row {
+    int config = 0;
+    Measurement meta; ///< labels; the numbers are filled in from the configuration
+};
+
+struct Set {
+    std::string label;
+    std::vector<int> frames;
+    std::vector<double> times;
+    int repeats = 1;
+    std::vector<std::unique_ptr<Config>> configs; ///< truths first; stable addresses
+    std::vector<Row> rows;
+};
+
+std::string sceneName(const std::string& file) {
+    return fs::path(file).stem().string();
+}
+
+const char* metricName(SelectorMetric m) {
+    switch (m) {
+    case SelectorMetric::Distance:
+        return "distance";
+    case SelectorMetric::RadiusPx:
+        return "radius_px";
+    case SelectorMetric::ErrorPx:
+        return "error_px";
+    }
+    return "?";
+}
+
+std::string selectorSummary(const Scene& s) {
+    const SelectorConfig& c = s.selector;
+    return std::string(metricName(c.metric)) + " near_at " + fmt(c.nearAt) + " far_at " +
+           fmt(c.farAt) + ", " + std::to_string(c.viewSetSize) + " views, sigma " +
+           fmt(s.render.sigma) + ", fade " + std::to_string(c.crossfadeFrames) +
+           (c.viewHysteresisDeg > 0 ? ", view hysteresis " + fmt(c.viewHysteresisDeg) : "");
+}
+
+/// Adds a configuration; the truth of a near_vulkan configuration is itself.
+int addConfig(Set& set, const Scene& scene, const std::string& mode, const std::string& name) {
+    auto c = std::make_unique<Config>();
+    c->name = name;
+    c->mode = mode;
+    c->scene = scene;
+    c->renderMode = mode == "near_vulkan"      ? RenderMode::Near
+                    : mode == "near_reference" ? RenderMode::Reference
+                    : mode == "far"            ? RenderMode::Far
+                                               : RenderMode::Hybrid;
+    c->isTruth = mode == "near_vulkan";
+    set.configs.push_back(std::move(c));
+    return int(set.configs.size()) - 1;
+}
+
+Measurement label(const std::string& group, const std::string& scene, const std::string& mode,
+                  const std::string& family = "", const std::string& setting = "",
+                  double param = 0.0) {
+    Measurement m;
+    m.group = group;
+    m.scene = scene;
+    m.mode = mode;
+    m.family = family;
+    m.setting = setting;
+    m.param = param;
+    return m;
+}
+
+/// The four modes of one scene, truth first. Returns the indices near_vulkan, reference, far,
+/// hybrid.
+std::array<int, 4> addModes(Set& set, const Scene& scene) {
+    return {addConfig(set, scene, "near_vulkan", "near_vulkan"),
+            addConfig(set, scene, "near_reference", "near_reference"),
+            addConfig(set, scene, "far", "far"), addConfig(set, scene, "hybrid", "hybrid")};
+}
+
+void linkTruths(Set& set) {
+    // Each approximate configuration is compared with the near_vulkan configuration of the same
+    // sigma (the sprites' lattice depends on it; nothing else in a scene copy differs).
+    for (auto& c : set.configs) {
+        if (c->isTruth) continue;
+        for (std::size_t t = 0; t < set.configs.size(); ++t)
+            if (set.configs[t]->isTruth &&
+                set.configs[t]->scene.render.sigma == c->scene.render.sigma) {
+                c->truth = int(t);
+                break;
+            }
+    }
+    // Truths render first in every frame, so their images exist when the others are compared.
+    for (std::size_t i = 0; i < set.configs.size(); ++i)
+        if (!set.configs[i]->isTruth)
+            for (std::size_t j = i + 1; j < set.configs.size(); ++j)
+                if (set.configs[j]->isTruth)
+                    throw std::logic_error("bench: truth configurations must come first");
+}
+
+std::pair<std::vector<int>, std::vector<double>> pathSamples(const Scene& s, int count) {
+    std::vector<int> frames;
+    if (s.path && count > 1) {
+        const int n = s.path->frameCount();
+        const int k = std::min(count, n);
+        for (int i = 0; i < k; ++i)
+            frames.push_back(k == 1 ? 0 : int(std::lround(double(i) * (n - 1) / (k - 1))));
+    } else {
+        frames.push_back(0);
+    }
+    std::vector<double> times;
+    for (int f : frames) times.push_back(s.path ? s.timeOfFrame(f) : 0.0);
+    return {frames, times};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scenes: loading, overrides, and the JSON edits behind the scaling curves.
+
+struct SceneSource {
+    std::string file;
+    json doc; ///< the file's JSON (already validated by loadScene)
+    Scene scene;
+};
+
+SceneSource loadSource(const std::string& file) {
+    SceneSource s;
+    s.file = file;
+    s.scene = loadScene(file); // validates, with the loader's one-line errors
+    std::ifstream in(file);
+    s.doc = json::parse(in);
+    return s;
+}
+
+Scene fromJson(const SceneSource& src, const json& doc) {
+    return loadSceneJson(doc, src.file, fs::path(src.file).parent_path());
+}
+
+void applyOverrides(Scene& s, const Plan& plan, bool capEntities) {
+    if (plan.width) s.camera.width = *plan.width, s.camera.height = *plan.height;
+    if (capEntities && plan.entityCap && int(s.entities.size()) > *plan.entityCap)
+        s.entities.resize(std::size_t(*plan.entityCap));
+}
+
+/// The document with its crowds resized so that the scene has `total` entities (plain entities
+/// kept, crowds scaled in proportion). nullopt when the scene has no crowd to resize.
+std::optional<json> withEntityCount(json doc, int total) {
+    if (!doc.contains("crowds") || doc["crowds"].empty()) return std::nullopt;
+    const int plain = doc.contains("entities") ? int(doc["entities"].size()) : 0;
+    long long crowd = 0;
+    for (const json& c : doc["crowds"]) crowd += c.value("count", 0);
+    if (crowd <= 0) return std::nullopt;
+    const int want = std::max(0, total - plain);
+    int assigned = 0;
+    for (std::size_t i = 0; i < doc["crowds"].size(); ++i) {
+        json& c = doc["crowds"][i];
+        const bool last = i + 1 == doc["crowds"].size();
+        const int n = last ? want - assigned
+                           : int(std::lround(double(c.value("count", 0)) * want / double(crowd)));
+        c["count"] = std::max(0, n);
+        assigned += std::max(0, n);
+    }
+    return doc;
+}
+
+/// The document with every tank generator at `side` x `side` x `side/2` voxels, one animation
+/// frame (static: the curve is about the voxel count, not about animation) and the voxel size
+/// scaled so the tanks keep their size in metres. nullopt when the scene has no tank.
+std::optional<json> withTankSide(json doc, int side) {
+    double baseSide = 0.0;
+    for (json& m : doc["models"]) {
+        if (m.value("generator", "") != "tank") continue;
+        if (baseSide == 0.0) baseSide = m.contains("size") ? m["size"][0].get<double>() : 32.0;
+        m["size"] = {side, side, std::max(8, side / 2)};
+        m["frames"] = 1;
+    }
+    if (baseSide == 0.0) return std::nullopt;
+    doc["voxel_size"] = doc.value("voxel_size", 0.1) * baseSide / side;
+    for (json& c : doc["crowds"]) c.erase("fps");
+    return doc;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Measuring.
+
+/// Time of a memcpy of `bytes`, split over the TBB workers like the blit (median of 5 after one
+/// untimed copy): the bandwidth limit a blit of that many bytes cannot beat.
+double memcpyMs(std::size_t bytes) {
+    if (bytes == 0) return 0.0;
+    std::vector<unsigned char> src(bytes, 1), dst(bytes, 0);
+    constexpr std::size_t kBlock = 256 << 10;
+    const std::size_t blocks = (bytes + kBlock - 1) / kBlock;
+    auto copy = [&] {
+        tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
+            const std::size_t at = b * kBlock;
+            std::memcpy(dst.data() + at, src.data() + at, std::min(kBlock, bytes - at));
+        });
+    };
+    copy();
+    std::vector<double> ms;
+    for (int r = 0; r < 5; ++r) {
+        const auto t0 = Clock::now();
+        copy();
+        ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    }
+    if (dst[bytes / 2] != 1) std::abort(); // keeps the copies observable
+    return median(ms);
+}
+
+/// Bytes per blitted pixel the memcpy reference copies: the target's colour, depth and id.
+constexpr double kBlitBytesPerPixel = 12.0;
+
+FrameStats medianStats(const std::vector<FrameStats>& v) {
+    auto med = [&](auto get) {
+        std::vector<double> x;
+        for (const FrameStats& s : v) x.push_back(double(get(s)));
+        return median(x);
+    };
+    FrameStats m;
+    m.entities = int(med([](const FrameStats& s) { return s.entities; }));
+    m.culled = int(med([](const FrameStats& s) { return s.culled; }));
+    m.nearDrawn = int(med([](const FrameStats& s) { return s.nearDrawn; }));
+    m.farDrawn = int(med([](const FrameStats& s) { return s.farDrawn; }));
+    m.fading = int(med([](const FrameStats& s) { return s.fading; }));
+    m.switchesToFar = int(med([](const FrameStats& s) { return s.switchesToFar; }));
+    m.switchesToNear = int(med([](const FrameStats& s) { return s.switchesToNear; }));
+    m.viewChanges = int(med([](const FrameStats& s) { return s.viewChanges; }));
+    m.farBakes = int(med([](const FrameStats& s) { return s.farBakes; }));
+    m.cacheBytes = std::size_t(med([](const FrameStats& s) { return s.cacheBytes; }));
+    m.setupMs = med([](const FrameStats& s) { return s.setupMs; });
+    m.selectMs = med([](const FrameStats& s) { return s.selectMs; });
+    m.nearMs = med([](const FrameStats& s) { return s.nearMs; });
+    m.farMs = med([](const FrameStats& s) { return s.farMs; });
+    m.bakeMs = med([](const FrameStats& s) { return s.bakeMs; });
+    m.totalMs = med([](const FrameStats& s) { return s.totalMs; });
+    m.nearUploadMs = med([](const FrameStats& s) { return s.nearUploadMs; });
+    m.nearDrawMs = med([](const FrameStats& s) { return s.nearDrawMs; });
+    m.nearReadbackMs = med([](const FrameStats& s) { return s.nearReadbackMs; });
+    m.blitMs = med([](const FrameStats& s) { return s.blitMs; });
+    m.nearPixelsTested = std::uint64_t(med([](const FrameStats& s) { return s.nearPixelsTested; }));
+    m.farPixelsTested = std::uint64_t(med([](const FrameStats& s) { return s.farPixelsTested; }));
+    m.voxelFetches = std::uint64_t(med([](const FrameStats& s) { return s.voxelFetches; }));
+    m.farPixelsWritten = std::uint64_t(med([](const FrameStats& s) { return s.farPixelsWritten; }));
+    m.raysTraced = std::uint64_t(med([](const FrameStats& s) { return s.raysTraced; }));
+    return m;
+}
+
+void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& near,
+            Progress& progress) {
+    const std::size_t F = set.frames.size();
+    for (auto& c : set.configs) {
+        FrameOptions o;
+        o.sharedNear = near;
+        o.nearBackend = c->mode == "hybrid" ? NearBackend::Vulkan : NearBackend::Reference;
+        c->renderer = std::make_unique<FrameRenderer>(c->scene, o);
+        c->samples.assign(F, {});
+        c->errors.assign(F, {});
+        c->hasError.assign(F, 0);
+        c->countedSteps.assign(F, 0);
+        c->countedFragments.assign(F, 0);
+    }
+    const int passes = plan.warmup + set.repeats;
+    std::size_t truths = 0;
+    while (truths < set.configs.size() && set.configs[truths]->isTruth) ++truths;
+    for (int pass = 0; pass < passes; ++pass) {
+        // Truths first (their images are compared with in the last pass), the others rotated by
+        // one place per pass, so no configuration always runs right after the same neighbour.
+        std::vector<std::size_t> order;
+        for (std::size_t i = 0; i < set.configs.size(); ++i)
+            order.push_back(i < truths ? i
+                                       : truths + (i - truths + std::size_t(pass)) %
+                                                      (set.configs.size() - truths));
+        const bool timed = pass >= plan.warmup, last = pass == passes - 1;
+        for (auto& c : set.configs)
+            c->renderer->selector().reset(); // a pass is the path from its start
+        for (std::size_t fi = 0; fi < F; ++fi) {
+            std::vector<Image> truthImages(set.configs.size());
+            for (const std::size_t ci : order) {
+                Config& c = *set.configs[ci];
+                progress.step(set.label + ": " + c.name + ", frame " +
+                              std::to_string(set.frames[fi]) +
+                              (timed ? ", pass " + std::to_string(pass - plan.warmup + 1) + "/" +
+                                           std::to_string(set.repeats)
+                                     : ", warm-up"));
+                FrameResult r = c.renderer->render(set.times[fi], c.renderMode, set.frames[fi]);
+                if (pass == 0) {
+                    if (fi == 0) c.coldFirstMs = r.stats.totalMs;
+                    c.cold.farBakes += r.stats.farBakes;
+                    c.cold.bakeMs += r.stats.bakeMs;
+                    c.cold.raysTraced += r.stats.raysTraced;
+                    c.cold.totalMs += r.stats.totalMs;
+                }
+                if (timed) c.samples[fi].push_back(r.stats);
+                if (!last) continue;
+                if (c.isTruth) {
+                    truthImages[ci] = std::move(r.image);
+                } else if (c.truth >= 0) {
+                    c.errors[fi] = measureFrameError(truthImages[std::size_t(c.truth)], r.image,
+                                                     r.sprites, r.plan);
+                    if (r.stats.farDrawn > 0)
+                        c.errors[fi].farIsolated = summarizeEntities(
+                            isolatedFarErrors(c.scene,
+                                              makeCameraFrame(c.scene.cameraAt(set.times[fi])),
+                                              r.sprites, r.plan, c.renderer->snapshotCache()),
+                            r.sprites);
+                    c.hasError[fi] = 1;
+                }
+            }
+        }
+    }
+    // Voxel reads of the Vulkan near tier: one more, untimed frame with the counting shader.
+    for (auto& c : set.configs) {
+        if (c->mode != "near_vulkan") continue;
+        c->renderer->options().nearCountSteps = true;
+        for (std::size_t fi = 0; fi < F; ++fi) {
+            progress.step(set.label + ": " + c->name + ", counting voxel steps");
+            const FrameResult r = c->renderer->render(set.times[fi], c->renderMode, set.frames[fi]);
+            c->countedSteps[fi] = r.stats.voxelFetches;
+            c->countedFragments[fi] = r.stats.nearKernelFragments;
+        }
+        c->renderer->options().nearCountSteps = false;
+    }
+}
+
+/// Mean over the frames of the per-frame median frame time.
+double pathMeanMs(const Config& c) {
+    double sum = 0.0;
+    for (const auto& passes : c.samples) {
+        std::vector<double> ms;
+        for (const FrameStats& s : passes) ms.push_back(s.totalMs);
+        sum += median(ms);
+    }
+    return c.samples.empty() ? 0.0 : sum / double(c.samples.size());
+}
+
+Measurement aggregate(const Set& set, const Row& row) {
+    const Config& c = *set.configs[std::size_t(row.config)];
+    Measurement m = row.meta;
+    const Config* truth = c.isTruth      ? &c
+                          : c.truth >= 0 ? set.configs[std::size_t(c.truth)].get()
+                                         : nullptr;
+    if (truth) {
+        m.baselineMs = pathMeanMs(*truth);
+        for (const auto& passes : truth->samples)
+            m.baselineFragments +=
+                medianStats(passes).nearPixelsTested / double(truth->samples.size());
+    }
+    m.selector = selectorSummary(c.scene);
+    m.truth = c.isTruth ? "itself" : c.truth >= 0 ? set.configs[std::size_t(c.truth)]->name : "";
+    const std::size_t F = set.frames.size();
+    double steps = 0, stepMs = 0, blitPx = 0, blitMs = 0,
+           psnrMin = std::numeric_limits<double>::infinity();
+    int errorFrames = 0, farFrames = 0;
+    for (std::size_t fi = 0; fi < F; ++fi) {
+        FrameRow fr;
+        fr.frame = set.frames[fi];
+        fr.time = set.times[fi];
+        fr.median = medianStats(c.samples[fi]);
+        fr.minMs = 1e300;
+        for (const FrameStats& s : c.samples[fi])
+            fr.minMs = std::min(fr.minMs, s.totalMs), fr.maxMs = std::max(fr.maxMs, s.totalMs);
+        fr.hasError = c.hasError[fi];
+        fr.error = c.errors[fi];
+        fr.countedSteps = c.countedSteps[fi];
+        fr.countedFragments = c.countedFragments[fi];
+        const FrameStats& s = fr.median;
+        const double n = double(F);
+        m.totalMs += s.totalMs / n;
+        m.worstFrameMs = std::max(m.worstFrameMs, s.totalMs);
+        m.setupMs += s.setupMs / n;
+        m.selectMs += s.selectMs / n;
+        m.nearMs += s.nearMs / n;
+        m.nearUploadMs += s.nearUploadMs / n;
+        m.nearDrawMs += s.nearDrawMs / n;
+        m.nearReadbackMs += s.nearReadbackMs / n;
+        m.farMs += s.farMs / n;
+        m.bakeMs += s.bakeMs / n;
+        m.blitMs += s.blitMs / n;
+        m.entities += s.entities / n;
+        m.visible += (s.entities - s.culled) / n;
+        m.nearDrawn += s.nearDrawn / n;
+        m.farDrawn += s.farDrawn / n;
+        m.fading += s.fading / n;
+        m.fragments += double(s.nearPixelsTested) / n;
+        const double frameSteps =
+            c.mode == "near_vulkan" ? double(fr.countedSteps) : double(s.voxelFetches);
+        m.voxelSteps += frameSteps / n;
+        steps += frameSteps;
+        stepMs += c.mode == "near_vulkan" ? s.nearDrawMs : s.nearMs;
+        m.blitPixels += double(s.farPixelsTested) / n;
+        blitPx += double(s.farPixelsTested);
+        blitMs += s.blitMs;
+        m.cacheBytes = std::max(m.cacheBytes, double(s.cacheBytes));
+        if (fr.hasError) {
+            const FrameErrorReport& e = fr.error;
+            ++errorFrames;
+            m.mismatchMean += e.all.meanMismatch;
+            m.coverageMismatchMean += e.all.meanCoverageMismatch;
+            m.farAloneEntities += double(e.farIsolated.entities);
+            m.farOverOneCell += double(e.farIsolated.overOneCell);
+            m.mismatchWorst = std::max(m.mismatchWorst, e.all.worstMismatch);
+            if (e.far.entities) {
+                ++farFrames;
+                m.farMismatchMean += e.far.meanMismatch;
+                m.farIsolatedMismatchMean += e.farIsolated.meanMismatch;
+            }
+            m.farVisibleDisplacementWorstPx =
+                std::max(m.farVisibleDisplacementWorstPx, e.far.worstDisplacementPx);
+            m.displacementWorstPx =
+                std::max(m.displacementWorstPx, e.farIsolated.worstDisplacementPx);
+            m.displacementWorstCells =
+                std::max(m.displacementWorstCells, e.farIsolated.worstDisplacementCells);
+            m.rmseMean += e.rmse;
+            psnrMin = std::min(psnrMin, e.psnr);
+            m.differingPixels += double(e.differingPixels);
+            m.missing += e.all.missing;
+        }
+        m.frames.push_back(fr);
+    }
+    if (stepMs > 0 && steps > 0) m.voxelStepsPerS = steps / stepMs * 1e3;
+    if (blitMs > 0 && blitPx > 0) {
+        m.blitPixelsPerS = blitPx / blitMs * 1e3;
+        const double ms = memcpyMs(std::size_t(m.blitPixels * kBlitBytesPerPixel));
+        if (ms > 0) m.memcpyPixelsPerS = m.blitPixels / ms * 1e3;
+    }
+    if (errorFrames) {
+        m.hasError = true;
+        m.mismatchMean /= errorFrames;
+        m.coverageMismatchMean /= errorFrames;
+        m.farAloneEntities /= errorFrames;
+        m.farOverOneCell /= errorFrames;
+        m.rmseMean /= errorFrames;
+        m.differingPixels /= errorFrames;
+        m.psnrMin = psnrMin;
+        if (farFrames) m.farMismatchMean /= farFrames, m.farIsolatedMismatchMean /= farFrames;
+    }
+    if (m.totalMs > 0 && m.baselineMs > 0) m.speedup = m.baselineMs / m.totalMs;
+    m.coldMs = c.coldFirstMs;
+    m.coldBakeMs = c.cold.bakeMs;
+    m.coldBakes = c.cold.farBakes;
+    m.coldRays = double(c.cold.raysTraced);
+    if (c.cold.bakeMs > 0 && c.cold.raysTraced)
+        m.raysPerS = double(c.cold.raysTraced) / c.cold.bakeMs * 1e3;
+    return m;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The sets.
+
+struct SweepPoint {
+    std::string family, setting;
+    double param = 0.0;
+    SelectorConfig selector;
+    double sigma = 1.0;
+};
+
+std::string configKey(const SelectorConfig& c, double sigma) {
+    return std::string(metricName(c.metric)) + "/" + fmt(c.nearAt) + "/" + fmt(c.farAt) + "/" +
+           std::to_string(c.viewSetSize) + "/" + std::to_string(c.crossfadeFrames) + "/" +
+           fmt(c.viewHysteresisDeg) + "/" + fmt(sigma);
+}
+
+std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
+    std::vector<SweepPoint> pts;
+    const SelectorConfig s0 = base.selector;
+    const double sigma0 = base.render.sigma;
+    auto farAt = [&](SelectorMetric metric, const std::vector<double>& values, double nearFactor) {
+        for (double v : values) {
+            SweepPoint p;
+            p.family = std::string("far_at (") + metricName(metric) + ")";
+            p.selector = s0;
+            p.selector.metric = metric;
+            p.selector.farAt = v;
+            p.selector.nearAt = v * nearFactor;
+            p.sigma = sigma0;
+            p.param = v;
+            p.setting = std::string(metricName(metric)) + " far_at=" + fmt(v) +
+                        " near_at=" + fmt(v * nearFactor);
+            pts.push_back(p);
+        }
+    };
+    farAt(SelectorMetric::Distance, plan.distanceFarAt, 0.8);
+    farAt(SelectorMetric::RadiusPx, plan.radiusFarAt, 1.5);
+    farAt(SelectorMetric::ErrorPx, plan.errorFarAt, 2.0);
+    for (int v : plan.viewSets) {
+        SweepPoint p{"view set", std::to_string(v) + " views", double(v), s0, sigma0};
+        p.selector.viewSetSize = v;
+        pts.push_back(p);
+    }
+    for (double s : plan.sigmas) pts.push_back({"sigma", "sigma=" + fmt(s), s, s0, s});
+    for (int n : plan.crossfades) {
+        SweepPoint p{"cross-fade",
+                     n ? "cross-fade " + std::to_string(n) + " frames" : "no cross-fade", double(n),
+                     s0, sigma0};
+        p.selector.crossfadeFrames = n;
+        pts.push_back(p);
+    }
+    return pts;
+}
+
+/// A scene's set: the four modes and, for the first scene, every sweep point (hybrid). The
+/// truths (all near on Vulkan, one per sigma in use) come first and are shared.
+Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps,
+             std::vector<std::string>& notes) {
+    Set set;
+    const std::string name = sceneName(src.file);
+    set.label = name;
+    Scene base = src.scene;
+    applyOverrides(base, plan, /*capEntities=*/true);
+    std::tie(set.frames, set.times) = pathSamples(base, plan.pathFrames);
+    set.repeats = plan.repeats;
+    if (!base.edits.empty())
+        notes.push_back(name +
+                        ": its scripted edits are not applied (`bench edits` measures edits).");
+    const std::vector<SweepPoint> pts =
+        withSweeps ? sweepPoints(plan, base) : std::vector<SweepPoint>{};
+
+    const int truth0 = addConfig(set, base, "near_vulkan", "near_vulkan");
+    set.rows.push_back({truth0, label("modes", name, "near_vulkan")});
+    std::map<double, int> truthBySigma{{base.render.sigma, truth0}};
+    for (const SweepPoint& p : pts) {
+        if (truthBySigma.count(p.sigma)) continue;
+        Scene sc = base;
+        sc.render.sigma = p.sigma;
+        const int t = addConfig(set, sc, "near_vulkan", "near_vulkan sigma=" + fmt(p.sigma));
+        truthBySigma[p.sigma] = t;
+        set.rows.push_back({t, label("sweep", name, "near_vulkan", "sigma (all near)",
+                                     "all near, sigma=" + fmt(p.sigma), p.sigma)});
+    }
+    set.rows.push_back({addConfig(set, base, "near_reference", "near_reference"),
+                        label("modes", name, "near_reference")});
+    set.rows.push_back({addConfig(set, base, "far", "far"), label("modes", name, "far")});
+    const int hybrid = addConfig(set, base, "hybrid", "hybrid");
+    set.rows.push_back({hybrid, label("modes", name, "hybrid")});
+
+    std::map<std::string, int> byKey{{configKey(base.selector, base.render.sigma), hybrid}};
+    for (const SweepPoint& p : pts) {
+        const std::string key = configKey(p.selector, p.sigma);
+        if (!byKey.count(key)) {
+            Scene sc = base;
+            sc.selector = p.selector;
+            sc.render.sigma = p.sigma;
+            byKey[key] = addConfig(set, sc, "hybrid", "hybrid " + p.setting);
+        }
+        set.rows.push_back(
+            {byKey[key], label("sweep", name, "hybrid", p.family, p.setting, p.param)});
+    }
+    linkTruths(set);
+    return set;
+}
+
+/// One point of a scaling curve: the four modes on one frame (the camera at t = 0).
+Set scalingSet(const SceneSource& src, const json& doc, const Plan& plan, const std::string& group,
+               double param, const std::string& what) {
+    Set set;
+    const std::string name = sceneName(src.file);
+    set.label = name + " " + what;
+    Scene s = fromJson(src, doc);
+    applyOverrides(s, plan, /*capEntities=*/false);
+    set.frames = {0};
+    set.times = {0.0};
+    set.repeats = plan.scalingRepeats;
+    const auto modes = addModes(set, s);
+    const char* modeNames[4] = {"near_vulkan", "near_reference", "far", "hybrid"};
+    for (int i = 0; i < 4; ++i)
+        set.rows.push_back(
+            {modes[std::size_t(i)], label(group, name, modeNames[i], group, what, param)});
+    linkTruths(set);
+    return set;
+}
+
+std::string cpuName() {
+    std::ifstream in("/proc/cpuinfo");
+    std::string line;
+    while (std::getline(in, line))
+        if (line.rfind("model name", 0) == 0) {
+            const auto colon = line.find(':');
+            return colon == std::string::npos ? line : line.substr(colon + 2);
+        }
+    return "unknown CPU";
+}
+
+} // namespace
+
+Plan makePlan(const SuiteOptions& o) {
+    Plan p;
+    if (o.smoke) {
+        p.preset = "smoke";
+        p.repeats = 1;
+        p.pathFrames = 1;
+        p.width = 240, p.height = 136;
+        p.entityCap = 24;
+        p.errorFarAt = {1.0};
+        p.entityCounts = {4, 12};
+        p.modelSides = {16, 32};
+        p.sizeEntities = 6;
+        p.scalingRepeats = 1;
+    } else if (o.quick) {
+        p.preset = "quick";
+        p.repeats = 3;
+        p.pathFrames = 2;
+        p.distanceFarAt = {15, 40};
+        p.radiusFarAt = {24, 8};
+        p.errorFarAt = {2, 1, 0.5, 0.25};
+        p.viewSets = {26, 98};
+        p.sigmas = {1, 2};
+        p.crossfades = {0, 8};
+        p.entityCounts = {10, 100, 1000, 10000};
+        p.modelSides = {16, 32, 64, 128};
+        p.sizeEntities = 300;
+        p.scalingRepeats = 1;
+    } else {
+        p.preset = "full";
+        p.repeats = 7;
+        p.pathFrames = 6;
+        p.distanceFarAt = {10, 20, 40, 80};
+        p.radiusFarAt = {32, 16, 8, 4};
+        p.errorFarAt = {4, 2, 1, 0.5, 0.25};
+        p.viewSets = {26, 98, 218};
+        p.sigmas = {0.5, 1, 2};
+        p.crossfades = {0, 4, 8};
+        p.entityCounts = {10, 100, 300, 1000, 3000, 10000};
+        p.modelSides = {16, 32, 64, 128};
+        p.sizeEntities = 500;
+        p.scalingRepeats = 5;
+    }
+    if (o.repeats != -1) {
+        if (o.repeats < 1) throw InputError("", "--repeats", "must be >= 1");
+        p.repeats = o.repeats;
+    }
+    if (o.warmup != -1) {
+        if (o.warmup < 1)
+            throw InputError(
+                "", "--warmup",
+                "must be >= 1 (the cold bakes are measured in the first warm-up pass)");
+        p.warmup = o.warmup;
+    }
+    if (o.pathFrames != -1) {
+        if (o.pathFrames < 1) throw InputError("", "--frames", "must be >= 1");
+        p.pathFrames = o.pathFrames;
+    }
+    if (!o.size.empty()) {
+        int w = 0, h = 0;
+        char tail = 0;
+        if (std::sscanf(o.size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1 ||
+            w > Limits::kMaxImageDim || h > Limits::kMaxImageDim)
+            throw InputError("", "--size",
+                             "expected WxH with integers 1.." +
+                                 std::to_string(Limits::kMaxImageDim) + ", got '" + o.size + "'");
+        p.width = w, p.height = h;
+    }
+    if (!o.entityCounts.empty())
+        p.entityCounts = parseList<int>(o.entityCounts, "--entity-counts", 1, 100000);
+    if (!o.modelSides.empty())
+        p.modelSides = parseList<int>(o.modelSides, "--model-sides", 8, Limits::kMaxModelDim);
+    p.sweeps = o.sweeps;
+    p.scaling = o.scaling;
+    return p;
+}
+
+SuiteResults runSuite(const SuiteOptions& options) {
+    const auto t0 = Clock::now();
+    SuiteResults res;
+    res.plan = makePlan(options);
+    const Plan& plan = res.plan;
+    res.scenes = options.scenes;
+    res.cpu = cpuName();
+    res.threads = std::thread::hardware_concurrency();
+
+    // Everything that can fail on input fails here, before anything is measured.
+    std::vector<SceneSource> sources;
+    for (const std::string& f : options.scenes) sources.push_back(loadSource(f));
+    if (sources.empty()) throw InputError("", "SCENES", "no scene to measure");
+
+    std::vector<Set> sets;
+    for (std::size_t i = 0; i < sources.size(); ++i)
+        sets.push_back(modesSet(sources[i], plan, i == 0 && plan.sweeps, res.notes));
+    if (plan.scaling) {
+        const SceneSource& src = sources.front();
+        const std::string name = sceneName(src.file);
+        bool ok = true;
+        for (int n : plan.entityCounts) {
+            const auto doc = withEntityCount(src.doc, n);
+            if (!doc) {
+                res.notes.push_back("Entity-count curve skipped: " + name +
+                                    " has no crowd to resize.");
+                ok = false;
+                break;
+            }
+            sets.push_back(scalingSet(src, *doc, plan, "scaling_entities", n,
+                                      std::to_string(n) + " entities"));
+        }
+        (void)ok;
+        for (int side : plan.modelSides) {
+            const auto counted = withEntityCount(src.doc, plan.sizeEntities);
+            const auto doc = withTankSide(counted ? *counted : src.doc, side);
+            if (!doc) {
+                res.notes.push_back("Model-size curve skipped: " + name +
+                                    " has no tank generator to resize.");
+                break;
+            }
+            sets.push_back(scalingSet(src, *doc, plan, "scaling_size", side,
+                                      std::to_string(side) + "x" + std::to_string(side) + "x" +
+                                          std::to_string(std::max(8, side / 2)) + " tanks"));
+        }
+    }
+
+    std::size_t total = 0;
+    for (const Set& s : sets) {
+        std::size_t truths = 0;
+        for (const auto& c : s.configs) truths += c->isTruth;
+        total +=
+            s.frames.size() * (std::size_t(plan.warmup + s.repeats) * s.configs.size() + truths);
+    }
+    // One Vulkan device for the whole run; validation (VOXTIER_VALIDATION=1) inflates timings.
+    auto near = std::make_shared<NearRenderer>();
+    res.vulkanDevice = near->deviceName();
+    if (near->validationEnabled())
+        res.notes.push_back("Vulkan validation was ON: every Vulkan timing is inflated.");
+    Progress progress(total);
+    for (Set& set : sets) {
+        runSet(set, plan, near, progress);
+        for (const Row& row : set.rows) res.rows.push_back(aggregate(set, row));
+        set.configs.clear(); // frees the caches and images of this set
+    }
+    progress.finish();
+    constexpr std::size_t kBig = std::size_t(64) << 20;
+    res.memcpyGBps = double(kBig) / (memcpyMs(kBig) * 1e-3) / 1e9;
+    res.wallSeconds = secondsSince(t0);
+    return res;
+}
+
+} // namespace voxtier::bench

@@ -1,0 +1,125 @@
+#pragma once
+// `voxtier bench`: speed against error (DESIGN.md §8). Every measurement is a *configuration*
+// (a scene copy, a render mode, selector settings) drawn by its own FrameRenderer; the
+// configurations of one *set* run interleaved frame by frame in one process (one shared Vulkan
+// device), so the ratios between them see the same machine load:
+//
+//   pass 0 (warm-up: pipeline compiles, atlas uploads, cold snapshot bakes, recorded separately)
+//   passes 1..R (timed): for each sampled path frame, for each configuration: render (the
+//   non-truth configurations in an order rotated by one place per pass)
+//
+// The selector state restarts with each pass (a pass is the camera path from its start). Times
+// are medians over the R passes, per frame, then averaged over the path frames. In the last pass
+// every approximate image is compared with the all-near (Vulkan) image of the same frame.
+#include "compose/frame.hpp"
+#include "compose/frame_error.hpp"
+#include "core/scene.hpp"
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace voxtier::bench {
+
+struct SuiteOptions {
+    std::vector<std::string>
+        scenes; ///< scene files; the first also gets the sweeps and scaling curves
+    std::string out = "out/bench";
+    bool quick = false;
+    bool smoke = false;  ///< test-only: tiny scenes, one repeat, one sweep point
+    int repeats = -1;    ///< -1: the preset's
+    int warmup = -1;     ///< -1: the preset's (at least 1: the cold bakes are measured there)
+    int pathFrames = -1; ///< -1: the preset's
+    std::string size;    ///< WxH override of every scene's image size ("" = the scene's)
+    bool sweeps = true, scaling = true;
+    std::string entityCounts, modelSides; ///< comma-separated overrides of the scaling points
+};
+
+/// The resolved plan (preset + overrides).
+struct Plan {
+    std::string preset; ///< "full", "quick" or "smoke"
+    int repeats = 7, warmup = 1, pathFrames = 6;
+    std::optional<int> width, height;
+    std::optional<int> entityCap; ///< scenes are cut to their first N entities (smoke)
+    bool sweeps = true, scaling = true;
+    std::vector<double> distanceFarAt, radiusFarAt, errorFarAt; ///< selector sweeps
+    std::vector<int> viewSets, crossfades;
+    std::vector<double> sigmas;
+    std::vector<int> entityCounts, modelSides;
+    int sizeEntities = 500; ///< entities of the model-size curve
+    int scalingRepeats = 5;
+};
+
+/// One measured configuration, aggregated over the sampled path frames. Times are means over the
+/// frames of the per-frame medians over the timed passes; counts are means over the frames.
+struct FrameRow {
+    int frame = 0;
+    double time = 0.0;
+    FrameStats median;               ///< field-wise medians over the timed passes
+    double minMs = 0.0, maxMs = 0.0; ///< spread of totalMs over the passes
+    bool hasError = false;
+    FrameErrorReport error; ///< against the all-near (Vulkan) image of the frame (last pass)
+    std::uint64_t countedSteps = 0,
+                  countedFragments = 0; ///< Vulkan step-counting pass (near_vulkan)
+};
+
+struct Measurement {
+    std::string group;    ///< "modes", "sweep", "scaling_entities", "scaling_size"
+    std::string scene;    ///< scene name (file stem)
+    std::string mode;     ///< near_vulkan, near_reference, far, hybrid
+    std::string family;   ///< sweep family ("" outside sweeps)
+    std::string setting;  ///< human-readable settings of the configuration
+    double param = 0.0;   ///< the swept / scaled value
+    std::string selector; ///< selector summary, e.g. "error_px 1/0.5, 26 views, sigma 1, fade 0"
+    std::string truth;    ///< configuration the errors are measured against
+    std::vector<FrameRow> frames;
+
+    // Speed (ms).
+    double totalMs = 0, worstFrameMs = 0, setupMs = 0, selectMs = 0, nearMs = 0, nearUploadMs = 0,
+           nearDrawMs = 0, nearReadbackMs = 0, farMs = 0, bakeMs = 0, blitMs = 0;
+    double baselineMs = 0; ///< all-near (Vulkan) of the same frames, same run
+    double speedup = 0;    ///< baselineMs / totalMs
+    // Work.
+    double entities = 0, visible = 0, nearDrawn = 0, farDrawn = 0, fading = 0;
+    double fragments = 0; ///< near: fragments shaded (Vulkan) or pixels tested (reference)
+    double voxelSteps =
+        0; ///< near: voxel reads per frame (reference: every frame; Vulkan: counting pass)
+    double voxelStepsPerS = 0;
+    double blitPixels = 0, blitPixelsPerS = 0, memcpyPixelsPerS = 0; ///< memcpy of the same bytes
+    double cacheBytes = 0;
+    // Cold (the warm-up pass, first use of every snapshot).
+    double coldMs = 0, coldBakeMs = 0, coldBakes = 0, coldRays = 0, raysPerS = 0;
+    // Error against the truth (means / worst over the frames).
+    bool hasError = false;
+    double mismatchMean = 0, mismatchWorst = 0; ///< visible footprints in the frame, every entity
+    double farMismatchMean = 0;                 ///< the same over the far-drawn entities
+    /// Far-drawn entities drawn alone by both tiers (no occlusion): mean mismatch, worst
+    /// silhouette displacement in screen and virtual pixels.
+    double farIsolatedMismatchMean = 0, displacementWorstPx = 0, displacementWorstCells = 0;
+    double farVisibleDisplacementWorstPx = 0; ///< in the frame (occluders' changes included)
+    double coverageMismatchMean = 0; ///< like mismatchMean, counting only pixels owned in one image
+    double farAloneEntities = 0,
+           farOverOneCell = 0; ///< per frame (mean): far entities, those displaced > 1 virtual px
+    double baselineFragments =
+        0; ///< near fragments of the all-near (Vulkan) frames: fragments / this = the near share
+    double rmseMean = 0, psnrMin = 0;
+    double differingPixels = 0; ///< mean per frame (colour, depth or id)
+    std::size_t missing = 0;    ///< entities drawn in only one image, summed over frames
+};
+
+struct SuiteResults {
+    Plan plan;
+    std::vector<std::string> scenes;
+    std::string vulkanDevice, cpu;
+    unsigned threads = 0;
+    double wallSeconds = 0;
+    double memcpyGBps = 0; ///< the bandwidth of the memcpy references, for the report
+    std::vector<Measurement> rows;
+    std::vector<std::string> notes; ///< things the reader must know (skipped parts, caveats)
+};
+
+Plan makePlan(const SuiteOptions& options);
+SuiteResults runSuite(const SuiteOptions& options);
+
+} // namespace voxtier::bench

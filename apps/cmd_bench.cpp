@@ -1,0 +1,114 @@
+// `voxtier bench [SCENES...] [--quick] [--out DIR]`: every render mode side by side on the bench
+// scenes, the selector sweeps and the scaling curves, written as results.csv, results.json, PNG
+// plots and report.md (apps/bench_suite.hpp says how it measures, apps/bench_report.hpp what it
+// writes). The bench subcommands (`bench near`, ...) are registered here too, in one list.
+#include "apps/bench_report.hpp"
+#include "apps/bench_suite.hpp"
+#include "apps/commands.hpp"
+#include "core/error.hpp"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+namespace voxtier::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const char* const kDefaultScenes[] = {"scenes/bench/tank_army.json", "scenes/bench/vox_crowd.json",
+                                      "scenes/bench/rts_topdown.json"};
+
+void prepareOutput(const std::string& out) {
+    if (out.empty()) throw InputError("", "--out", "expected a directory");
+    std::error_code ec;
+    if (fs::exists(out, ec) && !fs::is_directory(out, ec))
+        throw InputError(out, "--out", "exists and is not a directory");
+    fs::create_directories(out, ec);
+    if (ec) throw InputError(out, "--out", "cannot create the directory: " + ec.message());
+    const fs::path probe = fs::path(out) / ".voxtier_bench_write_test";
+    {
+        std::ofstream f(probe);
+        if (!f) throw InputError(out, "--out", "cannot write into the directory");
+    }
+    fs::remove(probe, ec);
+}
+
+void runBench(bench::SuiteOptions options) {
+    if (options.scenes.empty()) {
+        for (const char* s : kDefaultScenes) {
+            if (!fs::exists(s))
+                throw InputError(
+                    s, "SCENES",
+                    "bench scene not found (run from the repository root, or name the scenes)");
+            options.scenes.push_back(s);
+        }
+    }
+    bench::makePlan(options); // option errors before any work
+    prepareOutput(options.out);
+    const bench::SuiteResults results = bench::runSuite(options);
+    const auto files = bench::writeReport(results, options.out);
+
+    // A short summary on stdout: each scene's hybrid against all-near, with the error it costs.
+    std::printf("voxtier bench (%s): %.0f s, Vulkan device: %s\n", results.plan.preset.c_str(),
+                results.wallSeconds, results.vulkanDevice.c_str());
+    for (const bench::Measurement& m : results.rows) {
+        if (m.group != "modes" || m.mode == "near_vulkan") continue;
+        std::printf("  %-14s %-15s %8.2f ms  (all-near Vulkan %8.2f ms, %5.1fx)", m.scene.c_str(),
+                    m.mode.c_str(), m.totalMs, m.baselineMs, m.speedup);
+        if (m.hasError)
+            std::printf(
+                "  mismatch mean %.2f%% worst %.2f%%, far displacement %.1f px (%.2f virtual px)",
+                100 * m.mismatchMean, 100 * m.mismatchWorst, m.displacementWorstPx,
+                m.displacementWorstCells);
+        std::printf("\n");
+    }
+    for (const std::string& f : files) std::printf("-> %s\n", f.c_str());
+}
+
+} // namespace
+
+void addBenchCommand(CLI::App& app) {
+    CLI::App* bench = app.add_subcommand(
+        "bench",
+        "Speed against error: every mode side by side, selector sweeps, scaling curves, a report");
+    bench->require_subcommand(0, 1);
+    auto o = std::make_shared<bench::SuiteOptions>();
+    bench->add_option("scenes", o->scenes,
+                      "Scene files (default: the three in scenes/bench); the first also gets the "
+                      "sweeps and scaling "
+                      "curves");
+    bench->add_flag("--quick", o->quick,
+                    "Fewer repeats, path frames and sweep points (under 2 minutes)");
+    bench
+        ->add_option("-o,--out", o->out,
+                     "Output directory (report.md, results.csv, results.json, plots)")
+        ->capture_default_str();
+    bench->add_option("--repeats", o->repeats,
+                      "Timed passes per path frame (default: 7, --quick 3)");
+    bench->add_option("--warmup", o->warmup,
+                      "Untimed passes first, >= 1 (default 1; cold bakes are measured there)");
+    bench->add_option("--frames", o->pathFrames,
+                      "Path frames sampled per scene (default: 6, --quick 2)");
+    bench->add_option("--size", o->size, "Image size WxH for every scene (default: each scene's)");
+    bench->add_flag("!--no-sweeps", o->sweeps,
+                    "Skip the selector / view set / sigma / cross-fade sweeps");
+    bench->add_flag("!--no-scaling", o->scaling, "Skip the scaling curves");
+    bench->add_option("--entity-counts", o->entityCounts,
+                      "Entity counts of the scaling curve, comma-separated");
+    bench->add_option("--model-sides", o->modelSides,
+                      "Tank sides (voxels) of the model-size curve, comma-separated");
+    // Test-only: tiny images and entity counts, one repeat, one sweep point (tests/bench_cli_test).
+    bench->add_flag("--smoke", o->smoke, "")->group("");
+    bench->callback([bench, o] {
+        if (bench->get_subcommands().empty()) runBench(*o);
+    });
+
+    // The bench subcommands, one line each.
+    addBenchNearCommand(*bench);
+    addBenchEditsCommand(*bench);
+}
+
+} // namespace voxtier::cli

@@ -1,0 +1,274 @@
+// `voxtier bench` end to end, at the smallest size (--smoke: tiny images and entity counts, one
+// timed pass, one sweep point): the outputs exist and agree with each other and with what can be
+// worked out without the bench. No timings are asserted (the machine is shared).
+#include "cli_support.hpp"
+#include "core/scene_loader.hpp"
+#include "core/sprite.hpp"
+#include "impostor_cache/view_set.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <unistd.h>
+#include <vector>
+
+namespace voxtier {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using test::CliRun;
+using test::runCli;
+
+struct ScratchDir {
+    fs::path path;
+    ScratchDir() {
+        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+        path = fs::temp_directory_path() /
+               ("voxtier_bench_" + std::to_string(::getpid()) + "_" + info->name());
+        fs::remove_all(path);
+        fs::create_directories(path);
+    }
+    ~ScratchDir() {
+        std::error_code ec;
+        fs::remove_all(path, ec);
+    }
+};
+
+std::string slurp(const fs::path& p) {
+    std::ifstream in(p);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+/// A scene where the far tier must equal the near tier exactly (DESIGN.md §4): parallel view
+/// rays straight down, entities turned by multiples of 90 degrees, so every sprite's view is the
+/// canonical +Z snapshot with a quarter-turn roll.
+void writeExactScene(const fs::path& file) {
+    json models =
+        json::array({{{"name", "tank"}, {"generator", "tank"}, {"seed", 3}, {"frames", 2}},
+                     {{"name", "arrow"}, {"generator", "arrow"}},
+                     {{"name", "box"}, {"generator", "box"}, {"size", {6, 4, 3}}, {"index", 5}}});
+    json entities = json::array();
+    const char* names[] = {"tank", "arrow", "box"};
+    for (int k = 0; k < 9; ++k)
+        entities.push_back({{"model", names[k % 3]},
+                            {"position", {-4.0 + 4.0 * (k % 3), 0.0, -4.0 + 4.0 * (k / 3)}},
+                            {"rotation_deg", {0, 90 * (k % 4), 0}},
+                            {"frame", k % 6 == 3 ? 1 : 0}}); // the tank (k % 3 == 0) has two frames
+    const json scene = {{"view_mode", "parallel"},
+                        {"camera",
+                         {{"position", {0, 16, 0}},
+                          {"target", {0, 0, 0}},
+                          {"up", {0, 0, -1}},
+                          {"fov_y", 50},
+                          {"size", {240, 136}}}},
+                        {"models", models},
+                        {"entities", entities}};
+    std::ofstream(file) << scene.dump(1);
+}
+
+/// Splits one CSV line (RFC 4180 quoting).
+std::vector<std::string> csvFields(const std::string& line) {
+    std::vector<std::string> out(1);
+    bool quoted = false;
+    for (std::size_t i = 0; i < line.size(); ++i) {
+        const char c = line[i];
+        if (quoted) {
+            if (c == '"' && i + 1 < line.size() && line[i + 1] == '"')
+                out.back() += '"', ++i;
+            else if (c == '"')
+                quoted = false;
+            else
+                out.back() += c;
+        } else if (c == '"') {
+            quoted = true;
+        } else if (c == ',') {
+            out.emplace_back();
+        } else {
+            out.back() += c;
+        }
+    }
+    return out;
+}
+
+const json* row(const json& rows, const std::string& group, const std::string& scene,
+                const std::string& mode) {
+    for (const json& r : rows)
+        if (r["group"] == group && r["scene"] == scene && r["mode"] == mode) return &r;
+    return nullptr;
+}
+
+TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
+    ScratchDir dir;
+    const fs::path exact = dir.path / "exact.json", out = dir.path / "out";
+    writeExactScene(exact);
+    const CliRun r = runCli("bench --smoke --out '" + out.string() +
+                            "' scenes/bench/tank_army.json '" + exact.string() + "'");
+    ASSERT_EQ(r.status, 0) << r.out << r.err;
+    for (const char* f : {"report.md", "results.csv", "results.json"})
+        ASSERT_TRUE(fs::exists(out / f)) << f;
+
+    // results.json: the four modes for each scene, the sweep point, both scaling curves.
+    const json j = json::parse(slurp(out / "results.json"));
+    EXPECT_EQ(j["modes"], json({"near_vulkan", "near_reference", "far", "hybrid"}));
+    const json& rows = j["rows"];
+    for (const std::string scene : {"tank_army", "exact"})
+        for (const std::string mode : {"near_vulkan", "near_reference", "far", "hybrid"}) {
+            const json* m = row(rows, "modes", scene, mode);
+            ASSERT_NE(m, nullptr) << scene << " " << mode;
+            EXPECT_FALSE((*m)["frames"].empty());
+            EXPECT_GT((*m)["frame_ms"].get<double>(), 0.0);
+            EXPECT_GT((*m)["visible"].get<double>(), 0.0) << scene;
+            if (mode == "near_vulkan") {
+                EXPECT_TRUE((*m)["error"].is_null()); // the truth itself
+                EXPECT_EQ((*m)["far_entities"].get<double>(), 0.0);
+            } else {
+                ASSERT_TRUE((*m)["error"].is_object()) << scene << " " << mode;
+            }
+            if (mode == "far") EXPECT_EQ((*m)["near_entities"].get<double>(), 0.0);
+        }
+    // The CPU reference draws the Vulkan image exactly (the near tier's contract).
+    for (const std::string scene : {"tank_army", "exact"}) {
+        const json& e = (*row(rows, "modes", scene, "near_reference"))["error"];
+        EXPECT_EQ(e["differing_pixels"].get<double>(), 0.0) << scene;
+        EXPECT_EQ(e["mismatch_mean"].get<double>(), 0.0) << scene;
+        EXPECT_TRUE(e["psnr_min"].is_null()) << scene; // equal images: infinite PSNR
+    }
+    // Exact scene: every view is canonical, so far and hybrid equal the truth pixel for pixel.
+    for (const std::string mode : {"far", "hybrid"}) {
+        const json& e = (*row(rows, "modes", "exact", mode))["error"];
+        EXPECT_EQ(e["differing_pixels"].get<double>(), 0.0) << mode;
+        EXPECT_EQ(e["mismatch_mean"].get<double>(), 0.0) << mode;
+        EXPECT_EQ(e["far_displacement_worst_px"].get<double>(), 0.0) << mode;
+    }
+    // Tank army: worked out here, some visible tank is seen well away from every snapshot view,
+    // so the all-far image must differ from the truth.
+    {
+        Scene s = loadScene("scenes/bench/tank_army.json");
+        s.entities.resize(24); // --smoke keeps the first 24 entities at 240x136
+        s.camera.width = 240, s.camera.height = 136;
+        const auto sprites = setupSprites(s, makeCameraFrame(s.cameraAt(0.0)), 0.0);
+        double worstAngle = 0.0;
+        for (const SpriteSetup& sp : sprites) {
+            if (!sp.visible()) continue;
+            const glm::dvec3 w = -sp.lattice.dir;
+            double best = -1.0;
+            for (const glm::dvec3& v : viewDirections(ViewSet::Cube26))
+                best = std::max(best, glm::dot(v, w));
+            worstAngle = std::max(worstAngle, std::acos(std::min(1.0, best)) * 180.0 / M_PI);
+        }
+        ASSERT_GT(worstAngle, 5.0);
+        const json& e = (*row(rows, "modes", "tank_army", "far"))["error"];
+        EXPECT_GT(e["mismatch_mean"].get<double>(), 0.0);
+        EXPECT_GT(e["differing_pixels"].get<double>(), 0.0);
+    }
+    // Errors are fractions and distances; speed-ups are the ratio of the reported times.
+    for (const json& m : rows) {
+        if (!m["error"].is_null()) {
+            EXPECT_GE(m["error"]["mismatch_mean"].get<double>(), 0.0);
+            EXPECT_LE(m["error"]["mismatch_worst"].get<double>(), 1.0);
+            EXPECT_GE(m["error"]["mismatch_worst"].get<double>(),
+                      m["error"]["mismatch_mean"].get<double>());
+        }
+        EXPECT_NEAR(m["speedup_vs_all_near_vulkan"].get<double>() * m["frame_ms"].get<double>(),
+                    m["all_near_vulkan_ms"].get<double>(),
+                    1e-6 * m["all_near_vulkan_ms"].get<double>());
+    }
+    int sweeps = 0;
+    std::set<double> counts, sides;
+    for (const json& m : rows) {
+        sweeps += m["group"] == "sweep";
+        if (m["group"] == "scaling_entities") counts.insert(m["entities"].get<double>());
+        if (m["group"] == "scaling_size") sides.insert(m["param"].get<double>());
+    }
+    EXPECT_EQ(sweeps, 1);
+    EXPECT_EQ(counts, (std::set<double>{4, 12}));
+    EXPECT_EQ(sides, (std::set<double>{16, 32}));
+
+    // results.csv: a header and one row per JSON row, every row as wide as the header.
+    std::istringstream csv(slurp(out / "results.csv"));
+    std::string line;
+    ASSERT_TRUE(std::getline(csv, line));
+    const auto header = csvFields(line);
+    std::map<std::string, std::size_t> col;
+    for (std::size_t i = 0; i < header.size(); ++i) col[header[i]] = i;
+    for (const char* c :
+         {"group", "scene", "mode", "frame_ms", "speedup_vs_all_near_vulkan", "mismatch_mean",
+          "far_displacement_worst_vpx", "rays_per_s", "voxel_steps_per_s", "blit_pixels_per_s",
+          "memcpy_pixels_per_s", "cache_bytes", "near_entities", "far_entities", "cold_bake_ms"})
+        ASSERT_TRUE(col.count(c)) << c;
+    std::size_t n = 0;
+    while (std::getline(csv, line)) {
+        const auto f = csvFields(line);
+        ASSERT_EQ(f.size(), header.size()) << line;
+        EXPECT_GT(std::stod(f[col["frame_ms"]]), 0.0) << line;
+        const json& m = rows[n];
+        EXPECT_EQ(f[col["mode"]], m["mode"].get<std::string>());
+        EXPECT_NEAR(std::stod(f[col["frame_ms"]]), m["frame_ms"].get<double>(),
+                    1e-5 * m["frame_ms"].get<double>());
+        ++n;
+    }
+    EXPECT_EQ(n, rows.size());
+
+    // report.md: names every scene, and every plot it embeds exists; the JSON lists the same plots.
+    const std::string report = slurp(out / "report.md");
+    EXPECT_NE(report.find("tank_army"), std::string::npos);
+    EXPECT_NE(report.find("exact"), std::string::npos);
+    std::set<std::string> embedded;
+    const std::regex image(R"(!\[[^\]]*\]\(([^)]+)\))");
+    for (auto it = std::sregex_iterator(report.begin(), report.end(), image);
+         it != std::sregex_iterator(); ++it)
+        embedded.insert((*it)[1]);
+    for (const std::string& png : embedded) EXPECT_TRUE(fs::exists(out / png)) << png;
+    std::set<std::string> listed;
+    for (const json& p : j["plots"]) listed.insert(p.get<std::string>());
+    EXPECT_EQ(embedded, listed);
+    if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
+        EXPECT_EQ(listed, (std::set<std::string>{"speed_error.png", "scaling_entities.png",
+                                                 "scaling_size.png"}))
+            << j["plot_note"];
+    } else {
+        EXPECT_NE(report.find("gnuplot"),
+                  std::string::npos); // the report says why there are no plots
+    }
+}
+
+TEST(BenchCommand, BadInputIsOneLineNamingTheFileOrFlag) {
+    ScratchDir dir;
+    const std::string out = " --out '" + (dir.path / "out").string() + "'";
+    auto expectOneLine = [](const CliRun& r, const std::string& what) {
+        EXPECT_NE(r.status, 0) << r.out;
+        EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+        EXPECT_NE(r.err.find(what), std::string::npos) << r.err;
+    };
+    expectOneLine(runCli("bench --smoke no/such/scene.json" + out), "no/such/scene.json");
+    const fs::path file = dir.path / "a_file";
+    std::ofstream(file) << "x";
+    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --out '" + file.string() + "'"),
+                  "--out");
+    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --size 0x5" + out), "--size");
+    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --repeats 0" + out),
+                  "--repeats");
+    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --entity-counts 10,x" + out),
+                  "--entity-counts");
+    EXPECT_FALSE(fs::exists(dir.path / "out" / "results.csv"));
+}
+
+TEST(BenchCommand, NearSubcommandStillRunsBesideTheSceneBench) {
+    const CliRun r = runCli("bench near --entities 3 --repeat 1 --warmup 0 --no-alternatives "
+                            "--models procedural --size 160x90");
+    ASSERT_EQ(r.status, 0) << r.out << r.err;
+    EXPECT_NE(r.out.find("hull-instanced"), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("quad-instanced"), std::string::npos) << r.out;
+}
+
+} // namespace
+} // namespace voxtier
