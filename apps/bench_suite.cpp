@@ -1,5 +1,6 @@
 // `voxtier bench`: the measurement side (apps/bench_suite.hpp says how it measures).
 #include "apps/bench_suite.hpp"
+#include "apps/bench_util.hpp"
 
 #include "core/error.hpp"
 #include "core/scene_loader.hpp"
@@ -23,6 +24,10 @@
 
 namespace voxtier::bench {
 
+using cli::median;
+using cli::msSince;
+using cli::parseList;
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -33,39 +38,10 @@ double secondsSince(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-double median(std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    std::sort(v.begin(), v.end());
-    const std::size_t m = v.size() / 2;
-    return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
-
 std::string fmt(double v) {
     char buf[32];
     std::snprintf(buf, sizeof buf, "%g", v);
     return buf;
-}
-
-template <class T>
-std::vector<T> parseList(const std::string& text, const char* flag, double lo, double hi) {
-    std::vector<T> out;
-    std::stringstream ss(text);
-    std::string item;
-    while (std::getline(ss, item, ',')) {
-        try {
-            std::size_t used = 0;
-            const double v = std::stod(item, &used);
-            if (used != item.size() || !(v >= lo && v <= hi)) throw std::invalid_argument("");
-            if (std::is_integral_v<T> && v != std::floor(v)) throw std::invalid_argument("");
-            out.push_back(T(v));
-        } catch (const std::exception&) {
-            throw InputError("", flag,
-                             "expected a comma-separated list of numbers in [" + fmt(lo) + ", " +
-                                 fmt(hi) + "], got '" + text + "'");
-        }
-    }
-    if (out.empty()) throw InputError("", flag, "expected at least one value");
-    return out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -312,7 +288,7 @@ double memcpyMs(std::size_t bytes) {
     for (int r = 0; r < 5; ++r) {
         const auto t0 = Clock::now();
         copy();
-        ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        ms.push_back(msSince(t0));
     }
     if (dst[bytes / 2] != 1) std::abort(); // keeps the copies observable
     return median(ms);

@@ -3,6 +3,7 @@
 // the Embree bake against the near kernel's scalar DDA over the same rays, side by side in one
 // run (medians over repeats), plus the memory one cached model costs.
 #include "apps/commands.hpp"
+#include "apps/bench_util.hpp"
 #include "core/error.hpp"
 #include "core/image_io.hpp"
 #include "core/procedural.hpp"
@@ -42,23 +43,6 @@ struct BakeArgs {
     int repeats = 5;
     int threads = 0;
 };
-
-double msSince(std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    const std::size_t n = v.size();
-    return n == 0 ? 0.0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
-}
-
-std::string loadAverage() {
-    std::ifstream in("/proc/loadavg");
-    std::string a;
-    in >> a;
-    return a.empty() ? "?" : a;
-}
 
 struct NamedModel {
     std::string name;
@@ -104,7 +88,7 @@ void runBake(const BakeArgs& a) {
     std::vector<std::shared_ptr<const Snapshot>> snaps;
     BakeStats stats;
     std::size_t bytes = 0;
-    const auto t0 = std::chrono::steady_clock::now();
+    const auto t0 = BenchClock::now();
     for (int v = 0; v < viewCount(set); ++v) {
         snaps.push_back(
             std::make_shared<const Snapshot>(bakeSnapshot(scene, set, v, a.sigma, bo, &stats)));

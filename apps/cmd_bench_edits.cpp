@@ -11,6 +11,7 @@
 //     an edit cost before incremental refresh). Cells re-traced / cells of a full bake, ms, and a
 //     byte comparison of the two results.
 #include "apps/commands.hpp"
+#include "apps/bench_util.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
 #include "core/vox_reader.hpp"
@@ -53,47 +54,8 @@ struct BenchEditsArgs {
 };
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    const std::size_t n = v.size();
-    return n == 0 ? 0.0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
-}
-
-std::string loadAverage() {
-    std::ifstream in("/proc/loadavg");
-    std::string a;
-    in >> a;
-    return a.empty() ? "?" : a;
-}
-
 std::string dimsText(glm::ivec3 d) {
     return std::to_string(d.x) + "x" + std::to_string(d.y) + "x" + std::to_string(d.z);
-}
-
-std::vector<int> parseBricks(const std::string& text) {
-    std::vector<int> out;
-    std::stringstream ss(text);
-    std::string item;
-    while (std::getline(ss, item, ',')) {
-        try {
-            std::size_t used = 0;
-            const int v = std::stoi(item, &used);
-            if (used != item.size() || v < 0 || v > Limits::kMaxModelDim)
-                throw std::invalid_argument("");
-            out.push_back(v);
-        } catch (const std::exception&) {
-            throw InputError("", "--bricks",
-                             "expected a comma-separated list of brick edges 0.." +
-                                 std::to_string(Limits::kMaxModelDim) + " (0 = flat), got '" +
-                                 text + "'");
-        }
-    }
-    if (out.empty()) throw InputError("", "--bricks", "no brick size given");
-    return out;
 }
 
 struct NamedModel {
@@ -138,7 +100,7 @@ struct SurfaceToggler {
 };
 
 void benchScenes(const BenchEditsArgs& a, const std::vector<NamedModel>& models, ViewSet set) {
-    std::vector<int> bricks = parseBricks(a.bricks);
+    std::vector<int> bricks = parseList<int>(a.bricks, "--bricks", 0, Limits::kMaxModelDim);
     // The flat scene first: every "vs flat" column divides by it.
     bricks.erase(std::remove(bricks.begin(), bricks.end(), 0), bricks.end());
     bricks.insert(bricks.begin(), 0);

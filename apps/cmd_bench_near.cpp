@@ -7,6 +7,7 @@
 // the alternatives one change at a time: one draw per entity, the quad proxy, the rasterised
 // proxy box (NearProxy in volumetric/near_renderer.hpp).
 #include "apps/commands.hpp"
+#include "apps/bench_util.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
 #include "core/scene.hpp"
@@ -43,27 +44,6 @@ struct BenchArgs {
     std::string size = "960x540";
     bool alternatives = true;
 };
-
-std::vector<int> parseCounts(const std::string& text) {
-    std::vector<int> out;
-    std::stringstream ss(text);
-    std::string item;
-    while (std::getline(ss, item, ',')) {
-        try {
-            std::size_t used = 0;
-            const long v = std::stol(item, &used);
-            if (used != item.size() || v < 1 || v > Limits::kMaxEntities)
-                throw std::invalid_argument("");
-            out.push_back(int(v));
-        } catch (const std::exception&) {
-            throw InputError("", "--entities",
-                             "expected a comma-separated list of counts 1.." +
-                                 std::to_string(Limits::kMaxEntities) + ", got '" + text + "'");
-        }
-    }
-    if (out.empty()) throw InputError("", "--entities", "no entity count given");
-    return out;
-}
 
 std::shared_ptr<VoxelModel> voxModel(const std::filesystem::path& file, int index = 0) {
     const VoxFile vox = readVoxFile(file);
@@ -144,13 +124,6 @@ double processCpuMs() {
     return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
 }
 
-double median(std::vector<double> v) {
-    if (v.empty()) return 0.0;
-    std::sort(v.begin(), v.end());
-    const std::size_t m = v.size() / 2;
-    return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
-
 struct Row {
     int entities = 0;
     int visible = 0;
@@ -175,7 +148,7 @@ std::size_t differingPixels(const Image& a, const Image& b) {
 }
 
 void run(const BenchArgs& a) {
-    const std::vector<int> counts = parseCounts(a.entities);
+    const std::vector<int> counts = parseList<int>(a.entities, "--entities", 1, Limits::kMaxEntities);
     if (a.repeat < 1) throw InputError("", "--repeat", "must be >= 1");
     if (a.warmup < 0) throw InputError("", "--warmup", "must be >= 0");
     int width = 0, height = 0;

@@ -1,6 +1,7 @@
 #include "core/procedural.hpp"
 
 #include "core/error.hpp"
+#include "core/splitmix64.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -29,20 +30,6 @@ void fill(VoxelGrid& g, glm::ivec3 min, glm::ivec3 max, std::uint8_t index) {
         for (int y = min.y; y < max.y; ++y)
             for (int x = min.x; x < max.x; ++x) g.set({x, y, z}, index);
 }
-
-/// splitmix64 (Steele, Lea, Flood 2014): fully specified output, so a seeded tank is the same
-/// with every standard library.
-struct SplitMix64 {
-    std::uint64_t state;
-    std::uint64_t next() {
-        std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-        z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-        return z ^ (z >> 31);
-    }
-    double unit() { return double(next() >> 11) * 0x1.0p-53; }
-    double uniform(double lo, double hi) { return lo + (hi - lo) * unit(); }
-};
 
 namespace tank_index {
 constexpr std::uint8_t kHullFirst = 32; ///< 32..39: hull tones

@@ -2,6 +2,7 @@
 
 #include "core/error.hpp"
 #include "core/procedural.hpp"
+#include "core/splitmix64.hpp"
 #include "core/sprite.hpp"
 
 #include <algorithm>
@@ -402,24 +403,6 @@ json parseTracked(const std::string& text, const std::string& file) {
         throw InputError(file, trackedPath(stack), "invalid JSON: " + jsonDetail(e));
     }
 }
-
-// ---------------------------------------------------------------------------------------------
-// Deterministic PRNG: splitmix64 (Steele, Lea, Flood 2014). Its output is fully specified, so
-// a crowd is the same on every platform and standard library (std::*_distribution is not).
-
-struct SplitMix64 {
-    std::uint64_t state;
-    std::uint64_t next() {
-        std::uint64_t z = (state += 0x9e3779b97f4a7c15ull);
-        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-        z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-        return z ^ (z >> 31);
-    }
-    /// Uniform in [0, 1) with 53 random bits.
-    double unit() { return double(next() >> 11) * 0x1.0p-53; }
-    /// Uniform in [0, n) (modulo bias < n / 2^64, irrelevant for model picks).
-    std::uint64_t below(std::uint64_t n) { return next() % n; }
-};
 
 // ---------------------------------------------------------------------------------------------
 // Loading state.
