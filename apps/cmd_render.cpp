@@ -26,6 +26,7 @@ struct RenderArgs {
     std::optional<double> time;
     std::optional<int> frame;
     std::string ids;
+    std::optional<double> cacheMb; ///< far snapshot cache budget; default FrameOptions'
     // Image size and sigma override a scene's; the rest describe the camera of a MODEL.vox render.
     std::optional<std::string> size; ///< default 640x480 for a .vox
     std::optional<double> sigma;     ///< default 1 for a .vox
@@ -120,6 +121,16 @@ void run(const RenderArgs& a) {
     opt.nearBackend = parseNearBackend(a.nearBackend);
     opt.overlay = !a.overlay.empty();
     opt.measurePops = !a.pops.empty();
+    if (a.cacheMb) {
+        // A budget the machine cannot hold would fail as an out-of-memory deep in a bake; a
+        // zero budget would re-bake every far view every frame.
+        constexpr double kMaxCacheMb = 64 * 1024;
+        if (!(*a.cacheMb >= 1 && *a.cacheMb <= kMaxCacheMb))
+            throw InputError("", "--cache-mb",
+                             "expected a snapshot cache budget of 1.." +
+                                 std::to_string(int(kMaxCacheMb)) + " MiB");
+        opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
+    }
     FrameRenderer renderer(scene, opt);
     std::string out = a.out;
     if (out.empty()) out = "out/" + std::filesystem::path(a.input).stem().string() + ".png";
@@ -202,6 +213,8 @@ void addRenderCommand(CLI::App& app) {
     auto* t = cmd->add_option("--time", args->time, "Time in seconds along the camera path");
     auto* f = cmd->add_option("--frame", args->frame, "Frame number of the camera path (applies scripted edits up to it)");
     t->excludes(f);
+    cmd->add_option("--cache-mb", args->cacheMb,
+                    "Far snapshot cache budget in MiB (default 256; LRU beyond)");
     cmd->add_option("--ids", args->ids, "Also write the entity-id buffer as a colour-coded PNG");
     cmd->add_option("--size", args->size, "Image size WxH (default: the scene's camera; 640x480 for a .vox)");
     cmd->add_option("--sigma", args->sigma, "Virtual pixels per voxel (default: the scene's; 1 for a .vox)");

@@ -1,6 +1,7 @@
 #pragma once
 // Error channels (docs/STYLE.md): untrusted input -> InputError naming file, field and reason;
 // API misuse -> assert; Vulkan/Embree -> their module's check macro / error callback.
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
@@ -26,6 +27,10 @@ struct Limits {
     static constexpr int kMaxImageDim = 16384;      ///< pixels per axis of an output image
     static constexpr int kMaxEntities = 1'000'000;  ///< entities in one scene after crowds expand
     static constexpr int kMaxFramesPerModel = 4096; ///< animation frames of one model
+    /// Voxel cells of all models and frames of one scene (one byte each on the CPU, again in the
+    /// near tier's atlas). Per-model limits alone still let 4096 frames of a 256³ tank, or many
+    /// entries of one big file, ask for 64 GB; this turns that into an error before allocation.
+    static constexpr std::size_t kMaxSceneVoxelCells = std::size_t(1) << 30;
     /// Virtual pixels per voxel. A far snapshot has (2σ|c|)² cells: σ = 16 keeps the largest
     /// (256³) model's snapshot near 100 MB instead of letting a typo allocate terabytes.
     static constexpr double kMaxSigma = 16.0;

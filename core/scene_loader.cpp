@@ -419,6 +419,7 @@ struct Loader {
     Scene s;
     std::unordered_map<std::string, int> modelByName; ///< declared models only
     std::vector<std::string> modelNames;
+    std::size_t voxelCells = 0; ///< over all models and frames so far (Limits::kMaxSceneVoxelCells)
     std::map<std::string, VoxCacheEntry> voxCache; ///< by resolved path
 
     // Paths -------------------------------------------------------------------------------
@@ -466,6 +467,15 @@ struct Loader {
             fail(c, path,
                  "scene would have " + std::to_string(total) + " entities; the limit is " +
                      std::to_string(Limits::kMaxEntities));
+    }
+
+    /// Counts `cells` more voxel cells against Limits::kMaxSceneVoxelCells, before they exist.
+    void reserveVoxelCells(std::size_t cells, const std::string& path) {
+        if (cells > Limits::kMaxSceneVoxelCells - std::min(voxelCells, Limits::kMaxSceneVoxelCells))
+            fail(c, path,
+                 "the scene's models would need " + std::to_string(voxelCells + cells) +
+                     " voxel cells; the limit is " + std::to_string(Limits::kMaxSceneVoxelCells));
+        voxelCells += cells;
     }
 
     // Sections ----------------------------------------------------------------------------
@@ -682,6 +692,12 @@ struct Loader {
             const json* mv = o.get("model");
             which.push_back(mv ? fileModelIndex(*mv, o.at("model"), count) : 0);
         }
+        std::size_t cells = 0;
+        for (int m : which) {
+            const glm::ivec3 d = f.models[std::size_t(m)].dims();
+            cells += std::size_t(d.x) * std::size_t(d.y) * std::size_t(d.z);
+        }
+        reserveVoxelCells(cells, o.path());
         std::vector<VoxelGrid> frames;
         frames.reserve(which.size());
         for (int m : which) frames.push_back(f.models[std::size_t(m)]);
@@ -698,6 +714,9 @@ struct Loader {
         o.i("frames", frames, 1, Limits::kMaxFramesPerModel);
         glm::ivec3 size(32, 32, 16);
         if (auto v = o.get("size")) size = ivec3(c, *v, o.at("size"), 8, Limits::kMaxModelDim);
+        reserveVoxelCells(std::size_t(size.x) * std::size_t(size.y) * std::size_t(size.z) *
+                              std::size_t(frames),
+                          o.path());
         auto m = makeTank(seed, frames, size);
         m->setName(name);
         return m;
@@ -757,6 +776,9 @@ struct Loader {
             m = makeSingleVoxel(idx);
             break;
         }
+        // One frame of at most 256³ exists before it is counted; a tank's frames are counted first.
+        const glm::ivec3 d = m->frame(0).dims();
+        reserveVoxelCells(std::size_t(d.x) * std::size_t(d.y) * std::size_t(d.z), o.path());
         Palette pal = m->palette();
         if (auto v = o.get("color")) pal.colors[idx] = color(c, *v, o.at("color"));
         return std::make_shared<VoxelModel>(name, pal, std::vector<VoxelGrid>{m->frame(0)});

@@ -84,6 +84,7 @@ TEST(BadInput, MalformedScenesNameTheFileAndTheJsonPath) {
         {"hysteresis band inverted", R"({"selector": {"near_at": 50, "far_at": 40}, "models": [{"name": "b", "generator": "box"}]})"},
         {"missing .vox referenced by a scene", R"({"models": [{"name": "v", "vox": "nope/missing.vox"}]})"},
         {"broken .vox referenced by a scene", R"({"models": [{"name": "v", "vox": ")" + repo("scenes/vox/dot_vox/not_a.vox") + R"("}]})"},
+        {"models over the scene's voxel budget", R"({"models": [{"name": "t", "generator": "tank", "size": [256, 256, 256], "frames": 4096}]})"},
         {"edit outside the model", R"({"models": [{"name": "b", "generator": "box", "size": [4, 4, 4]}], "edits": [{"frame": 1, "model": "b", "op": "set", "at": [9, 0, 0]}]})"},
     };
     int n = 0;
@@ -109,6 +110,8 @@ TEST(BadInput, BadArgumentsAreOneLineErrors) {
         {"negative sigma", "render " + vox + " --sigma -1", "--sigma"},
         {"sigma over the limit", "render " + vox + " --sigma 1000", "--sigma"},
         {"sigma over the limit on a scene", "render " + scene + " --sigma 17", "--sigma"},
+        {"zero cache budget", "render " + scene + " --cache-mb 0", "--cache-mb"},
+        {"cache budget beyond the limit", "render " + scene + " --cache-mb 1e9", "--cache-mb"},
         {"view on a scene", "render " + scene + " --view 10,10", "--view"},
         {"distance on a scene", "render " + scene + " --distance 5", "--distance"},
         {"model index on a scene", "render " + scene + " --model 1", "--model"},

@@ -133,7 +133,9 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
             } else {
                 ASSERT_TRUE((*m)["error"].is_object()) << scene << " " << mode;
             }
-            if (mode == "far") EXPECT_EQ((*m)["near_entities"].get<double>(), 0.0);
+            if (mode == "far") {
+                EXPECT_EQ((*m)["near_entities"].get<double>(), 0.0);
+            }
         }
     // The CPU reference draws the Vulkan image exactly (the near tier's contract).
     for (const std::string scene : {"tank_army", "exact"}) {

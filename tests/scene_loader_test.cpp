@@ -464,6 +464,18 @@ TEST(SceneLoader, NumberOverflowIsReportedWithItsJsonPath) {
     EXPECT_EQ(e2.field(), "entities[1].position[1]") << e2.what();
 }
 
+// Every model is within 256³, yet 4096 frames of a 256³ tank would be 64 GiB of grids: the
+// scene-wide voxel budget refuses it before anything is allocated (this would hang or OOM).
+TEST(SceneLoader, SceneWideVoxelBudgetRefusesHugeModelsBeforeAllocating) {
+    const InputError e = errorFromText(R"({"models": [{"name": "t", "generator": "tank",
+        "size": [256, 256, 256], "frames": 4096}], "entities": [{"model": "t"}]})");
+    expectWellFormed(e, (scratchDir() / "scene.json").string());
+    EXPECT_EQ(e.field(), "models[0]") << e.what();
+    EXPECT_NE(e.reason().find("68719476736 voxel cells; the limit is 1073741824"),
+              std::string::npos)
+        << e.what();
+}
+
 TEST(SceneLoader, JsonSyntaxErrorsNameLineAndColumn) {
     const InputError e = errorFromText(
         "{\n  \"voxel_size\": 0.1,\n  \"models\": [\n    {\"name\": \"b\",, }\n  ]\n}\n");
