@@ -51,18 +51,6 @@ std::vector<std::shared_ptr<VoxelModel>> bakeModels() {
             randomSparse({20, 20, 20}, 0.02, 11)};
 }
 
-/// First differing cell, or empty.
-std::string compareCells(const Snapshot& a, const Snapshot& b) {
-    if (a.cells.size() != b.cells.size() || a.lattice.cellRange != b.lattice.cellRange)
-        return "different lattices";
-    for (std::size_t k = 0; k < a.cells.size(); ++k)
-        if (!(a.cells[k] == b.cells[k]))
-            return "cell " + std::to_string(k) + ": " + std::to_string(a.cells[k].index) + "/" +
-                   std::to_string(a.cells[k].code) + " vs " + std::to_string(b.cells[k].index) +
-                   "/" + std::to_string(b.cells[k].code);
-    return {};
-}
-
 // The snapshot is the near kernel's cell image: vtShadeCell (hit, entered face, cardinal
 // outline) evaluated by the reference renderer's traceCells on the snapshot lattice.
 TEST(EmbreeBake, EveryCellEqualsTheNearKernelsShadeCell) {
@@ -101,9 +89,9 @@ TEST(EmbreeBake, QuadsAndBoxesEveryApiEqualTheScalarKernelBake) {
                 for (ViewSet set : {ViewSet::Cube26, ViewSet::Cube98})
                     for (double sigma : {1.0, 2.0})
                         for (int v = 0; v < viewCount(set); ++v) {
-                            const std::string d =
-                                compareCells(bakeSnapshot(scene, set, v, sigma, {api, false}),
-                                             bakeSnapshotScalar(m->frame(0), set, v, sigma));
+                            const std::string d = test::firstSnapshotDifference(
+                                bakeSnapshot(scene, set, v, sigma, {api, false}),
+                                bakeSnapshotScalar(m->frame(0), set, v, sigma));
                             ASSERT_TRUE(d.empty())
                                 << m->name() << " " << toString(geo) << " " << toString(api)
                                 << " set " << viewCount(set) << " view " << v << " sigma " << sigma
@@ -116,9 +104,10 @@ TEST(EmbreeBake, View218SetEqualsTheScalarKernelBake) {
     const auto m = randomSparse({12, 10, 14}, 0.25, 3);
     const VoxelScene scene(m->frame(0), {});
     for (int v = 0; v < 218; ++v)
-        ASSERT_TRUE(compareCells(bakeSnapshot(scene, ViewSet::Cube218, v, 1.0),
-                                 bakeSnapshotScalar(m->frame(0), ViewSet::Cube218, v, 1.0))
-                        .empty())
+        ASSERT_TRUE(
+            test::firstSnapshotDifference(bakeSnapshot(scene, ViewSet::Cube218, v, 1.0),
+                                          bakeSnapshotScalar(m->frame(0), ViewSet::Cube218, v, 1.0))
+                .empty())
             << "view " << v;
 }
 
@@ -137,15 +126,17 @@ TEST(EmbreeBake, SurfaceOnlyBakeEqualsBakeOverEveryVoxel) {
             for (int v = 0; v < 26; ++v)
                 for (double sigma : {1.0, 2.0}) {
                     const Snapshot a = bakeSnapshot(surface, ViewSet::Cube26, v, sigma);
-                    EXPECT_TRUE(
-                        compareCells(a, bakeSnapshot(every, ViewSet::Cube26, v, sigma)).empty())
+                    EXPECT_TRUE(test::firstSnapshotDifference(
+                                    a, bakeSnapshot(every, ViewSet::Cube26, v, sigma))
+                                    .empty())
                         << m->name() << " view " << v;
-                    EXPECT_TRUE(
-                        compareCells(a, bakeSnapshot(unmerged, ViewSet::Cube26, v, sigma)).empty())
+                    EXPECT_TRUE(test::firstSnapshotDifference(
+                                    a, bakeSnapshot(unmerged, ViewSet::Cube26, v, sigma))
+                                    .empty())
                         << m->name() << " view " << v;
-                    EXPECT_TRUE(
-                        compareCells(a, bakeSnapshot(everyUnmerged, ViewSet::Cube26, v, sigma))
-                            .empty())
+                    EXPECT_TRUE(test::firstSnapshotDifference(
+                                    a, bakeSnapshot(everyUnmerged, ViewSet::Cube26, v, sigma))
+                                    .empty())
                         << m->name() << " view " << v;
                 }
         }
@@ -174,7 +165,8 @@ TEST(EmbreeBake, IdenticalSnapshotsWithOneThreadAndAllThreads) {
                 one.push_back(bakeSnapshot(scene, ViewSet::Cube26, v, 2.0));
         });
         for (int v = 0; v < 26; ++v)
-            EXPECT_TRUE(compareCells(all[std::size_t(v)], one[std::size_t(v)]).empty())
+            EXPECT_TRUE(
+                test::firstSnapshotDifference(all[std::size_t(v)], one[std::size_t(v)]).empty())
                 << "view " << v;
     }
 }
@@ -214,9 +206,9 @@ TEST(EmbreeBake, EqualParameterTiesAreDeterministicAndFollowTheKernel) {
         for (int run = 0; run < 3; ++run)
             for (const VoxelScene* sc : {&boxes, &quads})
                 for (TraceApi api : {TraceApi::Packet8, TraceApi::Stream})
-                    EXPECT_TRUE(
-                        compareCells(bakeSnapshot(*sc, ViewSet::Cube26, v, 1.0, {api, false}), ref)
-                            .empty())
+                    EXPECT_TRUE(test::firstSnapshotDifference(
+                                    bakeSnapshot(*sc, ViewSet::Cube26, v, 1.0, {api, false}), ref)
+                                    .empty())
                         << "view " << v;
     }
 }

@@ -45,19 +45,6 @@ std::shared_ptr<VoxelModel> blobModel(glm::ivec3 dims, Box3i content) {
     return std::make_shared<VoxelModel>("blob", proceduralPalette(), std::vector<VoxelGrid>{g});
 }
 
-/// First differing cell (or depth) of two snapshots, or empty.
-std::string compareSnapshots(const Snapshot& a, const Snapshot& b, bool depth = false) {
-    if (a.cells.size() != b.cells.size() || a.lattice.cellRange != b.lattice.cellRange)
-        return "different lattices";
-    for (std::size_t k = 0; k < a.cells.size(); ++k)
-        if (!(a.cells[k] == b.cells[k]))
-            return "cell " + std::to_string(k) + ": " + std::to_string(a.cells[k].index) + "/" +
-                   std::to_string(a.cells[k].code) + " vs " + std::to_string(b.cells[k].index) +
-                   "/" + std::to_string(b.cells[k].code);
-    if (depth && a.depth != b.depth) return "depth differs";
-    return {};
-}
-
 /// The top solid voxel of column (x, y), or z = -1.
 glm::ivec3 topOfColumn(const VoxelGrid& g, int x, int y) {
     for (int z = g.dims().z - 1; z >= 0; --z)
@@ -264,14 +251,14 @@ TEST(FarEditSequence, IncrementalRebakesEqualFullBakesOverHundredsOfRandomEdits)
             for (int ask = 0; ask < 3; ++ask) {
                 const ViewKey k = pool[rng() % pool.size()];
                 const auto a = plain.get(*model, 0, k.set, k.view, k.sigma);
-                const std::string da =
-                    compareSnapshots(*a, bakeSnapshotScalar(g, k.set, k.view, k.sigma));
+                const std::string da = test::firstSnapshotDifference(
+                    *a, bakeSnapshotScalar(g, k.set, k.view, k.sigma));
                 ASSERT_TRUE(da.empty())
                     << "seed " << seed << " step " << step << " set " << viewCount(k.set)
                     << " view " << k.view << " sigma " << k.sigma << ": " << da;
                 const auto b = deep.get(*model, 0, k.set, k.view, k.sigma);
                 if (!reference) reference = std::make_unique<VoxelScene>(g, flat);
-                const std::string db = compareSnapshots(
+                const std::string db = test::firstSnapshotDifference(
                     *b, bakeSnapshot(*reference, k.set, k.view, k.sigma, withDepth), true);
                 ASSERT_TRUE(db.empty())
                     << "seed " << seed << " step " << step << " (depth) set " << viewCount(k.set)
@@ -411,9 +398,9 @@ TEST(FarEditCost, SingleVoxelEditOn64CubeRetracesAFewPercentOfAFullBake) {
             EXPECT_LE(c1.bricksRebuilt - c0.bricksRebuilt, 8u) << e;
         }
         for (int v = 0; v < 26; ++v) {
-            const std::string d =
-                compareSnapshots(*snaps[std::size_t(v)],
-                                 bakeSnapshotScalar(model->frame(0), ViewSet::Cube26, v, 1.0));
+            const std::string d = test::firstSnapshotDifference(
+                *snaps[std::size_t(v)],
+                bakeSnapshotScalar(model->frame(0), ViewSet::Cube26, v, 1.0));
             ASSERT_TRUE(d.empty()) << "edit " << e << " view " << v << ": " << d;
         }
         std::printf("[ 64^3     ] edit %zu: %llu of %llu rays re-traced (%.3f%%), %llu bricks "
@@ -508,7 +495,8 @@ TEST(FarEditLaziness, OnlyRequestedViewsAreRefreshed) {
     const auto s = cache.get(*m, 0, ViewSet::Cube26, 5, 1.0);
     EXPECT_EQ(cache.counters().incrementalRefreshes, 3u);
     EXPECT_TRUE(
-        compareSnapshots(*s, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, 5, 1.0)).empty());
+        test::firstSnapshotDifference(*s, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, 5, 1.0))
+            .empty());
 }
 
 // A model shared by 100 entities: one edit refreshes its one snapshot once, for all of them.
@@ -582,7 +570,8 @@ TEST(FarEditFallback, EditLogOverflowBakesTheViewWhole) {
     EXPECT_EQ(c.scenesUpdated, 0u) << "the scene cannot be derived either";
     EXPECT_EQ(c.snapshots, 1u);
     EXPECT_TRUE(
-        compareSnapshots(*s, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, 20, 1.5)).empty());
+        test::firstSnapshotDifference(*s, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, 20, 1.5))
+            .empty());
 }
 
 // An edit covering most of the snapshot is baked whole (re-tracing nearly everything on top of a
@@ -600,13 +589,15 @@ TEST(FarEditFallback, LargeEditsAndEvictedSnapshotsBakeWhole) {
     ASSERT_TRUE(m->fillBox(0, {{0, 0, 0}, {20, 20, 20}}, proc_index::kMagenta));
     const auto s = cache.get(*m, 0, ViewSet::Cube26, corner, 1.0);
     EXPECT_EQ(cache.counters().fullRefreshes, 1u);
-    EXPECT_TRUE(compareSnapshots(*s, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, corner, 1.0))
+    EXPECT_TRUE(test::firstSnapshotDifference(
+                    *s, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, corner, 1.0))
                     .empty());
     cache.setBudget(0); // evict everything
     ASSERT_TRUE(m->setVoxel(0, {0, 0, 0}, proc_index::kRed));
     const auto t = cache.get(*m, 0, ViewSet::Cube26, corner, 1.0);
     EXPECT_EQ(cache.counters().refreshes, 1u) << "nothing stale was left: a plain bake";
-    EXPECT_TRUE(compareSnapshots(*t, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, corner, 1.0))
+    EXPECT_TRUE(test::firstSnapshotDifference(
+                    *t, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, corner, 1.0))
                     .empty());
 }
 
@@ -667,9 +658,11 @@ TEST(FarEditScene, DerivedScenesRebuildOnlyTheBricksTheEditReaches) {
     const VoxelScene fresh(m->frame(0), o);
     for (int v = 0; v < 26; ++v) {
         const Snapshot a = bakeSnapshot(*current, ViewSet::Cube26, v, 1.0);
-        EXPECT_TRUE(compareSnapshots(a, bakeSnapshot(fresh, ViewSet::Cube26, v, 1.0)).empty());
         EXPECT_TRUE(
-            compareSnapshots(a, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, v, 1.0)).empty());
+            test::firstSnapshotDifference(a, bakeSnapshot(fresh, ViewSet::Cube26, v, 1.0)).empty());
+        EXPECT_TRUE(test::firstSnapshotDifference(
+                        a, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, v, 1.0))
+                        .empty());
     }
     EXPECT_EQ(current->primitiveCount(), VoxelScene(m->frame(0),
                                                     [] {
@@ -700,9 +693,10 @@ TEST(FarEditScene, QuadScenesUpdateToo) {
     const VoxelScene derived(scene, m->frame(0), *m->dirtySince(before, 0));
     EXPECT_LT(derived.buildStats().bricksBuilt, derived.brickCount());
     for (int v = 0; v < 26; ++v)
-        EXPECT_TRUE(compareSnapshots(bakeSnapshot(derived, ViewSet::Cube26, v, 1.5),
-                                     bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, v, 1.5))
-                        .empty())
+        EXPECT_TRUE(
+            test::firstSnapshotDifference(bakeSnapshot(derived, ViewSet::Cube26, v, 1.5),
+                                          bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, v, 1.5))
+                .empty())
             << v;
 }
 
@@ -742,7 +736,7 @@ TEST(FarEditConcurrency, EditsAndRendersOnDifferentModelsAreSafe) {
             const int k = step % 6;
             const Snapshot want =
                 bakeSnapshotScalar(a->frame(0), ViewSet::Cube26, 5 * k, 1.0 + 0.5 * (k % 2));
-            if (!compareSnapshots(*got[std::size_t(k)], want).empty()) ++failures;
+            if (!test::firstSnapshotDifference(*got[std::size_t(k)], want).empty()) ++failures;
         }
         done = true;
     });
@@ -764,9 +758,9 @@ TEST(FarEditConcurrency, EditsAndRendersOnDifferentModelsAreSafe) {
     for (const auto& m : {a, b})
         for (int v : {0, 5, 13, 25}) {
             const auto s = cache.get(*m, 0, ViewSet::Cube26, v, 1.0);
-            EXPECT_TRUE(
-                compareSnapshots(*s, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, v, 1.0))
-                    .empty())
+            EXPECT_TRUE(test::firstSnapshotDifference(
+                            *s, bakeSnapshotScalar(m->frame(0), ViewSet::Cube26, v, 1.0))
+                            .empty())
                 << m->name() << " view " << v;
         }
     EXPECT_GT(cache.counters().refreshes, 0u);

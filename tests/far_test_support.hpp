@@ -34,4 +34,19 @@ inline std::string firstDifference(const Image& nearImg, const Image& farImg) {
     return describeDifference(nearImg, farImg, "near", "far");
 }
 
+/// Empty when two snapshots hold the same cells (and, with `depth`, depths), else the first
+/// differing cell with both values.
+inline std::string firstSnapshotDifference(const Snapshot& a, const Snapshot& b,
+                                           bool depth = false) {
+    if (a.cells.size() != b.cells.size() || a.lattice.cellRange != b.lattice.cellRange)
+        return "different lattices";
+    for (std::size_t k = 0; k < a.cells.size(); ++k)
+        if (!(a.cells[k] == b.cells[k]))
+            return "cell " + std::to_string(k) + ": " + std::to_string(a.cells[k].index) + "/" +
+                   std::to_string(a.cells[k].code) + " vs " + std::to_string(b.cells[k].index) +
+                   "/" + std::to_string(b.cells[k].code);
+    if (depth && a.depth != b.depth) return "depth differs";
+    return {};
+}
+
 } // namespace voxtier::test
