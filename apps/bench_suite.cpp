@@ -110,21 +110,9 @@ std::string sceneName(const std::string& file) {
     return fs::path(file).stem().string();
 }
 
-const char* metricName(SelectorMetric m) {
-    switch (m) {
-    case SelectorMetric::Distance:
-        return "distance";
-    case SelectorMetric::RadiusPx:
-        return "radius_px";
-    case SelectorMetric::ErrorPx:
-        return "error_px";
-    }
-    return "?";
-}
-
 std::string selectorSummary(const Scene& s) {
     const SelectorConfig& c = s.selector;
-    return std::string(metricName(c.metric)) + " near_at " + fmt(c.nearAt) + " far_at " +
+    return std::string(toString(c.metric)) + " near_at " + fmt(c.nearAt) + " far_at " +
            fmt(c.farAt) + ", " + std::to_string(c.viewSetSize) + " views, sigma " +
            fmt(s.render.sigma) + ", fade " + std::to_string(c.crossfadeFrames) +
            (c.viewHysteresisDeg > 0 ? ", view hysteresis " + fmt(c.viewHysteresisDeg) : "");
@@ -542,7 +530,7 @@ struct SweepPoint {
 };
 
 std::string configKey(const SelectorConfig& c, double sigma) {
-    return std::string(metricName(c.metric)) + "/" + fmt(c.nearAt) + "/" + fmt(c.farAt) + "/" +
+    return std::string(toString(c.metric)) + "/" + fmt(c.nearAt) + "/" + fmt(c.farAt) + "/" +
            std::to_string(c.viewSetSize) + "/" + std::to_string(c.crossfadeFrames) + "/" +
            fmt(c.viewHysteresisDeg) + "/" + fmt(sigma);
 }
@@ -554,14 +542,14 @@ std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
     auto farAt = [&](SelectorMetric metric, const std::vector<double>& values, double nearFactor) {
         for (double v : values) {
             SweepPoint p;
-            p.family = std::string("far_at (") + metricName(metric) + ")";
+            p.family = std::string("far_at (") + toString(metric) + ")";
             p.selector = s0;
             p.selector.metric = metric;
             p.selector.farAt = v;
             p.selector.nearAt = v * nearFactor;
             p.sigma = sigma0;
             p.param = v;
-            p.setting = std::string(metricName(metric)) + " far_at=" + fmt(v) +
+            p.setting = std::string(toString(metric)) + " far_at=" + fmt(v) +
                         " near_at=" + fmt(v * nearFactor);
             pts.push_back(p);
         }

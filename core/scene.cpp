@@ -4,6 +4,18 @@
 
 namespace voxtier {
 
+const char* toString(SelectorMetric m) {
+    switch (m) {
+    case SelectorMetric::Distance:
+        return "distance";
+    case SelectorMetric::RadiusPx:
+        return "radius_px";
+    case SelectorMetric::ErrorPx:
+        return "error_px";
+    }
+    return "?";
+}
+
 Camera Scene::cameraAt(double t) const {
     Camera c = camera;
     if (!path || path->keys.empty()) return c;

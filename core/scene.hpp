@@ -40,6 +40,8 @@ enum class SelectorMetric {
     RadiusPx, ///< projected bounding-sphere radius in pixels: shrinks with distance
     ErrorPx,  ///< predicted view-quantisation error r_px * sin(theta): shrinks with distance
 };
+/// The scene file's name of a metric: "distance", "radius_px" or "error_px".
+const char* toString(SelectorMetric m);
 /// Hysteresis (lod/selector.hpp). Distance: near->far when the metric rises past farAt,
 /// far->near when it falls below nearAt < farAt. The pixel metrics shrink with distance, so
 /// their band is mirrored: near->far when the metric falls below farAt, far->near when it rises

@@ -614,7 +614,9 @@ struct Loader {
         SelectorConfig& sel = s.selector;
         if (auto m = o.get("metric"))
             sel.metric = SelectorMetric(
-                choice(c, *m, o.at("metric"), {"distance", "radius_px", "error_px"}));
+                choice(c, *m, o.at("metric"),
+                       {toString(SelectorMetric::Distance), toString(SelectorMetric::RadiusPx),
+                        toString(SelectorMetric::ErrorPx)}));
         // Distance grows with distance; the pixel metrics (projected radius, predicted
         // view-quantisation error) shrink with it, so their hysteresis band is mirrored:
         // near->far below far_at, far->near above near_at > far_at (lod/selector.hpp).
