@@ -6,8 +6,8 @@
 // differ from the reference. Besides the default (hull proxy, one instanced draw) it measures
 // the alternatives one change at a time: one draw per entity, the quad proxy, the rasterised
 // proxy box (NearProxy in volumetric/near_renderer.hpp).
-#include "apps/commands.hpp"
 #include "apps/bench_util.hpp"
+#include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
 #include "core/scene.hpp"
@@ -20,7 +20,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -139,14 +138,6 @@ struct Row {
     }
 };
 
-std::size_t differingPixels(const Image& a, const Image& b) {
-    std::size_t n = 0;
-    for (std::size_t p = 0; p < a.pixelCount(); ++p)
-        n += a.color[p] != b.color[p] || a.id[p] != b.id[p] ||
-             std::memcmp(&a.depth[p], &b.depth[p], sizeof(float)) != 0;
-    return n;
-}
-
 void run(const BenchArgs& a) {
     const std::vector<int> counts = parseList<int>(a.entities, "--entities", 1, Limits::kMaxEntities);
     if (a.repeat < 1) throw InputError("", "--repeat", "must be >= 1");
@@ -246,8 +237,8 @@ void run(const BenchArgs& a) {
             row.refMs = median(ref);
             row.vkCpuMs = median(vkCpu);
             row.refCpuMs = median(refCpu);
-            row.differing = differingPixels(img, reference);
-            if (differingPixels(counted, img) != 0)
+            row.differing = diffImages(img, reference).pixelDiffs;
+            if (diffImages(counted, img).pixelDiffs != 0)
                 throw InputError("", "bench",
                                  "the step-counting shader drew a different image (a bug)");
             for (auto id : img.id) row.drawn += id != kernel::VT_NO_ENTITY;

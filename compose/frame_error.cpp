@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 
 namespace voxtier {
 
@@ -138,9 +137,7 @@ FrameErrorReport measureFrameError(const Image& truth, const Image& test,
     r.rmse = f.rmse;
     r.psnr = f.psnr;
     r.changedPixels = f.changedPixels;
-    for (std::size_t p = 0; p < truth.pixelCount(); ++p)
-        r.differingPixels += truth.color[p] != test.color[p] || truth.id[p] != test.id[p] ||
-                             std::memcmp(&truth.depth[p], &test.depth[p], sizeof(float)) != 0;
+    r.differingPixels = diffImages(truth, test).pixelDiffs;
     return r;
 }
 

@@ -31,6 +31,7 @@ ImageDiff diffImages(const Image& a, const Image& b) {
         d.colorDiffs += c;
         d.depthDiffs += z;
         d.idDiffs += e;
+        d.pixelDiffs += c || z || e;
         if ((c || z || e) && first) {
             first = false;
             d.firstX = i % std::size_t(a.width);

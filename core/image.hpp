@@ -36,6 +36,7 @@ struct Image {
 /// Pixel-by-pixel comparison of two images of the same size.
 struct ImageDiff {
     std::size_t colorDiffs = 0, depthDiffs = 0, idDiffs = 0;
+    std::size_t pixelDiffs = 0;         ///< pixels differing in any of colour, depth, id
     std::size_t firstX = 0, firstY = 0; ///< first differing pixel (any channel)
     bool identical() const { return colorDiffs == 0 && depthDiffs == 0 && idDiffs == 0; }
 };

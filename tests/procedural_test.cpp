@@ -166,9 +166,8 @@ TEST(Procedural, SingleVoxelIsOneVoxelOfTheIndex) {
     EXPECT_EQ(makeSingleVoxel()->frame(0).at({0, 0, 0}), 1);
 }
 
-TEST(Procedural, PaletteEntriesAreOpaqueDistinctAndNeverOutlineBlack) {
-    const Palette& p = proceduralPalette();
-    EXPECT_EQ(channel(p.colors[0], 3), 0u);
+/// Entries 1..255 are opaque, not the outline's black, and pairwise distinct.
+void expectOpaqueDistinctAndNeverBlack(const Palette& p) {
     std::set<Rgba8> seen;
     for (int i = 1; i < 256; ++i) {
         const Rgba8 c = p.colors[std::size_t(i)];
@@ -176,6 +175,12 @@ TEST(Procedural, PaletteEntriesAreOpaqueDistinctAndNeverOutlineBlack) {
         EXPECT_NE(c & 0xffffffu, 0u) << i;
         EXPECT_TRUE(seen.insert(c).second) << "duplicate colour at index " << i;
     }
+}
+
+TEST(Procedural, PaletteEntriesAreOpaqueDistinctAndNeverOutlineBlack) {
+    const Palette& p = proceduralPalette();
+    EXPECT_EQ(channel(p.colors[0], 3), 0u);
+    expectOpaqueDistinctAndNeverBlack(p);
     // 1..8 are saturated: a large spread between the strongest and weakest channel.
     for (int i = 1; i <= 8; ++i) {
         const Rgba8 c = p.colors[std::size_t(i)];
@@ -279,13 +284,7 @@ TEST(Procedural, TankFramesAllDifferAndTheTreadsRollOneVoxelPerFrame) {
 
 TEST(Procedural, TankPaletteIsOpaqueDistinctAndNeverOutlineBlack) {
     const Palette& p = tankPalette();
-    std::set<Rgba8> seen;
-    for (int i = 1; i < 256; ++i) {
-        const Rgba8 c = p.colors[std::size_t(i)];
-        EXPECT_EQ(channel(c, 3), 255u) << i;
-        EXPECT_NE(c & 0xffffffu, 0u) << i;
-        EXPECT_TRUE(seen.insert(c).second) << "duplicate colour at index " << i;
-    }
+    expectOpaqueDistinctAndNeverBlack(p);
     EXPECT_EQ(makeTank(1)->palette(), p);
     // Every voxel of every frame uses an entry the palette defines on purpose (32..47).
     const auto t = makeTank(5, 4);
