@@ -2,8 +2,8 @@
 // cost, optionally write a contact sheet of the views. `voxtier bake --bench [MODEL.vox...]`:
 // the Embree bake against the near kernel's scalar DDA over the same rays, side by side in one
 // run (medians over repeats), plus the memory one cached model costs.
-#include "apps/commands.hpp"
 #include "apps/bench_util.hpp"
+#include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "core/image_io.hpp"
 #include "core/procedural.hpp"

@@ -10,8 +10,8 @@
 //     a fresh cache after the same edit (scene built from scratch, every view baked whole: what
 //     an edit cost before incremental refresh). Cells re-traced / cells of a full bake, ms, and a
 //     byte comparison of the two results.
-#include "apps/commands.hpp"
 #include "apps/bench_util.hpp"
+#include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
 #include "core/vox_reader.hpp"

@@ -139,7 +139,8 @@ struct Row {
 };
 
 void run(const BenchArgs& a) {
-    const std::vector<int> counts = parseList<int>(a.entities, "--entities", 1, Limits::kMaxEntities);
+    const std::vector<int> counts =
+        parseList<int>(a.entities, "--entities", 1, Limits::kMaxEntities);
     if (a.repeat < 1) throw InputError("", "--repeat", "must be >= 1");
     if (a.warmup < 0) throw InputError("", "--warmup", "must be >= 0");
     int width = 0, height = 0;

@@ -4,10 +4,11 @@
 #include "apps/commands.hpp"
 #include "core/vox_reader.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <cstddef>
 #include <iostream>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <string>
 
 namespace voxtier::cli {

@@ -52,23 +52,33 @@ std::pair<double, double> parsePair(const std::string& text, char sep, const std
         if (!std::isfinite(a) || !std::isfinite(b)) throw std::invalid_argument("");
         return {a, b};
     } catch (const std::exception&) {
-        throw InputError("", field, "expected two numbers separated by '" + std::string(1, sep) + "', got '" + text + "'");
+        throw InputError("", field,
+                         "expected two numbers separated by '" + std::string(1, sep) + "', got '" +
+                             text + "'");
     }
 }
 
 glm::ivec2 parseImageSize(const std::string& text) {
     const auto [w, h] = parsePair(text, 'x', "--size");
-    if (w < 1 || h < 1 || w > Limits::kMaxImageDim || h > Limits::kMaxImageDim || w != std::floor(w) || h != std::floor(h))
-        throw InputError("", "--size", "expected WxH with integers 1.." + std::to_string(Limits::kMaxImageDim));
+    if (w < 1 || h < 1 || w > Limits::kMaxImageDim || h > Limits::kMaxImageDim ||
+        w != std::floor(w) || h != std::floor(h))
+        throw InputError("", "--size",
+                         "expected WxH with integers 1.." + std::to_string(Limits::kMaxImageDim));
     return {int(w), int(h)};
 }
 
 Scene loadInput(const RenderArgs& a) {
     if (!endsWith(a.input, ".vox")) {
         // A scene brings its own camera: the single-model options would be silently ignored.
-        if (a.view) throw InputError(a.input, "--view", "applies to a .vox input only (a scene has its camera)");
-        if (a.distance) throw InputError(a.input, "--distance", "applies to a .vox input only (a scene has its camera)");
-        if (a.model) throw InputError(a.input, "--model", "applies to a .vox input only (a scene names its models)");
+        if (a.view)
+            throw InputError(a.input, "--view",
+                             "applies to a .vox input only (a scene has its camera)");
+        if (a.distance)
+            throw InputError(a.input, "--distance",
+                             "applies to a .vox input only (a scene has its camera)");
+        if (a.model)
+            throw InputError(a.input, "--model",
+                             "applies to a .vox input only (a scene names its models)");
         Scene s = loadScene(a.input);
         if (a.size) {
             const glm::ivec2 wh = parseImageSize(*a.size);
@@ -81,9 +91,11 @@ Scene loadInput(const RenderArgs& a) {
     const VoxFile vox = readVoxFile(a.input);
     const int index = a.model.value_or(0);
     if (index < 0 || index >= int(vox.models.size()))
-        throw InputError(a.input, "--model", "file has " + std::to_string(vox.models.size()) + " models");
-    auto model = std::make_shared<VoxelModel>(std::filesystem::path(a.input).stem().string(), vox.palette,
-                                              std::vector<VoxelGrid>{vox.models[std::size_t(index)]});
+        throw InputError(a.input, "--model",
+                         "file has " + std::to_string(vox.models.size()) + " models");
+    auto model =
+        std::make_shared<VoxelModel>(std::filesystem::path(a.input).stem().string(), vox.palette,
+                                     std::vector<VoxelGrid>{vox.models[std::size_t(index)]});
     ModelView v;
     std::tie(v.azimuthDeg, v.elevationDeg) = parsePair(a.view.value_or("30,20"), ',', "--view");
     const glm::ivec2 wh = parseImageSize(a.size.value_or("640x480"));
@@ -147,14 +159,18 @@ void run(const RenderArgs& a) {
     } else if (a.time) {
         if (!std::isfinite(*a.time)) throw InputError("", "--time", "must be a finite number");
         fixedTime = *a.time;
-        first = last = scene.path ? int(std::floor((*a.time - scene.path->keys.front().time) * scene.path->fps + 1e-9)) : 0;
+        first = last =
+            scene.path ? int(std::floor(
+                             (*a.time - scene.path->keys.front().time) * scene.path->fps + 1e-9))
+                       : 0;
         first = last = std::max(0, first);
     }
     std::FILE* csv = openCsv(
         a.csv, "frame,time,entities,culled,near,far,fading,switches_to_far,switches_to_near,"
                "view_changes,bakes,cache_bytes,setup_ms,select_ms,near_ms,far_ms,bake_ms,total_ms,"
                "refreshes,incremental_refreshes,cells_retraced,near_bytes_uploaded\n");
-    std::FILE* pops = openCsv(a.pops, "frame,entity,kind,changed_pixels,changed_fraction,displacement_px,radius_px\n");
+    std::FILE* pops = openCsv(
+        a.pops, "frame,entity,kind,changed_pixels,changed_fraction,displacement_px,radius_px\n");
     // A lone frame starts the selector fresh (tiers from the metric alone); --path runs the
     // frames in order, so hysteresis and cross-fades behave as in a game.
     for (int frame = first; frame <= last; ++frame) {
@@ -177,15 +193,16 @@ void run(const RenderArgs& a) {
                          static_cast<unsigned long long>(st.farCellsRetraced),
                          static_cast<unsigned long long>(st.nearBytesUploaded));
         for (const PopEvent& e : r.pops)
-            std::fprintf(pops, "%d,%u,%s,%zu,%.6f,%.3f,%.3f\n", e.frame, e.entity, toString(e.kind), e.changedPixels,
-                         e.changedFraction, e.displacementPx, e.radiusPx);
+            std::fprintf(pops, "%d,%u,%s,%zu,%.6f,%.3f,%.3f\n", e.frame, e.entity, toString(e.kind),
+                         e.changedPixels, e.changedFraction, e.displacementPx, e.radiusPx);
         if (frame == first && !renderer.nearDeviceName().empty())
             std::printf("Vulkan device: %s\n", renderer.nearDeviceName().c_str());
-        std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, %d fading), "
+        std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, "
+                    "%d fading), "
                     "%d switches, %d bakes, %.1f ms -> %s\n",
-                    a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height, st.entities,
-                    st.culled, st.nearDrawn, st.farDrawn, st.fading, st.switchesToFar + st.switchesToNear,
-                    st.farBakes, st.totalMs, file.c_str());
+                    a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height,
+                    st.entities, st.culled, st.nearDrawn, st.farDrawn, st.fading,
+                    st.switchesToFar + st.switchesToNear, st.farBakes, st.totalMs, file.c_str());
     }
     if (csv) std::fclose(csv);
     if (pops) std::fclose(pops);
@@ -195,29 +212,39 @@ void run(const RenderArgs& a) {
 
 void addRenderCommand(CLI::App& app) {
     auto args = std::make_shared<RenderArgs>();
-    CLI::App* cmd = app.add_subcommand("render", "Render one frame of a scene (.json) or a single model (.vox)");
-    cmd->add_option("input", args->input, "Scene file (.json) or MagicaVoxel model (.vox)")->required();
-    cmd->add_option("-o,--out", args->out, "Output image (.png, or .exr with Z and id channels); default out/<name>.png");
-    cmd->add_option("--mode", args->mode,
-                    "hybrid (the selector hands entities between the tiers), near (Vulkan near tier for "
-                    "every entity; VOXTIER_VALIDATION=1 enables validation), far (every entity through "
-                    "the snapshot cache) or reference (CPU reference tracer)")
+    CLI::App* cmd = app.add_subcommand(
+        "render", "Render one frame of a scene (.json) or a single model (.vox)");
+    cmd->add_option("input", args->input, "Scene file (.json) or MagicaVoxel model (.vox)")
+        ->required();
+    cmd->add_option("-o,--out", args->out,
+                    "Output image (.png, or .exr with Z and id channels); default out/<name>.png");
+    cmd->add_option(
+           "--mode", args->mode,
+           "hybrid (the selector hands entities between the tiers), near (Vulkan near tier for "
+           "every entity; VOXTIER_VALIDATION=1 enables validation), far (every entity through "
+           "the snapshot cache) or reference (CPU reference tracer)")
         ->capture_default_str();
     cmd->add_option("--near-backend", args->nearBackend,
                     "vulkan, or reference (the CPU tracer draws the near tier; same image)")
         ->capture_default_str();
-    cmd->add_flag("--path", args->path, "Render every frame of the camera path (OUT becomes OUT_0000.png ...)");
-    cmd->add_option("--overlay", args->overlay, "Also write the tier overlay (near blue, far orange, fading magenta)");
+    cmd->add_flag("--path", args->path,
+                  "Render every frame of the camera path (OUT becomes OUT_0000.png ...)");
+    cmd->add_option("--overlay", args->overlay,
+                    "Also write the tier overlay (near blue, far orange, fading magenta)");
     cmd->add_option("--csv", args->csv, "Per-frame CSV: tier counts, switches, bakes, timings");
-    cmd->add_option("--pops", args->pops, "Per-switch CSV: the image change each tier/view switch causes alone");
+    cmd->add_option("--pops", args->pops,
+                    "Per-switch CSV: the image change each tier/view switch causes alone");
     auto* t = cmd->add_option("--time", args->time, "Time in seconds along the camera path");
-    auto* f = cmd->add_option("--frame", args->frame, "Frame number of the camera path (applies scripted edits up to it)");
+    auto* f = cmd->add_option("--frame", args->frame,
+                              "Frame number of the camera path (applies scripted edits up to it)");
     t->excludes(f);
     cmd->add_option("--cache-mb", args->cacheMb,
                     "Far snapshot cache budget in MiB (default 256; LRU beyond)");
     cmd->add_option("--ids", args->ids, "Also write the entity-id buffer as a colour-coded PNG");
-    cmd->add_option("--size", args->size, "Image size WxH (default: the scene's camera; 640x480 for a .vox)");
-    cmd->add_option("--sigma", args->sigma, "Virtual pixels per voxel (default: the scene's; 1 for a .vox)");
+    cmd->add_option("--size", args->size,
+                    "Image size WxH (default: the scene's camera; 640x480 for a .vox)");
+    cmd->add_option("--sigma", args->sigma,
+                    "Virtual pixels per voxel (default: the scene's; 1 for a .vox)");
     auto* vox = cmd->add_option_group("single model (.vox input)");
     vox->add_option("--view", args->view, "AZIMUTH,ELEVATION in degrees (default 30,20)");
     vox->add_option("--distance", args->distance, "Camera distance in metres (default 0 = fit)");

@@ -9,7 +9,7 @@ void addInfoCommand(CLI::App& app);
 void addBakeCommand(CLI::App& app);
 /// `bench [SCENES...]` and its subcommands (apps/cmd_bench.cpp registers them all).
 void addBenchCommand(CLI::App& app);
-void addBenchNearCommand(CLI::App& bench); ///< `bench near` (apps/cmd_bench_near.cpp)
+void addBenchNearCommand(CLI::App& bench);  ///< `bench near` (apps/cmd_bench_near.cpp)
 void addBenchEditsCommand(CLI::App& bench); ///< `bench edits` (apps/cmd_bench_edits.cpp)
 
 } // namespace voxtier::cli

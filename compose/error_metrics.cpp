@@ -55,8 +55,11 @@ void dt1d(const double* f, int n, double* d, int* v, double* z) {
 }
 
 struct Box {
-    int x0 = std::numeric_limits<int>::max(), y0 = std::numeric_limits<int>::max(), x1 = -1, y1 = -1;
-    void add(int x, int y) { x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y); }
+    int x0 = std::numeric_limits<int>::max(), y0 = std::numeric_limits<int>::max(), x1 = -1,
+        y1 = -1;
+    void add(int x, int y) {
+        x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
+    }
     bool empty() const { return x1 < x0; }
 };
 
@@ -105,7 +108,8 @@ std::vector<double> squaredDistanceTransform(const std::vector<std::uint8_t>& ma
     return g;
 }
 
-std::vector<EntityError> entityErrors(const Image& truth, const Image& test, const std::vector<std::uint32_t>& entities,
+std::vector<EntityError> entityErrors(const Image& truth, const Image& test,
+                                      const std::vector<std::uint32_t>& entities,
                                       std::optional<glm::ivec4> rect) {
     const glm::ivec4 r = rect.value_or(glm::ivec4(0, 0, truth.width, truth.height));
     std::unordered_map<std::uint32_t, std::size_t> slot;
@@ -153,12 +157,14 @@ EntityError entityError(const Image& truth, const Image& test, std::uint32_t ent
     return v.front();
 }
 
-FrameError summarize(const std::vector<EntityError>& perEntity, const Image& truth, const Image& test) {
+FrameError summarize(const std::vector<EntityError>& perEntity, const Image& truth,
+                     const Image& test) {
     FrameError f;
     f.entities = perEntity.size();
     for (const EntityError& e : perEntity) {
         f.meanMismatch += e.mismatchFraction();
-        f.meanDisplacementPx += std::isfinite(e.silhouetteDisplacementPx) ? e.silhouetteDisplacementPx : 0.0;
+        f.meanDisplacementPx +=
+            std::isfinite(e.silhouetteDisplacementPx) ? e.silhouetteDisplacementPx : 0.0;
         if (e.mismatchFraction() > f.worstMismatch) {
             f.worstMismatch = e.mismatchFraction();
             f.worstEntity = e.entity;
@@ -172,7 +178,8 @@ FrameError summarize(const std::vector<EntityError>& perEntity, const Image& tru
     const ColorCompare c = compareColor(truth, test);
     f.rmse = c.rmse;
     f.psnr = c.psnr;
-    for (std::size_t p = 0; p < truth.pixelCount(); ++p) f.changedPixels += truth.color[p] != test.color[p];
+    for (std::size_t p = 0; p < truth.pixelCount(); ++p)
+        f.changedPixels += truth.color[p] != test.color[p];
     return f;
 }
 

@@ -17,13 +17,17 @@ struct EntityError {
     std::size_t footprintTruth = 0; ///< pixels the entity owns in the truth
     std::size_t footprintTest = 0;  ///< pixels it owns in the test image
     std::size_t unionPixels = 0;    ///< owned in either
-    std::size_t mismatched = 0;     ///< of the union: owned by only one, or owned by both with different colour
-    std::size_t coverageMismatched = 0; ///< of the union: owned by only one (silhouette, colour ignored)
+    std::size_t mismatched =
+        0; ///< of the union: owned by only one, or owned by both with different colour
+    std::size_t coverageMismatched =
+        0; ///< of the union: owned by only one (silhouette, colour ignored)
     /// Largest distance (pixels) from a pixel owned in one image but not the other to the
     /// nearest pixel owned in the other: how far the silhouette moved. 0 when the footprints
     /// agree; +inf when the entity is missing from exactly one image.
     double silhouetteDisplacementPx = 0.0;
-    double mismatchFraction() const { return unionPixels ? double(mismatched) / double(unionPixels) : 0.0; }
+    double mismatchFraction() const {
+        return unionPixels ? double(mismatched) / double(unionPixels) : 0.0;
+    }
     double coverageMismatchFraction() const {
         return unionPixels ? double(coverageMismatched) / double(unionPixels) : 0.0;
     }
@@ -34,7 +38,8 @@ EntityError entityError(const Image& truth, const Image& test, std::uint32_t ent
 
 /// Errors of many entities in one pass over the images (entities absent from both are skipped).
 /// `rect` (x0, y0, x1, y1, half-open) limits the pass when the footprints are known to lie in it.
-std::vector<EntityError> entityErrors(const Image& truth, const Image& test, const std::vector<std::uint32_t>& entities,
+std::vector<EntityError> entityErrors(const Image& truth, const Image& test,
+                                      const std::vector<std::uint32_t>& entities,
                                       std::optional<glm::ivec4> rect = std::nullopt);
 
 struct FrameError {
@@ -45,7 +50,8 @@ struct FrameError {
     double rmse = 0.0, psnr = 0.0; ///< colour, OpenImageIO's compare
     std::size_t changedPixels = 0; ///< pixels whose colour differs
 };
-FrameError summarize(const std::vector<EntityError>& perEntity, const Image& truth, const Image& test);
+FrameError summarize(const std::vector<EntityError>& perEntity, const Image& truth,
+                     const Image& test);
 
 /// Exact squared Euclidean distance (pixels) from every cell of a w x h mask to the nearest
 /// set cell (Felzenszwalb & Huttenlocher, "Distance Transforms of Sampled Functions", 2012).

@@ -21,7 +21,9 @@ namespace voxtier {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+double msSince(Clock::time_point t0) {
+    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
 
 /// A copy of a sprite that draws only its share of a cross-fade: `keepBelow` keeps the pixels
 /// whose dither threshold is below the fade share (the new tier), the others keep the rest.
@@ -39,15 +41,20 @@ RenderMode parseRenderMode(const std::string& name) {
     if (name == "near") return RenderMode::Near;
     if (name == "far") return RenderMode::Far;
     if (name == "hybrid") return RenderMode::Hybrid;
-    throw InputError("", "--mode", "unknown render mode '" + name + "' (expected: hybrid, near, far, reference)");
+    throw InputError("", "--mode",
+                     "unknown render mode '" + name + "' (expected: hybrid, near, far, reference)");
 }
 
 const char* toString(RenderMode m) {
     switch (m) {
-    case RenderMode::Reference: return "reference";
-    case RenderMode::Near: return "near";
-    case RenderMode::Far: return "far";
-    case RenderMode::Hybrid: return "hybrid";
+    case RenderMode::Reference:
+        return "reference";
+    case RenderMode::Near:
+        return "near";
+    case RenderMode::Far:
+        return "far";
+    case RenderMode::Hybrid:
+        return "hybrid";
     }
     return "?";
 }
@@ -55,38 +62,52 @@ const char* toString(RenderMode m) {
 NearBackend parseNearBackend(const std::string& name) {
     if (name == "vulkan") return NearBackend::Vulkan;
     if (name == "reference") return NearBackend::Reference;
-    throw InputError("", "--near-backend", "unknown near backend '" + name + "' (expected: vulkan, reference)");
+    throw InputError("", "--near-backend",
+                     "unknown near backend '" + name + "' (expected: vulkan, reference)");
 }
 
 const char* toString(PopEvent::Kind k) {
     switch (k) {
-    case PopEvent::Kind::TierSwitch: return "tier";
-    case PopEvent::Kind::ViewSwitch: return "view";
-    case PopEvent::Kind::FadeStep: return "fade";
+    case PopEvent::Kind::TierSwitch:
+        return "tier";
+    case PopEvent::Kind::ViewSwitch:
+        return "view";
+    case PopEvent::Kind::FadeStep:
+        return "fade";
     }
     return "?";
 }
 
 FrameRenderer::FrameRenderer(Scene& scene, FrameOptions options)
-    : scene_(scene), options_(options), selector_(scene.selector), cache_(std::make_unique<SnapshotCache>()),
-      backend_(options.nearBackend) {
+    : scene_(scene), options_(options), selector_(scene.selector),
+      cache_(std::make_unique<SnapshotCache>()), backend_(options.nearBackend) {
     cache_->setBudget(options_.cacheBudgetBytes);
-    std::stable_sort(scene_.edits.begin(), scene_.edits.end(),
-                     [](const ScriptedEdit& a, const ScriptedEdit& b) { return a.atFrame < b.atFrame; });
+    std::stable_sort(
+        scene_.edits.begin(), scene_.edits.end(),
+        [](const ScriptedEdit& a, const ScriptedEdit& b) { return a.atFrame < b.atFrame; });
 }
 
 FrameRenderer::~FrameRenderer() = default;
 
-std::string FrameRenderer::nearDeviceName() const { return near_ ? near_->deviceName() : std::string(); }
+std::string FrameRenderer::nearDeviceName() const {
+    return near_ ? near_->deviceName() : std::string();
+}
 
 void FrameRenderer::applyEditsThrough(int frame) {
-    while (editsApplied_ < int(scene_.edits.size()) && scene_.edits[std::size_t(editsApplied_)].atFrame <= frame) {
+    while (editsApplied_ < int(scene_.edits.size()) &&
+           scene_.edits[std::size_t(editsApplied_)].atFrame <= frame) {
         const ScriptedEdit& e = scene_.edits[std::size_t(editsApplied_++)];
         VoxelModel& m = *scene_.models.at(std::size_t(e.model));
         switch (e.op) {
-        case ScriptedEdit::Op::Set: m.setVoxel(e.modelFrame, e.box.min, e.index); break;
-        case ScriptedEdit::Op::Fill: m.fillBox(e.modelFrame, e.box, e.index); break;
-        case ScriptedEdit::Op::Clear: m.clearBox(e.modelFrame, e.box); break;
+        case ScriptedEdit::Op::Set:
+            m.setVoxel(e.modelFrame, e.box.min, e.index);
+            break;
+        case ScriptedEdit::Op::Fill:
+            m.fillBox(e.modelFrame, e.box, e.index);
+            break;
+        case ScriptedEdit::Op::Clear:
+            m.clearBox(e.modelFrame, e.box);
+            break;
         }
     }
 }
@@ -124,7 +145,8 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     return out;
 }
 
-std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>& sprites, RenderMode mode, FrameStats& st) {
+std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>& sprites,
+                                                 RenderMode mode, FrameStats& st) {
     std::vector<EntityPlan> plan(sprites.size());
     if (mode == RenderMode::Reference || mode == RenderMode::Near) return plan; // all near
     const ViewSet set = viewSetFromSize(scene_.selector.viewSetSize);
@@ -153,7 +175,8 @@ std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>&
             Tier from = p.tier;
             if (selector_.fading(i, &share, &from)) p.fade = share, p.fadeFrom = from;
         }
-        if (p.drawsFar() && sprites[i].visible()) p.view = selector_.chooseView(i, towardViewer(sprites[i]), views);
+        if (p.drawsFar() && sprites[i].visible())
+            p.view = selector_.chooseView(i, towardViewer(sprites[i]), views);
         st.fading += p.fade > 0.0f;
     }
     st.viewChanges = selector_.viewChangesThisFrame();
@@ -161,13 +184,16 @@ std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>&
 }
 
 Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,
-                          const std::vector<EntityPlan>& plan, FrameStats* stats, std::optional<Tier> onlyTier) {
+                          const std::vector<EntityPlan>& plan, FrameStats* stats,
+                          std::optional<Tier> onlyTier) {
     FrameStats local;
     FrameStats& st = stats ? *stats : local;
     // Which sprites each tier draws; a cross-fading sprite is drawn by both, each with the
     // complementary half of the dither pattern (the new tier takes the pixels below the share).
     std::vector<SpriteSetup> faded;
-    faded.reserve(2 * std::size_t(std::count_if(plan.begin(), plan.end(), [](const EntityPlan& p) { return p.fade > 0.0f; })));
+    faded.reserve(2 * std::size_t(std::count_if(plan.begin(), plan.end(), [](const EntityPlan& p) {
+                      return p.fade > 0.0f;
+                  })));
     std::vector<const SpriteSetup*> nearSprites;
     std::vector<FarRequest> farRequests;
     for (std::size_t i = 0; i < sprites.size(); ++i) {
@@ -175,12 +201,15 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
         const EntityPlan& p = plan[i];
         if (!s.visible()) continue;
         if (p.drawsNear() && onlyTier != Tier::Far) {
-            if (p.fade > 0.0f) faded.push_back(fadedCopy(s, p.fade, /*keepBelow=*/p.tier == Tier::Near));
+            if (p.fade > 0.0f)
+                faded.push_back(fadedCopy(s, p.fade, /*keepBelow=*/p.tier == Tier::Near));
             nearSprites.push_back(p.fade > 0.0f ? &faded.back() : &s);
         }
         if (p.drawsFar() && onlyTier != Tier::Near) {
-            if (p.fade > 0.0f) faded.push_back(fadedCopy(s, p.fade, /*keepBelow=*/p.tier == Tier::Far));
-            farRequests.push_back({p.fade > 0.0f ? &faded.back() : &s, p.view >= 0 ? std::optional<int>(p.view) : std::nullopt});
+            if (p.fade > 0.0f)
+                faded.push_back(fadedCopy(s, p.fade, /*keepBelow=*/p.tier == Tier::Far));
+            farRequests.push_back({p.fade > 0.0f ? &faded.back() : &s,
+                                   p.view >= 0 ? std::optional<int>(p.view) : std::nullopt});
         }
     }
     st.nearDrawn = int(nearSprites.size());
@@ -192,8 +221,9 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
     if (backend_ == NearBackend::Vulkan && !nearSprites.empty()) {
         // Created on first use: reference- and far-only runs never touch Vulkan.
         if (!near_)
-            near_ = options_.sharedNear ? options_.sharedNear
-                                        : std::make_shared<NearRenderer>(options_.vulkan, options_.vulkanLog);
+            near_ = options_.sharedNear
+                        ? options_.sharedNear
+                        : std::make_shared<NearRenderer>(options_.vulkan, options_.vulkanLog);
         NearOptions no;
         no.countSteps = options_.nearCountSteps;
         NearStats ns;
@@ -220,7 +250,8 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
     if (!farRequests.empty()) {
         FarFrameStats fs;
         const std::uint64_t raysBefore = cache_->counters().raysTraced;
-        drawFarSprites(scene_.models, farRequests, *cache_, viewSetFromSize(scene_.selector.viewSetSize), image, &fs);
+        drawFarSprites(scene_.models, farRequests, *cache_,
+                       viewSetFromSize(scene_.selector.viewSetSize), image, &fs);
         st.farBakes += int(fs.bakes);
         st.farRefreshes += int(fs.refreshes);
         st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
@@ -235,7 +266,8 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
     return image;
 }
 
-std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,
+std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
+                                                 const std::vector<SpriteSetup>& sprites,
                                                  const std::vector<EntityPlan>& plan, int frame) {
     std::vector<PopEvent> pops;
     if (previousPlan_.size() != plan.size()) return pops;
@@ -253,11 +285,14 @@ std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam, const s
         e.entity = std::uint32_t(i);
         e.radiusPx = sprites[i].radiusPx;
         e.kind = now.tier != before.tier ? PopEvent::Kind::TierSwitch
-                 : (now.fade != before.fade || now.fadeFrom != before.fadeFrom) ? PopEvent::Kind::FadeStep
-                                                                                : PopEvent::Kind::ViewSwitch;
+                 : (now.fade != before.fade || now.fadeFrom != before.fadeFrom)
+                     ? PopEvent::Kind::FadeStep
+                     : PopEvent::Kind::ViewSwitch;
         const std::vector<SpriteSetup> one = {sprites[i]};
         EntityPlan oldPlan = before;
-        if (oldPlan.drawsFar() && oldPlan.view < 0) oldPlan.view = nearestView(viewSetFromSize(scene_.selector.viewSetSize), -sprites[i].lattice.dir);
+        if (oldPlan.drawsFar() && oldPlan.view < 0)
+            oldPlan.view =
+                nearestView(viewSetFromSize(scene_.selector.viewSetSize), -sprites[i].lattice.dir);
         std::vector<SpriteSetup> alone = one;
         alone[0].entityId = std::uint32_t(i);
         const Image a = draw(cam, alone, {oldPlan});
@@ -280,18 +315,21 @@ Image FrameRenderer::tierOverlay(const Image& image, const std::vector<EntityPla
     const Rgba8 tints[3] = {packRgba(60, 140, 255), packRgba(255, 150, 40), packRgba(230, 60, 230)};
     tbb::parallel_for(std::size_t(0), o.pixelCount(), [&](std::size_t p) {
         const std::uint32_t e = o.id[p];
-        if (e == kernel::VT_NO_ENTITY || e >= plan.size() || o.color[p] == kernel::VT_OUTLINE_RGBA) return;
+        if (e == kernel::VT_NO_ENTITY || e >= plan.size() || o.color[p] == kernel::VT_OUTLINE_RGBA)
+            return;
         const Rgba8 t = tints[plan[e].fade > 0.0f ? 2 : int(plan[e].tier)];
         const Rgba8 c = o.color[p];
-        o.color[p] = packRgba((channel(c, 0) + channel(t, 0)) / 2, (channel(c, 1) + channel(t, 1)) / 2,
-                              (channel(c, 2) + channel(t, 2)) / 2, 255);
+        o.color[p] =
+            packRgba((channel(c, 0) + channel(t, 0)) / 2, (channel(c, 1) + channel(t, 1)) / 2,
+                     (channel(c, 2) + channel(t, 2)) / 2, 255);
     });
     return o;
 }
 
 void composeMinZ(Image& near, const Image& far) {
     tbb::parallel_for(std::size_t(0), near.pixelCount(), [&](std::size_t p) {
-        if (far.id[p] != kernel::VT_NO_ENTITY) near.writeIfNearer(p, far.color[p], far.depth[p], far.id[p]);
+        if (far.id[p] != kernel::VT_NO_ENTITY)
+            near.writeIfNearer(p, far.color[p], far.depth[p], far.id[p]);
     });
 }
 

@@ -36,10 +36,10 @@ NearBackend parseNearBackend(const std::string& name); ///< "vulkan" | "referenc
 
 struct FrameOptions {
     NearBackend nearBackend = NearBackend::Vulkan;
-    VulkanDeviceOptions vulkan;                     ///< device options when Vulkan is used
-    std::shared_ptr<VulkanMessageLog> vulkanLog;    ///< validation messages (outlives the device)
-    bool overlay = false;          ///< also produce FrameResult::overlay (tier tint)
-    bool measurePops = false;      ///< FrameResult::pops: the change each switch causes alone
+    VulkanDeviceOptions vulkan;                  ///< device options when Vulkan is used
+    std::shared_ptr<VulkanMessageLog> vulkanLog; ///< validation messages (outlives the device)
+    bool overlay = false;                        ///< also produce FrameResult::overlay (tier tint)
+    bool measurePops = false; ///< FrameResult::pops: the change each switch causes alone
     std::size_t cacheBudgetBytes = std::size_t(256) << 20; ///< far snapshot cache budget
     /// Near tier on Vulkan: the shader variant that counts voxel reads (FrameStats::voxelFetches,
     /// nearKernelFragments). Same image, slower: for measuring, never for timing.
@@ -53,9 +53,9 @@ struct FrameOptions {
 /// complementary dither masks) and the snapshot view the far tier uses.
 struct EntityPlan {
     Tier tier = Tier::Near;
-    float fade = 0.0f;       ///< share of pixels already showing `tier` (0 = no cross-fade)
+    float fade = 0.0f; ///< share of pixels already showing `tier` (0 = no cross-fade)
     Tier fadeFrom = Tier::Near;
-    int view = -1;           ///< far view index (when the far tier draws the entity)
+    int view = -1; ///< far view index (when the far tier draws the entity)
     bool drawsNear() const { return tier == Tier::Near || (fade > 0.0f && fadeFrom == Tier::Near); }
     bool drawsFar() const { return tier == Tier::Far || (fade > 0.0f && fadeFrom == Tier::Far); }
     bool operator==(const EntityPlan&) const = default;
@@ -68,10 +68,10 @@ struct PopEvent {
     int frame = 0;
     std::uint32_t entity = 0;
     Kind kind = Kind::TierSwitch;
-    std::size_t changedPixels = 0;   ///< pixels of the entity's footprint union that changed
-    double changedFraction = 0.0;    ///< changedPixels / footprint union
-    double displacementPx = 0.0;     ///< largest silhouette displacement
-    double radiusPx = 0.0;           ///< projected radius of the entity at the switch
+    std::size_t changedPixels = 0; ///< pixels of the entity's footprint union that changed
+    double changedFraction = 0.0;  ///< changedPixels / footprint union
+    double displacementPx = 0.0;   ///< largest silhouette displacement
+    double radiusPx = 0.0;         ///< projected radius of the entity at the switch
 };
 const char* toString(PopEvent::Kind k);
 
@@ -81,39 +81,39 @@ const char* toString(PopEvent::Kind k);
 /// nearReadbackMs on Vulkan, farMs = bakeMs + blitMs.
 struct FrameStats {
     int entities = 0, culled = 0;
-    int nearDrawn = 0, farDrawn = 0;      ///< visible sprites drawn by each tier
-    int fading = 0;                       ///< entities drawn by both tiers (cross-fade)
+    int nearDrawn = 0, farDrawn = 0; ///< visible sprites drawn by each tier
+    int fading = 0;                  ///< entities drawn by both tiers (cross-fade)
     int switchesToFar = 0, switchesToNear = 0, viewChanges = 0;
-    int farBakes = 0;                     ///< snapshots baked during this frame
+    int farBakes = 0; ///< snapshots baked during this frame
     /// Edits (DESIGN.md §4): of the bakes, stale snapshots refreshed after an edit, how many of
     /// those only where the edit reaches, and the cells they re-traced; the voxel bytes the near
     /// tier copied to the GPU (whole frames when new, only dirty boxes after edits).
     int farRefreshes = 0, farIncrementalRefreshes = 0;
     std::uint64_t farCellsRetraced = 0, nearBytesUploaded = 0;
-    std::size_t cacheBytes = 0;           ///< snapshot bytes held after the frame
+    std::size_t cacheBytes = 0; ///< snapshot bytes held after the frame
     /// bakeMs: the far tier making sure its snapshots exist (cache lookups + the bakes they start).
     double setupMs = 0.0, selectMs = 0.0, nearMs = 0.0, farMs = 0.0, bakeMs = 0.0, totalMs = 0.0;
     /// The Vulkan near tier's split of nearMs: voxel uploads to the atlas, record + submit + wait
     /// of the draw, copy of the three targets to host memory (0 with the reference backend).
     double nearUploadMs = 0.0, nearDrawMs = 0.0, nearReadbackMs = 0.0;
-    double blitMs = 0.0;                  ///< the far blit alone
+    double blitMs = 0.0; ///< the far blit alone
     std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;
-    std::uint64_t farPixelsWritten = 0;   ///< blit pixels that read a solid or outline cell
+    std::uint64_t farPixelsWritten = 0;    ///< blit pixels that read a solid or outline cell
     std::uint64_t nearKernelFragments = 0; ///< with nearCountSteps: fragments that ran the kernel
-    std::uint64_t raysTraced = 0;         ///< by this frame's bakes
+    std::uint64_t raysTraced = 0;          ///< by this frame's bakes
 };
 
 struct FrameResult {
     Image image;
-    std::optional<Image> overlay;      ///< with FrameOptions::overlay
-    std::vector<SpriteSetup> sprites;  ///< per entity id
-    std::vector<EntityPlan> plan;      ///< per entity id
-    std::vector<PopEvent> pops;        ///< with FrameOptions::measurePops
+    std::optional<Image> overlay;     ///< with FrameOptions::overlay
+    std::vector<SpriteSetup> sprites; ///< per entity id
+    std::vector<EntityPlan> plan;     ///< per entity id
+    std::vector<PopEvent> pops;       ///< with FrameOptions::measurePops
     FrameStats stats;
 };
 
 class FrameRenderer {
-public:
+  public:
     explicit FrameRenderer(Scene& scene, FrameOptions options = {});
     ~FrameRenderer();
     FrameRenderer(const FrameRenderer&) = delete;
@@ -140,9 +140,11 @@ public:
     /// The Vulkan device of the near tier ("" until a frame needed it).
     std::string nearDeviceName() const;
 
-private:
-    std::vector<EntityPlan> planFrame(const std::vector<SpriteSetup>& sprites, RenderMode mode, FrameStats& st);
-    std::vector<PopEvent> measurePops(const CameraFrame& camera, const std::vector<SpriteSetup>& sprites,
+  private:
+    std::vector<EntityPlan> planFrame(const std::vector<SpriteSetup>& sprites, RenderMode mode,
+                                      FrameStats& st);
+    std::vector<PopEvent> measurePops(const CameraFrame& camera,
+                                      const std::vector<SpriteSetup>& sprites,
                                       const std::vector<EntityPlan>& plan, int frame);
     Image tierOverlay(const Image& image, const std::vector<EntityPlan>& plan) const;
 
@@ -150,8 +152,9 @@ private:
     FrameOptions options_;
     TierSelector selector_;
     std::unique_ptr<SnapshotCache> cache_;
-    std::shared_ptr<NearRenderer> near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan
-    NearBackend backend_;                ///< who draws near sprites in the current frame
+    std::shared_ptr<NearRenderer>
+        near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan
+    NearBackend backend_; ///< who draws near sprites in the current frame
     std::vector<EntityPlan> previousPlan_;
     int editsApplied_ = 0; ///< scene.edits are applied in order of atFrame
 };

@@ -7,7 +7,9 @@
 namespace voxtier {
 
 namespace {
-bool finite3(glm::dvec3 v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+bool finite3(glm::dvec3 v) {
+    return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
 } // namespace
 
 CameraFrame makeCameraFrame(const Camera& cam) {
@@ -15,8 +17,11 @@ CameraFrame makeCameraFrame(const Camera& cam) {
         throw InputError("", "camera", "position, target and up must be finite");
     if (!(cam.fovYDeg > 0.0 && cam.fovYDeg < 179.0))
         throw InputError("", "camera.fov_y", "vertical field of view must be in (0, 179) degrees");
-    if (cam.width < 1 || cam.height < 1 || cam.width > Limits::kMaxImageDim || cam.height > Limits::kMaxImageDim)
-        throw InputError("", "camera.size", "image size must be 1.." + std::to_string(Limits::kMaxImageDim) + " per axis");
+    if (cam.width < 1 || cam.height < 1 || cam.width > Limits::kMaxImageDim ||
+        cam.height > Limits::kMaxImageDim)
+        throw InputError("", "camera.size",
+                         "image size must be 1.." + std::to_string(Limits::kMaxImageDim) +
+                             " per axis");
     if (!(cam.zNear > 0.0 && std::isfinite(cam.zNear)))
         throw InputError("", "camera.near", "near plane must be a positive finite distance");
     const glm::dvec3 view = cam.target - cam.position;

@@ -29,8 +29,8 @@ InputError::InputError(std::string file, std::string field, std::string reason)
 double Limits::checkedSigma(double sigma, const std::string& file, const std::string& field) {
     if (!std::isfinite(sigma) || !(sigma > 0.0) || sigma > kMaxSigma)
         throw InputError(file, field,
-                         "expected virtual pixels per voxel in (0, " + std::to_string(int(kMaxSigma)) +
-                             "], got " + std::to_string(sigma));
+                         "expected virtual pixels per voxel in (0, " +
+                             std::to_string(int(kMaxSigma)) + "], got " + std::to_string(sigma));
     return sigma;
 }
 

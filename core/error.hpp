@@ -10,14 +10,14 @@ namespace voxtier {
 /// Bad user input: a malformed .vox, scene file, CLI argument or a limit exceeded.
 /// what() is one line: "<file>: <field>: <reason>" (field may be empty).
 class InputError : public std::runtime_error {
-public:
+  public:
     InputError(std::string file, std::string field, std::string reason);
 
     const std::string& file() const { return file_; }
     const std::string& field() const { return field_; }
     const std::string& reason() const { return reason_; }
 
-private:
+  private:
     std::string file_, field_, reason_;
 };
 

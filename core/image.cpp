@@ -8,7 +8,9 @@
 
 namespace voxtier {
 
-Image::Image(int w, int h, Rgba8 background) : width(w), height(h) { clear(background); }
+Image::Image(int w, int h, Rgba8 background) : width(w), height(h) {
+    clear(background);
+}
 
 void Image::clear(Rgba8 background) {
     color.assign(pixelCount(), background);

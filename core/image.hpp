@@ -16,7 +16,9 @@ struct Image {
 
     Image() = default;
     Image(int w, int h, Rgba8 background);
-    std::size_t index(int x, int y) const { return std::size_t(y) * std::size_t(width) + std::size_t(x); }
+    std::size_t index(int x, int y) const {
+        return std::size_t(y) * std::size_t(width) + std::size_t(x);
+    }
     std::size_t pixelCount() const { return std::size_t(width) * std::size_t(height); }
     /// Resets every pixel to the background: colour, depth 0, no entity.
     void clear(Rgba8 background);

@@ -42,9 +42,11 @@ void writeImage(const std::filesystem::path& file, const Image& img, double zNea
     spec.z_channel = 4;
     std::vector<float> px(img.pixelCount() * 6);
     for (std::size_t i = 0; i < img.pixelCount(); ++i) {
-        for (int c = 0; c < 4; ++c) px[i * 6 + std::size_t(c)] = float(channel(img.color[i], c)) / 255.0f;
+        for (int c = 0; c < 4; ++c)
+            px[i * 6 + std::size_t(c)] = float(channel(img.color[i], c)) / 255.0f;
         const float d = img.depth[i];
-        px[i * 6 + 4] = (d > 0.0f && zNear > 0.0) ? float(zNear / d) : std::numeric_limits<float>::infinity();
+        px[i * 6 + 4] =
+            (d > 0.0f && zNear > 0.0) ? float(zNear / d) : std::numeric_limits<float>::infinity();
         px[i * 6 + 5] = img.id[i] == kernel::VT_NO_ENTITY ? -1.0f : float(img.id[i]);
     }
     OIIO::ImageBuf buf(spec);
@@ -76,7 +78,8 @@ Image readColorImage(const std::filesystem::path& file) {
     buf.get_pixels(OIIO::ROI::All(), OIIO::TypeDesc::UINT8, px.data());
     for (std::size_t i = 0; i < img.pixelCount(); ++i) {
         unsigned ch[4] = {0, 0, 0, 255};
-        for (int c = 0; c < std::min(4, spec.nchannels); ++c) ch[c] = px[i * std::size_t(spec.nchannels) + std::size_t(c)];
+        for (int c = 0; c < std::min(4, spec.nchannels); ++c)
+            ch[c] = px[i * std::size_t(spec.nchannels) + std::size_t(c)];
         if (spec.nchannels < 3) ch[1] = ch[2] = ch[0];
         img.color[i] = packRgba(ch[0], ch[1], ch[2], ch[3]);
     }

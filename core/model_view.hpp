@@ -8,7 +8,7 @@
 namespace voxtier {
 
 struct ModelView {
-    double azimuthDeg = 30.0;   ///< around world Y; 0 = camera on +Z (sees the model's voxel -Y side)
+    double azimuthDeg = 30.0; ///< around world Y; 0 = camera on +Z (sees the model's voxel -Y side)
     double elevationDeg = 20.0; ///< above the horizon; +-90 = straight down / up
     double distance = 0.0;      ///< metres from the model centre; 0 = fit the model in view
     double sigma = 1.0;

@@ -43,12 +43,15 @@ const Palette& tankPalette() {
     static const Palette palette = [] {
         Palette p = proceduralPalette();
         const Rgba8 tones[16] = {
-            packRgba(95, 110, 50),  packRgba(190, 165, 110), packRgba(60, 85, 50),
-            packRgba(120, 125, 118), packRgba(150, 110, 70), packRgba(80, 95, 110),
+            packRgba(95, 110, 50),   packRgba(190, 165, 110),
+            packRgba(60, 85, 50),    packRgba(120, 125, 118),
+            packRgba(150, 110, 70),  packRgba(80, 95, 110),
             packRgba(215, 215, 205), packRgba(140, 75, 45), // hull tones
-            packRgba(45, 45, 42),   packRgba(88, 86, 80),    packRgba(150, 150, 140), // tracks, wheel
-            packRgba(62, 64, 58),   packRgba(34, 38, 36),    packRgba(52, 58, 46),    // barrel, hatch, grille
-            packRgba(205, 45, 40),  packRgba(176, 170, 150)}; // antenna tip, turret trim
+            packRgba(45, 45, 42),    packRgba(88, 86, 80),
+            packRgba(150, 150, 140), // tracks, wheel
+            packRgba(62, 64, 58),    packRgba(34, 38, 36),
+            packRgba(52, 58, 46),                              // barrel, hatch, grille
+            packRgba(205, 45, 40),   packRgba(176, 170, 150)}; // antenna tip, turret trim
         for (int i = 0; i < 16; ++i) p.colors[std::size_t(32 + i)] = tones[i];
         return p;
     }();
@@ -146,8 +149,10 @@ std::shared_ptr<VoxelModel> makeTank(std::uint64_t seed, int frames, glm::ivec3 
     const int margin = int(std::lround(W * rng.uniform(0.03, 0.12))); // tracks to grid side
     const int trackW = std::max(2, int(std::lround(W * rng.uniform(0.17, 0.23))));
     const int trackH = std::max(3, int(std::lround(H * rng.uniform(0.28, 0.36))));
-    const int hullTop = std::min(H - 3, trackH + 1 + std::max(1, int(std::lround(H * rng.uniform(0.12, 0.20)))));
-    const int turretTop = std::min(H - 1, hullTop + std::max(2, int(std::lround(H * rng.uniform(0.22, 0.30)))));
+    const int hullTop =
+        std::min(H - 3, trackH + 1 + std::max(1, int(std::lround(H * rng.uniform(0.12, 0.20)))));
+    const int turretTop =
+        std::min(H - 1, hullTop + std::max(2, int(std::lround(H * rng.uniform(0.22, 0.30)))));
     const double turretR = W * rng.uniform(0.17, 0.24);
     const double tx = L * rng.uniform(0.38, 0.50), ty = W * 0.5;
     const double barrelLen = L * rng.uniform(0.28, 0.45);
@@ -171,10 +176,13 @@ std::shared_ptr<VoxelModel> makeTank(std::uint64_t seed, int frames, glm::ivec3 
                     for (int x = 0; x < L; ++x) {
                         if ((x == 0 || x == L - 1) && (z == 0 || z == trackH - 1)) continue;
                         const int phase = z >= trackH / 2 ? x + f : x - f;
-                        const int p = ((phase % (2 * treadPeriod)) + 2 * treadPeriod) % (2 * treadPeriod);
-                        std::uint8_t v = p < treadPeriod ? tank_index::kTrackDark : tank_index::kTrackLight;
+                        const int p =
+                            ((phase % (2 * treadPeriod)) + 2 * treadPeriod) % (2 * treadPeriod);
+                        std::uint8_t v =
+                            p < treadPeriod ? tank_index::kTrackDark : tank_index::kTrackLight;
                         const bool outer = y == y0 || y == y1 - 1;
-                        if (outer && z == trackH / 2 && x % std::max(2, L / 6) == L / 12) v = tank_index::kWheel;
+                        if (outer && z == trackH / 2 && x % std::max(2, L / 6) == L / 12)
+                            v = tank_index::kWheel;
                         put(x, y, z, v);
                     }
         // Hull: a lower hull between the tracks, a fender over them, a narrower superstructure
@@ -204,10 +212,12 @@ std::shared_ptr<VoxelModel> makeTank(std::uint64_t seed, int frames, glm::ivec3 
                 }
         }
         // Hatch on the turret top, off the turret's axis (it turns with the turret).
-        const double hx = tx + (-0.4 * cy - 0.35 * sy) * turretR, hy = ty + (-0.4 * sy + 0.35 * cy) * turretR;
+        const double hx = tx + (-0.4 * cy - 0.35 * sy) * turretR,
+                     hy = ty + (-0.4 * sy + 0.35 * cy) * turretR;
         for (int dy = 0; dy < 2; ++dy)
             for (int dx = 0; dx < 2; ++dx)
-                put(int(std::floor(hx)) + dx, int(std::floor(hy)) + dy, turretTop, tank_index::kHatch);
+                put(int(std::floor(hx)) + dx, int(std::floor(hy)) + dy, turretTop,
+                    tank_index::kHatch);
         // Barrel: two voxels wide and high, from inside the turret outwards along the yaw.
         const int barrelZ = hullTop + (turretTop - hullTop - 2) / 2;
         for (double t = turretR * 0.5; t < turretR + barrelLen; t += 0.25)

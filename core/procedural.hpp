@@ -10,8 +10,9 @@
 // Voxel coordinates are voxel space (DESIGN.md §2: Z-up, x fastest in memory).
 #include "core/voxel_model.hpp"
 
-#include <cstdint>
 #include <glm/glm.hpp>
+
+#include <cstdint>
 #include <memory>
 
 namespace voxtier {

@@ -26,8 +26,14 @@ Camera Scene::cameraAt(double t) const {
         if (k.up) c.up = *k.up;
         if (k.fovYDeg) c.fovYDeg = *k.fovYDeg;
     };
-    if (t <= keys.front().time) { apply(keys.front()); return c; }
-    if (t >= keys.back().time) { apply(keys.back()); return c; }
+    if (t <= keys.front().time) {
+        apply(keys.front());
+        return c;
+    }
+    if (t >= keys.back().time) {
+        apply(keys.back());
+        return c;
+    }
     const auto hi = std::upper_bound(keys.begin(), keys.end(), t,
                                      [](double v, const CameraKey& k) { return v < k.time; });
     const CameraKey& b = *hi;
@@ -37,7 +43,8 @@ Camera Scene::cameraAt(double t) const {
     c.target = glm::mix(a.target, b.target, s);
     const glm::dvec3 upA = a.up.value_or(camera.up), upB = b.up.value_or(camera.up);
     c.up = glm::mix(upA, upB, s);
-    const double fovA = a.fovYDeg.value_or(camera.fovYDeg), fovB = b.fovYDeg.value_or(camera.fovYDeg);
+    const double fovA = a.fovYDeg.value_or(camera.fovYDeg),
+                 fovB = b.fovYDeg.value_or(camera.fovYDeg);
     c.fovYDeg = fovA + (fovB - fovA) * s;
     return c;
 }

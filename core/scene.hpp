@@ -48,8 +48,8 @@ const char* toString(SelectorMetric m);
 /// past nearAt > farAt. Either way the band width is |farAt - nearAt|.
 struct SelectorConfig {
     SelectorMetric metric = SelectorMetric::Distance;
-    double nearAt = 30.0; ///< back to near when the metric crosses this (towards "near")
-    double farAt = 40.0;  ///< to far when the metric crosses this (towards "far")
+    double nearAt = 30.0;           ///< back to near when the metric crosses this (towards "near")
+    double farAt = 40.0;            ///< to far when the metric crosses this (towards "far")
     double viewHysteresisDeg = 0.0; ///< far tier: switch snapshot view only when closer by this
     int crossfadeFrames = 0;        ///< 0 = switch instantly
     int viewSetSize = 26;           ///< 26, 98 or 218 snapshot directions
@@ -64,12 +64,12 @@ inline SelectorConfig defaultSelectorFor(SelectorMetric m) {
 }
 
 struct Entity {
-    int model = 0;       ///< index into Scene::models
-    int frame = 0;       ///< animation frame at time 0
-    double fps = 0.0;    ///< animation frames per second (0 = static)
+    int model = 0;            ///< index into Scene::models
+    int frame = 0;            ///< animation frame at time 0
+    double fps = 0.0;         ///< animation frames per second (0 = static)
     glm::dvec3 position{0.0}; ///< world position of the anchor
     glm::dquat rotation{1.0, 0.0, 0.0, 0.0};
-    double scale = 1.0;  ///< uniform
+    double scale = 1.0;               ///< uniform
     std::optional<glm::dvec3> anchor; ///< voxel-space anchor; default bottom centre (sx/2, sy/2, 0)
     std::string name;
 
@@ -97,11 +97,11 @@ struct CameraPath {
 
 struct ScriptedEdit {
     enum class Op { Set, Fill, Clear };
-    int atFrame = 0;     ///< applied before rendering this path frame
-    int model = 0;       ///< index into Scene::models
-    int modelFrame = 0;  ///< which animation frame of the model
+    int atFrame = 0;    ///< applied before rendering this path frame
+    int model = 0;      ///< index into Scene::models
+    int modelFrame = 0; ///< which animation frame of the model
     Op op = Op::Set;
-    Box3i box;           ///< Set: a single voxel box
+    Box3i box; ///< Set: a single voxel box
     std::uint8_t index = 1;
 };
 
@@ -125,6 +125,8 @@ struct Scene {
 };
 
 /// The default voxel-space anchor of a model frame: bottom centre (sx/2, sy/2, 0).
-inline glm::dvec3 defaultAnchor(glm::ivec3 dims) { return {dims.x * 0.5, dims.y * 0.5, 0.0}; }
+inline glm::dvec3 defaultAnchor(glm::ivec3 dims) {
+    return {dims.x * 0.5, dims.y * 0.5, 0.0};
+}
 
 } // namespace voxtier

@@ -5,15 +5,16 @@
 #include "core/splitmix64.hpp"
 #include "core/sprite.hpp"
 
+#include <glm/gtc/quaternion.hpp>
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <fstream>
-#include <glm/gtc/quaternion.hpp>
 #include <initializer_list>
 #include <limits>
 #include <map>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -483,8 +484,9 @@ struct Loader {
         root.pos("voxel_size", s.render.voxelSize);
         root.pos("sigma", s.render.sigma);
         if (s.render.sigma > Limits::kMaxSigma)
-            fail(c, root.at("sigma"), "expected at most " + std::to_string(int(Limits::kMaxSigma)) +
-                                          " virtual pixels per voxel (snapshot memory grows with its square)");
+            fail(c, root.at("sigma"),
+                 "expected at most " + std::to_string(int(Limits::kMaxSigma)) +
+                     " virtual pixels per voxel (snapshot memory grows with its square)");
         if (auto v = root.get("view_mode"))
             s.render.viewMode = choice(c, *v, root.at("view_mode"), {"per_entity", "parallel"}) == 0
                                     ? ViewMode::PerEntity
@@ -725,7 +727,8 @@ struct Loader {
     }
 
     std::shared_ptr<VoxelModel> generatorModel(const Obj& o) {
-        static const std::vector<std::string> kinds{"box", "sphere", "arrow", "shell", "voxel", "tank"};
+        static const std::vector<std::string> kinds{"box",   "sphere", "arrow",
+                                                    "shell", "voxel",  "tank"};
         const int kind = choice(c, o.require("generator"), o.at("generator"), kinds);
         if (kind == 5) return tankModel(o);
         switch (kind) {
@@ -1201,7 +1204,8 @@ Scene loadScene(const fs::path& file) {
     return loadSceneText(buf.str(), name, file.parent_path());
 }
 
-Scene loadSceneText(const std::string& text, const std::string& sourceName, const fs::path& baseDir) {
+Scene loadSceneText(const std::string& text, const std::string& sourceName,
+                    const fs::path& baseDir) {
     const json j = parseTracked(text, sourceName);
     return loadSceneJson(j, sourceName, baseDir);
 }

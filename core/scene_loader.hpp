@@ -37,10 +37,12 @@
 //       {"name", "generator": "shell",  "size" (default [16,16,16]), "thickness" (default 1),
 //                                       "index", "color"}
 //       {"name", "generator": "voxel",  "index", "color"}
-//       {"name", "generator": "tank",   "seed": unsigned (default 1), "frames": 1..4096 (default 8),
+//       {"name", "generator": "tank",   "seed": unsigned (default 1), "frames": 1..4096 (default
+//       8),
 //                                       "size": [x,y,z] each 8..256 (default [32,32,16])}
-//     Generators are those of core/procedural.hpp (the tank keeps its own palette and frames). "index" (1..255, default 1) is the palette
-//     index the solid uses; "color": [r, g, b] overrides that palette entry for this model.
+//     Generators are those of core/procedural.hpp (the tank keeps its own palette and frames).
+//     "index" (1..255, default 1) is the palette index the solid uses; "color": [r, g, b] overrides
+//     that palette entry for this model.
 //   "entities": [{"model": name (required), "position": [x,y,z], "rotation_deg": [rx,ry,rz] |
 //                 "quaternion": [w,x,y,z] (non-zero; normalised), "scale": > 0,
 //                 "anchor": [x,y,z] (voxel space; default bottom centre), "frame": 0..frames-1,
@@ -75,9 +77,10 @@
 #include "core/scene.hpp"
 #include "core/vox_reader.hpp"
 
+#include <nlohmann/json_fwd.hpp>
+
 #include <filesystem>
 #include <memory>
-#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <utility>
 #include <vector>

@@ -22,7 +22,9 @@ float toGpuFloat(double v) {
     const float f = static_cast<float>(v);
     return std::abs(f) < 1.17549435e-38f ? 0.0f : f;
 }
-glm::vec3 toGpu(glm::dvec3 v) { return {toGpuFloat(v.x), toGpuFloat(v.y), toGpuFloat(v.z)}; }
+glm::vec3 toGpu(glm::dvec3 v) {
+    return {toGpuFloat(v.x), toGpuFloat(v.y), toGpuFloat(v.z)};
+}
 
 /// Coefficients (a, b, c) with dot(pixelRay(x, y), A) = a*x + b*y + c, where pixelRay is the
 /// camera-relative direction through framebuffer point (x, y), with unit forward component.
@@ -60,10 +62,13 @@ SpriteLattice makeSpriteLattice(glm::dvec3 dir, glm::dvec3 upHint, glm::dvec3 fa
     // Footprint of the box [0, N]^3 on the plane, in cells, plus the outline ring and one
     // cell of slack for rounding: every cell outside this range is empty by construction.
     const glm::dvec3 half = L.centre;
-    const double eu = half.x * std::abs(L.right.x) + half.y * std::abs(L.right.y) + half.z * std::abs(L.right.z);
-    const double ev = half.x * std::abs(L.up.x) + half.y * std::abs(L.up.y) + half.z * std::abs(L.up.z);
-    L.cellRange = {int(std::floor(sigma * (-eu - L.gU))) - 2, int(std::floor(sigma * (eu - L.gU))) + 2,
-                   int(std::floor(sigma * (-ev - L.gV))) - 2, int(std::floor(sigma * (ev - L.gV))) + 2};
+    const double eu =
+        half.x * std::abs(L.right.x) + half.y * std::abs(L.right.y) + half.z * std::abs(L.right.z);
+    const double ev =
+        half.x * std::abs(L.up.x) + half.y * std::abs(L.up.y) + half.z * std::abs(L.up.z);
+    L.cellRange = {
+        int(std::floor(sigma * (-eu - L.gU))) - 2, int(std::floor(sigma * (eu - L.gU))) + 2,
+        int(std::floor(sigma * (-ev - L.gV))) - 2, int(std::floor(sigma * (ev - L.gV))) + 2};
     return L;
 }
 
@@ -83,11 +88,16 @@ EntityPose makeEntityPose(const Entity& e, glm::ivec3 dims, double voxelSize) {
 
 const char* toString(CullReason r) {
     switch (r) {
-    case CullReason::None: return "visible";
-    case CullReason::BehindCamera: return "behind-camera";
-    case CullReason::CameraInside: return "camera-inside";
-    case CullReason::SubPixel: return "sub-pixel";
-    case CullReason::OffScreen: return "off-screen";
+    case CullReason::None:
+        return "visible";
+    case CullReason::BehindCamera:
+        return "behind-camera";
+    case CullReason::CameraInside:
+        return "camera-inside";
+    case CullReason::SubPixel:
+        return "sub-pixel";
+    case CullReason::OffScreen:
+        return "off-screen";
     }
     return "?";
 }
@@ -103,7 +113,8 @@ std::array<std::uint32_t, 6> faceLightFactors(const Light& light, const EntityPo
     const glm::dvec3 l = len > 0.0 ? pose.voxelDirection(light.direction / len) : glm::dvec3(0.0);
     std::array<std::uint32_t, 6> f{};
     for (unsigned code = 0; code < 6; ++code) {
-        const double k = light.ambient + light.diffuse * std::max(0.0, glm::dot(faceNormal(code), l));
+        const double k =
+            light.ambient + light.diffuse * std::max(0.0, glm::dot(faceNormal(code), l));
         // Clamp to 4.0 so channel * factor stays far inside 32 bits in the kernel.
         f[code] = std::uint32_t(std::lround(std::clamp(k, 0.0, 4.0) * kernel::VT_LIGHT_ONE));
     }
@@ -134,7 +145,8 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     const glm::dvec3 eyeVoxel = pose.anchor + pose.voxelDirection(-(pose.position - cam.eye)) / k;
     const double margin = 1.0 / sigma;
     if (eyeVoxel.x >= -margin && eyeVoxel.y >= -margin && eyeVoxel.z >= -margin &&
-        eyeVoxel.x <= dims.x + margin && eyeVoxel.y <= dims.y + margin && eyeVoxel.z <= dims.z + margin) {
+        eyeVoxel.x <= dims.x + margin && eyeVoxel.y <= dims.y + margin &&
+        eyeVoxel.z <= dims.z + margin) {
         S.cull = CullReason::CameraInside;
         return S;
     }
@@ -148,7 +160,8 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     }
 
     // §3.2-§3.3: view direction and sprite basis, in voxel space.
-    const glm::dvec3 dirWorld = params.viewMode == ViewMode::PerEntity ? S.centreRel / S.distance : cam.forward;
+    const glm::dvec3 dirWorld =
+        params.viewMode == ViewMode::PerEntity ? S.centreRel / S.distance : cam.forward;
     S.lattice = makeSpriteLattice(pose.voxelDirection(dirWorld), pose.voxelDirection(cam.up),
                                   pose.voxelDirection(cam.forward), dims, sigma);
     const SpriteLattice& L = S.lattice;
@@ -164,8 +177,10 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     const glm::dvec3 C = S.centreRel;
     const double Cd = glm::dot(C, dW), Cr = glm::dot(C, rW), Cu = glm::dot(C, uW);
     const glm::dvec3 den = screenLinear(cam, dW);
-    const glm::dvec3 numI = (sigma / k) * (Cd * screenLinear(cam, rW) - Cr * den) - sigma * L.gU * den;
-    const glm::dvec3 numJ = (sigma / k) * (Cd * screenLinear(cam, uW) - Cu * den) - sigma * L.gV * den;
+    const glm::dvec3 numI =
+        (sigma / k) * (Cd * screenLinear(cam, rW) - Cr * den) - sigma * L.gU * den;
+    const glm::dvec3 numJ =
+        (sigma / k) * (Cd * screenLinear(cam, uW) - Cu * den) - sigma * L.gV * den;
 
     kernel::SpriteGpu& g = S.gpu;
     g.mapI = toGpu(numI);
@@ -177,8 +192,9 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     g.cellRight = toGpu(L.right / sigma);
     g.cellUp = toGpu(L.up / sigma);
     g.dir = toGpu(L.dir);
-    g.invDir = toGpu(glm::dvec3(L.dir.x != 0.0 ? 1.0 / L.dir.x : 0.0, L.dir.y != 0.0 ? 1.0 / L.dir.y : 0.0,
-                                L.dir.z != 0.0 ? 1.0 / L.dir.z : 0.0));
+    g.invDir =
+        toGpu(glm::dvec3(L.dir.x != 0.0 ? 1.0 / L.dir.x : 0.0, L.dir.y != 0.0 ? 1.0 / L.dir.y : 0.0,
+                         L.dir.z != 0.0 ? 1.0 / L.dir.z : 0.0));
     g.cellRange = L.cellRange;
     g.dims = glm::uvec4(glm::uvec3(dims), entityId);
     g.atlas = glm::uvec4(0u);
@@ -199,25 +215,30 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     for (int i = 0; i < 4; ++i) {
         const glm::dvec3 P = C + k * (corners[i].x * rW + corners[i].y * uW);
         const glm::dvec4 clip = clipFromCameraRelative(cam, P);
-        g.quad[i] = glm::vec4(toGpuFloat(clip.x), toGpuFloat(clip.y), toGpuFloat(clip.z), toGpuFloat(clip.w));
+        g.quad[i] = glm::vec4(toGpuFloat(clip.x), toGpuFloat(clip.y), toGpuFloat(clip.z),
+                              toGpuFloat(clip.w));
         if (!(clip.w > cam.zNear)) {
             allInFront = false;
             continue;
         }
-        const glm::dvec2 px{(clip.x / clip.w + 1.0) * 0.5 * cam.width, (clip.y / clip.w + 1.0) * 0.5 * cam.height};
+        const glm::dvec2 px{(clip.x / clip.w + 1.0) * 0.5 * cam.width,
+                            (clip.y / clip.w + 1.0) * 0.5 * cam.height};
         lo = glm::min(lo, px);
         hi = glm::max(hi, px);
     }
     if (allInFront) {
         // Clamp in double first: a huge quad must not overflow the int conversion.
         const double W = cam.width, H = cam.height;
-        S.screenRect = {int(std::clamp(std::floor(lo.x) - 1.0, 0.0, W)), int(std::clamp(std::floor(lo.y) - 1.0, 0.0, H)),
-                        int(std::clamp(std::ceil(hi.x) + 1.0, 0.0, W)), int(std::clamp(std::ceil(hi.y) + 1.0, 0.0, H))};
+        S.screenRect = {int(std::clamp(std::floor(lo.x) - 1.0, 0.0, W)),
+                        int(std::clamp(std::floor(lo.y) - 1.0, 0.0, H)),
+                        int(std::clamp(std::ceil(hi.x) + 1.0, 0.0, W)),
+                        int(std::clamp(std::ceil(hi.y) + 1.0, 0.0, H))};
     } else {
         // The quad crosses the near plane: the kernel's denMax test decides per pixel.
         S.screenRect = {0, 0, cam.width, cam.height};
     }
-    if (S.screenRect.x >= S.screenRect.z || S.screenRect.y >= S.screenRect.w) S.cull = CullReason::OffScreen;
+    if (S.screenRect.x >= S.screenRect.z || S.screenRect.y >= S.screenRect.w)
+        S.cull = CullReason::OffScreen;
     return S;
 }
 
@@ -226,7 +247,8 @@ std::vector<SpriteSetup> setupSprites(const Scene& scene, const CameraFrame& cam
     tbb::parallel_for(std::size_t(0), out.size(), [&](std::size_t i) {
         const Entity& e = scene.entities[i];
         const VoxelModel& m = *scene.models.at(std::size_t(e.model));
-        out[i] = setupSprite(camera, e, std::uint32_t(i), m, e.frameAt(m, time), scene.render, scene.light);
+        out[i] = setupSprite(camera, e, std::uint32_t(i), m, e.frameAt(m, time), scene.render,
+                             scene.light);
     });
     return out;
 }

@@ -24,10 +24,10 @@ glm::dvec3 snapDirection(glm::dvec3 d);
 /// by the near tier (dir = per-entity view direction, up from the camera) and the far tier's
 /// snapshots (dir = -w, up from the model's +Z), so both rasterise the same lattice.
 struct SpriteLattice {
-    glm::dvec3 dir{0.0};   ///< ray direction d, unit, snapped
-    glm::dvec3 right{0.0}; ///< cross(dir, up)
-    glm::dvec3 up{0.0};    ///< unit, perpendicular to dir
-    glm::dvec3 centre{0.0};///< model centre c = dims / 2
+    glm::dvec3 dir{0.0};       ///< ray direction d, unit, snapped
+    glm::dvec3 right{0.0};     ///< cross(dir, up)
+    glm::dvec3 up{0.0};        ///< unit, perpendicular to dir
+    glm::dvec3 centre{0.0};    ///< model centre c = dims / 2
     double gU = 0.0, gV = 0.0; ///< floor(c) projected on the sprite plane, relative to c
     double sigma = 1.0;
     double maxDim = 1.0;
@@ -44,7 +44,8 @@ struct SpriteLattice {
     /// Cell containing the sprite-plane point `p` (voxel space, relative to the centre). Inline:
     /// the far blit calls it per footprint pixel.
     glm::ivec2 cellAt(glm::dvec3 p) const {
-        return {int(std::floor(sigma * (glm::dot(p, right) - gU))), int(std::floor(sigma * (glm::dot(p, up) - gV)))};
+        return {int(std::floor(sigma * (glm::dot(p, right) - gU))),
+                int(std::floor(sigma * (glm::dot(p, up) - gV)))};
     }
     int width() const { return cellRange.y - cellRange.x + 1; }
     int height() const { return cellRange.w - cellRange.z + 1; }
@@ -69,10 +70,13 @@ struct EntityPose {
     glm::dvec3 voxelDirection(glm::dvec3 worldDir) const {
         return glm::transpose(worldFromVoxelRotation) * worldDir;
     }
-    glm::dvec3 worldDirection(glm::dvec3 voxelDir) const { return worldFromVoxelRotation * voxelDir; }
+    glm::dvec3 worldDirection(glm::dvec3 voxelDir) const {
+        return worldFromVoxelRotation * voxelDir;
+    }
     /// Voxel-space position of a world point, computed relative to the entity position.
     glm::dvec3 voxelPoint(glm::dvec3 world) const {
-        return anchor + glm::transpose(worldFromVoxelRotation) * (world - position) / metresPerVoxel;
+        return anchor +
+               glm::transpose(worldFromVoxelRotation) * (world - position) / metresPerVoxel;
     }
 };
 /// Voxel -> world direction swizzle of seed 000 §2: world = (v.x, v.z, -v.y).

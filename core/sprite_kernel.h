@@ -53,34 +53,35 @@ VT_CONST uint VT_KIND_SOLID = 1u;   // a voxel was hit: palette colour x face li
 VT_CONST uint VT_KIND_OUTLINE = 2u; // a cardinal neighbour cell hit: black
 VT_CONST uint VT_OUTLINE_RGBA = 0xFF000000u;
 VT_CONST uint VT_NO_ENTITY = 0xFFFFFFFFu;
-VT_CONST float VT_FAR = 3.0e38f; // "never" for axes the ray does not move along
+VT_CONST float VT_FAR = 3.0e38f;     // "never" for axes the ray does not move along
 VT_CONST uint VT_LIGHT_ONE = 65536u; // face light factors are 16.16 fixed point
 
 // Per-entity, per-frame sprite description (std430; every vec3 is followed by a scalar so the
 // C++ and GLSL layouts coincide, see the static_asserts below).
 struct SpriteGpu {
-    vec3 mapI;      // sigma*(u - g_u) = (mapI . (x, y, 1)) / (mapDen . (x, y, 1)), x, y = pixel centre
-    float depth;    // reversed-Z clip depth of the model centre (§3.8), written for every pixel
-    vec3 mapJ;      // same for sigma*(v - g_v)
+    vec3 mapI;   // sigma*(u - g_u) = (mapI . (x, y, 1)) / (mapDen . (x, y, 1)), x, y = pixel centre
+    float depth; // reversed-Z clip depth of the model centre (§3.8), written for every pixel
+    vec3 mapJ;   // same for sigma*(v - g_v)
     float denMax;   // larger denominators hit the sprite plane nearer than 2*zNear: not drawn
     vec3 mapDen;    // denominator: the pixel ray's component along the view direction
     float fade;     // cross-fade share in (0, 1) while the entity changes tier, 0 otherwise
-    vec3 rayBase;   // voxel-space origin of the ray of cell (i, j) is rayBase + ((i+.5) cellRight + (j+.5) cellUp)
+    vec3 rayBase;   // voxel-space origin of the ray of cell (i, j) is rayBase + ((i+.5) cellRight +
+                    // (j+.5) cellUp)
     float fadeSide; // > 0: draw the pixels whose dither threshold is below `fade`; else the others
     vec3 cellRight; // sprite right / sigma (voxel space)
     float reserved2;
-    vec3 cellUp;    // sprite up / sigma (voxel space)
+    vec3 cellUp; // sprite up / sigma (voxel space)
     float reserved3;
-    vec3 dir;       // ray direction d (voxel space; components below 1e-6 are exactly 0)
+    vec3 dir; // ray direction d (voxel space; components below 1e-6 are exactly 0)
     float reserved4;
-    vec3 invDir;    // 1/d per axis, 0 where d is 0
+    vec3 invDir; // 1/d per axis, 0 where d is 0
     float reserved5;
-    ivec4 cellRange;   // iMin, iMax, jMin, jMax: every cell that can be non-empty, inclusive
-    uvec4 dims;        // model size x, y, z; w = entity id
-    uvec4 atlas;       // xyz: offset of this model frame in the voxel atlas; w: palette base
-    uvec4 faceLight0;  // 16.16 light factor per entered-face code 0..3
-    uvec4 faceLight1;  // face codes 4, 5; z, w unused
-    vec4 quad[4];      // clip-space corners of the proxy quad on the sprite plane (triangle strip)
+    ivec4 cellRange;  // iMin, iMax, jMin, jMax: every cell that can be non-empty, inclusive
+    uvec4 dims;       // model size x, y, z; w = entity id
+    uvec4 atlas;      // xyz: offset of this model frame in the voxel atlas; w: palette base
+    uvec4 faceLight0; // 16.16 light factor per entered-face code 0..3
+    uvec4 faceLight1; // face codes 4, 5; z, w unused
+    vec4 quad[4];     // clip-space corners of the proxy quad on the sprite plane (triangle strip)
 };
 
 // DESIGN.md §5 transition: ordered-dither threshold of a pixel (4x4 Bayer matrix, built from
@@ -127,7 +128,8 @@ VT_FN bool vtPixelCell(VT_IN(SpriteGpu) s, vec2 pc, VT_OUT(ivec2) cell) {
 // and this grouping keeps the origin bit-identical under it, so a far snapshot's rays equal
 // the near rays at canonical views whatever the camera roll.
 VT_FN vec3 vtCellRayOrigin(VT_IN(SpriteGpu) s, ivec2 cell) {
-    VT_PRECISE vec3 o = s.rayBase + ((float(cell.x) + 0.5f) * s.cellRight + (float(cell.y) + 0.5f) * s.cellUp);
+    VT_PRECISE vec3 o =
+        s.rayBase + ((float(cell.x) + 0.5f) * s.cellRight + (float(cell.y) + 0.5f) * s.cellUp);
     return o;
 }
 

@@ -5,10 +5,11 @@
 #include "core/error.hpp"
 #include "core/voxel_model.hpp"
 
+#include <glm/glm.hpp>
+
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
-#include <glm/glm.hpp>
 #include <optional>
 #include <span>
 #include <string>

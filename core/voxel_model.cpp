@@ -32,9 +32,9 @@ const Palette& magicaVoxelDefaultPalette() {
                     if (r | g | b) p.colors[std::size_t(i++)] = packRgba(r, g, b);
         for (int channelIndex = 0; channelIndex < 3; ++channelIndex)
             for (unsigned v : ramp)
-                p.colors[std::size_t(i++)] = packRgba(channelIndex == 0 ? v : 0,
-                                                      channelIndex == 1 ? v : 0,
-                                                      channelIndex == 2 ? v : 0);
+                p.colors[std::size_t(i++)] =
+                    packRgba(channelIndex == 0 ? v : 0, channelIndex == 1 ? v : 0,
+                             channelIndex == 2 ? v : 0);
         for (unsigned v : ramp) p.colors[std::size_t(i++)] = packRgba(v, v, v);
         return p;
     }();
@@ -52,7 +52,8 @@ VoxelGrid::VoxelGrid(glm::ivec3 dims, const std::string& source) : dims_(dims) {
 }
 
 std::size_t VoxelGrid::solidCount() const {
-    return std::size_t(std::count_if(data_.begin(), data_.end(), [](std::uint8_t v) { return v != 0; }));
+    return std::size_t(
+        std::count_if(data_.begin(), data_.end(), [](std::uint8_t v) { return v != 0; }));
 }
 
 Box3i VoxelGrid::contentBounds() const {
@@ -122,6 +123,8 @@ std::optional<Box3i> VoxelModel::dirtySince(std::uint64_t sinceVersion, int fram
     return box;
 }
 
-bool VoxelModel::changedSince(std::uint64_t sinceVersion) const { return sinceVersion < version_; }
+bool VoxelModel::changedSince(std::uint64_t sinceVersion) const {
+    return sinceVersion < version_;
+}
 
 } // namespace voxtier

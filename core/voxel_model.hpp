@@ -37,7 +37,9 @@ using Rgba8 = std::uint32_t;
 constexpr Rgba8 packRgba(unsigned r, unsigned g, unsigned b, unsigned a = 255) {
     return (r & 255u) | (g & 255u) << 8 | (b & 255u) << 16 | (a & 255u) << 24;
 }
-constexpr unsigned channel(Rgba8 c, int i) { return (c >> (8 * i)) & 255u; }
+constexpr unsigned channel(Rgba8 c, int i) {
+    return (c >> (8 * i)) & 255u;
+}
 
 /// 256 colours; entry 0 is "empty" and never drawn (palette index semantics of .vox).
 struct Palette {
@@ -51,14 +53,15 @@ const Palette& magicaVoxelDefaultPalette();
 /// One dense grid: dims up to Limits::kMaxModelDim per axis, x fastest, then y, then z
 /// (voxel space is Z-up, DESIGN.md §2). Value 0 = empty, 1..255 = palette index.
 class VoxelGrid {
-public:
+  public:
     VoxelGrid() = default;
     /// Throws InputError (file = `source`, field "size") for dims outside 1..256.
     explicit VoxelGrid(glm::ivec3 dims, const std::string& source = "");
 
     glm::ivec3 dims() const { return dims_; }
     std::size_t linearIndex(glm::ivec3 p) const {
-        return std::size_t(p.x) + std::size_t(dims_.x) * (std::size_t(p.y) + std::size_t(dims_.y) * std::size_t(p.z));
+        return std::size_t(p.x) +
+               std::size_t(dims_.x) * (std::size_t(p.y) + std::size_t(dims_.y) * std::size_t(p.z));
     }
     std::uint8_t at(glm::ivec3 p) const { return data_[linearIndex(p)]; }
     /// Out-of-bounds reads are empty (convenient for neighbour tests).
@@ -75,7 +78,7 @@ public:
     /// Bounds of the non-empty voxels (empty box when the grid is empty).
     Box3i contentBounds() const;
 
-private:
+  private:
     glm::ivec3 dims_{0};
     std::vector<std::uint8_t> data_;
 };
@@ -92,7 +95,7 @@ struct EditRecord {
 /// edit bumps. Not thread-safe for concurrent edits of the same model; different models are
 /// independent.
 class VoxelModel {
-public:
+  public:
     VoxelModel();
     VoxelModel(std::string name, Palette palette, std::vector<VoxelGrid> frames);
 
@@ -122,7 +125,7 @@ public:
     /// True when any frame changed after `sinceVersion` (or the log cannot tell).
     bool changedSince(std::uint64_t sinceVersion) const;
 
-private:
+  private:
     void record(int frame, Box3i box);
 
     std::uint64_t uid_;
@@ -130,8 +133,8 @@ private:
     Palette palette_;
     std::vector<VoxelGrid> frames_;
     std::uint64_t version_ = 1;
-    std::vector<EditRecord> log_;   ///< newest last, bounded by kMaxLog
-    std::uint64_t logFloor_ = 1;    ///< versions <= logFloor_ are not in the log any more
+    std::vector<EditRecord> log_; ///< newest last, bounded by kMaxLog
+    std::uint64_t logFloor_ = 1;  ///< versions <= logFloor_ are not in the log any more
     static constexpr std::size_t kMaxLog = 4096;
 };
 

@@ -13,7 +13,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         // Keep a single input's memory bounded so the fuzzer explores structure, not RAM.
         voxtier::VoxReadLimits limits;
         limits.maxVoxelCells = std::size_t(1) << 24;
-        const voxtier::VoxFile f = voxtier::parseVox(std::span<const std::uint8_t>(data, size), "fuzz.vox", limits);
+        const voxtier::VoxFile f =
+            voxtier::parseVox(std::span<const std::uint8_t>(data, size), "fuzz.vox", limits);
         (void)f.totalVoxels();
     } catch (const voxtier::InputError&) {
     }

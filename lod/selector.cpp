@@ -8,13 +8,18 @@
 
 namespace voxtier {
 
-const char* toString(Tier t) { return t == Tier::Near ? "near" : "far"; }
+const char* toString(Tier t) {
+    return t == Tier::Near ? "near" : "far";
+}
 
 double selectorMetric(SelectorMetric metric, const SelectorInput& in) {
     switch (metric) {
-    case SelectorMetric::Distance: return in.distance;
-    case SelectorMetric::RadiusPx: return in.radiusPx;
-    case SelectorMetric::ErrorPx: return in.radiusPx * std::sin(in.viewAngleRad);
+    case SelectorMetric::Distance:
+        return in.distance;
+    case SelectorMetric::RadiusPx:
+        return in.radiusPx;
+    case SelectorMetric::ErrorPx:
+        return in.radiusPx * std::sin(in.viewAngleRad);
     }
     return in.distance;
 }
@@ -40,7 +45,8 @@ SelectorStats TierSelector::update(std::span<const SelectorInput> inputs) {
     if (!initialised_) {
         state_.assign(inputs.size(), State{});
         for (std::size_t i = 0; i < inputs.size(); ++i)
-            state_[i].tier = pastFar(selectorMetric(config_.metric, inputs[i])) ? Tier::Far : Tier::Near;
+            state_[i].tier =
+                pastFar(selectorMetric(config_.metric, inputs[i])) ? Tier::Far : Tier::Near;
         initialised_ = true;
     } else {
         assert(inputs.size() == state_.size() && "entity count changed: call reset()");
@@ -80,7 +86,8 @@ bool TierSelector::fading(std::size_t entity, float* fraction, Tier* from) const
     return true;
 }
 
-int TierSelector::chooseView(std::size_t entity, glm::dvec3 towardViewer, std::span<const glm::dvec3> views) {
+int TierSelector::chooseView(std::size_t entity, glm::dvec3 towardViewer,
+                             std::span<const glm::dvec3> views) {
     assert(!views.empty());
     int best = 0;
     double bestDot = glm::dot(views[0], towardViewer);
@@ -90,9 +97,13 @@ int TierSelector::chooseView(std::size_t entity, glm::dvec3 towardViewer, std::s
     }
     if (entity >= state_.size()) return best;
     State& s = state_[entity];
-    if (s.view >= 0 && s.view < int(views.size()) && s.view != best && config_.viewHysteresisDeg > 0.0) {
+    if (s.view >= 0 && s.view < int(views.size()) && s.view != best &&
+        config_.viewHysteresisDeg > 0.0) {
         const double len = glm::length(towardViewer);
-        const auto angle = [&](int v) { return std::acos(std::clamp(glm::dot(views[std::size_t(v)], towardViewer) / len, -1.0, 1.0)); };
+        const auto angle = [&](int v) {
+            return std::acos(
+                std::clamp(glm::dot(views[std::size_t(v)], towardViewer) / len, -1.0, 1.0));
+        };
         if (angle(s.view) - angle(best) <= glm::radians(config_.viewHysteresisDeg)) return s.view;
     }
     if (s.view >= 0 && s.view != best) ++viewChangesThisFrame_;
@@ -100,6 +111,8 @@ int TierSelector::chooseView(std::size_t entity, glm::dvec3 towardViewer, std::s
     return best;
 }
 
-float ditherThreshold(int x, int y) { return kernel::vtDitherThreshold({x, y}); }
+float ditherThreshold(int x, int y) {
+    return kernel::vtDitherThreshold({x, y});
+}
 
 } // namespace voxtier

@@ -18,9 +18,10 @@ const char* toString(Tier t);
 
 /// What the selector needs to know about one entity this frame.
 struct SelectorInput {
-    double distance = 0.0;     ///< metres, eye to model centre
-    double radiusPx = 0.0;     ///< projected bounding-sphere radius in pixels
-    double viewAngleRad = 0.0; ///< angle from the entity's view direction to the nearest snapshot view
+    double distance = 0.0; ///< metres, eye to model centre
+    double radiusPx = 0.0; ///< projected bounding-sphere radius in pixels
+    double viewAngleRad =
+        0.0; ///< angle from the entity's view direction to the nearest snapshot view
 };
 
 /// The value compared against near_at / far_at for `metric`.
@@ -42,7 +43,7 @@ struct SelectorStats {
 /// threshold is deterministic. The first frame assigns tiers without counting switches:
 /// an entity starts near unless its metric is already past far_at.
 class TierSelector {
-public:
+  public:
     explicit TierSelector(const SelectorConfig& config = {});
 
     const SelectorConfig& config() const { return config_; }
@@ -66,7 +67,7 @@ public:
     /// View changes counted by chooseView since the last update().
     int viewChangesThisFrame() const { return viewChangesThisFrame_; }
 
-private:
+  private:
     struct State {
         Tier tier = Tier::Near;
         Tier fadeFrom = Tier::Near;

@@ -29,7 +29,8 @@ std::vector<fs::path> sourcesOf(const std::string& module) {
     if (!fs::exists(dir)) return out;
     for (const auto& e : fs::recursive_directory_iterator(dir)) {
         const auto ext = e.path().extension().string();
-        if (ext == ".cpp" || ext == ".hpp" || ext == ".h" || ext == ".glsl" || ext == ".frag" || ext == ".vert" || ext == ".comp")
+        if (ext == ".cpp" || ext == ".hpp" || ext == ".h" || ext == ".glsl" || ext == ".frag" ||
+            ext == ".vert" || ext == ".comp")
             out.push_back(e.path());
     }
     return out;
@@ -45,8 +46,10 @@ TEST(Architecture, ModulesIncludeOnlyLeftwardModules) {
             while (std::getline(in, line)) {
                 ++n;
                 std::smatch m;
-                if (std::regex_search(line, m, include) && kAllowed.count(m[1]) && !allowed.count(m[1]))
-                    ADD_FAILURE() << file.string() << ":" << n << ": " << module << " must not include " << m[1];
+                if (std::regex_search(line, m, include) && kAllowed.count(m[1]) &&
+                    !allowed.count(m[1]))
+                    ADD_FAILURE() << file.string() << ":" << n << ": " << module
+                                  << " must not include " << m[1];
             }
         }
 }
@@ -67,8 +70,10 @@ TEST(Architecture, ThirdPartyLibrariesStayInTheirModules) {
             std::string line;
             while (std::getline(in, line))
                 for (const Rule& r : rules) {
-                    if (line.find("#include") != std::string::npos && line.find(r.pattern) != std::string::npos) {
-                        EXPECT_TRUE(r.modules.count(module)) << file.string() << " includes " << r.pattern;
+                    if (line.find("#include") != std::string::npos &&
+                        line.find(r.pattern) != std::string::npos) {
+                        EXPECT_TRUE(r.modules.count(module))
+                            << file.string() << " includes " << r.pattern;
                     }
                 }
         }

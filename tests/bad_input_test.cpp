@@ -20,7 +20,8 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path scratch() {
-    const fs::path d = fs::path(::testing::TempDir()) / ("voxtier_bad_input_" + std::to_string(getpid()));
+    const fs::path d =
+        fs::path(::testing::TempDir()) / ("voxtier_bad_input_" + std::to_string(getpid()));
     fs::create_directories(d);
     return d;
 }
@@ -31,12 +32,14 @@ std::string write(const std::string& name, const std::string& text) {
     return p.string();
 }
 
-std::string repo(const std::string& rel) { return (fs::path(VOXTIER_SOURCE_DIR) / rel).string(); }
+std::string repo(const std::string& rel) {
+    return (fs::path(VOXTIER_SOURCE_DIR) / rel).string();
+}
 
 struct Case {
-    std::string what;    ///< class of bad input, for the table
-    std::string args;    ///< CLI arguments
-    std::string expect;  ///< substring the one line must contain (file, field or reason)
+    std::string what;   ///< class of bad input, for the table
+    std::string args;   ///< CLI arguments
+    std::string expect; ///< substring the one line must contain (file, field or reason)
     std::string env = "";
 };
 
@@ -49,24 +52,34 @@ void expectOneLineError(const Case& c) {
     EXPECT_NE(r.status, 0) << c.what << ": accepted bad input";
     EXPECT_EQ(test::lineCount(r.err), 1u) << c.what << ":\n" << r.err;
     EXPECT_EQ(r.err.rfind("voxtier: error: ", 0), 0u) << c.what << ": " << r.err;
-    EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.what << ": expected '" << c.expect << "' in: " << r.err;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos)
+        << c.what << ": expected '" << c.expect << "' in: " << r.err;
 }
 
-const char* kScene = R"({"camera": {"size": [64, 48]}, "models": [{"name": "b", "generator": "box"}],
+const char* kScene =
+    R"({"camera": {"size": [64, 48]}, "models": [{"name": "b", "generator": "box"}],
  "entities": [{"model": "b", "position": [0, 0, -5]}]})";
 
 TEST(BadInput, MalformedVoxFilesAreOneLineErrorsInEveryCommand) {
-    std::vector<Case> cases = {{"not a .vox (bad magic)", "info " + repo("scenes/vox/dot_vox/not_a.vox"), "not_a.vox"}};
+    std::vector<Case> cases = {
+        {"not a .vox (bad magic)", "info " + repo("scenes/vox/dot_vox/not_a.vox"), "not_a.vox"}};
     for (const auto& f : fs::directory_iterator(repo("fuzz/corpus/vox"))) {
         const std::string name = f.path().filename().string();
-        if (name.rfind("ok_", 0) == 0 || name.rfind("graph_ok", 0) == 0 || name.rfind("version_999", 0) == 0) continue;
-        cases.push_back({"vox: " + f.path().stem().string(), "info '" + f.path().string() + "'", name});
-        cases.push_back({"vox via render: " + f.path().stem().string(), "render '" + f.path().string() + "' --mode reference -o " +
-                                                                            (scratch() / "x.png").string(), name});
+        if (name.rfind("ok_", 0) == 0 || name.rfind("graph_ok", 0) == 0 ||
+            name.rfind("version_999", 0) == 0)
+            continue;
+        cases.push_back(
+            {"vox: " + f.path().stem().string(), "info '" + f.path().string() + "'", name});
+        cases.push_back({"vox via render: " + f.path().stem().string(),
+                         "render '" + f.path().string() + "' --mode reference -o " +
+                             (scratch() / "x.png").string(),
+                         name});
     }
-    cases.push_back({"vox via bake", "bake " + repo("fuzz/corpus/vox/voxel_outside_size.vox"), "XYZI"});
+    cases.push_back(
+        {"vox via bake", "bake " + repo("fuzz/corpus/vox/voxel_outside_size.vox"), "XYZI"});
     cases.push_back({"missing file", "info /nonexistent/model.vox", "/nonexistent/model.vox"});
-    cases.push_back({"directory instead of a file", "info " + scratch().string(), "not a regular file"});
+    cases.push_back(
+        {"directory instead of a file", "info " + scratch().string(), "not a regular file"});
     for (const Case& c : cases) expectOneLineError(c);
 }
 
@@ -74,24 +87,39 @@ TEST(BadInput, MalformedScenesNameTheFileAndTheJsonPath) {
     const std::vector<std::pair<std::string, std::string>> scenes = {
         {"JSON syntax error", R"({"models": [ )"},
         {"unknown key (typo)", R"({"modles": []})"},
-        {"number overflow (1e999)", R"({"models": [{"name": "b", "generator": "box"}], "entities": [{"model": "b", "position": [0, 1e999, 0]}]})"},
-        {"zero quaternion", R"({"models": [{"name": "b", "generator": "box"}], "entities": [{"model": "b", "quaternion": [0, 0, 0, 0]}]})"},
-        {"unknown model", R"({"models": [{"name": "b", "generator": "box"}], "entities": [{"model": "tank"}]})"},
-        {"model too large", R"({"models": [{"name": "b", "generator": "box", "size": [300, 4, 4]}]})"},
-        {"too many entities", R"({"models": [{"name": "b", "generator": "box"}], "crowds": [{"models": ["b"], "count": 2000000}]})"},
-        {"image too large", R"({"camera": {"size": [20000, 100]}, "models": [{"name": "b", "generator": "box"}]})"},
-        {"degenerate camera", R"({"camera": {"position": [1, 2, 3], "target": [1, 2, 3]}, "models": [{"name": "b", "generator": "box"}]})"},
-        {"hysteresis band inverted", R"({"selector": {"near_at": 50, "far_at": 40}, "models": [{"name": "b", "generator": "box"}]})"},
-        {"missing .vox referenced by a scene", R"({"models": [{"name": "v", "vox": "nope/missing.vox"}]})"},
-        {"broken .vox referenced by a scene", R"({"models": [{"name": "v", "vox": ")" + repo("scenes/vox/dot_vox/not_a.vox") + R"("}]})"},
-        {"models over the scene's voxel budget", R"({"models": [{"name": "t", "generator": "tank", "size": [256, 256, 256], "frames": 4096}]})"},
-        {"edit outside the model", R"({"models": [{"name": "b", "generator": "box", "size": [4, 4, 4]}], "edits": [{"frame": 1, "model": "b", "op": "set", "at": [9, 0, 0]}]})"},
+        {"number overflow (1e999)", R"({"models": [{"name": "b", "generator": "box"}],)"
+                                    R"( "entities": [{"model": "b", "position": [0, 1e999, 0]}]})"},
+        {"zero quaternion", R"({"models": [{"name": "b", "generator": "box"}],)"
+                            R"( "entities": [{"model": "b", "quaternion": [0, 0, 0, 0]}]})"},
+        {"unknown model",
+         R"({"models": [{"name": "b", "generator": "box"}], "entities": [{"model": "tank"}]})"},
+        {"model too large",
+         R"({"models": [{"name": "b", "generator": "box", "size": [300, 4, 4]}]})"},
+        {"too many entities", R"({"models": [{"name": "b", "generator": "box"}],)"
+                              R"( "crowds": [{"models": ["b"], "count": 2000000}]})"},
+        {"image too large",
+         R"({"camera": {"size": [20000, 100]}, "models": [{"name": "b", "generator": "box"}]})"},
+        {"degenerate camera", R"({"camera": {"position": [1, 2, 3], "target": [1, 2, 3]},)"
+                              R"( "models": [{"name": "b", "generator": "box"}]})"},
+        {"hysteresis band inverted", R"({"selector": {"near_at": 50, "far_at": 40},)"
+                                     R"( "models": [{"name": "b", "generator": "box"}]})"},
+        {"missing .vox referenced by a scene",
+         R"({"models": [{"name": "v", "vox": "nope/missing.vox"}]})"},
+        {"broken .vox referenced by a scene", R"({"models": [{"name": "v", "vox": ")" +
+                                                  repo("scenes/vox/dot_vox/not_a.vox") + R"("}]})"},
+        {"models over the scene's voxel budget", R"({"models": [{"name": "t", "generator": "tank",)"
+                                                 R"( "size": [256, 256, 256], "frames": 4096}]})"},
+        {"edit outside the model",
+         R"({"models": [{"name": "b", "generator": "box", "size": [4, 4, 4]}],)"
+         R"( "edits": [{"frame": 1, "model": "b", "op": "set", "at": [9, 0, 0]}]})"},
     };
     int n = 0;
     for (const auto& [what, text] : scenes) {
         const std::string file = write("scene" + std::to_string(n++) + ".json", text);
-        expectOneLineError({"scene: " + what, "render '" + file + "' --mode reference -o " + (scratch() / "x.png").string(),
-                            fs::path(file).filename().string()});
+        expectOneLineError(
+            {"scene: " + what,
+             "render '" + file + "' --mode reference -o " + (scratch() / "x.png").string(),
+             fs::path(file).filename().string()});
     }
 }
 
@@ -126,7 +154,8 @@ TEST(BadInput, SizeAndSigmaOverrideTheScene) {
     const std::string scene = write("override.json", kScene);
     auto render = [&](const std::string& sigma) {
         const std::string out = (scratch() / ("override_" + sigma + ".png")).string();
-        const test::CliRun r = test::runCli("render " + scene + " --mode reference --size 320x240 --sigma " + sigma + " -o " + out);
+        const test::CliRun r = test::runCli(
+            "render " + scene + " --mode reference --size 320x240 --sigma " + sigma + " -o " + out);
         EXPECT_EQ(r.status, 0) << r.err;
         return readColorImage(out);
     };
@@ -135,7 +164,9 @@ TEST(BadInput, SizeAndSigmaOverrideTheScene) {
     EXPECT_EQ(one.height, 240);
     // The sprite keeps its screen size; twice the virtual pixels per voxel makes each virtual
     // pixel, and so the one-virtual-pixel outline, half as wide on screen.
-    auto outline = [](const Image& im) { return std::count(im.color.begin(), im.color.end(), packRgba(0, 0, 0)); };
+    auto outline = [](const Image& im) {
+        return std::count(im.color.begin(), im.color.end(), packRgba(0, 0, 0));
+    };
     EXPECT_GT(outline(one), 0);
     EXPECT_LT(outline(two), outline(one));
 }
@@ -143,12 +174,17 @@ TEST(BadInput, SizeAndSigmaOverrideTheScene) {
 // Without any Vulkan driver the GPU modes fail with one clear line; the CPU modes still work.
 TEST(BadInput, MissingVulkanDeviceFailsGpuModesOnlyOneLine) {
     const std::string scene = write("novk.json", kScene);
-    const std::string noDriver = "VK_DRIVER_FILES=/nonexistent/none.json VK_ICD_FILENAMES=/nonexistent/none.json";
+    const std::string noDriver =
+        "VK_DRIVER_FILES=/nonexistent/none.json VK_ICD_FILENAMES=/nonexistent/none.json";
     for (const char* mode : {"near", "hybrid"})
-        expectOneLineError({std::string("no Vulkan device, --mode ") + mode,
-                            "render " + scene + " --mode " + mode + " -o " + (scratch() / "x.png").string(), "no Vulkan device", noDriver});
+        expectOneLineError(
+            {std::string("no Vulkan device, --mode ") + mode,
+             "render " + scene + " --mode " + mode + " -o " + (scratch() / "x.png").string(),
+             "no Vulkan device", noDriver});
     for (const char* mode : {"reference", "far"}) {
-        const test::CliRun r = test::runCli("render " + scene + " --mode " + mode + " -o " + (scratch() / "y.png").string(), noDriver);
+        const test::CliRun r = test::runCli("render " + scene + " --mode " + mode + " -o " +
+                                                (scratch() / "y.png").string(),
+                                            noDriver);
         EXPECT_EQ(r.status, 0) << mode << ": " << r.err;
         std::printf("[ input    ] no Vulkan device, --mode %s | works (exit 0)\n", mode);
     }

@@ -1,19 +1,19 @@
 #pragma once
 // Running the built `voxtier` binary from a test: exit status, stdout and stderr separately.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
 #include <string>
-#include <sys/wait.h>
 #include <unistd.h>
 
 namespace voxtier::test {
 
 struct CliRun {
-    int status = -1;        ///< exit code; -1 when the process died from a signal
+    int status = -1; ///< exit code; -1 when the process died from a signal
     std::string out, err;
 };
 
@@ -24,9 +24,11 @@ inline CliRun runCli(const std::string& args, const std::string& env = "") {
     std::string name = info ? std::string(info->test_suite_name()) + "_" + info->name() : "cli";
     for (char& c : name)
         if (c == '/') c = '_';
-    const std::string stem = ::testing::TempDir() + "/voxtier_cli_" + std::to_string(getpid()) + "_" + name;
+    const std::string stem =
+        ::testing::TempDir() + "/voxtier_cli_" + std::to_string(getpid()) + "_" + name;
     const std::string outFile = stem + ".out", errFile = stem + ".err";
-    const std::string cmd = env + " '" + VOXTIER_CLI + "' " + args + " >'" + outFile + "' 2>'" + errFile + "'";
+    const std::string cmd =
+        env + " '" + VOXTIER_CLI + "' " + args + " >'" + outFile + "' 2>'" + errFile + "'";
     CliRun r;
     const int raw = std::system(cmd.c_str());
     r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;

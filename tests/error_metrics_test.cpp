@@ -21,8 +21,11 @@ TEST(DistanceTransform, EqualsBruteForceOnRandomMasks) {
                 double best = std::numeric_limits<double>::infinity();
                 for (int yy = 0; yy < h; ++yy)
                     for (int xx = 0; xx < w; ++xx)
-                        if (m[std::size_t(yy * w + xx)]) best = std::min(best, double((x - xx) * (x - xx) + (y - yy) * (y - yy)));
-                ASSERT_EQ(d[std::size_t(y * w + x)], best) << "trial " << trial << " at " << x << "," << y;
+                        if (m[std::size_t(yy * w + xx)])
+                            best =
+                                std::min(best, double((x - xx) * (x - xx) + (y - yy) * (y - yy)));
+                ASSERT_EQ(d[std::size_t(y * w + x)], best)
+                    << "trial " << trial << " at " << x << "," << y;
             }
     }
 }
@@ -44,8 +47,8 @@ TEST(EntityError, ShiftedSquareReportsShiftAsDisplacement) {
     const EntityError e = entityError(truth, shifted, 3);
     EXPECT_EQ(e.footprintTruth, 64u);
     EXPECT_EQ(e.footprintTest, 64u);
-    EXPECT_EQ(e.unionPixels, 88u);  // 8 rows x 11 columns
-    EXPECT_EQ(e.mismatched, 48u);   // 3 columns on each side
+    EXPECT_EQ(e.unionPixels, 88u);        // 8 rows x 11 columns
+    EXPECT_EQ(e.mismatched, 48u);         // 3 columns on each side
     EXPECT_EQ(e.coverageMismatched, 48u); // same colour: every mismatch is coverage
     EXPECT_DOUBLE_EQ(e.silhouetteDisplacementPx, 3.0);
 }

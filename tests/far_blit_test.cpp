@@ -187,14 +187,16 @@ Image perPixelBlit(std::span<const FarSprite> sprites, Image target) {
         for (int y = sp.screenRect.y; y < sp.screenRect.w; ++y)
             for (int x = sp.screenRect.x; x < sp.screenRect.z; ++x) {
                 glm::ivec2 cell;
-                if (!kernel::vtPixelCell(sp.gpu, glm::vec2(float(x) + 0.5f, float(y) + 0.5f), cell)) continue;
+                if (!kernel::vtPixelCell(sp.gpu, glm::vec2(float(x) + 0.5f, float(y) + 0.5f), cell))
+                    continue;
                 const glm::ivec2 sc = map(cell);
                 const SnapshotCell c = f.snapshot->at(sc.x, sc.y);
                 if (c.code == snapshot_code::kEmpty) continue;
-                const Rgba8 color = snapshot_code::isSolid(c.code)
-                                        ? kernel::vtLit(f.palette->colors[c.index],
-                                                        kernel::vtFaceLight(sp.gpu, snapshot_code::face(c.code)))
-                                        : kernel::VT_OUTLINE_RGBA;
+                const Rgba8 color =
+                    snapshot_code::isSolid(c.code)
+                        ? kernel::vtLit(f.palette->colors[c.index],
+                                        kernel::vtFaceLight(sp.gpu, snapshot_code::face(c.code)))
+                        : kernel::VT_OUTLINE_RGBA;
                 target.writeIfNearer(target.index(x, y), color, sp.gpu.depth, sp.entityId);
             }
     }
@@ -219,17 +221,20 @@ TEST(FarBlit, ShortcutsDrawExactlyThePerPixelRule) {
             Entity e;
             e.model = k % 3;
             e.position = {-6.0 + 12.0 * unit(), -0.5 + 2.0 * unit(), -1.5 - 14.0 * unit()};
-            e.rotation = glm::angleAxis(6.283 * unit(), glm::normalize(glm::dvec3(unit() - 0.5, 1.0, unit() - 0.5)));
+            e.rotation = glm::angleAxis(
+                6.283 * unit(), glm::normalize(glm::dvec3(unit() - 0.5, 1.0, unit() - 0.5)));
             s.entities.push_back(e);
         }
         s.camera.position = {0.3 * variant, 1.2, 2.0};
         s.camera.target = {0.0, 0.0, -6.0};
-        s.camera.up = glm::normalize(glm::dvec3(std::sin(0.4 * variant), std::cos(0.4 * variant), 0.0)); // rolled
+        s.camera.up = glm::normalize(
+            glm::dvec3(std::sin(0.4 * variant), std::cos(0.4 * variant), 0.0)); // rolled
         s.camera.width = 320;
         s.camera.height = 200;
         const CameraFrame cam = makeCameraFrame(s.camera);
         std::vector<SpriteSetup> sprites = setupSprites(s, cam, 0.0);
-        for (std::size_t i = 0; i < sprites.size(); i += 4) sprites[i].gpu.fade = 0.4f, sprites[i].gpu.fadeSide = i % 8 ? 1.0f : -1.0f;
+        for (std::size_t i = 0; i < sprites.size(); i += 4)
+            sprites[i].gpu.fade = 0.4f, sprites[i].gpu.fadeSide = i % 8 ? 1.0f : -1.0f;
         SnapshotCache cache;
         std::vector<FarSprite> far;
         int visible = 0;
@@ -237,7 +242,11 @@ TEST(FarBlit, ShortcutsDrawExactlyThePerPixelRule) {
             if (!sp.visible()) continue;
             ++visible;
             const auto& m = *s.models[std::size_t(sp.model)];
-            far.push_back({&sp, cache.get(m, sp.frame, ViewSet::Cube26, chooseFarView(sp, ViewSet::Cube26), sp.lattice.sigma).get(),
+            far.push_back({&sp,
+                           cache
+                               .get(m, sp.frame, ViewSet::Cube26,
+                                    chooseFarView(sp, ViewSet::Cube26), sp.lattice.sigma)
+                               .get(),
                            &m.palette()});
         }
         ASSERT_GT(visible, 20);
@@ -255,14 +264,18 @@ TEST(FarBlit, ShortcutsDrawExactlyThePerPixelRule) {
             const SnapshotCellMap map = snapshotCellMap(L, f.snapshot->lattice);
             for (int j = L.cellRange.z; j <= L.cellRange.w; ++j)
                 for (int i = L.cellRange.x; i <= L.cellRange.y; ++i) {
-                    const glm::dvec3 q = (L.gU + (i + 0.5) / L.sigma) * L.right + (L.gV + (j + 0.5) / L.sigma) * L.up;
+                    const glm::dvec3 q = (L.gU + (i + 0.5) / L.sigma) * L.right +
+                                         (L.gV + (j + 0.5) / L.sigma) * L.up;
                     const glm::ivec2 a = f.snapshot->lattice.cellAt(q), b = map({i, j});
                     ++cells;
                     if (a != b) {
                         ++boundary;
                         const SpriteLattice& S = f.snapshot->lattice;
-                        const double u = S.sigma * (glm::dot(q, S.right) - S.gU), v = S.sigma * (glm::dot(q, S.up) - S.gV);
-                        EXPECT_LT(std::min(std::abs(u - std::round(u)), std::abs(v - std::round(v))), 1e-9);
+                        const double u = S.sigma * (glm::dot(q, S.right) - S.gU),
+                                     v = S.sigma * (glm::dot(q, S.up) - S.gV);
+                        EXPECT_LT(
+                            std::min(std::abs(u - std::round(u)), std::abs(v - std::round(v))),
+                            1e-9);
                     }
                 }
         }

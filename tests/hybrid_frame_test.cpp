@@ -66,7 +66,8 @@ SelectorConfig band(double nearAt, double farAt, int crossfade = 0) {
 // Every visible entity is drawn by exactly one tier, or by both during a cross-fade with
 // complementary pixel sets: no pixel of any entity comes from two tiers. Checked in every mode.
 TEST(HybridFrame, EveryEntityIsDrawnExactlyOncePerPixelInEveryMode) {
-    Scene s = corridor(12, 2.0, {key(0, {0, 1, 6}, {0, 0, -20}), key(3, {0, 1, -6}, {0, 0, -30})}, band(6, 9, 4));
+    Scene s = corridor(12, 2.0, {key(0, {0, 1, 6}, {0, 0, -20}), key(3, {0, 1, -6}, {0, 0, -30})},
+                       band(6, 9, 4));
     FrameRenderer r(s, cpuNear());
     for (RenderMode mode : {RenderMode::Reference, RenderMode::Far, RenderMode::Hybrid}) {
         int sawFade = 0;
@@ -86,7 +87,8 @@ TEST(HybridFrame, EveryEntityIsDrawnExactlyOncePerPixelInEveryMode) {
             // Composition of the two halves equals the frame (the blit-into-near composition).
             Image composed = a;
             composeMinZ(composed, b);
-            EXPECT_TRUE(diffImages(composed, fr.image).identical()) << toString(mode) << " frame " << f;
+            EXPECT_TRUE(diffImages(composed, fr.image).identical())
+                << toString(mode) << " frame " << f;
             // No pixel shows one entity in both shares (fading entities use complementary masks).
             for (std::size_t p = 0; p < a.pixelCount(); ++p) {
                 if (a.id[p] != kernel::VT_NO_ENTITY && a.id[p] == b.id[p]) {
@@ -131,7 +133,8 @@ TEST(HybridFrame, CrossFadeHalvesAreComplementary) {
                     const std::size_t p = both.index(x, y);
                     const bool newTier = kernel::vtDitherThreshold({x, y}) < share;
                     const Image& src = newTier ? allFar : allNear;
-                    ASSERT_EQ(both.color[p], src.color[p]) << "entity " << i << " share " << share << " at " << x << "," << y;
+                    ASSERT_EQ(both.color[p], src.color[p])
+                        << "entity " << i << " share " << share << " at " << x << "," << y;
                     ASSERT_EQ(both.id[p], src.id[p]);
                 }
         }
@@ -156,13 +159,15 @@ TEST(HybridFrame, CameraPathHysteresis) {
     {
         std::vector<CameraKey> keys = {key(0, {0, 0.5, -4}, {0, 0, -40})}; // start close: near
         for (int k = 1; k <= 12; ++k)
-            keys.push_back(key(k, {0, 0.5, farAt + (k % 2 ? 1.9 : -1.9)}, {0, 0, -40})); // +-1.9 m around far_at
+            keys.push_back(key(k, {0, 0.5, farAt + (k % 2 ? 1.9 : -1.9)},
+                               {0, 0, -40})); // +-1.9 m around far_at
         Scene s = corridor(1, 0.0, keys, band(nearAt, farAt));
         EXPECT_EQ(countSwitches(s), 1);
     }
     {
         std::vector<CameraKey> keys;
-        for (int k = 0; k <= 6; ++k) keys.push_back(key(k, {0, 0.5, k % 2 ? 20.0 : 2.0}, {0, 0, -40}));
+        for (int k = 0; k <= 6; ++k)
+            keys.push_back(key(k, {0, 0.5, k % 2 ? 20.0 : 2.0}, {0, 0, -40}));
         Scene s = corridor(1, 0.0, keys, band(nearAt, farAt));
         EXPECT_EQ(countSwitches(s), 6);
     }
@@ -175,13 +180,15 @@ TEST(HybridFrame, CameraPathHysteresis) {
 /// pixel sampling one more pixel.
 double predictedDisplacementBound(const SpriteSetup& s, double theta, const CameraFrame& cam) {
     const double cellPx = (s.pose.metresPerVoxel / s.lattice.sigma) / s.viewDepth * cam.focalPx();
-    return s.radiusPx * std::sin(theta) / std::cos(theta / 2.0) + 2.0 * std::sqrt(2.0) * cellPx + 1.0;
+    return s.radiusPx * std::sin(theta) / std::cos(theta / 2.0) + 2.0 * std::sqrt(2.0) * cellPx +
+           1.0;
 }
 
 // Far sprites against the ground truth (the all-near render of the same frame): at the frame an
 // entity switches to far, its silhouette is displaced by no more than the §5 prediction.
 TEST(HybridFrame, FarSpritesStayWithinThePredictedErrorAtTheSwitch) {
-    std::vector<CameraKey> keys = {key(0, {0, 0.5, 4}, {0, 0, -30}), key(4, {0, 3.5, 24}, {0, 0, -30})};
+    std::vector<CameraKey> keys = {key(0, {0, 0.5, 4}, {0, 0, -30}),
+                                   key(4, {0, 3.5, 24}, {0, 0, -30})};
     Scene s = corridor(6, 3.0, keys, band(14, 16));
     FrameRenderer hybrid(s, cpuNear());
     const auto& views = viewDirections(ViewSet::Cube26);
@@ -193,7 +200,8 @@ TEST(HybridFrame, FarSpritesStayWithinThePredictedErrorAtTheSwitch) {
         for (std::size_t i = 0; i < h.plan.size(); ++i) {
             const SpriteSetup& sp = h.sprites[i];
             if (h.plan[i].tier != Tier::Far || !sp.visible()) continue;
-            const double theta = std::acos(std::clamp(glm::dot(views[std::size_t(h.plan[i].view)], -sp.lattice.dir), -1.0, 1.0));
+            const double theta = std::acos(std::clamp(
+                glm::dot(views[std::size_t(h.plan[i].view)], -sp.lattice.dir), -1.0, 1.0));
             const double bound = predictedDisplacementBound(sp, theta, cam);
             // Alone in both tiers, so other entities' occlusion does not enter the comparison.
             const std::vector<SpriteSetup> one = {sp};
@@ -201,7 +209,8 @@ TEST(HybridFrame, FarSpritesStayWithinThePredictedErrorAtTheSwitch) {
             const Image nearAlone = hybrid.draw(cam, one, {EntityPlan{}});
             const EntityError e = entityError(nearAlone, farAlone, std::uint32_t(i));
             EXPECT_LE(e.silhouetteDisplacementPx, bound)
-                << "frame " << f << " entity " << i << " theta " << glm::degrees(theta) << " r_px " << sp.radiusPx;
+                << "frame " << f << " entity " << i << " theta " << glm::degrees(theta) << " r_px "
+                << sp.radiusPx;
             ++checked;
         }
     }
@@ -211,8 +220,10 @@ TEST(HybridFrame, FarSpritesStayWithinThePredictedErrorAtTheSwitch) {
 // The error metric keeps every far entity under its budget: with metric error_px, an entity is
 // far only while its predicted error r_px sin(theta) stays below near_at (the band's top).
 TEST(HybridFrame, ErrorMetricKeepsEveryFarEntityUnderBudget) {
-    SelectorConfig sel = defaultSelectorFor(SelectorMetric::ErrorPx); // far below 0.5 px, near above 1.0 px
-    std::vector<CameraKey> keys = {key(0, {0, 0.5, 4}, {0, 0, -30}), key(6, {2, 6, 60}, {0, 0, -30})};
+    SelectorConfig sel =
+        defaultSelectorFor(SelectorMetric::ErrorPx); // far below 0.5 px, near above 1.0 px
+    std::vector<CameraKey> keys = {key(0, {0, 0.5, 4}, {0, 0, -30}),
+                                   key(6, {2, 6, 60}, {0, 0, -30})};
     Scene s = corridor(8, 3.0, keys, sel);
     FrameRenderer r(s, cpuNear());
     const auto& views = viewDirections(ViewSet::Cube26);
@@ -223,13 +234,17 @@ TEST(HybridFrame, ErrorMetricKeepsEveryFarEntityUnderBudget) {
             const SpriteSetup& sp = fr.sprites[i];
             if (fr.plan[i].tier != Tier::Far || !sp.visible()) continue;
             ++farSeen;
-            const double theta = std::acos(std::clamp(glm::dot(views[std::size_t(fr.plan[i].view)], -sp.lattice.dir), -1.0, 1.0));
-            EXPECT_LE(sp.radiusPx * std::sin(theta), sel.nearAt) << "frame " << f << " entity " << i;
+            const double theta = std::acos(std::clamp(
+                glm::dot(views[std::size_t(fr.plan[i].view)], -sp.lattice.dir), -1.0, 1.0));
+            EXPECT_LE(sp.radiusPx * std::sin(theta), sel.nearAt)
+                << "frame " << f << " entity " << i;
             // ...and what the far sprite actually shows stays within the error that predicts.
             const CameraFrame cam = makeCameraFrame(s.cameraAt(s.timeOfFrame(f)));
             const std::vector<SpriteSetup> one = {sp};
-            const EntityError e = entityError(r.draw(cam, one, {EntityPlan{}}), r.draw(cam, one, {fr.plan[i]}), std::uint32_t(i));
-            EXPECT_LE(e.silhouetteDisplacementPx, predictedDisplacementBound(sp, theta, cam)) << "frame " << f << " entity " << i;
+            const EntityError e = entityError(r.draw(cam, one, {EntityPlan{}}),
+                                              r.draw(cam, one, {fr.plan[i]}), std::uint32_t(i));
+            EXPECT_LE(e.silhouetteDisplacementPx, predictedDisplacementBound(sp, theta, cam))
+                << "frame " << f << " entity " << i;
         }
     }
     EXPECT_GT(farSeen, 5);
@@ -250,7 +265,8 @@ PopSummary pops(Scene& s) {
         for (const PopEvent& e : fr.pops) {
             out.tierEvents += e.kind != PopEvent::Kind::ViewSwitch;
             out.viewEvents += e.kind == PopEvent::Kind::ViewSwitch;
-            if (e.kind != PopEvent::Kind::ViewSwitch) out.largestChange = std::max(out.largestChange, e.changedPixels);
+            if (e.kind != PopEvent::Kind::ViewSwitch)
+                out.largestChange = std::max(out.largestChange, e.changedPixels);
         }
     }
     return out;
@@ -259,7 +275,8 @@ PopSummary pops(Scene& s) {
 // A camera flying through both thresholds and across view boundaries produces a popping report;
 // with the cross-fade on, the largest per-frame change at a tier switch is smaller.
 TEST(HybridFrame, CrossFadeMakesTheLargestSwitchChangeSmaller) {
-    std::vector<CameraKey> keys = {key(0, {-3, 0.5, 2}, {0, 0, -20}), key(4, {6, 4, 22}, {0, 0, -20}),
+    std::vector<CameraKey> keys = {key(0, {-3, 0.5, 2}, {0, 0, -20}),
+                                   key(4, {6, 4, 22}, {0, 0, -20}),
                                    key(8, {-3, 0.5, 2}, {0, 0, -20})};
     Scene instant = corridor(6, 2.5, keys, band(9, 11, 0));
     Scene faded = corridor(6, 2.5, keys, band(9, 11, 4));
@@ -269,7 +286,8 @@ TEST(HybridFrame, CrossFadeMakesTheLargestSwitchChangeSmaller) {
     EXPECT_GT(a.viewEvents, 0u) << "the path should cross snapshot view boundaries";
     EXPECT_GT(a.largestChange, 0u);
     EXPECT_LT(b.largestChange, a.largestChange);
-    std::printf("[ pops     ] largest change at a switch: instant %zu px, cross-fade %zu px (%zu / %zu tier events, %zu view events)\n",
+    std::printf("[ pops     ] largest change at a switch: instant %zu px, cross-fade %zu px (%zu / "
+                "%zu tier events, %zu view events)\n",
                 a.largestChange, b.largestChange, a.tierEvents, b.tierEvents, a.viewEvents);
 }
 

@@ -111,7 +111,9 @@ TEST(Metric, ErrorMetricIsRadiusTimesSineOfViewAngle) {
 // with delta degrees of hysteresis a direction wobbling around the bisector never flips views.
 TEST(ViewHysteresis, WobbleAroundViewBoundaryDoesNotFlipWithHysteresis) {
     const std::vector<glm::dvec3> views = {{1, 0, 0}, {0, 1, 0}};
-    auto dirAt = [](double deg) { return glm::dvec3(std::cos(glm::radians(deg)), std::sin(glm::radians(deg)), 0.0); };
+    auto dirAt = [](double deg) {
+        return glm::dvec3(std::cos(glm::radians(deg)), std::sin(glm::radians(deg)), 0.0);
+    };
     for (double delta : {0.0, 5.0}) {
         SelectorConfig c;
         c.viewHysteresisDeg = delta;
@@ -126,8 +128,10 @@ TEST(ViewHysteresis, WobbleAroundViewBoundaryDoesNotFlipWithHysteresis) {
             sel.chooseView(0, dirAt(45.0 + 2.0 * std::sin(0.5 * k)), views); // wobble +-2 degrees
             changes += sel.viewChangesThisFrame();
         }
-        if (delta == 0.0) EXPECT_GT(changes, 10);
-        else EXPECT_EQ(changes, 0);
+        if (delta == 0.0)
+            EXPECT_GT(changes, 10);
+        else
+            EXPECT_EQ(changes, 0);
         // Past the bisector by more than delta it does switch.
         sel.update(std::span<const SelectorInput>(&in, 1));
         EXPECT_EQ(sel.chooseView(0, dirAt(45.0 + delta + 3.0), views), 1);
@@ -159,7 +163,8 @@ TEST(CrossFade, FractionRisesOverTheConfiguredFramesThenStops) {
 TEST(CrossFade, DitherIsTheStandardFourByFourBayerMatrix) {
     const int bayer[4][4] = {{0, 8, 2, 10}, {12, 4, 14, 6}, {3, 11, 1, 9}, {15, 7, 13, 5}};
     for (int y = 0; y < 8; ++y)
-        for (int x = 0; x < 8; ++x) EXPECT_EQ(ditherThreshold(x, y), (bayer[y % 4][x % 4] + 0.5f) / 16.0f) << x << "," << y;
+        for (int x = 0; x < 8; ++x)
+            EXPECT_EQ(ditherThreshold(x, y), (bayer[y % 4][x % 4] + 0.5f) / 16.0f) << x << "," << y;
 }
 
 TEST(CrossFade, DitherShowsTheRequestedShareOfPixels) {

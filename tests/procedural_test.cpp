@@ -3,9 +3,10 @@
 #include "core/error.hpp"
 #include "core/procedural.hpp"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <array>
-#include <gtest/gtest.h>
 #include <set>
 
 namespace voxtier {
@@ -265,7 +266,8 @@ TEST(Procedural, TankTypesDifferBySeedAndNoMirrorMapsATankOntoItself) {
 TEST(Procedural, TankFramesAllDifferAndTheTreadsRollOneVoxelPerFrame) {
     const auto t = makeTank(3, 8);
     for (int a = 0; a < 8; ++a)
-        for (int b = a + 1; b < 8; ++b) EXPECT_NE(t->frame(a).data(), t->frame(b).data()) << a << " vs " << b;
+        for (int b = a + 1; b < 8; ++b)
+            EXPECT_NE(t->frame(a).data(), t->frame(b).data()) << a << " vs " << b;
     // The bottom row of the low-Y track (the first y with a voxel on the ground) moves by +1 in
     // x per frame, away from the rounded ends.
     int y = 0;
@@ -274,7 +276,8 @@ TEST(Procedural, TankFramesAllDifferAndTheTreadsRollOneVoxelPerFrame) {
     for (int f = 0; f + 1 < 8; ++f)
         for (int x = 3; x < 29; ++x) {
             ASSERT_NE(t->frame(f).at({x, y, 0}), 0) << f << "," << x;
-            ASSERT_EQ(t->frame(f + 1).at({x, y, 0}), t->frame(f).at({x - 1, y, 0})) << f << "," << x;
+            ASSERT_EQ(t->frame(f + 1).at({x, y, 0}), t->frame(f).at({x - 1, y, 0}))
+                << f << "," << x;
         }
     // The treads are not uniform, so rolling is visible.
     std::set<std::uint8_t> row;

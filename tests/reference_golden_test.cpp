@@ -3,7 +3,6 @@
 // precision, from the definitions of DESIGN.md §3 (lattice anchored at floor(c), parallel rays,
 // cardinal outline, billboard depth, face lighting) — never recorded from the renderer.
 #include "test_support.hpp"
-
 #include "volumetric/reference_renderer.hpp"
 
 #include <gtest/gtest.h>
@@ -15,7 +14,9 @@ namespace {
 
 using test::ExpectedCells;
 
-Image renderScene(const Scene& s) { return test::renderReferenceImage(s); }
+Image renderScene(const Scene& s) {
+    return test::renderReferenceImage(s);
+}
 
 struct Mismatch {
     int count = 0;
@@ -24,7 +25,8 @@ struct Mismatch {
 
 /// Compares a rendered single-box view with the closed-form image, pixel by pixel
 /// (test::countClosedFormMismatches, shared with the Vulkan suite).
-Mismatch compareWithClosedForm(const test::ViewSetup& v, glm::dvec3 towardViewer, const Image& img, ExpectedCells* out = nullptr) {
+Mismatch compareWithClosedForm(const test::ViewSetup& v, glm::dvec3 towardViewer, const Image& img,
+                               ExpectedCells* out = nullptr) {
     Mismatch mm;
     mm.count = test::countClosedFormMismatches(v, towardViewer, img, &mm.what, out);
     return mm;
@@ -34,7 +36,9 @@ struct CubeCase {
     int size;
     double sigma;
 };
-void PrintTo(const CubeCase& c, std::ostream* os) { *os << c.size << "^3 at sigma " << c.sigma; }
+void PrintTo(const CubeCase& c, std::ostream* os) {
+    *os << c.size << "^3 at sigma " << c.sigma;
+}
 
 class CanonicalBoxViews : public ::testing::TestWithParam<CubeCase> {};
 
@@ -54,15 +58,17 @@ TEST_P(CanonicalBoxViews, MatchesClosedFormImageAlongAll26Directions) {
     }
 }
 
-INSTANTIATE_TEST_SUITE_P(EvenAndOddSizes, CanonicalBoxViews,
-                         ::testing::Values(CubeCase{4, 1.0}, CubeCase{5, 1.0}, CubeCase{4, 2.0}, CubeCase{5, 2.0},
-                                           CubeCase{6, 3.0}, CubeCase{3, 3.0},
-                                           // non-integer sigma: some rays run exactly along voxel faces, and
-                                           // the half-open rule (a boundary belongs to the + side) decides
-                                           CubeCase{4, 1.5}, CubeCase{5, 1.5}),
-                         [](const auto& info) {
-                             return "size" + std::to_string(info.param.size) + "_sigma" + std::to_string(int(info.param.sigma * 10));
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    EvenAndOddSizes, CanonicalBoxViews,
+    ::testing::Values(CubeCase{4, 1.0}, CubeCase{5, 1.0}, CubeCase{4, 2.0}, CubeCase{5, 2.0},
+                      CubeCase{6, 3.0}, CubeCase{3, 3.0},
+                      // non-integer sigma: some rays run exactly along voxel faces, and
+                      // the half-open rule (a boundary belongs to the + side) decides
+                      CubeCase{4, 1.5}, CubeCase{5, 1.5}),
+    [](const auto& info) {
+        return "size" + std::to_string(info.param.size) + "_sigma" +
+               std::to_string(int(info.param.sigma * 10));
+    });
 
 // Hand-counted: a single voxel seen along a face is a sigma x sigma block with a 4*sigma-cell
 // outline and nothing on the diagonals.
@@ -86,7 +92,8 @@ TEST(SingleVoxel, FaceViewIsSigmaSquareBlockWithFourSidedOutline) {
             for (int y = 0; y < img.height; ++y)
                 for (int x = 0; x < img.width; ++x)
                     if (img.id[img.index(x, y)] == 0u) {
-                        x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x), y1 = std::max(y1, y);
+                        x0 = std::min(x0, x), y0 = std::min(y0, y), x1 = std::max(x1, x),
+                        y1 = std::max(y1, y);
                     }
             EXPECT_EQ(x1 - x0 + 1, 4 * (s + 2));
             EXPECT_EQ(y1 - y0 + 1, 4 * (s + 2));
@@ -108,12 +115,15 @@ TEST(BoxAlongAxes, RectangleOfModelSizeTimesSigma) {
                 w[axis] = sign;
                 const auto v = test::viewAlong(model, glm::dvec3(w), sigma, 4);
                 const Image img = renderScene(v.scene);
-                const int a = dims[(axis + 1) % 3] * int(sigma), b = dims[(axis + 2) % 3] * int(sigma);
+                const int a = dims[(axis + 1) % 3] * int(sigma),
+                          b = dims[(axis + 2) % 3] * int(sigma);
                 std::size_t black = 0, solid = 0;
                 for (std::size_t p = 0; p < img.pixelCount(); ++p)
-                    if (img.id[p] == 0u) (img.color[p] == kernel::VT_OUTLINE_RGBA ? black : solid)++;
+                    if (img.id[p] == 0u)
+                        (img.color[p] == kernel::VT_OUTLINE_RGBA ? black : solid)++;
                 EXPECT_EQ(solid, std::size_t(16 * a * b)) << "axis " << axis << " sign " << sign;
-                EXPECT_EQ(black, std::size_t(16 * 2 * (a + b))) << "axis " << axis << " sign " << sign;
+                EXPECT_EQ(black, std::size_t(16 * 2 * (a + b)))
+                    << "axis " << axis << " sign " << sign;
                 EXPECT_EQ(compareWithClosedForm(v, glm::dvec3(w), img).count, 0);
             }
     }
@@ -127,7 +137,8 @@ TEST(CanonicalViews, RolledCameraMatchesClosedForm) {
             const auto v = test::viewAlong(model, glm::dvec3(w), 2.0, 4, roll);
             const Image img = renderScene(v.scene);
             const Mismatch mm = compareWithClosedForm(v, glm::dvec3(w), img);
-            EXPECT_EQ(mm.count, 0) << "roll " << roll << " view (" << w.x << "," << w.y << "," << w.z << "): " << mm.what;
+            EXPECT_EQ(mm.count, 0) << "roll " << roll << " view (" << w.x << "," << w.y << ","
+                                   << w.z << "): " << mm.what;
         }
 }
 

@@ -2,7 +2,6 @@
 // 10^5-10^6 m from the origin, camera straight down, behind / inside / touching, sub-pixel,
 // equal depths, non-integer sigma, thread-count independence.
 #include "test_support.hpp"
-
 #include "volumetric/reference_renderer.hpp"
 
 #include <gtest/gtest.h>
@@ -13,21 +12,29 @@
 namespace voxtier {
 namespace {
 
-Image render(const Scene& s, std::vector<SpriteSetup>* setups = nullptr) { return test::renderReferenceImage(s, setups); }
+Image render(const Scene& s, std::vector<SpriteSetup>* setups = nullptr) {
+    return test::renderReferenceImage(s, setups);
+}
 
 using test::markedBar;
-Scene smallWorld(glm::dvec3 offset) { return test::hardCaseWorld(offset); }
+Scene smallWorld(glm::dvec3 offset) {
+    return test::hardCaseWorld(offset);
+}
 
 // Everything is computed relative to the eye in double before rounding to float, so moving the
 // whole world 2^20 m (or 2^17 m) away changes nothing. Offsets are powers of two and positions
 // dyadic so that the camera-relative doubles are bit-identical.
 TEST(FarFromOrigin, WorldAtOneMillionMetresRendersTheSameImage) {
     const Image origin = render(smallWorld(glm::dvec3(0.0)));
-    ASSERT_GT(std::count_if(origin.id.begin(), origin.id.end(), [](auto v) { return v != kernel::VT_NO_ENTITY; }), 1000);
-    for (glm::dvec3 offset : {glm::dvec3(1048576.0, 0.0, -1048576.0), glm::dvec3(-131072.0, 65536.0, 131072.0)}) {
+    ASSERT_GT(std::count_if(origin.id.begin(), origin.id.end(),
+                            [](auto v) { return v != kernel::VT_NO_ENTITY; }),
+              1000);
+    for (glm::dvec3 offset :
+         {glm::dvec3(1048576.0, 0.0, -1048576.0), glm::dvec3(-131072.0, 65536.0, 131072.0)}) {
         const Image far = render(smallWorld(offset));
         const ImageDiff d = diffImages(origin, far);
-        EXPECT_TRUE(d.identical()) << "colour " << d.colorDiffs << " depth " << d.depthDiffs << " id " << d.idDiffs;
+        EXPECT_TRUE(d.identical())
+            << "colour " << d.colorDiffs << " depth " << d.depthDiffs << " id " << d.idDiffs;
     }
 }
 
@@ -50,24 +57,29 @@ TEST(CameraStraightDown, TopDownViewIsUprightAndUnmirrored) {
     double bx = 0, by = 0, mx = 0, my = 0;
     int bn = 0, mn = 0;
     const Rgba8 marker = test::expectedLit(packRgba(20, 220, 60), s.light, {0, 0, 1},
-                                           glm::transpose(worldFromVoxelSwizzle()) * glm::normalize(s.light.direction));
+                                           glm::transpose(worldFromVoxelSwizzle()) *
+                                               glm::normalize(s.light.direction));
     for (int y = 0; y < img.height; ++y)
         for (int x = 0; x < img.width; ++x) {
             const std::size_t p = img.index(x, y);
             if (img.id[p] != 0u || img.color[p] == kernel::VT_OUTLINE_RGBA) continue;
-            if (img.color[p] == marker) mx += x, my += y, ++mn;
-            else bx += x, by += y, ++bn;
+            if (img.color[p] == marker)
+                mx += x, my += y, ++mn;
+            else
+                bx += x, by += y, ++bn;
         }
     ASSERT_GT(mn, 0) << "marker voxel not visible from above (top face lighting)";
     ASSERT_GT(bn, 0);
     EXPECT_GT(mx / mn, bx / bn + 1.0) << "marker should be right of the bar centre";
-    EXPECT_LT(my / mn, by / bn) << "marker (+Y voxel = -Z world = screen up) should be above the bar centre";
+    EXPECT_LT(my / mn, by / bn)
+        << "marker (+Y voxel = -Z world = screen up) should be above the bar centre";
 }
 
 TEST(Culling, EntityBehindCameraDrawsNothing) {
     Scene s = smallWorld(glm::dvec3(0.0));
     s.entities.resize(1);
-    s.entities[0].position = s.camera.position + glm::dvec3(0.0, 0.0, 3.0); // behind (camera looks -Z)
+    s.entities[0].position =
+        s.camera.position + glm::dvec3(0.0, 0.0, 3.0); // behind (camera looks -Z)
     std::vector<SpriteSetup> setups;
     const Image img = render(s, &setups);
     EXPECT_EQ(setups[0].cull, CullReason::BehindCamera);
@@ -76,12 +88,15 @@ TEST(Culling, EntityBehindCameraDrawsNothing) {
 
 TEST(Culling, CameraInsideOrTouchingProxyBoxCullsOnlyThatEntity) {
     Scene s = smallWorld(glm::dvec3(0.0));
-    const SpriteSetup before = setupSprite(makeCameraFrame(s.camera), s.entities[0], 0, *s.models[0], 0, s.render, s.light);
+    const SpriteSetup before = setupSprite(makeCameraFrame(s.camera), s.entities[0], 0,
+                                           *s.models[0], 0, s.render, s.light);
     ASSERT_TRUE(before.visible());
     // Put the eye at entity 0's model centre, then exactly on its proxy box face.
-    const EntityPose pose = makeEntityPose(s.entities[0], s.models[0]->frame(0).dims(), s.render.voxelSize);
+    const EntityPose pose =
+        makeEntityPose(s.entities[0], s.models[0]->frame(0).dims(), s.render.voxelSize);
     const glm::dvec3 centre = pose.relativeWorld(glm::dvec3(4.0, 3.0, 2.5), glm::dvec3(0.0));
-    for (glm::dvec3 eyeVoxel : {glm::dvec3(4.0, 3.0, 2.5), glm::dvec3(4.0, 3.0, 5.0 + 1.0 / s.render.sigma)}) {
+    for (glm::dvec3 eyeVoxel :
+         {glm::dvec3(4.0, 3.0, 2.5), glm::dvec3(4.0, 3.0, 5.0 + 1.0 / s.render.sigma)}) {
         Scene t = s;
         t.camera.position = pose.relativeWorld(eyeVoxel, glm::dvec3(0.0));
         t.camera.target = t.camera.position + (s.camera.target - s.camera.position);

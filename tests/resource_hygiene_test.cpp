@@ -93,8 +93,10 @@ TEST(ResourceHygiene, LongHybridPathWithEditsKeepsMemoryFlatAndLeaksNothing) {
         rssEnd = residentMiB();
         const auto c = r.snapshotCache().counters();
         EXPECT_GT(c.evictions, 0u) << "the budget should force evictions on this path";
-        std::printf("[ hygiene  ] %d frames, %d switches, %d bakes, %llu evictions, max cache %zu B, RSS %.1f -> %.1f MiB\n",
-                    frames, switches, bakes, (unsigned long long)c.evictions, maxCache, rssWarm, rssEnd);
+        std::printf("[ hygiene  ] %d frames, %d switches, %d bakes, %llu evictions, max cache %zu "
+                    "B, RSS %.1f -> %.1f MiB\n",
+                    frames, switches, bakes, (unsigned long long)c.evictions, maxCache, rssWarm,
+                    rssEnd);
     }
     EXPECT_GT(switches, 20);
     EXPECT_LE(maxCache, o.cacheBudgetBytes);
@@ -102,7 +104,8 @@ TEST(ResourceHygiene, LongHybridPathWithEditsKeepsMemoryFlatAndLeaksNothing) {
     // the device and instance are destroyed, into the shared log.
     EXPECT_EQ(o.vulkanLog->count(), 0u) << o.vulkanLog->joined();
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-    std::printf("[ hygiene  ] sanitizer build: RSS includes the sanitizer's quarantine, not compared\n");
+    std::printf(
+        "[ hygiene  ] sanitizer build: RSS includes the sanitizer's quarantine, not compared\n");
 #else
     // After warm-up (atlas, caches, pools at their working size) memory stays flat: 1200 more
     // frames with 48 edits may not grow the process by more than a few MiB.

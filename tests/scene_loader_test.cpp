@@ -5,14 +5,15 @@
 #include "core/scene_loader.hpp"
 #include "core/sprite.hpp"
 
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <gtest/gtest.h>
 #include <map>
-#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <vector>
@@ -593,10 +594,12 @@ TEST(SceneLoader, TankGeneratorKeepsItsFramesSeedAndSize) {
     EXPECT_EQ(s.models[0]->palette(), tankPalette());
     EXPECT_EQ(s.models[1]->frameCount(), 8);
     EXPECT_EQ(s.models[1]->frame(0).data(), makeTank(1)->frame(0).data());
-    EXPECT_THROW(loadJson(json::parse(R"({"models": [{"name": "t", "generator": "tank", "size": [4, 32, 16]}]})")),
+    EXPECT_THROW(loadJson(json::parse(
+                     R"({"models": [{"name": "t", "generator": "tank", "size": [4, 32, 16]}]})")),
                  InputError);
-    EXPECT_THROW(loadJson(json::parse(R"({"models": [{"name": "t", "generator": "tank", "radius": 3}]})")),
-                 InputError);
+    EXPECT_THROW(
+        loadJson(json::parse(R"({"models": [{"name": "t", "generator": "tank", "radius": 3}]})")),
+        InputError);
 }
 
 glm::dvec3 rotate(const glm::dquat& q, glm::dvec3 v) {
@@ -788,18 +791,26 @@ TEST(SceneLoader, CrowdAnimationAddsTheStartFrameLastInTheStream) {
     // frame is drawn after its position and yaw), the crowd is deterministic, frames stay within
     // each model's frame count, fps is copied.
     auto scene = [](bool randomFrame) {
-        json j = {{"models", {{{"name", "t"}, {"generator", "tank"}, {"frames", 5}},
-                              {{"name", "b"}, {"generator", "box"}}}},
-                  {"crowds", {{{"models", {"t", "b"}}, {"layout", "random"}, {"count", 40}, {"seed", 9},
-                               {"random_yaw", true}, {"fps", 6}, {"random_frame", randomFrame},
-                               {"area", {{"min", {0, 0}}, {"max", {10, 10}}}}}}}};
+        json j = {{"models",
+                   {{{"name", "t"}, {"generator", "tank"}, {"frames", 5}},
+                    {{"name", "b"}, {"generator", "box"}}}},
+                  {"crowds",
+                   {{{"models", {"t", "b"}},
+                     {"layout", "random"},
+                     {"count", 40},
+                     {"seed", 9},
+                     {"random_yaw", true},
+                     {"fps", 6},
+                     {"random_frame", randomFrame},
+                     {"area", {{"min", {0, 0}}, {"max", {10, 10}}}}}}}};
         return loadJson(j);
     };
     const Scene a = scene(true), b = scene(false);
     ASSERT_EQ(a.entities.size(), 40u);
     EXPECT_TRUE(sameEntities({a.entities[0]}, {b.entities[0]}));
     EXPECT_TRUE(sameEntities(a.entities, scene(true).entities));
-    for (std::size_t i = 0; i < a.entities.size(); ++i) EXPECT_EQ(a.entities[i].frame, scene(true).entities[i].frame);
+    for (std::size_t i = 0; i < a.entities.size(); ++i)
+        EXPECT_EQ(a.entities[i].frame, scene(true).entities[i].frame);
     std::set<int> starts;
     for (const Entity& e : a.entities) {
         EXPECT_EQ(e.fps, 6.0);

@@ -24,7 +24,9 @@ inline std::shared_ptr<VoxelModel> solidBox(glm::ivec3 dims, std::uint8_t index 
     VoxelGrid g(dims);
     for (auto& v : g.data()) v = index;
     Palette p;
-    for (int i = 1; i < 256; ++i) p.colors[std::size_t(i)] = packRgba(unsigned(i * 37 % 256), unsigned(i * 91 % 256), unsigned(i * 53 % 256));
+    for (int i = 1; i < 256; ++i)
+        p.colors[std::size_t(i)] =
+            packRgba(unsigned(i * 37 % 256), unsigned(i * 91 % 256), unsigned(i * 53 % 256));
     p.colors[1] = packRgba(200, 120, 40);
     return std::make_shared<VoxelModel>("box", p, std::vector<VoxelGrid>{g});
 }
@@ -48,7 +50,8 @@ struct ViewSetup {
     double distance = 0.0;
 };
 inline ViewSetup viewAlong(std::shared_ptr<VoxelModel> model, glm::dvec3 towardViewer, double sigma,
-                           int magnification, int rollQuarterTurns = 0, glm::dvec3 worldOffset = glm::dvec3(0.0)) {
+                           int magnification, int rollQuarterTurns = 0,
+                           glm::dvec3 worldOffset = glm::dvec3(0.0)) {
     ViewSetup v;
     Scene& s = v.scene;
     s.render.sigma = sigma;
@@ -64,7 +67,8 @@ inline ViewSetup viewAlong(std::shared_ptr<VoxelModel> model, glm::dvec3 towardV
     Camera& c = s.camera;
     c.fovYDeg = 40.0;
     // Image large enough for the sprite at this magnification (plus margin), even sizes.
-    const double extent = glm::length(glm::dvec3(dims)) * sigma * magnification + 8.0 * magnification;
+    const double extent =
+        glm::length(glm::dvec3(dims)) * sigma * magnification + 8.0 * magnification;
     c.width = c.height = 2 * int(std::ceil(extent * 0.5 + 4));
     const double pixelScale = 2.0 * std::tan(glm::radians(c.fovYDeg) * 0.5) / c.height;
     v.distance = s.render.voxelSize / (sigma * pixelScale * magnification);
@@ -72,7 +76,8 @@ inline ViewSetup viewAlong(std::shared_ptr<VoxelModel> model, glm::dvec3 towardV
     c.target = e.position;
     glm::dvec3 up = std::abs(wWorld.y) > 0.99 ? glm::dvec3(0, 0, -1) : glm::dvec3(0, 1, 0);
     const glm::dvec3 fwd = -wWorld;
-    for (int r = 0; r < ((rollQuarterTurns % 4) + 4) % 4; ++r) up = glm::cross(fwd, up); // 90° about fwd
+    for (int r = 0; r < ((rollQuarterTurns % 4) + 4) % 4; ++r)
+        up = glm::cross(fwd, up); // 90° about fwd
     c.up = up;
     c.zNear = 0.01;
     return v;
@@ -83,11 +88,13 @@ inline ViewSetup viewAlong(std::shared_ptr<VoxelModel> model, glm::dvec3 towardV
 /// through which face does it enter (axis priority x < y < z on ties)?
 struct ExpectedCells {
     glm::ivec4 range;
-    std::vector<int> kind;  // 0 empty, 1 solid, 2 outline
-    std::vector<int> face;  // entered-face code for solid cells
+    std::vector<int> kind; // 0 empty, 1 solid, 2 outline
+    std::vector<int> face; // entered-face code for solid cells
     int w() const { return range.y - range.x + 1; }
     int h() const { return range.w - range.z + 1; }
-    std::size_t at(int i, int j) const { return std::size_t(j - range.z) * std::size_t(w()) + std::size_t(i - range.x); }
+    std::size_t at(int i, int j) const {
+        return std::size_t(j - range.z) * std::size_t(w()) + std::size_t(i - range.x);
+    }
     int count(int k) const {
         int n = 0;
         for (int v : kind) n += v == k;
@@ -95,7 +102,8 @@ struct ExpectedCells {
     }
 };
 
-inline ExpectedCells expectedBoxCells(glm::ivec3 dims, glm::dvec3 dir, glm::dvec3 up, double sigma) {
+inline ExpectedCells expectedBoxCells(glm::ivec3 dims, glm::dvec3 dir, glm::dvec3 up,
+                                      double sigma) {
     dir = glm::normalize(dir);
     up = glm::normalize(up - glm::dot(up, dir) * dir);
     const glm::dvec3 right = glm::cross(dir, up);
@@ -110,7 +118,8 @@ inline ExpectedCells expectedBoxCells(glm::ivec3 dims, glm::dvec3 dir, glm::dvec
     e.face.assign(e.kind.size(), -1);
     for (int j = e.range.z; j <= e.range.w; ++j)
         for (int i = e.range.x; i <= e.range.y; ++i) {
-            const glm::dvec3 p = c + (gu + (i + 0.5) / sigma) * right + (gv + (j + 0.5) / sigma) * up;
+            const glm::dvec3 p =
+                c + (gu + (i + 0.5) / sigma) * right + (gv + (j + 0.5) / sigma) * up;
             double tIn = -1e300, tOut = 1e300;
             int axis = -1;
             bool miss = false;
@@ -137,20 +146,25 @@ inline ExpectedCells expectedBoxCells(glm::ivec3 dims, glm::dvec3 dir, glm::dvec
         for (int i = e.range.x; i <= e.range.y; ++i) {
             if (e.kind[e.at(i, j)] == 1) continue;
             auto solid = [&](int a, int b) {
-                return a >= e.range.x && a <= e.range.y && b >= e.range.z && b <= e.range.w && e.kind[e.at(a, b)] == 1;
+                return a >= e.range.x && a <= e.range.y && b >= e.range.z && b <= e.range.w &&
+                       e.kind[e.at(a, b)] == 1;
             };
-            if (solid(i - 1, j) || solid(i + 1, j) || solid(i, j - 1) || solid(i, j + 1)) k2[e.at(i, j)] = 2;
+            if (solid(i - 1, j) || solid(i + 1, j) || solid(i, j - 1) || solid(i, j + 1))
+                k2[e.at(i, j)] = 2;
         }
     e.kind = k2;
     return e;
 }
 
 /// The lighting formula of §3.7, written independently: channel * factor, rounded.
-inline Rgba8 expectedLit(Rgba8 base, const Light& light, glm::dvec3 normalVoxel, glm::dvec3 lightVoxel) {
-    const double k = std::clamp(light.ambient + light.diffuse * std::max(0.0, glm::dot(normalVoxel, lightVoxel)), 0.0, 4.0);
+inline Rgba8 expectedLit(Rgba8 base, const Light& light, glm::dvec3 normalVoxel,
+                         glm::dvec3 lightVoxel) {
+    const double k = std::clamp(
+        light.ambient + light.diffuse * std::max(0.0, glm::dot(normalVoxel, lightVoxel)), 0.0, 4.0);
     const long long f = std::llround(k * 65536.0);
     unsigned ch[3];
-    for (int i = 0; i < 3; ++i) ch[i] = unsigned(std::min<long long>(255, (channel(base, i) * f + 32768) >> 16));
+    for (int i = 0; i < 3; ++i)
+        ch[i] = unsigned(std::min<long long>(255, (channel(base, i) * f + 32768) >> 16));
     return packRgba(ch[0], ch[1], ch[2], 255);
 }
 
@@ -166,7 +180,7 @@ inline Rgba8 expectedLit(Rgba8 base, const Light& light, glm::dvec3 normalVoxel,
 /// Its TearDown destroys the renderer and device and asserts that the layer reported nothing,
 /// leaked objects included (those are reported while the device and instance are destroyed).
 class NearRendererEnvironment : public ::testing::Environment {
-public:
+  public:
     static NearRenderer& renderer() {
         if (!instance()) {
             VulkanDeviceOptions options;
@@ -182,10 +196,11 @@ public:
     }
     void TearDown() override {
         instance().reset();
-        EXPECT_EQ(log()->count(), 0u) << "Vulkan validation / loader messages:\n" << log()->joined();
+        EXPECT_EQ(log()->count(), 0u) << "Vulkan validation / loader messages:\n"
+                                      << log()->joined();
     }
 
-private:
+  private:
     static std::unique_ptr<NearRenderer>& instance() {
         static std::unique_ptr<NearRenderer> r;
         return r;
@@ -194,7 +209,7 @@ private:
 
 /// Fixture for Vulkan tests: every test ends with zero validation messages.
 class VulkanTest : public ::testing::Test {
-protected:
+  protected:
     static NearRenderer& nearRenderer() { return NearRendererEnvironment::renderer(); }
     void TearDown() override {
         const auto& log = NearRendererEnvironment::log();
@@ -216,7 +231,8 @@ inline NearAndReference renderBoth(NearRenderer& renderer, const Scene& scene, d
     r.sprites = setupSprites(scene, cam, time);
     r.reference = Image(cam.width, cam.height, scene.render.background);
     renderReference(scene.models, r.sprites, r.reference, &r.referenceStats);
-    r.near = renderer.render(cam, scene.models, r.sprites, scene.render.background, options, &r.nearStats);
+    r.near = renderer.render(cam, scene.models, r.sprites, scene.render.background, options,
+                             &r.nearStats);
     return r;
 }
 
@@ -225,22 +241,25 @@ inline NearAndReference renderBoth(NearRenderer& renderer, const Scene& scene, d
 inline std::string describeDifference(const Image& a, const Image& b, const char* nameA = "vulkan",
                                       const char* nameB = "reference") {
     if (a.width != b.width || a.height != b.height)
-        return "image sizes differ: " + std::to_string(a.width) + "x" + std::to_string(a.height) + " vs " +
-               std::to_string(b.width) + "x" + std::to_string(b.height);
+        return "image sizes differ: " + std::to_string(a.width) + "x" + std::to_string(a.height) +
+               " vs " + std::to_string(b.width) + "x" + std::to_string(b.height);
     const ImageDiff d = diffImages(a, b);
     if (d.identical()) return "";
     const std::size_t p = a.index(int(d.firstX), int(d.firstY));
     char buf[400];
     std::snprintf(buf, sizeof buf,
-                  "%zu colour, %zu depth, %zu id pixels differ; first at (%zu,%zu): %s colour %08x depth %.9g "
+                  "%zu colour, %zu depth, %zu id pixels differ; first at (%zu,%zu): %s colour %08x "
+                  "depth %.9g "
                   "entity %d, %s colour %08x depth %.9g entity %d",
-                  d.colorDiffs, d.depthDiffs, d.idDiffs, d.firstX, d.firstY, nameA, a.color[p], double(a.depth[p]),
-                  int(a.id[p]), nameB, b.color[p], double(b.depth[p]), int(b.id[p]));
+                  d.colorDiffs, d.depthDiffs, d.idDiffs, d.firstX, d.firstY, nameA, a.color[p],
+                  double(a.depth[p]), int(a.id[p]), nameB, b.color[p], double(b.depth[p]),
+                  int(b.id[p]));
     return buf;
 }
 
 /// A frame of `s` at time t through the CPU reference tracer (the executable spec).
-inline Image renderReferenceImage(const Scene& s, std::vector<SpriteSetup>* setups = nullptr, double time = 0.0) {
+inline Image renderReferenceImage(const Scene& s, std::vector<SpriteSetup>* setups = nullptr,
+                                  double time = 0.0) {
     const CameraFrame cam = makeCameraFrame(s.cameraAt(time));
     auto sprites = setupSprites(s, cam, time);
     Image img(cam.width, cam.height, s.render.background);
@@ -250,7 +269,8 @@ inline Image renderReferenceImage(const Scene& s, std::vector<SpriteSetup>* setu
 }
 
 inline std::size_t drawnPixels(const Image& img) {
-    return std::size_t(std::count_if(img.id.begin(), img.id.end(), [](std::uint32_t v) { return v != kernel::VT_NO_ENTITY; }));
+    return std::size_t(std::count_if(img.id.begin(), img.id.end(),
+                                     [](std::uint32_t v) { return v != kernel::VT_NO_ENTITY; }));
 }
 
 /// The closed-form check of tests/reference_golden_test.cpp (compareWithClosedForm), shared
@@ -258,7 +278,8 @@ inline std::size_t drawnPixels(const Image& img) {
 /// viewAlong(towardViewer) must be exactly the double-precision silhouette, outline, lighting,
 /// depth and id. Returns the number of wrong pixels and describes the first.
 inline int countClosedFormMismatches(const ViewSetup& v, glm::dvec3 towardViewer, const Image& img,
-                                     std::string* first = nullptr, ExpectedCells* expected = nullptr) {
+                                     std::string* first = nullptr,
+                                     ExpectedCells* expected = nullptr) {
     const Scene& s = v.scene;
     const CameraFrame cam = makeCameraFrame(s.camera);
     const glm::dmat3 voxelFromWorld = glm::transpose(worldFromVoxelSwizzle());
@@ -273,7 +294,8 @@ inline int countClosedFormMismatches(const ViewSetup& v, glm::dvec3 towardViewer
     const glm::dvec3 c = glm::dvec3(dims) * 0.5;
     const glm::dvec3 g = glm::floor(c) - c;
     const double gu = glm::dot(g, right), gv = glm::dot(g, up);
-    const double m = double(std::lround(s.render.voxelSize / (sigma * cam.pixelScale() * v.distance)));
+    const double m =
+        double(std::lround(s.render.voxelSize / (sigma * cam.pixelScale() * v.distance)));
     const glm::dvec3 lightVoxel = voxelFromWorld * glm::normalize(s.light.direction);
     const float depth = float(cam.zNear / v.distance);
     int count = 0;
@@ -289,14 +311,19 @@ inline int countClosedFormMismatches(const ViewSetup& v, glm::dvec3 towardViewer
             }
             const std::size_t p = img.index(x, y);
             Rgba8 want = s.render.background;
-            if (kind == 1) want = expectedLit(s.models[0]->palette().colors[1], s.light, faceNormal(unsigned(face)), lightVoxel);
+            if (kind == 1)
+                want = expectedLit(s.models[0]->palette().colors[1], s.light,
+                                   faceNormal(unsigned(face)), lightVoxel);
             if (kind == 2) want = packRgba(0, 0, 0, 255);
             const bool idOk = kind == 0 ? img.id[p] == kernel::VT_NO_ENTITY : img.id[p] == 0u;
-            const bool depthOk = kind == 0 ? img.depth[p] == 0.0f : std::abs(img.depth[p] - depth) <= 1e-6f * depth;
+            const bool depthOk =
+                kind == 0 ? img.depth[p] == 0.0f : std::abs(img.depth[p] - depth) <= 1e-6f * depth;
             if (img.color[p] != want || !idOk || !depthOk) {
                 if (count++ == 0 && first) {
                     char buf[200];
-                    std::snprintf(buf, sizeof buf, "pixel (%d,%d) cell (%d,%d): expected kind %d colour %08x, got colour %08x id %u",
+                    std::snprintf(buf, sizeof buf,
+                                  "pixel (%d,%d) cell (%d,%d): expected kind %d colour %08x, got "
+                                  "colour %08x id %u",
                                   x, y, i, j, kind, want, img.color[p], img.id[p]);
                     *first = buf;
                 }
@@ -323,7 +350,8 @@ inline Scene hardCaseWorld(glm::dvec3 offset) {
     Scene s;
     s.render.sigma = 2.0;
     s.models = {solidBox({8, 6, 5}), solidBox({3, 3, 9}, 7), markedBar()};
-    const glm::dvec3 spots[] = {{0.25, 0.0, -3.5}, {1.5, 0.5, -6.0}, {-2.0, 0.25, -9.5}, {0.75, -0.5, -4.25}};
+    const glm::dvec3 spots[] = {
+        {0.25, 0.0, -3.5}, {1.5, 0.5, -6.0}, {-2.0, 0.25, -9.5}, {0.75, -0.5, -4.25}};
     for (int i = 0; i < 4; ++i) {
         Entity e;
         e.model = i % 3;

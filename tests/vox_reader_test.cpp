@@ -2,9 +2,13 @@
 // facts in scenes/vox/expected.json (parsed independently and cross-checked with ogt_vox),
 // bytes decoded by hand in this file, and malformed files built here from the format
 // description, byte by byte.
-#include "core/error.hpp"
 #include "cli_support.hpp"
+#include "core/error.hpp"
 #include "core/vox_reader.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <sys/wait.h>
 
 #include <algorithm>
 #include <array>
@@ -12,16 +16,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <gtest/gtest.h>
 #include <iterator>
 #include <map>
-#include <nlohmann/json.hpp>
 #include <random>
 #include <set>
 #include <span>
 #include <string>
 #include <string_view>
-#include <sys/wait.h>
 #include <unistd.h>
 #include <vector>
 

@@ -2,10 +2,9 @@
 // what it should (a deliberately leaked buffer is reported at teardown, so "zero messages" in the
 // other suites means something), a full render-and-destroy cycle leaks nothing, and without any
 // Vulkan driver the CLI fails with one clear line while --mode reference keeps working.
+#include "cli_support.hpp"
 #include "test_support.hpp"
 #include "volumetric/vulkan_device.hpp"
-
-#include "cli_support.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -73,12 +72,14 @@ struct OwnedHostAllocations {
     ~OwnedHostAllocations() {
         for (void* p : blocks) std::free(p);
     }
-    static void* VKAPI_PTR allocate(void* self, std::size_t size, std::size_t align, VkSystemAllocationScope) {
+    static void* VKAPI_PTR allocate(void* self, std::size_t size, std::size_t align,
+                                    VkSystemAllocationScope) {
         void* p = std::aligned_alloc(align, (size + align - 1) / align * align);
         if (p) static_cast<OwnedHostAllocations*>(self)->blocks.push_back(p);
         return p;
     }
-    static void* VKAPI_PTR reallocate(void*, void*, std::size_t, std::size_t, VkSystemAllocationScope) {
+    static void* VKAPI_PTR reallocate(void*, void*, std::size_t, std::size_t,
+                                      VkSystemAllocationScope) {
         return nullptr; // never called for a buffer that is created once
     }
     static void VKAPI_PTR release(void* self, void* p) {
@@ -181,7 +182,8 @@ TEST_F(VulkanCli, NoVulkanDeviceIsOneClearLineAndNonZeroExit) {
     const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
     const std::string out = scratchDir() + "/no_device.png";
     for (const std::string& extra : {std::string(), std::string(" VOXTIER_VALIDATION=1")}) {
-        const CliRun r = test::runCli("render " + scene + " --mode near --out " + out, kNoDriver + extra);
+        const CliRun r =
+            test::runCli("render " + scene + " --mode near --out " + out, kNoDriver + extra);
         EXPECT_NE(r.status, 0);
         EXPECT_EQ(r.err, std::string("voxtier: error: ") + kNoVulkanDeviceMessage + "\n")
             << "stderr was:\n"
@@ -191,7 +193,8 @@ TEST_F(VulkanCli, NoVulkanDeviceIsOneClearLineAndNonZeroExit) {
     // An empty driver manifest is the same situation.
     const std::string empty = scratchDir() + "/empty_icd.json";
     std::ofstream(empty) << "{}\n";
-    const CliRun r = test::runCli("render " + scene + " --mode near --out " + out, "VK_DRIVER_FILES=" + empty + " VK_ICD_FILENAMES=" + empty);
+    const CliRun r = test::runCli("render " + scene + " --mode near --out " + out,
+                                  "VK_DRIVER_FILES=" + empty + " VK_ICD_FILENAMES=" + empty);
     EXPECT_NE(r.status, 0);
     EXPECT_EQ(r.err, std::string("voxtier: error: ") + kNoVulkanDeviceMessage + "\n")
         << "stderr was:\n"
@@ -225,7 +228,8 @@ TEST_F(VulkanCli, ValidationWithoutTheLayerInstalledIsAClearError) {
     const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
     const std::string out = scratchDir() + "/no_layer.png";
     // VK_LAYER_PATH replaces the loader's explicit-layer search path: no validation layer found.
-    const CliRun r = test::runCli("render " + scene + " --mode near --out " + out, "VOXTIER_VALIDATION=1 VK_LAYER_PATH=/nonexistent/layers");
+    const CliRun r = test::runCli("render " + scene + " --mode near --out " + out,
+                                  "VOXTIER_VALIDATION=1 VK_LAYER_PATH=/nonexistent/layers");
     EXPECT_NE(r.status, 0);
     EXPECT_NE(r.err.find("VK_LAYER_KHRONOS_validation is not installed"), std::string::npos)
         << r.err;

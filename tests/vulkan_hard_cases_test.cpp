@@ -88,7 +88,9 @@ TEST_F(NearHardCases, RolledCameraMatchesClosedForm) {
 }
 
 using test::markedBar;
-Scene smallWorld(glm::dvec3 offset) { return test::hardCaseWorld(offset); }
+Scene smallWorld(glm::dvec3 offset) {
+    return test::hardCaseWorld(offset);
+}
 
 // Camera-relative double precision: the world moved 2^20 m renders the same GPU image.
 TEST_F(NearHardCases, WorldAtTwoToTheTwentyMetresEqualsWorldAtOrigin) {

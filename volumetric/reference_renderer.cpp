@@ -21,7 +21,8 @@ template <bool Count> struct GridVoxels {
 };
 
 template <bool Count> GridVoxels<Count> voxelsOf(const VoxelGrid& g) {
-    return {g.data().data(), std::size_t(g.dims().x), std::size_t(g.dims().x) * std::size_t(g.dims().y)};
+    return {g.data().data(), std::size_t(g.dims().x),
+            std::size_t(g.dims().x) * std::size_t(g.dims().y)};
 }
 
 struct RowCounters {
@@ -31,7 +32,8 @@ struct RowCounters {
 } // namespace
 
 void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
-                     std::span<const SpriteSetup* const> sprites, Image& target, ReferenceStats* stats) {
+                     std::span<const SpriteSetup* const> sprites, Image& target,
+                     ReferenceStats* stats) {
     const auto t0 = std::chrono::steady_clock::now();
     // Bucket sprites by row so each row is written by exactly one task (no locks, and the
     // depth/id rule makes the result independent of the order sprites are visited in).
@@ -41,39 +43,42 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
         const SpriteSetup& sp = *sprites[s];
         if (!sp.visible()) continue;
         ++drawn;
-        for (int y = sp.screenRect.y; y < std::min(sp.screenRect.w, target.height); ++y) rows[std::size_t(y)].push_back(s);
+        for (int y = sp.screenRect.y; y < std::min(sp.screenRect.w, target.height); ++y)
+            rows[std::size_t(y)].push_back(s);
     }
     tbb::combinable<RowCounters> counters;
-    tbb::parallel_for(tbb::blocked_range<int>(0, target.height, 4), [&](const tbb::blocked_range<int>& r) {
-        RowCounters& rc = counters.local();
-        for (int y = r.begin(); y < r.end(); ++y) {
-            for (std::uint32_t s : rows[std::size_t(y)]) {
-                const SpriteSetup& sp = *sprites[s];
-                const VoxelModel& model = *models[std::size_t(sp.model)];
-                const VoxelGrid& grid = model.frame(sp.frame);
-                const auto voxels = voxelsOf<true>(grid);
-                kernel::SpriteTracer<GridVoxels<true>> tracer{voxels};
-                const kernel::SpriteGpu& g = sp.gpu;
-                const float py = float(y) + 0.5f;
-                for (int x = sp.screenRect.x; x < sp.screenRect.z; ++x) {
-                    ++rc.tested;
-                    glm::ivec2 cell;
-                    const glm::vec2 pc(float(x) + 0.5f, py);
-                    if (!kernel::vtPixelCell(g, pc, cell)) continue;
-                    ++rc.inSprite;
-                    kernel::uint index, face;
-                    const kernel::uint kind = tracer.vtShadeCell(g, cell, index, face);
-                    if (kind == kernel::VT_KIND_EMPTY) continue;
-                    ++rc.written;
-                    const Rgba8 color = kind == kernel::VT_KIND_SOLID
-                                            ? kernel::vtLit(model.palette().colors[index], kernel::vtFaceLight(g, face))
-                                            : kernel::VT_OUTLINE_RGBA;
-                    target.writeIfNearer(target.index(x, y), color, g.depth, sp.entityId);
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, target.height, 4), [&](const tbb::blocked_range<int>& r) {
+            RowCounters& rc = counters.local();
+            for (int y = r.begin(); y < r.end(); ++y) {
+                for (std::uint32_t s : rows[std::size_t(y)]) {
+                    const SpriteSetup& sp = *sprites[s];
+                    const VoxelModel& model = *models[std::size_t(sp.model)];
+                    const VoxelGrid& grid = model.frame(sp.frame);
+                    const auto voxels = voxelsOf<true>(grid);
+                    kernel::SpriteTracer<GridVoxels<true>> tracer{voxels};
+                    const kernel::SpriteGpu& g = sp.gpu;
+                    const float py = float(y) + 0.5f;
+                    for (int x = sp.screenRect.x; x < sp.screenRect.z; ++x) {
+                        ++rc.tested;
+                        glm::ivec2 cell;
+                        const glm::vec2 pc(float(x) + 0.5f, py);
+                        if (!kernel::vtPixelCell(g, pc, cell)) continue;
+                        ++rc.inSprite;
+                        kernel::uint index, face;
+                        const kernel::uint kind = tracer.vtShadeCell(g, cell, index, face);
+                        if (kind == kernel::VT_KIND_EMPTY) continue;
+                        ++rc.written;
+                        const Rgba8 color = kind == kernel::VT_KIND_SOLID
+                                                ? kernel::vtLit(model.palette().colors[index],
+                                                                kernel::vtFaceLight(g, face))
+                                                : kernel::VT_OUTLINE_RGBA;
+                        target.writeIfNearer(target.index(x, y), color, g.depth, sp.entityId);
+                    }
+                    rc.fetches += voxels.fetches;
                 }
-                rc.fetches += voxels.fetches;
             }
-        }
-    });
+        });
     if (stats) {
         RowCounters total;
         counters.combine_each([&](const RowCounters& c) {
@@ -87,12 +92,14 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
         stats->pixelsInSprite += total.inSprite;
         stats->pixelsWritten += total.written;
         stats->voxelFetches += total.fetches;
-        stats->milliseconds += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        stats->milliseconds +=
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count();
     }
 }
 
-void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models, const std::vector<SpriteSetup>& all,
-                     Image& target, ReferenceStats* stats) {
+void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                     const std::vector<SpriteSetup>& all, Image& target, ReferenceStats* stats) {
     std::vector<const SpriteSetup*> ptrs;
     ptrs.reserve(all.size());
     for (const auto& s : all) ptrs.push_back(&s);

@@ -15,11 +15,11 @@
 namespace voxtier {
 
 struct ReferenceStats {
-    std::uint64_t sprites = 0;          ///< sprites drawn
-    std::uint64_t pixelsTested = 0;     ///< pixels of sprite rectangles evaluated ("fragments")
-    std::uint64_t pixelsInSprite = 0;   ///< of those, pixels that map to a lattice cell
-    std::uint64_t pixelsWritten = 0;    ///< solid or outline outcomes
-    std::uint64_t voxelFetches = 0;     ///< DDA steps (one voxel read each)
+    std::uint64_t sprites = 0;        ///< sprites drawn
+    std::uint64_t pixelsTested = 0;   ///< pixels of sprite rectangles evaluated ("fragments")
+    std::uint64_t pixelsInSprite = 0; ///< of those, pixels that map to a lattice cell
+    std::uint64_t pixelsWritten = 0;  ///< solid or outline outcomes
+    std::uint64_t voxelFetches = 0;   ///< DDA steps (one voxel read each)
     double milliseconds = 0.0;
 };
 
@@ -42,7 +42,9 @@ struct CellImage {
     std::vector<std::uint8_t> kind, index, face;
     int width() const { return range.y - range.x + 1; }
     int height() const { return range.w - range.z + 1; }
-    std::size_t at(int i, int j) const { return std::size_t(j - range.z) * std::size_t(width()) + std::size_t(i - range.x); }
+    std::size_t at(int i, int j) const {
+        return std::size_t(j - range.z) * std::size_t(width()) + std::size_t(i - range.x);
+    }
 };
 CellImage traceCells(const kernel::SpriteGpu& sprite, const VoxelGrid& grid);
 

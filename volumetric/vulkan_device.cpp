@@ -1,12 +1,11 @@
 #include "volumetric/vulkan_device.hpp"
 
-#include <dlfcn.h>
-#include <link.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <dlfcn.h>
+#include <link.h>
 #include <utility>
 
 namespace voxtier {
@@ -30,7 +29,8 @@ void pinLoadedLibrariesForSanitizers() {
     dl_iterate_phdr(
         [](dl_phdr_info* info, std::size_t, void*) {
             if (info->dlpi_name && info->dlpi_name[0] == '/')
-                if (void* h = dlopen(info->dlpi_name, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE)) dlclose(h);
+                if (void* h = dlopen(info->dlpi_name, RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE))
+                    dlclose(h);
             return 0;
         },
         nullptr);

@@ -18,12 +18,15 @@ using uint = std::uint32_t;
 #endif
 
 // Descriptor set 0 of the near pipeline.
-VT_NEAR_CONST uint NEAR_BINDING_SPRITES = 0u;  // SpriteGpu[]: one per drawn sprite, ascending entity id
-VT_NEAR_CONST uint NEAR_BINDING_ATLAS = 1u;    // usampler3D: R8_UINT voxel atlas (palette indices)
-VT_NEAR_CONST uint NEAR_BINDING_PALETTES = 2u; // uint[]: 256 packed RGBA8 colours per resident model
-VT_NEAR_CONST uint NEAR_BINDING_COUNTERS = 3u; // NearCounters (written by the VT_COUNT_STEPS variant)
-VT_NEAR_CONST uint NEAR_BINDING_BOXES = 4u;    // NearBox[]: proxy-box corners (box proxy only)
-VT_NEAR_CONST uint NEAR_BINDING_HULLS = 5u;    // NearHull[]: silhouette polygons (hull proxy, default)
+VT_NEAR_CONST uint NEAR_BINDING_SPRITES =
+    0u; // SpriteGpu[]: one per drawn sprite, ascending entity id
+VT_NEAR_CONST uint NEAR_BINDING_ATLAS = 1u; // usampler3D: R8_UINT voxel atlas (palette indices)
+VT_NEAR_CONST uint NEAR_BINDING_PALETTES =
+    2u; // uint[]: 256 packed RGBA8 colours per resident model
+VT_NEAR_CONST uint NEAR_BINDING_COUNTERS =
+    3u;                                     // NearCounters (written by the VT_COUNT_STEPS variant)
+VT_NEAR_CONST uint NEAR_BINDING_BOXES = 4u; // NearBox[]: proxy-box corners (box proxy only)
+VT_NEAR_CONST uint NEAR_BINDING_HULLS = 5u; // NearHull[]: silhouette polygons (hull proxy, default)
 
 // Vertices per instance: the quad is a 4-vertex triangle strip (SpriteGpu::quad); the box is a
 // 36-vertex triangle list (12 triangles) indexed by NEAR_BOX_TRIANGLES.
@@ -37,7 +40,7 @@ VT_NEAR_CONST uint NEAR_HULL_VERTICES = 3u * (NEAR_HULL_MAX_VERTICES - 2u);
 // 64-bit counters as (low, high) word pairs: the shader carries into the high word itself, so
 // no 64-bit atomics feature is needed and a frame of a billion voxel reads does not wrap.
 struct NearCounters {
-    uint fetchesLo;   // vtFetchVoxel calls (DDA steps incl. the outline neighbour rays)
+    uint fetchesLo; // vtFetchVoxel calls (DDA steps incl. the outline neighbour rays)
     uint fetchesHi;
     uint fragmentsLo; // fragment invocations that ran the kernel
     uint fragmentsHi;
