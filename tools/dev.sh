@@ -4,6 +4,7 @@
 #   tools/dev.sh test [ARGS]      set up, build, run the whole test suite (what .ci/run calls)
 #   tools/dev.sh build            set up and build everything
 #   tools/dev.sh fuzz [SECONDS]   run each libFuzzer target for SECONDS (tools/fuzz.sh)
+#   tools/dev.sh format [--check] clang-format every C++ source (tools/format.sh; CI checks)
 # VOXTIER_PRESET=asan|tsan selects a sanitizer build (CMakePresets.json) in build-<preset>.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -11,6 +12,7 @@ cd "$(dirname "$0")/.."
 cmd="${1:-render}"
 shift || true
 [[ "$cmd" == fuzz ]] && exec bash tools/fuzz.sh "$@"
+[[ "$cmd" == format ]] && { bash tools/setup.sh; exec bash tools/format.sh "$@"; }
 
 bash tools/setup.sh
 
@@ -61,7 +63,7 @@ test)
     "${run_tests[@]}" ctest --test-dir "$build_dir" --output-on-failure -j "$(nproc)" "$@"
     ;;
 *)
-    echo "usage: tools/dev.sh render|test|build|fuzz [args...]" >&2
+    echo "usage: tools/dev.sh render|test|build|fuzz|format [args...]" >&2
     exit 2
     ;;
 esac

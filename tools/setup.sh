@@ -19,6 +19,8 @@ packages=(
     libgtest-dev vulkan-validationlayers
     # bench plots
     gnuplot-nox
+    # the formatting rule CI checks (tools/format.sh --check): Debian 12's clang-format 14
+    clang-format
 )
 if [[ "${1:-}" == "--fuzz" ]]; then
     packages+=(clang libclang-rt-14-dev llvm)
