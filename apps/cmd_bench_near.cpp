@@ -138,6 +138,58 @@ struct Row {
     }
 };
 
+struct Variant {
+    const char* name;
+    NearOptions options;
+};
+
+/// One variant on one frame: the counting run, the warm-ups, then the timed repeats of the
+/// Vulkan draw and the CPU reference side by side; the error columns against `reference`.
+Row measureVariant(NearRenderer& near, const Scene& scene, const CameraFrame& cam,
+                   const std::vector<SpriteSetup>& sprites, const Image& reference,
+                   const Variant& v, const BenchArgs& a) {
+    Row row;
+    row.variant = v.name;
+    // Steps and fragments come from the counting shader, in a run of its own (its atomics would
+    // distort the timed runs).
+    NearOptions counting = v.options;
+    counting.countSteps = true;
+    NearStats cs;
+    const Image counted =
+        near.render(cam, scene.models, sprites, scene.render.background, counting, &cs);
+    row.kernelFragments = cs.kernelFragments;
+    row.fetches = cs.voxelFetches;
+    for (int w = 0; w < a.warmup; ++w)
+        near.render(cam, scene.models, sprites, scene.render.background, v.options);
+    std::vector<double> draw, readback, ref, vkCpu, refCpu;
+    Image img;
+    for (int r = 0; r < a.repeat; ++r) {
+        NearStats ns;
+        const double c0 = processCpuMs();
+        img = near.render(cam, scene.models, sprites, scene.render.background, v.options, &ns);
+        vkCpu.push_back(processCpuMs() - c0);
+        draw.push_back(ns.drawMs);
+        readback.push_back(ns.readbackMs);
+        row.fragments = ns.fragmentInvocations;
+        Image cpu(cam.width, cam.height, scene.render.background);
+        ReferenceStats rs;
+        const double c1 = processCpuMs();
+        renderReference(scene.models, sprites, cpu, &rs);
+        refCpu.push_back(processCpuMs() - c1);
+        ref.push_back(rs.milliseconds);
+    }
+    row.vkDrawMs = median(draw);
+    row.vkReadbackMs = median(readback);
+    row.refMs = median(ref);
+    row.vkCpuMs = median(vkCpu);
+    row.refCpuMs = median(refCpu);
+    row.differing = diffImages(img, reference).pixelDiffs;
+    if (diffImages(counted, img).pixelDiffs != 0)
+        throw InputError("", "bench", "the step-counting shader drew a different image (a bug)");
+    for (auto id : img.id) row.drawn += id != kernel::VT_NO_ENTITY;
+    return row;
+}
+
 void run(const BenchArgs& a) {
     const std::vector<int> counts =
         parseList<int>(a.entities, "--entities", 1, Limits::kMaxEntities);
@@ -169,10 +221,6 @@ void run(const BenchArgs& a) {
                 "visible", "variant", "vk_draw", "vk_read", "vk_frame", "ref_ms", "ref/vk",
                 "vk_cpu", "ref_cpu", "cpu_r", "fragments", "kernel_frg", "steps/f", "mismatch");
 
-    struct Variant {
-        const char* name;
-        NearOptions options;
-    };
     auto variant = [](const char* name, NearProxy proxy, NearDraws draws) {
         NearOptions o;
         o.proxy = proxy;
@@ -200,50 +248,9 @@ void run(const BenchArgs& a) {
         renderReference(scene.models, sprites, reference);
 
         for (const Variant& v : variants) {
-            Row row;
+            Row row = measureVariant(near, scene, cam, sprites, reference, v, a);
             row.entities = n;
             row.visible = visible;
-            row.variant = v.name;
-            // Steps and fragments come from the counting shader, in a run of its own (its atomics
-            // would distort the timed runs).
-            NearOptions counting = v.options;
-            counting.countSteps = true;
-            NearStats cs;
-            const Image counted =
-                near.render(cam, scene.models, sprites, scene.render.background, counting, &cs);
-            row.kernelFragments = cs.kernelFragments;
-            row.fetches = cs.voxelFetches;
-            for (int w = 0; w < a.warmup; ++w)
-                near.render(cam, scene.models, sprites, scene.render.background, v.options);
-            std::vector<double> draw, readback, ref, vkCpu, refCpu;
-            Image img;
-            for (int r = 0; r < a.repeat; ++r) {
-                NearStats ns;
-                const double c0 = processCpuMs();
-                img = near.render(cam, scene.models, sprites, scene.render.background, v.options,
-                                  &ns);
-                vkCpu.push_back(processCpuMs() - c0);
-                draw.push_back(ns.drawMs);
-                readback.push_back(ns.readbackMs);
-                row.fragments = ns.fragmentInvocations;
-                Image cpu(cam.width, cam.height, scene.render.background);
-                ReferenceStats rs;
-                const double c1 = processCpuMs();
-                renderReference(scene.models, sprites, cpu, &rs);
-                refCpu.push_back(processCpuMs() - c1);
-                ref.push_back(rs.milliseconds);
-            }
-            row.vkDrawMs = median(draw);
-            row.vkReadbackMs = median(readback);
-            row.refMs = median(ref);
-            row.vkCpuMs = median(vkCpu);
-            row.refCpuMs = median(refCpu);
-            row.differing = diffImages(img, reference).pixelDiffs;
-            if (diffImages(counted, img).pixelDiffs != 0)
-                throw InputError("", "bench",
-                                 "the step-counting shader drew a different image (a bug)");
-            for (auto id : img.id) row.drawn += id != kernel::VT_NO_ENTITY;
-
             std::printf(
                 "%8d %7d %-16s %8.1f %7.1f %8.1f %8.1f %6.2f %8.1f %8.1f %6.2f %10llu %10llu "
                 "%7.2f %8zu\n",
