@@ -3,6 +3,7 @@
 // the Embree bake against the near kernel's scalar DDA over the same rays, side by side in one
 // run (medians over repeats), plus the memory one cached model costs.
 #include "apps/bench_util.hpp"
+#include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "core/image_io.hpp"
@@ -34,11 +35,11 @@ struct BakeArgs {
     std::vector<std::string> inputs;
     int model = 0;
     int frame = 0;
-    int views = 26;
+    ViewSet views = ViewSet::Cube26;
     double sigma = 1.0;
     std::string sheet;
-    std::string geometry = toString(kDefaultBakeGeometry);
-    std::string api = toString(kDefaultTraceApi);
+    BakeGeometry geometry = kDefaultBakeGeometry;
+    TraceApi api = kDefaultTraceApi;
     bool bench = false;
     int repeats = 5;
     int threads = 0;
@@ -66,18 +67,18 @@ std::string dimsText(glm::ivec3 d) {
 
 void runBake(const BakeArgs& a) {
     if (a.inputs.size() != 1)
-        throw InputError("", "MODEL", "bake takes one .vox file (or --bench)");
+        throw CLI::ValidationError("model", "bake takes one .vox file (or --bench)");
     std::string name;
     const auto model = loadModel(a.inputs[0], a.model, &name);
-    if (a.frame < 0 || a.frame >= model->frameCount())
-        throw InputError(a.inputs[0], "--frame", "out of range");
-    const ViewSet set = viewSetFromSize(a.views, "--views");
-    if (!(a.sigma > 0.0) || a.sigma > 16.0)
-        throw InputError("", "--sigma", "expected 0 < sigma <= 16");
+    if (a.frame >= model->frameCount())
+        throw InputError(a.inputs[0], "--frame",
+                         "out of range: the model has " + std::to_string(model->frameCount()) +
+                             " frames");
+    const ViewSet set = a.views;
     VoxelSceneOptions so;
-    so.geometry = parseBakeGeometry(a.geometry);
+    so.geometry = a.geometry;
     BakeOptions bo;
-    bo.api = parseTraceApi(a.api);
+    bo.api = a.api;
 
     const VoxelGrid& grid = model->frame(a.frame);
     const VoxelScene scene(grid, so);
@@ -119,8 +120,8 @@ void runBench(const BakeArgs& a) {
         auto m = loadModel(f, a.model, &name);
         models.push_back({name, m});
     }
-    const ViewSet set = viewSetFromSize(a.views, "--views");
-    const int reps = std::max(1, a.repeats);
+    const ViewSet set = a.views;
+    const int reps = a.repeats;
     std::printf(
         "bench: %d views, sigma %g, %d repeats (medians), %u hardware threads, load average %s\n",
         viewCount(set), a.sigma, reps, std::thread::hardware_concurrency(), loadAverage().c_str());
@@ -210,23 +211,40 @@ void addBakeCommand(CLI::App& app) {
         "bake",
         "Bake the far-tier snapshots of a model (Embree); --bench compares with the scalar DDA");
     cmd->add_option(
-        "model", args->inputs,
-        "MagicaVoxel model (.vox); with --bench any number (default: balls 16^3..128^3)");
+           "model", args->inputs,
+           "MagicaVoxel model (.vox); with --bench any number (default: balls 16^3..128^3)")
+        ->check(CLI::ExistingFile);
     cmd->add_option("--model", args->model, "Which model of a multi-model file")
+        ->check(atLeast(0))
         ->capture_default_str();
-    cmd->add_option("--frame", args->frame, "Animation frame")->capture_default_str();
-    cmd->add_option("--views", args->views, "View set: 26, 98 or 218 directions")
+    cmd->add_option("--frame", args->frame, "Animation frame")
+        ->check(atLeast(0))
         ->capture_default_str();
-    cmd->add_option("--sigma", args->sigma, "Virtual pixels per voxel")->capture_default_str();
+    cmd->add_option("--views", args->views, "View set: how many directions")
+        ->type_name("INT")
+        ->transform(oneOf(viewSetNames(), "view set"))
+        ->default_str(nameOf(viewSetNames(), args->views));
+    cmd->add_option("--sigma", args->sigma, "Virtual pixels per voxel")
+        ->check(sigmaRange())
+        ->capture_default_str();
     cmd->add_option("--sheet", args->sheet, "Write a contact sheet of the views (PNG)");
-    cmd->add_option("--geometry", args->geometry, "Embree geometry: quads or boxes")
-        ->capture_default_str();
-    cmd->add_option("--api", args->api, "Embree API: packet8, packet16 or stream")
-        ->capture_default_str();
+    cmd->add_option("--geometry", args->geometry, "Embree geometry")
+        ->type_name("TEXT")
+        ->transform(oneOf(namesOf({BakeGeometry::Quads, BakeGeometry::Boxes}), "Embree geometry"))
+        ->default_str(toString(args->geometry));
+    cmd->add_option("--api", args->api, "Embree API")
+        ->type_name("TEXT")
+        ->transform(
+            oneOf(namesOf({TraceApi::Packet8, TraceApi::Packet16, TraceApi::Stream}), "Embree API"))
+        ->default_str(toString(args->api));
     cmd->add_flag("--bench", args->bench,
                   "Embree vs scalar DDA rays/s and memory per cached model");
-    cmd->add_option("--repeats", args->repeats, "Bench repeats (medians)")->capture_default_str();
-    cmd->add_option("--threads", args->threads, "Worker threads (0 = all)")->capture_default_str();
+    cmd->add_option("--repeats", args->repeats, "Bench repeats (medians)")
+        ->check(atLeast(1))
+        ->capture_default_str();
+    cmd->add_option("--threads", args->threads, "Worker threads (0 = all)")
+        ->check(atLeast(0))
+        ->capture_default_str();
     cmd->callback([args] {
         std::optional<tbb::global_control> limit;
         if (args->threads > 0)

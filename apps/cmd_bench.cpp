@@ -4,6 +4,7 @@
 // writes). The bench subcommands (`bench near`, ...) are registered here too, in one list.
 #include "apps/bench_report.hpp"
 #include "apps/bench_suite.hpp"
+#include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 
@@ -76,30 +77,40 @@ void addBenchCommand(CLI::App& app) {
         "Speed against error: every mode side by side, selector sweeps, scaling curves, a report");
     bench->require_subcommand(0, 1);
     auto o = std::make_shared<bench::SuiteOptions>();
-    bench->add_option("scenes", o->scenes,
-                      "Scene files (default: the three in scenes/bench); the first also gets the "
-                      "sweeps and scaling "
-                      "curves");
+    bench
+        ->add_option("scenes", o->scenes,
+                     "Scene files (default: the three in scenes/bench); the first also gets the "
+                     "sweeps and scaling curves")
+        ->check(CLI::ExistingFile);
     bench->add_flag("--quick", o->quick,
                     "Fewer repeats, path frames and sweep points (under 2 minutes)");
     bench
         ->add_option("-o,--out", o->out,
                      "Output directory (report.md, results.csv, results.json, plots)")
         ->capture_default_str();
-    bench->add_option("--repeats", o->repeats,
-                      "Timed passes per path frame (default: 7, --quick 3)");
-    bench->add_option("--warmup", o->warmup,
-                      "Untimed passes first, >= 1 (default 1; cold bakes are measured there)");
-    bench->add_option("--frames", o->pathFrames,
-                      "Path frames sampled per scene (default: 6, --quick 2)");
-    bench->add_option("--size", o->size, "Image size WxH for every scene (default: each scene's)");
+    bench
+        ->add_option("--repeats", o->repeats, "Timed passes per path frame (default: 7, --quick 3)")
+        ->check(atLeast(1));
+    bench
+        ->add_option("--warmup", o->warmup,
+                     "Untimed passes first (default 1; cold bakes are measured in the first)")
+        ->check(atLeast(1, "the cold bakes are measured in the first warm-up pass"));
+    bench
+        ->add_option("--frames", o->pathFrames,
+                     "Path frames sampled per scene (default: 6, --quick 2)")
+        ->check(atLeast(1));
+    bench->add_option("--size", o->size, "Image size of every scene (default: each scene's)")
+        ->type_name("WxH")
+        ->check(imageSize());
     bench->add_flag("!--no-sweeps", o->sweeps,
                     "Skip the selector / view set / sigma / cross-fade sweeps");
     bench->add_flag("!--no-scaling", o->scaling, "Skip the scaling curves");
-    bench->add_option("--entity-counts", o->entityCounts,
-                      "Entity counts of the scaling curve, comma-separated");
-    bench->add_option("--model-sides", o->modelSides,
-                      "Tank sides (voxels) of the model-size curve, comma-separated");
+    // The same bounds as bench::makePlan's, which checks them again for callers other than
+    // the command line.
+    bench->add_option("--entity-counts", o->entityCounts, "Entity counts of the scaling curve")
+        ->check(intList(1, 100000));
+    bench->add_option("--model-sides", o->modelSides, "Tank sides (voxels) of the model-size curve")
+        ->check(intList(8, Limits::kMaxModelDim));
     // Test-only: tiny images and entity counts, one repeat, one sweep point (tests/bench_cli_test).
     bench->add_flag("--smoke", o->smoke, "")->group("");
     bench->callback([bench, o] {

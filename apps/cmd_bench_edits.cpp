@@ -11,6 +11,7 @@
 //     an edit cost before incremental refresh). Cells re-traced / cells of a full bake, ms, and a
 //     byte comparison of the two results.
 #include "apps/bench_util.hpp"
+#include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
@@ -46,12 +47,25 @@ struct BenchEditsArgs {
     int size = 64;                   ///< edge of the ball of part 2 (and of part 1's balls)
     std::string edited;              ///< a .vox file edited in part 2 instead of the ball
     double sigma = 1.0;
-    int views = 26;
+    ViewSet views = ViewSet::Cube26;
     int repeats = 7;
-    std::string bricks = "0,16,32";
+    std::vector<int> bricks = {0, 16, 32};
     int threads = 0;
     bool scenes = true;
 };
+
+/// The edge of a voxelised ball: even (it is a diameter), 2..Limits::kMaxModelDim.
+CLI::Validator ballEdge() {
+    const std::string range = "[2, " + std::to_string(Limits::kMaxModelDim) + "]";
+    const CLI::Validator inRange = intIn(2, Limits::kMaxModelDim);
+    return CLI::Validator(
+        [range, inRange](std::string& text) {
+            return inRange(text).empty() && std::stoi(text) % 2 == 0
+                       ? std::string()
+                       : "expected an even integer in " + range + ", got '" + text + "'";
+        },
+        "even, in " + range);
+}
 
 using Clock = std::chrono::steady_clock;
 std::string dimsText(glm::ivec3 d) {
@@ -100,11 +114,11 @@ struct SurfaceToggler {
 };
 
 void benchScenes(const BenchEditsArgs& a, const std::vector<NamedModel>& models, ViewSet set) {
-    std::vector<int> bricks = parseList<int>(a.bricks, "--bricks", 0, Limits::kMaxModelDim);
+    std::vector<int> bricks = a.bricks;
     // The flat scene first: every "vs flat" column divides by it.
     bricks.erase(std::remove(bricks.begin(), bricks.end(), 0), bricks.end());
     bricks.insert(bricks.begin(), 0);
-    const int reps = std::max(1, a.repeats);
+    const int reps = a.repeats;
     std::printf(
         "1. Embree scene: one flat BVH vs bricks instanced in a top-level scene (%d views, sigma "
         "%g; medians of %d)\n"
@@ -202,7 +216,7 @@ void benchScenes(const BenchEditsArgs& a, const std::vector<NamedModel>& models,
 }
 
 void benchEdits(const BenchEditsArgs& a, const NamedModel& nm, ViewSet set) {
-    const int reps = std::max(1, a.repeats);
+    const int reps = a.repeats;
     const int views = viewCount(set);
     const VoxelSceneOptions defaults;
     std::printf(
@@ -302,12 +316,7 @@ void benchEdits(const BenchEditsArgs& a, const NamedModel& nm, ViewSet set) {
 }
 
 void run(const BenchEditsArgs& a) {
-    if (a.size < 2 || a.size > Limits::kMaxModelDim || a.size % 2)
-        throw InputError("", "--size",
-                         "expected an even edge 2.." + std::to_string(Limits::kMaxModelDim));
-    if (!(a.sigma > 0.0) || a.sigma > 16.0)
-        throw InputError("", "--sigma", "expected 0 < sigma <= 16");
-    const ViewSet set = viewSetFromSize(a.views, "--views");
+    const ViewSet set = a.views;
     std::optional<tbb::global_control> limit;
     if (a.threads > 0)
         limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(a.threads));
@@ -336,17 +345,31 @@ void addBenchEditsCommand(CLI::App& bench) {
         "edits", "What a voxel edit costs the far tier: incremental refresh vs full re-bake, and "
                  "flat vs bricked Embree scenes");
     cmd->add_option("models", args->inputs,
-                    "More .vox models for the scene comparison (first model of each file)");
-    cmd->add_option("--size", args->size, "Edge of the edited ball (even)")->capture_default_str();
+                    "More .vox models for the scene comparison (first model of each file)")
+        ->check(CLI::ExistingFile);
+    cmd->add_option("--size", args->size, "Edge of the edited ball")
+        ->check(ballEdge())
+        ->capture_default_str();
     cmd->add_option("--edit", args->edited,
-                    "Edit this .vox model (first model) instead of the ball");
-    cmd->add_option("--sigma", args->sigma, "Virtual pixels per voxel")->capture_default_str();
-    cmd->add_option("--views", args->views, "View set: 26, 98 or 218 directions")
+                    "Edit this .vox model (first model) instead of the ball")
+        ->check(CLI::ExistingFile);
+    cmd->add_option("--sigma", args->sigma, "Virtual pixels per voxel")
+        ->check(sigmaRange())
         ->capture_default_str();
-    cmd->add_option("--repeats", args->repeats, "Repeats / edits (medians)")->capture_default_str();
+    cmd->add_option("--views", args->views, "View set: how many directions")
+        ->type_name("INT")
+        ->transform(oneOf(viewSetNames(), "view set"))
+        ->default_str(nameOf(viewSetNames(), args->views));
+    cmd->add_option("--repeats", args->repeats, "Repeats / edits (medians)")
+        ->check(atLeast(1))
+        ->capture_default_str();
     cmd->add_option("--bricks", args->bricks, "Brick edges to compare (0 = flat scene)")
+        ->delimiter(',')
+        ->check(intIn(0, Limits::kMaxModelDim))
         ->capture_default_str();
-    cmd->add_option("--threads", args->threads, "Worker threads (0 = all)")->capture_default_str();
+    cmd->add_option("--threads", args->threads, "Worker threads (0 = all)")
+        ->check(atLeast(0))
+        ->capture_default_str();
     cmd->add_flag("!--no-scenes", args->scenes, "Skip the scene comparison (part 1)");
     cmd->callback([args] { run(*args); });
 }

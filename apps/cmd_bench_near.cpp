@@ -7,6 +7,7 @@
 // the alternatives one change at a time: one draw per entity, the quad proxy, the rasterised
 // proxy box (NearProxy in volumetric/near_renderer.hpp).
 #include "apps/bench_util.hpp"
+#include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
@@ -33,14 +34,19 @@ namespace voxtier::cli {
 
 namespace {
 
+/// Where the bench models come from: the bundled .vox files, or procedural stand-ins.
+enum class ModelSource { Vox, Procedural };
+const std::pair<const char*, ModelSource> kModelSourceNames[] = {
+    {"vox", ModelSource::Vox}, {"procedural", ModelSource::Procedural}};
+
 struct BenchArgs {
-    std::string entities = "10,100,1000";
+    std::vector<int> entities = {10, 100, 1000};
     int repeat = 5;
     int warmup = 2;
     std::string out;
-    std::string models = "vox";
+    ModelSource models = ModelSource::Vox;
     std::string voxDir = "scenes/vox";
-    std::string size = "960x540";
+    std::string size = "960x540"; ///< WxH (checked by imageSize())
     bool alternatives = true;
 };
 
@@ -59,14 +65,14 @@ struct BenchModels {
 
 BenchModels benchModels(const BenchArgs& a) {
     BenchModels m;
-    if (a.models == "procedural") {
+    if (a.models == ModelSource::Procedural) {
         m.models = {makeBox({8, 6, 11}, proc_index::kOrange),
                     makeSphere(4, proc_index::kCyan),
                     makeArrow(8),
                     makeShell({8, 8, 8}, 1, proc_index::kViolet),
                     makeSingleVoxel(5),
                     makeBox({24, 58, 20})};
-    } else if (a.models == "vox") {
+    } else {
         const std::filesystem::path dir(a.voxDir);
         if (!std::filesystem::exists(dir / "mmmm"))
             throw InputError(
@@ -80,8 +86,6 @@ BenchModels benchModels(const BenchArgs& a) {
                     voxModel(props, 2),
                     voxModel(props, 3),
                     voxModel(dir / "mmmm/veh_fire.vox")};
-    } else {
-        throw InputError("", "--models", "expected vox or procedural, got '" + a.models + "'");
     }
     m.pick = {0, 0, 0, 0, 0, 1, 2, 3, 4, 5};
     return m;
@@ -138,15 +142,61 @@ struct Row {
     }
 };
 
+struct Variant {
+    const char* name;
+    NearOptions options;
+};
+
+/// One variant on one frame: the counting run, the warm-ups, then the timed repeats of the
+/// Vulkan draw and the CPU reference side by side; the error columns against `reference`.
+Row measureVariant(NearRenderer& near, const Scene& scene, const CameraFrame& cam,
+                   const std::vector<SpriteSetup>& sprites, const Image& reference,
+                   const Variant& v, const BenchArgs& a) {
+    Row row;
+    row.variant = v.name;
+    // Steps and fragments come from the counting shader, in a run of its own (its atomics would
+    // distort the timed runs).
+    NearOptions counting = v.options;
+    counting.countSteps = true;
+    NearStats cs;
+    const Image counted =
+        near.render(cam, scene.models, sprites, scene.render.background, counting, &cs);
+    row.kernelFragments = cs.kernelFragments;
+    row.fetches = cs.voxelFetches;
+    for (int w = 0; w < a.warmup; ++w)
+        near.render(cam, scene.models, sprites, scene.render.background, v.options);
+    std::vector<double> draw, readback, ref, vkCpu, refCpu;
+    Image img;
+    for (int r = 0; r < a.repeat; ++r) {
+        NearStats ns;
+        const double c0 = processCpuMs();
+        img = near.render(cam, scene.models, sprites, scene.render.background, v.options, &ns);
+        vkCpu.push_back(processCpuMs() - c0);
+        draw.push_back(ns.drawMs);
+        readback.push_back(ns.readbackMs);
+        row.fragments = ns.fragmentInvocations;
+        Image cpu(cam.width, cam.height, scene.render.background);
+        ReferenceStats rs;
+        const double c1 = processCpuMs();
+        renderReference(scene.models, sprites, cpu, &rs);
+        refCpu.push_back(processCpuMs() - c1);
+        ref.push_back(rs.milliseconds);
+    }
+    row.vkDrawMs = median(draw);
+    row.vkReadbackMs = median(readback);
+    row.refMs = median(ref);
+    row.vkCpuMs = median(vkCpu);
+    row.refCpuMs = median(refCpu);
+    row.differing = diffImages(img, reference).pixelDiffs;
+    if (diffImages(counted, img).pixelDiffs != 0)
+        throw InputError("", "bench", "the step-counting shader drew a different image (a bug)");
+    for (auto id : img.id) row.drawn += id != kernel::VT_NO_ENTITY;
+    return row;
+}
+
 void run(const BenchArgs& a) {
-    const std::vector<int> counts =
-        parseList<int>(a.entities, "--entities", 1, Limits::kMaxEntities);
-    if (a.repeat < 1) throw InputError("", "--repeat", "must be >= 1");
-    if (a.warmup < 0) throw InputError("", "--warmup", "must be >= 0");
-    int width = 0, height = 0;
-    if (std::sscanf(a.size.c_str(), "%dx%d", &width, &height) != 2 || width < 1 || height < 1 ||
-        width > Limits::kMaxImageDim || height > Limits::kMaxImageDim)
-        throw InputError("", "--size", "expected WxH, got '" + a.size + "'");
+    const glm::ivec2 size = *readImageSize(a.size);
+    const int width = size.x, height = size.y;
     std::ofstream csv;
     if (!a.out.empty()) {
         const auto parent = std::filesystem::path(a.out).parent_path();
@@ -169,10 +219,6 @@ void run(const BenchArgs& a) {
                 "visible", "variant", "vk_draw", "vk_read", "vk_frame", "ref_ms", "ref/vk",
                 "vk_cpu", "ref_cpu", "cpu_r", "fragments", "kernel_frg", "steps/f", "mismatch");
 
-    struct Variant {
-        const char* name;
-        NearOptions options;
-    };
     auto variant = [](const char* name, NearProxy proxy, NearDraws draws) {
         NearOptions o;
         o.proxy = proxy;
@@ -188,7 +234,7 @@ void run(const BenchArgs& a) {
         variants.push_back(variant("box-instanced", NearProxy::Box, NearDraws::Instanced));
     }
 
-    for (int n : counts) {
+    for (int n : a.entities) {
         const Scene scene = benchScene(models, n, width, height);
         const CameraFrame cam = makeCameraFrame(scene.camera);
         const std::vector<SpriteSetup> sprites = setupSprites(scene, cam, 0.0);
@@ -200,50 +246,9 @@ void run(const BenchArgs& a) {
         renderReference(scene.models, sprites, reference);
 
         for (const Variant& v : variants) {
-            Row row;
+            Row row = measureVariant(near, scene, cam, sprites, reference, v, a);
             row.entities = n;
             row.visible = visible;
-            row.variant = v.name;
-            // Steps and fragments come from the counting shader, in a run of its own (its atomics
-            // would distort the timed runs).
-            NearOptions counting = v.options;
-            counting.countSteps = true;
-            NearStats cs;
-            const Image counted =
-                near.render(cam, scene.models, sprites, scene.render.background, counting, &cs);
-            row.kernelFragments = cs.kernelFragments;
-            row.fetches = cs.voxelFetches;
-            for (int w = 0; w < a.warmup; ++w)
-                near.render(cam, scene.models, sprites, scene.render.background, v.options);
-            std::vector<double> draw, readback, ref, vkCpu, refCpu;
-            Image img;
-            for (int r = 0; r < a.repeat; ++r) {
-                NearStats ns;
-                const double c0 = processCpuMs();
-                img = near.render(cam, scene.models, sprites, scene.render.background, v.options,
-                                  &ns);
-                vkCpu.push_back(processCpuMs() - c0);
-                draw.push_back(ns.drawMs);
-                readback.push_back(ns.readbackMs);
-                row.fragments = ns.fragmentInvocations;
-                Image cpu(cam.width, cam.height, scene.render.background);
-                ReferenceStats rs;
-                const double c1 = processCpuMs();
-                renderReference(scene.models, sprites, cpu, &rs);
-                refCpu.push_back(processCpuMs() - c1);
-                ref.push_back(rs.milliseconds);
-            }
-            row.vkDrawMs = median(draw);
-            row.vkReadbackMs = median(readback);
-            row.refMs = median(ref);
-            row.vkCpuMs = median(vkCpu);
-            row.refCpuMs = median(refCpu);
-            row.differing = diffImages(img, reference).pixelDiffs;
-            if (diffImages(counted, img).pixelDiffs != 0)
-                throw InputError("", "bench",
-                                 "the step-counting shader drew a different image (a bug)");
-            for (auto id : img.id) row.drawn += id != kernel::VT_NO_ENTITY;
-
             std::printf(
                 "%8d %7d %-16s %8.1f %7.1f %8.1f %8.1f %6.2f %8.1f %8.1f %6.2f %10llu %10llu "
                 "%7.2f %8zu\n",
@@ -280,19 +285,28 @@ void addBenchNearCommand(CLI::App& bench) {
     auto args = std::make_shared<BenchArgs>();
     CLI::App* cmd = bench.add_subcommand(
         "near", "Vulkan near tier vs the CPU reference, same frames, side by side");
-    cmd->add_option("--entities", args->entities, "Comma-separated entity counts")
+    cmd->add_option("--entities", args->entities, "Entity counts, comma-separated")
+        ->delimiter(',')
+        ->check(intIn(1, Limits::kMaxEntities))
         ->capture_default_str();
     cmd->add_option("--repeat", args->repeat,
                     "Timed frames per count and variant (median reported)")
+        ->check(atLeast(1))
         ->capture_default_str();
     cmd->add_option("--warmup", args->warmup, "Untimed frames first (pipeline compile, uploads)")
+        ->check(atLeast(0))
         ->capture_default_str();
     cmd->add_option("-o,--out", args->out, "Also write the table as CSV");
     cmd->add_option("--models", args->models, "vox (bundled .vox models) or procedural")
-        ->capture_default_str();
+        ->type_name("TEXT")
+        ->transform(oneOf(kModelSourceNames, "model source"))
+        ->default_str(nameOf(kModelSourceNames, args->models));
     cmd->add_option("--vox-dir", args->voxDir, "Where the bundled models are")
         ->capture_default_str();
-    cmd->add_option("--size", args->size, "Image size WxH")->capture_default_str();
+    cmd->add_option("--size", args->size, "Image size")
+        ->type_name("WxH")
+        ->check(imageSize())
+        ->capture_default_str();
     cmd->add_flag("!--no-alternatives", args->alternatives,
                   "Only the default variant (hull proxy, one instanced draw)");
     cmd->callback([args] { run(*args); });

@@ -89,7 +89,7 @@ void printText(const VoxFile& vox) {
 void addInfoCommand(CLI::App& app) {
     auto* cmd = app.add_subcommand("info", "Describe a MagicaVoxel .vox file");
     auto options = std::make_shared<InfoOptions>();
-    cmd->add_option("file", options->file, "the .vox file")->required();
+    cmd->add_option("file", options->file, "the .vox file")->required()->check(CLI::ExistingFile);
     cmd->add_flag("--json", options->json, "print JSON instead of text");
     cmd->callback([options] {
         const VoxFile vox = readVoxFile(options->file);

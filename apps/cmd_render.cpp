@@ -1,4 +1,5 @@
 // `voxtier render SCENE.json | MODEL.vox`: one frame to an image (PNG; EXR adds depth and ids).
+#include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "compose/frame.hpp"
 #include "core/error.hpp"
@@ -10,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <optional>
 
 namespace voxtier::cli {
@@ -19,8 +21,8 @@ namespace {
 struct RenderArgs {
     std::string input;
     std::string out;
-    std::string mode = "hybrid";
-    std::string nearBackend = "vulkan";
+    RenderMode mode = RenderMode::Hybrid;
+    NearBackend nearBackend = NearBackend::Vulkan;
     bool path = false;
     std::string overlay, csv, pops;
     std::optional<double> time;
@@ -28,12 +30,16 @@ struct RenderArgs {
     std::string ids;
     std::optional<double> cacheMb; ///< far snapshot cache budget; default FrameOptions'
     // Image size and sigma override a scene's; the rest describe the camera of a MODEL.vox render.
-    std::optional<std::string> size; ///< default 640x480 for a .vox
+    std::optional<std::string> size; ///< WxH (imageSize()); default 640x480 for a .vox
     std::optional<double> sigma;     ///< default 1 for a .vox
-    std::optional<std::string> view; ///< default 30,20
+    std::optional<std::string> view; ///< AZIMUTH,ELEVATION (viewAngles()); default 30,20
     std::optional<double> distance;  ///< default 0 (fit)
     std::optional<int> model;        ///< default 0
 };
+
+/// A budget the machine cannot hold would fail as an out-of-memory deep in a bake; a zero
+/// budget would re-bake every far view every frame.
+constexpr double kMaxCacheMb = 64 * 1024;
 
 bool endsWith(const std::string& s, const std::string& suffix) {
     if (s.size() < suffix.size()) return false;
@@ -42,67 +48,46 @@ bool endsWith(const std::string& s, const std::string& suffix) {
     return tail == suffix;
 }
 
-std::pair<double, double> parsePair(const std::string& text, char sep, const std::string& field) {
-    const auto at = text.find(sep);
-    try {
-        if (at == std::string::npos) throw std::invalid_argument("");
-        std::size_t used = 0;
-        const double a = std::stod(text.substr(0, at), &used);
-        const double b = std::stod(text.substr(at + 1), &used);
-        if (!std::isfinite(a) || !std::isfinite(b)) throw std::invalid_argument("");
-        return {a, b};
-    } catch (const std::exception&) {
-        throw InputError("", field,
-                         "expected two numbers separated by '" + std::string(1, sep) + "', got '" +
-                             text + "'");
-    }
-}
-
-glm::ivec2 parseImageSize(const std::string& text) {
-    const auto [w, h] = parsePair(text, 'x', "--size");
-    if (w < 1 || h < 1 || w > Limits::kMaxImageDim || h > Limits::kMaxImageDim ||
-        w != std::floor(w) || h != std::floor(h))
-        throw InputError("", "--size",
-                         "expected WxH with integers 1.." + std::to_string(Limits::kMaxImageDim));
-    return {int(w), int(h)};
+/// The single-model options describe the camera of a .vox render; a scene brings its own camera
+/// and names its models, so there they would be silently ignored.
+void rejectSingleModelOptions(const RenderArgs& a) {
+    const char* hasCamera = "applies to a .vox input only (a scene has its camera)";
+    const char* namesModels = "applies to a .vox input only (a scene names its models)";
+    if (a.view) throw CLI::ValidationError("--view", hasCamera);
+    if (a.distance) throw CLI::ValidationError("--distance", hasCamera);
+    if (a.model) throw CLI::ValidationError("--model", namesModels);
 }
 
 Scene loadInput(const RenderArgs& a) {
+    // The option validators checked every value; what remains depends on the input file.
     if (!endsWith(a.input, ".vox")) {
-        // A scene brings its own camera: the single-model options would be silently ignored.
-        if (a.view)
-            throw InputError(a.input, "--view",
-                             "applies to a .vox input only (a scene has its camera)");
-        if (a.distance)
-            throw InputError(a.input, "--distance",
-                             "applies to a .vox input only (a scene has its camera)");
-        if (a.model)
-            throw InputError(a.input, "--model",
-                             "applies to a .vox input only (a scene names its models)");
+        rejectSingleModelOptions(a);
         Scene s = loadScene(a.input);
         if (a.size) {
-            const glm::ivec2 wh = parseImageSize(*a.size);
+            const glm::ivec2 wh = *readImageSize(*a.size);
             s.camera.width = wh.x;
             s.camera.height = wh.y;
         }
-        if (a.sigma) s.render.sigma = Limits::checkedSigma(*a.sigma, "", "--sigma");
+        if (a.sigma) s.render.sigma = *a.sigma;
         return s;
     }
     const VoxFile vox = readVoxFile(a.input);
     const int index = a.model.value_or(0);
-    if (index < 0 || index >= int(vox.models.size()))
+    if (index >= int(vox.models.size()))
         throw InputError(a.input, "--model",
                          "file has " + std::to_string(vox.models.size()) + " models");
     auto model =
         std::make_shared<VoxelModel>(std::filesystem::path(a.input).stem().string(), vox.palette,
                                      std::vector<VoxelGrid>{vox.models[std::size_t(index)]});
     ModelView v;
-    std::tie(v.azimuthDeg, v.elevationDeg) = parsePair(a.view.value_or("30,20"), ',', "--view");
-    const glm::ivec2 wh = parseImageSize(a.size.value_or("640x480"));
+    const glm::dvec2 angles = *readViewAngles(a.view.value_or("30,20"));
+    v.azimuthDeg = angles.x;
+    v.elevationDeg = angles.y;
+    const glm::ivec2 wh = *readImageSize(a.size.value_or("640x480"));
     v.width = wh.x;
     v.height = wh.y;
     v.distance = a.distance.value_or(0.0);
-    v.sigma = a.sigma.value_or(1.0); // checked by sceneForModel
+    v.sigma = a.sigma.value_or(1.0);
     Scene s = sceneForModel(std::move(model), v);
     s.source = a.input;
     return s;
@@ -128,21 +113,12 @@ std::FILE* openCsv(const std::string& file, const char* header) {
 
 void run(const RenderArgs& a) {
     Scene scene = loadInput(a);
-    const RenderMode mode = parseRenderMode(a.mode);
+    const RenderMode mode = a.mode;
     FrameOptions opt;
-    opt.nearBackend = parseNearBackend(a.nearBackend);
+    opt.nearBackend = a.nearBackend;
     opt.overlay = !a.overlay.empty();
     opt.measurePops = !a.pops.empty();
-    if (a.cacheMb) {
-        // A budget the machine cannot hold would fail as an out-of-memory deep in a bake; a
-        // zero budget would re-bake every far view every frame.
-        constexpr double kMaxCacheMb = 64 * 1024;
-        if (!(*a.cacheMb >= 1 && *a.cacheMb <= kMaxCacheMb))
-            throw InputError("", "--cache-mb",
-                             "expected a snapshot cache budget of 1.." +
-                                 std::to_string(int(kMaxCacheMb)) + " MiB");
-        opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
-    }
+    if (a.cacheMb) opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
     FrameRenderer renderer(scene, opt);
     std::string out = a.out;
     if (out.empty()) out = "out/" + std::filesystem::path(a.input).stem().string() + ".png";
@@ -154,10 +130,8 @@ void run(const RenderArgs& a) {
         if (!scene.path) throw InputError(a.input, "--path", "the scene has no camera_path");
         last = scene.path->frameCount() - 1;
     } else if (a.frame) {
-        if (*a.frame < 0) throw InputError("", "--frame", "must be >= 0");
         first = last = *a.frame;
     } else if (a.time) {
-        if (!std::isfinite(*a.time)) throw InputError("", "--time", "must be a finite number");
         fixedTime = *a.time;
         first = last =
             scene.path ? int(std::floor(
@@ -215,18 +189,22 @@ void addRenderCommand(CLI::App& app) {
     CLI::App* cmd = app.add_subcommand(
         "render", "Render one frame of a scene (.json) or a single model (.vox)");
     cmd->add_option("input", args->input, "Scene file (.json) or MagicaVoxel model (.vox)")
-        ->required();
+        ->required()
+        ->check(CLI::ExistingFile);
     cmd->add_option("-o,--out", args->out,
                     "Output image (.png, or .exr with Z and id channels); default out/<name>.png");
-    cmd->add_option(
-           "--mode", args->mode,
-           "hybrid (the selector hands entities between the tiers), near (Vulkan near tier for "
-           "every entity; VOXTIER_VALIDATION=1 enables validation), far (every entity through "
-           "the snapshot cache) or reference (CPU reference tracer)")
-        ->capture_default_str();
+    cmd->add_option("--mode", args->mode,
+                    "hybrid (the selector hands entities between the tiers), near (Vulkan near "
+                    "tier for every entity; VOXTIER_VALIDATION=1 enables validation), far (every "
+                    "entity through the snapshot cache) or reference (CPU reference tracer)")
+        ->type_name("TEXT")
+        ->transform(oneOf(kRenderModeNames, "render mode"))
+        ->default_str(toString(args->mode));
     cmd->add_option("--near-backend", args->nearBackend,
                     "vulkan, or reference (the CPU tracer draws the near tier; same image)")
-        ->capture_default_str();
+        ->type_name("TEXT")
+        ->transform(oneOf(kNearBackendNames, "near backend"))
+        ->default_str(toString(args->nearBackend));
     cmd->add_flag("--path", args->path,
                   "Render every frame of the camera path (OUT becomes OUT_0000.png ...)");
     cmd->add_option("--overlay", args->overlay,
@@ -234,21 +212,31 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_option("--csv", args->csv, "Per-frame CSV: tier counts, switches, bakes, timings");
     cmd->add_option("--pops", args->pops,
                     "Per-switch CSV: the image change each tier/view switch causes alone");
-    auto* t = cmd->add_option("--time", args->time, "Time in seconds along the camera path");
+    auto* t = cmd->add_option("--time", args->time, "Time in seconds along the camera path")
+                  ->check(finite());
     auto* f = cmd->add_option("--frame", args->frame,
-                              "Frame number of the camera path (applies scripted edits up to it)");
+                              "Frame number of the camera path (applies scripted edits up to it)")
+                  ->check(atLeast(0));
     t->excludes(f);
     cmd->add_option("--cache-mb", args->cacheMb,
-                    "Far snapshot cache budget in MiB (default 256; LRU beyond)");
+                    "Far snapshot cache budget in MiB (default 256; LRU beyond)")
+        ->check(numberIn(1, kMaxCacheMb, "MiB"));
     cmd->add_option("--ids", args->ids, "Also write the entity-id buffer as a colour-coded PNG");
     cmd->add_option("--size", args->size,
-                    "Image size WxH (default: the scene's camera; 640x480 for a .vox)");
+                    "Image size (default: the scene's camera; 640x480 for a .vox)")
+        ->type_name("WxH")
+        ->check(imageSize());
     cmd->add_option("--sigma", args->sigma,
-                    "Virtual pixels per voxel (default: the scene's; 1 for a .vox)");
+                    "Virtual pixels per voxel (default: the scene's; 1 for a .vox)")
+        ->check(sigmaRange());
     auto* vox = cmd->add_option_group("single model (.vox input)");
-    vox->add_option("--view", args->view, "AZIMUTH,ELEVATION in degrees (default 30,20)");
-    vox->add_option("--distance", args->distance, "Camera distance in metres (default 0 = fit)");
-    vox->add_option("--model", args->model, "Which model of a multi-model file (default 0)");
+    vox->add_option("--view", args->view, "Camera direction in degrees (default 30,20)")
+        ->type_name("AZIMUTH,ELEVATION")
+        ->check(viewAngles());
+    vox->add_option("--distance", args->distance, "Camera distance in metres (default 0 = fit)")
+        ->check(numberIn(0, std::numeric_limits<double>::infinity(), "m"));
+    vox->add_option("--model", args->model, "Which model of a multi-model file (default 0)")
+        ->check(atLeast(0));
     cmd->callback([args] { run(*args); });
 }
 

@@ -23,8 +23,12 @@ int main(int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        // --help and friends print and exit 0; real argument errors get the same one-line form
-        // as every other bad input (CLI11's own printer adds a second line).
+        // Exit status 2: the command line itself is wrong (an unknown option, a value its
+        // validator rejects, options that do not go together); every value is checked this way
+        // before any work starts (apps/cli_options.hpp). Exit status 1 (below): an input file
+        // is bad, or the run failed. Both are one line "voxtier: error: ..."; this one points to
+        // --help, which lists the allowed values (CLI11's own printer adds a second line).
+        // --help and friends print and exit 0.
         if (e.get_exit_code() == 0) return app.exit(e);
         std::fprintf(stderr, "voxtier: error: %s (see --help)\n", e.what());
         return 2;

@@ -34,36 +34,42 @@ SpriteSetup fadedCopy(const SpriteSetup& s, float share, bool keepBelow) {
     return c;
 }
 
-} // namespace
-
-RenderMode parseRenderMode(const std::string& name) {
-    if (name == "reference") return RenderMode::Reference;
-    if (name == "near") return RenderMode::Near;
-    if (name == "far") return RenderMode::Far;
-    if (name == "hybrid") return RenderMode::Hybrid;
-    throw InputError("", "--mode",
-                     "unknown render mode '" + name + "' (expected: hybrid, near, far, reference)");
+/// The value `name` stands for in a name table, else InputError naming `field` and the names.
+template <class E, std::size_t N>
+E fromName(const std::array<std::pair<const char*, E>, N>& names, const std::string& name,
+           const char* field, const char* what) {
+    std::string allowed;
+    for (const auto& [n, value] : names) {
+        if (name == n) return value;
+        allowed += (allowed.empty() ? "" : ", ") + std::string(n);
+    }
+    throw InputError(
+        "", field, "unknown " + std::string(what) + " '" + name + "' (expected: " + allowed + ")");
 }
 
-const char* toString(RenderMode m) {
-    switch (m) {
-    case RenderMode::Reference:
-        return "reference";
-    case RenderMode::Near:
-        return "near";
-    case RenderMode::Far:
-        return "far";
-    case RenderMode::Hybrid:
-        return "hybrid";
-    }
+template <class E, std::size_t N>
+const char* nameOf(const std::array<std::pair<const char*, E>, N>& names, E value) {
+    for (const auto& [n, v] : names)
+        if (v == value) return n;
     return "?";
 }
 
+} // namespace
+
+RenderMode parseRenderMode(const std::string& name) {
+    return fromName(kRenderModeNames, name, "--mode", "render mode");
+}
+
+const char* toString(RenderMode m) {
+    return nameOf(kRenderModeNames, m);
+}
+
 NearBackend parseNearBackend(const std::string& name) {
-    if (name == "vulkan") return NearBackend::Vulkan;
-    if (name == "reference") return NearBackend::Reference;
-    throw InputError("", "--near-backend",
-                     "unknown near backend '" + name + "' (expected: vulkan, reference)");
+    return fromName(kNearBackendNames, name, "--near-backend", "near backend");
+}
+
+const char* toString(NearBackend b) {
+    return nameOf(kNearBackendNames, b);
 }
 
 const char* toString(PopEvent::Kind k) {

@@ -9,10 +9,12 @@
 #include "lod/selector.hpp"
 #include "volumetric/vulkan_options.hpp"
 
+#include <array>
 #include <cstddef>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace voxtier {
@@ -26,13 +28,28 @@ enum class RenderMode {
     Far,       ///< every entity through the far tier's snapshot cache (DESIGN.md §4)
     Hybrid,    ///< the selector decides per entity (DESIGN.md §5): the product's main job
 };
+/// The one table of render mode names (command line, console, reports), in the order `--help`
+/// lists them: parseRenderMode, toString and the CLI's --mode all read it.
+inline constexpr std::array<std::pair<const char*, RenderMode>, 4> kRenderModeNames{{
+    {"hybrid", RenderMode::Hybrid},
+    {"near", RenderMode::Near},
+    {"far", RenderMode::Far},
+    {"reference", RenderMode::Reference},
+}};
 RenderMode parseRenderMode(const std::string& name); ///< throws InputError(field "--mode")
 const char* toString(RenderMode m);
 
 /// Who draws the near tier. Both produce the same image (the near tier's contract), so tests
 /// and measurements that are not about the GPU may use the cheaper one.
 enum class NearBackend { Vulkan, Reference };
-NearBackend parseNearBackend(const std::string& name); ///< "vulkan" | "reference"
+/// The one table of near backend names, like kRenderModeNames.
+inline constexpr std::array<std::pair<const char*, NearBackend>, 2> kNearBackendNames{{
+    {"vulkan", NearBackend::Vulkan},
+    {"reference", NearBackend::Reference},
+}};
+/// Throws InputError(field "--near-backend") for a name not in kNearBackendNames.
+NearBackend parseNearBackend(const std::string& name);
+const char* toString(NearBackend b);
 
 struct FrameOptions {
     NearBackend nearBackend = NearBackend::Vulkan;

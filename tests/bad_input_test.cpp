@@ -36,10 +36,15 @@ std::string repo(const std::string& rel) {
     return (fs::path(VOXTIER_SOURCE_DIR) / rel).string();
 }
 
+/// The exit status says whose the error is (apps/main.cpp): the command line itself (the line
+/// then points to --help, which lists what each option allows), or an input file / the run.
+constexpr int kCommandLineError = 2, kInputError = 1;
+
 struct Case {
     std::string what;   ///< class of bad input, for the table
     std::string args;   ///< CLI arguments
     std::string expect; ///< substring the one line must contain (file, field or reason)
+    int status = kInputError;
     std::string env = "";
 };
 
@@ -50,6 +55,9 @@ void expectOneLineError(const Case& c) {
     std::printf("[ input    ] %s | %s\n", c.what.c_str(), line.c_str());
     EXPECT_NE(r.status, -1) << c.what << ": the process died from a signal";
     EXPECT_NE(r.status, 0) << c.what << ": accepted bad input";
+    EXPECT_EQ(r.status, c.status) << c.what << ": " << r.err;
+    EXPECT_EQ(r.err.find("(see --help)") != std::string::npos, c.status == kCommandLineError)
+        << c.what << ": " << r.err;
     EXPECT_EQ(test::lineCount(r.err), 1u) << c.what << ":\n" << r.err;
     EXPECT_EQ(r.err.rfind("voxtier: error: ", 0), 0u) << c.what << ": " << r.err;
     EXPECT_NE(r.err.find(c.expect), std::string::npos)
@@ -77,9 +85,10 @@ TEST(BadInput, MalformedVoxFilesAreOneLineErrorsInEveryCommand) {
     }
     cases.push_back(
         {"vox via bake", "bake " + repo("fuzz/corpus/vox/voxel_outside_size.vox"), "XYZI"});
-    cases.push_back({"missing file", "info /nonexistent/model.vox", "/nonexistent/model.vox"});
-    cases.push_back(
-        {"directory instead of a file", "info " + scratch().string(), "not a regular file"});
+    cases.push_back({"missing file", "info /nonexistent/model.vox", "/nonexistent/model.vox",
+                     kCommandLineError});
+    cases.push_back({"directory instead of a file", "info " + scratch().string(),
+                     "is actually a directory: " + scratch().string(), kCommandLineError});
     for (const Case& c : cases) expectOneLineError(c);
 }
 
@@ -126,27 +135,68 @@ TEST(BadInput, MalformedScenesNameTheFileAndTheJsonPath) {
 TEST(BadInput, BadArgumentsAreOneLineErrors) {
     const std::string scene = write("ok.json", kScene);
     const std::string vox = repo("scenes/vox/mmmm/chr_cop1.vox");
-    const std::vector<Case> cases = {
+    std::vector<Case> commandLine = {
         {"unknown mode", "render " + scene + " --mode bogus", "--mode"},
         {"unknown near backend", "render " + scene + " --near-backend metal", "--near-backend"},
         {"not a number", "render " + scene + " --frame abc", "--frame"},
         {"negative frame", "render " + scene + " --frame -2", "--frame"},
         {"non-finite time", "render " + scene + " --time nan", "--time"},
-        {"path without a camera path", "render " + scene + " --path", "camera_path"},
         {"bad image size", "render " + vox + " --size 0x0", "--size"},
         {"bad view", "render " + vox + " --view north,up", "--view"},
+        {"elevation beyond the pole", "render " + vox + " --view 10,100", "[-90, 90]"},
         {"negative sigma", "render " + vox + " --sigma -1", "--sigma"},
         {"sigma over the limit", "render " + vox + " --sigma 1000", "--sigma"},
         {"sigma over the limit on a scene", "render " + scene + " --sigma 17", "--sigma"},
         {"zero cache budget", "render " + scene + " --cache-mb 0", "--cache-mb"},
         {"cache budget beyond the limit", "render " + scene + " --cache-mb 1e9", "--cache-mb"},
+        {"non-finite cache budget", "render " + scene + " --cache-mb nan", "--cache-mb"},
         {"view on a scene", "render " + scene + " --view 10,10", "--view"},
         {"distance on a scene", "render " + scene + " --distance 5", "--distance"},
         {"model index on a scene", "render " + scene + " --model 1", "--model"},
-        {"model index out of range", "render " + vox + " --model 7", "--model"},
+        {"negative model index", "render " + vox + " --model -1", "--model"},
+        {"unknown option", "render " + scene + " --no-such-option", "--no-such-option"},
+        {"unknown view set", "bake " + vox + " --views 27", "(expected: 26, 98, 218)"},
+        {"unknown bake geometry", "bake " + vox + " --geometry spheres", "--geometry"},
+        {"bake of two models", "bake " + vox + " " + vox, "one .vox file"},
+        {"bench near entity list", "bench near --entities 10,x", "--entities"},
+        {"bench near model source", "bench near --models lego", "(expected: vox, procedural)"},
+        {"bench edits odd ball", "bench edits --size 7", "--size"},
+        {"bench edits brick list", "bench edits --bricks 0,300", "--bricks"},
         {"no subcommand", "", "subcommand"},
     };
-    for (const Case& c : cases) expectOneLineError(c);
+    // These need the input file to tell.
+    const std::vector<Case> inputFile = {
+        {"path without a camera path", "render " + scene + " --path", "camera_path"},
+        {"model index out of range", "render " + vox + " --model 7", "--model"},
+    };
+    for (Case& c : commandLine) {
+        c.status = kCommandLineError;
+        expectOneLineError(c);
+    }
+    for (const Case& c : inputFile) expectOneLineError(c);
+}
+
+// Each option's allowed values and ranges are in its --help, where the errors above point.
+TEST(BadInput, HelpListsTheAllowedValues) {
+    const std::vector<std::pair<std::string, std::vector<std::string>>> expected = {
+        {"render",
+         {"{hybrid,near,far,reference}=hybrid", "{vulkan,reference}=vulkan",
+          "--cache-mb FLOAT:in [1, 65536] MiB", "--sigma FLOAT:in (0, 16]",
+          "--size WxH:W, H in [1, 16384]", "--frame INT:>= 0", "ELEVATION in [-90, 90]"}},
+        {"bake",
+         {"--views INT:{26,98,218}=26", "{quads,boxes}", "{packet8,packet16,stream}",
+          "--repeats INT:>= 1=5", "model TEXT:FILE"}},
+        {"bench", {"--warmup INT:>= 1", "--entity-counts TEXT:a,b,... each in [1, 100000]"}},
+        {"bench near", {"--entities INT:in [1, 1000000]=[10,100,1000]", "{vox,procedural}=vox"}},
+        {"bench edits", {"--size INT:even, in [2, 256]=64", "--bricks INT:in [0, 256]=[0,16,32]"}},
+        {"info", {"file TEXT:FILE"}},
+    };
+    for (const auto& [command, lines] : expected) {
+        const test::CliRun r = test::runCli(command + " --help");
+        EXPECT_EQ(r.status, 0) << command << ": " << r.err;
+        for (const std::string& line : lines)
+            EXPECT_NE(r.out.find(line), std::string::npos) << command << " --help lacks " << line;
+    }
 }
 
 // --size and --sigma override a scene's camera size and sigma (instead of being ignored).
@@ -180,7 +230,7 @@ TEST(BadInput, MissingVulkanDeviceFailsGpuModesOnlyOneLine) {
         expectOneLineError(
             {std::string("no Vulkan device, --mode ") + mode,
              "render " + scene + " --mode " + mode + " -o " + (scratch() / "x.png").string(),
-             "no Vulkan device", noDriver});
+             "no Vulkan device", kInputError, noDriver});
     for (const char* mode : {"reference", "far"}) {
         const test::CliRun r = test::runCli("render " + scene + " --mode " + mode + " -o " +
                                                 (scratch() / "y.png").string(),

@@ -46,8 +46,17 @@ TEST(BakeCommand, BakesAllViewsPrintsCostsAndWritesALabelledContactSheet) {
 }
 
 TEST(BakeCommand, RejectsAnUnknownViewSetOrGeometry) {
-    EXPECT_NE(run("bake scenes/vox/mmmm/chr_cop1.vox --views 27").status, 0);
-    EXPECT_NE(run("bake scenes/vox/mmmm/chr_cop1.vox --geometry spheres").status, 0);
+    const CliRun views = run("bake scenes/vox/mmmm/chr_cop1.vox --views 27");
+    EXPECT_NE(views.status, 0);
+    EXPECT_NE(views.out.find("--views: unknown view set '27' (expected: 26, 98, 218)"),
+              std::string::npos)
+        << views.out;
+    const CliRun geometry = run("bake scenes/vox/mmmm/chr_cop1.vox --geometry spheres");
+    EXPECT_NE(geometry.status, 0);
+    EXPECT_NE(geometry.out.find("--geometry: unknown Embree geometry 'spheres' (expected: quads, "
+                                "boxes)"),
+              std::string::npos)
+        << geometry.out;
 }
 
 TEST(BakeCommand, BenchComparesEmbreeWithTheScalarDdaSideBySide) {

@@ -1,0 +1,174 @@
+#include "apps/cli_options.hpp"
+
+#include "core/error.hpp"
+
+#include <cerrno>
+#include <climits>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+
+namespace voxtier::cli {
+
+namespace {
+
+std::string shown(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+}
+
+/// The whole of `text` as a number (strtod's forms: "1e3", "0x10", "nan", "inf"), else nullopt.
+std::optional<double> readNumber(const std::string& text) {
+    if (text.empty()) return std::nullopt;
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    if (end != text.c_str() + text.size()) return std::nullopt;
+    return v;
+}
+
+/// The whole of `text` as a decimal integer of int's range, else nullopt. No leading zeros:
+/// CLI11 converts "010" as octal and "0x10" as hex, so the value checked is the value stored.
+std::optional<int> readInt(const std::string& text) {
+    const std::size_t digits = text.find_first_not_of("+-") == 1 ? 1 : 0;
+    if (text.size() <= digits ||
+        text.find_first_not_of("0123456789", digits) != std::string::npos ||
+        (text[digits] == '0' && text.size() > digits + 1))
+        return std::nullopt;
+    errno = 0;
+    const long long v = std::strtoll(text.c_str(), nullptr, 10);
+    if (errno == ERANGE || v < INT_MIN || v > INT_MAX) return std::nullopt;
+    return int(v);
+}
+
+/// "a,b" -> {a, b}, each the whole of its part as a number.
+std::optional<glm::dvec2> readNumberPair(const std::string& text) {
+    const auto at = text.find(',');
+    if (at == std::string::npos) return std::nullopt;
+    const auto a = readNumber(text.substr(0, at)), b = readNumber(text.substr(at + 1));
+    if (!a || !b) return std::nullopt;
+    return glm::dvec2(*a, *b);
+}
+
+std::string got(const std::string& text) {
+    return ", got '" + text + "'";
+}
+
+} // namespace
+
+CLI::Validator intIn(int lo, int hi) {
+    const std::string range = "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    return CLI::Validator(
+        [lo, hi, range](std::string& text) {
+            const std::optional<int> v = readInt(text);
+            return v && *v >= lo && *v <= hi ? std::string()
+                                             : "expected an integer in " + range + got(text);
+        },
+        "in " + range);
+}
+
+CLI::Validator atLeast(int lo, const std::string& why) {
+    const std::string bound = ">= " + std::to_string(lo);
+    const std::string expected =
+        "expected an integer " + bound + (why.empty() ? "" : " (" + why + ")");
+    return CLI::Validator(
+        [lo, expected](std::string& text) {
+            const std::optional<int> v = readInt(text);
+            return v && *v >= lo ? std::string() : expected + got(text);
+        },
+        bound);
+}
+
+CLI::Validator numberIn(double lo, double hi, const std::string& unit) {
+    const std::string range =
+        (std::isinf(hi) ? ">= " + shown(lo) : "in [" + shown(lo) + ", " + shown(hi) + "]") +
+        (unit.empty() ? "" : " " + unit);
+    return CLI::Validator(
+        [lo, hi, range](std::string& text) {
+            const std::optional<double> v = readNumber(text);
+            return v && std::isfinite(*v) && *v >= lo && *v <= hi
+                       ? std::string()
+                       : "expected a finite number " + range + got(text);
+        },
+        range);
+}
+
+CLI::Validator finite() {
+    return CLI::Validator(
+        [](std::string& text) {
+            const std::optional<double> v = readNumber(text);
+            return v && std::isfinite(*v) ? std::string() : "expected a finite number" + got(text);
+        },
+        "");
+}
+
+CLI::Validator sigmaRange() {
+    const std::string range = "(0, " + shown(Limits::kMaxSigma) + "]";
+    return CLI::Validator(
+        [range](std::string& text) {
+            const std::optional<double> v = readNumber(text);
+            return v && *v > 0.0 && *v <= Limits::kMaxSigma
+                       ? std::string()
+                       : "expected virtual pixels per voxel in " + range + got(text);
+        },
+        "in " + range);
+}
+
+CLI::Validator intList(int lo, int hi) {
+    const std::string range = "[" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+    return CLI::Validator(
+        [lo, hi, range](std::string& text) {
+            std::stringstream items(text);
+            std::string item;
+            int count = 0;
+            bool ok = true;
+            while (ok && std::getline(items, item, ',')) {
+                const std::optional<int> v = readInt(item);
+                ok = v && *v >= lo && *v <= hi;
+                ++count;
+            }
+            return ok && count > 0
+                       ? std::string()
+                       : "expected a comma-separated list of integers in " + range + got(text);
+        },
+        "a,b,... each in " + range);
+}
+
+std::optional<glm::ivec2> readImageSize(const std::string& text) {
+    const auto at = text.find('x');
+    if (at == std::string::npos) return std::nullopt;
+    const std::optional<int> w = readInt(text.substr(0, at)), h = readInt(text.substr(at + 1));
+    if (!w || !h || *w < 1 || *h < 1 || *w > Limits::kMaxImageDim || *h > Limits::kMaxImageDim)
+        return std::nullopt;
+    return glm::ivec2(*w, *h);
+}
+
+CLI::Validator imageSize() {
+    const std::string range = "[1, " + std::to_string(Limits::kMaxImageDim) + "]";
+    return CLI::Validator(
+        [range](std::string& text) {
+            return readImageSize(text) ? std::string()
+                                       : "expected WxH with integers in " + range + got(text);
+        },
+        "W, H in " + range);
+}
+
+std::optional<glm::dvec2> readViewAngles(const std::string& text) {
+    const std::optional<glm::dvec2> v = readNumberPair(text);
+    if (!v || !std::isfinite(v->x) || !(v->y >= -90.0 && v->y <= 90.0)) return std::nullopt;
+    return v;
+}
+
+CLI::Validator viewAngles() {
+    return CLI::Validator(
+        [](std::string& text) {
+            return readViewAngles(text) ? std::string()
+                                        : "expected AZIMUTH,ELEVATION in degrees "
+                                          "(elevation in [-90, 90])" +
+                                              got(text);
+        },
+        "ELEVATION in [-90, 90]");
+}
+
+} // namespace voxtier::cli
