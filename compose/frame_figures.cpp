@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <type_traits>
 
 namespace voxtier {
 
@@ -62,12 +63,17 @@ const char* toString(AcrossFrames a) {
 }
 
 std::string FrameFigure::text(const FrameStats& s) const {
-    char buf[32];
-    if (const auto* ms = std::get_if<double FrameStats::*>(&member))
-        std::snprintf(buf, sizeof buf, "%.3f", s.**ms);
-    else
-        std::snprintf(buf, sizeof buf, "%.0f", of(s)); // counts stay far below 2^53
-    return buf;
+    return std::visit(
+        [&](auto m) {
+            if constexpr (std::is_floating_point_v<std::remove_reference_t<decltype(s.*m)>>) {
+                char buf[32];
+                std::snprintf(buf, sizeof buf, "%.3f", s.*m);
+                return std::string(buf);
+            } else {
+                return std::to_string(s.*m);
+            }
+        },
+        member);
 }
 
 std::string FrameFigure::words() const {
