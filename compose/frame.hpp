@@ -80,7 +80,8 @@ const char* toString(PopEvent::Kind k);
 /// Where one frame's time went (wall-clock ms) and how much work each tier did. The step times
 /// add up to totalMs except for small glue (image moves, bookkeeping):
 /// totalMs ~ setupMs + selectMs + nearMs + farMs, nearMs ~ nearUploadMs + nearDrawMs +
-/// nearReadbackMs on Vulkan, farMs = bakeMs + blitMs.
+/// nearReadbackMs on Vulkan, farMs = bakeMs + blitMs. Every field has a line in kFrameFigures
+/// (compose/frame_figures.hpp), which names it in every output; the build checks that.
 struct FrameStats {
     int entities = 0, culled = 0;
     int nearDrawn = 0, farDrawn = 0; ///< visible sprites drawn by each tier
