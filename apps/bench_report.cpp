@@ -1,21 +1,25 @@
-// `voxtier bench` output (apps/bench_report.hpp).
+// `voxtier bench` output (apps/bench_report.hpp): results.csv and results.json from one list of
+// columns (the frame figures among them from compose/frame_figures.hpp), the plots drawn by
+// apps/bench/plots.gp from results.csv, report.md filled into apps/bench/report.md.mustache.
+// Both files are embedded in the binary at build time (apps/CMakeLists.txt).
 #include "apps/bench_report.hpp"
 
 #include "core/error.hpp"
+#include "embedded/bench_plots_gp.h"
+#include "embedded/bench_report_template.h"
 
+#include <kainjow/mustache.hpp>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <map>
+#include <regex>
 #include <set>
-#include <sstream>
 
 namespace voxtier::bench {
 
@@ -70,92 +74,117 @@ bool isErrorSelector(const Measurement& m) {
     return m.selector.rfind("error_px", 0) == 0;
 }
 
+const char* kModesGroup = "modes";
+
 // ---------------------------------------------------------------------------------------------
-// CSV and JSON.
+// The goal of the hybrid frame (issue 7): the goal table's ✓/✗ and the choice of the best
+// error-selector setting "within the error budget" both read it.
+
+struct Goals {
+    double minSpeedup = 10.0;      ///< against all-near on Vulkan
+    double maxMeanMismatch = 0.02; ///< mean footprint mismatch
+    /// Far entities displaced by more than one virtual pixel (drawn alone), per frame.
+    double maxFarOverOneCell = 0.0;
+};
+constexpr Goals kGoals;
+
+bool fastEnough(const Measurement& m) {
+    return m.speedup >= kGoals.minSpeedup;
+}
+bool closeEnough(const Measurement& m) {
+    return m.mismatchMean <= kGoals.maxMeanMismatch;
+}
+bool steadyEnough(const Measurement& m) {
+    return m.farOverOneCell <= kGoals.maxFarOverOneCell;
+}
+std::string verdict(bool met) {
+    return met ? " ✓" : " ✗";
+}
+
+// ---------------------------------------------------------------------------------------------
+// results.csv and results.json: one list of columns. A JSON row holds every column, typed, except
+// the error columns, which go into the row's "error" object (null for the truth).
 
 struct Column {
-    const char* name;
-    std::function<std::string(const Measurement&)> get;
+    enum class In { Both, CsvOnly, ErrorObject };
+    std::string name;
+    std::function<json(const Measurement&)> value;
+    In in = In::Both;
 };
 
+template <class T> std::function<json(const Measurement&)> field(T Measurement::*f) {
+    return [f](const Measurement& m) { return json(m.*f); };
+}
+
 std::vector<Column> columns() {
-    auto d = [](double Measurement::*f) { return [f](const Measurement& m) { return sig(m.*f); }; };
-    auto s = [](std::string Measurement::*f) {
-        return [f](const Measurement& m) { return csvField(m.*f); };
+    using In = Column::In;
+    std::vector<Column> c = {
+        {"group", field(&Measurement::group)},
+        {"scene", field(&Measurement::scene)},
+        {"mode", [](const Measurement& m) { return json(toString(m.mode)); }},
+        {"family", field(&Measurement::family)},
+        {"setting", field(&Measurement::setting)},
+        {"param", field(&Measurement::param)},
+        {"selector", field(&Measurement::selector)},
+        {"truth", field(&Measurement::truth)},
+        {"frames", [](const Measurement& m) { return json(m.frames.size()); }, In::CsvOnly},
     };
-    return {
-        {"group", s(&Measurement::group)},
-        {"scene", s(&Measurement::scene)},
-        {"mode", s(&Measurement::mode)},
-        {"family", s(&Measurement::family)},
-        {"setting", s(&Measurement::setting)},
-        {"param", d(&Measurement::param)},
-        {"selector", s(&Measurement::selector)},
-        {"truth", s(&Measurement::truth)},
-        {"frames", [](const Measurement& m) { return std::to_string(m.frames.size()); }},
-        {"entities", d(&Measurement::entities)},
-        {"visible", d(&Measurement::visible)},
-        {"near_entities", d(&Measurement::nearDrawn)},
-        {"far_entities", d(&Measurement::farDrawn)},
-        {"fading_entities", d(&Measurement::fading)},
-        {"frame_ms", d(&Measurement::totalMs)},
-        {"worst_frame_ms", d(&Measurement::worstFrameMs)},
-        {"all_near_vulkan_ms", d(&Measurement::baselineMs)},
-        {"speedup_vs_all_near_vulkan", d(&Measurement::speedup)},
-        {"setup_ms", d(&Measurement::setupMs)},
-        {"select_ms", d(&Measurement::selectMs)},
-        {"near_ms", d(&Measurement::nearMs)},
-        {"near_upload_ms", d(&Measurement::nearUploadMs)},
-        {"near_draw_ms", d(&Measurement::nearDrawMs)},
-        {"near_readback_ms", d(&Measurement::nearReadbackMs)},
-        {"far_ms", d(&Measurement::farMs)},
-        {"far_lookup_bake_ms", d(&Measurement::bakeMs)},
-        {"far_blit_ms", d(&Measurement::blitMs)},
-        {"near_fragments", d(&Measurement::fragments)},
-        {"voxel_steps", d(&Measurement::voxelSteps)},
-        {"voxel_steps_per_s", d(&Measurement::voxelStepsPerS)},
-        {"blit_pixels", d(&Measurement::blitPixels)},
-        {"blit_pixels_per_s", d(&Measurement::blitPixelsPerS)},
-        {"memcpy_pixels_per_s", d(&Measurement::memcpyPixelsPerS)},
-        {"cache_bytes", d(&Measurement::cacheBytes)},
-        {"cold_first_frame_ms", d(&Measurement::coldMs)},
-        {"cold_bake_ms", d(&Measurement::coldBakeMs)},
-        {"cold_bakes", d(&Measurement::coldBakes)},
-        {"cold_rays", d(&Measurement::coldRays)},
-        {"rays_per_s", d(&Measurement::raysPerS)},
-        {"has_error", [](const Measurement& m) { return std::string(m.hasError ? "1" : "0"); }},
-        {"mismatch_mean", d(&Measurement::mismatchMean)},
-        {"mismatch_worst", d(&Measurement::mismatchWorst)},
-        {"coverage_mismatch_mean", d(&Measurement::coverageMismatchMean)},
-        {"far_mismatch_mean", d(&Measurement::farMismatchMean)},
-        {"far_alone_mismatch_mean", d(&Measurement::farIsolatedMismatchMean)},
-        {"far_displacement_worst_px", d(&Measurement::displacementWorstPx)},
-        {"far_displacement_worst_vpx", d(&Measurement::displacementWorstCells)},
-        {"far_visible_displacement_worst_px", d(&Measurement::farVisibleDisplacementWorstPx)},
-        {"far_alone_entities", d(&Measurement::farAloneEntities)},
-        {"far_displaced_over_1_vpx", d(&Measurement::farOverOneCell)},
-        {"all_near_vulkan_fragments", d(&Measurement::baselineFragments)},
-        {"rmse_mean", d(&Measurement::rmseMean)},
-        {"psnr_min", d(&Measurement::psnrMin)},
-        {"differing_pixels", d(&Measurement::differingPixels)},
-        {"missing_entities", [](const Measurement& m) { return std::to_string(m.missing); }},
+    for (std::size_t i = 0; i < kFrameFigureCount; ++i)
+        c.push_back({kFrameFigures[i].name,
+                     [i](const Measurement& m) { return json(m.figures.values[i]); }});
+    const std::vector<Column> bench = {
+        {"visible", field(&Measurement::visible)},
+        {"worst_frame_ms", field(&Measurement::worstFrameMs)},
+        {"all_near_vulkan_ms", field(&Measurement::baselineMs)},
+        {"speedup_vs_all_near_vulkan", field(&Measurement::speedup)},
+        {"all_near_vulkan_fragments", field(&Measurement::baselineFragments)},
+        {"voxel_steps_per_s", field(&Measurement::voxelStepsPerS)},
+        {"blit_pixels_per_s", field(&Measurement::blitPixelsPerS)},
+        {"memcpy_pixels_per_s", field(&Measurement::memcpyPixelsPerS)},
+        {"cold_first_frame_ms", field(&Measurement::coldMs)},
+        {"cold_bake_ms", field(&Measurement::coldBakeMs)},
+        {"cold_bakes", field(&Measurement::coldBakes)},
+        {"cold_rays", field(&Measurement::coldRays)},
+        {"rays_per_s", field(&Measurement::raysPerS)},
+        {"has_error", field(&Measurement::hasError)},
+        {"mismatch_mean", field(&Measurement::mismatchMean), In::ErrorObject},
+        {"mismatch_worst", field(&Measurement::mismatchWorst), In::ErrorObject},
+        {"coverage_mismatch_mean", field(&Measurement::coverageMismatchMean), In::ErrorObject},
+        {"far_mismatch_mean", field(&Measurement::farMismatchMean), In::ErrorObject},
+        {"far_alone_mismatch_mean", field(&Measurement::farIsolatedMismatchMean), In::ErrorObject},
+        {"far_displacement_worst_px", field(&Measurement::displacementWorstPx), In::ErrorObject},
+        {"far_displacement_worst_vpx", field(&Measurement::displacementWorstCells),
+         In::ErrorObject},
+        {"far_visible_displacement_worst_px", field(&Measurement::farVisibleDisplacementWorstPx),
+         In::ErrorObject},
+        {"far_alone_entities", field(&Measurement::farAloneEntities), In::ErrorObject},
+        {"far_displaced_over_1_vpx", field(&Measurement::farOverOneCell), In::ErrorObject},
+        {"rmse_mean", field(&Measurement::rmseMean), In::ErrorObject},
+        {"psnr_min", field(&Measurement::psnrMin), In::ErrorObject},
+        {"differing_pixels", field(&Measurement::differingPixels), In::ErrorObject},
+        {"missing_entities", field(&Measurement::missing), In::ErrorObject},
     };
+    c.insert(c.end(), bench.begin(), bench.end());
+    return c;
+}
+
+std::string csvText(const json& v) {
+    if (v.is_string()) return csvField(v.get<std::string>());
+    if (v.is_boolean()) return v.get<bool>() ? "1" : "0";
+    if (v.is_number_float()) return sig(v.get<double>());
+    return v.is_null() ? "" : v.dump();
 }
 
 std::string toCsv(const SuiteResults& r) {
     const auto cols = columns();
     std::string out;
-    for (std::size_t i = 0; i < cols.size(); ++i) out += std::string(i ? "," : "") + cols[i].name;
+    for (const Column& c : cols) out += (&c == &cols.front() ? "" : ",") + c.name;
     out += "\n";
     for (const Measurement& m : r.rows) {
-        for (std::size_t i = 0; i < cols.size(); ++i) out += (i ? "," : "") + cols[i].get(m);
+        for (const Column& c : cols) out += (&c == &cols.front() ? "" : ",") + csvText(c.value(m));
         out += "\n";
     }
     return out;
-}
-
-json finite(double v) {
-    return std::isfinite(v) ? json(v) : json(nullptr);
 }
 
 json summaryJson(const EntityErrorSummary& s) {
@@ -172,99 +201,37 @@ json summaryJson(const EntityErrorSummary& s) {
             {"missing", s.missing}};
 }
 
-json toJson(const SuiteResults& r, const std::vector<std::string>& plots,
-            const std::string& plotNote) {
-    json rows = json::array();
-    const auto cols = columns();
-    for (const Measurement& m : r.rows) {
-        json row;
-        // The CSV columns, typed.
-        row["group"] = m.group, row["scene"] = m.scene, row["mode"] = m.mode,
-        row["family"] = m.family;
-        row["setting"] = m.setting, row["param"] = m.param, row["selector"] = m.selector,
-        row["truth"] = m.truth;
-        row["entities"] = m.entities, row["visible"] = m.visible,
-        row["near_entities"] = m.nearDrawn;
-        row["far_entities"] = m.farDrawn, row["fading_entities"] = m.fading;
-        row["frame_ms"] = m.totalMs, row["worst_frame_ms"] = m.worstFrameMs;
-        row["all_near_vulkan_fragments"] = m.baselineFragments;
-        row["all_near_vulkan_ms"] = m.baselineMs, row["speedup_vs_all_near_vulkan"] = m.speedup;
-        row["ms"] = {{"setup", m.setupMs},
-                     {"select", m.selectMs},
-                     {"near", m.nearMs},
-                     {"near_upload", m.nearUploadMs},
-                     {"near_draw", m.nearDrawMs},
-                     {"near_readback", m.nearReadbackMs},
-                     {"far", m.farMs},
-                     {"far_lookup_bake", m.bakeMs},
-                     {"far_blit", m.blitMs}};
-        row["near_fragments"] = m.fragments, row["voxel_steps"] = m.voxelSteps;
-        row["voxel_steps_per_s"] = m.voxelStepsPerS, row["blit_pixels"] = m.blitPixels;
-        row["blit_pixels_per_s"] = m.blitPixelsPerS,
-        row["memcpy_pixels_per_s"] = m.memcpyPixelsPerS;
-        row["cache_bytes"] = m.cacheBytes;
-        row["cold"] = {{"first_frame_ms", m.coldMs},
-                       {"bake_ms", m.coldBakeMs},
-                       {"bakes", m.coldBakes},
-                       {"rays", m.coldRays},
-                       {"rays_per_s", m.raysPerS}};
-        if (m.hasError)
-            row["error"] = {{"mismatch_mean", m.mismatchMean},
-                            {"mismatch_worst", m.mismatchWorst},
-                            {"coverage_mismatch_mean", m.coverageMismatchMean},
-                            {"far_alone_entities", m.farAloneEntities},
-                            {"far_displaced_over_1_vpx", m.farOverOneCell},
-                            {"far_mismatch_mean", m.farMismatchMean},
-                            {"far_alone_mismatch_mean", m.farIsolatedMismatchMean},
-                            {"far_displacement_worst_px", m.displacementWorstPx},
-                            {"far_displacement_worst_vpx", m.displacementWorstCells},
-                            {"far_visible_displacement_worst_px", m.farVisibleDisplacementWorstPx},
-                            {"rmse_mean", m.rmseMean},
-                            {"psnr_min", finite(m.psnrMin)},
-                            {"differing_pixels", m.differingPixels},
-                            {"missing_entities", m.missing}};
-        else
-            row["error"] = nullptr;
-        json frames = json::array();
-        for (const FrameRow& f : m.frames) {
-            const FrameStats& s = f.median;
-            json fr = {{"frame", f.frame},
-                       {"time", f.time},
-                       {"frame_ms", s.totalMs},
-                       {"frame_ms_min", f.minMs},
-                       {"frame_ms_max", f.maxMs},
-                       {"near_entities", s.nearDrawn},
-                       {"far_entities", s.farDrawn},
-                       {"fading_entities", s.fading},
-                       {"culled", s.culled},
-                       {"ms",
-                        {{"setup", s.setupMs},
-                         {"select", s.selectMs},
-                         {"near", s.nearMs},
-                         {"near_upload", s.nearUploadMs},
-                         {"near_draw", s.nearDrawMs},
-                         {"near_readback", s.nearReadbackMs},
-                         {"far", s.farMs},
-                         {"far_lookup_bake", s.bakeMs},
-                         {"far_blit", s.blitMs}}},
-                       {"near_fragments", s.nearPixelsTested},
-                       {"voxel_steps", m.mode == "near_vulkan" ? f.countedSteps : s.voxelFetches},
-                       {"blit_pixels", s.farPixelsTested},
-                       {"cache_bytes", s.cacheBytes}};
-            if (f.hasError)
-                fr["error"] = {{"all", summaryJson(f.error.all)},
-                               {"far", summaryJson(f.error.far)},
-                               {"far_alone", summaryJson(f.error.farIsolated)},
-                               {"rmse", f.error.rmse},
-                               {"psnr", finite(f.error.psnr)},
-                               {"changed_pixels", f.error.changedPixels},
-                               {"differing_pixels", f.error.differingPixels}};
-            frames.push_back(fr);
-        }
-        row["frames"] = frames;
-        rows.push_back(row);
+/// One sampled path frame: its figures (medians over the passes), typed, and its error.
+json frameJson(const FrameRow& f) {
+    json fr = {
+        {"frame", f.frame}, {"time", f.time}, {"frame_ms_min", f.minMs}, {"frame_ms_max", f.maxMs}};
+    for (const FrameFigure& fig : kFrameFigures)
+        fr[fig.name] = std::visit([&](auto member) { return json(f.median.*member); }, fig.member);
+    fr["error"] = nullptr;
+    if (f.hasError)
+        fr["error"] = {{"all", summaryJson(f.error.all)},
+                       {"far", summaryJson(f.error.far)},
+                       {"far_alone", summaryJson(f.error.farIsolated)},
+                       {"rmse", f.error.rmse},
+                       {"psnr", f.error.psnr},
+                       {"changed_pixels", f.error.changedPixels},
+                       {"differing_pixels", f.error.differingPixels}};
+    return fr;
+}
+
+json rowJson(const Measurement& m, const std::vector<Column>& cols) {
+    json row, error;
+    for (const Column& c : cols) {
+        if (c.in == Column::In::Both) row[c.name] = c.value(m);
+        if (c.in == Column::In::ErrorObject) error[c.name] = c.value(m);
     }
-    const Plan& p = r.plan;
+    row["error"] = m.hasError ? error : json(nullptr);
+    row["frames"] = json::array();
+    for (const FrameRow& f : m.frames) row["frames"].push_back(frameJson(f));
+    return row;
+}
+
+json planJson(const Plan& p) {
     json plan = {{"preset", p.preset},
                  {"repeats", p.repeats},
                  {"warmup", p.warmup},
@@ -282,13 +249,28 @@ json toJson(const SuiteResults& r, const std::vector<std::string>& plots,
                    {"crossfade_frames", p.crossfades}}}};
     if (p.width) plan["size"] = {*p.width, *p.height};
     if (p.entityCap) plan["entity_cap"] = *p.entityCap;
+    return plan;
+}
+
+json toJson(const SuiteResults& r, const std::vector<std::string>& plots,
+            const std::string& plotNote) {
+    const auto cols = columns();
+    json rows = json::array();
+    for (const Measurement& m : r.rows) rows.push_back(rowJson(m, cols));
+    json modes = json::array(), figures = json::array();
+    for (const BenchModeInfo& mode : kBenchModes) modes.push_back(mode.name);
+    for (const FrameFigure& f : kFrameFigures)
+        figures.push_back({{"name", f.name},
+                           {"unit", toString(f.unit)},
+                           {"across_frames", toString(f.acrossFrames)}});
     return {
         {"voxtier_bench", 1},
-        {"modes", {"near_vulkan", "near_reference", "far", "hybrid"}},
+        {"modes", modes},
         {"ground_truth",
          "near_vulkan: every entity drawn by the Vulkan near tier, same frame; errors of the "
          "other modes are measured against it (near_reference must differ in 0 pixels)"},
-        {"plan", plan},
+        {"frame_figures", figures},
+        {"plan", planJson(r.plan)},
         {"scenes", r.scenes},
         {"machine", {{"cpu", r.cpu}, {"threads", r.threads}, {"vulkan_device", r.vulkanDevice}}},
         {"wall_seconds", r.wallSeconds},
@@ -300,7 +282,8 @@ json toJson(const SuiteResults& r, const std::vector<std::string>& plots,
 }
 
 // ---------------------------------------------------------------------------------------------
-// Plots (gnuplot).
+// Plots: apps/bench/plots.gp reads results.csv; the bench writes it into the output folder after
+// the settings it needs, with the Pareto fronts it cannot work out itself.
 
 std::string shellQuote(const std::string& s) {
     std::string q = "'";
@@ -308,174 +291,79 @@ std::string shellQuote(const std::string& s) {
     return q + "'";
 }
 
-/// Whitespace-separated data file; strings have no spaces (the plots label with titles).
-struct DataFile {
-    std::string name;
-    std::ostringstream text;
-};
-
-const char* kModes[] = {"near_vulkan", "near_reference", "far", "hybrid"};
-const char* kModeColor[] = {"#1f77b4", "#9467bd", "#ff7f0e", "#2ca02c"};
+/// A gnuplot single-quoted string ('' stands for a quote).
+std::string gnuplotQuote(const std::string& s) {
+    std::string q = "'";
+    for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
+    return q + "'";
+}
+/// A gnuplot double-quoted string (backslash escapes).
+std::string gnuplotDoubleQuote(const std::string& s) {
+    std::string q = "\"";
+    for (char c : s) q += c == '"' || c == '\\' ? "\\" + std::string(1, c) : std::string(1, c);
+    return q + "\"";
+}
 
 struct PlotSet {
     std::vector<std::string> pngs;
     std::string note; ///< why plots are missing, if they are
 };
 
+/// The speed/error points of the first scene: its modes and the sweep points with an error.
+std::vector<const Measurement*> speedErrorPoints(const SuiteResults& r, const std::string& scene) {
+    std::vector<const Measurement*> pts;
+    for (const Measurement& m : r.rows)
+        if (m.scene == scene && (m.group == kModesGroup || (m.group == "sweep" && m.hasError)))
+            pts.push_back(&m);
+    return pts;
+}
+
+/// The Pareto front of `pts` on `error`, along increasing error (decreasing time): the staircase
+/// bounding what was reached, as "error frame_ms" lines.
+std::string paretoData(const std::vector<const Measurement*>& pts,
+                       double (*error)(const Measurement&), double errorScale) {
+    auto front = paretoFront(pts, error);
+    std::reverse(front.begin(), front.end());
+    std::string out;
+    for (std::size_t i : front)
+        out += sig(errorScale * error(*pts[i])) + " " + sig(pts[i]->frameMs()) + "\n";
+    return out;
+}
+
+/// The settings plots.gp starts from (its header says what each means).
+std::string plotSettings(const SuiteResults& r, const std::string& scene,
+                         const std::vector<std::string>& pngs) {
+    std::string modes, families, plots;
+    for (const BenchModeInfo& mode : kBenchModes)
+        modes += std::string(modes.empty() ? "" : " ") + mode.name;
+    std::set<std::string> seen;
+    for (const Measurement* m : speedErrorPoints(r, scene))
+        if (m->group != kModesGroup && seen.insert(m->family).second)
+            families += (families.empty() ? "" : " ") + gnuplotQuote(m->family);
+    for (const std::string& png : pngs)
+        plots += (plots.empty() ? "" : " ") + fs::path(png).stem().string();
+    return "scene = " + gnuplotQuote(scene) + "\nmodes = " + gnuplotQuote(modes) +
+           "\nfamilies = " + gnuplotDoubleQuote(families) + "\nplots = " + gnuplotQuote(plots) +
+           "\n\n";
+}
+
 PlotSet drawPlots(const SuiteResults& r, const fs::path& dir) {
     PlotSet out;
     if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
         out.note = "gnuplot was not found on PATH (install gnuplot-nox; tools/setup.sh does), so "
-                   "no plots were drawn; "
-                   "the tables and results.csv hold every number.";
+                   "no plots were drawn; the tables and results.csv hold every number.";
         return out;
     }
-    const std::string first = r.rows.empty() ? "" : r.rows.front().scene;
-    std::vector<std::pair<std::string, std::string>> files; // name, text
-    std::ostringstream gp;
-    gp << "set terminal pngcairo size 1400,620 font ',10' noenhanced\n"
-          "set grid\nset key outside right top\n";
-
-    // Speed against error: sweep points per family, the modes as single points, the Pareto front.
-    std::vector<const Measurement*> pts;
-    for (const Measurement& m : r.rows)
-        if (m.scene == first && (m.group == "modes" || (m.group == "sweep" && m.hasError)))
-            pts.push_back(&m);
-    if (!pts.empty()) {
-        static const char* kColors[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728",
-                                        "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
-                                        "#bcbd22", "#17becf", "#000000", "#aec7e8"};
-        std::map<std::string, std::vector<const Measurement*>> fam;
-        for (const Measurement* m : pts)
-            fam[m->group == "modes" ? "mode " + m->mode : m->family].push_back(m);
-        std::string plotsA, plotsB;
-        int k = 0;
-        for (auto& [name, list] : fam) {
-            std::sort(list.begin(), list.end(),
-                      [](auto* a, auto* b) { return a->param < b->param; });
-            std::ostringstream d;
-            for (const Measurement* m : list)
-                d << 100.0 * mismatchOf(*m) << " " << displacementOf(*m) << " " << m->totalMs
-                  << "\n";
-            const std::string file = "speed_error_" + std::to_string(k++) + ".dat";
-            files.push_back({file, d.str()});
-            const bool single = name.rfind("mode ", 0) == 0;
-            const std::string color = std::string(" lc rgb '") + kColors[(k - 1) % 12] + "'";
-            const std::string style =
-                (single
-                     ? "with points pt " + std::to_string(5 + 2 * (k % 4)) + " ps 2.2"
-                     : "with linespoints pt " + std::to_string(5 + 2 * (k % 4)) + " ps 1.1 lw 2") +
-                color;
-            plotsA += (plotsA.empty() ? "" : ", ") + std::string("'") + file + "' using 1:3 " +
-                      style + " title '" + name + "'";
-            plotsB += (plotsB.empty() ? "" : ", ") + std::string("'") + file + "' using 2:3 " +
-                      style + " title '" + name + "'";
-        }
-        for (int which = 0; which < 2; ++which) {
-            auto front = paretoFront(pts, which == 0 ? mismatchOf : displacementOf);
-            // Along increasing error (decreasing time), drawn as the staircase bounding what was
-            // reached.
-            std::reverse(front.begin(), front.end());
-            std::ostringstream d;
-            for (std::size_t i : front)
-                d << (which == 0 ? 100.0 * mismatchOf(*pts[i]) : displacementOf(*pts[i])) << " "
-                  << pts[i]->totalMs << "\n";
-            const std::string file = which == 0 ? "pareto_mismatch.dat" : "pareto_displacement.dat";
-            files.push_back({file, d.str()});
-            (which == 0 ? plotsA : plotsB) +=
-                ", '" + file +
-                "' using 1:2 with steps lw 3 lc rgb '#555555' dt 2 title 'Pareto front', '" + file +
-                "' using 1:2 with points pt 6 ps 2.6 lw 2 lc rgb '#000000' notitle";
-        }
-        gp << "set terminal pngcairo size 1400,760 font ',10' noenhanced\n"
-           << "set output 'speed_error.png'\nset multiplot layout 1,2 title '" << first
-           << ": frame ms against error (each point: median frame ms, mean over path frames)'\n"
-              "set logscale y\nset xlabel ''\nset title 'x: mean per-entity footprint mismatch "
-              "(%)'\n"
-              "set ylabel 'frame ms (log)'\n"
-              "set key outside bottom center horizontal maxrows 3 font ',9'\n"
-           << "plot " << plotsA << "\n"
-           << "set title 'x: worst silhouette displacement of a far entity drawn alone (virtual "
-              "pixels)'\n"
-           << "plot " << plotsB << "\nunset multiplot\nunset logscale\nunset title\n"
-           << "set terminal pngcairo size 1400,620 font ',10' noenhanced\nset key default\n";
-        out.pngs.push_back("speed_error.png");
-    }
-
-    // Scaling curves.
-    auto curve = [&](const std::string& group, const std::string& file, const std::string& xlabel,
-                     bool logx, const std::string& title) {
-        std::string plots, plotsTier, plotsUnit;
-        bool any = false;
-        for (int mi = 0; mi < 4; ++mi) {
-            std::vector<const Measurement*> list;
-            for (const Measurement& m : r.rows)
-                if (m.group == group && m.mode == kModes[mi]) list.push_back(&m);
-            if (list.empty()) continue;
-            any = true;
-            std::sort(list.begin(), list.end(),
-                      [](auto* a, auto* b) { return a->param < b->param; });
-            std::ostringstream d;
-            for (const Measurement* m : list)
-                d << m->param << " " << m->totalMs << " " << m->nearMs << " " << m->fragments << " "
-                  << m->blitMs << " " << m->blitPixels << " " << m->coldBakeMs << " "
-                  << m->voxelSteps << "\n";
-            const std::string dat = group + "_" + kModes[mi] + ".dat";
-            files.push_back({dat, d.str()});
-            plots += (plots.empty() ? "" : ", ") + std::string("'") + dat +
-                     "' using 1:2 with linespoints pt 7 lw 2 lc rgb '" + kModeColor[mi] +
-                     "' title '" + kModes[mi] + " frame'";
-            // Right panel: each tier's time against the work it does.
-            // Cost per unit of work: per shaded fragment (near), per footprint pixel (far blit).
-            if (std::string(kModes[mi]) == "near_vulkan" ||
-                std::string(kModes[mi]) == "near_reference")
-                plotsUnit += (plotsUnit.empty() ? "" : ", ") + std::string("'") + dat +
-                             "' using 1:($3*1e6/$4) with linespoints pt 7 lw 2 lc rgb '" +
-                             kModeColor[mi] + "' title '" + kModes[mi] +
-                             ": ns per shaded fragment'";
-            if (std::string(kModes[mi]) == "far")
-                plotsUnit += (plotsUnit.empty() ? "" : ", ") + std::string("'") + dat +
-                             "' using 1:($5*1e6/$6) with linespoints pt 5 lw 2 lc rgb '" +
-                             kModeColor[mi] + "' title 'far: ns per footprint pixel (blit)'";
-            if (std::string(kModes[mi]) == "near_vulkan" ||
-                std::string(kModes[mi]) == "near_reference")
-                plotsTier += (plotsTier.empty() ? "" : ", ") + std::string("'") + dat +
-                             "' using 4:3 with linespoints pt 7 lw 2 lc rgb '" + kModeColor[mi] +
-                             "' title '" + kModes[mi] + ": near ms vs shaded fragments'";
-            if (std::string(kModes[mi]) == "far") {
-                plotsTier += (plotsTier.empty() ? "" : ", ") + std::string("'") + dat +
-                             "' using 6:5 with linespoints pt 5 lw 2 lc rgb '" + kModeColor[mi] +
-                             "' title 'far: blit ms vs footprint pixels'";
-                if (group == "scaling_size")
-                    plots += ", '" + dat +
-                             "' using 1:7 with linespoints pt 4 dt 2 lw 1.5 lc rgb '" +
-                             kModeColor[mi] + "' title 'far: cold bakes ms (once)'";
-            }
-        }
-        if (!any) return;
-        gp << "set output '" << file << "'\nset multiplot layout 1,2 title '" << title << "'\n"
-           << (logx ? "set logscale x\n" : "set logscale x 2\n") << "set logscale y\nset xlabel '"
-           << xlabel
-           << "'\nset ylabel 'ms (log)'\nset key inside left top font ',8' box opaque\nplot "
-           << plots << "\n";
-        if (logx)
-            gp << "set logscale x\nset xlabel 'work per frame: shaded fragments (near) / footprint "
-                  "pixels (far blit)'\n"
-               << "set ylabel 'tier ms (log)'\nplot " << plotsTier << "\n";
-        else
-            gp << "set xlabel '" << xlabel << "'\nset ylabel 'ns per unit of work (log)'\nplot "
-               << plotsUnit << "\n";
-        gp << "unset multiplot\nunset logscale\n";
-        out.pngs.push_back(file);
-    };
-    curve("scaling_entities", "scaling_entities.png", "entities (log)", true,
-          first + ": frame ms against entity count, per mode (one frame, camera at t = 0)");
-    curve("scaling_size", "scaling_size.png",
-          "model side in voxels (side x side x side/2, same size in metres)", false,
-          first + ": frame ms against model size, per mode (one frame, camera at t = 0)");
-
-    for (const auto& [name, text] : files) writeFile(dir / name, text);
-    writeFile(dir / "plots.gp", gp.str());
+    const std::string scene = r.rows.empty() ? "" : r.rows.front().scene;
+    const auto pts = speedErrorPoints(r, scene);
+    if (!pts.empty()) out.pngs.push_back("speed_error.png");
+    for (const char* group : {"scaling_entities", "scaling_size"})
+        if (std::any_of(r.rows.begin(), r.rows.end(),
+                        [&](const Measurement& m) { return m.group == group; }))
+            out.pngs.push_back(std::string(group) + ".png");
+    writeFile(dir / "pareto_mismatch.dat", paretoData(pts, mismatchOf, 100.0));
+    writeFile(dir / "pareto_displacement.dat", paretoData(pts, displacementOf, 1.0));
+    writeFile(dir / "plots.gp", plotSettings(r, scene, out.pngs) + kBenchPlotsGp);
     const std::string cmd =
         "cd " + shellQuote(dir.string()) + " && gnuplot plots.gp > plots.log 2>&1";
     const int rc = std::system(cmd.c_str());
@@ -491,18 +379,32 @@ PlotSet drawPlots(const SuiteResults& r, const fs::path& dir) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// report.md
+// report.md: the template's context, every number formatted here.
 
 const Measurement* find(const SuiteResults& r, const std::string& group, const std::string& scene,
-                        const std::string& mode) {
+                        BenchMode mode) {
     for (const Measurement& m : r.rows)
         if (m.group == group && m.scene == scene && m.mode == mode) return &m;
     return nullptr;
 }
 
+std::vector<std::string> sceneNames(const SuiteResults& r) {
+    std::vector<std::string> out;
+    for (const Measurement& m : r.rows)
+        if (m.group == kModesGroup && std::find(out.begin(), out.end(), m.scene) == out.end())
+            out.push_back(m.scene);
+    return out;
+}
+
+double perFrame(const Measurement& m, FrameMember member) {
+    return m.figures.of(member);
+}
+
 std::string entitiesCell(const Measurement& m) {
-    std::string s = num(m.nearDrawn, 0) + " / " + num(m.farDrawn, 0);
-    if (m.fading >= 0.5) s += " (" + num(m.fading, 0) + " fading)";
+    std::string s = num(perFrame(m, &FrameStats::nearDrawn), 0) + " / " +
+                    num(perFrame(m, &FrameStats::farDrawn), 0);
+    const double fading = perFrame(m, &FrameStats::fading);
+    if (fading >= 0.5) s += " (" + num(fading, 0) + " fading)";
     return s;
 }
 
@@ -511,33 +413,280 @@ std::string overOne(const Measurement& m) {
                                   : "–";
 }
 
-/// mean mismatch (coverage only) | worst mismatch | worst far displacement | far entities over 1
-/// vpx | RMSE | PSNR
-std::string errorCells(const Measurement& m) {
-    if (!m.hasError) return "(truth) | | | | | ";
-    return pct(m.mismatchMean) + " (" + pct(m.coverageMismatchMean) + ") | " +
-           pct(m.mismatchWorst) + " | " + num(m.displacementWorstPx, 1) + " px (" +
-           num(m.displacementWorstCells, 2) + ") | " + overOne(m) + " | " + num(m.rmseMean, 4) +
-           " | " + num(m.psnrMin, 1);
-}
-const char* kErrorHeader =
-    "mean mismatch (coverage only) | worst mismatch | worst far displacement alone (virtual px) | "
-    "far entities displaced > 1 virtual px (per frame) | RMSE | min PSNR dB";
-const char* kErrorAlign = "---:|---:|---:|---:|---:|---:";
-
 std::string speedupCell(const Measurement& m) {
     return m.speedup > 0 ? num(m.speedup, 1) + "×" : "–";
 }
 
-void modesTable(std::ostringstream& md, const SuiteResults& r, const std::string& scene) {
-    md << "| mode | near / far entities | frame ms | worst frame ms | speed-up vs all-near "
-          "(Vulkan) | "
-       << kErrorHeader << " |\n|---|---|---:|---:|---:|" << kErrorAlign << "|\n";
-    for (const char* mode : kModes)
-        if (const Measurement* m = find(r, "modes", scene, mode))
-            md << "| " << mode << " | " << entitiesCell(*m) << " | " << num(m->totalMs) << " | "
-               << num(m->worstFrameMs) << " | " << speedupCell(*m) << " | " << errorCells(*m)
-               << " |\n";
+std::string nearShareCell(const Measurement& m) {
+    return m.baselineFragments > 0
+               ? pct(perFrame(m, &FrameStats::nearPixelsTested) / m.baselineFragments, 1)
+               : "–";
+}
+
+/// The error cells of a row, or false for the truth.
+json errorCells(const Measurement& m) {
+    if (!m.hasError) return false;
+    return {{"mismatch", pct(m.mismatchMean) + " (" + pct(m.coverageMismatchMean) + ")"},
+            {"worst", pct(m.mismatchWorst)},
+            {"displacement",
+             num(m.displacementWorstPx, 1) + " px (" + num(m.displacementWorstCells, 2) + ")"},
+            {"over_one", overOne(m)},
+            {"rmse", num(m.rmseMean, 4)},
+            {"psnr", num(m.psnrMin, 1)}};
+}
+
+/// One column of the goal table; `missing` fills every cell when there is no such setting.
+json goalColumn(const Measurement* m, const std::string& missing) {
+    if (!m)
+        return {{"setting", missing},
+                {"speedup", missing},
+                {"mismatch", missing},
+                {"displacement", missing},
+                {"near_share", missing}};
+    const std::string setting = m->mode == BenchMode::Far ? "all far"
+                                : m->setting.empty()      ? m->selector
+                                                          : m->setting;
+    return {{"setting", setting},
+            {"speedup", speedupCell(*m) + verdict(fastEnough(*m))},
+            {"mismatch", pct(m->mismatchMean) + " (" + pct(m->coverageMismatchMean) + ")" +
+                             verdict(closeEnough(*m))},
+            {"displacement", "worst " + num(m->displacementWorstCells, 2) + "; " + overOne(*m) +
+                                 " per frame" + verdict(steadyEnough(*m))},
+            {"near_share", nearShareCell(*m)}};
+}
+
+/// The first scene's hybrid against all-near, and the goal table: the hybrid as configured, the
+/// fastest error-selector setting within the error budget, the fastest measured setting.
+json headlineContext(const SuiteResults& r, const std::string& scene) {
+    const Measurement* hyb = find(r, kModesGroup, scene, BenchMode::Hybrid);
+    const Measurement* truth = find(r, kModesGroup, scene, BenchMode::NearVulkan);
+    if (!hyb || !truth) return false;
+    const Measurement* best = nullptr;
+    const Measurement* fastest = nullptr;
+    for (const Measurement& m : r.rows) {
+        if (m.scene != scene || (m.group != kModesGroup && m.group != "sweep") || !m.hasError ||
+            m.mode == BenchMode::NearReference)
+            continue;
+        if (m.mode == BenchMode::Hybrid && isErrorSelector(m) && closeEnough(m) &&
+            steadyEnough(m) && (!best || m.speedup > best->speedup))
+            best = &m;
+        if (!fastest || m.speedup > fastest->speedup) fastest = &m;
+    }
+    return {{"scene", scene},
+            {"selector", hyb->selector},
+            {"hybrid_ms", num(hyb->frameMs())},
+            {"all_near_ms", num(truth->frameMs())},
+            {"speedup", speedupCell(*hyb)},
+            {"near_entities", num(perFrame(*hyb, &FrameStats::nearDrawn), 0)},
+            {"far_entities", num(perFrame(*hyb, &FrameStats::farDrawn), 0)},
+            {"mismatch_mean", pct(hyb->mismatchMean)},
+            {"mismatch_worst", pct(hyb->mismatchWorst)},
+            {"displacement_px", num(hyb->displacementWorstPx, 1)},
+            {"displacement_vpx", num(hyb->displacementWorstCells, 2)},
+            {"goals",
+             {{"speedup", num(kGoals.minSpeedup, 0) + "×"},
+              {"mismatch", pct(kGoals.maxMeanMismatch, 0)}}},
+            {"goal_columns",
+             {goalColumn(hyb, "–"), goalColumn(best, "none measured"), goalColumn(fastest, "–")}}};
+}
+
+json modesContext(const SuiteResults& r) {
+    json scenes = json::array();
+    for (const std::string& scene : sceneNames(r)) {
+        json modes = json::array();
+        for (const BenchModeInfo& mode : kBenchModes)
+            if (const Measurement* m = find(r, kModesGroup, scene, mode.mode))
+                modes.push_back({{"mode", mode.name},
+                                 {"entities", entitiesCell(*m)},
+                                 {"frame_ms", num(m->frameMs())},
+                                 {"worst_frame_ms", num(m->worstFrameMs)},
+                                 {"speedup", speedupCell(*m)},
+                                 {"error", errorCells(*m)}});
+        const Measurement* ref = find(r, kModesGroup, scene, BenchMode::NearReference);
+        scenes.push_back(
+            {{"scene", scene},
+             {"modes", modes},
+             {"reference_differing", ref ? json(num(ref->differingPixels, 0)) : json(false)}});
+    }
+    return scenes;
+}
+
+/// The hybrid frame's steps per scene: the time-step figures, then the rest of frame_ms as
+/// "other".
+json timeSplitContext(const SuiteResults& r) {
+    json rows = json::array();
+    for (const std::string& scene : sceneNames(r)) {
+        const Measurement* h = find(r, kModesGroup, scene, BenchMode::Hybrid);
+        if (!h) continue;
+        json steps = json::array();
+        double other = h->frameMs();
+        for (std::size_t i = 0; i < kFrameFigureCount; ++i)
+            if (kFrameFigures[i].timeStep) {
+                steps.push_back(num(h->figures.values[i]));
+                other -= h->figures.values[i];
+            }
+        rows.push_back({{"scene", scene},
+                        {"steps", steps},
+                        {"other", num(other)},
+                        {"total", num(h->frameMs())}});
+    }
+    return rows;
+}
+
+json throughputContext(const SuiteResults& r) {
+    json rows = json::array();
+    for (const Measurement& m : r.rows) {
+        if (m.group != kModesGroup) continue;
+        auto rate = [](double v, const char* unit) { return v > 0 ? mega(v) + unit : "–"; };
+        rows.push_back(
+            {{"scene", m.scene},
+             {"mode", toString(m.mode)},
+             {"cold_bakes", num(m.coldBakes, 0)},
+             {"cold_bake_ms", num(m.coldBakeMs, 1)},
+             {"rays_per_s", rate(m.raysPerS, " M")},
+             {"voxel_steps_per_s", rate(m.voxelStepsPerS, " M")},
+             {"blit_mpx_per_s", rate(m.blitPixelsPerS, "")},
+             {"memcpy_mpx_per_s", rate(m.memcpyPixelsPerS, "")},
+             {"blit_over_memcpy",
+              m.memcpyPixelsPerS > 0 ? pct(m.blitPixelsPerS / m.memcpyPixelsPerS, 1) : "–"},
+             {"cache_mb", num(perFrame(m, &FrameStats::cacheBytes) / 1048576.0, 2)}});
+    }
+    return rows;
+}
+
+/// The sweep table of the first scene (its modes, then the sweep points), Pareto front marked.
+json sweepsContext(const SuiteResults& r, const std::string& scene, bool plotted) {
+    std::vector<const Measurement*> sweep;
+    for (const Measurement& m : r.rows)
+        if (m.group == "sweep" || (m.group == kModesGroup && m.scene == scene)) sweep.push_back(&m);
+    if (std::none_of(sweep.begin(), sweep.end(), [](auto* m) { return m->group == "sweep"; }))
+        return false;
+    std::set<const Measurement*> onFront;
+    for (std::size_t i : paretoFront(sweep, mismatchOf)) onFront.insert(sweep[i]);
+    const Measurement* hyb = find(r, kModesGroup, scene, BenchMode::Hybrid);
+    json rows = json::array();
+    for (const Measurement* m : sweep)
+        rows.push_back(
+            {{"family", m->group == kModesGroup ? "mode" : m->family},
+             {"setting", m->setting.empty() ? toString(m->mode) : m->setting},
+             {"entities", entitiesCell(*m)},
+             {"frame_ms", num(m->frameMs())},
+             {"speedup", speedupCell(*m)},
+             {"near_share", m->mode == BenchMode::NearReference ? "–" : nearShareCell(*m)},
+             {"error", errorCells(*m)},
+             {"pareto", onFront.count(m) ? "P" : ""}});
+    return {{"scene", scene},
+            {"selector", hyb ? hyb->selector : ""},
+            {"plot", plotted ? json("speed_error.png") : json(false)},
+            {"rows", rows}};
+}
+
+json scalingContext(const SuiteResults& r, const std::vector<std::string>& plots) {
+    struct Curve {
+        const char* group;
+        const char* title;
+        const char* what;
+    };
+    json out = json::array();
+    for (const Curve& c : {Curve{"scaling_entities", "Scaling: entity count", "entities"},
+                           Curve{"scaling_size", "Scaling: model size", "model"}}) {
+        json rows = json::array();
+        for (const Measurement& m : r.rows)
+            if (m.group == c.group)
+                rows.push_back(
+                    {{"setting", m.setting},
+                     {"mode", toString(m.mode)},
+                     {"entities", entitiesCell(m)},
+                     {"frame_ms", num(m.frameMs())},
+                     {"speedup", speedupCell(m)},
+                     {"near_ms", num(perFrame(m, &FrameStats::nearMs))},
+                     {"near_fragments", num(perFrame(m, &FrameStats::nearPixelsTested), 0)},
+                     {"voxel_steps", num(perFrame(m, &FrameStats::voxelFetches), 0)},
+                     {"blit_ms", num(perFrame(m, &FrameStats::blitMs))},
+                     {"blit_pixels", num(perFrame(m, &FrameStats::farPixelsTested), 0)},
+                     {"cold_bake_ms", num(m.coldBakeMs, 1)},
+                     {"error",
+                      m.hasError ? json({{"mismatch", pct(m.mismatchMean)}}) : json(false)}});
+        if (rows.empty()) continue;
+        const std::string png = std::string(c.group) + ".png";
+        const bool plotted = std::find(plots.begin(), plots.end(), png) != plots.end();
+        out.push_back({{"title", c.title},
+                       {"what", c.what},
+                       {"plot", plotted ? json(png) : json(false)},
+                       {"rows", rows}});
+    }
+    return out;
+}
+
+json reportContext(const SuiteResults& r, const PlotSet& plots) {
+    const Plan& p = r.plan;
+    const std::time_t now = std::time(nullptr);
+    char date[64];
+    std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
+    const std::string first = r.rows.empty() ? "" : r.rows.front().scene;
+    json timeSteps = json::array();
+    for (const FrameFigure& f : kFrameFigures)
+        if (f.timeStep) timeSteps.push_back(f.words());
+    const bool speedErrorPlot = std::count(plots.pngs.begin(), plots.pngs.end(), "speed_error.png");
+    return {{"preset", p.preset},
+            {"date", date},
+            {"wall_s", num(r.wallSeconds, 0)},
+            {"cpu", r.cpu},
+            {"threads", std::to_string(r.threads)},
+            {"vulkan_device", r.vulkanDevice},
+            {"warmup", std::to_string(p.warmup)},
+            {"repeats", std::to_string(p.repeats)},
+            {"path_frames", std::to_string(p.pathFrames)},
+            {"scaling_repeats", std::to_string(p.scalingRepeats)},
+            {"headline", headlineContext(r, first)},
+            {"scenes", modesContext(r)},
+            {"time_steps", timeSteps},
+            {"time_split", timeSplitContext(r)},
+            {"blit_bytes_per_pixel", num(kBlitBytesPerPixel, 0)},
+            {"memcpy_gbps", num(r.memcpyGBps, 1)},
+            {"throughput", throughputContext(r)},
+            {"sweeps", sweepsContext(r, first, speedErrorPlot)},
+            {"scaling", scalingContext(r, plots.pngs)},
+            {"plot_note", plots.note.empty() ? json(false) : json(plots.note)},
+            {"notes", r.notes},
+            {"plots", plots.pngs}};
+}
+
+kainjow::mustache::data mustacheData(const json& j) {
+    using kainjow::mustache::data;
+    switch (j.type()) {
+    case json::value_t::object: {
+        data d;
+        for (const auto& [key, value] : j.items()) d.set(key, mustacheData(value));
+        return d;
+    }
+    case json::value_t::array: {
+        data d(data::type::list);
+        for (const json& v : j) d.push_back(mustacheData(v));
+        return d;
+    }
+    case json::value_t::string:
+        return data(j.get<std::string>());
+    case json::value_t::boolean:
+        return data(j.get<bool>());
+    case json::value_t::null:
+        return data(false);
+    default:
+        return data(j.dump());
+    }
+}
+
+/// The report template filled with `context`, blank lines left by empty sections collapsed.
+std::string renderReport(const json& context) {
+    kainjow::mustache::mustache tmpl(kBenchReportTemplate);
+    if (!tmpl.is_valid())
+        throw std::logic_error("apps/bench/report.md.mustache: " + tmpl.error_message());
+    tmpl.set_custom_escape([](const std::string& s) { return s; }); // markdown, not HTML
+    const std::string text = tmpl.render(mustacheData(context));
+    if (!tmpl.is_valid())
+        throw std::logic_error("apps/bench/report.md.mustache: " + tmpl.error_message());
+    const std::string collapsed = std::regex_replace(text, std::regex("\n{3,}"), "\n\n");
+    return collapsed.substr(std::min(collapsed.find_first_not_of('\n'), collapsed.size()));
 }
 
 } // namespace
@@ -549,14 +698,15 @@ std::vector<std::size_t> paretoFront(const std::vector<const Measurement*>& rows
         bool dominated = false;
         for (std::size_t j = 0; j < rows.size() && !dominated; ++j) {
             if (i == j) continue;
-            const double ti = rows[i]->totalMs, tj = rows[j]->totalMs, ei = error(*rows[i]),
+            const double ti = rows[i]->frameMs(), tj = rows[j]->frameMs(), ei = error(*rows[i]),
                          ej = error(*rows[j]);
             dominated = tj <= ti && ej <= ei && (tj < ti || ej < ei);
         }
         if (!dominated) front.push_back(i);
     }
-    std::sort(front.begin(), front.end(),
-              [&](std::size_t a, std::size_t b) { return rows[a]->totalMs < rows[b]->totalMs; });
+    std::sort(front.begin(), front.end(), [&](std::size_t a, std::size_t b) {
+        return rows[a]->frameMs() < rows[b]->frameMs();
+    });
     return front;
 }
 
@@ -569,229 +719,7 @@ std::vector<std::string> writeReport(SuiteResults r, const std::string& dirName)
     writeFile(dir / "results.json", toJson(r, plots.pngs, plots.note).dump(1) + "\n");
     written.push_back((dir / "results.json").string());
     for (const std::string& p : plots.pngs) written.push_back((dir / p).string());
-    auto hasPlot = [&](const std::string& p) {
-        return std::find(plots.pngs.begin(), plots.pngs.end(), p) != plots.pngs.end();
-    };
-
-    std::ostringstream md;
-    const Plan& p = r.plan;
-    const std::time_t now = std::time(nullptr);
-    char date[64];
-    std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
-    md << "# voxtier bench (" << p.preset << ")\n\n"
-       << date << " · " << num(r.wallSeconds, 0) << " s · " << r.cpu << ", " << r.threads
-       << " hardware threads · Vulkan: " << r.vulkanDevice << "\n\n"
-       << "**How to read this.** Each configuration (a scene, a mode, selector settings) is drawn "
-          "by its own "
-          "renderer; the configurations of a scene run interleaved frame by frame in one process, "
-          "so ratios see the "
-          "same machine load. Per sampled path frame: "
-       << p.warmup << " warm-up pass (cold bakes, pipeline compiles), then " << p.repeats
-       << " timed passes; *frame ms* is the median over the passes, averaged over " << p.pathFrames
-       << " path frame(s) (scaling points: one frame, " << p.scalingRepeats
-       << " timed pass(es)). "
-          "**Ground truth** for every error is the all-near image of the same frame drawn by the "
-          "Vulkan near tier "
-          "(`near_vulkan`); the CPU reference (`near_reference`) draws the same image by contract, "
-          "and its "
-          "*differing pixels* column shows it did. *Mismatch* is the per-entity footprint mismatch "
-          "fraction "
-          "(pixels owned by the entity in only one image, or with a different colour, over the "
-          "union), averaged over "
-          "the entities drawn (what the viewer sees, occlusion included); *displacement* is the "
-          "far tier's own "
-          "silhouette error: every entity the far tier drew is drawn alone by both tiers (CPU "
-          "reference for the near "
-          "side, identical to Vulkan by contract) and the largest distance from a pixel of one "
-          "silhouette to the other "
-          "silhouette is taken, in screen pixels and in virtual pixels (÷ the on-screen size of "
-          "one lattice cell, at "
-          "least 1 px). The machine is shared: read the ratios, not the last digit.\n\n";
-
-    // The headline: the first scene's hybrid against all-near.
-    const std::string first = r.rows.empty() ? "" : r.rows.front().scene;
-    const Measurement* hyb = find(r, "modes", first, "hybrid");
-    const Measurement* nvk = find(r, "modes", first, "near_vulkan");
-    if (hyb && nvk) {
-        md << "## " << first << ": hybrid against all-near\n\n"
-           << "Hybrid (" << hyb->selector << "): **" << num(hyb->totalMs) << " ms** against **"
-           << num(nvk->totalMs) << " ms** all-near on Vulkan: **" << speedupCell(*hyb)
-           << "**, with " << num(hyb->nearDrawn, 0) << " near and " << num(hyb->farDrawn, 0)
-           << " far entities; error " << pct(hyb->mismatchMean) << " mean / "
-           << pct(hyb->mismatchWorst)
-           << " worst footprint mismatch, worst far silhouette displacement "
-           << num(hyb->displacementWorstPx, 1) << " px (" << num(hyb->displacementWorstCells, 2)
-           << " virtual px).\n\n";
-        // The goal of issue 7, the best measured error-selector setting that keeps the error
-        // budget, and the fastest measured setting with what it costs.
-        const Measurement* best = nullptr;
-        const Measurement* fastest = nullptr;
-        for (const Measurement& m : r.rows) {
-            if (m.scene != first || (m.group != "modes" && m.group != "sweep") || !m.hasError ||
-                m.mode == "near_reference")
-                continue;
-            if (m.mode == "hybrid" && isErrorSelector(m) && m.mismatchMean <= 0.02 &&
-                m.farOverOneCell == 0 && (!best || m.speedup > best->speedup))
-                best = &m;
-            if (!fastest || m.speedup > fastest->speedup) fastest = &m;
-        }
-        md << "| goal | hybrid as configured | best error-selector setting within the error budget "
-              "| fastest measured "
-              "setting |\n|---|---|---|---|\n";
-        auto row = [&](const char* goal, std::function<std::string(const Measurement&)> f) {
-            md << "| " << goal << " | " << f(*hyb) << " | " << (best ? f(*best) : "none measured")
-               << " | " << (fastest ? f(*fastest) : "–") << " |\n";
-        };
-        row("setting", [](const Measurement& m) {
-            return m.mode == "far"     ? std::string("all far")
-                   : m.setting.empty() ? m.selector
-                                       : m.setting;
-        });
-        row("speed-up ≥ 10×",
-            [](const Measurement& m) { return speedupCell(m) + (m.speedup >= 10 ? " ✓" : " ✗"); });
-        row("mean footprint mismatch ≤ 2 % (coverage only)", [](const Measurement& m) {
-            return pct(m.mismatchMean) + " (" + pct(m.coverageMismatchMean) + ")" +
-                   (m.mismatchMean <= 0.02 ? " ✓" : " ✗");
-        });
-        row("no far entity displaced > 1 virtual px", [](const Measurement& m) {
-            return "worst " + num(m.displacementWorstCells, 2) + "; " + overOne(m) + " per frame" +
-                   (m.farOverOneCell == 0 ? " ✓" : " ✗");
-        });
-        row("near fragment share", [](const Measurement& m) {
-            return m.baselineFragments > 0 ? pct(m.fragments / m.baselineFragments, 1)
-                                           : std::string("–");
-        });
-        md << "\n*Near fragment share*: fragments the hybrid frame still shades on Vulkan over "
-              "those of the all-near "
-              "frame. Near costs per shaded fragment, so 1 / share bounds the speed-up whatever "
-              "the far tier costs.\n\n";
-    }
-
-    md << "## Modes, per scene\n\n";
-    std::set<std::string> seen;
-    for (const Measurement& m : r.rows) {
-        if (m.group != "modes" || !seen.insert(m.scene).second) continue;
-        md << "### " << m.scene << "\n\n";
-        modesTable(md, r, m.scene);
-        if (const Measurement* ref = find(r, "modes", m.scene, "near_reference"))
-            md << "\nnear_reference against near_vulkan: " << num(ref->differingPixels, 0)
-               << " differing pixels per frame (colour, depth or id).\n";
-        md << "\n";
-    }
-
-    md << "## Where the time goes: one hybrid frame\n\n"
-          "The hybrid frame's steps (FrameStats, medians, mean over the path frames). *near draw* "
-          "is record + submit + "
-          "wait of the one instanced Vulkan draw; *near readback* copies the colour, id and depth "
-          "targets to host memory; "
-          "*far lookup + bake* finds every snapshot the far sprites need (warm cache: no "
-          "bakes).\n\n"
-          "| scene | setup | select | near upload | near draw | near readback | far lookup + bake "
-          "| far blit | other | total |\n"
-          "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
-    for (const std::string& scene : seen)
-        if (const Measurement* h = find(r, "modes", scene, "hybrid")) {
-            const double other = h->totalMs - h->setupMs - h->selectMs - h->nearMs - h->farMs;
-            const double nearOther =
-                h->nearMs - h->nearUploadMs - h->nearDrawMs - h->nearReadbackMs;
-            md << "| " << scene << " | " << num(h->setupMs) << " | " << num(h->selectMs) << " | "
-               << num(h->nearUploadMs) << " | " << num(h->nearDrawMs) << " | "
-               << num(h->nearReadbackMs) << " | " << num(h->bakeMs) << " | " << num(h->blitMs)
-               << " | " << num(other + nearOther) << " | " << num(h->totalMs) << " |\n";
-        }
-    md << "\n";
-
-    md << "## Throughput\n\n"
-          "*rays/s*: Embree rays of the cold bakes (first warm-up pass) over their wall time; "
-          "*voxel steps/s*: DDA voxel "
-          "reads of the near kernel over the near draw time (Vulkan: counted by the step-counting "
-          "shader in an extra, "
-          "untimed frame; reference: counted in every frame); *blit px/s*: footprint pixels the "
-          "blit evaluated over the "
-          "blit time, next to a `memcpy` of the same bytes ("
-       << num(12, 0)
-       << " B per pixel: colour, depth, id) split "
-          "over the TBB workers like the blit and timed in the same run — the bandwidth limit. "
-          "Large-block memcpy: "
-       << num(r.memcpyGBps, 1)
-       << " GB/s.\n\n"
-          "| scene | mode | cold bakes | cold bake ms | rays/s | voxel steps/s | blit Mpx/s | "
-          "memcpy Mpx/s | blit / memcpy | cache MB |\n"
-          "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
-    for (const Measurement& m : r.rows) {
-        if (m.group != "modes") continue;
-        md << "| " << m.scene << " | " << m.mode << " | " << num(m.coldBakes, 0) << " | "
-           << num(m.coldBakeMs, 1) << " | " << (m.raysPerS > 0 ? mega(m.raysPerS) + " M" : "–")
-           << " | " << (m.voxelStepsPerS > 0 ? mega(m.voxelStepsPerS) + " M" : "–") << " | "
-           << (m.blitPixelsPerS > 0 ? mega(m.blitPixelsPerS) : "–") << " | "
-           << (m.memcpyPixelsPerS > 0 ? mega(m.memcpyPixelsPerS) : "–") << " | "
-           << (m.memcpyPixelsPerS > 0 ? pct(m.blitPixelsPerS / m.memcpyPixelsPerS, 1) : "–")
-           << " | " << num(m.cacheBytes / 1048576.0, 2) << " |\n";
-    }
-    md << "\n";
-
-    // Sweeps.
-    std::vector<const Measurement*> sweep;
-    for (const Measurement& m : r.rows)
-        if (m.group == "sweep" || (m.group == "modes" && m.scene == first)) sweep.push_back(&m);
-    if (std::any_of(sweep.begin(), sweep.end(), [](auto* m) { return m->group == "sweep"; })) {
-        const auto front = paretoFront(sweep, mismatchOf);
-        std::set<const Measurement*> onFront;
-        for (std::size_t i : front) onFront.insert(sweep[i]);
-        md << "## Speed against error: sweeps on " << first << "\n\n"
-           << "One change at a time from the scene's selector (" << (hyb ? hyb->selector : "")
-           << "), hybrid mode, same "
-              "path frames as above; *P* marks the Pareto front (no other configuration is both "
-              "faster and closer to the "
-              "truth on mean mismatch). Speed-ups are against all-near on Vulkan at the same "
-              "sigma, measured in the same run.\n\n";
-        if (hasPlot("speed_error.png")) md << "![frame ms against error](speed_error.png)\n\n";
-        md << "| family | setting | near / far | frame ms | speed-up | near fragment share | "
-           << kErrorHeader << " | P |\n|---|---|---|---:|---:|---:|" << kErrorAlign << "|---|\n";
-        for (const Measurement* m : sweep)
-            md << "| " << (m->group == "modes" ? "mode" : m->family) << " | "
-               << (m->setting.empty() ? m->mode : m->setting) << " | " << entitiesCell(*m) << " | "
-               << num(m->totalMs) << " | " << speedupCell(*m) << " | "
-               << (m->baselineFragments > 0 && m->mode != "near_reference"
-                       ? pct(m->fragments / m->baselineFragments, 1)
-                       : "–")
-               << " | " << errorCells(*m) << " | " << (onFront.count(m) ? "P" : "") << " |\n";
-        md << "\n";
-    }
-
-    // Scaling.
-    auto scalingTable = [&](const std::string& group, const std::string& title,
-                            const std::string& png, const char* what) {
-        std::vector<const Measurement*> rows;
-        for (const Measurement& m : r.rows)
-            if (m.group == group) rows.push_back(&m);
-        if (rows.empty()) return;
-        md << "## " << title << "\n\n";
-        if (hasPlot(png)) md << "![" << title << "](" << png << ")\n\n";
-        md << "| " << what
-           << " | mode | near / far | frame ms | speed-up | near ms | near fragments | voxel steps "
-              "| far blit ms "
-              "| footprint px | cold bake ms | mean mismatch "
-              "|\n|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
-        for (const Measurement* m : rows)
-            md << "| " << m->setting << " | " << m->mode << " | " << entitiesCell(*m) << " | "
-               << num(m->totalMs) << " | " << speedupCell(*m) << " | " << num(m->nearMs) << " | "
-               << num(m->fragments, 0) << " | " << num(m->voxelSteps, 0) << " | " << num(m->blitMs)
-               << " | " << num(m->blitPixels, 0) << " | " << num(m->coldBakeMs, 1) << " | "
-               << (m->hasError ? pct(m->mismatchMean) : "(truth)") << " |\n";
-        md << "\n";
-    };
-    scalingTable("scaling_entities", "Scaling: entity count", "scaling_entities.png", "entities");
-    scalingTable("scaling_size", "Scaling: model size", "scaling_size.png", "model");
-
-    md << "## Notes\n\n";
-    if (!plots.note.empty()) md << "- Plots: " << plots.note << "\n";
-    for (const std::string& n : r.notes) md << "- " << n << "\n";
-    md << "- Files: `results.csv` (one row per configuration), `results.json` (the same with "
-          "per-frame detail)";
-    for (const std::string& png : plots.pngs) md << ", `" << png << "`";
-    md << ".\n";
-    writeFile(dir / "report.md", md.str());
+    writeFile(dir / "report.md", renderReport(reportContext(r, plots)));
     written.push_back((dir / "report.md").string());
     return written;
 }

@@ -16,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -78,8 +79,7 @@ class Progress {
 
 struct Config {
     std::string name; ///< for the progress line and the "truth" column
-    std::string mode; ///< near_vulkan, near_reference, far, hybrid
-    RenderMode renderMode = RenderMode::Near;
+    BenchMode mode = BenchMode::NearVulkan;
     bool isTruth = false;
     int truth = -1; ///< index (in the set) of the all-near image the errors are measured against
     Scene scene;    ///< this configuration's copy (the FrameRenderer keeps a reference to it)
@@ -118,22 +118,18 @@ std::string selectorSummary(const Scene& s) {
            (c.viewHysteresisDeg > 0 ? ", view hysteresis " + fmt(c.viewHysteresisDeg) : "");
 }
 
-/// Adds a configuration; the truth of a near_vulkan configuration is itself.
-int addConfig(Set& set, const Scene& scene, const std::string& mode, const std::string& name) {
+/// Adds a configuration; the truth of a truth configuration is itself.
+int addConfig(Set& set, const Scene& scene, BenchMode mode, const std::string& name) {
     auto c = std::make_unique<Config>();
     c->name = name;
     c->mode = mode;
     c->scene = scene;
-    c->renderMode = mode == "near_vulkan"      ? RenderMode::Near
-                    : mode == "near_reference" ? RenderMode::Reference
-                    : mode == "far"            ? RenderMode::Far
-                                               : RenderMode::Hybrid;
-    c->isTruth = mode == "near_vulkan";
+    c->isTruth = info(mode).isTruth;
     set.configs.push_back(std::move(c));
     return int(set.configs.size()) - 1;
 }
 
-Measurement label(const std::string& group, const std::string& scene, const std::string& mode,
+Measurement label(const std::string& group, const std::string& scene, BenchMode mode,
                   const std::string& family = "", const std::string& setting = "",
                   double param = 0.0) {
     Measurement m;
@@ -144,14 +140,6 @@ Measurement label(const std::string& group, const std::string& scene, const std:
     m.setting = setting;
     m.param = param;
     return m;
-}
-
-/// The four modes of one scene, truth first. Returns the indices near_vulkan, reference, far,
-/// hybrid.
-std::array<int, 4> addModes(Set& set, const Scene& scene) {
-    return {addConfig(set, scene, "near_vulkan", "near_vulkan"),
-            addConfig(set, scene, "near_reference", "near_reference"),
-            addConfig(set, scene, "far", "far"), addConfig(set, scene, "hybrid", "hybrid")};
 }
 
 void linkTruths(Set& set) {
@@ -282,51 +270,13 @@ double memcpyMs(std::size_t bytes) {
     return median(ms);
 }
 
-/// Bytes per blitted pixel the memcpy reference copies: the target's colour, depth and id.
-constexpr double kBlitBytesPerPixel = 12.0;
-
-FrameStats medianStats(const std::vector<FrameStats>& v) {
-    auto med = [&](auto get) {
-        std::vector<double> x;
-        for (const FrameStats& s : v) x.push_back(double(get(s)));
-        return median(x);
-    };
-    FrameStats m;
-    m.entities = int(med([](const FrameStats& s) { return s.entities; }));
-    m.culled = int(med([](const FrameStats& s) { return s.culled; }));
-    m.nearDrawn = int(med([](const FrameStats& s) { return s.nearDrawn; }));
-    m.farDrawn = int(med([](const FrameStats& s) { return s.farDrawn; }));
-    m.fading = int(med([](const FrameStats& s) { return s.fading; }));
-    m.switchesToFar = int(med([](const FrameStats& s) { return s.switchesToFar; }));
-    m.switchesToNear = int(med([](const FrameStats& s) { return s.switchesToNear; }));
-    m.viewChanges = int(med([](const FrameStats& s) { return s.viewChanges; }));
-    m.farBakes = int(med([](const FrameStats& s) { return s.farBakes; }));
-    m.cacheBytes = std::size_t(med([](const FrameStats& s) { return s.cacheBytes; }));
-    m.setupMs = med([](const FrameStats& s) { return s.setupMs; });
-    m.selectMs = med([](const FrameStats& s) { return s.selectMs; });
-    m.nearMs = med([](const FrameStats& s) { return s.nearMs; });
-    m.farMs = med([](const FrameStats& s) { return s.farMs; });
-    m.bakeMs = med([](const FrameStats& s) { return s.bakeMs; });
-    m.totalMs = med([](const FrameStats& s) { return s.totalMs; });
-    m.nearUploadMs = med([](const FrameStats& s) { return s.nearUploadMs; });
-    m.nearDrawMs = med([](const FrameStats& s) { return s.nearDrawMs; });
-    m.nearReadbackMs = med([](const FrameStats& s) { return s.nearReadbackMs; });
-    m.blitMs = med([](const FrameStats& s) { return s.blitMs; });
-    m.nearPixelsTested = std::uint64_t(med([](const FrameStats& s) { return s.nearPixelsTested; }));
-    m.farPixelsTested = std::uint64_t(med([](const FrameStats& s) { return s.farPixelsTested; }));
-    m.voxelFetches = std::uint64_t(med([](const FrameStats& s) { return s.voxelFetches; }));
-    m.farPixelsWritten = std::uint64_t(med([](const FrameStats& s) { return s.farPixelsWritten; }));
-    m.raysTraced = std::uint64_t(med([](const FrameStats& s) { return s.raysTraced; }));
-    return m;
-}
-
 void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& near,
             Progress& progress) {
     const std::size_t F = set.frames.size();
     for (auto& c : set.configs) {
         FrameOptions o;
         o.sharedNear = near;
-        o.nearBackend = c->mode == "hybrid" ? NearBackend::Vulkan : NearBackend::Reference;
+        o.nearBackend = info(c->mode).nearBackend;
         c->renderer = std::make_unique<FrameRenderer>(c->scene, o);
         c->samples.assign(F, {});
         c->errors.assign(F, {});
@@ -357,7 +307,8 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
                               (timed ? ", pass " + std::to_string(pass - plan.warmup + 1) + "/" +
                                            std::to_string(set.repeats)
                                      : ", warm-up"));
-                FrameResult r = c.renderer->render(set.times[fi], c.renderMode, set.frames[fi]);
+                FrameResult r =
+                    c.renderer->render(set.times[fi], info(c.mode).renderMode, set.frames[fi]);
                 if (pass == 0) {
                     if (fi == 0) c.coldFirstMs = r.stats.totalMs;
                     c.cold.farBakes += r.stats.farBakes;
@@ -385,11 +336,12 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
     }
     // Voxel reads of the Vulkan near tier: one more, untimed frame with the counting shader.
     for (auto& c : set.configs) {
-        if (c->mode != "near_vulkan") continue;
+        if (!info(c->mode).countsStepsApart) continue;
         c->renderer->options().nearCountSteps = true;
         for (std::size_t fi = 0; fi < F; ++fi) {
             progress.step(set.label + ": " + c->name + ", counting voxel steps");
-            const FrameResult r = c->renderer->render(set.times[fi], c->renderMode, set.frames[fi]);
+            const FrameResult r =
+                c->renderer->render(set.times[fi], info(c->mode).renderMode, set.frames[fi]);
             c->countedSteps[fi] = r.stats.voxelFetches;
             c->countedFragments[fi] = r.stats.nearKernelFragments;
         }
@@ -397,15 +349,74 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
     }
 }
 
-/// Mean over the frames of the per-frame median frame time.
-double pathMeanMs(const Config& c) {
-    double sum = 0.0;
-    for (const auto& passes : c.samples) {
-        std::vector<double> ms;
-        for (const FrameStats& s : passes) ms.push_back(s.totalMs);
-        sum += median(ms);
+/// Each sampled frame's figures: the medians over the timed passes, with the voxel reads of
+/// the counting frame where the mode counts them apart.
+std::vector<FrameStats> frameMedians(const Config& c) {
+    std::vector<FrameStats> out;
+    for (std::size_t fi = 0; fi < c.samples.size(); ++fi) {
+        FrameStats s = medianOf(c.samples[fi]);
+        if (info(c.mode).countsStepsApart) {
+            s.voxelFetches = c.countedSteps[fi];
+            s.nearKernelFragments = c.countedFragments[fi];
+        }
+        out.push_back(s);
     }
-    return c.samples.empty() ? 0.0 : sum / double(c.samples.size());
+    return out;
+}
+
+/// Voxel steps, blit pixels and memcpy pixels per second, from the path's figures.
+void addThroughput(Measurement& m) {
+    const PathFigures& f = m.figures;
+    const double steps = f.of(&FrameStats::voxelFetches);
+    const double stepMs =
+        f.of(info(m.mode).countsStepsApart ? &FrameStats::nearDrawMs : &FrameStats::nearMs);
+    if (stepMs > 0 && steps > 0) m.voxelStepsPerS = steps / stepMs * 1e3;
+    const double blitPx = f.of(&FrameStats::farPixelsTested), blitMs = f.of(&FrameStats::blitMs);
+    if (blitMs > 0 && blitPx > 0) {
+        m.blitPixelsPerS = blitPx / blitMs * 1e3;
+        const double ms = memcpyMs(std::size_t(blitPx * kBlitBytesPerPixel));
+        if (ms > 0) m.memcpyPixelsPerS = blitPx / ms * 1e3;
+    }
+}
+
+/// The errors of the frames (FrameRow::error) as means and worsts over the path.
+void addErrors(Measurement& m) {
+    double psnrMin = std::numeric_limits<double>::infinity();
+    int errorFrames = 0, farFrames = 0;
+    for (const FrameRow& fr : m.frames) {
+        if (!fr.hasError) continue;
+        const FrameErrorReport& e = fr.error;
+        ++errorFrames;
+        m.mismatchMean += e.all.meanMismatch;
+        m.coverageMismatchMean += e.all.meanCoverageMismatch;
+        m.farAloneEntities += double(e.farIsolated.entities);
+        m.farOverOneCell += double(e.farIsolated.overOneCell);
+        m.mismatchWorst = std::max(m.mismatchWorst, e.all.worstMismatch);
+        if (e.far.entities) {
+            ++farFrames;
+            m.farMismatchMean += e.far.meanMismatch;
+            m.farIsolatedMismatchMean += e.farIsolated.meanMismatch;
+        }
+        m.farVisibleDisplacementWorstPx =
+            std::max(m.farVisibleDisplacementWorstPx, e.far.worstDisplacementPx);
+        m.displacementWorstPx = std::max(m.displacementWorstPx, e.farIsolated.worstDisplacementPx);
+        m.displacementWorstCells =
+            std::max(m.displacementWorstCells, e.farIsolated.worstDisplacementCells);
+        m.rmseMean += e.rmse;
+        psnrMin = std::min(psnrMin, e.psnr);
+        m.differingPixels += double(e.differingPixels);
+        m.missing += e.all.missing;
+    }
+    if (!errorFrames) return;
+    m.hasError = true;
+    m.mismatchMean /= errorFrames;
+    m.coverageMismatchMean /= errorFrames;
+    m.farAloneEntities /= errorFrames;
+    m.farOverOneCell /= errorFrames;
+    m.rmseMean /= errorFrames;
+    m.differingPixels /= errorFrames;
+    m.psnrMin = psnrMin;
+    if (farFrames) m.farMismatchMean /= farFrames, m.farIsolatedMismatchMean /= farFrames;
 }
 
 Measurement aggregate(const Set& set, const Row& row) {
@@ -414,102 +425,32 @@ Measurement aggregate(const Set& set, const Row& row) {
     const Config* truth = c.isTruth      ? &c
                           : c.truth >= 0 ? set.configs[std::size_t(c.truth)].get()
                                          : nullptr;
-    if (truth) {
-        m.baselineMs = pathMeanMs(*truth);
-        for (const auto& passes : truth->samples)
-            m.baselineFragments +=
-                medianStats(passes).nearPixelsTested / double(truth->samples.size());
-    }
     m.selector = selectorSummary(c.scene);
     m.truth = c.isTruth ? "itself" : c.truth >= 0 ? set.configs[std::size_t(c.truth)]->name : "";
-    const std::size_t F = set.frames.size();
-    double steps = 0, stepMs = 0, blitPx = 0, blitMs = 0,
-           psnrMin = std::numeric_limits<double>::infinity();
-    int errorFrames = 0, farFrames = 0;
-    for (std::size_t fi = 0; fi < F; ++fi) {
+    const std::vector<FrameStats> medians = frameMedians(c);
+    for (std::size_t fi = 0; fi < medians.size(); ++fi) {
         FrameRow fr;
         fr.frame = set.frames[fi];
         fr.time = set.times[fi];
-        fr.median = medianStats(c.samples[fi]);
+        fr.median = medians[fi];
         fr.minMs = 1e300;
         for (const FrameStats& s : c.samples[fi])
             fr.minMs = std::min(fr.minMs, s.totalMs), fr.maxMs = std::max(fr.maxMs, s.totalMs);
         fr.hasError = c.hasError[fi];
         fr.error = c.errors[fi];
-        fr.countedSteps = c.countedSteps[fi];
-        fr.countedFragments = c.countedFragments[fi];
-        const FrameStats& s = fr.median;
-        const double n = double(F);
-        m.totalMs += s.totalMs / n;
-        m.worstFrameMs = std::max(m.worstFrameMs, s.totalMs);
-        m.setupMs += s.setupMs / n;
-        m.selectMs += s.selectMs / n;
-        m.nearMs += s.nearMs / n;
-        m.nearUploadMs += s.nearUploadMs / n;
-        m.nearDrawMs += s.nearDrawMs / n;
-        m.nearReadbackMs += s.nearReadbackMs / n;
-        m.farMs += s.farMs / n;
-        m.bakeMs += s.bakeMs / n;
-        m.blitMs += s.blitMs / n;
-        m.entities += s.entities / n;
-        m.visible += (s.entities - s.culled) / n;
-        m.nearDrawn += s.nearDrawn / n;
-        m.farDrawn += s.farDrawn / n;
-        m.fading += s.fading / n;
-        m.fragments += double(s.nearPixelsTested) / n;
-        const double frameSteps =
-            c.mode == "near_vulkan" ? double(fr.countedSteps) : double(s.voxelFetches);
-        m.voxelSteps += frameSteps / n;
-        steps += frameSteps;
-        stepMs += c.mode == "near_vulkan" ? s.nearDrawMs : s.nearMs;
-        m.blitPixels += double(s.farPixelsTested) / n;
-        blitPx += double(s.farPixelsTested);
-        blitMs += s.blitMs;
-        m.cacheBytes = std::max(m.cacheBytes, double(s.cacheBytes));
-        if (fr.hasError) {
-            const FrameErrorReport& e = fr.error;
-            ++errorFrames;
-            m.mismatchMean += e.all.meanMismatch;
-            m.coverageMismatchMean += e.all.meanCoverageMismatch;
-            m.farAloneEntities += double(e.farIsolated.entities);
-            m.farOverOneCell += double(e.farIsolated.overOneCell);
-            m.mismatchWorst = std::max(m.mismatchWorst, e.all.worstMismatch);
-            if (e.far.entities) {
-                ++farFrames;
-                m.farMismatchMean += e.far.meanMismatch;
-                m.farIsolatedMismatchMean += e.farIsolated.meanMismatch;
-            }
-            m.farVisibleDisplacementWorstPx =
-                std::max(m.farVisibleDisplacementWorstPx, e.far.worstDisplacementPx);
-            m.displacementWorstPx =
-                std::max(m.displacementWorstPx, e.farIsolated.worstDisplacementPx);
-            m.displacementWorstCells =
-                std::max(m.displacementWorstCells, e.farIsolated.worstDisplacementCells);
-            m.rmseMean += e.rmse;
-            psnrMin = std::min(psnrMin, e.psnr);
-            m.differingPixels += double(e.differingPixels);
-            m.missing += e.all.missing;
-        }
+        m.worstFrameMs = std::max(m.worstFrameMs, fr.median.totalMs);
         m.frames.push_back(fr);
     }
-    if (stepMs > 0 && steps > 0) m.voxelStepsPerS = steps / stepMs * 1e3;
-    if (blitMs > 0 && blitPx > 0) {
-        m.blitPixelsPerS = blitPx / blitMs * 1e3;
-        const double ms = memcpyMs(std::size_t(m.blitPixels * kBlitBytesPerPixel));
-        if (ms > 0) m.memcpyPixelsPerS = m.blitPixels / ms * 1e3;
+    m.figures = acrossFrames(medians);
+    m.visible = m.figures.of(&FrameStats::entities) - m.figures.of(&FrameStats::culled);
+    if (truth) {
+        const PathFigures t = acrossFrames(frameMedians(*truth));
+        m.baselineMs = t.of(&FrameStats::totalMs);
+        m.baselineFragments = t.of(&FrameStats::nearPixelsTested);
     }
-    if (errorFrames) {
-        m.hasError = true;
-        m.mismatchMean /= errorFrames;
-        m.coverageMismatchMean /= errorFrames;
-        m.farAloneEntities /= errorFrames;
-        m.farOverOneCell /= errorFrames;
-        m.rmseMean /= errorFrames;
-        m.differingPixels /= errorFrames;
-        m.psnrMin = psnrMin;
-        if (farFrames) m.farMismatchMean /= farFrames, m.farIsolatedMismatchMean /= farFrames;
-    }
-    if (m.totalMs > 0 && m.baselineMs > 0) m.speedup = m.baselineMs / m.totalMs;
+    if (m.frameMs() > 0 && m.baselineMs > 0) m.speedup = m.baselineMs / m.frameMs();
+    addThroughput(m);
+    addErrors(m);
     m.coldMs = c.coldFirstMs;
     m.coldBakeMs = c.cold.bakeMs;
     m.coldBakes = c.cold.farBakes;
@@ -573,7 +514,7 @@ std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
     return pts;
 }
 
-/// A scene's set: the four modes and, for the first scene, every sweep point (hybrid). The
+/// A scene's set: every mode and, for the first scene, every sweep point (hybrid). The
 /// truths (all near on Vulkan, one per sigma in use) come first and are shared.
 Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps,
              std::vector<std::string>& notes) {
@@ -590,41 +531,47 @@ Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps,
     const std::vector<SweepPoint> pts =
         withSweeps ? sweepPoints(plan, base) : std::vector<SweepPoint>{};
 
-    const int truth0 = addConfig(set, base, "near_vulkan", "near_vulkan");
-    set.rows.push_back({truth0, label("modes", name, "near_vulkan")});
-    std::map<double, int> truthBySigma{{base.render.sigma, truth0}};
+    std::map<BenchMode, int> byMode;
+    auto addModes = [&](bool truths) {
+        for (const BenchModeInfo& mode : kBenchModes)
+            if (mode.isTruth == truths) {
+                byMode[mode.mode] = addConfig(set, base, mode.mode, mode.name);
+                set.rows.push_back({byMode[mode.mode], label("modes", name, mode.mode)});
+            }
+    };
+    addModes(/*truths=*/true);
+    // The sweeps change sigma: the truths of the other sigmas, all near on Vulkan too.
+    std::map<double, int> truthBySigma{{base.render.sigma, byMode.at(BenchMode::NearVulkan)}};
     for (const SweepPoint& p : pts) {
         if (truthBySigma.count(p.sigma)) continue;
         Scene sc = base;
         sc.render.sigma = p.sigma;
-        const int t = addConfig(set, sc, "near_vulkan", "near_vulkan sigma=" + fmt(p.sigma));
+        const int t =
+            addConfig(set, sc, BenchMode::NearVulkan, "near_vulkan sigma=" + fmt(p.sigma));
         truthBySigma[p.sigma] = t;
-        set.rows.push_back({t, label("sweep", name, "near_vulkan", "sigma (all near)",
+        set.rows.push_back({t, label("sweep", name, BenchMode::NearVulkan, "sigma (all near)",
                                      "all near, sigma=" + fmt(p.sigma), p.sigma)});
     }
-    set.rows.push_back({addConfig(set, base, "near_reference", "near_reference"),
-                        label("modes", name, "near_reference")});
-    set.rows.push_back({addConfig(set, base, "far", "far"), label("modes", name, "far")});
-    const int hybrid = addConfig(set, base, "hybrid", "hybrid");
-    set.rows.push_back({hybrid, label("modes", name, "hybrid")});
+    addModes(/*truths=*/false);
 
-    std::map<std::string, int> byKey{{configKey(base.selector, base.render.sigma), hybrid}};
+    std::map<std::string, int> byKey{
+        {configKey(base.selector, base.render.sigma), byMode.at(BenchMode::Hybrid)}};
     for (const SweepPoint& p : pts) {
         const std::string key = configKey(p.selector, p.sigma);
         if (!byKey.count(key)) {
             Scene sc = base;
             sc.selector = p.selector;
             sc.render.sigma = p.sigma;
-            byKey[key] = addConfig(set, sc, "hybrid", "hybrid " + p.setting);
+            byKey[key] = addConfig(set, sc, BenchMode::Hybrid, "hybrid " + p.setting);
         }
         set.rows.push_back(
-            {byKey[key], label("sweep", name, "hybrid", p.family, p.setting, p.param)});
+            {byKey[key], label("sweep", name, BenchMode::Hybrid, p.family, p.setting, p.param)});
     }
     linkTruths(set);
     return set;
 }
 
-/// One point of a scaling curve: the four modes on one frame (the camera at t = 0).
+/// One point of a scaling curve: every mode on one frame (the camera at t = 0).
 Set scalingSet(const SceneSource& src, const json& doc, const Plan& plan, const std::string& group,
                double param, const std::string& what) {
     Set set;
@@ -635,11 +582,11 @@ Set scalingSet(const SceneSource& src, const json& doc, const Plan& plan, const 
     set.frames = {0};
     set.times = {0.0};
     set.repeats = plan.scalingRepeats;
-    const auto modes = addModes(set, s);
-    const char* modeNames[4] = {"near_vulkan", "near_reference", "far", "hybrid"};
-    for (int i = 0; i < 4; ++i)
-        set.rows.push_back(
-            {modes[std::size_t(i)], label(group, name, modeNames[i], group, what, param)});
+    for (const bool truths : {true, false})
+        for (const BenchModeInfo& mode : kBenchModes)
+            if (mode.isTruth == truths)
+                set.rows.push_back({addConfig(set, s, mode.mode, mode.name),
+                                    label(group, name, mode.mode, group, what, param)});
     linkTruths(set);
     return set;
 }
@@ -656,6 +603,16 @@ std::string cpuName() {
 }
 
 } // namespace
+
+const BenchModeInfo& info(BenchMode mode) {
+    for (const BenchModeInfo& i : kBenchModes)
+        if (i.mode == mode) return i;
+    throw std::logic_error("a BenchMode without a line in kBenchModes");
+}
+
+const char* toString(BenchMode mode) {
+    return info(mode).name;
+}
 
 Plan makePlan(const SuiteOptions& o) {
     Plan p;
@@ -782,10 +739,10 @@ SuiteResults runSuite(const SuiteOptions& options) {
 
     std::size_t total = 0;
     for (const Set& s : sets) {
-        std::size_t truths = 0;
-        for (const auto& c : s.configs) truths += c->isTruth;
+        std::size_t counting = 0; // configurations with an extra step-counting frame
+        for (const auto& c : s.configs) counting += info(c->mode).countsStepsApart;
         total +=
-            s.frames.size() * (std::size_t(plan.warmup + s.repeats) * s.configs.size() + truths);
+            s.frames.size() * (std::size_t(plan.warmup + s.repeats) * s.configs.size() + counting);
     }
     // One Vulkan device for the whole run; validation (VOXTIER_VALIDATION=1) inflates timings.
     auto near = std::make_shared<NearRenderer>();

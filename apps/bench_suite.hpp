@@ -13,6 +13,7 @@
 // every approximate image is compared with the all-near (Vulkan) image of the same frame.
 #include "compose/frame.hpp"
 #include "compose/frame_error.hpp"
+#include "compose/frame_figures.hpp"
 #include "core/scene.hpp"
 
 #include <cstdint>
@@ -21,6 +22,34 @@
 #include <vector>
 
 namespace voxtier::bench {
+
+/// The ways the bench draws a scene. Adding one is a line in kBenchModes (and what it sets in
+/// FrameOptions, apps/bench_suite.cpp runSet).
+enum class BenchMode { NearVulkan, NearReference, Far, Hybrid };
+
+struct BenchModeInfo {
+    BenchMode mode;
+    const char* name; ///< in results.csv, results.json and the report
+    RenderMode renderMode;
+    NearBackend nearBackend; ///< who draws the near tier (where the render mode leaves it open)
+    /// The ground truth: every other mode's error is measured against this mode's image.
+    bool isTruth;
+    /// Near tier on Vulkan: its voxel reads are counted in an extra, untimed frame (the counting
+    /// shader is slower), and its steps per second are taken over the near draw time.
+    bool countsStepsApart;
+};
+
+// clang-format off
+inline constexpr BenchModeInfo kBenchModes[] = {
+    // mode                    name              render mode             near backend            truth  counts steps apart
+    {BenchMode::NearVulkan,    "near_vulkan",    RenderMode::Near,       NearBackend::Vulkan,    true,  true},
+    {BenchMode::NearReference, "near_reference", RenderMode::Reference,  NearBackend::Reference, false, false},
+    {BenchMode::Far,           "far",            RenderMode::Far,        NearBackend::Reference, false, false},
+    {BenchMode::Hybrid,        "hybrid",         RenderMode::Hybrid,     NearBackend::Vulkan,    false, false},
+};
+// clang-format on
+const BenchModeInfo& info(BenchMode mode);
+const char* toString(BenchMode mode);
 
 struct SuiteOptions {
     std::vector<std::string>
@@ -51,23 +80,24 @@ struct Plan {
     int scalingRepeats = 5;
 };
 
-/// One measured configuration, aggregated over the sampled path frames. Times are means over the
-/// frames of the per-frame medians over the timed passes; counts are means over the frames.
+/// One sampled path frame of a measured configuration.
 struct FrameRow {
     int frame = 0;
     double time = 0.0;
-    FrameStats median;               ///< field-wise medians over the timed passes
+    /// Figure by figure, the median over the timed passes (kFrameFigures); where the mode counts
+    /// voxel reads apart (countsStepsApart), voxelFetches and nearKernelFragments are the
+    /// counting frame's.
+    FrameStats median;
     double minMs = 0.0, maxMs = 0.0; ///< spread of totalMs over the passes
     bool hasError = false;
     FrameErrorReport error; ///< against the all-near (Vulkan) image of the frame (last pass)
-    std::uint64_t countedSteps = 0,
-                  countedFragments = 0; ///< Vulkan step-counting pass (near_vulkan)
 };
 
+/// One measured configuration, aggregated over the sampled path frames.
 struct Measurement {
-    std::string group;    ///< "modes", "sweep", "scaling_entities", "scaling_size"
-    std::string scene;    ///< scene name (file stem)
-    std::string mode;     ///< near_vulkan, near_reference, far, hybrid
+    std::string group; ///< "modes", "sweep", "scaling_entities", "scaling_size"
+    std::string scene; ///< scene name (file stem)
+    BenchMode mode = BenchMode::NearVulkan;
     std::string family;   ///< sweep family ("" outside sweeps)
     std::string setting;  ///< human-readable settings of the configuration
     double param = 0.0;   ///< the swept / scaled value
@@ -75,19 +105,19 @@ struct Measurement {
     std::string truth;    ///< configuration the errors are measured against
     std::vector<FrameRow> frames;
 
-    // Speed (ms).
-    double totalMs = 0, worstFrameMs = 0, setupMs = 0, selectMs = 0, nearMs = 0, nearUploadMs = 0,
-           nearDrawMs = 0, nearReadbackMs = 0, farMs = 0, bakeMs = 0, blitMs = 0;
-    double baselineMs = 0; ///< all-near (Vulkan) of the same frames, same run
-    double speedup = 0;    ///< baselineMs / totalMs
-    // Work.
-    double entities = 0, visible = 0, nearDrawn = 0, farDrawn = 0, fading = 0;
-    double fragments = 0; ///< near: fragments shaded (Vulkan) or pixels tested (reference)
-    double voxelSteps =
-        0; ///< near: voxel reads per frame (reference: every frame; Vulkan: counting pass)
-    double voxelStepsPerS = 0;
-    double blitPixels = 0, blitPixelsPerS = 0, memcpyPixelsPerS = 0; ///< memcpy of the same bytes
-    double cacheBytes = 0;
+    /// The frames' figures (FrameRow::median) combined over the path as kFrameFigures says.
+    PathFigures figures;
+    double frameMs() const { return figures.of(&FrameStats::totalMs); }
+    double visible = 0;      ///< entities - culled, per frame
+    double worstFrameMs = 0; ///< the slowest path frame's median
+    double baselineMs = 0;   ///< all-near (Vulkan) of the same frames, same run
+    double speedup = 0;      ///< baselineMs / frameMs()
+    /// Near fragments of the all-near (Vulkan) frames: near_fragments / this = the near share.
+    double baselineFragments = 0;
+    // Throughput.
+    double voxelStepsPerS = 0;   ///< near voxel reads over the near time (draw time on Vulkan)
+    double blitPixelsPerS = 0;   ///< footprint pixels the blit evaluated over the blit time
+    double memcpyPixelsPerS = 0; ///< memcpy of the same bytes
     // Cold (the warm-up pass, first use of every snapshot).
     double coldMs = 0, coldBakeMs = 0, coldBakes = 0, coldRays = 0, raysPerS = 0;
     // Error against the truth (means / worst over the frames).
@@ -101,8 +131,6 @@ struct Measurement {
     double coverageMismatchMean = 0; ///< like mismatchMean, counting only pixels owned in one image
     double farAloneEntities = 0,
            farOverOneCell = 0; ///< per frame (mean): far entities, those displaced > 1 virtual px
-    double baselineFragments =
-        0; ///< near fragments of the all-near (Vulkan) frames: fragments / this = the near share
     double rmseMean = 0, psnrMin = 0;
     double differingPixels = 0; ///< mean per frame (colour, depth or id)
     std::size_t missing = 0;    ///< entities drawn in only one image, summed over frames
@@ -118,6 +146,9 @@ struct SuiteResults {
     std::vector<Measurement> rows;
     std::vector<std::string> notes; ///< things the reader must know (skipped parts, caveats)
 };
+
+/// Bytes per blitted pixel the memcpy reference copies: the target's colour, depth and id.
+constexpr double kBlitBytesPerPixel = 12.0;
 
 Plan makePlan(const SuiteOptions& options);
 SuiteResults runSuite(const SuiteOptions& options);

@@ -56,9 +56,9 @@ void runBench(bench::SuiteOptions options) {
     std::printf("voxtier bench (%s): %.0f s, Vulkan device: %s\n", results.plan.preset.c_str(),
                 results.wallSeconds, results.vulkanDevice.c_str());
     for (const bench::Measurement& m : results.rows) {
-        if (m.group != "modes" || m.mode == "near_vulkan") continue;
+        if (m.group != "modes" || bench::info(m.mode).isTruth) continue;
         std::printf("  %-14s %-15s %8.2f ms  (all-near Vulkan %8.2f ms, %5.1fx)", m.scene.c_str(),
-                    m.mode.c_str(), m.totalMs, m.baselineMs, m.speedup);
+                    bench::toString(m.mode), m.frameMs(), m.baselineMs, m.speedup);
         if (m.hasError)
             std::printf(
                 "  mismatch mean %.2f%% worst %.2f%%, far displacement %.1f px (%.2f virtual px)",

@@ -2,6 +2,7 @@
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "compose/frame.hpp"
+#include "compose/frame_figures.hpp"
 #include "core/error.hpp"
 #include "core/image_io.hpp"
 #include "core/model_view.hpp"
@@ -139,10 +140,7 @@ void run(const RenderArgs& a) {
                        : 0;
         first = last = std::max(0, first);
     }
-    std::FILE* csv = openCsv(
-        a.csv, "frame,time,entities,culled,near,far,fading,switches_to_far,switches_to_near,"
-               "view_changes,bakes,cache_bytes,setup_ms,select_ms,near_ms,far_ms,bake_ms,total_ms,"
-               "refreshes,incremental_refreshes,cells_retraced,near_bytes_uploaded\n");
+    std::FILE* csv = openCsv(a.csv, ("frame,time," + figureCsvHeader() + "\n").c_str());
     std::FILE* pops = openCsv(
         a.pops, "frame,entity,kind,changed_pixels,changed_fraction,displacement_px,radius_px\n");
     // A lone frame starts the selector fresh (tiers from the metric alone); --path runs the
@@ -156,16 +154,7 @@ void run(const RenderArgs& a) {
         if (r.overlay) writeImage(a.path ? numbered(a.overlay, frame) : a.overlay, *r.overlay);
         if (!a.ids.empty()) writeIdImage(a.path ? numbered(a.ids, frame) : a.ids, r.image);
         const FrameStats& st = r.stats;
-        if (csv)
-            std::fprintf(csv,
-                         "%d,%.6f,%d,%d,%d,%d,%d,%d,%d,%d,%d,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,"
-                         "%d,%d,%llu,%llu\n",
-                         frame, time, st.entities, st.culled, st.nearDrawn, st.farDrawn, st.fading,
-                         st.switchesToFar, st.switchesToNear, st.viewChanges, st.farBakes,
-                         st.cacheBytes, st.setupMs, st.selectMs, st.nearMs, st.farMs, st.bakeMs,
-                         st.totalMs, st.farRefreshes, st.farIncrementalRefreshes,
-                         static_cast<unsigned long long>(st.farCellsRetraced),
-                         static_cast<unsigned long long>(st.nearBytesUploaded));
+        if (csv) std::fprintf(csv, "%d,%.6f,%s\n", frame, time, figureCsvRow(st).c_str());
         for (const PopEvent& e : r.pops)
             std::fprintf(pops, "%d,%u,%s,%zu,%.6f,%.3f,%.3f\n", e.frame, e.entity, toString(e.kind),
                          e.changedPixels, e.changedFraction, e.displacementPx, e.radiusPx);

@@ -34,6 +34,58 @@ SpriteSetup fadedCopy(const SpriteSetup& s, float share, bool keepBelow) {
     return c;
 }
 
+/// Who draws near sprites: reference mode is the CPU tracer by definition, near mode is Vulkan,
+/// the others use the configured backend.
+NearBackend nearBackendFor(RenderMode mode, NearBackend configured) {
+    return mode == RenderMode::Reference ? NearBackend::Reference
+           : mode == RenderMode::Near    ? NearBackend::Vulkan
+                                         : configured;
+}
+
+/// Which sprites each tier draws. A cross-fading sprite is drawn by both tiers, each with a copy
+/// that keeps the complementary half of the dither pattern (the new tier takes the pixels below
+/// the share). The lists hold indices into the frame's sprites followed by `faded`.
+struct TierShares {
+    std::vector<SpriteSetup> faded;
+    std::vector<std::size_t> near;
+    std::vector<std::pair<std::size_t, std::optional<int>>> far; ///< sprite, view override
+
+    TierShares(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
+               std::optional<Tier> onlyTier)
+        : sprites_(sprites) {
+        for (std::size_t i = 0; i < sprites.size(); ++i) {
+            const EntityPlan& p = plan[i];
+            if (!sprites[i].visible()) continue;
+            if (p.drawsNear() && onlyTier != Tier::Far)
+                near.push_back(share(i, p, /*keepBelow=*/p.tier == Tier::Near));
+            if (p.drawsFar() && onlyTier != Tier::Near)
+                far.emplace_back(share(i, p, /*keepBelow=*/p.tier == Tier::Far),
+                                 p.view >= 0 ? std::optional<int>(p.view) : std::nullopt);
+        }
+    }
+    std::vector<const SpriteSetup*> nearSprites() const {
+        std::vector<const SpriteSetup*> out;
+        for (std::size_t k : near) out.push_back(&at(k));
+        return out;
+    }
+    std::vector<FarRequest> farRequests() const {
+        std::vector<FarRequest> out;
+        for (const auto& [k, view] : far) out.push_back({&at(k), view});
+        return out;
+    }
+
+  private:
+    const std::vector<SpriteSetup>& sprites_;
+    std::size_t share(std::size_t i, const EntityPlan& p, bool keepBelow) {
+        if (p.fade <= 0.0f) return i;
+        faded.push_back(fadedCopy(sprites_[i], p.fade, keepBelow));
+        return sprites_.size() + faded.size() - 1;
+    }
+    const SpriteSetup& at(std::size_t k) const {
+        return k < sprites_.size() ? sprites_[k] : faded[k - sprites_.size()];
+    }
+};
+
 /// The value `name` stands for in a name table, else InputError naming `field` and the names.
 template <class E, std::size_t N>
 E fromName(const std::array<std::pair<const char*, E>, N>& names, const std::string& name,
@@ -86,7 +138,7 @@ const char* toString(PopEvent::Kind k) {
 
 FrameRenderer::FrameRenderer(Scene& scene, FrameOptions options)
     : scene_(scene), options_(options), selector_(scene.selector),
-      cache_(std::make_unique<SnapshotCache>()), backend_(options.nearBackend) {
+      cache_(std::make_unique<SnapshotCache>()) {
     cache_->setBudget(options_.cacheBudgetBytes);
     std::stable_sort(
         scene_.edits.begin(), scene_.edits.end(),
@@ -135,18 +187,15 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     out.plan = planFrame(out.sprites, mode, st);
     st.selectMs = msSince(t1);
 
-    // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z. The mode
-    // decides who draws near: reference mode is the CPU tracer by definition, near mode is Vulkan.
-    backend_ = mode == RenderMode::Reference ? NearBackend::Reference
-               : mode == RenderMode::Near    ? NearBackend::Vulkan
-                                             : options_.nearBackend;
-    out.image = draw(cam, out.sprites, out.plan, &st);
+    // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z.
+    out.image =
+        drawWith(nearBackendFor(mode, options_.nearBackend), cam, out.sprites, out.plan, st);
 
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
     if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
     previousPlan_ = out.plan;
-    st.cacheBytes = std::size_t(cache_->counters().bytes);
+    st.cacheBytes = cache_->counters().bytes;
     st.totalMs = msSince(t0);
     return out;
 }
@@ -193,38 +242,30 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
                           const std::vector<EntityPlan>& plan, FrameStats* stats,
                           std::optional<Tier> onlyTier) {
     FrameStats local;
-    FrameStats& st = stats ? *stats : local;
-    // Which sprites each tier draws; a cross-fading sprite is drawn by both, each with the
-    // complementary half of the dither pattern (the new tier takes the pixels below the share).
-    std::vector<SpriteSetup> faded;
-    faded.reserve(2 * std::size_t(std::count_if(plan.begin(), plan.end(), [](const EntityPlan& p) {
-                      return p.fade > 0.0f;
-                  })));
-    std::vector<const SpriteSetup*> nearSprites;
-    std::vector<FarRequest> farRequests;
-    for (std::size_t i = 0; i < sprites.size(); ++i) {
-        const SpriteSetup& s = sprites[i];
-        const EntityPlan& p = plan[i];
-        if (!s.visible()) continue;
-        if (p.drawsNear() && onlyTier != Tier::Far) {
-            if (p.fade > 0.0f)
-                faded.push_back(fadedCopy(s, p.fade, /*keepBelow=*/p.tier == Tier::Near));
-            nearSprites.push_back(p.fade > 0.0f ? &faded.back() : &s);
-        }
-        if (p.drawsFar() && onlyTier != Tier::Near) {
-            if (p.fade > 0.0f)
-                faded.push_back(fadedCopy(s, p.fade, /*keepBelow=*/p.tier == Tier::Far));
-            farRequests.push_back({p.fade > 0.0f ? &faded.back() : &s,
-                                   p.view >= 0 ? std::optional<int>(p.view) : std::nullopt});
-        }
-    }
-    st.nearDrawn = int(nearSprites.size());
-    st.farDrawn = int(farRequests.size());
+    return drawWith(options_.nearBackend, cam, sprites, plan, stats ? *stats : local, onlyTier);
+}
 
+Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
+                              const std::vector<SpriteSetup>& sprites,
+                              const std::vector<EntityPlan>& plan, FrameStats& st,
+                              std::optional<Tier> onlyTier) {
+    const TierShares shares(sprites, plan, onlyTier);
+    st.nearDrawn = int(shares.near.size());
+    st.farDrawn = int(shares.far.size());
     // 3. Near tier: one instanced Vulkan draw in ascending entity id (or the CPU reference).
+    Image image = drawNear(nearBackend, cam, shares.nearSprites(), st);
+    // 4-5. Far tier: make sure every needed snapshot exists (lazy bakes, parallel over distinct
+    // snapshots), then blit into the same image; the blit writes with the shared min-z/id rule,
+    // which is the composition (composeMinZ is the same rule for two finished images).
+    if (!shares.far.empty()) drawFar(shares.farRequests(), image, st);
+    return image;
+}
+
+Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
+                              const std::vector<const SpriteSetup*>& sprites, FrameStats& st) {
     const auto t0 = Clock::now();
     Image image;
-    if (backend_ == NearBackend::Vulkan && !nearSprites.empty()) {
+    if (nearBackend == NearBackend::Vulkan && !sprites.empty()) {
         // Created on first use: reference- and far-only runs never touch Vulkan.
         if (!near_)
             near_ = options_.sharedNear
@@ -233,7 +274,7 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
         NearOptions no;
         no.countSteps = options_.nearCountSteps;
         NearStats ns;
-        image = near_->render(cam, scene_.models, nearSprites, scene_.render.background, no, &ns);
+        image = near_->render(cam, scene_.models, sprites, scene_.render.background, no, &ns);
         st.nearPixelsTested += ns.fragmentInvocations;
         st.nearBytesUploaded += ns.bytesUploaded;
         st.voxelFetches += ns.voxelFetches;
@@ -244,32 +285,29 @@ Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>
     } else {
         image = Image(cam.width, cam.height, scene_.render.background);
         ReferenceStats rs;
-        renderReference(scene_.models, nearSprites, image, &rs);
+        renderReference(scene_.models, sprites, image, &rs);
         st.nearPixelsTested += rs.pixelsTested;
         st.voxelFetches += rs.voxelFetches;
     }
     st.nearMs = msSince(t0);
-
-    // 4-5. Far tier: make sure every needed snapshot exists (lazy bakes, parallel over distinct
-    // snapshots), then blit into the same image; the blit writes with the shared min-z/id rule,
-    // which is the composition (composeMinZ is the same rule for two finished images).
-    if (!farRequests.empty()) {
-        FarFrameStats fs;
-        const std::uint64_t raysBefore = cache_->counters().raysTraced;
-        drawFarSprites(scene_.models, farRequests, *cache_,
-                       viewSetFromSize(scene_.selector.viewSetSize), image, &fs);
-        st.farBakes += int(fs.bakes);
-        st.farRefreshes += int(fs.refreshes);
-        st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
-        st.farCellsRetraced += fs.cellsRetraced;
-        st.bakeMs += fs.ensureMs;
-        st.blitMs += fs.blit.milliseconds;
-        st.farMs += fs.ensureMs + fs.blit.milliseconds;
-        st.farPixelsTested += fs.blit.pixelsTested;
-        st.farPixelsWritten += fs.blit.pixelsWritten;
-        st.raysTraced += cache_->counters().raysTraced - raysBefore;
-    }
     return image;
+}
+
+void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& st) {
+    FarFrameStats fs;
+    const std::uint64_t raysBefore = cache_->counters().raysTraced;
+    drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize),
+                   image, &fs);
+    st.farBakes += int(fs.bakes);
+    st.farRefreshes += int(fs.refreshes);
+    st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
+    st.farCellsRetraced += fs.cellsRetraced;
+    st.bakeMs += fs.ensureMs;
+    st.blitMs += fs.blit.milliseconds;
+    st.farMs += fs.ensureMs + fs.blit.milliseconds;
+    st.farPixelsTested += fs.blit.pixelsTested;
+    st.farPixelsWritten += fs.blit.pixelsWritten;
+    st.raysTraced += cache_->counters().raysTraced - raysBefore;
 }
 
 std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
@@ -280,8 +318,6 @@ std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
     // Each entity whose plan changed is drawn alone, once as last frame planned it and once as
     // this frame does, with this frame's camera: the difference is the switch's own pop. The CPU
     // reference stands in for Vulkan here (the same image by contract, and one sprite is cheap).
-    const NearBackend saved = backend_;
-    backend_ = NearBackend::Reference;
     for (std::size_t i = 0; i < sprites.size(); ++i) {
         const EntityPlan& now = plan[i];
         const EntityPlan& before = previousPlan_[i];
@@ -301,8 +337,9 @@ std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
                 nearestView(viewSetFromSize(scene_.selector.viewSetSize), -sprites[i].lattice.dir);
         std::vector<SpriteSetup> alone = one;
         alone[0].entityId = std::uint32_t(i);
-        const Image a = draw(cam, alone, {oldPlan});
-        const Image b = draw(cam, alone, {now});
+        FrameStats unused;
+        const Image a = drawWith(NearBackend::Reference, cam, alone, {oldPlan}, unused);
+        const Image b = drawWith(NearBackend::Reference, cam, alone, {now}, unused);
         const auto err = entityErrors(a, b, {std::uint32_t(i)}, sprites[i].screenRect);
         if (!err.empty()) {
             e.changedPixels = err[0].mismatched;
@@ -311,7 +348,6 @@ std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
         }
         pops.push_back(e);
     }
-    backend_ = saved;
     return pops;
 }
 

@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -21,6 +22,7 @@ namespace voxtier {
 
 class NearRenderer;
 class SnapshotCache;
+struct FarRequest;
 
 enum class RenderMode {
     Reference, ///< every entity through the CPU reference tracer (the executable spec)
@@ -95,7 +97,8 @@ const char* toString(PopEvent::Kind k);
 /// Where one frame's time went (wall-clock ms) and how much work each tier did. The step times
 /// add up to totalMs except for small glue (image moves, bookkeeping):
 /// totalMs ~ setupMs + selectMs + nearMs + farMs, nearMs ~ nearUploadMs + nearDrawMs +
-/// nearReadbackMs on Vulkan, farMs = bakeMs + blitMs.
+/// nearReadbackMs on Vulkan, farMs = bakeMs + blitMs. Every field has a line in kFrameFigures
+/// (compose/frame_figures.hpp), which names it in every output; the build checks that.
 struct FrameStats {
     int entities = 0, culled = 0;
     int nearDrawn = 0, farDrawn = 0; ///< visible sprites drawn by each tier
@@ -107,7 +110,7 @@ struct FrameStats {
     /// tier copied to the GPU (whole frames when new, only dirty boxes after edits).
     int farRefreshes = 0, farIncrementalRefreshes = 0;
     std::uint64_t farCellsRetraced = 0, nearBytesUploaded = 0;
-    std::size_t cacheBytes = 0; ///< snapshot bytes held after the frame
+    std::uint64_t cacheBytes = 0; ///< snapshot bytes held after the frame
     /// bakeMs: the far tier making sure its snapshots exist (cache lookups + the bakes they start).
     double setupMs = 0.0, selectMs = 0.0, nearMs = 0.0, farMs = 0.0, bakeMs = 0.0, totalMs = 0.0;
     /// The Vulkan near tier's split of nearMs: voxel uploads to the atlas, record + submit + wait
@@ -143,8 +146,8 @@ class FrameRenderer {
     FrameResult render(double time, RenderMode mode, int frame = 0);
 
     /// Draws `sprites` as `plan` says, with no selector involved: near sprites (and the near
-    /// half of fades) by the near backend, then far ones through the cache, composed by min-z.
-    /// `onlyTier` draws just that tier's share (for tests and debugging).
+    /// half of fades) by options().nearBackend, then far ones through the cache, composed by
+    /// min-z. `onlyTier` draws just that tier's share (for tests and debugging).
     Image draw(const CameraFrame& camera, const std::vector<SpriteSetup>& sprites,
                const std::vector<EntityPlan>& plan, FrameStats* stats = nullptr,
                std::optional<Tier> onlyTier = std::nullopt);
@@ -160,6 +163,13 @@ class FrameRenderer {
   private:
     std::vector<EntityPlan> planFrame(const std::vector<SpriteSetup>& sprites, RenderMode mode,
                                       FrameStats& st);
+    /// draw() with the near tier drawn by `nearBackend`.
+    Image drawWith(NearBackend nearBackend, const CameraFrame& camera,
+                   const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
+                   FrameStats& stats, std::optional<Tier> onlyTier = std::nullopt);
+    Image drawNear(NearBackend nearBackend, const CameraFrame& camera,
+                   const std::vector<const SpriteSetup*>& sprites, FrameStats& stats);
+    void drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& stats);
     std::vector<PopEvent> measurePops(const CameraFrame& camera,
                                       const std::vector<SpriteSetup>& sprites,
                                       const std::vector<EntityPlan>& plan, int frame);
@@ -171,7 +181,6 @@ class FrameRenderer {
     std::unique_ptr<SnapshotCache> cache_;
     std::shared_ptr<NearRenderer>
         near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan
-    NearBackend backend_; ///< who draws near sprites in the current frame
     std::vector<EntityPlan> previousPlan_;
     int editsApplied_ = 0; ///< scene.edits are applied in order of atFrame
 };

@@ -2,6 +2,7 @@
 // timed pass, one sweep point): the outputs exist and agree with each other and with what can be
 // worked out without the bench. No timings are asserted (the machine is shared).
 #include "cli_support.hpp"
+#include "compose/frame_figures.hpp"
 #include "core/scene_loader.hpp"
 #include "core/sprite.hpp"
 #include "impostor_cache/view_set.hpp"
@@ -207,6 +208,7 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
           "far_displacement_worst_vpx", "rays_per_s", "voxel_steps_per_s", "blit_pixels_per_s",
           "memcpy_pixels_per_s", "cache_bytes", "near_entities", "far_entities", "cold_bake_ms"})
         ASSERT_TRUE(col.count(c)) << c;
+    for (const FrameFigure& f : kFrameFigures) EXPECT_TRUE(col.count(f.name)) << f.name;
     std::size_t n = 0;
     while (std::getline(csv, line)) {
         const auto f = csvFields(line);
@@ -220,8 +222,47 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     }
     EXPECT_EQ(n, rows.size());
 
+    // The frame figures (compose/frame_figures.hpp) in every row and every frame of the JSON: a
+    // row's figure is the mean of its frames' (one sampled frame here: equal), and the visible
+    // entities are those drawn near, far, or both while cross-fading.
+    ASSERT_EQ(j["frame_figures"].size(), kFrameFigureCount);
+    for (std::size_t i = 0; i < kFrameFigureCount; ++i)
+        EXPECT_EQ(j["frame_figures"][i]["name"], kFrameFigures[i].name);
+    for (const json& m : rows) {
+        ASSERT_EQ(m["frames"].size(), 1u);
+        for (const FrameFigure& f : kFrameFigures) {
+            ASSERT_TRUE(m.contains(f.name)) << f.name;
+            ASSERT_TRUE(m["frames"][0].contains(f.name)) << f.name;
+            EXPECT_NEAR(m[f.name].get<double>(), m["frames"][0][f.name].get<double>(),
+                        1e-9 * std::abs(m[f.name].get<double>()))
+                << f.name;
+        }
+        EXPECT_EQ(m["visible"].get<double>(), m["near_entities"].get<double>() +
+                                                  m["far_entities"].get<double>() -
+                                                  m["fading_entities"].get<double>())
+            << m["mode"] << " " << m["setting"];
+    }
+
     // report.md: names every scene, and every plot it embeds exists; the JSON lists the same plots.
     const std::string report = slurp(out / "report.md");
+    // The time split of the hybrid frame has a column per time step of the figure table.
+    std::string steps = "| scene |";
+    for (const FrameFigure& f : kFrameFigures)
+        if (f.timeStep) steps += " " + f.words() + " |";
+    EXPECT_NE(report.find(steps + " other | total |"), std::string::npos) << steps;
+    // Every goal of the goal table is marked met or not in each measured column.
+    for (const char* goal :
+         {"| speed-up ≥ 10× |", "| mean footprint mismatch ≤ 2 % (coverage only) |",
+          "| no far entity displaced > 1 virtual px |"}) {
+        const auto at = report.find(goal);
+        ASSERT_NE(at, std::string::npos) << goal;
+        const std::string line = report.substr(at, report.find('\n', at) - at);
+        std::size_t marks = 0;
+        for (const char* mark : {"✓", "✗"})
+            for (auto p = line.find(mark); p != std::string::npos; p = line.find(mark, p + 1))
+                ++marks;
+        EXPECT_EQ(marks + (line.find("none measured") != std::string::npos), 3u) << line;
+    }
     EXPECT_NE(report.find("tank_army"), std::string::npos);
     EXPECT_NE(report.find("exact"), std::string::npos);
     std::set<std::string> embedded;
@@ -241,6 +282,45 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         EXPECT_NE(report.find("gnuplot"),
                   std::string::npos); // the report says why there are no plots
     }
+}
+
+// `render --csv`: one column per frame figure (the same table as the bench's), one row per path
+// frame, every row as wide as the header.
+TEST(RenderCsv, HasEveryFrameFigureForEveryPathFrame) {
+    ScratchDir dir;
+    const fs::path scene = dir.path / "path.json", csvFile = dir.path / "frames.csv";
+    writeExactScene(scene);
+    json doc = json::parse(slurp(scene));
+    doc["camera_path"] = {{"fps", 4},
+                          {"keys",
+                           {{{"time", 0}, {"position", {0, 40, 0}}, {"target", {0, 0, 0}}},
+                            {{"time", 1}, {"position", {0, 12, 0}}, {"target", {0, 0, 0}}}}}};
+    std::ofstream(scene) << doc.dump(1);
+    const CliRun r =
+        runCli("render '" + scene.string() + "' --path --near-backend reference --csv '" +
+               csvFile.string() + "' -o '" + (dir.path / "f.png").string() + "'");
+    ASSERT_EQ(r.status, 0) << r.out << r.err;
+    std::istringstream csv(slurp(csvFile));
+    std::string line;
+    ASSERT_TRUE(std::getline(csv, line));
+    EXPECT_EQ(line, "frame,time," + figureCsvHeader());
+    const auto header = csvFields(line);
+    std::map<std::string, std::size_t> col;
+    for (std::size_t i = 0; i < header.size(); ++i) col[header[i]] = i;
+    int frame = 0;
+    while (std::getline(csv, line)) {
+        const auto f = csvFields(line);
+        ASSERT_EQ(f.size(), header.size()) << line;
+        EXPECT_EQ(std::stoi(f[col["frame"]]), frame) << line;
+        auto at = [&](const char* name) { return std::stod(f[col[name]]); };
+        EXPECT_EQ(at("entities"), 9.0) << line;
+        EXPECT_EQ(at("entities") - at("culled"),
+                  at("near_entities") + at("far_entities") - at("fading_entities"))
+            << line;
+        EXPECT_GT(at("frame_ms"), 0.0) << line;
+        ++frame;
+    }
+    EXPECT_EQ(frame, 5); // 1 s at 4 frames per second, both ends
 }
 
 TEST(BenchCommand, BadInputIsOneLineNamingTheFileOrFlag) {
