@@ -3,6 +3,7 @@
 // shared machine: wall ms, medians over repeats, the load average printed next to them, and
 // one parser for comma-separated number lists given on the command line.
 #include "core/error.hpp"
+#include "core/stopwatch.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -18,9 +19,7 @@ namespace voxtier::cli {
 
 using BenchClock = std::chrono::steady_clock;
 
-inline double msSince(BenchClock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(BenchClock::now() - t0).count();
-}
+using voxtier::msSince;
 
 /// Median of the samples (mean of the middle two for an even count); 0 for none.
 inline double median(std::vector<double> v) {

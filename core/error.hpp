@@ -1,6 +1,8 @@
 #pragma once
 // Error channels (docs/STYLE.md): untrusted input -> InputError naming file, field and reason;
-// API misuse -> assert; Vulkan/Embree -> their module's check macro / error callback.
+// API misuse -> assert; Vulkan -> VulkanError through VK_CHECK (volumetric/vulkan_check.hpp);
+// Embree -> EmbreeError through the device's error callback and one check after each build
+// (impostor_cache/embree_error.hpp).
 #include <cstddef>
 #include <stdexcept>
 #include <string>

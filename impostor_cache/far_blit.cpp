@@ -1,5 +1,7 @@
 #include "impostor_cache/far_blit.hpp"
 
+#include "core/stopwatch.hpp"
+
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
@@ -144,9 +146,7 @@ void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* st
         stats->sprites += drawn;
         stats->pixelsTested += total.tested;
         stats->pixelsWritten += total.written;
-        stats->milliseconds +=
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                .count();
+        stats->milliseconds += msSince(t0);
     }
 }
 

@@ -1,5 +1,7 @@
 #include "impostor_cache/far_frame.hpp"
 
+#include "core/stopwatch.hpp"
+
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -34,8 +36,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
         const auto [m, f, v, sigma] = needs[i];
         snaps[i] = cache.get(*models.at(std::size_t(m)), f, set, v, sigma);
     });
-    const double ensureMs =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const double ensureMs = msSince(t0);
 
     std::vector<FarSprite> draws;
     draws.reserve(requests.size());

@@ -3,7 +3,7 @@
 // version, view set, view, sigma), baked the first time someone asks for it, shared by every
 // entity of the model, baked once however many threads ask at the same time, and evicted
 // least-recently-used over a byte budget. The Embree scene of a (model, frame, version) is kept
-// apart from the per-view snapshots.
+// apart from the per-view snapshots. Both are a VersionedLru (impostor_cache/versioned_lru.hpp).
 //
 // Invalidation (DESIGN.md §4): an edit bumps the model version, so every key of the model goes
 // stale at once and nothing stale is ever returned. Nothing is re-baked at edit time: the first
@@ -17,15 +17,14 @@
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"
 #include "impostor_cache/snapshot_baker.hpp"
+#include "impostor_cache/versioned_lru.hpp"
 #include "impostor_cache/view_set.hpp"
 #include "impostor_cache/voxel_scene.hpp"
 
 #include <cstddef>
 #include <cstdint>
-#include <list>
 #include <memory>
 #include <mutex>
-#include <unordered_map>
 
 namespace voxtier {
 
@@ -94,45 +93,33 @@ class SnapshotCache {
     /// Changes the budget and evicts down to it.
     void setBudget(std::size_t bytes);
 
-    struct KeyHash {
-        std::size_t operator()(const SnapshotKey& k) const;
-    };
-
   private:
-    struct Entry;
-    struct SceneEntry;
-    struct SceneKey {
+    /// A snapshot key without its version: what stays the same across edits of the model.
+    struct ViewKey {
         std::uint64_t modelUid;
         int frame;
-        std::uint64_t version;
-        bool operator==(const SceneKey&) const = default;
+        ViewSet set;
+        int view;
+        double sigma;
+        bool operator==(const ViewKey&) const = default;
     };
-    struct SceneKeyHash {
-        std::size_t operator()(const SceneKey& k) const;
+    struct ViewKeyHash {
+        std::size_t operator()(const ViewKey& k) const;
     };
-    // mutex_ held for all of these.
-    void evictLocked();
-    /// Removes a snapshot (budget, stale). By value: callers pass keys that live in lru_.
-    void dropLocked(SnapshotKey key);
-    void dropSceneLocked(SceneKey key);
-    /// The newest listed snapshot of the same view, model frame and sigma with a version older
-    /// than `key`'s, or null (then *version is untouched).
-    std::shared_ptr<const Snapshot> staleLocked(const SnapshotKey& key,
-                                                std::uint64_t* version) const;
-    std::shared_ptr<const VoxelScene> staleSceneLocked(const SceneKey& key,
-                                                       std::uint64_t* version) const;
+    struct FrameKey {
+        std::uint64_t modelUid;
+        int frame;
+        bool operator==(const FrameKey&) const = default;
+    };
+    struct FrameKeyHash {
+        std::size_t operator()(const FrameKey& k) const;
+    };
 
     SnapshotCacheConfig config_;
-    mutable std::mutex mutex_;
-    std::unordered_map<SnapshotKey, std::shared_ptr<Entry>, KeyHash> entries_;
-    std::list<SnapshotKey> lru_; ///< ready snapshots, most recent first
-    /// Per key with version 0: the version of the newest listed snapshot of that view (the base
-    /// of the next incremental refresh).
-    std::unordered_map<SnapshotKey, std::uint64_t, KeyHash> latest_;
-    std::unordered_map<SceneKey, std::shared_ptr<SceneEntry>, SceneKeyHash> scenes_;
-    std::list<SceneKey> sceneLru_;
-    std::unordered_map<SceneKey, std::uint64_t, SceneKeyHash> latestScene_; ///< same, for scenes
-    SnapshotCacheCounters counters_;
+    VersionedLru<ViewKey, Snapshot, ViewKeyHash> snapshots_;
+    VersionedLru<FrameKey, VoxelScene, FrameKeyHash> scenes_;
+    mutable std::mutex mutex_;       ///< for counters_
+    SnapshotCacheCounters counters_; ///< what baking and building cost; the LRU counts its own
 };
 
 } // namespace voxtier

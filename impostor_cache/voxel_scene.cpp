@@ -1,6 +1,7 @@
 #include "impostor_cache/voxel_scene.hpp"
 
 #include "core/error.hpp"
+#include "core/stopwatch.hpp"
 #include "impostor_cache/detail/bake_context.hpp"
 #include "impostor_cache/detail/embree_device.hpp"
 
@@ -358,8 +359,7 @@ void VoxelScene::build(const VoxelScene* previous, Box3i rebuild, bool derived) 
         bytes_ += sizeof(Brick) + b->boxes.capacity() * sizeof(VoxelRun) + b->embreeBytes;
     }
     bytes_ += topBytes;
-    build_.ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    build_.ms = msSince(t0);
 }
 
 VoxelScene::~VoxelScene() {

@@ -77,7 +77,8 @@ struct SceneBuildStats {
 class VoxelScene {
   public:
     /// Copies the grid (the scene must describe one fixed version even if the model is edited
-    /// later) and builds the Embree BVH. Throws std::runtime_error on an Embree error.
+    /// later) and builds the Embree BVH. Throws EmbreeError (impostor_cache/embree_error.hpp) on an
+    /// Embree error.
     VoxelScene(const VoxelGrid& grid, VoxelSceneOptions options);
     /// The scene of `grid`, a later version of `previous.grid()` that differs from it only inside
     /// `dirty` (VoxelModel::dirtySince). A voxel's surface status depends on its 6 neighbours, so

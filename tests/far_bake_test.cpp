@@ -3,6 +3,8 @@
 // count or primitive set produced it; solid boxes match an independent closed form.
 #include "core/procedural.hpp"
 #include "far_test_support.hpp"
+#include "impostor_cache/detail/embree_device.hpp"
+#include "impostor_cache/embree_error.hpp"
 #include "impostor_cache/snapshot_baker.hpp"
 #include "impostor_cache/surface_voxels.hpp"
 #include "impostor_cache/voxel_scene.hpp"
@@ -309,6 +311,36 @@ TEST(EmbreeBake, OptionalDepthIsTheEnteredFaceDistanceFromTheSpritePlane) {
             }
         EXPECT_TRUE(bakeSnapshot(scene, ViewSet::Cube26, v, 1.0).depth.empty());
     }
+}
+
+// Embree's failures come out as EmbreeError with a one-line message naming what failed, the
+// code and Embree's own words: a device Embree refuses to create, and a call rejected by the
+// device's error callback (checked once, then cleared).
+TEST(EmbreeErrors, FailuresSurfaceAsEmbreeErrorWithOneLineMessage) {
+    try {
+        rtcReleaseDevice(detail::newEmbreeDevice("threads=abc"));
+        ADD_FAILURE() << "Embree accepted threads=abc";
+    } catch (const EmbreeError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("rtcNewDevice(\"threads=abc\") failed: RTC_ERROR_"), std::string::npos)
+            << what;
+        EXPECT_NE(e.code(), int(RTC_ERROR_NONE));
+        EXPECT_EQ(what.find('\n'), std::string::npos);
+    }
+    RTCScene scene = rtcNewScene(detail::embreeDevice());
+    rtcSetSceneBuildQuality(scene, RTCBuildQuality(77));
+    try {
+        detail::throwOnEmbreeError("build quality");
+        ADD_FAILURE() << "the rejected call was not reported";
+    } catch (const EmbreeError& e) {
+        const std::string what = e.what();
+        EXPECT_EQ(what.rfind("embree: build quality failed: RTC_ERROR_", 0), 0u) << what;
+        EXPECT_NE(what.find(": invalid build quality"), std::string::npos) << what;
+        EXPECT_NE(e.code(), int(RTC_ERROR_NONE));
+        EXPECT_EQ(what.find('\n'), std::string::npos);
+    }
+    EXPECT_NO_THROW(detail::throwOnEmbreeError("nothing"));
+    rtcReleaseScene(scene);
 }
 
 } // namespace

@@ -39,19 +39,7 @@ TEST(SnapshotCache, NothingIsBakedUntilAViewIsRequested) {
 // One frame with 100 entities of one model, all seen along the same direction (parallel view
 // mode, camera looking exactly along -Y of the models): one bake, shared by all 100.
 TEST(SnapshotCache, HundredEntitiesOfOneModelShareOneBake) {
-    Scene s;
-    s.render.viewMode = ViewMode::Parallel;
-    s.models = {makeArrow(16)};
-    for (int i = 0; i < 100; ++i) {
-        Entity e;
-        e.position = glm::dvec3(-5.0 + (i % 10), -5.0 + (i / 10), -30.0); // world Z = voxel -Y
-        s.entities.push_back(e);
-    }
-    s.camera.position = {0, 0, 0};
-    s.camera.target = {0, 0, -1};
-    s.camera.width = 400;
-    s.camera.height = 400;
-    s.camera.fovYDeg = 30.0;
+    const Scene s = test::hundredEntityWall(makeArrow(16), -30.0);
     SnapshotCache cache;
     std::vector<SpriteSetup> sp;
     const Image img = test::renderFar(s, cache, ViewSet::Cube26, &sp);
@@ -152,9 +140,8 @@ TEST(SnapshotCache, VersionBumpMissesAndBakesTheEditedModel) {
 }
 
 TEST(SnapshotCache, KeysSeparateSigmaViewSetAndFrame) {
-    const VoxelGrid a = makeArrow(16)->frame(0), b = makeSphere(4)->frame(0);
-    const auto m = std::make_shared<VoxelModel>("two frames", proceduralPalette(),
-                                                std::vector<VoxelGrid>{a, b});
+    const auto m = test::arrowThenSphere();
+    const VoxelGrid &a = m->frame(0), &b = m->frame(1);
     SnapshotCache cache;
     const auto s1 = cache.get(*m, 0, ViewSet::Cube26, 2, 1.0);
     const auto s2 = cache.get(*m, 0, ViewSet::Cube26, 2, 2.0);

@@ -501,19 +501,8 @@ TEST(FarEditLaziness, OnlyRequestedViewsAreRefreshed) {
 
 // A model shared by 100 entities: one edit refreshes its one snapshot once, for all of them.
 TEST(FarEditLaziness, ModelSharedByHundredEntitiesIsRefreshedOncePerView) {
-    Scene s;
-    s.render.viewMode = ViewMode::Parallel;
-    s.models = {blobModel({16, 16, 16}, {{2, 2, 2}, {14, 14, 14}})};
-    for (int i = 0; i < 100; ++i) {
-        Entity e;
-        e.position = glm::dvec3(-5.0 + (i % 10), -5.0 + (i / 10), -40.0);
-        s.entities.push_back(e);
-    }
-    s.camera.position = {0, 0, 0};
-    s.camera.target = {0, 0, -1};
-    s.camera.width = 400;
-    s.camera.height = 400;
-    s.camera.fovYDeg = 30.0;
+    const Scene s =
+        test::hundredEntityWall(blobModel({16, 16, 16}, {{2, 2, 2}, {14, 14, 14}}), -40.0);
     SnapshotCache cache;
     test::renderFar(s, cache);
     ASSERT_EQ(cache.counters().bakes, 1u);
@@ -536,9 +525,7 @@ TEST(FarEditLaziness, ModelSharedByHundredEntitiesIsRefreshedOncePerView) {
 // Edits in another animation frame bump the version but change nothing this frame shows: the
 // refresh reuses the snapshot and its scene as they are.
 TEST(FarEditLaziness, EditInAnotherAnimationFrameReusesTheSnapshot) {
-    const VoxelGrid a = makeArrow(16)->frame(0), b = makeSphere(4)->frame(0);
-    const auto m = std::make_shared<VoxelModel>("two frames", proceduralPalette(),
-                                                std::vector<VoxelGrid>{a, b});
+    const auto m = test::arrowThenSphere();
     SnapshotCache cache;
     const auto before = cache.get(*m, 0, ViewSet::Cube26, 2, 1.0);
     ASSERT_TRUE(m->setVoxel(1, {4, 4, 4}, 0));

@@ -5,6 +5,7 @@
 #include "compose/frame.hpp"
 #include "compose/frame_error.hpp"
 #include "core/procedural.hpp"
+#include "frame_test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -13,11 +14,7 @@
 namespace voxtier {
 namespace {
 
-FrameOptions cpuNear() {
-    FrameOptions o;
-    o.nearBackend = NearBackend::Reference;
-    return o;
-}
+using test::cpuNear;
 
 Entity at(int model, glm::dvec3 p, double yawDeg) {
     Entity e;

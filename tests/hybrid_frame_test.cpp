@@ -5,6 +5,7 @@
 #include "compose/error_metrics.hpp"
 #include "compose/frame.hpp"
 #include "core/procedural.hpp"
+#include "frame_test_support.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 #include "impostor_cache/view_set.hpp"
 #include "test_support.hpp"
@@ -17,11 +18,7 @@
 namespace voxtier {
 namespace {
 
-FrameOptions cpuNear() {
-    FrameOptions o;
-    o.nearBackend = NearBackend::Reference;
-    return o;
-}
+using test::cpuNear;
 
 /// A row of models along -Z, the camera on a path along Z (distance thresholds in metres).
 Scene corridor(int count, double spacing, const std::vector<CameraKey>& keys, SelectorConfig sel) {

@@ -16,22 +16,17 @@ Image render(const Scene& s, std::vector<SpriteSetup>* setups = nullptr) {
     return test::renderReferenceImage(s, setups);
 }
 
-using test::markedBar;
-Scene smallWorld(glm::dvec3 offset) {
-    return test::hardCaseWorld(offset);
-}
-
 // Everything is computed relative to the eye in double before rounding to float, so moving the
 // whole world 2^20 m (or 2^17 m) away changes nothing. Offsets are powers of two and positions
 // dyadic so that the camera-relative doubles are bit-identical.
 TEST(FarFromOrigin, WorldAtOneMillionMetresRendersTheSameImage) {
-    const Image origin = render(smallWorld(glm::dvec3(0.0)));
+    const Image origin = render(test::hardCaseWorld(glm::dvec3(0.0)));
     ASSERT_GT(std::count_if(origin.id.begin(), origin.id.end(),
                             [](auto v) { return v != kernel::VT_NO_ENTITY; }),
               1000);
     for (glm::dvec3 offset :
          {glm::dvec3(1048576.0, 0.0, -1048576.0), glm::dvec3(-131072.0, 65536.0, 131072.0)}) {
-        const Image far = render(smallWorld(offset));
+        const Image far = render(test::hardCaseWorld(offset));
         const ImageDiff d = diffImages(origin, far);
         EXPECT_TRUE(d.identical())
             << "colour " << d.colorDiffs << " depth " << d.depthDiffs << " id " << d.idDiffs;
@@ -41,45 +36,20 @@ TEST(FarFromOrigin, WorldAtOneMillionMetresRendersTheSameImage) {
 // RTS camera: looking straight down with up = world -Z. The bar's +X end must appear on the
 // right and its +Y (world -Z, screen up) marker above the bar's middle: no mirror, no flip.
 TEST(CameraStraightDown, TopDownViewIsUprightAndUnmirrored) {
-    Scene s;
-    s.models = {markedBar()};
-    s.render.sigma = 2.0;
-    Entity e;
-    e.position = {0.0, 0.0, 0.0};
-    s.entities.push_back(e);
-    s.camera.position = {0.3, 6.0, 0.0}; // slightly off-centre: d is not exactly the forward
-    s.camera.target = {0.3, 0.0, 0.0};
-    s.camera.up = {0.0, 0.0, -1.0};
-    s.camera.width = s.camera.height = 200;
+    const Scene s = test::topDownMarkedBar();
     std::vector<SpriteSetup> setups;
     const Image img = render(s, &setups);
     ASSERT_TRUE(setups[0].visible());
-    double bx = 0, by = 0, mx = 0, my = 0;
-    int bn = 0, mn = 0;
-    const Rgba8 marker = test::expectedLit(packRgba(20, 220, 60), s.light, {0, 0, 1},
-                                           glm::transpose(worldFromVoxelSwizzle()) *
-                                               glm::normalize(s.light.direction));
-    for (int y = 0; y < img.height; ++y)
-        for (int x = 0; x < img.width; ++x) {
-            const std::size_t p = img.index(x, y);
-            if (img.id[p] != 0u || img.color[p] == kernel::VT_OUTLINE_RGBA) continue;
-            if (img.color[p] == marker)
-                mx += x, my += y, ++mn;
-            else
-                bx += x, by += y, ++bn;
-        }
-    ASSERT_GT(mn, 0) << "marker voxel not visible from above (top face lighting)";
-    ASSERT_GT(bn, 0);
-    EXPECT_GT(mx / mn, bx / bn + 1.0) << "marker should be right of the bar centre";
-    EXPECT_LT(my / mn, by / bn)
+    const test::MarkerAndBar c = test::markerAndBarCentres(s, img);
+    ASSERT_GT(c.markerPixels, 0) << "marker voxel not visible from above (top face lighting)";
+    ASSERT_GT(c.barPixels, 0);
+    EXPECT_GT(c.markerX, c.barX + 1.0) << "marker should be right of the bar centre";
+    EXPECT_LT(c.markerY, c.barY)
         << "marker (+Y voxel = -Z world = screen up) should be above the bar centre";
 }
 
 TEST(Culling, EntityBehindCameraDrawsNothing) {
-    Scene s = smallWorld(glm::dvec3(0.0));
-    s.entities.resize(1);
-    s.entities[0].position =
-        s.camera.position + glm::dvec3(0.0, 0.0, 3.0); // behind (camera looks -Z)
+    const Scene s = test::entityBehindCamera();
     std::vector<SpriteSetup> setups;
     const Image img = render(s, &setups);
     EXPECT_EQ(setups[0].cull, CullReason::BehindCamera);
@@ -87,19 +57,11 @@ TEST(Culling, EntityBehindCameraDrawsNothing) {
 }
 
 TEST(Culling, CameraInsideOrTouchingProxyBoxCullsOnlyThatEntity) {
-    Scene s = smallWorld(glm::dvec3(0.0));
+    const Scene s = test::hardCaseWorld(glm::dvec3(0.0));
     const SpriteSetup before = setupSprite(makeCameraFrame(s.camera), s.entities[0], 0,
                                            *s.models[0], 0, s.render, s.light);
     ASSERT_TRUE(before.visible());
-    // Put the eye at entity 0's model centre, then exactly on its proxy box face.
-    const EntityPose pose =
-        makeEntityPose(s.entities[0], s.models[0]->frame(0).dims(), s.render.voxelSize);
-    const glm::dvec3 centre = pose.relativeWorld(glm::dvec3(4.0, 3.0, 2.5), glm::dvec3(0.0));
-    for (glm::dvec3 eyeVoxel :
-         {glm::dvec3(4.0, 3.0, 2.5), glm::dvec3(4.0, 3.0, 5.0 + 1.0 / s.render.sigma)}) {
-        Scene t = s;
-        t.camera.position = pose.relativeWorld(eyeVoxel, glm::dvec3(0.0));
-        t.camera.target = t.camera.position + (s.camera.target - s.camera.position);
+    for (const Scene& t : test::eyeInsideAndOnProxyBox()) {
         std::vector<SpriteSetup> setups;
         const Image img = render(t, &setups);
         EXPECT_EQ(setups[0].cull, CullReason::CameraInside);
@@ -108,14 +70,10 @@ TEST(Culling, CameraInsideOrTouchingProxyBoxCullsOnlyThatEntity) {
         for (std::uint32_t i = 1; i < setups.size(); ++i) othersDrawn += img.countEntity(i) > 0;
         EXPECT_GE(othersDrawn, 1);
     }
-    (void)centre;
 }
 
 TEST(Culling, SubPixelEntityDrawsNothing) {
-    Scene s = smallWorld(glm::dvec3(0.0));
-    s.entities.resize(1);
-    s.entities[0].position = s.camera.position + glm::dvec3(0.0, 0.0, -5000.0);
-    s.camera.target = s.entities[0].position;
+    const Scene s = test::subPixelEntity();
     std::vector<SpriteSetup> setups;
     const Image img = render(s, &setups);
     EXPECT_LT(setups[0].radiusPx, 0.5);
@@ -126,18 +84,7 @@ TEST(Culling, SubPixelEntityDrawsNothing) {
 // Two overlapping sprites at exactly the same depth: the lower entity id owns every shared
 // pixel, whatever order the renderer visits them in.
 TEST(EqualDepth, LowerEntityIdWinsRegardlessOfOrder) {
-    Scene s;
-    s.models = {test::solidBox({6, 6, 6}, 1), test::solidBox({6, 6, 6}, 7)};
-    for (int i = 0; i < 2; ++i) {
-        Entity e;
-        e.model = i;
-        e.position = {0.25 * i, 0.0, -4.0}; // same depth along the camera forward (-Z)
-        s.entities.push_back(e);
-    }
-    s.render.viewMode = ViewMode::Parallel;
-    s.camera.position = {0.0, 0.3, 0.0};
-    s.camera.target = {0.0, 0.3, -1.0};
-    s.camera.width = s.camera.height = 160;
+    const Scene s = test::equalDepthPair();
     const CameraFrame cam = makeCameraFrame(s.camera);
     auto sprites = setupSprites(s, cam, 0.0);
     ASSERT_EQ(sprites[0].gpu.depth, sprites[1].gpu.depth);
@@ -159,7 +106,7 @@ TEST(EqualDepth, LowerEntityIdWinsRegardlessOfOrder) {
 // screen positions trace identical cell images; per-entity mode gives each its own view.
 TEST(ViewModes, ParallelModeSharesOneViewPerEntityModeDoesNot) {
     Scene s;
-    s.models = {markedBar()};
+    s.models = {test::markedBar()};
     for (double x : {-1.5, 1.5}) {
         Entity e;
         e.position = {x, 0.0, -4.0};
@@ -179,7 +126,7 @@ TEST(ViewModes, ParallelModeSharesOneViewPerEntityModeDoesNot) {
 
 // HARD_CASES 14: identical output with 1 thread and with all threads.
 TEST(Determinism, ImageIndependentOfThreadCount) {
-    const Scene s = smallWorld(glm::dvec3(0.0));
+    const Scene s = test::hardCaseWorld(glm::dvec3(0.0));
     const Image many = render(s);
     Image one;
     {

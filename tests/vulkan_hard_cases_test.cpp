@@ -87,19 +87,14 @@ TEST_F(NearHardCases, RolledCameraMatchesClosedForm) {
         }
 }
 
-using test::markedBar;
-Scene smallWorld(glm::dvec3 offset) {
-    return test::hardCaseWorld(offset);
-}
-
 // Camera-relative double precision: the world moved 2^20 m renders the same GPU image.
 TEST_F(NearHardCases, WorldAtTwoToTheTwentyMetresEqualsWorldAtOrigin) {
-    const auto origin = test::renderBoth(nearRenderer(), smallWorld(glm::dvec3(0.0)));
+    const auto origin = test::renderBoth(nearRenderer(), test::hardCaseWorld(glm::dvec3(0.0)));
     ASSERT_GT(test::drawnPixels(origin.near), 1000u);
     EXPECT_EQ(test::describeDifference(origin.near, origin.reference), "");
     for (glm::dvec3 offset :
          {glm::dvec3(1048576.0, 0.0, -1048576.0), glm::dvec3(-131072.0, 65536.0, 131072.0)}) {
-        const auto far = test::renderBoth(nearRenderer(), smallWorld(offset));
+        const auto far = test::renderBoth(nearRenderer(), test::hardCaseWorld(offset));
         EXPECT_EQ(test::describeDifference(far.near, origin.near), "") << "offset " << offset.x;
         EXPECT_EQ(test::describeDifference(far.near, far.reference), "");
     }
@@ -108,47 +103,20 @@ TEST_F(NearHardCases, WorldAtTwoToTheTwentyMetresEqualsWorldAtOrigin) {
 // RTS camera straight down (up = world -Z), slightly off-centre: equals the reference, and the
 // bar's marker is right of and above its centre (no mirror, no flip on the GPU either).
 TEST_F(NearHardCases, CameraStraightDownIsUprightUnmirroredAndExact) {
-    Scene s;
-    s.models = {markedBar()};
-    s.render.sigma = 2.0;
-    s.entities.push_back(Entity{});
-    s.camera.position = {0.3, 6.0, 0.0};
-    s.camera.target = {0.3, 0.0, 0.0};
-    s.camera.up = {0.0, 0.0, -1.0};
-    s.camera.width = s.camera.height = 200;
+    const Scene s = test::topDownMarkedBar();
     const auto r = test::renderBoth(nearRenderer(), s);
     EXPECT_EQ(test::describeDifference(r.near, r.reference), "");
-    const Rgba8 marker = test::expectedLit(packRgba(20, 220, 60), s.light, {0, 0, 1},
-                                           glm::transpose(worldFromVoxelSwizzle()) *
-                                               glm::normalize(s.light.direction));
-    double bx = 0, by = 0, mx = 0, my = 0;
-    int bn = 0, mn = 0;
-    for (int y = 0; y < r.near.height; ++y)
-        for (int x = 0; x < r.near.width; ++x) {
-            const std::size_t p = r.near.index(x, y);
-            if (r.near.id[p] != 0u || r.near.color[p] == kernel::VT_OUTLINE_RGBA) continue;
-            if (r.near.color[p] == marker)
-                mx += x, my += y, ++mn;
-            else
-                bx += x, by += y, ++bn;
-        }
-    ASSERT_GT(mn, 0);
-    ASSERT_GT(bn, 0);
-    EXPECT_GT(mx / mn, bx / bn + 1.0);
-    EXPECT_LT(my / mn, by / bn);
+    const test::MarkerAndBar c = test::markerAndBarCentres(s, r.near);
+    ASSERT_GT(c.markerPixels, 0);
+    ASSERT_GT(c.barPixels, 0);
+    EXPECT_GT(c.markerX, c.barX + 1.0);
+    EXPECT_LT(c.markerY, c.barY);
 }
 
 // Eye inside and exactly on entity 0's proxy box: it is culled (the GPU draws none of it), the
 // others still draw, and the image equals the reference.
 TEST_F(NearHardCases, CameraInsideOrOnProxyBoxCullsOnlyThatEntity) {
-    const Scene s = smallWorld(glm::dvec3(0.0));
-    const EntityPose pose =
-        makeEntityPose(s.entities[0], s.models[0]->frame(0).dims(), s.render.voxelSize);
-    for (glm::dvec3 eyeVoxel :
-         {glm::dvec3(4.0, 3.0, 2.5), glm::dvec3(4.0, 3.0, 5.0 + 1.0 / s.render.sigma)}) {
-        Scene t = s;
-        t.camera.position = pose.relativeWorld(eyeVoxel, glm::dvec3(0.0));
-        t.camera.target = t.camera.position + (s.camera.target - s.camera.position);
+    for (const Scene& t : test::eyeInsideAndOnProxyBox()) {
         const auto r = test::renderBoth(nearRenderer(), t);
         EXPECT_EQ(r.sprites[0].cull, CullReason::CameraInside);
         EXPECT_EQ(r.near.countEntity(0), 0u);
@@ -191,18 +159,7 @@ TEST_F(NearHardCases, QuadCrossingTheNearPlaneIsClippedWithoutChangingPixels) {
 // Equal depths: the lower entity id owns every shared pixel, whatever order the sprites are
 // handed to the renderer in (it sorts them: one instanced draw in ascending id, depth GREATER).
 TEST_F(NearHardCases, EqualDepthLowerIdWinsRegardlessOfSubmissionOrder) {
-    Scene s;
-    s.models = {test::solidBox({6, 6, 6}, 1), test::solidBox({6, 6, 6}, 7)};
-    for (int i = 0; i < 2; ++i) {
-        Entity e;
-        e.model = i;
-        e.position = {0.25 * i, 0.0, -4.0};
-        s.entities.push_back(e);
-    }
-    s.render.viewMode = ViewMode::Parallel;
-    s.camera.position = {0.0, 0.3, 0.0};
-    s.camera.target = {0.0, 0.3, -1.0};
-    s.camera.width = s.camera.height = 160;
+    const Scene s = test::equalDepthPair();
     const CameraFrame cam = makeCameraFrame(s.camera);
     const auto sprites = setupSprites(s, cam, 0.0);
     ASSERT_EQ(sprites[0].gpu.depth, sprites[1].gpu.depth);
@@ -224,9 +181,7 @@ TEST_F(NearHardCases, EqualDepthLowerIdWinsRegardlessOfSubmissionOrder) {
 }
 
 TEST_F(NearHardCases, EntityBehindCameraDrawsNothing) {
-    Scene s = smallWorld(glm::dvec3(0.0));
-    s.entities.resize(1);
-    s.entities[0].position = s.camera.position + glm::dvec3(0.0, 0.0, 3.0);
+    const Scene s = test::entityBehindCamera();
     const auto r = test::renderBoth(nearRenderer(), s);
     EXPECT_EQ(r.sprites[0].cull, CullReason::BehindCamera);
     EXPECT_EQ(test::drawnPixels(r.near), 0u);
@@ -235,10 +190,7 @@ TEST_F(NearHardCases, EntityBehindCameraDrawsNothing) {
 }
 
 TEST_F(NearHardCases, SubPixelEntityDrawsNothing) {
-    Scene s = smallWorld(glm::dvec3(0.0));
-    s.entities.resize(1);
-    s.entities[0].position = s.camera.position + glm::dvec3(0.0, 0.0, -5000.0);
-    s.camera.target = s.entities[0].position;
+    const Scene s = test::subPixelEntity();
     const auto r = test::renderBoth(nearRenderer(), s);
     EXPECT_EQ(r.sprites[0].cull, CullReason::SubPixel);
     EXPECT_EQ(test::drawnPixels(r.near), 0u);

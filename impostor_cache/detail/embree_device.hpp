@@ -8,12 +8,15 @@
 
 namespace voxtier::detail {
 
-/// Created on first use with the error callback and the memory monitor registered once;
-/// released at process exit.
+/// Created on first use (newEmbreeDevice(nullptr)); released at process exit.
 RTCDevice embreeDevice();
+/// A device made with rtcNewDevice(config), the error callback and the memory monitor
+/// registered. Throws EmbreeError (impostor_cache/embree_error.hpp) when Embree refuses.
+RTCDevice newEmbreeDevice(const char* config);
 /// Bytes Embree currently holds (device memory monitor).
 std::int64_t embreeBytesInUse();
-/// Throws std::runtime_error naming `what` if the device has a pending error.
+/// The check after Embree calls: throws EmbreeError naming `what`, with the code and Embree's
+/// message, if any thread's call reported an error since the last check (then clears it).
 void throwOnEmbreeError(const char* what);
 
 /// Embree's traversal is only fast with denormals flushed (its own advice: set FTZ and DAZ in
