@@ -77,8 +77,8 @@ bool isErrorSelector(const Measurement& m) {
 const char* kModesGroup = "modes";
 
 // ---------------------------------------------------------------------------------------------
-// The goal of the hybrid frame (issue 7): the goal table's ✓/✗ and the choice of the best
-// error-selector setting "within the error budget" both read it.
+// The goal of the hybrid frame (10x all-near within the error budget): the goal table's ✓/✗ and the
+// choice of the best error-selector setting "within the error budget" both read it.
 
 struct Goals {
     double minSpeedup = 10.0;      ///< against all-near on Vulkan

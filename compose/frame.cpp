@@ -4,6 +4,7 @@
 
 #include "compose/error_metrics.hpp"
 #include "core/error.hpp"
+#include "core/stopwatch.hpp"
 #include "impostor_cache/far_frame.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 #include "impostor_cache/view_set.hpp"
@@ -21,9 +22,6 @@ namespace voxtier {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 /// A copy of a sprite that draws only its share of a cross-fade: `keepBelow` keeps the pixels
 /// whose dither threshold is below the fade share (the new tier), the others keep the rest.

@@ -1,5 +1,7 @@
 #include "volumetric/voxel_residency.hpp"
 
+#include "core/stopwatch.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cstring>
@@ -229,8 +231,7 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
     VK_CHECK(vkEndCommandBuffer(cb_));
     device_.submitAndWait(cb_);
     retired_.reset();
-    stats.milliseconds =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    stats.milliseconds = msSince(t0);
     totals_ += stats;
     return stats;
 }
