@@ -32,10 +32,10 @@ Image makeContactSheet(const std::vector<std::shared_ptr<const Snapshot>>& snaps
     for (std::size_t n = 0; n < snaps.size(); ++n) {
         const Snapshot& s = *snaps[n];
         const int tx = int(n) % cols * tileW, ty = int(n) / cols * tileH;
-        const glm::ivec3 lp = viewLatticePoints(s.set).at(std::size_t(s.view));
+        const glm::ivec3 lp = s.view.lattice;
         auto sgn = [](int v) { return (v > 0 ? "+" : "") + std::to_string(v); };
         const std::string text =
-            std::to_string(s.view) + " (" + sgn(lp.x) + "," + sgn(lp.y) + "," + sgn(lp.z) + ")";
+            std::to_string(n) + " (" + sgn(lp.x) + "," + sgn(lp.y) + "," + sgn(lp.z) + ")";
         drawText(img, tx + 4, ty + 3, text, o.text);
         // Tile area, centred; snapshot row j grows upwards, image rows downwards.
         const int ox = tx + (tileW - s.width() * scale) / 2,

@@ -1,7 +1,7 @@
 #pragma once
 // A contact sheet of baked snapshots for a person to look at: one tile per view, upright as
-// baked (lattice up = image up), lit with a fixed light, each labelled with its view index and
-// lattice direction.
+// baked (lattice up = image up), lit with a fixed light, each labelled with its position in the
+// list (the view index when a whole set is drawn in order) and its lattice direction.
 #include "core/image.hpp"
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"

@@ -45,9 +45,8 @@ SpriteLattice snapshotLattice(glm::dvec3 w, glm::ivec3 dims, double sigma);
 kernel::SpriteGpu snapshotRayFrame(const SpriteLattice& lattice);
 
 struct Snapshot {
-    ViewSet set = ViewSet::Cube26;
-    int view = 0;
-    glm::dvec3 w{0.0};     ///< unit, towards the viewer (voxel space)
+    ViewId view;
+    glm::dvec3 w{0.0};     ///< viewDirection(view): unit, towards the viewer (voxel space)
     SpriteLattice lattice; ///< the stored cells are lattice.cellRange (inclusive)
     /// Row-major, j (up) outer, i (right) inner; lattice.width() x lattice.height(). Cells
     /// outside the range are empty by construction of cellRange (it holds the whole footprint

@@ -39,11 +39,10 @@ GridVoxels voxelsOf(const VoxelGrid& g) {
             std::size_t(g.dims().x) * std::size_t(g.dims().y)};
 }
 
-Snapshot emptySnapshot(const VoxelGrid& grid, ViewSet set, int view, double sigma) {
+Snapshot emptySnapshot(const VoxelGrid& grid, ViewId view, double sigma) {
     Snapshot s;
-    s.set = set;
     s.view = view;
-    s.w = viewDirections(set).at(std::size_t(view));
+    s.w = viewDirection(view);
     s.lattice = snapshotLattice(s.w, grid.dims(), sigma);
     s.cells.assign(std::size_t(s.width()) * std::size_t(s.height()), SnapshotCell{});
     return s;
@@ -294,10 +293,10 @@ void traceRect(const VoxelScene& scene, Snapshot& snap, glm::ivec4 rect, const B
 
 } // namespace
 
-Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sigma,
+Snapshot bakeSnapshot(const VoxelScene& scene, ViewId view, double sigma,
                       const BakeOptions& options, BakeStats* stats) {
     const auto t0 = std::chrono::steady_clock::now();
-    Snapshot snap = emptySnapshot(scene.grid(), set, view, sigma);
+    Snapshot snap = emptySnapshot(scene.grid(), view, sigma);
     if (options.withDepth) snap.depth.assign(snap.cells.size(), 0.0f);
     traceRect(scene, snap, {0, snap.width() - 1, 0, snap.height() - 1}, options, stats);
     applyCardinalOutline(snap);
@@ -356,7 +355,7 @@ Snapshot rebakeSnapshot(const VoxelScene& scene, const Snapshot& previous, Box3i
     const std::uint64_t area =
         none ? 0 : std::uint64_t(reach.y - reach.x + 1) * std::uint64_t(reach.w - reach.z + 1);
     if (!fits || double(area) > options.maxIncrementalShare * double(previous.cells.size()))
-        return bakeSnapshot(scene, previous.set, previous.view, L.sigma, options, stats);
+        return bakeSnapshot(scene, previous.view, L.sigma, options, stats);
 
     Snapshot snap = previous;
     if (!options.withDepth) snap.depth.clear();
@@ -386,10 +385,9 @@ Snapshot rebakeSnapshot(const VoxelScene& scene, const Snapshot& previous, Box3i
     return snap;
 }
 
-Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewSet set, int view, double sigma,
-                            BakeStats* stats) {
+Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewId view, double sigma, BakeStats* stats) {
     const auto t0 = std::chrono::steady_clock::now();
-    Snapshot snap = emptySnapshot(grid, set, view, sigma);
+    Snapshot snap = emptySnapshot(grid, view, sigma);
     const kernel::SpriteGpu frame = snapshotRayFrame(snap.lattice);
     const GridVoxels voxels = voxelsOf(grid);
     kernel::SpriteTracer<GridVoxels> tracer{voxels};

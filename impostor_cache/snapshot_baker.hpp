@@ -55,9 +55,14 @@ struct BakeStats {
     }
 };
 
-/// Bakes view `view` of `set` from `scene` at sigma. Thread-safe (the scene is read-only).
-Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int view, double sigma,
+/// Bakes `view` from `scene` at sigma. Thread-safe (the scene is read-only).
+Snapshot bakeSnapshot(const VoxelScene& scene, ViewId view, double sigma,
                       const BakeOptions& options = {}, BakeStats* stats = nullptr);
+/// View `index` of `set`.
+inline Snapshot bakeSnapshot(const VoxelScene& scene, ViewSet set, int index, double sigma,
+                             const BakeOptions& options = {}, BakeStats* stats = nullptr) {
+    return bakeSnapshot(scene, viewIdOf(set, index), sigma, options, stats);
+}
 
 /// Cells of the snapshot lattice whose primary ray can visit a voxel of `box` (voxel
 /// coordinates, half-open), as an inclusive lattice range (iMin, iMax, jMin, jMax) clamped to
@@ -78,7 +83,11 @@ Snapshot rebakeSnapshot(const VoxelScene& scene, const Snapshot& previous, Box3i
 /// The same snapshot with no Embree at all: the near kernel's own vtTrace for every cell over
 /// the dense grid (TBB-parallel over rows). The baseline the Embree bake is measured against,
 /// and an independent check of it.
-Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewSet set, int view, double sigma,
+Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewId view, double sigma,
                             BakeStats* stats = nullptr);
+inline Snapshot bakeSnapshotScalar(const VoxelGrid& grid, ViewSet set, int index, double sigma,
+                                   BakeStats* stats = nullptr) {
+    return bakeSnapshotScalar(grid, viewIdOf(set, index), sigma, stats);
+}
 
 } // namespace voxtier

@@ -14,8 +14,7 @@ std::size_t mix(std::size_t h, std::size_t v) {
 std::size_t SnapshotCache::ViewKeyHash::operator()(const ViewKey& k) const {
     std::size_t h = std::hash<std::uint64_t>{}(k.modelUid);
     h = mix(h, std::hash<int>{}(k.frame));
-    h = mix(h, std::hash<int>{}(int(k.set)));
-    h = mix(h, std::hash<int>{}(k.view));
+    for (int c = 0; c < 3; ++c) h = mix(h, std::hash<int>{}(k.view.lattice[c]));
     return mix(h, std::hash<double>{}(k.sigma));
 }
 
@@ -50,10 +49,10 @@ std::shared_ptr<const VoxelScene> SnapshotCache::scene(const VoxelModel& model, 
     });
 }
 
-std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int frame, ViewSet set,
-                                                   int view, double sigma) {
+std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int frame, ViewId view,
+                                                   double sigma) {
     using Older = decltype(snapshots_)::Older;
-    const ViewKey key{model.uid(), frame, set, view, sigma};
+    const ViewKey key{model.uid(), frame, view, sigma};
     return snapshots_.get(key, model.version(), [&](const std::optional<Older>& stale) {
         // A stale snapshot of this view (an older version of the model) is brought up to date
         // where the edits since reach, if the model's log still knows what they were; otherwise
@@ -73,7 +72,7 @@ std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int 
         } else {
             const std::shared_ptr<const VoxelScene> sc = scene(model, frame);
             snap = std::make_shared<const Snapshot>(
-                bakeSnapshot(*sc, set, view, sigma, config_.bake, &stats));
+                bakeSnapshot(*sc, view, sigma, config_.bake, &stats));
         }
         std::lock_guard lock(mutex_);
         ++counters_.bakes;
@@ -94,7 +93,7 @@ std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int 
 }
 
 std::shared_ptr<const Snapshot> SnapshotCache::find(const SnapshotKey& key) const {
-    return snapshots_.find({key.modelUid, key.frame, key.set, key.view, key.sigma}, key.version);
+    return snapshots_.find({key.modelUid, key.frame, key.view, key.sigma}, key.version);
 }
 
 SnapshotCacheCounters SnapshotCache::counters() const {

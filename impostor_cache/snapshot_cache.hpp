@@ -1,7 +1,7 @@
 #pragma once
 // The lazy snapshot cache of DESIGN.md §4. A snapshot is keyed by (model uid, frame, model
-// version, view set, view, sigma), baked the first time someone asks for it, shared by every
-// entity of the model, baked once however many threads ask at the same time, and evicted
+// version, view direction (ViewId), sigma), baked the first time someone asks for it, shared by
+// every entity of the model, baked once however many threads ask at the same time, and evicted
 // least-recently-used over a byte budget. The Embree scene of a (model, frame, version) is kept
 // apart from the per-view snapshots. Both are a VersionedLru (impostor_cache/versioned_lru.hpp).
 //
@@ -32,8 +32,7 @@ struct SnapshotKey {
     std::uint64_t modelUid = 0;
     int frame = 0;
     std::uint64_t version = 0;
-    ViewSet set = ViewSet::Cube26;
-    int view = 0;
+    ViewId view; ///< the snapshot's direction, shared by every view set that holds it
     double sigma = 1.0;
     bool operator==(const SnapshotKey&) const = default;
 };
@@ -81,8 +80,13 @@ class SnapshotCache {
     /// The snapshot of `view` for the model's current version of `frame`, baked now if
     /// missing. Thread-safe; concurrent requests for one key bake once (the callers that wait
     /// help with that bake's parallel work). The returned pointer stays valid after eviction.
-    std::shared_ptr<const Snapshot> get(const VoxelModel& model, int frame, ViewSet set, int view,
+    std::shared_ptr<const Snapshot> get(const VoxelModel& model, int frame, ViewId view,
                                         double sigma);
+    /// View `index` of `set`.
+    std::shared_ptr<const Snapshot> get(const VoxelModel& model, int frame, ViewSet set, int index,
+                                        double sigma) {
+        return get(model, frame, viewIdOf(set, index), sigma);
+    }
     /// The cached snapshot or nullptr; never bakes, does not count or touch the LRU order.
     std::shared_ptr<const Snapshot> find(const SnapshotKey& key) const;
     /// The Embree scene of the model's current version of `frame` (built once, shared).
@@ -98,8 +102,7 @@ class SnapshotCache {
     struct ViewKey {
         std::uint64_t modelUid;
         int frame;
-        ViewSet set;
-        int view;
+        ViewId view;
         double sigma;
         bool operator==(const ViewKey&) const = default;
     };

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <array>
 #include <cstdlib>
+#include <numeric>
+#include <stdexcept>
 
 namespace voxtier {
 
@@ -66,13 +68,10 @@ struct Tables {
     Tables() {
         for (int n = 1; n <= 3; ++n) {
             points[std::size_t(n - 1)] = latticeSet(n);
-            // The canonical prefix is normalised from the unit-lattice vector, so view i < 26 is
-            // the very same double vector in every set (normalising (2,2,0) and (1,1,0) can
-            // differ in the last bit).
-            const auto& pts = points[std::size_t(n - 1)];
-            for (std::size_t i = 0; i < pts.size(); ++i)
-                dirs[std::size_t(n - 1)].push_back(
-                    glm::normalize(glm::dvec3(i < 26 ? pts[i] / n : pts[i])));
+            // From the primitive vector, so a direction is the very same double vector in every
+            // set (normalising (2,2,0) and (1,1,0) can differ in the last bit).
+            for (const glm::ivec3 p : points[std::size_t(n - 1)])
+                dirs[std::size_t(n - 1)].push_back(viewDirection(viewIdOf(p)));
         }
     }
 };
@@ -82,6 +81,20 @@ const Tables& tables() {
 }
 
 } // namespace
+
+ViewId viewIdOf(glm::ivec3 p) {
+    const int g = std::gcd(std::gcd(std::abs(p.x), std::abs(p.y)), std::abs(p.z));
+    if (g == 0) throw std::invalid_argument("viewIdOf: the zero vector is not a direction");
+    return {p / g};
+}
+
+ViewId viewIdOf(ViewSet set, int index) {
+    return viewIdOf(viewLatticePoints(set).at(std::size_t(index)));
+}
+
+glm::dvec3 viewDirection(ViewId view) {
+    return glm::normalize(glm::dvec3(view.lattice));
+}
 
 ViewSet viewSetFromSize(int size, const std::string& field) {
     if (size == 26) return ViewSet::Cube26;

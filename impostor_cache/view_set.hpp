@@ -28,8 +28,25 @@ int viewCount(ViewSet set);
 ///    same direction in every set), then the remaining surface points in lexicographic order
 ///    of (x, y, z), each from -n to n.
 const std::vector<glm::ivec3>& viewLatticePoints(ViewSet set);
-/// The same, normalised (double precision; face views are exact axis vectors).
+/// The same, normalised: element i is viewDirection(viewIdOf(set, i)).
 const std::vector<glm::dvec3>& viewDirections(ViewSet set);
+
+/// What a snapshot is a view *of*: its direction as the primitive integer lattice vector (the
+/// components' gcd is 1), whatever set it was picked from. Every set here is a cube-surface
+/// lattice, and a denser one holds the coarser directions scaled (n = 2 has (2, 2, 0) for the
+/// edge view (1, 1, 0)), so keying snapshots by the primitive vector makes one snapshot serve
+/// every set that contains its direction, and its unit vector (viewDirection) is computed from
+/// the primitive vector alone: bit-identical whichever set asked.
+struct ViewId {
+    glm::ivec3 lattice{0, 0, 1};
+    bool operator==(const ViewId&) const = default;
+};
+/// The primitive vector of a non-zero lattice point (divided by the gcd of its components).
+ViewId viewIdOf(glm::ivec3 latticePoint);
+/// The id of view `index` of `set`.
+ViewId viewIdOf(ViewSet set, int index);
+/// The unit vector w of a view: normalize(lattice) in double; face views are exact axis vectors.
+glm::dvec3 viewDirection(ViewId view);
 
 /// The view w* maximising w . towardViewer (DESIGN.md §4: towardViewer = -d, d the entity's
 /// per-entity ray direction in voxel space). Ties go to the lower index, so the choice is a

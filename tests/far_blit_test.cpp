@@ -154,8 +154,8 @@ TEST(FarBlit, ExplicitViewOverridesTheNearestView) {
     const Image forced = test::renderFar(v.scene, cache, ViewSet::Cube26, nullptr, 16); // (0,-1,+1)
     EXPECT_FALSE(diffImages(nearest, forced).identical());
     const std::uint64_t uid = m->uid(), version = m->version();
-    EXPECT_NE(cache.find({uid, 0, version, ViewSet::Cube26, 3, 2.0}), nullptr);
-    EXPECT_NE(cache.find({uid, 0, version, ViewSet::Cube26, 16, 2.0}), nullptr);
+    EXPECT_NE(cache.find({uid, 0, version, viewIdOf(ViewSet::Cube26, 3), 2.0}), nullptr);
+    EXPECT_NE(cache.find({uid, 0, version, viewIdOf(ViewSet::Cube26, 16), 2.0}), nullptr);
 }
 
 TEST(FarBlit, ImageIndependentOfThreadCount) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <set>
 
@@ -15,13 +16,13 @@ namespace {
 TEST(SnapshotCache, NothingIsBakedUntilAViewIsRequested) {
     const auto m = makeSphere(5);
     SnapshotCache cache;
-    const SnapshotKey key{m->uid(), 0, m->version(), ViewSet::Cube26, 7, 1.0};
+    const SnapshotKey key{m->uid(), 0, m->version(), viewIdOf(ViewSet::Cube26, 7), 1.0};
     EXPECT_EQ(cache.counters().bakes, 0u);
     EXPECT_EQ(cache.counters().scenesBuilt, 0u);
     EXPECT_EQ(cache.find(key), nullptr);
     const auto s = cache.get(*m, 0, ViewSet::Cube26, 7, 1.0);
     ASSERT_NE(s, nullptr);
-    EXPECT_EQ(s->view, 7);
+    EXPECT_EQ(s->view, viewIdOf(ViewSet::Cube26, 7));
     EXPECT_EQ(cache.find(key), s);
     const auto c = cache.counters();
     EXPECT_EQ(c.bakes, 1u);
@@ -68,7 +69,8 @@ TEST(SnapshotCache, ConcurrentRequestsForOneKeyBakeOnce) {
     EXPECT_EQ(c.scenesBuilt, 1u);
     std::set<const Snapshot*> distinct(got.begin(), got.end());
     EXPECT_EQ(distinct.size(), 3u);
-    for (int i = 0; i < 3000; ++i) EXPECT_EQ(got[std::size_t(i)]->view, 18 + i % 3);
+    for (int i = 0; i < 3000; ++i)
+        EXPECT_EQ(got[std::size_t(i)]->view, viewIdOf(ViewSet::Cube26, 18 + i % 3));
 }
 
 TEST(SnapshotCache, ConcurrentRequestsAcrossModelsAndViewsBakeEachKeyOnce) {
@@ -93,7 +95,7 @@ TEST(SnapshotCache, LruEvictionKeepsTheBudgetAndDropsTheLeastRecentlyUsed) {
     cfg.budgetBytes = 3 * one + one / 2;
     SnapshotCache cache(cfg);
     auto key = [&](int v) {
-        return SnapshotKey{m->uid(), 0, m->version(), ViewSet::Cube26, v, 1.0};
+        return SnapshotKey{m->uid(), 0, m->version(), viewIdOf(ViewSet::Cube26, v), 1.0};
     };
     for (int v : {0, 1, 2}) cache.get(*m, 0, ViewSet::Cube26, v, 1.0);
     EXPECT_EQ(cache.counters().evictions, 0u);
@@ -112,7 +114,7 @@ TEST(SnapshotCache, LruEvictionKeepsTheBudgetAndDropsTheLeastRecentlyUsed) {
     // An evicted snapshot stays valid for whoever holds it.
     cache.setBudget(0);
     EXPECT_EQ(cache.counters().bytes, 0u);
-    EXPECT_EQ(held->view, 3);
+    EXPECT_EQ(held->view, viewIdOf(ViewSet::Cube26, 3));
     EXPECT_GT(held->solidCount(), 0u);
 }
 
@@ -139,20 +141,44 @@ TEST(SnapshotCache, VersionBumpMissesAndBakesTheEditedModel) {
     EXPECT_NE(recoloured->cells, after->cells);
 }
 
-TEST(SnapshotCache, KeysSeparateSigmaViewSetAndFrame) {
+TEST(SnapshotCache, KeysSeparateSigmaDirectionAndFrame) {
     const auto m = test::arrowThenSphere();
     const VoxelGrid &a = m->frame(0), &b = m->frame(1);
     SnapshotCache cache;
     const auto s1 = cache.get(*m, 0, ViewSet::Cube26, 2, 1.0);
     const auto s2 = cache.get(*m, 0, ViewSet::Cube26, 2, 2.0);
-    const auto s3 = cache.get(*m, 0, ViewSet::Cube98, 2, 1.0);
+    const auto s3 = cache.get(*m, 0, ViewSet::Cube98, 26, 1.0); // (-2,-2,-1): not in Cube26
     const auto s4 = cache.get(*m, 1, ViewSet::Cube26, 2, 1.0);
     EXPECT_EQ(cache.counters().bakes, 4u);
     EXPECT_EQ(cache.counters().scenesBuilt, 2u); // per (model, frame, version)
     EXPECT_EQ(s2->lattice.sigma, 2.0);
-    EXPECT_EQ(s3->set, ViewSet::Cube98);
+    EXPECT_EQ(s3->view, viewIdOf(viewLatticePoints(ViewSet::Cube98)[26]));
     EXPECT_EQ(s4->lattice.dims, b.dims());
     EXPECT_EQ(s1->cells, bakeSnapshotScalar(a, ViewSet::Cube26, 2, 1.0).cells);
+}
+
+// A snapshot is a view of a direction, not of a set: view 2 (+Y) of every set is the lattice
+// direction (0, 1, 0), and the 98-set's (2, 2, 0) is the 26-set's edge view (1, 1, 0).
+TEST(SnapshotCache, OneSnapshotServesEverySetHoldingItsDirection) {
+    const auto m = test::arrowThenSphere();
+    SnapshotCache cache;
+    const auto y26 = cache.get(*m, 0, ViewSet::Cube26, 2, 1.0);
+    EXPECT_EQ(cache.get(*m, 0, ViewSet::Cube98, 2, 1.0), y26);
+    EXPECT_EQ(cache.get(*m, 0, ViewSet::Cube218, 2, 1.0), y26);
+    const auto& p98 = viewLatticePoints(ViewSet::Cube98);
+    const auto edge = std::find(p98.begin(), p98.end(), glm::ivec3(2, 2, 0));
+    ASSERT_NE(edge, p98.end());
+    const int edgeIndex = int(edge - p98.begin());
+    EXPECT_EQ(viewIdOf(ViewSet::Cube98, edgeIndex).lattice, glm::ivec3(1, 1, 0));
+    EXPECT_EQ(cache.get(*m, 0, ViewSet::Cube98, edgeIndex, 1.0),
+              cache.get(*m, 0, viewIdOf(glm::ivec3(1, 1, 0)), 1.0));
+    EXPECT_EQ(cache.counters().bakes, 2u);
+    // The shared direction is the same double vector whichever set names it.
+    EXPECT_EQ(viewDirections(ViewSet::Cube98)[std::size_t(edgeIndex)],
+              viewDirections(ViewSet::Cube26)[std::size_t(
+                  std::find(viewLatticePoints(ViewSet::Cube26).begin(),
+                            viewLatticePoints(ViewSet::Cube26).end(), glm::ivec3(1, 1, 0)) -
+                  viewLatticePoints(ViewSet::Cube26).begin())]);
 }
 
 } // namespace

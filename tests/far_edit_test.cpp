@@ -485,8 +485,11 @@ TEST(FarEditLaziness, OnlyRequestedViewsAreRefreshed) {
     EXPECT_EQ(c.snapshots, 26u);
     for (int v = 0; v < 26; ++v) {
         const bool asked = v == 4 || v == 11;
-        EXPECT_EQ(cache.find({m->uid(), 0, v0, ViewSet::Cube26, v, 1.0}) != nullptr, !asked) << v;
-        EXPECT_EQ(cache.find({m->uid(), 0, m->version(), ViewSet::Cube26, v, 1.0}) != nullptr,
+        EXPECT_EQ(cache.find({m->uid(), 0, v0, viewIdOf(ViewSet::Cube26, v), 1.0}) != nullptr,
+                  !asked)
+            << v;
+        EXPECT_EQ(cache.find({m->uid(), 0, m->version(), viewIdOf(ViewSet::Cube26, v), 1.0}) !=
+                      nullptr,
                   asked)
             << v;
     }
@@ -734,7 +737,8 @@ TEST(FarEditConcurrency, EditsAndRendersOnDifferentModelsAreSafe) {
             const Image img = test::renderFar(v.scene, cache);
             if (test::drawnPixels(img) == 0) ++failures;
             if (cache.counters().bytes > cfg.budgetBytes) ++failures;
-            cache.find({b->uid(), 0, b->version(), ViewSet::Cube26, (i * 7) % 26, 3.0 - sigma});
+            cache.find(
+                {b->uid(), 0, b->version(), viewIdOf(ViewSet::Cube26, (i * 7) % 26), 3.0 - sigma});
         }
     };
     std::thread r1(renderer, 1.0), r2(renderer, 2.0);
