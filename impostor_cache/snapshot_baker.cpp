@@ -1,6 +1,7 @@
 #include "impostor_cache/snapshot_baker.hpp"
 
 #include "core/error.hpp"
+#include "core/stopwatch.hpp"
 #include "impostor_cache/detail/bake_context.hpp"
 #include "impostor_cache/detail/embree_device.hpp"
 #include "impostor_cache/kernel_order_dda.hpp"
@@ -60,10 +61,6 @@ struct BoundMargin {
     float relative = 1e-5f; // float rounding of t itself (a few ulps, with 100x room)
     float apply(float te) const { return te - absolute - relative * (std::abs(te) + 1.0f); }
 };
-
-double msSince(std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 } // namespace
 

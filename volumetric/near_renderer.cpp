@@ -1,5 +1,6 @@
 #include "volumetric/near_renderer.hpp"
 
+#include "core/stopwatch.hpp"
 #include "volumetric/shaders/near_shared.h"
 #include "volumetric/voxel_residency.hpp"
 #include "volumetric/vulkan_device.hpp"
@@ -21,9 +22,6 @@ namespace voxtier {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point t0) {
-    return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 constexpr VkFormat kColorFormat = VK_FORMAT_R32_UINT; // packed RGBA8 from the kernel, bit-exact
 constexpr VkFormat kIdFormat = VK_FORMAT_R32_UINT;

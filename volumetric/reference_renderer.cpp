@@ -1,5 +1,7 @@
 #include "volumetric/reference_renderer.hpp"
 
+#include "core/stopwatch.hpp"
+
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
@@ -92,9 +94,7 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
         stats->pixelsInSprite += total.inSprite;
         stats->pixelsWritten += total.written;
         stats->voxelFetches += total.fetches;
-        stats->milliseconds +=
-            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                .count();
+        stats->milliseconds += msSince(t0);
     }
 }
 
