@@ -1,0 +1,256 @@
+// The on-disk snapshot cache (impostor_cache/snapshot_store.hpp): a render with a pre-baked
+// directory bakes nothing and writes the same image; damaged files are rejected with one line,
+// re-baked and replaced; concurrent writers both succeed; the size limit removes the least
+// recently used files and never one that is being read.
+#include "cli_support.hpp"
+#include "compose/frame.hpp"
+#include "frame_test_support.hpp"
+#include "impostor_cache/snapshot_cache.hpp"
+#include "impostor_cache/snapshot_store.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/file.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+namespace voxtier {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// An empty directory of its own for the running test case.
+fs::path freshDir(const std::string& tag = "") {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::string name = std::string(info->test_suite_name()) + "_" + info->name() + tag;
+    for (char& c : name)
+        if (c == '/') c = '_';
+    const fs::path dir =
+        fs::path(::testing::TempDir()) / ("voxtier_store_" + std::to_string(getpid()) + "_" + name);
+    fs::remove_all(dir);
+    return dir;
+}
+
+std::vector<std::uint8_t> readBytes(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), {}};
+}
+void writeBytes(const fs::path& p, const std::vector<std::uint8_t>& bytes) {
+    std::ofstream(p, std::ios::binary | std::ios::trunc)
+        .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+}
+
+struct FarFrame {
+    Image image;
+    SnapshotCacheCounters cache;
+    SnapshotStoreCounters store;
+};
+
+/// One far-tier frame of the hard-case world (three models, four entities) by a fresh renderer
+/// (an empty in-memory cache) over the on-disk cache `dir`.
+FarFrame renderFarWith(const fs::path& dir) {
+    Scene scene = test::hardCaseWorld(glm::dvec3(0.0));
+    FrameOptions o = test::cpuNear();
+    o.cacheDir = dir.string();
+    FrameRenderer renderer(scene, o);
+    FarFrame f;
+    f.image = renderer.render(0.0, RenderMode::Far).image;
+    f.cache = renderer.snapshotCache().counters();
+    f.store = renderer.snapshotCache().config().store->counters();
+    return f;
+}
+
+std::vector<fs::path> snapshotFiles(const fs::path& dir) {
+    std::vector<fs::path> files;
+    for (const auto& e : fs::recursive_directory_iterator(dir))
+        if (e.is_regular_file()) files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    return files;
+}
+
+TEST(SnapshotStore, PreBakedDirectoryMeansZeroBakesAndTheSameImage) {
+    const fs::path dir = freshDir();
+    const FarFrame cold = renderFarWith(dir);
+    ASSERT_GT(cold.cache.bakes, 0u);
+    EXPECT_EQ(cold.store.writes, cold.cache.bakes);
+    EXPECT_EQ(snapshotFiles(dir).size(), cold.cache.bakes); // one file per snapshot, no tmp left
+    EXPECT_GT(test::drawnPixels(cold.image), 0u);
+
+    const FarFrame warm = renderFarWith(dir);
+    EXPECT_EQ(warm.cache.bakes, 0u);
+    EXPECT_EQ(warm.cache.scenesBuilt, 0u); // not even an Embree scene
+    EXPECT_EQ(warm.cache.diskLoads, cold.cache.bakes);
+    EXPECT_EQ(warm.store.writes, 0u);
+    EXPECT_EQ(test::describeDifference(cold.image, warm.image, "cold", "pre-baked"), "");
+}
+
+TEST(SnapshotStore, FileRoundTripsAndIsNamedByItsKey) {
+    const auto m = test::solidBox({7, 4, 3});
+    SnapshotCache cache;
+    const ViewId view = viewIdOf(ViewSet::Cube26, 20);
+    const Snapshot& s = *cache.get(*m, 0, view, 1.5);
+    const SnapshotFileKey key{digestGrid(m->frame(0)), m->frame(0).dims(), view, 1.5, false};
+    const DecodedSnapshotFile d = decodeSnapshotFile(encodeSnapshotFile(key, s));
+    EXPECT_EQ(d.key, key);
+    EXPECT_EQ(d.snapshot.cells, s.cells);
+    EXPECT_EQ(d.snapshot.lattice.cellRange, s.lattice.cellRange);
+    EXPECT_EQ(d.snapshot.w, s.w);
+    // Every key field changes the name; the palette is not in the key at all.
+    SnapshotFileKey other = key;
+    other.sigma = 2.0;
+    EXPECT_NE(snapshotFileName(other), snapshotFileName(key));
+    other = key;
+    other.view = viewIdOf(ViewSet::Cube26, 21);
+    EXPECT_NE(snapshotFileName(other), snapshotFileName(key));
+    VoxelGrid g = m->frame(0);
+    g.set({0, 0, 0}, 0);
+    EXPECT_NE(digestGrid(g), key.grid);
+}
+
+TEST(SnapshotStore, SizeFieldsAreBoundedBeforeAnyAllocation) {
+    const auto m = test::solidBox({4, 4, 4});
+    SnapshotCache cache;
+    const ViewId view = viewIdOf(ViewSet::Cube26, 0);
+    const SnapshotFileKey key{digestGrid(m->frame(0)), {4, 4, 4}, view, 1.0, false};
+    const std::vector<std::uint8_t> good = encodeSnapshotFile(key, *cache.get(*m, 0, view, 1.0));
+    auto patched = [&](std::size_t offset, std::vector<std::uint8_t> field) {
+        std::vector<std::uint8_t> b = good;
+        std::copy(field.begin(), field.end(), b.begin() + std::ptrdiff_t(offset));
+        return b;
+    };
+    auto reason = [](const std::vector<std::uint8_t>& b) {
+        try {
+            decodeSnapshotFile(b);
+        } catch (const SnapshotFileError& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    // Offsets of the layout in snapshot_store.cpp: dims at 32, view at 44, sigma at 56, cell
+    // count at 84.
+    EXPECT_EQ(reason(patched(32, {0, 2, 0, 0})), "dims out of range"); // 512
+    EXPECT_EQ(reason(patched(44, {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0})),
+              "view is not a primitive lattice vector");
+    EXPECT_EQ(reason(patched(44, {2, 0, 0, 0, 2, 0, 0, 0})),
+              "view is not a primitive lattice vector");
+    EXPECT_EQ(reason(patched(56, {0, 0, 0, 0, 0, 0, 0xf0, 0x7f})), "sigma out of range"); // inf
+    EXPECT_EQ(reason(patched(84, {0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x7f})),
+              "cell count does not match the key");
+    EXPECT_EQ(reason(good), "accepted");
+}
+
+// ---- untrusted files: each case rejected with one line, re-baked, replaced ------------------
+
+struct Damage {
+    const char* name;
+    const char* reason; ///< what the warning must say
+    /// Damages `file`; `other` is another valid snapshot file of the same directory.
+    void (*apply)(const fs::path& file, const fs::path& other);
+};
+
+const Damage kDamages[] = {
+    {"truncated", "truncated",
+     [](const fs::path& f, const fs::path&) { fs::resize_file(f, fs::file_size(f) / 2); }},
+    {"empty", "truncated", [](const fs::path& f, const fs::path&) { fs::resize_file(f, 0); }},
+    {"corrupted", "checksum mismatch",
+     [](const fs::path& f, const fs::path&) {
+         std::vector<std::uint8_t> b = readBytes(f);
+         b[b.size() - 20] ^= 0x5a; // a payload byte
+         writeBytes(f, b);
+     }},
+    {"foreign", "magic",
+     [](const fs::path& f, const fs::path&) {
+         std::vector<std::uint8_t> b = readBytes(f);
+         const char png[8] = {'\x89', 'P', 'N', 'G', '\r', '\n', '\x1a', '\n'};
+         std::copy(png, png + 8, b.begin());
+         writeBytes(f, b);
+     }},
+    {"stale_version", "stale format version",
+     [](const fs::path& f, const fs::path&) {
+         std::vector<std::uint8_t> b = readBytes(f);
+         b[8] = std::uint8_t(kSnapshotFileVersion + 1); // the version field, little-endian
+         writeBytes(f, b);
+     }},
+    {"wrong_key", "written for another key",
+     [](const fs::path& f, const fs::path& other) { fs::copy_file(other, f, fs::copy_options::overwrite_existing); }},
+};
+
+void PrintTo(const Damage& d, std::ostream* os) {
+    *os << d.name;
+}
+
+class UntrustedFile : public ::testing::TestWithParam<Damage> {};
+
+TEST_P(UntrustedFile, IsRejectedWithOneLineRebakedAndReplaced) {
+    const Damage& d = GetParam();
+    const fs::path dir = freshDir();
+    const FarFrame cold = renderFarWith(dir);
+    const std::vector<fs::path> files = snapshotFiles(dir);
+    ASSERT_GE(files.size(), 2u);
+    const fs::path& victim = files[0];
+    d.apply(victim, files[1]);
+
+    ::testing::internal::CaptureStderr();
+    const FarFrame again = renderFarWith(dir);
+    const std::string err = ::testing::internal::GetCapturedStderr();
+    EXPECT_EQ(test::lineCount(err), 1u) << err;
+    EXPECT_NE(err.find(victim.string()), std::string::npos) << err;
+    EXPECT_NE(err.find(d.reason), std::string::npos) << err;
+    EXPECT_EQ(again.store.rejected, 1u);
+    EXPECT_EQ(again.cache.bakes, 1u);
+    EXPECT_EQ(again.cache.diskLoads, files.size() - 1);
+    EXPECT_EQ(test::describeDifference(cold.image, again.image, "cold", "after re-bake"), "");
+
+    // Replaced: a valid file again, read by the next render without a word.
+    EXPECT_NO_THROW(decodeSnapshotFile(readBytes(victim)));
+    ::testing::internal::CaptureStderr();
+    const FarFrame third = renderFarWith(dir);
+    EXPECT_EQ(::testing::internal::GetCapturedStderr(), "");
+    EXPECT_EQ(third.cache.bakes, 0u);
+    EXPECT_EQ(snapshotFiles(dir).size(), files.size());
+}
+
+INSTANTIATE_TEST_SUITE_P(Cases, UntrustedFile, ::testing::ValuesIn(kDamages),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+// ---- processes ---------------------------------------------------------------------------------
+
+TEST(SnapshotStore, TwoProcessesBakingIntoOneDirectoryBothSucceed) {
+    const fs::path dir = freshDir();
+    const std::string render = "render '" + std::string(VOXTIER_SOURCE_DIR) +
+                               "/scenes/vox/mmmm/chr_cop1.vox' --mode far --size 96x64 "
+                               "--near-backend reference --cache-dir '" +
+                               dir.string() + "'";
+    // Both start on an empty directory and bake (and write) the same keys at the same time.
+    const std::string cli = "'" + std::string(VOXTIER_CLI) + "' ";
+    const std::string errFile = dir.string() + "_err.txt";
+    const std::string cmd = cli + render + " -o " + dir.string() + "_a.png >/dev/null 2>>" +
+                            errFile + " & a=$!; " + cli + render + " -o " + dir.string() +
+                            "_b.png >/dev/null 2>>" + errFile + " & b=$!; wait $a && wait $b";
+    test::CliRun both;
+    both.status = std::system(cmd.c_str());
+    const std::vector<std::uint8_t> errBytes = readBytes(errFile);
+    both.err.assign(errBytes.begin(), errBytes.end());
+    EXPECT_EQ(both.status, 0) << both.err;
+    EXPECT_EQ(both.err.find("warning"), std::string::npos) << both.err;
+    const std::vector<fs::path> files = snapshotFiles(dir);
+    ASSERT_FALSE(files.empty());
+    for (const fs::path& f : files) {
+        EXPECT_EQ(f.extension(), ".snap") << f; // no temporary file left behind
+        EXPECT_NO_THROW(decodeSnapshotFile(readBytes(f))) << f;
+    }
+    EXPECT_EQ(readBytes(dir.string() + "_a.png"), readBytes(dir.string() + "_b.png"));
+    const test::CliRun warm = test::runCli(render + " -o " + dir.string() + "_c.png");
+    EXPECT_EQ(warm.status, 0) << warm.err;
+    EXPECT_NE(warm.out.find(", 0 bakes,"), std::string::npos) << warm.out;
+    EXPECT_EQ(readBytes(dir.string() + "_a.png"), readBytes(dir.string() + "_c.png"));
+}
+
+} // namespace
+} // namespace voxtier
