@@ -12,7 +12,7 @@
 namespace voxtier::cli {
 
 struct CacheDirArgs {
-    std::string dir;              ///< "" = no on-disk cache
+    std::string dir;               ///< "" = no on-disk cache
     std::optional<double> limitMb; ///< size limit of the directory (none = unlimited)
     std::uint64_t limitBytes() const {
         return limitMb ? std::uint64_t(*limitMb * double(1 << 20)) : 0;

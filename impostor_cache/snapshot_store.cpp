@@ -3,10 +3,8 @@
 #include "core/error.hpp"
 #include "core/stopwatch.hpp"
 
-#include <fcntl.h>
 #include <sys/file.h>
 #include <sys/stat.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -15,7 +13,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <fcntl.h>
 #include <system_error>
+#include <unistd.h>
 
 namespace voxtier {
 
@@ -57,7 +57,8 @@ class Writer {
     explicit Writer(std::vector<std::uint8_t>& out) : out_(out) {}
     void bytes(const void* p, std::size_t n) {
         const auto* b = static_cast<const std::uint8_t*>(p);
-        for (std::size_t i = 0; i < n; ++i) out_.push_back(b[i]); // (insert: a GCC 12 false warning)
+        for (std::size_t i = 0; i < n; ++i)
+            out_.push_back(b[i]); // (insert: a GCC 12 false warning)
     }
     void u32(std::uint32_t v) {
         for (int i = 0; i < 4; ++i) out_.push_back(std::uint8_t(v >> (8 * i)));
@@ -162,9 +163,9 @@ Digest128 digestBytes(std::span<const std::uint8_t> bytes, std::uint64_t seed) {
 
 Digest128 digestGrid(const VoxelGrid& grid) {
     const glm::ivec3 d = grid.dims();
-    const std::uint64_t seed = finalMix(std::uint64_t(std::uint32_t(d.x)) |
-                                        std::uint64_t(std::uint32_t(d.y)) << 21 |
-                                        std::uint64_t(std::uint32_t(d.z)) << 42);
+    const std::uint64_t seed =
+        finalMix(std::uint64_t(std::uint32_t(d.x)) | std::uint64_t(std::uint32_t(d.y)) << 21 |
+                 std::uint64_t(std::uint32_t(d.z)) << 42);
     return digestBytes(grid.data(), seed);
 }
 
@@ -469,7 +470,8 @@ std::uint64_t SnapshotStore::evictDownTo(std::uint64_t targetBytes) {
         // Not waiting: a file someone is reading stays; the next oldest goes instead.
         bool removed = false;
         if (::flock(fd, LOCK_EX | LOCK_NB) == 0) {
-            struct stat held {}, named {};
+            struct stat held {
+            }, named{};
             // Still the same file under that name (not replaced by a fresh write meanwhile)?
             if (fstat(fd, &held) == 0 && ::stat(f.path.c_str(), &named) == 0 &&
                 held.st_ino == named.st_ino && held.st_dev == named.st_dev)

@@ -52,11 +52,11 @@ Digest128 digestGrid(const VoxelGrid& grid);
 
 /// What determines a snapshot's bytes (with the format version and lattice rule constants).
 struct SnapshotFileKey {
-    Digest128 grid;          ///< digestGrid of the model frame
-    glm::ivec3 dims{0};      ///< the grid's dimensions
-    ViewId view;             ///< the direction baked
-    double sigma = 1.0;      ///< virtual pixels per voxel
-    bool withDepth = false;  ///< Snapshot::depth stored
+    Digest128 grid;         ///< digestGrid of the model frame
+    glm::ivec3 dims{0};     ///< the grid's dimensions
+    ViewId view;            ///< the direction baked
+    double sigma = 1.0;     ///< virtual pixels per voxel
+    bool withDepth = false; ///< Snapshot::depth stored
     bool operator==(const SnapshotFileKey&) const = default;
 };
 /// The key's file, relative to the cache directory: "ab/<32 hex digits>.snap", the first two
@@ -89,10 +89,11 @@ struct SnapshotStoreOptions {
 };
 
 struct SnapshotStoreCounters {
-    std::uint64_t reads = 0;    ///< snapshots read from valid files
-    std::uint64_t misses = 0;   ///< keys with no file
-    std::uint64_t rejected = 0; ///< files not used (truncated, corrupted, foreign, stale, wrong key)
-    std::uint64_t writes = 0;   ///< files written
+    std::uint64_t reads = 0;  ///< snapshots read from valid files
+    std::uint64_t misses = 0; ///< keys with no file
+    std::uint64_t rejected =
+        0;                    ///< files not used (truncated, corrupted, foreign, stale, wrong key)
+    std::uint64_t writes = 0; ///< files written
     std::uint64_t bytesRead = 0, bytesWritten = 0;
     std::uint64_t evicted = 0, bytesEvicted = 0; ///< files removed for the size limit
     std::uint64_t writeFailures = 0;             ///< files that could not be written (warned)

@@ -11,13 +11,14 @@
 
 #include <gtest/gtest.h>
 #include <sys/file.h>
-#include <fcntl.h>
-#include <unistd.h>
 
+#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <string>
+#include <unistd.h>
 #include <vector>
 
 namespace voxtier {
@@ -178,7 +179,9 @@ const Damage kDamages[] = {
          writeBytes(f, b);
      }},
     {"wrong_key", "written for another key",
-     [](const fs::path& f, const fs::path& other) { fs::copy_file(other, f, fs::copy_options::overwrite_existing); }},
+     [](const fs::path& f, const fs::path& other) {
+         fs::copy_file(other, f, fs::copy_options::overwrite_existing);
+     }},
 };
 
 void PrintTo(const Damage& d, std::ostream* os) {
@@ -250,6 +253,68 @@ TEST(SnapshotStore, TwoProcessesBakingIntoOneDirectoryBothSucceed) {
     EXPECT_EQ(warm.status, 0) << warm.err;
     EXPECT_NE(warm.out.find(", 0 bakes,"), std::string::npos) << warm.out;
     EXPECT_EQ(readBytes(dir.string() + "_a.png"), readBytes(dir.string() + "_c.png"));
+}
+
+// ---- pre-baking: voxtier bake --cache-dir [--shard I/N] ------------------------------------
+
+std::string quoted(const fs::path& p) {
+    return "'" + p.string() + "'";
+}
+const std::string kDefaultScene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/default.json";
+
+/// Every file of a directory tree by relative path, with its bytes.
+std::map<std::string, std::vector<std::uint8_t>> directoryContents(const fs::path& dir) {
+    std::map<std::string, std::vector<std::uint8_t>> files;
+    for (const fs::path& f : snapshotFiles(dir))
+        files[fs::relative(f, dir).string()] = readBytes(f);
+    return files;
+}
+
+TEST(BakeCli, PreBakedSceneRendersWithZeroBakesAndTheSameImage) {
+    const fs::path dir = freshDir();
+    const test::CliRun bake =
+        test::runCli("bake " + kDefaultScene + " --frames all --cache-dir " + quoted(dir));
+    ASSERT_EQ(bake.status, 0) << bake.err;
+    EXPECT_NE(bake.out.find("(0 already in the directory)"), std::string::npos) << bake.out;
+    EXPECT_NE(bake.out.find("Mrays/s"), std::string::npos) << bake.out;
+    const std::string render =
+        "render " + kDefaultScene + " --size 240x136 --near-backend reference -o " + dir.string();
+    const test::CliRun cold = test::runCli(render + "_cold.png");
+    const test::CliRun warm = test::runCli(render + "_warm.png --cache-dir " + quoted(dir));
+    ASSERT_EQ(cold.status, 0) << cold.err;
+    ASSERT_EQ(warm.status, 0) << warm.err;
+    EXPECT_EQ(cold.out.find(", 0 bakes,"), std::string::npos) << cold.out;
+    EXPECT_NE(warm.out.find(", 0 bakes,"), std::string::npos) << warm.out;
+    EXPECT_NE(warm.out.find("0 written"), std::string::npos) << warm.out;
+    EXPECT_EQ(readBytes(dir.string() + "_cold.png"), readBytes(dir.string() + "_warm.png"));
+    // A second bake finds everything there and writes nothing.
+    const test::CliRun again =
+        test::runCli("bake " + kDefaultScene + " --frames all --cache-dir " + quoted(dir));
+    EXPECT_NE(again.out.find("baked 0 of"), std::string::npos) << again.out;
+}
+
+TEST(BakeCli, ShardsTogetherAreTheUnshardedBakeFileForFile) {
+    const std::string inputs =
+        kDefaultScene + " '" + VOXTIER_SOURCE_DIR + "/scenes/vox/mmmm/chr_cop1.vox' --frames all";
+    const fs::path whole = freshDir("_whole");
+    ASSERT_EQ(test::runCli("bake " + inputs + " --cache-dir " + quoted(whole)).status, 0);
+    const auto expected = directoryContents(whole);
+    ASSERT_GT(expected.size(), 100u);
+    for (int n : {1, 3, 7}) {
+        // N independent processes at once, each with its own index, into one directory.
+        const fs::path dir = freshDir("_" + std::to_string(n));
+        std::string cmd;
+        for (int i = 0; i < n; ++i)
+            cmd += "'" + std::string(VOXTIER_CLI) + "' bake " + inputs + " --cache-dir " +
+                   quoted(dir) + " --shard " + std::to_string(i) + "/" + std::to_string(n) +
+                   " >/dev/null & p" + std::to_string(i) + "=$!; ";
+        for (int i = 0; i < n; ++i) cmd += "wait $p" + std::to_string(i) + " && ";
+        cmd += "true";
+        ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+        const auto got = directoryContents(dir);
+        EXPECT_EQ(got.size(), expected.size()) << n << " shards";
+        EXPECT_TRUE(got == expected) << n << " shards: not the same files and bytes";
+    }
 }
 
 } // namespace
