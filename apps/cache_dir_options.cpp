@@ -15,7 +15,7 @@ void addCacheDirOptions(CLI::App& cmd, CacheDirArgs& args, const std::string& wh
     cmd.add_option("--cache-dir-mb", args.limitMb,
                    "Size limit of the --cache-dir directory in MiB (least recently used files "
                    "are removed first; default: no limit)")
-        ->check(numberIn(1, double(1ull << 30), "MiB"))
+        ->check(numberIn(1, 1e9, "MiB"))
         ->needs(dir);
 }
 

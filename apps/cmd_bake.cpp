@@ -380,18 +380,19 @@ void addBakeCommand(CLI::App& app) {
         ->capture_default_str();
     CLI::Option* views =
         cmd->add_option("--views", args->views,
-                        "View set: how many directions (default 26; a scene's own with "
-                        "--cache-dir)")
+                        "View set: how many directions (a scene's own with --cache-dir)")
             ->type_name("INT")
-            ->transform(oneOf(viewSetNames(), "view set"));
+            ->transform(oneOf(viewSetNames(), "view set"))
+            ->default_str(nameOf(viewSetNames(), args->views));
     cmd->add_option("--level", args->level,
                     "View set as the cube lattice level n (1: 26, 2: 98, 3: 218 views)")
         ->check(intIn(1, 3))
         ->excludes(views);
     CLI::Option* sigma =
         cmd->add_option("--sigma", args->sigma,
-                        "Virtual pixels per voxel (default 1; a scene's own with --cache-dir)")
-            ->check(sigmaRange());
+                        "Virtual pixels per voxel (a scene's own with --cache-dir)")
+            ->check(sigmaRange())
+            ->capture_default_str();
     cmd->add_option("--frames", args->allFrames,
                     "With --cache-dir: 'all' bakes every animation frame (default: --frame)")
         ->type_name("all")

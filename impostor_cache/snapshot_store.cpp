@@ -421,19 +421,18 @@ void SnapshotStore::save(const SnapshotFileKey& key, const Snapshot& snap) {
 
 void SnapshotStore::keepLimitAfterWrite(std::uint64_t fileBytes) {
     if (options_.limitBytes == 0) return;
-    {
-        std::lock_guard lock(mutex_);
-        if (approxBytes_) {
-            *approxBytes_ += fileBytes;
-            if (*approxBytes_ <= options_.limitBytes) return;
-        }
+    // One thread at a time: a write renamed before a scan is seen by it, one renamed after is
+    // added after the scan's total is stored, so no file of this process goes uncounted.
+    std::lock_guard limitLock(limitMutex_);
+    if (approxBytes_) {
+        *approxBytes_ += fileBytes;
+        if (*approxBytes_ <= options_.limitBytes) return;
     }
     // Over (or not known yet): scan and, if over, go down to 90% of the limit so that the next
     // writes do not each rescan the directory.
     std::uint64_t total = 0;
     for (const SnapshotStoreFile& f : list()) total += f.bytes;
     if (total > options_.limitBytes) total = evictDownTo(options_.limitBytes / 10 * 9);
-    std::lock_guard lock(mutex_);
     approxBytes_ = total;
 }
 

@@ -135,6 +135,7 @@ class SnapshotStore {
     SnapshotStoreOptions options_;
     mutable std::mutex mutex_;
     SnapshotStoreCounters counters_;
+    std::mutex limitMutex_; ///< for approxBytes_ (and one scan at a time)
     /// The directory's bytes as this process last scanned them plus what it wrote since (other
     /// processes write too: a scan corrects it before anything is removed).
     std::optional<std::uint64_t> approxBytes_;

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <sys/file.h>
 
+#include <chrono>
 #include <fcntl.h>
 #include <filesystem>
 #include <fstream>
@@ -221,6 +222,64 @@ TEST_P(UntrustedFile, IsRejectedWithOneLineRebakedAndReplaced) {
 
 INSTANTIATE_TEST_SUITE_P(Cases, UntrustedFile, ::testing::ValuesIn(kDamages),
                          [](const auto& info) { return std::string(info.param.name); });
+
+// ---- the size limit --------------------------------------------------------------------------
+
+/// Sets a file's last use (mtime) to `secondsAgo` before now.
+void setLastUse(const fs::path& f, int secondsAgo) {
+    fs::last_write_time(f, fs::file_time_type::clock::now() - std::chrono::seconds(secondsAgo));
+}
+
+TEST(SnapshotStore, SizeLimitRemovesLeastRecentlyUsedFilesButNeverOneBeingRead) {
+    const fs::path dir = freshDir();
+    renderFarWith(dir);
+    std::vector<fs::path> files = snapshotFiles(dir);
+    ASSERT_GE(files.size(), 4u);
+    // A known order of last use: files[0] the oldest ... files.back() the newest.
+    for (std::size_t i = 0; i < files.size(); ++i) setLastUse(files[i], 1000 - int(i));
+    std::uint64_t total = 0;
+    for (const fs::path& f : files) total += fs::file_size(f);
+
+    // Another "process" is reading the oldest file: it holds the readers' shared lock.
+    const int reader = ::open(files[0].c_str(), O_RDONLY);
+    ASSERT_GE(reader, 0);
+    ASSERT_EQ(::flock(reader, LOCK_SH), 0);
+
+    // Room for all but the second and third oldest: the oldest is being read, so exactly those
+    // two go, and nothing newer.
+    const std::uint64_t target = total - fs::file_size(files[1]) - fs::file_size(files[2]);
+    SnapshotStore store({.dir = dir});
+    const std::uint64_t left = store.evictDownTo(target);
+    ::close(reader);
+    EXPECT_LE(left, target);
+    EXPECT_TRUE(fs::exists(files[0])) << "removed while being read";
+    EXPECT_FALSE(fs::exists(files[1]));
+    EXPECT_FALSE(fs::exists(files[2]));
+    for (std::size_t i = 3; i < files.size(); ++i) EXPECT_TRUE(fs::exists(files[i])) << i;
+    EXPECT_EQ(store.counters().evicted, 2u);
+
+    // A read marks a file used: the oldest file, read again, is no longer the oldest by far.
+    const auto readBefore = fs::last_write_time(files[0]);
+    const FarFrame f = renderFarWith(dir); // reads the surviving files, re-bakes the 2 removed
+    EXPECT_EQ(f.cache.bakes, 2u);
+    EXPECT_GT(fs::last_write_time(files[0]), readBefore + std::chrono::seconds(900));
+}
+
+TEST(SnapshotStore, WritesKeepTheDirectoryUnderItsLimit) {
+    const fs::path dir = freshDir();
+    Scene scene = test::hardCaseWorld(glm::dvec3(0.0));
+    FrameOptions o = test::cpuNear();
+    o.cacheDir = dir.string();
+    o.cacheDirBytes = 2000; // the hard-case world writes 4 files, 3114 bytes
+    FrameRenderer renderer(scene, o);
+    renderer.render(0.0, RenderMode::Far);
+    const SnapshotStoreCounters c = renderer.snapshotCache().config().store->counters();
+    std::uint64_t total = 0;
+    for (const fs::path& f : snapshotFiles(dir)) total += fs::file_size(f);
+    EXPECT_GT(c.evicted, 0u);
+    EXPECT_LE(total, o.cacheDirBytes);
+    EXPECT_EQ(c.bytesWritten - c.bytesEvicted, total);
+}
 
 // ---- processes ---------------------------------------------------------------------------------
 
