@@ -376,5 +376,35 @@ TEST(BakeCli, ShardsTogetherAreTheUnshardedBakeFileForFile) {
     }
 }
 
+TEST(BakeCli, BadOptionsAreOneLineErrors) {
+    const fs::path dir = freshDir();
+    const std::string vox =
+        "'" + std::string(VOXTIER_SOURCE_DIR) + "/scenes/vox/mmmm/chr_cop1.vox'";
+    fs::create_directories(dir);
+    std::ofstream(dir / "a_file") << "x";
+    struct Case {
+        std::string args;
+        int status;
+        std::string expect;
+    };
+    const Case cases[] = {
+        {"bake " + vox + " --cache-dir " + quoted(dir) + " --shard 3/3", 2, "--shard"},
+        {"bake " + vox + " --cache-dir " + quoted(dir) + " --shard 1", 2, "--shard"},
+        {"bake " + vox + " --cache-dir " + quoted(dir) + " --frames some", 2, "--frames"},
+        {"bake " + vox + " --shard 0/2", 2, "--shard"},
+        {"bake " + vox + " --cache-dir " + quoted(dir) + " --views 98 --level 2", 2, "--level"},
+        {"bake " + vox + " --cache-dir-mb 10", 2, "--cache-dir"},
+        {"render " + vox + " --cache-dir " + quoted(dir) + " --cache-dir-mb 0", 2,
+         "--cache-dir-mb"},
+        {"render " + vox + " --cache-dir " + quoted(dir / "a_file" / "sub"), 1, "--cache-dir"},
+    };
+    for (const Case& c : cases) {
+        const test::CliRun r = test::runCli(c.args);
+        EXPECT_EQ(r.status, c.status) << c.args << ": " << r.err;
+        EXPECT_EQ(test::lineCount(r.err), 1u) << c.args << ": " << r.err;
+        EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.args << ": " << r.err;
+    }
+}
+
 } // namespace
 } // namespace voxtier
