@@ -117,7 +117,7 @@ SpriteLattice latticeOf(const SnapshotFileKey& k) {
         if (k.dims[c] < 1 || k.dims[c] > Limits::kMaxModelDim)
             throw SnapshotFileError("dims out of range");
     for (int c = 0; c < 3; ++c)
-        if (std::abs(k.view.lattice[c]) > kMaxViewComponent)
+        if (k.view.lattice[c] < -kMaxViewComponent || k.view.lattice[c] > kMaxViewComponent)
             throw SnapshotFileError("view out of range");
     if (k.view.lattice == glm::ivec3(0) || !(viewIdOf(k.view.lattice) == k.view))
         throw SnapshotFileError("view is not a primitive lattice vector");
@@ -132,10 +132,6 @@ std::size_t cellCount(const SpriteLattice& L) {
 
 std::size_t fileSize(std::size_t cells, std::size_t depths) {
     return kHeaderBytes + cells * sizeof(SnapshotCell) + depths * sizeof(float) + kChecksumBytes;
-}
-
-std::string describe(const std::error_code& ec) {
-    return ec.message();
 }
 
 } // namespace
@@ -339,7 +335,7 @@ SnapshotStore::SnapshotStore(SnapshotStoreOptions options) : options_(std::move(
     std::filesystem::create_directories(options_.dir, ec);
     if (ec || !std::filesystem::is_directory(options_.dir))
         throw InputError(options_.dir.string(), "--cache-dir",
-                         "cannot create the directory" + (ec ? ": " + describe(ec) : ""));
+                         "cannot create the directory" + (ec ? ": " + ec.message() : ""));
     if (!options_.warn)
         options_.warn = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
 }
