@@ -141,7 +141,7 @@ TEST(SnapshotStore, SizeFieldsAreBoundedBeforeAnyAllocation) {
               "view is not a primitive lattice vector");
     EXPECT_EQ(reason(patched(44, {2, 0, 0, 0, 2, 0, 0, 0})),
               "view is not a primitive lattice vector");
-    EXPECT_EQ(reason(patched(44, {0, 0, 0, 0x80})), "view out of range"); // INT_MIN
+    EXPECT_EQ(reason(patched(44, {0, 0, 0, 0x80})), "view out of range");                 // INT_MIN
     EXPECT_EQ(reason(patched(56, {0, 0, 0, 0, 0, 0, 0xf0, 0x7f})), "sigma out of range"); // inf
     EXPECT_EQ(reason(patched(84, {0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x7f})),
               "cell count does not match the key");
