@@ -50,7 +50,7 @@ struct SnapshotCacheConfig {
 
 struct SnapshotCacheCounters {
     std::uint64_t hits = 0;   ///< requests answered from the cache (incl. joining a bake in flight)
-    std::uint64_t misses = 0; ///< requests that started a bake
+    std::uint64_t misses = 0; ///< requests that started a bake (or an on-disk cache read)
     std::uint64_t bakes = 0;  ///< snapshots baked
     std::uint64_t diskLoads = 0; ///< misses filled from the on-disk cache instead of a bake
     std::uint64_t evictions = 0; ///< snapshots dropped for the budget
@@ -129,7 +129,7 @@ class SnapshotCache {
     SnapshotCacheConfig config_;
     VersionedLru<ViewKey, Snapshot, ViewKeyHash> snapshots_;
     /// digestGrid of each (model, frame, version) the on-disk cache was asked about: computed
-    /// once for all its views (a 256^3 grid takes milliseconds).
+    /// once for all its views, since it reads every voxel of the frame.
     VersionedLru<FrameKey, Digest128, FrameKeyHash> digests_;
     VersionedLru<FrameKey, VoxelScene, FrameKeyHash> scenes_;
     mutable std::mutex mutex_;       ///< for counters_
