@@ -27,14 +27,30 @@ namespace {
 
 namespace fs = std::filesystem;
 
+/// What this process's test cases write (directories and images beside them) starts with this.
+std::string scratchPrefix() {
+    return "voxtier_store_" + std::to_string(getpid()) + "_";
+}
+
+/// Removes this process's scratch files when the tests are done.
+class ScratchCleanup : public ::testing::Environment {
+  public:
+    void TearDown() override {
+        std::error_code ec;
+        for (const auto& e : fs::directory_iterator(::testing::TempDir(), ec))
+            if (e.path().filename().string().rfind(scratchPrefix(), 0) == 0)
+                fs::remove_all(e.path(), ec);
+    }
+};
+const auto* kCleanup = ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+
 /// An empty directory of its own for the running test case.
 fs::path freshDir(const std::string& tag = "") {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
     std::string name = std::string(info->test_suite_name()) + "_" + info->name() + tag;
     for (char& c : name)
         if (c == '/') c = '_';
-    const fs::path dir =
-        fs::path(::testing::TempDir()) / ("voxtier_store_" + std::to_string(getpid()) + "_" + name);
+    const fs::path dir = fs::path(::testing::TempDir()) / (scratchPrefix() + name);
     fs::remove_all(dir);
     return dir;
 }
