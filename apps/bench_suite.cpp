@@ -277,6 +277,8 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
         FrameOptions o;
         o.sharedNear = near;
         o.nearBackend = info(c->mode).nearBackend;
+        o.cacheDir = plan.cacheDir;
+        o.cacheDirBytes = plan.cacheDirBytes;
         c->renderer = std::make_unique<FrameRenderer>(c->scene, o);
         c->samples.assign(F, {});
         c->errors.assign(F, {});
@@ -616,6 +618,8 @@ const char* toString(BenchMode mode) {
 
 Plan makePlan(const SuiteOptions& o) {
     Plan p;
+    p.cacheDir = o.cacheDir;
+    p.cacheDirBytes = o.cacheDirBytes;
     if (o.smoke) {
         p.preset = "smoke";
         p.repeats = 1;

@@ -63,6 +63,8 @@ struct SuiteOptions {
     std::string size;    ///< WxH override of every scene's image size ("" = the scene's)
     bool sweeps = true, scaling = true;
     std::string entityCounts, modelSides; ///< comma-separated overrides of the scaling points
+    std::string cacheDir;            ///< on-disk snapshot cache of every configuration ("" = none)
+    std::uint64_t cacheDirBytes = 0; ///< its size limit (0 = none)
 };
 
 /// The resolved plan (preset + overrides).
@@ -78,6 +80,8 @@ struct Plan {
     std::vector<int> entityCounts, modelSides;
     int sizeEntities = 500; ///< entities of the model-size curve
     int scalingRepeats = 5;
+    std::string cacheDir; ///< SuiteOptions::cacheDir
+    std::uint64_t cacheDirBytes = 0;
 };
 
 /// One sampled path frame of a measured configuration.

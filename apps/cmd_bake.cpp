@@ -1,22 +1,32 @@
 // `voxtier bake MODEL.vox`: bake every far-tier snapshot of one model with Embree, print the
-// cost, optionally write a contact sheet of the views. `voxtier bake --bench [MODEL.vox...]`:
+// cost, optionally write a contact sheet of the views. `voxtier bake MODEL.vox|SCENE.json ...
+// --cache-dir DIR`: pre-bake every view of every model frame named into the on-disk snapshot
+// cache (impostor_cache/snapshot_store.hpp), optionally one deterministic share of the work
+// (`--shard I/N`, for N independent jobs of a cluster scheduler; docs/baking.md).
+// `voxtier bake --bench [MODEL.vox...]`:
 // the Embree bake against the near kernel's scalar DDA over the same rays, side by side in one
 // run (medians over repeats), plus the memory one cached model costs.
 #include "apps/bench_util.hpp"
+#include "apps/cache_dir_options.hpp"
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "core/image_io.hpp"
 #include "core/procedural.hpp"
+#include "core/scene_loader.hpp"
+#include "core/stopwatch.hpp"
 #include "core/vox_reader.hpp"
 #include "impostor_cache/contact_sheet.hpp"
 #include "impostor_cache/snapshot_baker.hpp"
+#include "impostor_cache/snapshot_cache.hpp"
 #include "impostor_cache/view_set.hpp"
 #include "impostor_cache/voxel_scene.hpp"
 
 #include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -43,7 +53,23 @@ struct BakeArgs {
     bool bench = false;
     int repeats = 5;
     int threads = 0;
+    // Pre-baking into an on-disk cache.
+    CacheDirArgs cacheDir;
+    bool viewsGiven = false, sigmaGiven = false; ///< else a scene's own
+    std::optional<int> level;                    ///< cube lattice n: 1 -> 26, 2 -> 98, 3 -> 218
+    bool allFrames = false;                      ///< --frames all
+    std::string shard;                           ///< "I/N" (readShard), "" = all the work
 };
+
+/// "I/N" -> {I, N}; nullopt unless 1 <= N <= 1000000 and 0 <= I < N.
+std::optional<std::pair<int, int>> readShard(const std::string& text) {
+    int i = -1, n = 0;
+    char tail = 0;
+    if (std::sscanf(text.c_str(), "%d/%d%c", &i, &n, &tail) != 2 || n < 1 || n > 1000000 || i < 0 ||
+        i >= n)
+        return std::nullopt;
+    return std::pair{i, n};
+}
 
 struct NamedModel {
     std::string name;
@@ -65,6 +91,11 @@ std::string dimsText(glm::ivec3 d) {
     return std::to_string(d.x) + "x" + std::to_string(d.y) + "x" + std::to_string(d.z);
 }
 
+/// --level: the cube lattice {-n..n}^3 of level n.
+ViewSet viewSetOfLevel(int level) {
+    return std::array{ViewSet::Cube26, ViewSet::Cube98, ViewSet::Cube218}[std::size_t(level - 1)];
+}
+
 void runBake(const BakeArgs& a) {
     if (a.inputs.size() != 1)
         throw CLI::ValidationError("model", "bake takes one .vox file (or --bench)");
@@ -74,7 +105,9 @@ void runBake(const BakeArgs& a) {
         throw InputError(a.inputs[0], "--frame",
                          "out of range: the model has " + std::to_string(model->frameCount()) +
                              " frames");
-    const ViewSet set = a.views;
+    if (a.allFrames) throw CLI::ValidationError("--frames", "applies with --cache-dir only");
+    if (!a.shard.empty()) throw CLI::ValidationError("--shard", "applies with --cache-dir only");
+    const ViewSet set = a.level ? viewSetOfLevel(*a.level) : a.views;
     VoxelSceneOptions so;
     so.geometry = a.geometry;
     BakeOptions bo;
@@ -106,6 +139,129 @@ void runBake(const BakeArgs& a) {
         writeImage(a.sheet, makeContactSheet(snaps, model->palette()));
         std::printf("contact sheet -> %s\n", a.sheet.c_str());
     }
+}
+
+bool isVox(const std::string& file) {
+    std::string ext = std::filesystem::path(file).extension().string();
+    for (char& c : ext) c = char(std::tolower(c));
+    return ext == ".vox";
+}
+
+/// What one input asks to be baked: its models with the view set and sigma to bake them at.
+struct BakeSource {
+    std::string file;
+    std::vector<NamedModel> models;
+    ViewSet views = ViewSet::Cube26;
+    double sigma = 1.0;
+};
+
+/// A .vox gives the --model model (every model of the file with --frames all: a multi-model
+/// file is often an animation); a scene gives its models at its own view set and sigma. The
+/// command line's --views / --level / --sigma override both.
+BakeSource loadSource(const std::string& file, const BakeArgs& a) {
+    BakeSource src{file, {}, ViewSet::Cube26, 1.0};
+    if (isVox(file)) {
+        const VoxFile vox = readVoxFile(file);
+        const std::string stem = std::filesystem::path(file).stem().string();
+        if (a.allFrames) {
+            src.models.push_back(
+                {stem, std::make_shared<VoxelModel>(stem, vox.palette, vox.models)});
+        } else {
+            std::string name;
+            src.models.push_back({"", loadModel(file, a.model, &name)});
+            src.models.back().name = name;
+        }
+    } else {
+        const Scene scene = loadScene(file);
+        for (const auto& m : scene.models) src.models.push_back({m->name(), m});
+        src.views = viewSetFromSize(scene.selector.viewSetSize);
+        src.sigma = scene.render.sigma;
+    }
+    if (a.level) src.views = viewSetOfLevel(*a.level);
+    if (a.viewsGiven) src.views = a.views;
+    if (a.sigmaGiven) src.sigma = a.sigma;
+    return src;
+}
+
+/// One unit of work: every view of one frame of one model.
+struct BakeItem {
+    const BakeSource* source;
+    const NamedModel* model;
+    int frame;
+};
+
+/// The work list in a fixed order (inputs as given, models in file order, frames ascending), so
+/// that shard I of N is the same items in every job.
+std::vector<BakeItem> workList(const std::vector<BakeSource>& sources, const BakeArgs& a) {
+    std::vector<BakeItem> items;
+    for (const BakeSource& src : sources)
+        for (const NamedModel& m : src.models) {
+            const int frames = m.model->frameCount();
+            if (!a.allFrames && a.frame >= frames)
+                throw InputError(src.file, "--frame",
+                                 m.name + " has " + std::to_string(frames) + " frames");
+            for (int f = a.allFrames ? 0 : a.frame; f < (a.allFrames ? frames : a.frame + 1); ++f)
+                items.push_back({&src, &m, f});
+        }
+    return items;
+}
+
+void runPrebake(const BakeArgs& a) {
+    if (a.inputs.empty()) throw CLI::ValidationError("model", "name at least one .vox or scene");
+    std::vector<BakeSource> sources;
+    for (const std::string& f : a.inputs) sources.push_back(loadSource(f, a));
+    std::vector<BakeItem> items = workList(sources, a);
+    if (const auto shard = readShard(a.shard)) {
+        // Round robin over the fixed work list: every job computes the same list and keeps
+        // every N-th item from its own index, so N jobs cover it exactly once, with no
+        // coordination and balanced when models are listed in no particular order of size.
+        const std::size_t all = items.size();
+        std::vector<BakeItem> mine;
+        for (std::size_t k = std::size_t(shard->first); k < all; k += std::size_t(shard->second))
+            mine.push_back(items[k]);
+        items = std::move(mine);
+        std::printf("shard %d/%d: %zu of %zu model frames\n", shard->first, shard->second,
+                    items.size(), all);
+    }
+
+    SnapshotCacheConfig config;
+    config.budgetBytes = 0; // every snapshot goes to disk; nothing needs to stay in memory
+    config.store = std::make_shared<SnapshotStore>(
+        SnapshotStoreOptions{.dir = a.cacheDir.dir, .limitBytes = a.cacheDir.limitBytes()});
+    SnapshotCache cache(config);
+    const auto t0 = std::chrono::steady_clock::now();
+    std::uint64_t views = 0;
+    for (std::size_t i = 0; i < items.size(); ++i) {
+        const BakeItem& it = items[i];
+        const SnapshotCacheCounters before = cache.counters();
+        const auto t1 = std::chrono::steady_clock::now();
+        const int n = viewCount(it.source->views);
+        tbb::parallel_for(0, n, [&](int v) {
+            cache.get(*it.model->model, it.frame, it.source->views, v, it.source->sigma);
+        });
+        views += std::uint64_t(n);
+        const SnapshotCacheCounters after = cache.counters();
+        std::printf(
+            "[%zu/%zu] %s %s frame %d: %d views at sigma %g, %llu baked, %llu already "
+            "there, %.1f ms\n",
+            i + 1, items.size(), it.source->file.c_str(), it.model->name.c_str(), it.frame, n,
+            it.source->sigma, static_cast<unsigned long long>(after.bakes - before.bakes),
+            static_cast<unsigned long long>(after.diskLoads - before.diskLoads), msSince(t1));
+        std::fflush(stdout);
+    }
+    const double ms = msSince(t0);
+    const SnapshotCacheCounters c = cache.counters();
+    const SnapshotStoreCounters sc = config.store->counters();
+    // Throughput over the wall time: scene builds, file reads and writes included.
+    std::printf("baked %llu of %llu snapshots (%llu already in the directory) for %zu model "
+                "frames in %.1f ms: %llu bytes written, %llu rays, %.2f Mrays/s, %.0f "
+                "snapshots/s\n",
+                static_cast<unsigned long long>(c.bakes), static_cast<unsigned long long>(views),
+                static_cast<unsigned long long>(c.diskLoads), items.size(), ms,
+                static_cast<unsigned long long>(sc.bytesWritten),
+                static_cast<unsigned long long>(c.raysTraced), c.raysTraced / ms / 1e3,
+                double(views) * 1e3 / ms);
+    std::printf("%s\n", cacheDirSummary(config.store->options(), sc).c_str());
 }
 
 void runBench(const BakeArgs& a) {
@@ -209,10 +365,12 @@ void addBakeCommand(CLI::App& app) {
     auto args = std::make_shared<BakeArgs>();
     CLI::App* cmd = app.add_subcommand(
         "bake",
-        "Bake the far-tier snapshots of a model (Embree); --bench compares with the scalar DDA");
+        "Bake the far-tier snapshots of a model (Embree); --cache-dir pre-bakes models and scenes "
+        "into an on-disk cache; --bench compares with the scalar DDA");
     cmd->add_option(
            "model", args->inputs,
-           "MagicaVoxel model (.vox); with --bench any number (default: balls 16^3..128^3)")
+           "MagicaVoxel model (.vox); with --cache-dir any number of models and scenes (.json), "
+           "with --bench any number of models (default: balls 16^3..128^3)")
         ->check(CLI::ExistingFile);
     cmd->add_option("--model", args->model, "Which model of a multi-model file")
         ->check(atLeast(0))
@@ -220,13 +378,44 @@ void addBakeCommand(CLI::App& app) {
     cmd->add_option("--frame", args->frame, "Animation frame")
         ->check(atLeast(0))
         ->capture_default_str();
-    cmd->add_option("--views", args->views, "View set: how many directions")
-        ->type_name("INT")
-        ->transform(oneOf(viewSetNames(), "view set"))
-        ->default_str(nameOf(viewSetNames(), args->views));
-    cmd->add_option("--sigma", args->sigma, "Virtual pixels per voxel")
-        ->check(sigmaRange())
-        ->capture_default_str();
+    CLI::Option* views =
+        cmd->add_option("--views", args->views,
+                        "View set: how many directions (a scene's own with --cache-dir)")
+            ->type_name("INT")
+            ->transform(oneOf(viewSetNames(), "view set"))
+            ->default_str(nameOf(viewSetNames(), args->views));
+    cmd->add_option("--level", args->level,
+                    "View set as the cube lattice level n (1: 26, 2: 98, 3: 218 views)")
+        ->check(intIn(1, 3))
+        ->excludes(views);
+    CLI::Option* sigma =
+        cmd->add_option("--sigma", args->sigma,
+                        "Virtual pixels per voxel (a scene's own with --cache-dir)")
+            ->check(sigmaRange())
+            ->capture_default_str();
+    cmd->add_option("--frames", args->allFrames,
+                    "With --cache-dir: 'all' bakes every animation frame (default: --frame)")
+        ->type_name("all")
+        ->transform(CLI::Validator(
+            [](std::string& text) {
+                if (text != "all") return "unknown --frames value '" + text + "' (expected: all)";
+                text = "1";
+                return std::string();
+            },
+            "{all}"));
+    cmd->add_option("--shard", args->shard,
+                    "With --cache-dir: bake only share I of N of the (model, frame) work list "
+                    "(I in 0..N-1; for N independent jobs, docs/baking.md)")
+        ->type_name("I/N")
+        ->check(CLI::Validator(
+            [](std::string& text) {
+                return readShard(text)
+                           ? std::string()
+                           : "expected I/N with 0 <= I < N <= 1000000, got '" + text + "'";
+            },
+            "I/N"));
+    addCacheDirOptions(*cmd, args->cacheDir,
+                       "bake every view of every model frame named into it (pre-baking)");
     cmd->add_option("--sheet", args->sheet, "Write a contact sheet of the views (PNG)");
     cmd->add_option("--geometry", args->geometry, "Embree geometry")
         ->type_name("TEXT")
@@ -245,12 +434,16 @@ void addBakeCommand(CLI::App& app) {
     cmd->add_option("--threads", args->threads, "Worker threads (0 = all)")
         ->check(atLeast(0))
         ->capture_default_str();
-    cmd->callback([args] {
+    cmd->callback([args, views, sigma] {
+        args->viewsGiven = views->count() > 0;
+        args->sigmaGiven = sigma->count() > 0;
         std::optional<tbb::global_control> limit;
         if (args->threads > 0)
             limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(args->threads));
         if (args->bench)
             runBench(*args);
+        else if (!args->cacheDir.dir.empty())
+            runPrebake(*args);
         else
             runBake(*args);
     });

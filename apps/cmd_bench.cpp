@@ -4,6 +4,7 @@
 // writes). The bench subcommands (`bench near`, ...) are registered here too, in one list.
 #include "apps/bench_report.hpp"
 #include "apps/bench_suite.hpp"
+#include "apps/cache_dir_options.hpp"
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"
@@ -113,7 +114,11 @@ void addBenchCommand(CLI::App& app) {
         ->check(intList(8, Limits::kMaxModelDim));
     // Test-only: tiny images and entity counts, one repeat, one sweep point (tests/bench_cli_test).
     bench->add_flag("--smoke", o->smoke, "")->group("");
-    bench->callback([bench, o] {
+    auto cacheDir = std::make_shared<CacheDirArgs>();
+    addCacheDirOptions(*bench, *cacheDir, "every configuration reads its snapshots from it");
+    bench->callback([bench, o, cacheDir] {
+        o->cacheDir = cacheDir->dir;
+        o->cacheDirBytes = cacheDir->limitBytes();
         if (bench->get_subcommands().empty()) runBench(*o);
     });
 

@@ -1,4 +1,5 @@
 // `voxtier render SCENE.json | MODEL.vox`: one frame to an image (PNG; EXR adds depth and ids).
+#include "apps/cache_dir_options.hpp"
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "compose/frame.hpp"
@@ -8,6 +9,7 @@
 #include "core/model_view.hpp"
 #include "core/scene_loader.hpp"
 #include "core/vox_reader.hpp"
+#include "impostor_cache/snapshot_cache.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -30,6 +32,7 @@ struct RenderArgs {
     std::optional<int> frame;
     std::string ids;
     std::optional<double> cacheMb; ///< far snapshot cache budget; default FrameOptions'
+    CacheDirArgs cacheDir;
     // Image size and sigma override a scene's; the rest describe the camera of a MODEL.vox render.
     std::optional<std::string> size; ///< WxH (imageSize()); default 640x480 for a .vox
     std::optional<double> sigma;     ///< default 1 for a .vox
@@ -120,6 +123,8 @@ void run(const RenderArgs& a) {
     opt.overlay = !a.overlay.empty();
     opt.measurePops = !a.pops.empty();
     if (a.cacheMb) opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
+    opt.cacheDir = a.cacheDir.dir;
+    opt.cacheDirBytes = a.cacheDir.limitBytes();
     FrameRenderer renderer(scene, opt);
     std::string out = a.out;
     if (out.empty()) out = "out/" + std::filesystem::path(a.input).stem().string() + ".png";
@@ -169,6 +174,8 @@ void run(const RenderArgs& a) {
     }
     if (csv) std::fclose(csv);
     if (pops) std::fclose(pops);
+    if (const auto& store = renderer.snapshotCache().config().store)
+        std::printf("%s\n", cacheDirSummary(store->options(), store->counters()).c_str());
 }
 
 } // namespace
@@ -210,6 +217,7 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_option("--cache-mb", args->cacheMb,
                     "Far snapshot cache budget in MiB (default 256; LRU beyond)")
         ->check(numberIn(1, kMaxCacheMb, "MiB"));
+    addCacheDirOptions(*cmd, args->cacheDir, "far snapshots are read from it before baking");
     cmd->add_option("--ids", args->ids, "Also write the entity-id buffer as a colour-coded PNG");
     cmd->add_option("--size", args->size,
                     "Image size (default: the scene's camera; 640x480 for a .vox)")

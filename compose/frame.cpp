@@ -134,10 +134,20 @@ const char* toString(PopEvent::Kind k) {
     return "?";
 }
 
+namespace {
+SnapshotCacheConfig cacheConfig(const FrameOptions& o) {
+    SnapshotCacheConfig c;
+    c.budgetBytes = o.cacheBudgetBytes;
+    if (!o.cacheDir.empty())
+        c.store = std::make_shared<SnapshotStore>(
+            SnapshotStoreOptions{.dir = o.cacheDir, .limitBytes = o.cacheDirBytes});
+    return c;
+}
+} // namespace
+
 FrameRenderer::FrameRenderer(Scene& scene, FrameOptions options)
     : scene_(scene), options_(options), selector_(scene.selector),
-      cache_(std::make_unique<SnapshotCache>()) {
-    cache_->setBudget(options_.cacheBudgetBytes);
+      cache_(std::make_unique<SnapshotCache>(cacheConfig(options))) {
     std::stable_sort(
         scene_.edits.begin(), scene_.edits.end(),
         [](const ScriptedEdit& a, const ScriptedEdit& b) { return a.atFrame < b.atFrame; });

@@ -60,6 +60,10 @@ struct FrameOptions {
     bool overlay = false;                        ///< also produce FrameResult::overlay (tier tint)
     bool measurePops = false; ///< FrameResult::pops: the change each switch causes alone
     std::size_t cacheBudgetBytes = std::size_t(256) << 20; ///< far snapshot cache budget
+    /// On-disk snapshot cache directory ("" = none): snapshots are read from it before baking and
+    /// written to it after; cacheDirBytes limits its size (0 = no limit; LRU files go first).
+    std::string cacheDir;
+    std::uint64_t cacheDirBytes = 0;
     /// Near tier on Vulkan: the shader variant that counts voxel reads (FrameStats::voxelFetches,
     /// nearKernelFragments). Same image, slower: for measuring, never for timing.
     bool nearCountSteps = false;

@@ -24,7 +24,7 @@ std::size_t SnapshotCache::FrameKeyHash::operator()(const FrameKey& k) const {
 
 SnapshotCache::SnapshotCache(SnapshotCacheConfig config)
     : config_(config), snapshots_(LruBudget{config.budgetBytes}),
-      scenes_(LruBudget{.entries = config.maxScenes}) {}
+      digests_(LruBudget{.entries = 256}), scenes_(LruBudget{.entries = config.maxScenes}) {}
 SnapshotCache::~SnapshotCache() = default;
 
 std::shared_ptr<const VoxelScene> SnapshotCache::scene(const VoxelModel& model, int frame) {
@@ -70,9 +70,20 @@ std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int 
             snap = std::make_shared<const Snapshot>(
                 rebakeSnapshot(*sc, *stale->value, *dirty, config_.bake, &stats));
         } else {
+            // A whole snapshot is needed: the on-disk cache has it if anyone baked these voxels.
+            std::optional<SnapshotFileKey> fileKey;
+            if (config_.store) {
+                fileKey = this->fileKey(model, frame, view, sigma);
+                if (std::optional<Snapshot> loaded = config_.store->load(*fileKey)) {
+                    std::lock_guard lock(mutex_);
+                    ++counters_.diskLoads;
+                    return std::make_shared<const Snapshot>(std::move(*loaded));
+                }
+            }
             const std::shared_ptr<const VoxelScene> sc = scene(model, frame);
             snap = std::make_shared<const Snapshot>(
                 bakeSnapshot(*sc, view, sigma, config_.bake, &stats));
+            if (fileKey) config_.store->save(*fileKey, *snap);
         }
         std::lock_guard lock(mutex_);
         ++counters_.bakes;
@@ -90,6 +101,15 @@ std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int 
         }
         return snap;
     });
+}
+
+SnapshotFileKey SnapshotCache::fileKey(const VoxelModel& model, int frame, ViewId view,
+                                       double sigma) {
+    const std::shared_ptr<const Digest128> grid =
+        digests_.get({model.uid(), frame}, model.version(), [&](const auto&) {
+            return std::make_shared<const Digest128>(digestGrid(model.frame(frame)));
+        });
+    return {*grid, model.frame(frame).dims(), view, sigma, config_.bake.withDepth};
 }
 
 std::shared_ptr<const Snapshot> SnapshotCache::find(const SnapshotKey& key) const {

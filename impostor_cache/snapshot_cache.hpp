@@ -17,6 +17,7 @@
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"
 #include "impostor_cache/snapshot_baker.hpp"
+#include "impostor_cache/snapshot_store.hpp"
 #include "impostor_cache/versioned_lru.hpp"
 #include "impostor_cache/view_set.hpp"
 #include "impostor_cache/voxel_scene.hpp"
@@ -42,12 +43,16 @@ struct SnapshotCacheConfig {
     std::size_t maxScenes = 8;                        ///< Embree scenes kept (LRU beyond)
     VoxelSceneOptions scene;
     BakeOptions bake;
+    /// The on-disk cache (impostor_cache/snapshot_store.hpp), or null: a snapshot missing here is
+    /// read from it before it is baked, and written to it after a full bake.
+    std::shared_ptr<SnapshotStore> store;
 };
 
 struct SnapshotCacheCounters {
     std::uint64_t hits = 0;   ///< requests answered from the cache (incl. joining a bake in flight)
-    std::uint64_t misses = 0; ///< requests that started a bake
+    std::uint64_t misses = 0; ///< requests that started a bake (or an on-disk cache read)
     std::uint64_t bakes = 0;  ///< snapshots baked
+    std::uint64_t diskLoads = 0; ///< misses filled from the on-disk cache instead of a bake
     std::uint64_t evictions = 0; ///< snapshots dropped for the budget
     std::uint64_t bytes = 0;     ///< snapshot bytes held now
     std::uint64_t snapshots = 0; ///< snapshots held now
@@ -118,8 +123,14 @@ class SnapshotCache {
         std::size_t operator()(const FrameKey& k) const;
     };
 
+    /// The on-disk key of a snapshot of the model's current version of `frame`.
+    SnapshotFileKey fileKey(const VoxelModel& model, int frame, ViewId view, double sigma);
+
     SnapshotCacheConfig config_;
     VersionedLru<ViewKey, Snapshot, ViewKeyHash> snapshots_;
+    /// digestGrid of each (model, frame, version) the on-disk cache was asked about: computed
+    /// once for all its views, since it reads every voxel of the frame.
+    VersionedLru<FrameKey, Digest128, FrameKeyHash> digests_;
     VersionedLru<FrameKey, VoxelScene, FrameKeyHash> scenes_;
     mutable std::mutex mutex_;       ///< for counters_
     SnapshotCacheCounters counters_; ///< what baking and building cost; the LRU counts its own

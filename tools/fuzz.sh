@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs each libFuzzer target for a given time (ASan + UBSan, clang).
 #   tools/fuzz.sh [SECONDS=60] [TARGET...]     targets: vox_reader_fuzz scene_loader_fuzz
+#                                                       snapshot_file_fuzz
 # Seeds: fuzz/corpus/<kind>/ (hand-made malformed fixtures) plus the real files in scenes/.
 # The growing corpus and crash artefacts stay in fuzz-out/<target>/ (git-ignored).
 set -euo pipefail
@@ -8,7 +9,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 shift || true
 targets=("$@")
-[[ ${#targets[@]} -eq 0 ]] && targets=(vox_reader_fuzz scene_loader_fuzz)
+[[ ${#targets[@]} -eq 0 ]] && targets=(vox_reader_fuzz scene_loader_fuzz snapshot_file_fuzz)
 
 bash tools/setup.sh --fuzz
 cmake --preset fuzz >/dev/null
@@ -27,6 +28,10 @@ for t in "${targets[@]}"; do
     scene_loader_fuzz)
         cp fuzz/corpus/scene/* "$work/seeds/"
         find scenes -name '*.json' -not -path 'scenes/vox/*' -exec cp {} "$work/seeds/" \;
+        dict=()
+        ;;
+    snapshot_file_fuzz)
+        cp fuzz/corpus/snapshot/* "$work/seeds/"
         dict=()
         ;;
     *) echo "unknown target $t" >&2; exit 2 ;;

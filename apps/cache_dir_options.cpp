@@ -1,0 +1,35 @@
+#include "apps/cache_dir_options.hpp"
+
+#include "apps/cli_options.hpp"
+
+#include <cstdio>
+
+namespace voxtier::cli {
+
+void addCacheDirOptions(CLI::App& cmd, CacheDirArgs& args, const std::string& what) {
+    CLI::Option* dir = cmd.add_option("--cache-dir", args.dir,
+                                      "On-disk snapshot cache: " + what +
+                                          " (created if missing; files are checked, bad ones "
+                                          "re-baked)");
+    // Beyond a petabyte is a typo, not a budget.
+    cmd.add_option("--cache-dir-mb", args.limitMb,
+                   "Size limit of the --cache-dir directory in MiB (least recently used files "
+                   "are removed first; default: no limit)")
+        ->check(numberIn(1, 1e9, "MiB"))
+        ->needs(dir);
+}
+
+std::string cacheDirSummary(const SnapshotStoreOptions& o, const SnapshotStoreCounters& c) {
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "cache dir %s: %llu snapshots read (%.2f MB, %.1f ms), %llu written (%.2f MB, "
+                  "%.1f ms), %llu missing, %llu rejected, %llu evicted",
+                  o.dir.string().c_str(), static_cast<unsigned long long>(c.reads),
+                  c.bytesRead / 1048576.0, c.readMs, static_cast<unsigned long long>(c.writes),
+                  c.bytesWritten / 1048576.0, c.writeMs, static_cast<unsigned long long>(c.misses),
+                  static_cast<unsigned long long>(c.rejected),
+                  static_cast<unsigned long long>(c.evicted));
+    return buf;
+}
+
+} // namespace voxtier::cli

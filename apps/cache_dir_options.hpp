@@ -1,0 +1,28 @@
+#pragma once
+// `--cache-dir DIR [--cache-dir-mb MB]`: the on-disk snapshot cache of render, bench and bake
+// (impostor_cache/snapshot_store.hpp), the same two options and one summary line everywhere.
+#include "impostor_cache/snapshot_store.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace voxtier::cli {
+
+struct CacheDirArgs {
+    std::string dir;               ///< "" = no on-disk cache
+    std::optional<double> limitMb; ///< size limit of the directory (none = unlimited)
+    std::uint64_t limitBytes() const {
+        return limitMb ? std::uint64_t(*limitMb * double(1 << 20)) : 0;
+    }
+};
+
+/// Adds --cache-dir (and --cache-dir-mb, which needs it) to `cmd`; `what` says what reads it.
+void addCacheDirOptions(CLI::App& cmd, CacheDirArgs& args, const std::string& what);
+/// "cache dir DIR: 98 read, 0 written (0.0 MB), 0 rejected, 0 evicted, read 12.3 ms".
+std::string cacheDirSummary(const SnapshotStoreOptions& options,
+                            const SnapshotStoreCounters& counters);
+
+} // namespace voxtier::cli
