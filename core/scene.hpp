@@ -109,6 +109,9 @@ struct Scene {
     std::string source; ///< file it came from (for messages)
     RenderParams render;
     Camera camera;
+    /// The file's "camera" gives a position: a plain render (no --path, --frame, --time) shows
+    /// this camera even when there is a path; without one it shows the path at its first frame.
+    bool cameraPositioned = false;
     std::optional<CameraPath> path;
     Light light;
     SelectorConfig selector;
