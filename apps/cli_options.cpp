@@ -171,4 +171,28 @@ CLI::Validator viewAngles() {
         "ELEVATION in [-90, 90]");
 }
 
+std::optional<FrameRange> readFrameRange(const std::string& text) {
+    std::vector<std::optional<int>> parts;
+    std::stringstream items(text);
+    std::string item;
+    while (std::getline(items, item, ':')) parts.push_back(readInt(item));
+    if (parts.size() < 2 || parts.size() > 3 || text.back() == ':') return std::nullopt;
+    for (const auto& p : parts)
+        if (!p) return std::nullopt;
+    const FrameRange r{*parts[0], *parts[1], parts.size() == 3 ? *parts[2] : 1};
+    if (r.first < 0 || r.last < r.first || r.step < 1) return std::nullopt;
+    return r;
+}
+
+CLI::Validator frameRange() {
+    return CLI::Validator(
+        [](std::string& text) {
+            return readFrameRange(text) ? std::string()
+                                        : "expected FIRST:LAST[:STEP] with 0 <= FIRST <= LAST "
+                                          "and STEP >= 1" +
+                                              got(text);
+        },
+        "FIRST <= LAST");
+}
+
 } // namespace voxtier::cli

@@ -7,13 +7,16 @@
 #include "core/image_io.hpp"
 #include "core/model_view.hpp"
 #include "core/scene_loader.hpp"
+#include "core/stopwatch.hpp"
 #include "core/vox_reader.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
 #include <optional>
+#include <vector>
 
 namespace voxtier::cli {
 
@@ -28,6 +31,7 @@ struct RenderArgs {
     std::string overlay, csv, pops;
     std::optional<double> time;
     std::optional<int> frame;
+    std::optional<std::string> frames; ///< FIRST:LAST[:STEP] (readFrameRange)
     std::string ids;
     std::optional<double> cacheMb; ///< far snapshot cache budget; default FrameOptions'
     // Image size and sigma override a scene's; the rest describe the camera of a MODEL.vox render.
@@ -112,9 +116,84 @@ std::FILE* openCsv(const std::string& file, const char* header) {
     return f;
 }
 
+/// Which frames one render writes.
+struct FramePlan {
+    std::vector<int> frames;         ///< path frames, in render order
+    std::optional<double> fixedTime; ///< --time: this time instead of the frame's
+    bool sequence = false;           ///< --path / --frames: numbered images, progress
+    int step = 1;                    ///< frames apart
+};
+
+/// The last frame of the scene's camera path, or a frame past it is an error naming `option`.
+void checkPathFrame(const RenderArgs& a, const Scene& scene, const char* option, int frame) {
+    if (scene.path && frame >= scene.path->frameCount())
+        throw InputError(a.input, option,
+                         "frame " + std::to_string(frame) +
+                             " is past the camera path's last frame " +
+                             std::to_string(scene.path->frameCount() - 1));
+}
+
+/// The camera rule (docs/scenes.md "Which camera a render uses"): --path, --frames, --frame and
+/// --time follow the camera path; a plain render shows the static camera when the scene file
+/// positions one, else the path at its first frame.
+FramePlan planFrames(const RenderArgs& a, Scene& scene) {
+    FramePlan p;
+    if (a.path || a.frames) {
+        FrameRange r;
+        if (a.path) {
+            if (!scene.path) throw InputError(a.input, "--path", "the scene has no camera_path");
+            r.last = scene.path->frameCount() - 1;
+        } else {
+            r = *readFrameRange(*a.frames);
+            checkPathFrame(a, scene, "--frames", r.last);
+        }
+        for (int f = r.first; f <= r.last; f += r.step) p.frames.push_back(f);
+        p.sequence = true;
+        p.step = r.step;
+    } else if (a.frame) {
+        checkPathFrame(a, scene, "--frame", *a.frame);
+        p.frames = {*a.frame};
+    } else if (a.time) {
+        p.fixedTime = *a.time;
+        const int f = scene.path
+                          ? int(std::floor(
+                                (*a.time - scene.path->keys.front().time) * scene.path->fps + 1e-9))
+                          : 0;
+        p.frames = {std::max(0, f)};
+    } else {
+        if (scene.cameraPositioned) scene.path.reset();
+        p.frames = {0};
+    }
+    return p;
+}
+
+/// " [k/N, ~S s left]" after frame k of a sequence, from the mean time per frame so far.
+std::string progress(const FramePlan& plan, std::size_t done, double elapsedMs) {
+    if (!plan.sequence) return "";
+    const double left = elapsedMs / double(done) * double(plan.frames.size() - done) / 1000.0;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, " [%zu/%zu, ~%.0f s left]", done, plan.frames.size(), left);
+    return buf;
+}
+
+/// The one console line per frame.
+void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, const FrameResult& r,
+                 const std::string& file, const std::string& progressText) {
+    const FrameStats& st = r.stats;
+    std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, "
+                "%d fading), "
+                "%d switches, %d bakes, %.1f ms -> %s%s\n",
+                a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height,
+                st.entities, st.culled, st.nearDrawn, st.farDrawn, st.fading,
+                st.switchesToFar + st.switchesToNear, st.farBakes, st.totalMs, file.c_str(),
+                progressText.c_str());
+    std::fflush(stdout);
+}
+
 void run(const RenderArgs& a) {
     Scene scene = loadInput(a);
     const RenderMode mode = a.mode;
+    const FramePlan plan = planFrames(a, scene);
     FrameOptions opt;
     opt.nearBackend = a.nearBackend;
     opt.overlay = !a.overlay.empty();
@@ -124,49 +203,40 @@ void run(const RenderArgs& a) {
     std::string out = a.out;
     if (out.empty()) out = "out/" + std::filesystem::path(a.input).stem().string() + ".png";
 
-    // Which frames: one (--time / --frame, default t = 0) or the whole camera path (--path).
-    int first = 0, last = 0;
-    std::optional<double> fixedTime;
-    if (a.path) {
-        if (!scene.path) throw InputError(a.input, "--path", "the scene has no camera_path");
-        last = scene.path->frameCount() - 1;
-    } else if (a.frame) {
-        first = last = *a.frame;
-    } else if (a.time) {
-        fixedTime = *a.time;
-        first = last =
-            scene.path ? int(std::floor(
-                             (*a.time - scene.path->keys.front().time) * scene.path->fps + 1e-9))
-                       : 0;
-        first = last = std::max(0, first);
-    }
     std::FILE* csv = openCsv(a.csv, ("frame,time," + figureCsvHeader() + "\n").c_str());
     std::FILE* pops = openCsv(
         a.pops, "frame,entity,kind,changed_pixels,changed_fraction,displacement_px,radius_px\n");
-    // A lone frame starts the selector fresh (tiers from the metric alone); --path runs the
+    // A lone frame starts the selector fresh (tiers from the metric alone); a sequence runs its
     // frames in order, so hysteresis and cross-fades behave as in a game.
-    for (int frame = first; frame <= last; ++frame) {
-        const double time = fixedTime ? *fixedTime : scene.timeOfFrame(frame);
+    // A sequence to .gif is one animated GIF at the path's frame rate (per rendered frame).
+    std::optional<AnimationWriter> animation;
+    if (plan.sequence && endsWith(out, ".gif"))
+        animation.emplace(out, (scene.path ? scene.path->fps : 30.0) / plan.step);
+    const auto start = std::chrono::steady_clock::now();
+    for (std::size_t k = 0; k < plan.frames.size(); ++k) {
+        const int frame = plan.frames[k];
+        const double time = plan.fixedTime ? *plan.fixedTime : scene.timeOfFrame(frame);
         renderer.applyEditsThrough(frame);
         const FrameResult r = renderer.render(time, mode, frame);
-        const std::string file = a.path ? numbered(out, frame) : out;
-        writeImage(file, r.image, scene.cameraAt(time).zNear);
-        if (r.overlay) writeImage(a.path ? numbered(a.overlay, frame) : a.overlay, *r.overlay);
-        if (!a.ids.empty()) writeIdImage(a.path ? numbered(a.ids, frame) : a.ids, r.image);
-        const FrameStats& st = r.stats;
-        if (csv) std::fprintf(csv, "%d,%.6f,%s\n", frame, time, figureCsvRow(st).c_str());
+        const auto name = [&](const std::string& f) {
+            return plan.sequence ? numbered(f, frame) : f;
+        };
+        const std::string file = animation ? out : name(out);
+        if (animation)
+            animation->add(r.image);
+        else
+            writeImage(file, r.image, scene.cameraAt(time).zNear);
+        if (r.overlay) writeImage(name(a.overlay), *r.overlay);
+        if (!a.ids.empty()) writeIdImage(name(a.ids), r.image);
+        if (csv) std::fprintf(csv, "%d,%.6f,%s\n", frame, time, figureCsvRow(r.stats).c_str());
         for (const PopEvent& e : r.pops)
             std::fprintf(pops, "%d,%u,%s,%zu,%.6f,%.3f,%.3f\n", e.frame, e.entity, toString(e.kind),
                          e.changedPixels, e.changedFraction, e.displacementPx, e.radiusPx);
-        if (frame == first && !renderer.nearDeviceName().empty())
+        if (k == 0 && !renderer.nearDeviceName().empty())
             std::printf("Vulkan device: %s\n", renderer.nearDeviceName().c_str());
-        std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, "
-                    "%d fading), "
-                    "%d switches, %d bakes, %.1f ms -> %s\n",
-                    a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height,
-                    st.entities, st.culled, st.nearDrawn, st.farDrawn, st.fading,
-                    st.switchesToFar + st.switchesToNear, st.farBakes, st.totalMs, file.c_str());
+        printStatus(a, mode, frame, time, r, file, progress(plan, k + 1, msSince(start)));
     }
+    if (animation) animation->close();
     if (csv) std::fclose(csv);
     if (pops) std::fclose(pops);
 }
@@ -194,19 +264,31 @@ void addRenderCommand(CLI::App& app) {
         ->type_name("TEXT")
         ->transform(oneOf(kNearBackendNames, "near backend"))
         ->default_str(toString(args->nearBackend));
-    cmd->add_flag("--path", args->path,
-                  "Render every frame of the camera path (OUT becomes OUT_0000.png ...)");
+    auto* path =
+        cmd->add_flag("--path", args->path,
+                      "Render every frame of the camera path (OUT becomes OUT_0000.png ...; "
+                      "OUT.gif: one animated GIF at the path's frame rate)");
     cmd->add_option("--overlay", args->overlay,
                     "Also write the tier overlay (near blue, far orange, fading magenta)");
     cmd->add_option("--csv", args->csv, "Per-frame CSV: tier counts, switches, bakes, timings");
     cmd->add_option("--pops", args->pops,
                     "Per-switch CSV: the image change each tier/view switch causes alone");
-    auto* t = cmd->add_option("--time", args->time, "Time in seconds along the camera path")
+    auto* t = cmd->add_option("--time", args->time,
+                              "Time in seconds along the camera path (without one: the animation "
+                              "time, with the static camera)")
                   ->check(finite());
     auto* f = cmd->add_option("--frame", args->frame,
-                              "Frame number of the camera path (applies scripted edits up to it)")
+                              "Frame number of the camera path (applies scripted edits up to it; "
+                              "without a path: the animation at N/30 s)")
                   ->check(atLeast(0));
     t->excludes(f);
+    auto* range = cmd->add_option("--frames", args->frames,
+                                  "Render path frames FIRST..LAST (inclusive), every STEP-th, to "
+                                  "numbered images (OUT_0000.png ...)")
+                      ->type_name("FIRST:LAST[:STEP]")
+                      ->check(frameRange());
+    path->excludes(t)->excludes(f)->excludes(range);
+    range->excludes(t)->excludes(f);
     cmd->add_option("--cache-mb", args->cacheMb,
                     "Far snapshot cache budget in MiB (default 256; LRU beyond)")
         ->check(numberIn(1, kMaxCacheMb, "MiB"));

@@ -10,8 +10,8 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <set>
 #include <string>
@@ -57,8 +57,8 @@ TEST(SceneSchema, EveryLoaderObjectIsASchemaDefinitionWithTheSameKeys) {
 TEST(SceneSchema, EverySchemaObjectDefinitionIsALoaderObject) {
     for (const auto& [name, def] : schema().at("definitions").items()) {
         if (!def.contains("properties")) continue; // value shapes: vec3, rgb, ...
-        EXPECT_NO_THROW(sceneKeysOf(name)) << "schema definition '" << name
-                                           << "' is not a kind of object the loader reads";
+        EXPECT_NO_THROW(sceneKeysOf(name))
+            << "schema definition '" << name << "' is not a kind of object the loader reads";
     }
     EXPECT_EQ(schema().at("$ref"), "#/definitions/scene");
 }
