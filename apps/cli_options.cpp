@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <sstream>
 
 namespace voxtier::cli {
@@ -193,6 +194,20 @@ CLI::Validator frameRange() {
                                               got(text);
         },
         "FIRST <= LAST");
+}
+
+CLI::Validator imageFileName() {
+    std::string list;
+    for (const char* e : kImageExtensions) list += (list.empty() ? "" : ", ") + std::string(e);
+    return CLI::Validator(
+        [list](std::string& text) {
+            std::string ext = std::filesystem::path(text).extension().string();
+            for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+            for (const char* e : kImageExtensions)
+                if (ext == e) return std::string();
+            return "expected an image file name ending in one of " + list + got(text);
+        },
+        "");
 }
 
 } // namespace voxtier::cli

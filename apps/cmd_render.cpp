@@ -28,6 +28,7 @@ struct RenderArgs {
     RenderMode mode = RenderMode::Hybrid;
     NearBackend nearBackend = NearBackend::Vulkan;
     bool path = false;
+    bool alpha = false; ///< transparent background (alpha 0 where no sprite is drawn)
     std::string overlay, csv, pops;
     std::optional<double> time;
     std::optional<int> frame;
@@ -74,6 +75,7 @@ Scene loadInput(const RenderArgs& a) {
             s.camera.height = wh.y;
         }
         if (a.sigma) s.render.sigma = *a.sigma;
+        if (a.alpha) s.render.background &= 0x00FFFFFFu;
         return s;
     }
     const VoxFile vox = readVoxFile(a.input);
@@ -95,6 +97,7 @@ Scene loadInput(const RenderArgs& a) {
     v.sigma = a.sigma.value_or(1.0);
     Scene s = sceneForModel(std::move(model), v);
     s.source = a.input;
+    if (a.alpha) s.render.background &= 0x00FFFFFFu;
     return s;
 }
 
@@ -180,11 +183,20 @@ std::string progress(const FramePlan& plan, std::size_t done, double elapsedMs) 
 void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, const FrameResult& r,
                  const std::string& file, const std::string& progressText) {
     const FrameStats& st = r.stats;
+    // Each visible entity once: a cross-fading one is drawn by both tiers but counted as fading.
+    int nearOnly = 0, farOnly = 0, fading = 0;
+    for (std::size_t i = 0; i < r.plan.size(); ++i) {
+        if (!r.sprites[i].visible()) continue;
+        if (r.plan[i].fade > 0.0f)
+            ++fading;
+        else
+            ++(r.plan[i].tier == Tier::Near ? nearOnly : farOnly);
+    }
     std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, "
                 "%d fading), "
                 "%d switches, %d bakes, %.1f ms -> %s%s\n",
                 a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height,
-                st.entities, st.culled, st.nearDrawn, st.farDrawn, st.fading,
+                st.entities, st.culled, nearOnly, farOnly, fading,
                 st.switchesToFar + st.switchesToNear, st.farBakes, st.totalMs, file.c_str(),
                 progressText.c_str());
     std::fflush(stdout);
@@ -251,7 +263,9 @@ void addRenderCommand(CLI::App& app) {
         ->required()
         ->check(CLI::ExistingFile);
     cmd->add_option("-o,--out", args->out,
-                    "Output image (.png, or .exr with Z and id channels); default out/<name>.png");
+                    "Output image (.png, or .exr with Z and id channels; .gif with --path: "
+                    "animated); default out/<name>.png")
+        ->check(imageFileName());
     cmd->add_option("--mode", args->mode,
                     "hybrid (the selector hands entities between the tiers), near (Vulkan near "
                     "tier for every entity; VOXTIER_VALIDATION=1 enables validation), far (every "
@@ -268,6 +282,9 @@ void addRenderCommand(CLI::App& app) {
         cmd->add_flag("--path", args->path,
                       "Render every frame of the camera path (OUT becomes OUT_0000.png ...; "
                       "OUT.gif: one animated GIF at the path's frame rate)");
+    cmd->add_flag("--alpha", args->alpha,
+                  "Transparent background: alpha 0 where no sprite is drawn (PNG, EXR; like a "
+                  "scene background [r, g, b, 0])");
     cmd->add_option("--overlay", args->overlay,
                     "Also write the tier overlay (near blue, far orange, fading magenta)");
     cmd->add_option("--csv", args->csv, "Per-frame CSV: tier counts, switches, bakes, timings");

@@ -189,6 +189,13 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     out.image =
         drawWith(nearBackendFor(mode, options_.nearBackend), cam, out.sprites, out.plan, st);
 
+    // A (partly) transparent background: every near backend and the far blit leave it, alpha
+    // included, exactly where no sprite drew.
+    if (channel(scene_.render.background, 3) != 255)
+        for (std::size_t p = 0; p < out.image.pixelCount(); ++p)
+            if (out.image.id[p] == kernel::VT_NO_ENTITY)
+                out.image.color[p] = scene_.render.background;
+
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
     if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);

@@ -43,7 +43,7 @@ void writeImage(const std::filesystem::path& file, const Image& img, double zNea
         return;
     }
     // EXR: RGB decoded from the 8-bit sRGB colour to linear (EXR's convention, what
-    // compositors assume), alpha as is, + Z (view depth) + id.
+    // compositors assume) and premultiplied by alpha, + Z (view depth) + id.
     OIIO::ImageSpec spec(img.width, img.height, 6, OIIO::TypeDesc::FLOAT);
     spec.channelnames = {"R", "G", "B", "A", "Z", "id"};
     spec.z_channel = 4;
@@ -51,9 +51,11 @@ void writeImage(const std::filesystem::path& file, const Image& img, double zNea
     spec.attribute("oiio:ColorSpace", "Linear");
     std::vector<float> px(img.pixelCount() * 6);
     for (std::size_t i = 0; i < img.pixelCount(); ++i) {
+        // EXR colour is premultiplied by alpha (associated), unlike PNG's.
+        const float alpha = float(channel(img.color[i], 3)) / 255.0f;
         for (int c = 0; c < 3; ++c)
-            px[i * 6 + std::size_t(c)] = linearFromSrgb8(channel(img.color[i], c));
-        px[i * 6 + 3] = float(channel(img.color[i], 3)) / 255.0f;
+            px[i * 6 + std::size_t(c)] = linearFromSrgb8(channel(img.color[i], c)) * alpha;
+        px[i * 6 + 3] = alpha;
         const float d = img.depth[i];
         px[i * 6 + 4] =
             (d > 0.0f && zNear > 0.0) ? float(zNear / d) : std::numeric_limits<float>::infinity();

@@ -9,10 +9,10 @@ namespace voxtier {
 
 /// Writes the colour image; the format follows the extension (.png, .exr, .tif, ...).
 /// .exr is float: R, G, B linear (decoded from the 8-bit sRGB colour; tagged oiio:ColorSpace
-/// "Linear"), A, then "Z", the view depth in metres of the sprite's model centre (DESIGN.md §3.8:
-/// every pixel of a sprite has its centre's depth; +inf where empty; needs the camera's zNear),
-/// and "id", the entity id as float (-1 where empty). Throws InputError on failure, naming the
-/// file.
+/// "Linear"; premultiplied by A, as EXR expects), A, then "Z", the view depth in metres of the
+/// sprite's model centre (DESIGN.md §3.8: every pixel of a sprite has its centre's depth; +inf
+/// where empty; needs the camera's zNear), and "id", the entity id as float (-1 where empty).
+/// Throws InputError on failure, naming the file.
 void writeImage(const std::filesystem::path& file, const Image& image, double zNear = 0.0);
 /// An animated image (GIF), written one frame at a time: every frame the same size, shown for
 /// 1/fps s (GIF stores the delay in 1/100 s, so 30 fps plays at 100/3 fps). InputError naming

@@ -60,7 +60,13 @@ struct SceneBuilder {
         if (p.is_relative()) p = c.baseDir / p;
         std::error_code ec;
         const auto st = fs::status(p, ec);
-        if (!fs::exists(st)) fail(c, path, "file not found: '" + p.string() + "'");
+        if (!fs::exists(st))
+            fail(c, path,
+                 "file not found: '" + p.string() + "'" +
+                     (fs::path(rel).is_relative()
+                          ? " ('" + rel + "' is resolved against the scene file's folder '" +
+                                c.baseDir.string() + "')"
+                          : ""));
         if (fs::is_directory(st)) fail(c, path, "'" + p.string() + "' is a directory, not a file");
         return p;
     }
@@ -121,8 +127,16 @@ struct SceneBuilder {
             s.render.viewMode = choice(c, *v, root.at("view_mode"), {"per_entity", "parallel"}) == 0
                                     ? ViewMode::PerEntity
                                     : ViewMode::Parallel;
-        if (auto v = root.get("background"))
-            s.render.background = color(c, *v, root.at("background"));
+        if (auto v = root.get("background")) {
+            // [r, g, b] or [r, g, b, a]: alpha 0 makes the background transparent in PNG/EXR.
+            const std::string p = root.at("background");
+            if (v->is_array() && v->size() == 4)
+                s.render.background =
+                    (color(c, json::array({(*v)[0], (*v)[1], (*v)[2]}), p) & 0x00FFFFFFu) |
+                    (Rgba8(intIn(c, (*v)[3], element(p, 3), 0, 255)) << 24);
+            else
+                s.render.background = color(c, *v, p);
+        }
     }
 
     /// makeCameraFrame's checks, reported at `path` (it throws with file "" and a field that

@@ -70,9 +70,8 @@ TEST(RenderOutput, PlainRenderFollowsTheCameraRule) {
 TEST(RenderOutput, FramesRendersTheRangeWithItsStep) {
     const fs::path d = scratch();
     const std::string scene = write("s.json", pathScene(true));
-    const test::CliRun r =
-        test::runCli("render " + scene + " --mode reference --frames 2:8:3 -o " +
-                     (d / "r.png").string());
+    const test::CliRun r = test::runCli("render " + scene + " --mode reference --frames 2:8:3 -o " +
+                                        (d / "r.png").string());
     ASSERT_EQ(r.status, 0) << r.err;
     std::vector<std::string> files;
     for (const auto& f : fs::directory_iterator(d)) files.push_back(f.path().filename().string());
@@ -137,8 +136,8 @@ TEST(RenderOutput, PathToGifIsOneAnimatedGif) {
     std::size_t differing = 0;
     for (std::size_t i = 0; i < frame0.pixelCount(); ++i)
         for (int c = 0; c < 3; ++c)
-            differing += px[i * std::size_t(spec.nchannels) + std::size_t(c)] !=
-                         channel(frame0.color[i], c);
+            differing +=
+                px[i * std::size_t(spec.nchannels) + std::size_t(c)] != channel(frame0.color[i], c);
     // GIF has 256 colours per frame: a flat-shaded box and a background fit without loss.
     EXPECT_EQ(differing, 0u);
 }
@@ -176,6 +175,81 @@ TEST(RenderOutput, ExrHoldsLinearColourOfTheSrgbPalette) {
     EXPECT_EQ(px[centre * 6 + 5], 0.0f); // id of the one entity
     EXPECT_TRUE(std::isinf(px[corner * 6 + 4]));
     EXPECT_EQ(px[corner * 6 + 5], -1.0f);
+}
+
+// Alpha 0 exactly where no sprite is drawn, 255 on every sprite pixel (outlines included), by
+// --alpha or a scene background [r, g, b, 0], with the CPU reference and the Vulkan near tier.
+TEST(RenderOutput, TransparentBackgroundOnlyWhereNoSpriteIsDrawn) {
+    const fs::path d = scratch();
+    const std::string opaque = write("opaque.json", pathScene(true, false));
+    std::string clear = pathScene(true, false);
+    clear.insert(1, R"("background": [40, 44, 52, 0], )");
+    const std::string transparent = write("transparent.json", clear);
+    const Image base = render(opaque, (d / "base.png").string());
+    const std::size_t outline =
+        std::size_t(std::count(base.color.begin(), base.color.end(), packRgba(0, 0, 0)));
+    ASSERT_GT(outline, 0u);
+    const std::string near = (d / "near.png").string();
+    ASSERT_EQ(test::runCli("render " + opaque + " --alpha --mode near -o " + near).status, 0);
+    for (const Image& im :
+         {render(opaque + " --alpha", (d / "alpha.png").string()),
+          render(transparent, (d / "scene.png").string()), readColorImage(near)}) {
+        std::size_t transparentPixels = 0;
+        for (std::size_t i = 0; i < im.pixelCount(); ++i) {
+            const bool background = base.color[i] == packRgba(40, 44, 52);
+            ASSERT_EQ(channel(im.color[i], 3), background ? 0u : 255u) << "pixel " << i;
+            // Sprite colours unchanged (OIIO reads a transparent PNG pixel premultiplied: 0).
+            if (!background) ASSERT_EQ(im.color[i], base.color[i]) << "pixel " << i;
+            transparentPixels += background;
+        }
+        EXPECT_GT(transparentPixels, im.pixelCount() / 2);
+    }
+    // EXR alpha too.
+    const std::string exr = (d / "a.exr").string();
+    ASSERT_EQ(test::runCli("render " + transparent + " --mode reference -o " + exr).status, 0);
+    auto in = OIIO::ImageInput::open(exr);
+    ASSERT_TRUE(in);
+    std::vector<float> px(base.pixelCount() * 6);
+    ASSERT_TRUE(in->read_image(0, 0, 0, 6, OIIO::TypeDesc::FLOAT, px.data()));
+    for (std::size_t i = 0; i < base.pixelCount(); ++i)
+        if (base.color[i] == packRgba(40, 44, 52)) {
+            ASSERT_EQ(px[i * 6 + 3], 0.0f) << i;
+            ASSERT_EQ(px[i * 6 + 0], 0.0f) << "EXR colour is premultiplied by alpha: " << i;
+        } else {
+            ASSERT_EQ(px[i * 6 + 3], 1.0f) << i;
+        }
+}
+
+// The small CLI messages (issue 14 item 8): one line each, with what the user needs to fix it.
+TEST(RenderOutput, CliMessagesSayWhatWorks) {
+    const std::string scene = write("s.json", pathScene(true));
+    const std::string missingVox =
+        write("missing.json", R"({"models": [{"name": "v", "vox": "nope/missing.vox"}]})");
+    const struct {
+        std::string args, expect;
+        int status;
+    } cases[] = {
+        {"rendr " + scene, "unknown command 'rendr' (did you mean 'render'?)", 2},
+        {"bak", "unknown command 'bak' (did you mean 'bake'?)", 2},
+        {"render " + scene + " -o x",
+         "--out: expected an image file name ending in one of .png, .exr, .gif, .tif, .jpg, got "
+         "'x'",
+         2},
+        {"render " + scene + " -o out/x.bogus", "ending in one of .png, .exr", 2},
+        {"render " + missingVox,
+         "('nope/missing.vox' is resolved against the scene file's folder '" + scratch().string() +
+             "')",
+         1},
+    };
+    for (const auto& c : cases) {
+        const test::CliRun r = test::runCli(c.args);
+        EXPECT_EQ(r.status, c.status) << c.args << ": " << r.err;
+        EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.args << ": " << r.err;
+        EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    }
+    const test::CliRun v = test::runCli("--version");
+    EXPECT_EQ(v.status, 0);
+    EXPECT_EQ(v.out, std::string("voxtier ") + VOXTIER_TEST_VERSION + "\n");
 }
 
 } // namespace
