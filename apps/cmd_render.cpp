@@ -7,6 +7,7 @@
 #include "core/image_io.hpp"
 #include "core/model_view.hpp"
 #include "core/scene_loader.hpp"
+#include "core/sprite.hpp"
 #include "core/stopwatch.hpp"
 #include "core/vox_reader.hpp"
 
@@ -64,6 +65,31 @@ void rejectSingleModelOptions(const RenderArgs& a) {
     if (a.model) throw CLI::ValidationError("--model", namesModels);
 }
 
+/// A .vox has no camera path and no animation clock: frame options would be silently ignored.
+void rejectPathOptions(const RenderArgs& a) {
+    const char* why = "applies to a scene input only (a .vox has no camera path; pick one of "
+                      "its models with --model N)";
+    if (a.frame) throw CLI::ValidationError("--frame", why);
+    if (a.time) throw CLI::ValidationError("--time", why);
+    if (a.frames) throw CLI::ValidationError("--frames", why);
+    if (a.path) throw CLI::ValidationError("--path", why);
+}
+
+/// A --distance that puts the camera inside an entity's proxy box would draw nothing there.
+void rejectCameraInside(const RenderArgs& a, const Scene& s) {
+    if (!a.distance) return;
+    const std::vector<SpriteSetup> sprites = setupSprites(s, makeCameraFrame(s.camera), 0.0);
+    for (const SpriteSetup& sp : sprites)
+        if (sp.cull == CullReason::CameraInside) {
+            char at[32];
+            std::snprintf(at, sizeof at, "%g", *a.distance);
+            throw InputError(a.input, "--distance",
+                             std::string("at ") + at +
+                                 " m the camera is inside the model's box and would draw "
+                                 "nothing; use a larger distance, or 0 to fit the view");
+        }
+}
+
 Scene loadInput(const RenderArgs& a) {
     // The option validators checked every value; what remains depends on the input file.
     if (!endsWith(a.input, ".vox")) {
@@ -78,14 +104,8 @@ Scene loadInput(const RenderArgs& a) {
         if (a.alpha) s.render.background &= 0x00FFFFFFu;
         return s;
     }
+    rejectPathOptions(a);
     const VoxFile vox = readVoxFile(a.input);
-    const int index = a.model.value_or(0);
-    if (index >= int(vox.models.size()))
-        throw InputError(a.input, "--model",
-                         "file has " + std::to_string(vox.models.size()) + " models");
-    auto model =
-        std::make_shared<VoxelModel>(std::filesystem::path(a.input).stem().string(), vox.palette,
-                                     std::vector<VoxelGrid>{vox.models[std::size_t(index)]});
     ModelView v;
     const glm::dvec2 angles = *readViewAngles(a.view.value_or("30,20"));
     v.azimuthDeg = angles.x;
@@ -95,9 +115,24 @@ Scene loadInput(const RenderArgs& a) {
     v.height = wh.y;
     v.distance = a.distance.value_or(0.0);
     v.sigma = a.sigma.value_or(1.0);
-    Scene s = sceneForModel(std::move(model), v);
+    Scene s;
+    // A file of several models placed by a scene graph is a scene: render it whole, as a
+    // scene's "vox_scenes" does, unless --model picks one.
+    if (!a.model && vox.models.size() > 1 && !vox.instances.empty()) {
+        s = sceneForVoxFile(vox, v);
+    } else {
+        const int index = a.model.value_or(0);
+        if (index >= int(vox.models.size()))
+            throw InputError(a.input, "--model",
+                             "file has " + std::to_string(vox.models.size()) + " models");
+        s = sceneForModel(std::make_shared<VoxelModel>(
+                              std::filesystem::path(a.input).stem().string(), vox.palette,
+                              std::vector<VoxelGrid>{vox.models[std::size_t(index)]}),
+                          v);
+    }
     s.source = a.input;
     if (a.alpha) s.render.background &= 0x00FFFFFFu;
+    rejectCameraInside(a, s);
     return s;
 }
 
@@ -323,7 +358,9 @@ void addRenderCommand(CLI::App& app) {
         ->check(viewAngles());
     vox->add_option("--distance", args->distance, "Camera distance in metres (default 0 = fit)")
         ->check(numberIn(0, std::numeric_limits<double>::infinity(), "m"));
-    vox->add_option("--model", args->model, "Which model of a multi-model file (default 0)")
+    vox->add_option("--model", args->model,
+                    "Which model of a multi-model file (default: a file with a scene graph "
+                    "renders whole, else model 0)")
         ->check(atLeast(0));
     cmd->callback([args] { run(*args); });
 }

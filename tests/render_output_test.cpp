@@ -1,7 +1,10 @@
 // What `voxtier render` writes and which frames it renders (issue 14): the camera rule, frame
 // ranges, animated GIFs, EXR colour, transparency and the CLI's messages, end to end.
 #include "cli_support.hpp"
+#include "compose/frame.hpp"
 #include "core/image_io.hpp"
+#include "core/model_view.hpp"
+#include "core/scene_loader.hpp"
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
@@ -250,6 +253,55 @@ TEST(RenderOutput, CliMessagesSayWhatWorks) {
     const test::CliRun v = test::runCli("--version");
     EXPECT_EQ(v.status, 0);
     EXPECT_EQ(v.out, std::string("voxtier ") + VOXTIER_TEST_VERSION + "\n");
+}
+
+// `render FILE.vox` of a file with a scene graph draws what a scene's vox_scenes entry of that
+// file draws, seen by the same camera (frameEntities); --model N draws one model.
+TEST(RenderOutput, VoxSceneRenderEqualsVoxScenesInAScene) {
+    const fs::path d = scratch();
+    const std::string vox =
+        std::string(VOXTIER_SOURCE_DIR) + "/scenes/vox/opengametools/test_multiple_model_scene.vox";
+    const Image cli = render(vox + " --size 160x120 --view 40,25", (d / "cli.png").string());
+    const Image one =
+        render(vox + " --size 160x120 --view 40,25 --model 0", (d / "m0.png").string());
+
+    // "models" needs an entry; an unused one does not change the image.
+    Scene scene = loadSceneText(R"({"models": [{"name": "unused", "generator": "voxel"}],
+        "vox_scenes": [{"vox": ")" + vox +
+                                    R"("}]})",
+                                "vox_scenes.json", d);
+    ASSERT_GT(scene.entities.size(), 1u);
+    ModelView view;
+    view.azimuthDeg = 40;
+    view.elevationDeg = 25;
+    view.width = 160;
+    view.height = 120;
+    frameEntities(scene, view);
+    FrameRenderer renderer(scene, FrameOptions{NearBackend::Reference});
+    const Image expected = renderer.render(0.0, RenderMode::Reference).image;
+    EXPECT_TRUE(sameColor(cli, expected)) << "the .vox render differs from vox_scenes";
+    EXPECT_FALSE(sameColor(cli, one)) << "--model 0 drew the whole scene";
+}
+
+TEST(RenderOutput, VoxOptionsThatWouldBeIgnoredAreErrors) {
+    const std::string vox = std::string(VOXTIER_SOURCE_DIR) + "/scenes/vox/mmmm/chr_cop1.vox";
+    const std::string out = " -o " + (scratch() / "x.png").string();
+    const struct {
+        std::string args, expect;
+        int status;
+    } cases[] = {
+        {"--frame 2", "--frame: applies to a scene input only", 2},
+        {"--time 1", "--time: applies to a scene input only", 2},
+        {"--path", "--path: applies to a scene input only", 2},
+        {"--distance 0.3", "--distance: at 0.3 m the camera is inside the model's box", 1},
+    };
+    for (const auto& c : cases) {
+        const test::CliRun r = test::runCli("render " + vox + " " + c.args + out);
+        EXPECT_EQ(r.status, c.status) << c.args << ": " << r.err;
+        EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.args << ": " << r.err;
+        EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    }
+    EXPECT_EQ(test::runCli("render " + vox + " --distance 8" + out).status, 0);
 }
 
 } // namespace
