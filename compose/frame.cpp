@@ -2,6 +2,7 @@
 // everything else in this file is a step it calls.
 #include "compose/frame.hpp"
 
+#include "compose/backdrop.hpp"
 #include "compose/error_metrics.hpp"
 #include "core/error.hpp"
 #include "core/stopwatch.hpp"
@@ -189,12 +190,8 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     out.image =
         drawWith(nearBackendFor(mode, options_.nearBackend), cam, out.sprites, out.plan, st);
 
-    // A (partly) transparent background: every near backend and the far blit leave it, alpha
-    // included, exactly where no sprite drew.
-    if (channel(scene_.render.background, 3) != 255)
-        for (std::size_t p = 0; p < out.image.pixelCount(); ++p)
-            if (out.image.id[p] == kernel::VT_NO_ENTITY)
-                out.image.color[p] = scene_.render.background;
+    // 6. Where no sprite drew: the ground plane, or a (transparent) background.
+    drawBackdrop(scene_, cam, out.image);
 
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);

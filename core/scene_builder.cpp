@@ -252,6 +252,20 @@ struct SceneBuilder {
         o.nonNeg("diffuse", s.light.diffuse);
     }
 
+    void ground(const Obj& root) {
+        const json* v = root.get("ground");
+        if (!v) return;
+        const Obj o(c, *v, root.at("ground"));
+        o.allow(sceneKeysOf("ground"));
+        GroundPlane& g = s.ground.emplace();
+        o.num("height", g.height);
+        o.pos("spacing", g.spacing);
+        o.nonNeg("line_width", g.lineWidth);
+        o.pos("fade_distance", g.fadeDistance);
+        if (auto col = o.get("color")) g.color = color(c, *col, o.at("color"));
+        if (auto col = o.get("line_color")) g.lineColor = color(c, *col, o.at("line_color"));
+    }
+
     void selector(const Obj& root) {
         const json* v = root.get("selector");
         if (!v) return;
@@ -705,6 +719,7 @@ struct SceneBuilder {
         camera(root);
         cameraPath(root);
         light(root);
+        ground(root);
         selector(root);
         models(root);
         entities(root);

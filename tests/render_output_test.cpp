@@ -304,5 +304,39 @@ TEST(RenderOutput, VoxOptionsThatWouldBeIgnoredAreErrors) {
     EXPECT_EQ(test::runCli("render " + vox + " --distance 8" + out).status, 0);
 }
 
+// The ground is drawn wherever no sprite is, in every mode; sprites are always over it and
+// unchanged by it; above the horizon the background stays.
+TEST(RenderOutput, GroundIsBehindEverySpriteInEveryMode) {
+    const fs::path d = scratch();
+    const std::string plain = pathScene(true, false);
+    std::string grounded = plain;
+    grounded.insert(1, R"("ground": {"spacing": 0.5, "fade_distance": 40}, )");
+    const std::string a = write("plain.json", plain), b = write("ground.json", grounded);
+    for (const char* mode : {"reference", "far", "hybrid"}) {
+        const auto png = [&](const std::string& scene, const char* tag) {
+            const std::string out = (d / (std::string(mode) + tag + ".png")).string();
+            const test::CliRun r =
+                test::runCli("render " + scene + " --mode " + mode + " -o " + out);
+            EXPECT_EQ(r.status, 0) << r.err;
+            return readColorImage(out);
+        };
+        const Image without = png(a, "_plain"), with = png(b, "_ground");
+        const Rgba8 bg = packRgba(40, 44, 52);
+        std::size_t sprite = 0, ground = 0;
+        for (std::size_t i = 0; i < with.pixelCount(); ++i) {
+            if (without.color[i] != bg) {
+                ASSERT_EQ(with.color[i], without.color[i]) << mode << ": sprite pixel " << i;
+                ++sprite;
+            } else {
+                ground += with.color[i] != bg;
+            }
+        }
+        EXPECT_GT(sprite, 50u) << mode;
+        EXPECT_GT(ground, with.pixelCount() / 4) << mode;
+        // The camera looks down at the box from 1 m up: the top row is above the horizon.
+        for (int x = 0; x < with.width; ++x) EXPECT_EQ(with.color[with.index(x, 0)], bg) << mode;
+    }
+}
+
 } // namespace
 } // namespace voxtier
