@@ -321,7 +321,8 @@ void addRenderCommand(CLI::App& app) {
                   "Transparent background: alpha 0 where no sprite is drawn (PNG, EXR; like a "
                   "scene background [r, g, b, 0])");
     cmd->add_option("--overlay", args->overlay,
-                    "Also write the tier overlay (near blue, far orange, fading magenta)");
+                    "Also write the tier overlay (near blue, far orange, cross-fading green; "
+                    "with a legend)");
     cmd->add_option("--csv", args->csv, "Per-frame CSV: tier counts, switches, bakes, timings");
     cmd->add_option("--pops", args->pops,
                     "Per-switch CSV: the image change each tier/view switch causes alone");

@@ -45,10 +45,9 @@ Rgba8 groundPixel(const GroundPlane& g, const CameraFrame& cam, Rgba8 background
     if (right && down)
         footprint = glm::max(glm::abs(glm::dvec2(right->x - hit->x, right->z - hit->z)),
                              glm::abs(glm::dvec2(down->x - hit->x, down->z - hit->z)));
-    const bool line =
-        g.lineWidth > 0.0 &&
-        (offLine(hit->x, g.spacing) < 0.5 * std::max(g.lineWidth, footprint.x) ||
-         offLine(hit->z, g.spacing) < 0.5 * std::max(g.lineWidth, footprint.y));
+    const bool line = g.lineWidth > 0.0 &&
+                      (offLine(hit->x, g.spacing) < 0.5 * std::max(g.lineWidth, footprint.x) ||
+                       offLine(hit->z, g.spacing) < 0.5 * std::max(g.lineWidth, footprint.y));
     const Rgba8 c = line ? g.lineColor : g.color;
     return packRgba(mix(channel(background, 0), channel(c, 0), weight),
                     mix(channel(background, 1), channel(c, 1), weight),

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 namespace voxtier {
@@ -336,6 +337,47 @@ TEST(RenderOutput, GroundIsBehindEverySpriteInEveryMode) {
         // The camera looks down at the box from 1 m up: the top row is above the horizon.
         for (int x = 0; x < with.width; ++x) EXPECT_EQ(with.color[with.index(x, 0)], bg) << mode;
     }
+}
+
+// A cross-fading entity counts once in the status line (as fading), and the overlay shows it in
+// a green no tinted near or far sprite can take, next to a legend.
+TEST(RenderOutput, FadingEntityCountsOnceAndHasItsOwnOverlayColour) {
+    const fs::path d = scratch();
+    std::string text = pathScene(true);
+    // The path closes from 8 m to 3.7 m: far at first, back to near below 4.5 m, fading 30 frames.
+    text.insert(1, R"("selector": {"near_at": 4.5, "far_at": 5, "crossfade_frames": 30}, )");
+    const std::string scene = write("s.json", text);
+    const test::CliRun r = test::runCli(
+        "render " + scene + " --mode hybrid --near-backend reference --size 160x120 --path -o " +
+        (d / "f.png").string() + " --overlay " + (d / "o.png").string());
+    ASSERT_EQ(r.status, 0) << r.err;
+    int fadingFrames = 0, lines = 0;
+    std::istringstream out(r.out);
+    for (std::string line; std::getline(out, line);) {
+        int n = 0, f = 0, x = 0;
+        const auto at = line.find("culled; ");
+        ASSERT_NE(at, std::string::npos) << line;
+        ASSERT_EQ(std::sscanf(line.c_str() + at, "culled; %d near, %d far, %d fading", &n, &f, &x),
+                  3)
+            << line;
+        EXPECT_EQ(n + f + x, 1) << "one visible entity, counted once: " << line;
+        fadingFrames += x;
+        ++lines;
+    }
+    EXPECT_EQ(lines, 11);
+    ASSERT_GT(fadingFrames, 0) << r.out;
+    const auto green = [](const Image& im) {
+        std::size_t n = 0;
+        for (Rgba8 c : im.color)
+            n += channel(c, 0) <= 63 && channel(c, 2) <= 63 && channel(c, 1) >= 191;
+        return n;
+    };
+    const Image first = readColorImage(d / "o_0000.png"), last = readColorImage(d / "o_0010.png");
+    EXPECT_GT(green(first), 0u) << "the legend's swatch";
+    EXPECT_GT(green(last), green(first) + 50) << "the fading box is green";
+    // The legend: the near and far swatches in their tints.
+    EXPECT_EQ(first.color[first.index(8, 8)], packRgba(60, 140, 255));
+    EXPECT_EQ(first.color[first.index(8, 24)], packRgba(255, 150, 40));
 }
 
 } // namespace
