@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <sstream>
 
 namespace voxtier::cli {
@@ -169,6 +170,44 @@ CLI::Validator viewAngles() {
                                               got(text);
         },
         "ELEVATION in [-90, 90]");
+}
+
+std::optional<FrameRange> readFrameRange(const std::string& text) {
+    std::vector<std::optional<int>> parts;
+    std::stringstream items(text);
+    std::string item;
+    while (std::getline(items, item, ':')) parts.push_back(readInt(item));
+    if (parts.size() < 2 || parts.size() > 3 || text.back() == ':') return std::nullopt;
+    for (const auto& p : parts)
+        if (!p) return std::nullopt;
+    const FrameRange r{*parts[0], *parts[1], parts.size() == 3 ? *parts[2] : 1};
+    if (r.first < 0 || r.last < r.first || r.step < 1) return std::nullopt;
+    return r;
+}
+
+CLI::Validator frameRange() {
+    return CLI::Validator(
+        [](std::string& text) {
+            return readFrameRange(text) ? std::string()
+                                        : "expected FIRST:LAST[:STEP] with 0 <= FIRST <= LAST "
+                                          "and STEP >= 1" +
+                                              got(text);
+        },
+        "FIRST <= LAST");
+}
+
+CLI::Validator imageFileName() {
+    std::string list;
+    for (const char* e : kImageExtensions) list += (list.empty() ? "" : ", ") + std::string(e);
+    return CLI::Validator(
+        [list](std::string& text) {
+            std::string ext = std::filesystem::path(text).extension().string();
+            for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+            for (const char* e : kImageExtensions)
+                if (ext == e) return std::string();
+            return "expected an image file name ending in one of " + list + got(text);
+        },
+        "");
 }
 
 } // namespace voxtier::cli

@@ -47,6 +47,20 @@ std::optional<glm::dvec2> readViewAngles(const std::string& text);
 /// A view direction AZIMUTH,ELEVATION in degrees (readViewAngles).
 CLI::Validator viewAngles();
 
+/// Frames first..last (inclusive), every step-th.
+struct FrameRange {
+    int first = 0, last = 0, step = 1;
+};
+/// "A:B" or "A:B:STEP" -> {A, B, STEP}; nullopt unless 0 <= A <= B and STEP >= 1.
+std::optional<FrameRange> readFrameRange(const std::string& text);
+/// A frame range A:B[:STEP] (readFrameRange).
+CLI::Validator frameRange();
+
+/// The image file extensions voxtier writes (OpenImageIO picks the format from it).
+inline constexpr const char* kImageExtensions[] = {".png", ".exr", ".gif", ".tif", ".jpg"};
+/// A file name ending in one of kImageExtensions (any case).
+CLI::Validator imageFileName();
+
 /// One of the names of a name table (pairs of name and enum value, e.g. compose/frame.hpp's
 /// kRenderModeNames): `--help` lists them as {a,b,c}, a bad value reads "unknown <what> 'x'
 /// (expected: a, b, c)", and the option's enum variable gets the value (the validator hands

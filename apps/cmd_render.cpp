@@ -8,14 +8,18 @@
 #include "core/image_io.hpp"
 #include "core/model_view.hpp"
 #include "core/scene_loader.hpp"
+#include "core/sprite.hpp"
+#include "core/stopwatch.hpp"
 #include "core/vox_reader.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
 #include <optional>
+#include <vector>
 
 namespace voxtier::cli {
 
@@ -27,9 +31,11 @@ struct RenderArgs {
     RenderMode mode = RenderMode::Hybrid;
     NearBackend nearBackend = NearBackend::Vulkan;
     bool path = false;
+    bool alpha = false; ///< transparent background (alpha 0 where no sprite is drawn)
     std::string overlay, csv, pops;
     std::optional<double> time;
     std::optional<int> frame;
+    std::optional<std::string> frames; ///< FIRST:LAST[:STEP] (readFrameRange)
     std::string ids;
     std::optional<double> cacheMb; ///< far snapshot cache budget; default FrameOptions'
     CacheDirArgs cacheDir;
@@ -62,6 +68,31 @@ void rejectSingleModelOptions(const RenderArgs& a) {
     if (a.model) throw CLI::ValidationError("--model", namesModels);
 }
 
+/// A .vox has no camera path and no animation clock: frame options would be silently ignored.
+void rejectPathOptions(const RenderArgs& a) {
+    const char* why = "applies to a scene input only (a .vox has no camera path; pick one of "
+                      "its models with --model N)";
+    if (a.frame) throw CLI::ValidationError("--frame", why);
+    if (a.time) throw CLI::ValidationError("--time", why);
+    if (a.frames) throw CLI::ValidationError("--frames", why);
+    if (a.path) throw CLI::ValidationError("--path", why);
+}
+
+/// A --distance that puts the camera inside an entity's proxy box would draw nothing there.
+void rejectCameraInside(const RenderArgs& a, const Scene& s) {
+    if (!a.distance) return;
+    const std::vector<SpriteSetup> sprites = setupSprites(s, makeCameraFrame(s.camera), 0.0);
+    for (const SpriteSetup& sp : sprites)
+        if (sp.cull == CullReason::CameraInside) {
+            char at[32];
+            std::snprintf(at, sizeof at, "%g", *a.distance);
+            throw InputError(a.input, "--distance",
+                             std::string("at ") + at +
+                                 " m the camera is inside the model's box and would draw "
+                                 "nothing; use a larger distance, or 0 to fit the view");
+        }
+}
+
 Scene loadInput(const RenderArgs& a) {
     // The option validators checked every value; what remains depends on the input file.
     if (!endsWith(a.input, ".vox")) {
@@ -73,16 +104,11 @@ Scene loadInput(const RenderArgs& a) {
             s.camera.height = wh.y;
         }
         if (a.sigma) s.render.sigma = *a.sigma;
+        if (a.alpha) s.render.background &= 0x00FFFFFFu;
         return s;
     }
+    rejectPathOptions(a);
     const VoxFile vox = readVoxFile(a.input);
-    const int index = a.model.value_or(0);
-    if (index >= int(vox.models.size()))
-        throw InputError(a.input, "--model",
-                         "file has " + std::to_string(vox.models.size()) + " models");
-    auto model =
-        std::make_shared<VoxelModel>(std::filesystem::path(a.input).stem().string(), vox.palette,
-                                     std::vector<VoxelGrid>{vox.models[std::size_t(index)]});
     ModelView v;
     const glm::dvec2 angles = *readViewAngles(a.view.value_or("30,20"));
     v.azimuthDeg = angles.x;
@@ -92,8 +118,24 @@ Scene loadInput(const RenderArgs& a) {
     v.height = wh.y;
     v.distance = a.distance.value_or(0.0);
     v.sigma = a.sigma.value_or(1.0);
-    Scene s = sceneForModel(std::move(model), v);
+    Scene s;
+    // A file of several models placed by a scene graph is a scene: render it whole, as a
+    // scene's "vox_scenes" does, unless --model picks one.
+    if (!a.model && vox.models.size() > 1 && !vox.instances.empty()) {
+        s = sceneForVoxFile(vox, v);
+    } else {
+        const int index = a.model.value_or(0);
+        if (index >= int(vox.models.size()))
+            throw InputError(a.input, "--model",
+                             "file has " + std::to_string(vox.models.size()) + " models");
+        s = sceneForModel(std::make_shared<VoxelModel>(
+                              std::filesystem::path(a.input).stem().string(), vox.palette,
+                              std::vector<VoxelGrid>{vox.models[std::size_t(index)]}),
+                          v);
+    }
     s.source = a.input;
+    if (a.alpha) s.render.background &= 0x00FFFFFFu;
+    rejectCameraInside(a, s);
     return s;
 }
 
@@ -115,9 +157,93 @@ std::FILE* openCsv(const std::string& file, const char* header) {
     return f;
 }
 
+/// Which frames one render writes.
+struct FramePlan {
+    std::vector<int> frames;         ///< path frames, in render order
+    std::optional<double> fixedTime; ///< --time: this time instead of the frame's
+    bool sequence = false;           ///< --path / --frames: numbered images, progress
+    int step = 1;                    ///< frames apart
+};
+
+/// The last frame of the scene's camera path, or a frame past it is an error naming `option`.
+void checkPathFrame(const RenderArgs& a, const Scene& scene, const char* option, int frame) {
+    if (scene.path && frame >= scene.path->frameCount())
+        throw InputError(a.input, option,
+                         "frame " + std::to_string(frame) +
+                             " is past the camera path's last frame " +
+                             std::to_string(scene.path->frameCount() - 1));
+}
+
+/// The camera rule (docs/scenes.md "Which camera a render uses"): --path, --frames, --frame and
+/// --time follow the camera path; a plain render shows the static camera when the scene file
+/// positions one, else the path at its first frame.
+FramePlan planFrames(const RenderArgs& a, Scene& scene) {
+    FramePlan p;
+    if (a.path || a.frames) {
+        FrameRange r;
+        if (a.path) {
+            if (!scene.path) throw InputError(a.input, "--path", "the scene has no camera_path");
+            r.last = scene.path->frameCount() - 1;
+        } else {
+            r = *readFrameRange(*a.frames);
+            checkPathFrame(a, scene, "--frames", r.last);
+        }
+        for (int f = r.first; f <= r.last; f += r.step) p.frames.push_back(f);
+        p.sequence = true;
+        p.step = r.step;
+    } else if (a.frame) {
+        checkPathFrame(a, scene, "--frame", *a.frame);
+        p.frames = {*a.frame};
+    } else if (a.time) {
+        p.fixedTime = *a.time;
+        const int f = scene.path
+                          ? int(std::floor(
+                                (*a.time - scene.path->keys.front().time) * scene.path->fps + 1e-9))
+                          : 0;
+        p.frames = {std::max(0, f)};
+    } else {
+        if (scene.cameraPositioned) scene.path.reset();
+        p.frames = {0};
+    }
+    return p;
+}
+
+/// " [k/N, ~S s left]" after frame k of a sequence, from the mean time per frame so far.
+std::string progress(const FramePlan& plan, std::size_t done, double elapsedMs) {
+    if (!plan.sequence) return "";
+    const double left = elapsedMs / double(done) * double(plan.frames.size() - done) / 1000.0;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, " [%zu/%zu, ~%.0f s left]", done, plan.frames.size(), left);
+    return buf;
+}
+
+/// The one console line per frame.
+void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, const FrameResult& r,
+                 const std::string& file, const std::string& progressText) {
+    const FrameStats& st = r.stats;
+    // Each visible entity once: a cross-fading one is drawn by both tiers but counted as fading.
+    int nearOnly = 0, farOnly = 0, fading = 0;
+    for (std::size_t i = 0; i < r.plan.size(); ++i) {
+        if (!r.sprites[i].visible()) continue;
+        if (r.plan[i].fade > 0.0f)
+            ++fading;
+        else
+            ++(r.plan[i].tier == Tier::Near ? nearOnly : farOnly);
+    }
+    std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, "
+                "%d fading), "
+                "%d switches, %d bakes, %.1f ms -> %s%s\n",
+                a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height,
+                st.entities, st.culled, nearOnly, farOnly, fading,
+                st.switchesToFar + st.switchesToNear, st.farBakes, st.totalMs, file.c_str(),
+                progressText.c_str());
+    std::fflush(stdout);
+}
+
 void run(const RenderArgs& a) {
     Scene scene = loadInput(a);
     const RenderMode mode = a.mode;
+    const FramePlan plan = planFrames(a, scene);
     FrameOptions opt;
     opt.nearBackend = a.nearBackend;
     opt.overlay = !a.overlay.empty();
@@ -129,49 +255,40 @@ void run(const RenderArgs& a) {
     std::string out = a.out;
     if (out.empty()) out = "out/" + std::filesystem::path(a.input).stem().string() + ".png";
 
-    // Which frames: one (--time / --frame, default t = 0) or the whole camera path (--path).
-    int first = 0, last = 0;
-    std::optional<double> fixedTime;
-    if (a.path) {
-        if (!scene.path) throw InputError(a.input, "--path", "the scene has no camera_path");
-        last = scene.path->frameCount() - 1;
-    } else if (a.frame) {
-        first = last = *a.frame;
-    } else if (a.time) {
-        fixedTime = *a.time;
-        first = last =
-            scene.path ? int(std::floor(
-                             (*a.time - scene.path->keys.front().time) * scene.path->fps + 1e-9))
-                       : 0;
-        first = last = std::max(0, first);
-    }
     std::FILE* csv = openCsv(a.csv, ("frame,time," + figureCsvHeader() + "\n").c_str());
     std::FILE* pops = openCsv(
         a.pops, "frame,entity,kind,changed_pixels,changed_fraction,displacement_px,radius_px\n");
-    // A lone frame starts the selector fresh (tiers from the metric alone); --path runs the
+    // A lone frame starts the selector fresh (tiers from the metric alone); a sequence runs its
     // frames in order, so hysteresis and cross-fades behave as in a game.
-    for (int frame = first; frame <= last; ++frame) {
-        const double time = fixedTime ? *fixedTime : scene.timeOfFrame(frame);
+    // A sequence to .gif is one animated GIF at the path's frame rate (per rendered frame).
+    std::optional<AnimationWriter> animation;
+    if (plan.sequence && endsWith(out, ".gif"))
+        animation.emplace(out, (scene.path ? scene.path->fps : 30.0) / plan.step);
+    const auto start = std::chrono::steady_clock::now();
+    for (std::size_t k = 0; k < plan.frames.size(); ++k) {
+        const int frame = plan.frames[k];
+        const double time = plan.fixedTime ? *plan.fixedTime : scene.timeOfFrame(frame);
         renderer.applyEditsThrough(frame);
         const FrameResult r = renderer.render(time, mode, frame);
-        const std::string file = a.path ? numbered(out, frame) : out;
-        writeImage(file, r.image, scene.cameraAt(time).zNear);
-        if (r.overlay) writeImage(a.path ? numbered(a.overlay, frame) : a.overlay, *r.overlay);
-        if (!a.ids.empty()) writeIdImage(a.path ? numbered(a.ids, frame) : a.ids, r.image);
-        const FrameStats& st = r.stats;
-        if (csv) std::fprintf(csv, "%d,%.6f,%s\n", frame, time, figureCsvRow(st).c_str());
+        const auto name = [&](const std::string& f) {
+            return plan.sequence ? numbered(f, frame) : f;
+        };
+        const std::string file = animation ? out : name(out);
+        if (animation)
+            animation->add(r.image);
+        else
+            writeImage(file, r.image, scene.cameraAt(time).zNear);
+        if (r.overlay) writeImage(name(a.overlay), *r.overlay);
+        if (!a.ids.empty()) writeIdImage(name(a.ids), r.image);
+        if (csv) std::fprintf(csv, "%d,%.6f,%s\n", frame, time, figureCsvRow(r.stats).c_str());
         for (const PopEvent& e : r.pops)
             std::fprintf(pops, "%d,%u,%s,%zu,%.6f,%.3f,%.3f\n", e.frame, e.entity, toString(e.kind),
                          e.changedPixels, e.changedFraction, e.displacementPx, e.radiusPx);
-        if (frame == first && !renderer.nearDeviceName().empty())
+        if (k == 0 && !renderer.nearDeviceName().empty())
             std::printf("Vulkan device: %s\n", renderer.nearDeviceName().c_str());
-        std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, "
-                    "%d fading), "
-                    "%d switches, %d bakes, %.1f ms -> %s\n",
-                    a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height,
-                    st.entities, st.culled, st.nearDrawn, st.farDrawn, st.fading,
-                    st.switchesToFar + st.switchesToNear, st.farBakes, st.totalMs, file.c_str());
+        printStatus(a, mode, frame, time, r, file, progress(plan, k + 1, msSince(start)));
     }
+    if (animation) animation->close();
     if (csv) std::fclose(csv);
     if (pops) std::fclose(pops);
     if (const auto& store = renderer.snapshotCache().config().store)
@@ -188,7 +305,9 @@ void addRenderCommand(CLI::App& app) {
         ->required()
         ->check(CLI::ExistingFile);
     cmd->add_option("-o,--out", args->out,
-                    "Output image (.png, or .exr with Z and id channels); default out/<name>.png");
+                    "Output image (.png, or .exr with Z and id channels; .gif with --path: "
+                    "animated); default out/<name>.png")
+        ->check(imageFileName());
     cmd->add_option("--mode", args->mode,
                     "hybrid (the selector hands entities between the tiers), near (Vulkan near "
                     "tier for every entity; VOXTIER_VALIDATION=1 enables validation), far (every "
@@ -201,19 +320,35 @@ void addRenderCommand(CLI::App& app) {
         ->type_name("TEXT")
         ->transform(oneOf(kNearBackendNames, "near backend"))
         ->default_str(toString(args->nearBackend));
-    cmd->add_flag("--path", args->path,
-                  "Render every frame of the camera path (OUT becomes OUT_0000.png ...)");
+    auto* path =
+        cmd->add_flag("--path", args->path,
+                      "Render every frame of the camera path (OUT becomes OUT_0000.png ...; "
+                      "OUT.gif: one animated GIF at the path's frame rate)");
+    cmd->add_flag("--alpha", args->alpha,
+                  "Transparent background: alpha 0 where no sprite is drawn (PNG, EXR; like a "
+                  "scene background [r, g, b, 0])");
     cmd->add_option("--overlay", args->overlay,
-                    "Also write the tier overlay (near blue, far orange, fading magenta)");
+                    "Also write the tier overlay (near blue, far orange, cross-fading green; "
+                    "with a legend)");
     cmd->add_option("--csv", args->csv, "Per-frame CSV: tier counts, switches, bakes, timings");
     cmd->add_option("--pops", args->pops,
                     "Per-switch CSV: the image change each tier/view switch causes alone");
-    auto* t = cmd->add_option("--time", args->time, "Time in seconds along the camera path")
+    auto* t = cmd->add_option("--time", args->time,
+                              "Time in seconds along the camera path (without one: the animation "
+                              "time, with the static camera)")
                   ->check(finite());
     auto* f = cmd->add_option("--frame", args->frame,
-                              "Frame number of the camera path (applies scripted edits up to it)")
+                              "Frame number of the camera path (applies scripted edits up to it; "
+                              "without a path: the animation at N/30 s)")
                   ->check(atLeast(0));
     t->excludes(f);
+    auto* range = cmd->add_option("--frames", args->frames,
+                                  "Render path frames FIRST..LAST (inclusive), every STEP-th, to "
+                                  "numbered images (OUT_0000.png ...)")
+                      ->type_name("FIRST:LAST[:STEP]")
+                      ->check(frameRange());
+    path->excludes(t)->excludes(f)->excludes(range);
+    range->excludes(t)->excludes(f);
     cmd->add_option("--cache-mb", args->cacheMb,
                     "Far snapshot cache budget in MiB (default 256; LRU beyond)")
         ->check(numberIn(1, kMaxCacheMb, "MiB"));
@@ -232,7 +367,9 @@ void addRenderCommand(CLI::App& app) {
         ->check(viewAngles());
     vox->add_option("--distance", args->distance, "Camera distance in metres (default 0 = fit)")
         ->check(numberIn(0, std::numeric_limits<double>::infinity(), "m"));
-    vox->add_option("--model", args->model, "Which model of a multi-model file (default 0)")
+    vox->add_option("--model", args->model,
+                    "Which model of a multi-model file (default: a file with a scene graph "
+                    "renders whole, else model 0)")
         ->check(atLeast(0));
     cmd->callback([args] { run(*args); });
 }

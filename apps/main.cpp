@@ -1,10 +1,29 @@
 // voxtier: render voxel-entity scenes across LOD tiers. See README.md.
 #include "apps/commands.hpp"
+#include "core/detail/json_fields.hpp"
 #include "core/error.hpp"
 
 #include <cstdio>
 #include <exception>
 #include <malloc.h>
+#include <string>
+#include <vector>
+
+namespace {
+
+/// " (did you mean 'render'?)" when the first argument is a misspelt subcommand.
+std::string subcommandSuggestion(const CLI::App& app, int argc, char** argv) {
+    if (argc < 2 || argv[1][0] == '-') return "";
+    std::vector<std::string> names;
+    for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
+        names.push_back(sub->get_name());
+    for (const std::string& n : names)
+        if (n == argv[1]) return "";
+    const std::string s = voxtier::detail::suggestion(argv[1], names);
+    return s.rfind(" (did you mean", 0) == 0 ? s : "";
+}
+
+} // namespace
 
 int main(int argc, char** argv) {
     // Every frame allocates its image (12 bytes per pixel: colour, depth, id; 6 MB at 960x540).
@@ -15,6 +34,7 @@ int main(int argc, char** argv) {
     mallopt(M_MMAP_THRESHOLD, 32 << 20);
     mallopt(M_TRIM_THRESHOLD, 512 << 20);
     CLI::App app{"voxtier: hybrid level-of-detail renderer for voxel game entities"};
+    app.set_version_flag("--version", std::string("voxtier ") + VOXTIER_VERSION);
     app.require_subcommand(1);
     voxtier::cli::addRenderCommand(app);
     voxtier::cli::addInfoCommand(app);
@@ -30,7 +50,12 @@ int main(int argc, char** argv) {
         // --help, which lists the allowed values (CLI11's own printer adds a second line).
         // --help and friends print and exit 0.
         if (e.get_exit_code() == 0) return app.exit(e);
-        std::fprintf(stderr, "voxtier: error: %s (see --help)\n", e.what());
+        const std::string suggestion = subcommandSuggestion(app, argc, argv);
+        if (!suggestion.empty())
+            std::fprintf(stderr, "voxtier: error: unknown command '%s'%s (see --help)\n", argv[1],
+                         suggestion.c_str());
+        else
+            std::fprintf(stderr, "voxtier: error: %s (see --help)\n", e.what());
         return 2;
     } catch (const voxtier::InputError& e) {
         std::fprintf(stderr, "voxtier: error: %s\n", e.what());

@@ -2,7 +2,9 @@
 // everything else in this file is a step it calls.
 #include "compose/frame.hpp"
 
+#include "compose/backdrop.hpp"
 #include "compose/error_metrics.hpp"
+#include "compose/tier_legend.hpp"
 #include "core/error.hpp"
 #include "core/stopwatch.hpp"
 #include "impostor_cache/far_frame.hpp"
@@ -199,6 +201,9 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     out.image =
         drawWith(nearBackendFor(mode, options_.nearBackend), cam, out.sprites, out.plan, st);
 
+    // 6. Where no sprite drew: the ground plane, or a (transparent) background.
+    drawBackdrop(scene_, cam, out.image);
+
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
     if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
@@ -360,19 +365,24 @@ std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
 }
 
 Image FrameRenderer::tierOverlay(const Image& image, const std::vector<EntityPlan>& plan) const {
-    // Near entities tinted blue, far ones orange, cross-fading ones magenta; outlines stay black.
+    // Near entities tinted blue, far ones orange, cross-fading ones green (compose/tier_legend.hpp:
+    // no tinted near or far pixel can take that colour); outlines stay black.
     Image o = image;
-    const Rgba8 tints[3] = {packRgba(60, 140, 255), packRgba(255, 150, 40), packRgba(230, 60, 230)};
     tbb::parallel_for(std::size_t(0), o.pixelCount(), [&](std::size_t p) {
         const std::uint32_t e = o.id[p];
         if (e == kernel::VT_NO_ENTITY || e >= plan.size() || o.color[p] == kernel::VT_OUTLINE_RGBA)
             return;
-        const Rgba8 t = tints[plan[e].fade > 0.0f ? 2 : int(plan[e].tier)];
         const Rgba8 c = o.color[p];
+        if (plan[e].fade > 0.0f) {
+            o.color[p] = tintFading(c);
+            return;
+        }
+        const Rgba8 t = kTierTints[std::size_t(plan[e].tier)];
         o.color[p] =
             packRgba((channel(c, 0) + channel(t, 0)) / 2, (channel(c, 1) + channel(t, 1)) / 2,
                      (channel(c, 2) + channel(t, 2)) / 2, 255);
     });
+    drawTierLegend(o);
     return o;
 }
 

@@ -21,6 +21,12 @@ OIIO::ImageBuf colorBuf(const Image& img) {
     return buf;
 }
 
+/// The sRGB transfer function's inverse (IEC 61966-2-1): 8-bit sRGB code -> linear [0, 1].
+float linearFromSrgb8(unsigned code) {
+    const double c = double(code) / 255.0;
+    return float(c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4));
+}
+
 void writeBuf(const std::filesystem::path& file, const OIIO::ImageBuf& buf) {
     if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
     if (!buf.write(file.string()))
@@ -36,14 +42,20 @@ void writeImage(const std::filesystem::path& file, const Image& img, double zNea
         writeBuf(file, colorBuf(img));
         return;
     }
-    // EXR: linear float RGBA + Z (view depth) + id.
+    // EXR: RGB decoded from the 8-bit sRGB colour to linear (EXR's convention, what
+    // compositors assume) and premultiplied by alpha, + Z (view depth) + id.
     OIIO::ImageSpec spec(img.width, img.height, 6, OIIO::TypeDesc::FLOAT);
     spec.channelnames = {"R", "G", "B", "A", "Z", "id"};
     spec.z_channel = 4;
+    spec.alpha_channel = 3;
+    spec.attribute("oiio:ColorSpace", "Linear");
     std::vector<float> px(img.pixelCount() * 6);
     for (std::size_t i = 0; i < img.pixelCount(); ++i) {
-        for (int c = 0; c < 4; ++c)
-            px[i * 6 + std::size_t(c)] = float(channel(img.color[i], c)) / 255.0f;
+        // EXR colour is premultiplied by alpha (associated), unlike PNG's.
+        const float alpha = float(channel(img.color[i], 3)) / 255.0f;
+        for (int c = 0; c < 3; ++c)
+            px[i * 6 + std::size_t(c)] = linearFromSrgb8(channel(img.color[i], c)) * alpha;
+        px[i * 6 + 3] = alpha;
         const float d = img.depth[i];
         px[i * 6 + 4] =
             (d > 0.0f && zNear > 0.0) ? float(zNear / d) : std::numeric_limits<float>::infinity();
@@ -52,6 +64,64 @@ void writeImage(const std::filesystem::path& file, const Image& img, double zNea
     OIIO::ImageBuf buf(spec);
     buf.set_pixels(OIIO::ROI::All(), OIIO::TypeDesc::FLOAT, px.data());
     writeBuf(file, buf);
+}
+
+struct AnimationWriter::Impl {
+    std::filesystem::path file;
+    double fps = 30.0;
+    std::unique_ptr<OIIO::ImageOutput> out;
+    int width = 0, height = 0;
+    bool open = false;
+};
+
+AnimationWriter::AnimationWriter(std::filesystem::path file, double fps)
+    : impl_(std::make_unique<Impl>()) {
+    impl_->file = std::move(file);
+    impl_->fps = fps;
+}
+
+AnimationWriter::~AnimationWriter() {
+    try {
+        close();
+    } catch (...) {
+    }
+}
+
+void AnimationWriter::add(const Image& img) {
+    Impl& m = *impl_;
+    const std::string name = m.file.string();
+    OIIO::ImageSpec spec(img.width, img.height, 4, OIIO::TypeDesc::UINT8);
+    // OIIO's GIF writer takes the frame delay from FramesPerSecond (a rational).
+    const int fpsNum = int(std::lround(m.fps * 1000.0));
+    const int rational[2] = {fpsNum, 1000};
+    spec.attribute("FramesPerSecond", OIIO::TypeRational, rational);
+    spec.attribute("oiio:Movie", 1);
+    spec.attribute("gif:LoopCount", 0); // loop forever
+    if (!m.open) {
+        if (m.file.has_parent_path()) std::filesystem::create_directories(m.file.parent_path());
+        m.out = OIIO::ImageOutput::create(name);
+        if (!m.out || !m.out->supports("appendsubimage"))
+            throw InputError(name, "", "cannot write an animation in this format (use .gif)");
+        if (!m.out->open(name, spec, OIIO::ImageOutput::Create))
+            throw InputError(name, "", "cannot write image: " + m.out->geterror());
+        m.width = img.width, m.height = img.height, m.open = true;
+    } else {
+        if (img.width != m.width || img.height != m.height)
+            throw InputError(name, "", "animation frames must all be the same size");
+        if (!m.out->open(name, spec, OIIO::ImageOutput::AppendSubimage))
+            throw InputError(name, "", "cannot write image: " + m.out->geterror());
+    }
+    if (!m.out->write_image(OIIO::TypeDesc::UINT8, img.color.data()))
+        throw InputError(name, "", "cannot write image: " + m.out->geterror());
+}
+
+void AnimationWriter::close() {
+    Impl& m = *impl_;
+    if (!m.out) return;
+    const bool ok = m.out->close();
+    const std::string err = ok ? "" : m.out->geterror();
+    m.out.reset();
+    if (!ok) throw InputError(m.file.string(), "", "cannot write image: " + err);
 }
 
 void writeIdImage(const std::filesystem::path& file, const Image& img) {

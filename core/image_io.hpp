@@ -3,14 +3,35 @@
 #include "core/image.hpp"
 
 #include <filesystem>
+#include <memory>
 
 namespace voxtier {
 
 /// Writes the colour image; the format follows the extension (.png, .exr, .tif, ...).
-/// For .exr the file also carries channel "Z" (view depth in metres, +inf where empty; needs
-/// the camera's zNear) and "id" (entity id as float, -1 where empty). Throws InputError on
-/// failure, naming the file.
+/// .exr is float: R, G, B linear (decoded from the 8-bit sRGB colour; tagged oiio:ColorSpace
+/// "Linear"; premultiplied by A, as EXR expects), A, then "Z", the view depth in metres of the
+/// sprite's model centre (DESIGN.md §3.8: every pixel of a sprite has its centre's depth; +inf
+/// where empty; needs the camera's zNear), and "id", the entity id as float (-1 where empty).
+/// Throws InputError on failure, naming the file.
 void writeImage(const std::filesystem::path& file, const Image& image, double zNear = 0.0);
+/// An animated image (GIF), written one frame at a time: every frame the same size, shown for
+/// 1/fps s (GIF stores the delay in 1/100 s, so 30 fps plays at 100/3 fps). InputError naming
+/// the file when it cannot be written or a frame's size differs from the first.
+class AnimationWriter {
+  public:
+    AnimationWriter(std::filesystem::path file, double fps);
+    ~AnimationWriter();
+    AnimationWriter(const AnimationWriter&) = delete;
+    AnimationWriter& operator=(const AnimationWriter&) = delete;
+    void add(const Image& frame);
+    /// Finishes the file (also done by the destructor, which cannot report a failure).
+    void close();
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
 /// The entity-id buffer as a colour-coded PNG (each id a stable pseudo-random colour).
 void writeIdImage(const std::filesystem::path& file, const Image& image);
 /// Reads an 8-bit RGBA image (depth and id left empty).

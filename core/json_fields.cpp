@@ -216,7 +216,7 @@ Obj::Obj(const Ctx& c, const json& v, std::string path) : c_(c), v_(v), path_(st
     if (!v.is_object()) fail(c, path_, std::string("expected an object, got ") + typeName(v));
 }
 
-void Obj::allow(std::initializer_list<std::string_view> keys) const {
+void Obj::allow(const std::vector<std::string_view>& keys) const {
     std::vector<std::string> allowed(keys.begin(), keys.end());
     for (const auto& [k, val] : v_.items()) {
         if (k == "comment") {

@@ -105,12 +105,27 @@ struct ScriptedEdit {
     std::uint8_t index = 1;
 };
 
+/// A ground plane y = height with a grid, for context (drawn by compose/backdrop.hpp wherever no
+/// sprite is, fading into the background with distance from the eye).
+struct GroundPlane {
+    double height = 0.0;        ///< world y, metres
+    double spacing = 1.0;       ///< grid line spacing, metres
+    double lineWidth = 0.03;    ///< metres
+    double fadeDistance = 80.0; ///< metres from the eye at which only the background is left
+    Rgba8 color = packRgba(62, 68, 78);
+    Rgba8 lineColor = packRgba(98, 106, 120);
+};
+
 struct Scene {
     std::string source; ///< file it came from (for messages)
     RenderParams render;
     Camera camera;
+    /// The file's "camera" gives a position: a plain render (no --path, --frame, --time) shows
+    /// this camera even when there is a path; without one it shows the path at its first frame.
+    bool cameraPositioned = false;
     std::optional<CameraPath> path;
     Light light;
+    std::optional<GroundPlane> ground;
     SelectorConfig selector;
     std::vector<std::shared_ptr<VoxelModel>> models;
     std::vector<Entity> entities;

@@ -1,8 +1,10 @@
 // loadSceneJson (core/scene_loader.hpp): a parsed scene document, section by section, into a
-// Scene. Every key a section accepts is listed in its Obj::allow call.
+// Scene. Every key a section accepts is listed in core/scene_keys.cpp, by the section's name in
+// docs/scene.schema.json.
 #include "core/detail/json_fields.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
+#include "core/scene_keys.hpp"
 #include "core/scene_loader.hpp"
 #include "core/splitmix64.hpp"
 #include "core/sprite.hpp"
@@ -26,6 +28,16 @@ namespace {
 
 using namespace detail;
 
+/// The union of the keys of several kinds of object, for an object whose kind is not known yet
+/// (a misspelt key is then reported as such, not as a missing kind).
+std::vector<std::string_view> keysOfAny(std::initializer_list<std::string_view> objects) {
+    std::vector<std::string_view> keys;
+    for (std::string_view o : objects)
+        for (std::string_view k : sceneKeysOf(o))
+            if (std::find(keys.begin(), keys.end(), k) == keys.end()) keys.push_back(k);
+    return keys;
+}
+
 struct VoxCacheEntry {
     VoxFile file;
     /// (file model, mirror axis) -> Scene::models index, shared by every vox_scenes entry of
@@ -48,7 +60,13 @@ struct SceneBuilder {
         if (p.is_relative()) p = c.baseDir / p;
         std::error_code ec;
         const auto st = fs::status(p, ec);
-        if (!fs::exists(st)) fail(c, path, "file not found: '" + p.string() + "'");
+        if (!fs::exists(st))
+            fail(c, path,
+                 "file not found: '" + p.string() + "'" +
+                     (fs::path(rel).is_relative()
+                          ? " ('" + rel + "' is resolved against the scene file's folder '" +
+                                c.baseDir.string() + "')"
+                          : ""));
         if (fs::is_directory(st)) fail(c, path, "'" + p.string() + "' is a directory, not a file");
         return p;
     }
@@ -109,8 +127,16 @@ struct SceneBuilder {
             s.render.viewMode = choice(c, *v, root.at("view_mode"), {"per_entity", "parallel"}) == 0
                                     ? ViewMode::PerEntity
                                     : ViewMode::Parallel;
-        if (auto v = root.get("background"))
-            s.render.background = color(c, *v, root.at("background"));
+        if (auto v = root.get("background")) {
+            // [r, g, b] or [r, g, b, a]: alpha 0 makes the background transparent in PNG/EXR.
+            const std::string p = root.at("background");
+            if (v->is_array() && v->size() == 4)
+                s.render.background =
+                    (color(c, json::array({(*v)[0], (*v)[1], (*v)[2]}), p) & 0x00FFFFFFu) |
+                    (Rgba8(intIn(c, (*v)[3], element(p, 3), 0, 255)) << 24);
+            else
+                s.render.background = color(c, *v, p);
+        }
     }
 
     /// makeCameraFrame's checks, reported at `path` (it throws with file "" and a field that
@@ -140,9 +166,10 @@ struct SceneBuilder {
         const json* v = root.get("camera");
         if (!v) return;
         const Obj o(c, *v, root.at("camera"));
-        o.allow({"position", "target", "up", "fov_y", "size", "near"});
+        o.allow(sceneKeysOf("camera"));
         Camera& cam = s.camera;
         o.v3("position", cam.position);
+        s.cameraPositioned = o.get("position") != nullptr;
         o.v3("target", cam.target);
         o.v3("up", cam.up);
         fovField(o, "fov_y", cam.fovYDeg);
@@ -160,7 +187,7 @@ struct SceneBuilder {
         const json* v = root.get("camera_path");
         if (!v) return;
         const Obj o(c, *v, root.at("camera_path"));
-        o.allow({"fps", "keys"});
+        o.allow(sceneKeysOf("camera_path"));
         CameraPath path;
         o.pos("fps", path.fps);
         const std::string keysPath = o.at("keys");
@@ -168,7 +195,7 @@ struct SceneBuilder {
         if (keys.empty()) fail(c, keysPath, "expected at least one key");
         for (std::size_t i = 0; i < keys.size(); ++i) {
             const Obj k(c, keys[i], element(keysPath, i));
-            k.allow({"time", "position", "target", "up", "fov_y"});
+            k.allow(sceneKeysOf("camera_key"));
             CameraKey key;
             key.time = number(c, k.require("time"), k.at("time"));
             key.position = vec3(c, k.require("position"), k.at("position"));
@@ -216,7 +243,7 @@ struct SceneBuilder {
         const json* v = root.get("light");
         if (!v) return;
         const Obj o(c, *v, root.at("light"));
-        o.allow({"direction", "ambient", "diffuse"});
+        o.allow(sceneKeysOf("light"));
         o.v3("direction", s.light.direction);
         const double len = glm::length(s.light.direction);
         if (!(len > 0.0 && std::isfinite(len)))
@@ -225,12 +252,25 @@ struct SceneBuilder {
         o.nonNeg("diffuse", s.light.diffuse);
     }
 
+    void ground(const Obj& root) {
+        const json* v = root.get("ground");
+        if (!v) return;
+        const Obj o(c, *v, root.at("ground"));
+        o.allow(sceneKeysOf("ground"));
+        GroundPlane& g = s.ground.emplace();
+        o.num("height", g.height);
+        o.pos("spacing", g.spacing);
+        o.nonNeg("line_width", g.lineWidth);
+        o.pos("fade_distance", g.fadeDistance);
+        if (auto col = o.get("color")) g.color = color(c, *col, o.at("color"));
+        if (auto col = o.get("line_color")) g.lineColor = color(c, *col, o.at("line_color"));
+    }
+
     void selector(const Obj& root) {
         const json* v = root.get("selector");
         if (!v) return;
         const Obj o(c, *v, root.at("selector"));
-        o.allow(
-            {"metric", "near_at", "far_at", "view_hysteresis_deg", "crossfade_frames", "view_set"});
+        o.allow(sceneKeysOf("selector"));
         SelectorConfig& sel = s.selector;
         if (auto m = o.get("metric"))
             sel.metric = SelectorMetric(
@@ -286,7 +326,7 @@ struct SceneBuilder {
     }
 
     std::shared_ptr<VoxelModel> voxModel(const Obj& o) {
-        o.allow({"name", "vox", "model", "frames"});
+        o.allow(sceneKeysOf("vox_model"));
         const std::string name = modelName(o);
         if (o.get("model") && o.get("frames"))
             fail(c, o.at("frames"), "give either 'model' or 'frames', not both");
@@ -328,7 +368,7 @@ struct SceneBuilder {
 
     /// {"generator": "tank", "seed", "frames", "size"}: an animated model, kept whole.
     std::shared_ptr<VoxelModel> tankModel(const Obj& o) {
-        o.allow({"name", "generator", "seed", "frames", "size"});
+        o.allow(sceneKeysOf("tank_model"));
         const std::string name = modelName(o);
         std::uint64_t seed = 1;
         if (auto v = o.get("seed")) seed = seedValue(c, *v, o.at("seed"));
@@ -351,19 +391,19 @@ struct SceneBuilder {
         if (kind == 5) return tankModel(o);
         switch (kind) {
         case 0:
-            o.allow({"name", "generator", "size", "index", "color"});
+            o.allow(sceneKeysOf("box_model"));
             break;
         case 1:
-            o.allow({"name", "generator", "radius", "index", "color"});
+            o.allow(sceneKeysOf("sphere_model"));
             break;
         case 2:
-            o.allow({"name", "generator", "length"});
+            o.allow(sceneKeysOf("arrow_model"));
             break;
         case 3:
-            o.allow({"name", "generator", "size", "thickness", "index", "color"});
+            o.allow(sceneKeysOf("shell_model"));
             break;
         default:
-            o.allow({"name", "generator", "index", "color"});
+            o.allow(sceneKeysOf("voxel_model"));
             break;
         }
         const std::string name = modelName(o);
@@ -417,8 +457,8 @@ struct SceneBuilder {
             if (isVox && isGen) fail(c, o.path(), "give either 'vox' or 'generator', not both");
             if (!isVox && !isGen) {
                 // Report a misspelt key as such before complaining that the source is missing.
-                o.allow({"name", "vox", "model", "frames", "generator", "size", "radius", "length",
-                         "thickness", "index", "color", "seed"});
+                o.allow(keysOfAny({"vox_model", "box_model", "sphere_model", "arrow_model",
+                                   "shell_model", "voxel_model", "tank_model"}));
                 fail(c, o.path(), "missing 'vox' (a .vox file) or 'generator'");
             }
             auto m = isVox ? voxModel(o) : generatorModel(o);
@@ -436,8 +476,7 @@ struct SceneBuilder {
         checkEntityBudget(list.size(), path);
         for (std::size_t i = 0; i < list.size(); ++i) {
             const Obj o(c, list[i], element(path, i));
-            o.allow({"model", "position", "rotation_deg", "quaternion", "scale", "anchor", "frame",
-                     "fps", "name"});
+            o.allow(sceneKeysOf("entity"));
             Entity e;
             e.model = modelIndex(o.require("model"), o.at("model"));
             const VoxelModel& m = *s.models[std::size_t(e.model)];
@@ -492,11 +531,9 @@ struct SceneBuilder {
             const bool random = o.get("layout") && choice(c, *o.get("layout"), o.at("layout"),
                                                           {"grid", "random"}) == 1;
             if (random)
-                o.allow({"models", "layout", "count", "seed", "random_yaw", "scale", "name", "area",
-                         "y", "fps", "random_frame"});
+                o.allow(sceneKeysOf("random_crowd"));
             else
-                o.allow({"models", "layout", "count", "seed", "random_yaw", "scale", "name",
-                         "origin", "spacing", "columns", "fps", "random_frame"});
+                o.allow(sceneKeysOf("grid_crowd"));
             Crowd crowd = crowdSettings(o, element(path, i));
             s.entities.reserve(s.entities.size() + std::size_t(crowd.count));
             if (random)
@@ -545,7 +582,7 @@ struct SceneBuilder {
 
     void randomCrowd(const Obj& o, Crowd& crowd) {
         const Obj area(c, o.require("area"), o.at("area"));
-        area.allow({"min", "max"});
+        area.allow(sceneKeysOf("crowd_area"));
         const glm::dvec2 lo = vec2(c, area.require("min"), area.at("min"));
         const glm::dvec2 hi = vec2(c, area.require("max"), area.at("max"));
         if (!(lo.x <= hi.x && lo.y <= hi.y))
@@ -583,7 +620,7 @@ struct SceneBuilder {
         const json& list = array(c, *v, path);
         for (std::size_t i = 0; i < list.size(); ++i) {
             const Obj o(c, list[i], element(path, i));
-            o.allow({"vox", "position", "scale", "include_hidden"});
+            o.allow(sceneKeysOf("vox_scene"));
             VoxCacheEntry& entry = vox(o.require("vox"), o.at("vox"));
             glm::dvec3 position(0.0);
             o.v3("position", position);
@@ -621,20 +658,20 @@ struct SceneBuilder {
             const Obj o(c, list[i], element(path, i));
             ScriptedEdit e;
             if (!o.get("op")) {
-                o.allow({"frame", "model", "model_frame", "op", "at", "min", "max", "index"});
+                o.allow(keysOfAny({"set_edit", "fill_edit", "clear_edit"}));
                 o.require("op");
             }
             e.op =
                 ScriptedEdit::Op(choice(c, o.require("op"), o.at("op"), {"set", "fill", "clear"}));
             switch (e.op) {
             case ScriptedEdit::Op::Set:
-                o.allow({"frame", "model", "model_frame", "op", "at", "index"});
+                o.allow(sceneKeysOf("set_edit"));
                 break;
             case ScriptedEdit::Op::Fill:
-                o.allow({"frame", "model", "model_frame", "op", "min", "max", "index"});
+                o.allow(sceneKeysOf("fill_edit"));
                 break;
             case ScriptedEdit::Op::Clear:
-                o.allow({"frame", "model", "model_frame", "op", "min", "max"});
+                o.allow(sceneKeysOf("clear_edit"));
                 break;
             }
             e.atFrame =
@@ -673,15 +710,16 @@ struct SceneBuilder {
         if (!j.is_object())
             fail(c, "", std::string("expected a JSON object at the top level, got ") + typeName(j));
         const Obj root(c, j, "");
-        root.allow({"description", "voxel_size", "sigma", "view_mode", "background", "camera",
-                    "camera_path", "light", "selector", "models", "entities", "crowds",
-                    "vox_scenes", "edits"});
+        root.allow(sceneKeysOf("scene"));
         if (auto d = root.get("description")) string(c, *d, "description");
+        // "$schema" only tells an editor where docs/scene.schema.json is.
+        if (auto d = root.get("$schema")) string(c, *d, "$schema");
         s.source = c.file;
         render(root);
         camera(root);
         cameraPath(root);
         light(root);
+        ground(root);
         selector(root);
         models(root);
         entities(root);

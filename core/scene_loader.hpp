@@ -7,73 +7,10 @@
 // path), out-of-range values and degenerate cameras. JSON syntax errors name the line and
 // column. Relative paths inside a scene are relative to the scene file's directory.
 //
-// Schema (every key optional unless marked "required"; defaults are those of core/scene.hpp).
-// Any object may also carry a "comment" string, which is ignored (JSON has no comments).
-//
-//   "description": "..."                      free text
-//   "voxel_size": 0.1                         metres per voxel, > 0
-//   "sigma": 1                                virtual pixels per voxel, > 0
-//   "view_mode": "per_entity" | "parallel"
-//   "background": [r, g, b]                   integers 0..255
-//   "camera": {"position": [x,y,z], "target": [x,y,z], "up": [x,y,z], "fov_y": deg in (0, 179),
-//              "size": [w, h] (1..16384), "near": > 0}
-//       target != position and up not parallel to the view direction.
-//   "camera_path": {"fps": > 0, "keys": [{"time", "position", "target", "up"?, "fov_y"?}, ...]}
-//       keys required, >= 1, strictly increasing times; the interpolated camera (Scene::cameraAt)
-//       must be valid at every frame time of the path (at most 1'000'000 frames).
-//   "light": {"direction": non-zero [x,y,z] towards the light, "ambient": >= 0, "diffuse": >= 0}
-//   "selector": {"metric": "distance" | "radius_px" | "error_px", "near_at": >= 0,
-//                "far_at": > near_at, "view_hysteresis_deg": [0, 180), "crossfade_frames": >= 0,
-//                "view_set": 26 | 98 | 218}
-//       For the pixel metrics (radius_px, error_px) the band is mirrored: near_at > far_at, and
-//       their defaults are 24/16 px and 1.0/0.5 px (core/scene.hpp defaultSelectorFor).
-//   "models" (required, >= 1 entries, unique non-empty names), each one of:
-//       {"name", "vox": path, "model": i}        model i (default 0) of a .vox file
-//       {"name", "vox": path, "frames": "all"}    every model of the file, as animation frames
-//       {"name", "vox": path, "frames": [i, ...]} the listed models, in that order, as frames
-//       {"name", "generator": "box",    "size": [x,y,z] (default [8,8,8]), "index", "color"}
-//       {"name", "generator": "sphere", "radius": 1..128 (default 6), "index", "color"}
-//       {"name", "generator": "arrow",  "length": 8..256 (default 16)}
-//       {"name", "generator": "shell",  "size" (default [16,16,16]), "thickness" (default 1),
-//                                       "index", "color"}
-//       {"name", "generator": "voxel",  "index", "color"}
-//       {"name", "generator": "tank",   "seed": unsigned (default 1), "frames": 1..4096 (default
-//       8),
-//                                       "size": [x,y,z] each 8..256 (default [32,32,16])}
-//     Generators are those of core/procedural.hpp (the tank keeps its own palette and frames).
-//     "index" (1..255, default 1) is the palette index the solid uses; "color": [r, g, b] overrides
-//     that palette entry for this model.
-//   "entities": [{"model": name (required), "position": [x,y,z], "rotation_deg": [rx,ry,rz] |
-//                 "quaternion": [w,x,y,z] (non-zero; normalised), "scale": > 0,
-//                 "anchor": [x,y,z] (voxel space; default bottom centre), "frame": 0..frames-1,
-//                 "fps": >= 0, "name": string}]
-//       rotation_deg is intrinsic yaw about world Y, then pitch about X, then roll about Z:
-//       q = qY(ry) * qX(rx) * qZ(rz) (right-handed, degrees). Yaw 90 maps world +X to -Z.
-//   "crowds": [{"models": [name, ...] (required, >= 1), "layout": "grid" | "random" (default grid),
-//               "count": >= 0 (required), "seed": unsigned integer (default 1),
-//               "random_yaw": bool (default false), "scale": > 0, "name": prefix,
-//               "fps": >= 0 (animation, default 0), "random_frame": bool (default false: frame 0),
-//               grid only:   "origin": [x,y,z], "spacing": [dx, dz] (default [2, 2]),
-//                            "columns": >= 1 (default ceil(sqrt(count))),
-//               random only: "area": {"min": [x, z], "max": [x, z]} (required, min <= max),
-//                            "y": height (default 0)}]
-//       Grid entity k sits at origin + (dx * (k % columns), 0, dz * (k / columns)) with model
-//       models[k % n]. Random entities draw, in this order from a splitmix64 stream seeded with
-//       `seed`: model (random layout only), x, z (random layout only), then yaw (if random_yaw),
-//       then the start frame (if random_frame: next % the model's frame count).
-//       The result depends only on the scene file, never on the standard library.
-//   "vox_scenes": [{"vox": path (required), "position": [x,y,z], "scale": > 0,
-//                   "include_hidden": false}]
-//       Flattens the file's scene graph into entities, see flattenVoxScene().
-//   "edits": [{"frame": path frame >= 0 (required), "model": name of a "models" entry (required),
-//              "model_frame": 0..frames-1, "op": "set" | "fill" | "clear" (required),
-//              set: "at": [x,y,z] (inside the grid), fill/clear: "min", "max" (integers,
-//              0 <= min < max <= grid size, max exclusive), set/fill: "index": 0..255 (default 1)}]
-//       Scene::edits is sorted by frame (stable: same-frame edits keep file order).
-//
-// Entity order (entity ids, which break depth ties): "entities" in file order, then each crowd
-// in order, then each vox_scene in order. The total, after crowds and vox_scenes expand, is at
-// most Limits::kMaxEntities.
+// The format (every key, type, default and range, the entity-id order, the rotation convention)
+// is documented in docs/scenes.md, with the JSON Schema docs/scene.schema.json for editors; the
+// keys each object accepts are listed once, in core/scene_keys.cpp, and a test keeps the three in
+// step. Entity ids: "entities" in file order, then each crowd, then each vox_scene.
 #include "core/scene.hpp"
 #include "core/vox_reader.hpp"
 

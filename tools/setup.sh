@@ -19,6 +19,8 @@ packages=(
     mesa-vulkan-drivers
     # tests
     libgtest-dev vulkan-validationlayers
+    # tests: tools/validate_scenes.py (scene files against docs/scene.schema.json)
+    python3-jsonschema
     # bench plots
     gnuplot-nox
     # the formatting rule CI checks (tools/format.sh --check): Debian 12's clang-format 14

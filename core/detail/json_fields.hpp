@@ -66,7 +66,8 @@ class Obj {
   public:
     Obj(const Ctx& c, const json& v, std::string path);
 
-    void allow(std::initializer_list<std::string_view> keys) const;
+    /// `keys`: a list of core/scene_keys.hpp (sceneKeysOf), or a union of such lists.
+    void allow(const std::vector<std::string_view>& keys) const;
 
     const json* get(std::string_view key) const {
         const auto it = v_.find(std::string(key));
