@@ -146,6 +146,31 @@ VT_FN uint vtFaceLight(VT_IN(SpriteGpu) s, uint face) {
     return face < 4u ? s.faceLight0[int(face)] : s.faceLight1[int(face - 4u)];
 }
 
+// Cell-rate sprites (DESIGN.md §3.11): what a pixel shows is a function of its lattice cell
+// (§3.5) plus the per-pixel dither, depth and id, so a magnified sprite may trace each cell of
+// its cellRange once and shade every pixel from that cell's outcome. The outcome is the far
+// snapshot's payload packed in one uint: kind in bits 0-1, entered face in bits 2-4, palette
+// index in bits 8-15. Cells are stored row by row over cellRange.
+VT_FN uint vtPackOutcome(uint kind, uint index, uint face) {
+    return kind | (face << 2) | (index << 8);
+}
+VT_FN uint vtUnpackOutcome(uint outcome, VT_OUT(uint) index, VT_OUT(uint) face) {
+    index = (outcome >> 8) & 255u;
+    face = (outcome >> 2) & 7u;
+    return outcome & 3u;
+}
+VT_FN uint vtCellRowLength(VT_IN(SpriteGpu) s) {
+    return uint(s.cellRange.y - s.cellRange.x + 1);
+}
+// Index of a cell of cellRange in the row-by-row store, and back.
+VT_FN uint vtCellSlot(VT_IN(SpriteGpu) s, ivec2 cell) {
+    return uint(cell.y - s.cellRange.z) * vtCellRowLength(s) + uint(cell.x - s.cellRange.x);
+}
+VT_FN ivec2 vtSlotCell(VT_IN(SpriteGpu) s, uint slot) {
+    uint w = vtCellRowLength(s);
+    return ivec2(s.cellRange.x + int(slot % w), s.cellRange.z + int(slot / w));
+}
+
 // The tracer needs a voxel source: in GLSL the including shader defines
 // `uint vtFetchVoxel(ivec3 cell)`; in C++ it is a template parameter with `uint fetch(ivec3)`.
 #ifdef __cplusplus
@@ -234,6 +259,14 @@ template <class Voxels> struct SpriteTracer {
             vtTrace(s, cell + ivec2(0, -1), ni, nf) || vtTrace(s, cell + ivec2(0, 1), ni, nf))
             return VT_KIND_OUTLINE;
         return VT_KIND_EMPTY;
+    }
+
+    // The packed outcome (vtPackOutcome) of one cell: what a cell-rate sprite stores per cell.
+    VT_FN uint vtTraceCellOutcome(VT_IN(SpriteGpu) s, ivec2 cell) {
+        uint index;
+        uint face;
+        uint kind = vtShadeCell(s, cell, index, face);
+        return vtPackOutcome(kind, index, face);
     }
 
     // One pixel of one sprite: VT_KIND_*, with palette index and face code when solid.
