@@ -89,8 +89,8 @@ TEST(ReferenceCellRate, HardCasesAreIdenticalAtEveryRate) {
     for (const Scene& s : test::eyeInsideAndOnProxyBox()) expectRatesAgree(s, "eye in proxy box");
     for (int roll = 1; roll < 4; ++roll)
         for (double sigma : {0.5, 1.0, 3.0}) {
-            const std::string what = "roll " + std::to_string(roll) + " sigma " +
-                                     std::to_string(sigma);
+            const std::string what =
+                "roll " + std::to_string(roll) + " sigma " + std::to_string(sigma);
             test::ViewSetup v =
                 test::viewAlong(test::markedBar(), glm::dvec3(2, -1, 3), sigma, 3, roll);
             expectRatesAgree(v.scene, what);

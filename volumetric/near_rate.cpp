@@ -27,9 +27,10 @@ CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate 
         const SpriteSetup& s = *sprites[k];
         if (!s.visible()) continue;
         const std::uint64_t cells = cellCount(s), pixels = rectPixels(s);
-        const bool wanted = cells > 0 && (rate == NearRate::Cell ||
-                                           (rate == NearRate::Auto &&
-                                            kCellRateCost * double(cells) < double(pixels)));
+        const bool wanted =
+            cells > 0 &&
+            (rate == NearRate::Cell ||
+             (rate == NearRate::Auto && kCellRateCost * double(cells) < double(pixels)));
         const bool fits = wanted && plan.cells + cells <= budgetCells;
         if (wanted && !fits) ++plan.overBudget;
         if (!fits) {
