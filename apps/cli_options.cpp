@@ -1,5 +1,6 @@
 #include "apps/cli_options.hpp"
 
+#include "compose/frame.hpp"
 #include "core/error.hpp"
 
 #include <cerrno>
@@ -169,6 +170,16 @@ CLI::Validator viewAngles() {
                                               got(text);
         },
         "ELEVATION in [-90, 90]");
+}
+
+CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate) {
+    return cmd
+        .add_option("--near-rate", rate,
+                    "Near sprites traced per pixel (fragment), once per lattice cell and looked "
+                    "up per pixel (cell), or cell-rate where it is cheaper (auto); same image")
+        ->type_name("TEXT")
+        ->transform(oneOf(kNearRateNames, "near rate"))
+        ->default_str(toString(rate));
 }
 
 } // namespace voxtier::cli

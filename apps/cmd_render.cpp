@@ -24,6 +24,7 @@ struct RenderArgs {
     std::string out;
     RenderMode mode = RenderMode::Hybrid;
     NearBackend nearBackend = NearBackend::Vulkan;
+    NearRate nearRate = NearRate::Auto;
     bool path = false;
     std::string overlay, csv, pops;
     std::optional<double> time;
@@ -117,6 +118,7 @@ void run(const RenderArgs& a) {
     const RenderMode mode = a.mode;
     FrameOptions opt;
     opt.nearBackend = a.nearBackend;
+    opt.nearRate = a.nearRate;
     opt.overlay = !a.overlay.empty();
     opt.measurePops = !a.pops.empty();
     if (a.cacheMb) opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
@@ -194,6 +196,7 @@ void addRenderCommand(CLI::App& app) {
         ->type_name("TEXT")
         ->transform(oneOf(kNearBackendNames, "near backend"))
         ->default_str(toString(args->nearBackend));
+    addNearRateOption(*cmd, args->nearRate);
     cmd->add_flag("--path", args->path,
                   "Render every frame of the camera path (OUT becomes OUT_0000.png ...)");
     cmd->add_option("--overlay", args->overlay,

@@ -103,10 +103,10 @@ TEST_F(VulkanCellRate, EveryVoxModelCanonicalDirectionsAtCellRate) {
                     if (!sprites[0].visible() || cellCount(sprites[0]) > 4 * rectPixels(sprites[0]))
                         continue;
                     ++frames;
-                    const NearStats st = expectMatchesReference(
-                        scene, NearRate::Cell,
-                        e.path().string() + " model " + std::to_string(m) + " sigma " +
-                            std::to_string(sigma));
+                    const NearStats st =
+                        expectMatchesReference(scene, NearRate::Cell,
+                                               e.path().string() + " model " + std::to_string(m) +
+                                                   " sigma " + std::to_string(sigma));
                     ASSERT_EQ(st.cellSprites, 1u);
                     if (HasFailure()) return;
                 }

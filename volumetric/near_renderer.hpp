@@ -50,7 +50,8 @@ enum class NearDraws {
 struct NearOptions {
     NearProxy proxy = NearProxy::Hull;
     NearDraws draws = NearDraws::Instanced;
-    /// Use the shader variant compiled with -DVT_COUNT_STEPS (counts voxel reads; slower).
+    /// Use the shader variant compiled with -DVT_COUNT_STEPS (counts the fragment shader's voxel
+    /// reads; the cell-rate compute pass is not counted; slower).
     bool countSteps = false;
     /// Count fragment-shader invocations with a pipeline-statistics query (when supported).
     bool pipelineStatistics = true;
