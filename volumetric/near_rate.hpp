@@ -21,10 +21,16 @@ enum class NearRate {
 };
 
 /// Auto draws a sprite cell-rate when kCellRateCost * C < P (C: cells of its cellRange, P: the
-/// pixels of its on-screen rectangle). Measured on Mesa lavapipe (llvmpipe, 2-core machine) with
-/// `voxtier bench` style frames of one sprite at varying magnification (DESIGN.md §3.11): below
-/// this ratio the compute pass plus lookups cost more than tracing per pixel.
-inline constexpr double kCellRateCost = 2.0;
+/// pixels of its on-screen rectangle). Cell-rate costs C * t_cell in the compute pass and saves
+/// P' * (t_trace - t_lookup) in the draw (P' fragments, about 0.78 P), so it pays from
+/// C / P < 0.78 (t_trace - t_lookup) / t_cell. Measured on Mesa lavapipe (llvmpipe 15, 2-core
+/// machine shared with other builds) with
+///   voxtier bench scenes/bench/street.json --quick --no-sweeps --no-scaling
+/// (near_vulkan against near_vulkan_fragment, same run, medians): t_trace = 219 ns per fragment
+/// (146.4 ms / 669704), t_lookup = 132 ns, t_cell = 302 ns (17.1 ms compute / 56444 cells), so
+/// C / P < 0.78 * 87 / 302 = 1 / 4.5; rounded down to 4 (DESIGN.md §3.11). The CPU reference
+/// uses the same rule (its lookups are cheaper: a smaller k would do there too).
+inline constexpr double kCellRateCost = 4.0;
 
 /// Cell outcomes are one uint each; this many bytes per frame at most (a σ 16 crowd of 256³ models
 /// would need gigabytes). Sprites past the budget fall back to per-pixel tracing.
