@@ -185,6 +185,36 @@ TEST(ReferenceCellRate, SpritesPastTheCellBudgetFallBackToPerPixel) {
     EXPECT_EQ(test::describeDifference(none.cell, all.fragment, "cell", "fragment"), "");
 }
 
+// The auto rule at its crossover: cell-rate exactly when kCellRateCost * C < P.
+TEST(ReferenceCellRate, AutoCrossoverIsStrict) {
+    SpriteSetup s;
+    s.gpu.cellRange = {-5, 4, -3, 2}; // 10 x 6 cells
+    const std::uint64_t cells = cellCount(s);
+    ASSERT_EQ(cells, 60u);
+    const int crossover = int(kCellRateCost * double(cells)); // the rectangle's pixels there
+    for (int extra : {-1, 0, 1}) {
+        s.screenRect = {10, 20, 10 + crossover + extra, 21}; // one row of pixels
+        const SpriteSetup* one[] = {&s};
+        const CellRatePlan plan = planCellRate(one, NearRate::Auto);
+        EXPECT_EQ(plan.cellSprites, extra > 0 ? 1u : 0u) << extra;
+        EXPECT_EQ(plan.cells, extra > 0 ? cells : 0u) << extra;
+    }
+}
+
+// Near the crossover (2 screen pixels per cell: P ~ 4 C) and on a 256^3 model: identical.
+TEST(ReferenceCellRate, AtTheCrossoverAndOnA256CubedModel) {
+    const auto bar = test::markedBar();
+    for (double sigma : {0.9, 1.0, 1.1})
+        expectRatesAgree(test::viewAlong(bar, glm::dvec3(1, -2, 3), sigma, 2).scene,
+                         "crossover sigma " + std::to_string(sigma));
+    const auto big = test::solidBox({256, 256, 256}, 3);
+    const Scene bigScene = test::viewAlong(big, glm::dvec3(1, 2, 3), 0.5, 2).scene;
+    expectRatesAgree(bigScene, "256^3, sigma 0.5");
+    const RateImages r = renderAtRates(bigScene);
+    EXPECT_GT(test::drawnPixels(r.cell), 50000u);
+    EXPECT_GT(r.cellStats.cellsTraced, 10000u);
+}
+
 // Auto picks cell-rate for a magnified sprite and per-pixel for a minified one.
 TEST(ReferenceCellRate, AutoChoosesByCellsAgainstPixels) {
     const auto model = test::solidBox({16, 12, 8});

@@ -75,6 +75,17 @@ TEST_F(VulkanCellRate, HardCasesMatchTheReferenceAtEveryRate) {
     expectEveryRateMatches(v.scene, "crossing the near plane");
 }
 
+// Near the auto crossover (2 screen pixels per cell: P ~ 4 C) and on a 256^3 model.
+TEST_F(VulkanCellRate, AtTheCrossoverAndOnA256CubedModel) {
+    const auto bar = test::markedBar();
+    for (double sigma : {0.9, 1.0, 1.1})
+        expectEveryRateMatches(test::viewAlong(bar, glm::dvec3(1, -2, 3), sigma, 2).scene,
+                               "crossover sigma " + std::to_string(sigma));
+    expectEveryRateMatches(
+        test::viewAlong(test::solidBox({256, 256, 256}, 3), glm::dvec3(1, 2, 3), 0.5, 2).scene,
+        "256^3, sigma 0.5");
+}
+
 // Every bundled .vox model, 26 canonical directions, sigma 0.5 to 3, forced cell-rate (the
 // per-pixel and auto paths are swept by vulkan_identity_test). Frames whose cells outnumber
 // their pixels more than 4 : 1 are left to the CPU test (auto never draws them cell-rate).
