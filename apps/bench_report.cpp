@@ -137,6 +137,8 @@ std::vector<Column> columns() {
         {"worst_frame_ms", field(&Measurement::worstFrameMs)},
         {"all_near_vulkan_ms", field(&Measurement::baselineMs)},
         {"speedup_vs_all_near_vulkan", field(&Measurement::speedup)},
+        {"near_vulkan_fragment_ms", field(&Measurement::fragmentMs)},
+        {"speedup_vs_near_vulkan_fragment", field(&Measurement::speedupVsFragment)},
         {"all_near_vulkan_fragments", field(&Measurement::baselineFragments)},
         {"voxel_steps_per_s", field(&Measurement::voxelStepsPerS)},
         {"blit_pixels_per_s", field(&Measurement::blitPixelsPerS)},
@@ -496,12 +498,15 @@ json modesContext(const SuiteResults& r) {
         json modes = json::array();
         for (const BenchModeInfo& mode : kBenchModes)
             if (const Measurement* m = find(r, kModesGroup, scene, mode.mode))
-                modes.push_back({{"mode", mode.name},
-                                 {"entities", entitiesCell(*m)},
-                                 {"frame_ms", num(m->frameMs())},
-                                 {"worst_frame_ms", num(m->worstFrameMs)},
-                                 {"speedup", speedupCell(*m)},
-                                 {"error", errorCells(*m)}});
+                modes.push_back(
+                    {{"mode", mode.name},
+                     {"entities", entitiesCell(*m)},
+                     {"frame_ms", num(m->frameMs())},
+                     {"worst_frame_ms", num(m->worstFrameMs)},
+                     {"speedup", speedupCell(*m)},
+                     {"speedup_vs_fragment",
+                      m->speedupVsFragment > 0 ? num(m->speedupVsFragment, 1) + "×" : "–"},
+                     {"error", errorCells(*m)}});
         const Measurement* ref = find(r, kModesGroup, scene, BenchMode::NearReference);
         scenes.push_back(
             {{"scene", scene},

@@ -279,6 +279,7 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
         o.nearBackend = info(c->mode).nearBackend;
         o.cacheDir = plan.cacheDir;
         o.cacheDirBytes = plan.cacheDirBytes;
+        o.nearRate = info(c->mode).perPixel ? NearRate::Fragment : plan.nearRate;
         c->renderer = std::make_unique<FrameRenderer>(c->scene, o);
         c->samples.assign(F, {});
         c->errors.assign(F, {});
@@ -451,6 +452,14 @@ Measurement aggregate(const Set& set, const Row& row) {
         m.baselineFragments = t.of(&FrameStats::nearPixelsTested);
     }
     if (m.frameMs() > 0 && m.baselineMs > 0) m.speedup = m.baselineMs / m.frameMs();
+    for (const auto& other : set.configs)
+        if (other->mode == BenchMode::NearVulkanFragment &&
+            other->scene.render.sigma == c.scene.render.sigma) {
+            m.fragmentMs = acrossFrames(frameMedians(*other)).of(&FrameStats::totalMs);
+            if (m.frameMs() > 0 && m.fragmentMs > 0)
+                m.speedupVsFragment = m.fragmentMs / m.frameMs();
+            break;
+        }
     addThroughput(m);
     addErrors(m);
     m.coldMs = c.coldFirstMs;
@@ -620,6 +629,7 @@ Plan makePlan(const SuiteOptions& o) {
     Plan p;
     p.cacheDir = o.cacheDir;
     p.cacheDirBytes = o.cacheDirBytes;
+    p.nearRate = o.nearRate;
     if (o.smoke) {
         p.preset = "smoke";
         p.repeats = 1;

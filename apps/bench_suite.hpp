@@ -25,13 +25,16 @@ namespace voxtier::bench {
 
 /// The ways the bench draws a scene. Adding one is a line in kBenchModes (and what it sets in
 /// FrameOptions, apps/bench_suite.cpp runSet).
-enum class BenchMode { NearVulkan, NearReference, Far, Hybrid };
+enum class BenchMode { NearVulkan, NearVulkanFragment, NearReference, Far, Hybrid };
 
 struct BenchModeInfo {
     BenchMode mode;
     const char* name; ///< in results.csv, results.json and the report
     RenderMode renderMode;
     NearBackend nearBackend; ///< who draws the near tier (where the render mode leaves it open)
+    /// Per-pixel tracing everywhere (the seed's single fragment pass, the baseline of cell-rate
+    /// sprites); otherwise the suite's --near-rate (auto by default).
+    bool perPixel;
     /// The ground truth: every other mode's error is measured against this mode's image.
     bool isTruth;
     /// Near tier on Vulkan: its voxel reads are counted in an extra, untimed frame (the counting
@@ -41,11 +44,12 @@ struct BenchModeInfo {
 
 // clang-format off
 inline constexpr BenchModeInfo kBenchModes[] = {
-    // mode                    name              render mode             near backend            truth  counts steps apart
-    {BenchMode::NearVulkan,    "near_vulkan",    RenderMode::Near,       NearBackend::Vulkan,    true,  true},
-    {BenchMode::NearReference, "near_reference", RenderMode::Reference,  NearBackend::Reference, false, false},
-    {BenchMode::Far,           "far",            RenderMode::Far,        NearBackend::Reference, false, false},
-    {BenchMode::Hybrid,        "hybrid",         RenderMode::Hybrid,     NearBackend::Vulkan,    false, false},
+    // mode                         name                    render mode            near backend            per pixel truth  counts steps apart
+    {BenchMode::NearVulkan,         "near_vulkan",          RenderMode::Near,      NearBackend::Vulkan,    false,    true,  true},
+    {BenchMode::NearVulkanFragment, "near_vulkan_fragment", RenderMode::Near,      NearBackend::Vulkan,    true,     false, false},
+    {BenchMode::NearReference,      "near_reference",       RenderMode::Reference, NearBackend::Reference, false,    false, false},
+    {BenchMode::Far,                "far",                  RenderMode::Far,       NearBackend::Reference, false,    false, false},
+    {BenchMode::Hybrid,             "hybrid",               RenderMode::Hybrid,    NearBackend::Vulkan,    false,    false, false},
 };
 // clang-format on
 const BenchModeInfo& info(BenchMode mode);
@@ -65,6 +69,7 @@ struct SuiteOptions {
     std::string entityCounts, modelSides; ///< comma-separated overrides of the scaling points
     std::string cacheDir;            ///< on-disk snapshot cache of every configuration ("" = none)
     std::uint64_t cacheDirBytes = 0; ///< its size limit (0 = none)
+    NearRate nearRate = NearRate::Auto; ///< of every mode but near_vulkan_fragment
 };
 
 /// The resolved plan (preset + overrides).
@@ -82,6 +87,7 @@ struct Plan {
     int scalingRepeats = 5;
     std::string cacheDir; ///< SuiteOptions::cacheDir
     std::uint64_t cacheDirBytes = 0;
+    NearRate nearRate = NearRate::Auto; ///< SuiteOptions::nearRate
 };
 
 /// One sampled path frame of a measured configuration.
@@ -116,6 +122,9 @@ struct Measurement {
     double worstFrameMs = 0; ///< the slowest path frame's median
     double baselineMs = 0;   ///< all-near (Vulkan) of the same frames, same run
     double speedup = 0;      ///< baselineMs / frameMs()
+    /// near_vulkan_fragment (per-pixel everywhere) of the same frames, same run, and the speed-up
+    /// against it: what cell-rate sprites buy.
+    double fragmentMs = 0, speedupVsFragment = 0;
     /// Near fragments of the all-near (Vulkan) frames: near_fragments / this = the near share.
     double baselineFragments = 0;
     // Throughput.

@@ -1,5 +1,6 @@
 #include "apps/cli_options.hpp"
 
+#include "compose/frame.hpp"
 #include "core/error.hpp"
 
 #include <cerrno>
@@ -208,6 +209,16 @@ CLI::Validator imageFileName() {
             return "expected an image file name ending in one of " + list + got(text);
         },
         "");
+}
+
+CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate) {
+    return cmd
+        .add_option("--near-rate", rate,
+                    "Near sprites traced per pixel (fragment), once per lattice cell and looked "
+                    "up per pixel (cell), or cell-rate where it is cheaper (auto); same image")
+        ->type_name("TEXT")
+        ->transform(oneOf(kNearRateNames, "near rate"))
+        ->default_str(toString(rate));
 }
 
 } // namespace voxtier::cli

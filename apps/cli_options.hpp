@@ -11,6 +11,7 @@
 // {2,...}"). These keep CLI11's mechanism (and its `{a,b}` / ExistingFile forms) with the
 // project's one-line messages.
 #include "impostor_cache/view_set.hpp"
+#include "volumetric/near_rate.hpp"
 
 #include <CLI/CLI.hpp>
 #include <glm/glm.hpp>
@@ -98,6 +99,10 @@ inline std::vector<std::pair<std::string, ViewSet>> viewSetNames() {
         names.emplace_back(std::to_string(viewCount(s)), s);
     return names;
 }
+
+/// `--near-rate auto|fragment|cell` (compose/frame.hpp kNearRateNames) on `cmd`, for `render`
+/// and `bench` alike.
+CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate);
 
 /// The name of `value` in a name table (for ->default_str).
 template <class Names, class E> std::string nameOf(const Names& names, E value) {

@@ -106,6 +106,7 @@ void addBenchCommand(CLI::App& app) {
     bench->add_flag("!--no-sweeps", o->sweeps,
                     "Skip the selector / view set / sigma / cross-fade sweeps");
     bench->add_flag("!--no-scaling", o->scaling, "Skip the scaling curves");
+    addNearRateOption(*bench, o->nearRate);
     // The same bounds as bench::makePlan's, which checks them again for callers other than
     // the command line.
     bench->add_option("--entity-counts", o->entityCounts, "Entity counts of the scaling curve")

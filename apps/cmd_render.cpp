@@ -30,6 +30,7 @@ struct RenderArgs {
     std::string out;
     RenderMode mode = RenderMode::Hybrid;
     NearBackend nearBackend = NearBackend::Vulkan;
+    NearRate nearRate = NearRate::Auto;
     bool path = false;
     bool alpha = false; ///< transparent background (alpha 0 where no sprite is drawn)
     std::string overlay, csv, pops;
@@ -246,6 +247,7 @@ void run(const RenderArgs& a) {
     const FramePlan plan = planFrames(a, scene);
     FrameOptions opt;
     opt.nearBackend = a.nearBackend;
+    opt.nearRate = a.nearRate;
     opt.overlay = !a.overlay.empty();
     opt.measurePops = !a.pops.empty();
     if (a.cacheMb) opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
@@ -320,6 +322,7 @@ void addRenderCommand(CLI::App& app) {
         ->type_name("TEXT")
         ->transform(oneOf(kNearBackendNames, "near backend"))
         ->default_str(toString(args->nearBackend));
+    addNearRateOption(*cmd, args->nearRate);
     auto* path =
         cmd->add_flag("--path", args->path,
                       "Render every frame of the camera path (OUT becomes OUT_0000.png ...; "

@@ -124,6 +124,14 @@ const char* toString(NearBackend b) {
     return nameOf(kNearBackendNames, b);
 }
 
+NearRate parseNearRate(const std::string& name) {
+    return fromName(kNearRateNames, name, "--near-rate", "near rate");
+}
+
+const char* toString(NearRate r) {
+    return nameOf(kNearRateNames, r);
+}
+
 const char* toString(PopEvent::Kind k) {
     switch (k) {
     case PopEvent::Kind::TierSwitch:
@@ -286,6 +294,7 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
                         : std::make_shared<NearRenderer>(options_.vulkan, options_.vulkanLog);
         NearOptions no;
         no.countSteps = options_.nearCountSteps;
+        no.rate = options_.nearRate;
         NearStats ns;
         image = near_->render(cam, scene_.models, sprites, scene_.render.background, no, &ns);
         st.nearPixelsTested += ns.fragmentInvocations;
@@ -295,12 +304,23 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
         st.nearUploadMs += ns.uploadMs;
         st.nearDrawMs += ns.drawMs;
         st.nearReadbackMs += ns.readbackMs;
+        st.nearComputeMs += ns.computeMs;
+        st.nearCellsTraced += ns.cellsTraced;
+        st.nearPixelsTraced += ns.pixelsTraced;
+        st.nearPixelsLookedUp += ns.pixelsLookedUp;
+        st.nearCellSprites += int(ns.cellSprites);
+        st.nearCellOverBudget += int(ns.cellOverBudget);
     } else {
         image = Image(cam.width, cam.height, scene_.render.background);
         ReferenceStats rs;
-        renderReference(scene_.models, sprites, image, &rs);
+        renderReference(scene_.models, sprites, image, &rs, {options_.nearRate});
         st.nearPixelsTested += rs.pixelsTested;
         st.voxelFetches += rs.voxelFetches;
+        st.nearCellsTraced += rs.cellsTraced;
+        st.nearPixelsTraced += rs.pixelsTraced;
+        st.nearPixelsLookedUp += rs.pixelsLookedUp;
+        st.nearCellSprites += int(rs.cellSprites);
+        st.nearCellOverBudget += int(rs.cellOverBudget);
     }
     st.nearMs = msSince(t0);
     return image;

@@ -7,6 +7,7 @@
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
 #include "lod/selector.hpp"
+#include "volumetric/near_rate.hpp"
 #include "volumetric/vulkan_options.hpp"
 
 #include <array>
@@ -53,8 +54,20 @@ inline constexpr std::array<std::pair<const char*, NearBackend>, 2> kNearBackend
 NearBackend parseNearBackend(const std::string& name);
 const char* toString(NearBackend b);
 
+/// The one table of near rate names (volumetric/near_rate.hpp), like kRenderModeNames.
+inline constexpr std::array<std::pair<const char*, NearRate>, 3> kNearRateNames{{
+    {"auto", NearRate::Auto},
+    {"fragment", NearRate::Fragment},
+    {"cell", NearRate::Cell},
+}};
+/// Throws InputError(field "--near-rate") for a name not in kNearRateNames.
+NearRate parseNearRate(const std::string& name);
+const char* toString(NearRate r);
+
 struct FrameOptions {
     NearBackend nearBackend = NearBackend::Vulkan;
+    /// Per-pixel or cell-rate near sprites, on either backend (same image).
+    NearRate nearRate = NearRate::Auto;
     VulkanDeviceOptions vulkan;                  ///< device options when Vulkan is used
     std::shared_ptr<VulkanMessageLog> vulkanLog; ///< validation messages (outlives the device)
     bool overlay = false;                        ///< also produce FrameResult::overlay (tier tint)
@@ -120,6 +133,13 @@ struct FrameStats {
     /// The Vulkan near tier's split of nearMs: voxel uploads to the atlas, record + submit + wait
     /// of the draw, copy of the three targets to host memory (0 with the reference backend).
     double nearUploadMs = 0.0, nearDrawMs = 0.0, nearReadbackMs = 0.0;
+    /// Cell-rate near sprites (volumetric/near_rate.hpp): the Vulkan compute pass's GPU time
+    /// (nearDrawMs is the rest of the frame's commands), cells traced once, pixels that traced
+    /// their cell's rays and pixels that looked it up (Vulkan: the sprites' on-screen rectangle
+    /// pixels), sprites drawn cell-rate and sprites that did not fit the cell budget.
+    double nearComputeMs = 0.0;
+    std::uint64_t nearCellsTraced = 0, nearPixelsTraced = 0, nearPixelsLookedUp = 0;
+    int nearCellSprites = 0, nearCellOverBudget = 0;
     double blitMs = 0.0; ///< the far blit alone
     std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;
     std::uint64_t farPixelsWritten = 0;    ///< blit pixels that read a solid or outline cell

@@ -10,15 +10,24 @@ namespace {
 /// A 3x5 pixel font for the legend's letters: five rows of three bits, top row first.
 std::array<std::uint8_t, 5> glyph(char ch) {
     switch (ch) {
-    case 'N': return {0b110, 0b101, 0b101, 0b101, 0b101};
-    case 'E': return {0b111, 0b100, 0b110, 0b100, 0b111};
-    case 'A': return {0b010, 0b101, 0b111, 0b101, 0b101};
-    case 'R': return {0b110, 0b101, 0b110, 0b101, 0b101};
-    case 'F': return {0b111, 0b100, 0b110, 0b100, 0b100};
-    case 'D': return {0b110, 0b101, 0b101, 0b101, 0b110};
-    case 'I': return {0b111, 0b010, 0b010, 0b010, 0b111};
-    case 'G': return {0b011, 0b100, 0b101, 0b101, 0b011};
-    default: return {0, 0, 0, 0, 0};
+    case 'N':
+        return {0b110, 0b101, 0b101, 0b101, 0b101};
+    case 'E':
+        return {0b111, 0b100, 0b110, 0b100, 0b111};
+    case 'A':
+        return {0b010, 0b101, 0b111, 0b101, 0b101};
+    case 'R':
+        return {0b110, 0b101, 0b110, 0b101, 0b101};
+    case 'F':
+        return {0b111, 0b100, 0b110, 0b100, 0b100};
+    case 'D':
+        return {0b110, 0b101, 0b101, 0b101, 0b110};
+    case 'I':
+        return {0b111, 0b010, 0b010, 0b010, 0b111};
+    case 'G':
+        return {0b011, 0b100, 0b101, 0b101, 0b011};
+    default:
+        return {0, 0, 0, 0, 0};
     }
 }
 
@@ -35,8 +44,8 @@ void text(Image& im, int x0, int y0, std::string_view s, Rgba8 c) {
         for (int r = 0; r < 5; ++r)
             for (int b = 0; b < 3; ++b)
                 if (rows[std::size_t(r)] >> (2 - b) & 1)
-                    fill(im, x0 + int(k) * 4 * kScale + b * kScale, y0 + r * kScale, kScale,
-                         kScale, c);
+                    fill(im, x0 + int(k) * 4 * kScale + b * kScale, y0 + r * kScale, kScale, kScale,
+                         c);
     }
 }
 

@@ -146,6 +146,113 @@ VT_FN uint vtFaceLight(VT_IN(SpriteGpu) s, uint face) {
     return face < 4u ? s.faceLight0[int(face)] : s.faceLight1[int(face - 4u)];
 }
 
+// Cell-rate sprites (DESIGN.md §3.11): what a pixel shows is a function of its lattice cell
+// (§3.5) plus the per-pixel dither, depth and id, so a magnified sprite may trace each cell of
+// its cellRange once and shade every pixel from that cell's outcome. The outcome is the far
+// snapshot's payload packed in one uint: kind in bits 0-1, entered face in bits 2-4, palette
+// index in bits 8-15. Cells are stored row by row over cellRange.
+VT_FN uint vtPackOutcome(uint kind, uint index, uint face) {
+    return kind | (face << 2) | (index << 8);
+}
+VT_FN uint vtUnpackOutcome(uint outcome, VT_OUT(uint) index, VT_OUT(uint) face) {
+    index = (outcome >> 8) & 255u;
+    face = (outcome >> 2) & 7u;
+    return outcome & 3u;
+}
+VT_FN uint vtCellRowLength(VT_IN(SpriteGpu) s) {
+    return uint(s.cellRange.y - s.cellRange.x + 1);
+}
+// Index of a cell of cellRange in the row-by-row store, and back.
+VT_FN uint vtCellSlot(VT_IN(SpriteGpu) s, ivec2 cell) {
+    return uint(cell.y - s.cellRange.z) * vtCellRowLength(s) + uint(cell.x - s.cellRange.x);
+}
+VT_FN ivec2 vtSlotCell(VT_IN(SpriteGpu) s, uint slot) {
+    uint w = vtCellRowLength(s);
+    return ivec2(s.cellRange.x + int(slot % w), s.cellRange.z + int(slot / w));
+}
+
+// The voxel traversal of §3.6 (HARD_CASES DDA rules), in steps the near kernel (vtTrace below)
+// and the far baker (impostor_cache/kernel_order_dda.hpp, which resumes it at an Embree bound)
+// share, so the traversal exists once.
+VT_FN ivec3 vtDims(VT_IN(SpriteGpu) s) {
+    return ivec3(int(s.dims.x), int(s.dims.y), int(s.dims.z));
+}
+
+// Slab test of the ray (o, s.dir) against the model box; axis priority x < y < z on equal entry
+// times (strict >). A point on a voxel boundary belongs to the voxel on its + side (floor), so
+// the box is half-open [0, N) on axes the ray does not move along. False on a miss.
+VT_FN bool vtSlabEntry(VT_IN(SpriteGpu) s, vec3 o, VT_OUT(float) tEnterOut,
+                       VT_OUT(int) entryAxisOut) {
+    tEnterOut = 0.0f;
+    entryAxisOut = -1;
+    ivec3 n = vtDims(s);
+    VT_PRECISE float tEnter = -VT_FAR;
+    VT_PRECISE float tExit = VT_FAR;
+    int entryAxis = -1;
+    for (int k = 0; k < 3; ++k) {
+        if (s.dir[k] == 0.0f) {
+            if (o[k] < 0.0f || !(o[k] < float(n[k]))) return false;
+        } else {
+            VT_PRECISE float t0 = (0.0f - o[k]) * s.invDir[k];
+            VT_PRECISE float t1 = (float(n[k]) - o[k]) * s.invDir[k];
+            VT_PRECISE float tNear = min(t0, t1);
+            VT_PRECISE float tFar = max(t0, t1);
+            if (tNear > tEnter) {
+                tEnter = tNear;
+                entryAxis = k;
+            }
+            tExit = min(tExit, tFar);
+        }
+    }
+    if (!(tEnter < tExit) || entryAxis < 0) return false;
+    tEnterOut = tEnter;
+    entryAxisOut = entryAxis;
+    return true;
+}
+
+// Entry cell: the entry axis is pinned to the face entered (HARD_CASES rule 3).
+VT_FN ivec3 vtEntryCell(VT_IN(SpriteGpu) s, vec3 o, float tEnter, int entryAxis) {
+    ivec3 n = vtDims(s);
+    ivec3 c = ivec3(0, 0, 0);
+    for (int k = 0; k < 3; ++k) {
+        if (k == entryAxis) {
+            c[k] = s.dir[k] > 0.0f ? 0 : n[k] - 1;
+        } else {
+            VT_PRECISE float p = o[k] + tEnter * s.dir[k];
+            c[k] = clamp(int(floor(p)), 0, n[k] - 1);
+        }
+    }
+    return c;
+}
+
+VT_FN ivec3 vtStepDir(VT_IN(SpriteGpu) s) {
+    ivec3 d = ivec3(0, 0, 0);
+    for (int k = 0; k < 3; ++k) d[k] = s.dir[k] > 0.0f ? 1 : (s.dir[k] < 0.0f ? -1 : 0);
+    return d;
+}
+
+// Ray parameter of the voxel plane `plane` of axis k. Boundary crossings are recomputed from
+// the integer plane each step (no accumulated error): a pure function of the plane.
+VT_FN float vtPlaneT(VT_IN(SpriteGpu) s, vec3 o, int k, int plane) {
+    VT_PRECISE float t = (float(plane) - o[k]) * s.invDir[k];
+    return t;
+}
+
+// The next crossing of axis k out of cell c (VT_FAR on axes the ray does not move along).
+VT_FN float vtNextCrossing(VT_IN(SpriteGpu) s, vec3 o, ivec3 c, ivec3 stepDir, int k) {
+    return stepDir[k] != 0 ? vtPlaneT(s, o, k, c[k] + (stepDir[k] > 0 ? 1 : 0)) : VT_FAR;
+}
+
+// The axis the ray steps along next; ties step x before y before z.
+VT_FN int vtStepAxis(float tx, float ty, float tz) {
+    return (tx <= ty && tx <= tz) ? 0 : (ty <= tz ? 1 : 2);
+}
+
+// Code of the face entered along `axis`: 2*axis, +1 when the ray moves towards -axis.
+VT_FN uint vtFaceCode(VT_IN(SpriteGpu) s, int axis) {
+    return uint(2 * axis) + (s.dir[axis] > 0.0f ? 0u : 1u);
+}
+
 // The tracer needs a voxel source: in GLSL the including shader defines
 // `uint vtFetchVoxel(ivec3 cell)`; in C++ it is a template parameter with `uint fetch(ivec3)`.
 #ifdef __cplusplus
@@ -158,64 +265,31 @@ template <class Voxels> struct SpriteTracer {
 
     // §3.6 + HARD_CASES DDA rules: the ray of cell (i, j) through the model's voxel AABB.
     // Returns true on the first voxel with palette index != 0, with the index and the code of
-    // the face the ray entered it through (2*axis, +1 when the ray moves towards -axis).
-    // A point on a voxel boundary belongs to the voxel on its + side (floor), so the box is
-    // half-open [0, N) on axes the ray does not move along.
+    // the face the ray entered it through (vtFaceCode). The steps are the traversal functions
+    // above, which the far baker (impostor_cache/kernel_order_dda.hpp) calls too.
     VT_FN bool vtTrace(VT_IN(SpriteGpu) s, ivec2 cell, VT_OUT(uint) index, VT_OUT(uint) face) {
         index = 0u;
         face = 0u;
         VT_PRECISE vec3 o = vtCellRayOrigin(s, cell);
-        ivec3 n = ivec3(int(s.dims.x), int(s.dims.y), int(s.dims.z));
-        // Slab test; axis priority x < y < z on equal entry times (strict >).
-        VT_PRECISE float tEnter = -VT_FAR;
-        VT_PRECISE float tExit = VT_FAR;
-        int entryAxis = -1;
-        for (int k = 0; k < 3; ++k) {
-            if (s.dir[k] == 0.0f) {
-                if (o[k] < 0.0f || !(o[k] < float(n[k]))) return false;
-            } else {
-                VT_PRECISE float t0 = (0.0f - o[k]) * s.invDir[k];
-                VT_PRECISE float t1 = (float(n[k]) - o[k]) * s.invDir[k];
-                VT_PRECISE float tNear = min(t0, t1);
-                VT_PRECISE float tFar = max(t0, t1);
-                if (tNear > tEnter) {
-                    tEnter = tNear;
-                    entryAxis = k;
-                }
-                tExit = min(tExit, tFar);
-            }
-        }
-        if (!(tEnter < tExit) || entryAxis < 0) return false;
-        // Entry cell: the entry axis is pinned to the face entered (HARD_CASES rule 3).
-        ivec3 c = ivec3(0, 0, 0);
-        ivec3 stepDir = ivec3(0, 0, 0);
-        for (int k = 0; k < 3; ++k) {
-            stepDir[k] = s.dir[k] > 0.0f ? 1 : (s.dir[k] < 0.0f ? -1 : 0);
-            if (k == entryAxis) {
-                c[k] = s.dir[k] > 0.0f ? 0 : n[k] - 1;
-            } else {
-                VT_PRECISE float p = o[k] + tEnter * s.dir[k];
-                c[k] = clamp(int(floor(p)), 0, n[k] - 1);
-            }
-        }
-        // Boundary crossings are recomputed from the integer cell each step (no accumulated
-        // error); ties step x before y before z. Bound: a ray visits < nx+ny+nz cells.
+        float tEnter;
+        int entryAxis;
+        if (!vtSlabEntry(s, o, tEnter, entryAxis)) return false;
+        ivec3 n = vtDims(s);
+        ivec3 c = vtEntryCell(s, o, tEnter, entryAxis);
+        ivec3 stepDir = vtStepDir(s);
+        // Bound: a ray visits < nx+ny+nz cells.
         int axis = entryAxis;
         int maxSteps = n.x + n.y + n.z;
         for (int step = 0; step < maxSteps; ++step) {
             uint v = VT_FETCH(c);
             if (v != 0u) {
                 index = v;
-                face = uint(2 * axis) + (s.dir[axis] > 0.0f ? 0u : 1u);
+                face = vtFaceCode(s, axis);
                 return true;
             }
-            VT_PRECISE float tx =
-                stepDir.x != 0 ? (float(c.x + (stepDir.x > 0 ? 1 : 0)) - o.x) * s.invDir.x : VT_FAR;
-            VT_PRECISE float ty =
-                stepDir.y != 0 ? (float(c.y + (stepDir.y > 0 ? 1 : 0)) - o.y) * s.invDir.y : VT_FAR;
-            VT_PRECISE float tz =
-                stepDir.z != 0 ? (float(c.z + (stepDir.z > 0 ? 1 : 0)) - o.z) * s.invDir.z : VT_FAR;
-            int a = (tx <= ty && tx <= tz) ? 0 : (ty <= tz ? 1 : 2);
+            int a =
+                vtStepAxis(vtNextCrossing(s, o, c, stepDir, 0), vtNextCrossing(s, o, c, stepDir, 1),
+                           vtNextCrossing(s, o, c, stepDir, 2));
             c[a] += stepDir[a];
             if (c[a] < 0 || c[a] >= n[a]) return false;
             axis = a;
@@ -234,6 +308,14 @@ template <class Voxels> struct SpriteTracer {
             vtTrace(s, cell + ivec2(0, -1), ni, nf) || vtTrace(s, cell + ivec2(0, 1), ni, nf))
             return VT_KIND_OUTLINE;
         return VT_KIND_EMPTY;
+    }
+
+    // The packed outcome (vtPackOutcome) of one cell: what a cell-rate sprite stores per cell.
+    VT_FN uint vtTraceCellOutcome(VT_IN(SpriteGpu) s, ivec2 cell) {
+        uint index;
+        uint face;
+        uint kind = vtShadeCell(s, cell, index, face);
+        return vtPackOutcome(kind, index, face);
     }
 
     // One pixel of one sprite: VT_KIND_*, with palette index and face code when solid.

@@ -1,7 +1,9 @@
 #pragma once
-// The near kernel's ray traversal (core/sprite_kernel.h, vtTrace) with one addition: it can
-// resume at a parameter tLow given from outside (the Embree lower bound), skipping the empty
-// space before it without stepping through it, and still return exactly what vtTrace returns.
+// The near kernel's ray traversal (core/sprite_kernel.h vtTrace, made of the kernel's
+// vtSlabEntry, vtEntryCell, vtPlaneT / vtNextCrossing, vtStepAxis and vtFaceCode, which this
+// file calls rather than restates) with one addition: it can resume at a parameter tLow given
+// from outside (the Embree lower bound), skipping the empty space before it without stepping
+// through it, and still return exactly what vtTrace returns.
 //
 // Why this is exact. vtTrace recomputes each boundary crossing from the integer cell,
 // t_k(P) = (float(P) - o_k) * invDir_k, a function of the plane P alone (not of the path), and
@@ -46,40 +48,15 @@ struct KernelEntry {
     std::uint8_t index = 0; ///< Hit: palette index of c0
 };
 
-/// vtTrace's slab test, entry cell and first read, line for line. `Voxels` provides
+/// vtTrace's slab test, entry cell and first read: the kernel's own functions. `Voxels` provides
 /// `unsigned fetch(glm::ivec3) const` (in-range cells only).
 template <class Voxels>
 KernelEntry kernelEntry(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& voxels) {
-    using kernel::VT_FAR;
     KernelEntry e;
-    const glm::ivec3 n(int(s.dims.x), int(s.dims.y), int(s.dims.z));
-    float tEnter = -VT_FAR;
-    float tExit = VT_FAR;
+    float tEnter = 0.0f;
     int entryAxis = -1;
-    for (int k = 0; k < 3; ++k) {
-        if (s.dir[k] == 0.0f) {
-            if (o[k] < 0.0f || !(o[k] < float(n[k]))) return e;
-        } else {
-            const float t0 = (0.0f - o[k]) * s.invDir[k];
-            const float t1 = (float(n[k]) - o[k]) * s.invDir[k];
-            const float tNear = std::min(t0, t1);
-            const float tFar = std::max(t0, t1);
-            if (tNear > tEnter) {
-                tEnter = tNear;
-                entryAxis = k;
-            }
-            tExit = std::min(tExit, tFar);
-        }
-    }
-    if (!(tEnter < tExit) || entryAxis < 0) return e;
-    for (int k = 0; k < 3; ++k) {
-        if (k == entryAxis) {
-            e.cell[k] = s.dir[k] > 0.0f ? 0 : n[k] - 1;
-        } else {
-            const float p = o[k] + tEnter * s.dir[k];
-            e.cell[k] = std::clamp(int(std::floor(p)), 0, n[k] - 1);
-        }
-    }
+    if (!kernel::vtSlabEntry(s, o, tEnter, entryAxis)) return e;
+    e.cell = kernel::vtEntryCell(s, o, tEnter, entryAxis);
     e.axis = entryAxis;
     e.tEnter = tEnter;
     const unsigned v = voxels.fetch(e.cell);
@@ -89,7 +66,7 @@ KernelEntry kernelEntry(const kernel::SpriteGpu& s, glm::vec3 o, const Voxels& v
 }
 
 inline std::uint8_t kernelFaceCode(const kernel::SpriteGpu& s, int axis) {
-    return std::uint8_t(2 * axis + (s.dir[axis] > 0.0f ? 0 : 1));
+    return std::uint8_t(kernel::vtFaceCode(s, axis));
 }
 
 /// Continues a Traverse entry. `haveBound == false` means "no solid voxel is visited after
@@ -103,10 +80,10 @@ KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxel
     using kernel::VT_FAR;
     KernelOrderHit h;
     if (!haveBound) return h;
-    const glm::ivec3 n(int(s.dims.x), int(s.dims.y), int(s.dims.z));
-    glm::ivec3 c = e.cell, step(0);
-    for (int k = 0; k < 3; ++k) step[k] = s.dir[k] > 0.0f ? 1 : (s.dir[k] < 0.0f ? -1 : 0);
-    auto planeT = [&](int k, int plane) { return (float(plane) - o[k]) * s.invDir[k]; };
+    const glm::ivec3 n = kernel::vtDims(s);
+    glm::ivec3 c = e.cell;
+    const glm::ivec3 step = kernel::vtStepDir(s);
+    auto planeT = [&](int k, int plane) { return kernel::vtPlaneT(s, o, k, plane); };
 
     // Resume: count, per axis, the crossings with t < tLow (the events the kernel would have
     // processed by then, all through empty voxels).
@@ -154,8 +131,7 @@ KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxel
     // The next crossing per axis. planeT is a pure function of the plane, so keeping the two
     // axes that did not step instead of recomputing them gives the kernel's values exactly.
     float tn[3];
-    for (int k = 0; k < 3; ++k)
-        tn[k] = step[k] != 0 ? planeT(k, c[k] + (step[k] > 0 ? 1 : 0)) : VT_FAR;
+    for (int k = 0; k < 3; ++k) tn[k] = kernel::vtNextCrossing(s, o, c, step, k);
     const int maxSteps = n.x + n.y + n.z;
     for (int i = 0; i < maxSteps; ++i) {
         if (read) {
@@ -168,11 +144,11 @@ KernelOrderHit kernelResume(const kernel::SpriteGpu& s, glm::vec3 o, const Voxel
                 return {true, std::uint8_t(v), kernelFaceCode(s, axis), tCur, h.steps};
         }
         read = true;
-        const int a = (tn[0] <= tn[1] && tn[0] <= tn[2]) ? 0 : (tn[1] <= tn[2] ? 1 : 2);
+        const int a = kernel::vtStepAxis(tn[0], tn[1], tn[2]);
         tCur = tn[a];
         c[a] += step[a];
         if (c[a] < 0 || c[a] >= n[a]) return h;
-        tn[a] = planeT(a, c[a] + (step[a] > 0 ? 1 : 0));
+        tn[a] = kernel::vtNextCrossing(s, o, c, step, a);
         axis = a;
     }
     return h;

@@ -117,12 +117,14 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     for (const char* f : {"report.md", "results.csv", "results.json"})
         ASSERT_TRUE(fs::exists(out / f)) << f;
 
-    // results.json: the four modes for each scene, the sweep point, both scaling curves.
+    // results.json: the five modes for each scene, the sweep point, both scaling curves.
     const json j = json::parse(slurp(out / "results.json"));
-    EXPECT_EQ(j["modes"], json({"near_vulkan", "near_reference", "far", "hybrid"}));
+    const std::vector<std::string> modes = {"near_vulkan", "near_vulkan_fragment", "near_reference",
+                                            "far", "hybrid"};
+    EXPECT_EQ(j["modes"], json(modes));
     const json& rows = j["rows"];
     for (const std::string scene : {"tank_army", "exact"})
-        for (const std::string mode : {"near_vulkan", "near_reference", "far", "hybrid"}) {
+        for (const std::string& mode : modes) {
             const json* m = row(rows, "modes", scene, mode);
             ASSERT_NE(m, nullptr) << scene << " " << mode;
             EXPECT_FALSE((*m)["frames"].empty());
@@ -137,6 +139,17 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
             if (mode == "far") {
                 EXPECT_EQ((*m)["near_entities"].get<double>(), 0.0);
             }
+            // Per-pixel and cell-rate near sprites draw the same image, and every mode has its
+            // speed-up against the per-pixel near tier of the same run.
+            if (mode == "near_vulkan_fragment") {
+                EXPECT_EQ((*m)["error"]["mismatch_mean"].get<double>(), 0.0) << scene;
+                EXPECT_EQ((*m)["near_cells_traced"].get<double>(), 0.0) << scene;
+            }
+            EXPECT_NEAR((*m)["speedup_vs_near_vulkan_fragment"].get<double>() *
+                            (*m)["frame_ms"].get<double>(),
+                        (*m)["near_vulkan_fragment_ms"].get<double>(),
+                        1e-6 * (*m)["near_vulkan_fragment_ms"].get<double>())
+                << scene << " " << mode;
         }
     // The CPU reference draws the Vulkan image exactly (the near tier's contract).
     for (const std::string scene : {"tank_army", "exact"}) {

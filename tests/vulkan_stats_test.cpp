@@ -27,6 +27,9 @@ TEST_F(NearMeasurements, StepCounterVariantCountsExactlyTheReferenceVoxelReads) 
             NearOptions counting;
             counting.countSteps = true;
             counting.proxy = proxy;
+            // The counting variant counts the fragment shader's reads: every sprite per pixel,
+            // as the reference traces by default (cell-rate counts are in cell_rate tests).
+            counting.rate = NearRate::Fragment;
             const auto r = test::renderBoth(nearRenderer(), s, 0.0, counting);
             const char* name = proxy == NearProxy::Quad ? "quad" : "hull";
             EXPECT_EQ(test::describeDifference(r.near, r.reference), "")

@@ -12,6 +12,7 @@
 
 // SPIR-V generated at build time by glslangValidator (volumetric/CMakeLists.txt).
 #include "shaders/near_box_vert.h"
+#include "shaders/near_cells_comp.h"
 #include "shaders/near_frag.h"
 #include "shaders/near_hull_vert.h"
 #include "shaders/near_quad_vert.h"
@@ -101,8 +102,10 @@ struct NearRenderer::Impl {
     VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
     VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
     VkRenderPass renderPass = VK_NULL_HANDLE;
-    VkPipeline pipelines[3][2] = {}; ///< [proxy][countSteps], created on first use
+    VkPipeline pipelines[3][2] = {};          ///< [proxy][countSteps], created on first use
+    VkPipeline cellPipeline = VK_NULL_HANDLE; ///< the cell-rate compute pass, created on first use
     VkQueryPool statsPool = VK_NULL_HANDLE;
+    VkQueryPool timePool = VK_NULL_HANDLE; ///< frame start, cell-rate compute pass done
     VkCommandBuffer drawCb = VK_NULL_HANDLE;
     VkCommandBuffer readCb = VK_NULL_HANDLE;
 
@@ -114,6 +117,9 @@ struct NearRenderer::Impl {
 
     // Per-frame data (host-visible, coherent) and the step counters.
     VulkanBuffer sprites, boxes, hulls, counters;
+    // Cell-rate (near_rate.hpp): per-sprite cell offsets and the compute tiles (host-visible,
+    // written per frame), and the cell store (device-local, grown up to the budget, reused).
+    VulkanBuffer cellBases, cellTiles, cells;
 
     Impl(const VulkanDeviceOptions& options, std::shared_ptr<VulkanMessageLog> log)
         : device(options, std::move(log)), residency(device) {
@@ -129,8 +135,15 @@ struct NearRenderer::Impl {
     void create();
     void destroy() noexcept;
     VkPipeline pipeline(NearProxy proxy, bool countSteps);
+    VkPipeline cellTracePipeline();
+    /// Writes the per-sprite cell offsets and the compute tiles of `plan`; returns the tiles.
+    std::uint32_t prepareCells(const CellRatePlan& plan,
+                               const std::vector<const SpriteSetup*>& visible,
+                               std::uint64_t budgetBytes);
+    void recordCellTrace(VkCommandBuffer cb, std::uint32_t tiles);
     void ensureTargets(int w, int h);
-    void ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes, VkBufferUsageFlags usage);
+    void ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes, VkBufferUsageFlags usage,
+                      bool hostVisible = true);
     void writeDescriptors();
     Image render(const CameraFrame& cam, const std::vector<std::shared_ptr<VoxelModel>>& models,
                  std::span<const SpriteSetup* const> sprites, Rgba8 background,
@@ -149,11 +162,11 @@ void NearRenderer::Impl::create() {
     VK_CHECK(vkCreateSampler(dev, &sci, nullptr, &sampler));
 
     using namespace near_gpu;
-    const VkShaderStageFlags vf = VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+    const VkShaderStageFlags fc = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
+    const VkShaderStageFlags vfc = VK_SHADER_STAGE_VERTEX_BIT | fc;
     const VkDescriptorSetLayoutBinding bindings[] = {
-        {NEAR_BINDING_SPRITES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, vf, nullptr},
-        {NEAR_BINDING_ATLAS, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1,
-         VK_SHADER_STAGE_FRAGMENT_BIT, nullptr},
+        {NEAR_BINDING_SPRITES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, vfc, nullptr},
+        {NEAR_BINDING_ATLAS, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, fc, nullptr},
         {NEAR_BINDING_PALETTES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
          nullptr},
         {NEAR_BINDING_COUNTERS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
@@ -161,6 +174,10 @@ void NearRenderer::Impl::create() {
         {NEAR_BINDING_BOXES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT,
          nullptr},
         {NEAR_BINDING_HULLS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT,
+         nullptr},
+        {NEAR_BINDING_CELL_BASES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, fc, nullptr},
+        {NEAR_BINDING_CELLS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, fc, nullptr},
+        {NEAR_BINDING_CELL_TILES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT,
          nullptr},
     };
     VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
@@ -171,9 +188,12 @@ void NearRenderer::Impl::create() {
     VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
     pli.setLayoutCount = 1;
     pli.pSetLayouts = &setLayout;
+    const VkPushConstantRange tileCount{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(std::uint32_t)};
+    pli.pushConstantRangeCount = 1;
+    pli.pPushConstantRanges = &tileCount;
     VK_CHECK(vkCreatePipelineLayout(dev, &pli, nullptr, &pipelineLayout));
 
-    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 5},
+    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 8},
                                           {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1}};
     VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     dpi.maxSets = 1;
@@ -238,6 +258,13 @@ void NearRenderer::Impl::create() {
         VK_CHECK(vkCreateQueryPool(dev, &qpi, nullptr, &statsPool));
     }
 
+    if (device.properties().limits.timestampComputeAndGraphics) {
+        VkQueryPoolCreateInfo qpi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+        qpi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+        qpi.queryCount = 2;
+        VK_CHECK(vkCreateQueryPool(dev, &qpi, nullptr, &timePool));
+    }
+
     drawCb = device.allocateCommandBuffer();
     readCb = device.allocateCommandBuffer();
     counters =
@@ -246,6 +273,9 @@ void NearRenderer::Impl::create() {
     ensureBuffer(sprites, sizeof(kernel::SpriteGpu) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     ensureBuffer(boxes, sizeof(near_gpu::NearBox) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     ensureBuffer(hulls, sizeof(near_gpu::NearHull) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(cellBases, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(cellTiles, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(cells, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, false);
 }
 
 void NearRenderer::Impl::destroy() noexcept {
@@ -257,6 +287,8 @@ void NearRenderer::Impl::destroy() noexcept {
             if (p) vkDestroyPipeline(dev, p, nullptr);
             p = VK_NULL_HANDLE;
         }
+    if (cellPipeline) vkDestroyPipeline(dev, cellPipeline, nullptr);
+    cellPipeline = VK_NULL_HANDLE;
     if (framebuffer) vkDestroyFramebuffer(dev, framebuffer, nullptr);
     framebuffer = VK_NULL_HANDLE;
     color.reset();
@@ -267,10 +299,15 @@ void NearRenderer::Impl::destroy() noexcept {
     boxes.reset();
     hulls.reset();
     counters.reset();
+    cellBases.reset();
+    cellTiles.reset();
+    cells.reset();
     device.freeCommandBuffer(drawCb);
     device.freeCommandBuffer(readCb);
     drawCb = readCb = VK_NULL_HANDLE;
     if (statsPool) vkDestroyQueryPool(dev, statsPool, nullptr);
+    if (timePool) vkDestroyQueryPool(dev, timePool, nullptr);
+    timePool = VK_NULL_HANDLE;
     if (renderPass) vkDestroyRenderPass(dev, renderPass, nullptr);
     if (descriptorPool) vkDestroyDescriptorPool(dev, descriptorPool, nullptr); // frees the set
     if (pipelineLayout) vkDestroyPipelineLayout(dev, pipelineLayout, nullptr);
@@ -415,12 +452,83 @@ void NearRenderer::Impl::ensureTargets(int w, int h) {
     height = h;
 }
 
-void NearRenderer::Impl::ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes,
-                                      VkBufferUsageFlags usage) {
+void NearRenderer::Impl::ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes, VkBufferUsageFlags usage,
+                                      bool hostVisible) {
     if (b && b.size() >= bytes) return;
     VkDeviceSize size = b ? b.size() : 4096;
     while (size < bytes) size *= 2;
-    b = VulkanBuffer(device, size, usage, true);
+    b = VulkanBuffer(device, size, usage, hostVisible);
+}
+
+VkPipeline NearRenderer::Impl::cellTracePipeline() {
+    if (cellPipeline) return cellPipeline;
+    VkDevice dev = device.device();
+    VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    mi.codeSize = sizeof(near_cells_comp);
+    mi.pCode = near_cells_comp;
+    VkShaderModule module = VK_NULL_HANDLE;
+    VK_CHECK(vkCreateShaderModule(dev, &mi, nullptr, &module));
+    VkComputePipelineCreateInfo cpi{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    cpi.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                 nullptr,
+                 0,
+                 VK_SHADER_STAGE_COMPUTE_BIT,
+                 module,
+                 "main",
+                 nullptr};
+    cpi.layout = pipelineLayout;
+    const VkResult r =
+        vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &cpi, nullptr, &cellPipeline);
+    vkDestroyShaderModule(dev, module, nullptr);
+    VK_CHECK(r);
+    return cellPipeline;
+}
+
+std::uint32_t NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
+                                               const std::vector<const SpriteSetup*>& visible,
+                                               std::uint64_t budgetBytes) {
+    const std::size_t n = visible.size();
+    ensureBuffer(cellBases, std::max<std::size_t>(n, 1) * sizeof(std::uint32_t),
+                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    std::memcpy(cellBases.mapped(), plan.cellBase.data(), n * sizeof(std::uint32_t));
+    // The store is kept for the next frames and grows by doubling, never past the budget (the
+    // plan never needs more than the budget).
+    const VkDeviceSize need = plan.cells * sizeof(std::uint32_t);
+    if (cells.size() < need)
+        cells = VulkanBuffer(device,
+                             std::max(need, std::min<VkDeviceSize>(2 * cells.size(), budgetBytes)),
+                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, false);
+    std::vector<glm::uvec2> tiles;
+    for (std::size_t k = 0; k < n; ++k) {
+        if (plan.cellBase[k] == kNoCells) continue;
+        const std::uint64_t count = cellCount(*visible[k]);
+        for (std::uint64_t first = 0; first < count; first += near_gpu::NEAR_CELL_TILE)
+            tiles.push_back({std::uint32_t(k), std::uint32_t(first)});
+    }
+    ensureBuffer(cellTiles, std::max<std::size_t>(tiles.size(), 1) * sizeof(glm::uvec2),
+                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    std::memcpy(cellTiles.mapped(), tiles.data(), tiles.size() * sizeof(glm::uvec2));
+    return std::uint32_t(tiles.size());
+}
+
+void NearRenderer::Impl::recordCellTrace(VkCommandBuffer cb, std::uint32_t tiles) {
+    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, cellTracePipeline());
+    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout, 0, 1,
+                            &descriptorSet, 0, nullptr);
+    vkCmdPushConstants(cb, pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof tiles, &tiles);
+    // One workgroup per tile, as a 2D grid when there are more tiles than one dimension allows.
+    const std::uint32_t maxX = device.properties().limits.maxComputeWorkGroupCount[0];
+    const std::uint32_t x = std::min(tiles, maxX);
+    vkCmdDispatch(cb, x, (tiles + x - 1) / x, 1);
+    // The draw's fragment shader reads what the dispatch wrote.
+    VkBufferMemoryBarrier b{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
+    b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
+    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.buffer = cells.handle();
+    b.size = VK_WHOLE_SIZE;
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                         VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, 0, nullptr, 1, &b, 0, nullptr);
 }
 
 void NearRenderer::Impl::writeDescriptors() {
@@ -433,11 +541,15 @@ void NearRenderer::Impl::writeDescriptors() {
     const VkDescriptorBufferInfo hullInfo{hulls.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorImageInfo atlasInfo{sampler, residency.atlasView(),
                                           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
-    VkWriteDescriptorSet w[6]{};
-    const std::uint32_t binding[6] = {NEAR_BINDING_SPRITES,  NEAR_BINDING_ATLAS,
-                                      NEAR_BINDING_PALETTES, NEAR_BINDING_COUNTERS,
-                                      NEAR_BINDING_BOXES,    NEAR_BINDING_HULLS};
-    for (int i = 0; i < 6; ++i) {
+    const VkDescriptorBufferInfo cellBaseInfo{cellBases.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo cellInfo{cells.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo tileInfo{cellTiles.handle(), 0, VK_WHOLE_SIZE};
+    VkWriteDescriptorSet w[9]{};
+    const std::uint32_t binding[9] = {
+        NEAR_BINDING_SPRITES,    NEAR_BINDING_ATLAS, NEAR_BINDING_PALETTES,
+        NEAR_BINDING_COUNTERS,   NEAR_BINDING_BOXES, NEAR_BINDING_HULLS,
+        NEAR_BINDING_CELL_BASES, NEAR_BINDING_CELLS, NEAR_BINDING_CELL_TILES};
+    for (int i = 0; i < 9; ++i) {
         w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
         w[i].dstSet = descriptorSet;
         w[i].dstBinding = binding[i];
@@ -451,7 +563,10 @@ void NearRenderer::Impl::writeDescriptors() {
     w[3].pBufferInfo = &counterInfo;
     w[4].pBufferInfo = &boxInfo;
     w[5].pBufferInfo = &hullInfo;
-    vkUpdateDescriptorSets(device.device(), 6, w, 0, nullptr);
+    w[6].pBufferInfo = &cellBaseInfo;
+    w[7].pBufferInfo = &cellInfo;
+    w[8].pBufferInfo = &tileInfo;
+    vkUpdateDescriptorSets(device.device(), 9, w, 0, nullptr);
 }
 
 Image NearRenderer::Impl::render(const CameraFrame& cam,
@@ -510,6 +625,13 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
                 hull[i].corner[k] = glm::vec4(corners[k]);
         }
     }
+    const CellRatePlan plan = planCellRate(visible, opt.rate, opt.cellBudgetBytes);
+    stats.cellsTraced = plan.cells;
+    stats.cellSprites = plan.cellSprites;
+    stats.cellOverBudget = plan.overBudget;
+    stats.pixelsTraced = plan.pixelsTraced;
+    stats.pixelsLookedUp = plan.pixelsLookedUp;
+    const std::uint32_t tiles = prepareCells(plan, visible, opt.cellBudgetBytes);
     writeDescriptors();
     const VkPipeline pipe = n ? pipeline(opt.proxy, opt.countSteps) : VK_NULL_HANDLE;
     const bool query = opt.pipelineStatistics && statsPool && n;
@@ -520,6 +642,14 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     VK_CHECK(vkBeginCommandBuffer(cb, &bi));
     if (query) vkCmdResetQueryPool(cb, statsPool, 0, 1);
+    const bool timed = timePool && tiles;
+    if (timed) {
+        vkCmdResetQueryPool(cb, timePool, 0, 2);
+        vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timePool, 0);
+    }
+    // Cell-rate sprites: every cell traced once, before the draw that looks them up.
+    if (tiles) recordCellTrace(cb, tiles);
+    if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 1);
     if (opt.countSteps) {
         vkCmdFillBuffer(cb, counters.handle(), 0, VK_WHOLE_SIZE, 0);
         VkBufferMemoryBarrier b{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
@@ -580,6 +710,14 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     VK_CHECK(vkEndCommandBuffer(cb));
     device.submitAndWait(cb);
     stats.drawMs = msSince(tDraw);
+    if (timed) {
+        std::uint64_t t[2] = {};
+        VK_CHECK(vkGetQueryPoolResults(device.device(), timePool, 0, 2, sizeof t, t, sizeof t[0],
+                                       VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+        stats.computeMs =
+            double(t[1] - t[0]) * double(device.properties().limits.timestampPeriod) * 1e-6;
+        stats.drawMs = std::max(0.0, stats.drawMs - stats.computeMs);
+    }
 
     // Read back: the three targets into one host buffer (colour, id, depth), then unpack.
     const auto tRead = Clock::now();

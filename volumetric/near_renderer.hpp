@@ -12,6 +12,7 @@
 #include "core/image.hpp"
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
+#include "volumetric/near_rate.hpp"
 #include "volumetric/vulkan_options.hpp"
 
 #include <array>
@@ -49,10 +50,16 @@ enum class NearDraws {
 struct NearOptions {
     NearProxy proxy = NearProxy::Hull;
     NearDraws draws = NearDraws::Instanced;
-    /// Use the shader variant compiled with -DVT_COUNT_STEPS (counts voxel reads; slower).
+    /// Use the shader variant compiled with -DVT_COUNT_STEPS (counts the fragment shader's voxel
+    /// reads; the cell-rate compute pass is not counted; slower).
     bool countSteps = false;
     /// Count fragment-shader invocations with a pipeline-statistics query (when supported).
     bool pipelineStatistics = true;
+    /// Per-pixel or cell-rate tracing per sprite (near_rate.hpp): cell-rate sprites are traced
+    /// by one compute dispatch before the draw, which then looks their cells up.
+    NearRate rate = NearRate::Auto;
+    /// The frame's cell store never grows past this; sprites that do not fit trace per pixel.
+    std::uint64_t cellBudgetBytes = kDefaultCellBudgetBytes;
 };
 
 struct NearStats {
@@ -67,7 +74,16 @@ struct NearStats {
     std::uint64_t uploadRegions = 0;
     std::uint64_t atlasGrowths = 0; ///< the atlas was re-created larger this frame
     double uploadMs = 0.0;          ///< residency: pack + copy + wait
-    double drawMs = 0.0;            ///< record + submit + wait of the draw
+    /// Cell-rate: cells traced by the compute pass, sprites drawn cell-rate, sprites the rate
+    /// chose cell-rate that did not fit the cell budget (drawn per pixel); the on-screen
+    /// rectangle pixels of per-pixel and of cell-rate sprites (the rate decision's estimate of
+    /// pixels traced and looked up; fragmentInvocations counts what the rasteriser ran).
+    std::uint64_t cellsTraced = 0, cellSprites = 0, cellOverBudget = 0;
+    std::uint64_t pixelsTraced = 0, pixelsLookedUp = 0;
+    /// GPU time of the cell-rate compute pass (timestamp queries; 0 without cell-rate sprites
+    /// or where the device has no timestamps).
+    double computeMs = 0.0;
+    double drawMs = 0.0;     ///< record + submit + wait of the frame's commands, less computeMs
     double readbackMs = 0.0; ///< copy of the three targets to host memory + unpack into Image
 };
 

@@ -28,14 +28,46 @@ template <bool Count> GridVoxels<Count> voxelsOf(const VoxelGrid& g) {
 }
 
 struct RowCounters {
-    std::uint64_t tested = 0, inSprite = 0, written = 0, fetches = 0;
+    std::uint64_t tested = 0, inSprite = 0, written = 0, fetches = 0, traced = 0, lookedUp = 0;
 };
+
+/// Pass 1 of cell-rate (near_rate.hpp): every cell of every cell-rate sprite traced once with
+/// the kernel, TBB-parallel over sprites and their cell rows, into `cells` at the plan's offsets.
+std::vector<kernel::uint>
+traceCellRateSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                     std::span<const SpriteSetup* const> sprites, const CellRatePlan& plan,
+                     tbb::combinable<RowCounters>& counters) {
+    std::vector<kernel::uint> cells(plan.cells);
+    std::vector<std::size_t> cellSprites;
+    for (std::size_t s = 0; s < sprites.size(); ++s)
+        if (plan.cellBase[s] != kNoCells) cellSprites.push_back(s);
+    tbb::parallel_for(std::size_t(0), cellSprites.size(), [&](std::size_t k) {
+        const std::size_t s = cellSprites[k];
+        const SpriteSetup& sp = *sprites[s];
+        const kernel::SpriteGpu& g = sp.gpu;
+        const VoxelGrid& grid = models[std::size_t(sp.model)]->frame(sp.frame);
+        const kernel::uint rowLength = kernel::vtCellRowLength(g);
+        const int rows = g.cellRange.w - g.cellRange.z + 1;
+        tbb::parallel_for(tbb::blocked_range<int>(0, rows, 4),
+                          [&](const tbb::blocked_range<int>& r) {
+                              const auto voxels = voxelsOf<true>(grid);
+                              kernel::SpriteTracer<GridVoxels<true>> tracer{voxels};
+                              const kernel::uint first = kernel::uint(r.begin()) * rowLength;
+                              const kernel::uint last = kernel::uint(r.end()) * rowLength;
+                              for (kernel::uint slot = first; slot < last; ++slot)
+                                  cells[plan.cellBase[s] + slot] =
+                                      tracer.vtTraceCellOutcome(g, kernel::vtSlotCell(g, slot));
+                              counters.local().fetches += voxels.fetches;
+                          });
+    });
+    return cells;
+}
 
 } // namespace
 
 void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                      std::span<const SpriteSetup* const> sprites, Image& target,
-                     ReferenceStats* stats) {
+                     ReferenceStats* stats, const ReferenceOptions& options) {
     const auto t0 = std::chrono::steady_clock::now();
     // Bucket sprites by row so each row is written by exactly one task (no locks, and the
     // depth/id rule makes the result independent of the order sprites are visited in).
@@ -49,6 +81,10 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
             rows[std::size_t(y)].push_back(s);
     }
     tbb::combinable<RowCounters> counters;
+    const CellRatePlan plan = planCellRate(sprites, options.rate, options.cellBudgetBytes);
+    const std::vector<kernel::uint> cells = traceCellRateSprites(models, sprites, plan, counters);
+    // Pass 2: every pixel of every sprite's rectangle; per-pixel sprites trace, cell-rate ones
+    // look their cell's outcome up. Either way the same kernel outcome reaches the same shading.
     tbb::parallel_for(
         tbb::blocked_range<int>(0, target.height, 4), [&](const tbb::blocked_range<int>& r) {
             RowCounters& rc = counters.local();
@@ -60,6 +96,7 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     const auto voxels = voxelsOf<true>(grid);
                     kernel::SpriteTracer<GridVoxels<true>> tracer{voxels};
                     const kernel::SpriteGpu& g = sp.gpu;
+                    const kernel::uint cellBase = plan.cellBase[s];
                     const float py = float(y) + 0.5f;
                     for (int x = sp.screenRect.x; x < sp.screenRect.z; ++x) {
                         ++rc.tested;
@@ -67,8 +104,15 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                         const glm::vec2 pc(float(x) + 0.5f, py);
                         if (!kernel::vtPixelCell(g, pc, cell)) continue;
                         ++rc.inSprite;
-                        kernel::uint index, face;
-                        const kernel::uint kind = tracer.vtShadeCell(g, cell, index, face);
+                        kernel::uint index, face, kind;
+                        if (cellBase == kNoCells) {
+                            ++rc.traced;
+                            kind = tracer.vtShadeCell(g, cell, index, face);
+                        } else {
+                            ++rc.lookedUp;
+                            kind = kernel::vtUnpackOutcome(
+                                cells[cellBase + kernel::vtCellSlot(g, cell)], index, face);
+                        }
                         if (kind == kernel::VT_KIND_EMPTY) continue;
                         ++rc.written;
                         const Rgba8 color = kind == kernel::VT_KIND_SOLID
@@ -88,22 +132,30 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
             total.inSprite += c.inSprite;
             total.written += c.written;
             total.fetches += c.fetches;
+            total.traced += c.traced;
+            total.lookedUp += c.lookedUp;
         });
         stats->sprites += drawn;
         stats->pixelsTested += total.tested;
         stats->pixelsInSprite += total.inSprite;
         stats->pixelsWritten += total.written;
         stats->voxelFetches += total.fetches;
+        stats->pixelsTraced += total.traced;
+        stats->pixelsLookedUp += total.lookedUp;
+        stats->cellsTraced += plan.cells;
+        stats->cellSprites += plan.cellSprites;
+        stats->cellOverBudget += plan.overBudget;
         stats->milliseconds += msSince(t0);
     }
 }
 
 void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
-                     const std::vector<SpriteSetup>& all, Image& target, ReferenceStats* stats) {
+                     const std::vector<SpriteSetup>& all, Image& target, ReferenceStats* stats,
+                     const ReferenceOptions& options) {
     std::vector<const SpriteSetup*> ptrs;
     ptrs.reserve(all.size());
     for (const auto& s : all) ptrs.push_back(&s);
-    renderReference(models, ptrs, target, stats);
+    renderReference(models, ptrs, target, stats, options);
 }
 
 CellImage traceCells(const kernel::SpriteGpu& g, const VoxelGrid& grid) {

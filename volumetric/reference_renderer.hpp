@@ -6,6 +6,7 @@
 #include "core/image.hpp"
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
+#include "volumetric/near_rate.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -20,19 +21,31 @@ struct ReferenceStats {
     std::uint64_t pixelsInSprite = 0; ///< of those, pixels that map to a lattice cell
     std::uint64_t pixelsWritten = 0;  ///< solid or outline outcomes
     std::uint64_t voxelFetches = 0;   ///< DDA steps (one voxel read each)
+    /// Cell-rate (near_rate.hpp): pixels that traced their cell's rays, cells traced once for
+    /// cell-rate sprites, pixels that looked their cell up; sprites drawn cell-rate, and sprites
+    /// that wanted cell-rate but did not fit the cell budget (traced per pixel instead).
+    std::uint64_t pixelsTraced = 0, cellsTraced = 0, pixelsLookedUp = 0;
+    std::uint64_t cellSprites = 0, cellOverBudget = 0;
     double milliseconds = 0.0;
+};
+
+/// How the reference traces: per pixel (the executable spec, default) or cell-rate where the
+/// rate says so (near_rate.hpp); the image is the same either way.
+struct ReferenceOptions {
+    NearRate rate = NearRate::Fragment;
+    std::uint64_t cellBudgetBytes = kDefaultCellBudgetBytes;
 };
 
 /// Draws `sprites` (visible ones; culled entries are skipped) into `target`, which keeps what
 /// it already holds (so tiers can draw into one image). Models are indexed by SpriteSetup::model.
 void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                      std::span<const SpriteSetup* const> sprites, Image& target,
-                     ReferenceStats* stats = nullptr);
+                     ReferenceStats* stats = nullptr, const ReferenceOptions& options = {});
 
 /// Convenience: every visible sprite of `all`.
 void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                      const std::vector<SpriteSetup>& all, Image& target,
-                     ReferenceStats* stats = nullptr);
+                     ReferenceStats* stats = nullptr, const ReferenceOptions& options = {});
 
 /// The kernel evaluated per lattice cell instead of per pixel: a (width x height) grid over
 /// the sprite's cellRange with VT_KIND_* per cell and the palette index / face code of solid

@@ -13,6 +13,10 @@ namespace {
 
 constexpr int kAtlasSide = 512; ///< slice width and height (>= the largest model side, 256)
 constexpr std::uint32_t kInitialDepth = 64;
+/// The atlas is read by the near fragment shader and by the cell-rate compute pass
+/// (shaders/near_cells.comp): uploads wait for both and are made visible to both.
+constexpr VkPipelineStageFlags kAtlasReaders =
+    VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT;
 
 VkDeviceSize roundUp4(VkDeviceSize v) {
     return (v + 3) & ~VkDeviceSize(3);
@@ -44,8 +48,8 @@ VoxelResidency::VoxelResidency(VulkanDevice& device)
         createAtlas(kInitialDepth, cb_, false);
         imageBarrier(cb_, atlas_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
                      VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
-                     VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-                     VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+                     VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kAtlasReaders,
+                     VK_ACCESS_SHADER_READ_BIT);
         VK_CHECK(vkEndCommandBuffer(cb_));
         device_.submitAndWait(cb_);
         ensurePaletteCapacity(256);
@@ -72,8 +76,7 @@ void VoxelResidency::createAtlas(std::uint32_t depth, VkCommandBuffer cb, bool c
         // Growing keeps every block where it was: copy the old atlas into the top of the new one.
         imageBarrier(cb, atlas_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                     VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                     VK_ACCESS_TRANSFER_READ_BIT);
+                     kAtlasReaders, 0, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_READ_BIT);
         VkImageCopy region{};
         region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
         region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
@@ -217,7 +220,7 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
     } else {
         imageBarrier(cb_, atlas_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                     VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                     kAtlasReaders, 0, VK_PIPELINE_STAGE_TRANSFER_BIT,
                      VK_ACCESS_TRANSFER_WRITE_BIT);
     }
     if (!regions.empty())
@@ -226,8 +229,8 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                                regions.data());
     imageBarrier(cb_, atlas_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
-                 VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-                 VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+                 VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kAtlasReaders,
+                 VK_ACCESS_SHADER_READ_BIT);
     VK_CHECK(vkEndCommandBuffer(cb_));
     device_.submitAndWait(cb_);
     retired_.reset();

@@ -1,0 +1,231 @@
+// Cell-rate sprites in the CPU reference (volumetric/near_rate.hpp, DESIGN.md §3.11): tracing
+// each lattice cell once and shading pixels by lookup gives the per-pixel image exactly (colour,
+// depth bits, entity id) on the golden scenes, every bundled .vox model from 46 directions at
+// sigma 0.5 to 3, rolled and straight-down cameras, cross-fades, sprites partly off-screen or
+// crossing the near plane, equal depths, 10^6 m from the origin, and when the cell budget runs
+// out part way through a frame.
+#include "core/model_view.hpp"
+#include "core/scene_loader.hpp"
+#include "core/vox_reader.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <random>
+
+namespace voxtier {
+namespace {
+
+std::string sourcePath(const std::string& rel) {
+    return std::string(VOXTIER_SOURCE_DIR) + "/" + rel;
+}
+
+struct RateImages {
+    Image fragment, cell, automatic;
+    ReferenceStats fragmentStats, cellStats, autoStats;
+    std::uint64_t visible = 0;
+    bool cellCompared = true; ///< false: forced cell-rate skipped (see maxCellsPerPixel)
+};
+
+/// One frame of `scene` through the reference at the three rates. `fade` > 0 puts every sprite
+/// mid cross-fade (alternately on either dither side).
+RateImages renderAtRates(const Scene& scene, float fade = 0.0f,
+                         std::uint64_t budgetBytes = kDefaultCellBudgetBytes,
+                         std::uint64_t maxCellsPerPixel = 1000000) {
+    const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+    std::vector<SpriteSetup> sprites = setupSprites(scene, cam, 0.0);
+    RateImages r;
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        sprites[i].gpu.fade = fade;
+        sprites[i].gpu.fadeSide = i % 2 ? 1.0f : -1.0f;
+        r.visible += sprites[i].visible();
+    }
+    auto render = [&](NearRate rate, ReferenceStats& stats) {
+        Image img(cam.width, cam.height, scene.render.background);
+        renderReference(scene.models, sprites, img, &stats, {rate, budgetBytes});
+        return img;
+    };
+    r.fragment = render(NearRate::Fragment, r.fragmentStats);
+    std::uint64_t cells = 0, pixels = 0;
+    for (const SpriteSetup& s : sprites)
+        if (s.visible()) cells += cellCount(s), pixels += rectPixels(s);
+    // Forced cell-rate on sub-pixel cells (a 256^3 model fitted into a small image) traces up to
+    // hundreds of times more rays than pixels: too slow for the suite, and auto never does it.
+    r.cell = cells <= maxCellsPerPixel * pixels ? render(NearRate::Cell, r.cellStats) : r.fragment;
+    r.cellCompared = cells <= maxCellsPerPixel * pixels;
+    r.automatic = render(NearRate::Auto, r.autoStats);
+    return r;
+}
+
+/// The three images are identical, and each rate did what it says.
+void expectRatesAgree(const Scene& scene, const std::string& what, float fade = 0.0f) {
+    const RateImages r = renderAtRates(scene, fade);
+    EXPECT_EQ(test::describeDifference(r.cell, r.fragment, "cell", "fragment"), "") << what;
+    EXPECT_EQ(test::describeDifference(r.automatic, r.fragment, "auto", "fragment"), "") << what;
+    EXPECT_EQ(r.fragmentStats.cellSprites, 0u) << what;
+    EXPECT_EQ(r.fragmentStats.pixelsLookedUp, 0u) << what;
+    EXPECT_EQ(r.cellStats.cellSprites, r.visible) << what;
+    EXPECT_EQ(r.cellStats.pixelsTraced, 0u) << what;
+    EXPECT_EQ(r.cellStats.pixelsLookedUp, r.fragmentStats.pixelsTraced) << what;
+}
+
+TEST(ReferenceCellRate, GoldenAndDefaultScenesAreIdenticalAtEveryRate) {
+    for (const char* file :
+         {"scenes/golden/arrows.json", "scenes/golden/crowd.json", "scenes/golden/equal_depth.json",
+          "scenes/golden/far_origin.json", "scenes/golden/topdown.json", "scenes/default.json"}) {
+        const Scene scene = loadScene(sourcePath(file));
+        expectRatesAgree(scene, file);
+        expectRatesAgree(scene, std::string(file) + " cross-fading", 0.4f);
+    }
+}
+
+TEST(ReferenceCellRate, HardCasesAreIdenticalAtEveryRate) {
+    expectRatesAgree(test::hardCaseWorld(glm::dvec3(0.0)), "hard-case world");
+    expectRatesAgree(test::hardCaseWorld(glm::dvec3(1 << 20)), "hard-case world at 10^6 m");
+    expectRatesAgree(test::topDownMarkedBar(), "straight down");
+    expectRatesAgree(test::equalDepthPair(), "equal-depth pair");
+    expectRatesAgree(test::entityBehindCamera(), "behind the camera");
+    for (const Scene& s : test::eyeInsideAndOnProxyBox()) expectRatesAgree(s, "eye in proxy box");
+    for (int roll = 1; roll < 4; ++roll)
+        for (double sigma : {0.5, 1.0, 3.0}) {
+            const std::string what =
+                "roll " + std::to_string(roll) + " sigma " + std::to_string(sigma);
+            test::ViewSetup v =
+                test::viewAlong(test::markedBar(), glm::dvec3(2, -1, 3), sigma, 3, roll);
+            expectRatesAgree(v.scene, what);
+            expectRatesAgree(v.scene, what + " cross-fading", 0.7f);
+        }
+}
+
+TEST(ReferenceCellRate, PartlyOffScreenAndCrossingTheNearPlane) {
+    // Magnified (4 px per cell) with the camera turned so the sprite is cut by the image edge.
+    test::ViewSetup v = test::viewAlong(test::solidBox({12, 9, 7}), glm::dvec3(1, 1, 2), 1.0, 4);
+    Camera& c = v.scene.camera;
+    c.target += glm::dvec3(0.35, 0.2, 0.0);
+    const RateImages cut = renderAtRates(v.scene);
+    EXPECT_GT(test::drawnPixels(cut.fragment), 100u);
+    EXPECT_EQ(test::describeDifference(cut.cell, cut.fragment, "cell", "fragment"), "");
+    // The eye between the near plane distance and the model: part of the sprite plane is
+    // nearer than 2 zNear (the kernel's denMax), so part of the sprite is clipped.
+    for (double d : {0.05, 0.2, 0.4}) {
+        Scene s = v.scene;
+        const glm::dvec3 toward = glm::normalize(s.camera.position - s.entities[0].position);
+        s.camera.position = s.entities[0].position + toward * d;
+        s.camera.zNear = 0.3;
+        expectRatesAgree(s, "eye at " + std::to_string(d) + " m");
+    }
+}
+
+// Every model shipped in scenes/vox/ (the list the Vulkan sweep keeps complete) from the 26
+// canonical and 20 seeded random directions at sigma 0.5, 1, 2 and 3.
+TEST(ReferenceCellRate, EveryVoxModelEveryDirectionEverySigma) {
+    std::vector<glm::dvec3> dirs;
+    for (glm::ivec3 w : test::canonicalDirections()) dirs.push_back(glm::dvec3(w));
+    std::mt19937_64 rng(20240601);
+    std::normal_distribution<double> n(0.0, 1.0);
+    while (dirs.size() < 26 + 20) {
+        const glm::dvec3 d{n(rng), n(rng), n(rng)};
+        if (glm::length(d) > 1e-3) dirs.push_back(glm::normalize(d));
+    }
+    int frames = 0, cellFrames = 0;
+    for (const auto& e : std::filesystem::recursive_directory_iterator(sourcePath("scenes/vox"))) {
+        if (e.path().extension() != ".vox" || e.path().filename() == "not_a.vox") continue;
+        const VoxFile vox = readVoxFile(e.path().string());
+        for (std::size_t m = 0; m < vox.models.size(); ++m) {
+            auto model = std::make_shared<VoxelModel>("m", vox.palette,
+                                                      std::vector<VoxelGrid>{vox.models[m]});
+            if (model->frame(0).solidCount() == 0) continue;
+            for (double sigma : {0.5, 1.0, 2.0, 3.0})
+                for (std::size_t k = 0; k < dirs.size(); ++k) {
+                    ModelView view;
+                    const glm::dvec3 w = glm::normalize(worldFromVoxelSwizzle() * dirs[k]);
+                    view.elevationDeg = glm::degrees(std::asin(std::clamp(w.y, -1.0, 1.0)));
+                    view.azimuthDeg =
+                        std::abs(w.y) > 0.999999 ? 0.0 : glm::degrees(std::atan2(w.x, w.z));
+                    view.sigma = sigma;
+                    view.width = 64;
+                    view.height = 48;
+                    const Scene scene = sceneForModel(model, view);
+                    const RateImages r = renderAtRates(scene, 0.0f, kDefaultCellBudgetBytes, 4);
+                    ++frames;
+                    cellFrames += r.cellCompared;
+                    ASSERT_EQ(test::describeDifference(r.cell, r.fragment, "cell", "fragment"), "")
+                        << e.path() << " model " << m << " sigma " << sigma << " direction #" << k;
+                    ASSERT_EQ(test::describeDifference(r.automatic, r.fragment, "auto", "fragment"),
+                              "")
+                        << e.path() << " model " << m << " sigma " << sigma << " direction #" << k;
+                }
+        }
+    }
+    EXPECT_GT(frames, 12 * 4 * 46);
+    EXPECT_GT(cellFrames, frames / 2) << "most frames compare forced cell-rate too";
+}
+
+// A budget smaller than the frame's cells: the sprites that do not fit are traced per pixel,
+// counted, and the image does not change.
+TEST(ReferenceCellRate, SpritesPastTheCellBudgetFallBackToPerPixel) {
+    const Scene scene = test::hardCaseWorld(glm::dvec3(0.0));
+    const RateImages all = renderAtRates(scene);
+    ASSERT_EQ(all.cellStats.cellSprites, 4u);
+    // Room for the first sprite's cells and not for all of them.
+    const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+    const std::vector<SpriteSetup> sprites = setupSprites(scene, cam, 0.0);
+    const std::uint64_t firstCells = cellCount(sprites[0]);
+    const RateImages tight = renderAtRates(scene, 0.0f, firstCells * sizeof(std::uint32_t));
+    EXPECT_GE(tight.cellStats.cellSprites, 1u);
+    EXPECT_LT(tight.cellStats.cellSprites, 4u);
+    EXPECT_EQ(tight.cellStats.cellSprites + tight.cellStats.cellOverBudget, 4u);
+    EXPECT_LE(tight.cellStats.cellsTraced * sizeof(std::uint32_t), firstCells * 4);
+    EXPECT_GT(tight.cellStats.pixelsTraced, 0u);
+    EXPECT_EQ(test::describeDifference(tight.cell, all.fragment, "cell", "fragment"), "");
+    const RateImages none = renderAtRates(scene, 0.0f, 0);
+    EXPECT_EQ(none.cellStats.cellSprites, 0u);
+    EXPECT_EQ(none.cellStats.cellOverBudget, 4u);
+    EXPECT_EQ(test::describeDifference(none.cell, all.fragment, "cell", "fragment"), "");
+}
+
+// The auto rule at its crossover: cell-rate exactly when kCellRateCost * C < P.
+TEST(ReferenceCellRate, AutoCrossoverIsStrict) {
+    SpriteSetup s;
+    s.gpu.cellRange = {-5, 4, -3, 2}; // 10 x 6 cells
+    const std::uint64_t cells = cellCount(s);
+    ASSERT_EQ(cells, 60u);
+    const int crossover = int(kCellRateCost * double(cells)); // the rectangle's pixels there
+    for (int extra : {-1, 0, 1}) {
+        s.screenRect = {10, 20, 10 + crossover + extra, 21}; // one row of pixels
+        const SpriteSetup* one[] = {&s};
+        const CellRatePlan plan = planCellRate(one, NearRate::Auto);
+        EXPECT_EQ(plan.cellSprites, extra > 0 ? 1u : 0u) << extra;
+        EXPECT_EQ(plan.cells, extra > 0 ? cells : 0u) << extra;
+    }
+}
+
+// Near the crossover (2 screen pixels per cell: P ~ 4 C) and on a 256^3 model: identical.
+TEST(ReferenceCellRate, AtTheCrossoverAndOnA256CubedModel) {
+    const auto bar = test::markedBar();
+    for (double sigma : {0.9, 1.0, 1.1})
+        expectRatesAgree(test::viewAlong(bar, glm::dvec3(1, -2, 3), sigma, 2).scene,
+                         "crossover sigma " + std::to_string(sigma));
+    const auto big = test::solidBox({256, 256, 256}, 3);
+    const Scene bigScene = test::viewAlong(big, glm::dvec3(1, 2, 3), 0.5, 2).scene;
+    expectRatesAgree(bigScene, "256^3, sigma 0.5");
+    const RateImages r = renderAtRates(bigScene);
+    EXPECT_GT(test::drawnPixels(r.cell), 50000u);
+    EXPECT_GT(r.cellStats.cellsTraced, 10000u);
+}
+
+// Auto picks cell-rate for a magnified sprite and per-pixel for a minified one.
+TEST(ReferenceCellRate, AutoChoosesByCellsAgainstPixels) {
+    const auto model = test::solidBox({16, 12, 8});
+    const RateImages close =
+        renderAtRates(test::viewAlong(model, glm::dvec3(1, 2, 3), 1.0, 4).scene);
+    EXPECT_EQ(close.autoStats.cellSprites, 1u);
+    const RateImages small =
+        renderAtRates(test::viewAlong(model, glm::dvec3(1, 2, 3), 3.0, 1).scene);
+    EXPECT_EQ(small.autoStats.cellSprites, 0u);
+    EXPECT_GT(small.autoStats.pixelsTraced, 0u);
+}
+
+} // namespace
+} // namespace voxtier

@@ -1,0 +1,156 @@
+// Cell-rate sprites on Vulkan (volumetric/near_rate.hpp, DESIGN.md §3.11): one compute dispatch
+// traces every cell of the frame's cell-rate sprites, the draw looks them up. The image equals
+// the per-pixel Vulkan image and the CPU reference pixel for pixel (colour, depth bits, id), and
+// the validation layer (synchronization validation included) stays silent.
+#include "core/model_view.hpp"
+#include "core/scene_loader.hpp"
+#include "core/vox_reader.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+namespace voxtier {
+namespace {
+
+const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRendererEnvironment);
+
+std::string sourcePath(const std::string& rel) {
+    return std::string(VOXTIER_SOURCE_DIR) + "/" + rel;
+}
+
+class VulkanCellRate : public test::VulkanTest {
+  protected:
+    /// Vulkan at `rate` equals the reference; returns the near stats.
+    NearStats expectMatchesReference(const Scene& scene, NearRate rate, const std::string& what,
+                                     std::uint64_t budgetBytes = kDefaultCellBudgetBytes) {
+        NearOptions options;
+        options.rate = rate;
+        options.cellBudgetBytes = budgetBytes;
+        const auto r = test::renderBoth(nearRenderer(), scene, 0.0, options);
+        EXPECT_EQ(test::describeDifference(r.near, r.reference), "") << what;
+        return r.nearStats;
+    }
+    /// Cell, fragment and auto all equal the reference; cell really drew every sprite cell-rate.
+    void expectEveryRateMatches(const Scene& scene, const std::string& what) {
+        const NearStats cell = expectMatchesReference(scene, NearRate::Cell, what + " (cell)");
+        EXPECT_EQ(cell.cellSprites, cell.sprites) << what;
+        EXPECT_EQ(cell.pixelsTraced, 0u) << what;
+        const NearStats fragment =
+            expectMatchesReference(scene, NearRate::Fragment, what + " (fragment)");
+        EXPECT_EQ(fragment.cellSprites, 0u) << what;
+        EXPECT_EQ(fragment.cellsTraced, 0u) << what;
+        expectMatchesReference(scene, NearRate::Auto, what + " (auto)");
+    }
+};
+
+TEST_F(VulkanCellRate, GoldenScenesMatchTheReferenceAtEveryRate) {
+    for (const char* file :
+         {"scenes/golden/arrows.json", "scenes/golden/crowd.json", "scenes/golden/equal_depth.json",
+          "scenes/golden/far_origin.json", "scenes/golden/topdown.json", "scenes/default.json"})
+        expectEveryRateMatches(loadScene(sourcePath(file)), file);
+}
+
+TEST_F(VulkanCellRate, HardCasesMatchTheReferenceAtEveryRate) {
+    expectEveryRateMatches(test::hardCaseWorld(glm::dvec3(0.0)), "hard-case world");
+    expectEveryRateMatches(test::hardCaseWorld(glm::dvec3(1 << 20)), "hard-case world at 10^6 m");
+    expectEveryRateMatches(test::topDownMarkedBar(), "straight down");
+    expectEveryRateMatches(test::equalDepthPair(), "equal-depth pair");
+    for (const Scene& s : test::eyeInsideAndOnProxyBox()) expectEveryRateMatches(s, "eye in box");
+    for (int roll = 1; roll < 4; ++roll)
+        for (double sigma : {0.5, 3.0})
+            expectEveryRateMatches(
+                test::viewAlong(test::markedBar(), glm::dvec3(2, -1, 3), sigma, 3, roll).scene,
+                "roll " + std::to_string(roll) + " sigma " + std::to_string(sigma));
+    // Magnified, cut by the image edge, and with the eye close enough that part of the sprite
+    // plane is nearer than 2 zNear.
+    test::ViewSetup v = test::viewAlong(test::solidBox({12, 9, 7}), glm::dvec3(1, 1, 2), 1.0, 4);
+    v.scene.camera.target += glm::dvec3(0.35, 0.2, 0.0);
+    expectEveryRateMatches(v.scene, "partly off-screen");
+    const glm::dvec3 toward =
+        glm::normalize(v.scene.camera.position - v.scene.entities[0].position);
+    v.scene.camera.position = v.scene.entities[0].position + toward * 0.2;
+    v.scene.camera.zNear = 0.3;
+    expectEveryRateMatches(v.scene, "crossing the near plane");
+}
+
+// Near the auto crossover (2 screen pixels per cell: P ~ 4 C) and on a 256^3 model.
+TEST_F(VulkanCellRate, AtTheCrossoverAndOnA256CubedModel) {
+    const auto bar = test::markedBar();
+    for (double sigma : {0.9, 1.0, 1.1})
+        expectEveryRateMatches(test::viewAlong(bar, glm::dvec3(1, -2, 3), sigma, 2).scene,
+                               "crossover sigma " + std::to_string(sigma));
+    expectEveryRateMatches(
+        test::viewAlong(test::solidBox({256, 256, 256}, 3), glm::dvec3(1, 2, 3), 0.5, 2).scene,
+        "256^3, sigma 0.5");
+}
+
+// Every bundled .vox model, 26 canonical directions, sigma 0.5 to 3, forced cell-rate (the
+// per-pixel and auto paths are swept by vulkan_identity_test). Frames whose cells outnumber
+// their pixels more than 4 : 1 are left to the CPU test (auto never draws them cell-rate).
+TEST_F(VulkanCellRate, EveryVoxModelCanonicalDirectionsAtCellRate) {
+    int frames = 0;
+    for (const auto& e : std::filesystem::recursive_directory_iterator(sourcePath("scenes/vox"))) {
+        if (e.path().extension() != ".vox" || e.path().filename() == "not_a.vox") continue;
+        const VoxFile vox = readVoxFile(e.path().string());
+        for (std::size_t m = 0; m < vox.models.size(); ++m) {
+            auto model = std::make_shared<VoxelModel>("m", vox.palette,
+                                                      std::vector<VoxelGrid>{vox.models[m]});
+            if (model->frame(0).solidCount() == 0) continue;
+            for (double sigma : {0.5, 1.0, 2.0, 3.0})
+                for (glm::ivec3 d : test::canonicalDirections()) {
+                    const glm::dvec3 w = glm::normalize(worldFromVoxelSwizzle() * glm::dvec3(d));
+                    ModelView view;
+                    view.elevationDeg = glm::degrees(std::asin(std::clamp(w.y, -1.0, 1.0)));
+                    view.azimuthDeg =
+                        std::abs(w.y) > 0.999999 ? 0.0 : glm::degrees(std::atan2(w.x, w.z));
+                    view.sigma = sigma;
+                    view.width = 64;
+                    view.height = 48;
+                    const Scene scene = sceneForModel(model, view);
+                    const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+                    const auto sprites = setupSprites(scene, cam, 0.0);
+                    if (!sprites[0].visible() || cellCount(sprites[0]) > 4 * rectPixels(sprites[0]))
+                        continue;
+                    ++frames;
+                    const NearStats st =
+                        expectMatchesReference(scene, NearRate::Cell,
+                                               e.path().string() + " model " + std::to_string(m) +
+                                                   " sigma " + std::to_string(sigma));
+                    ASSERT_EQ(st.cellSprites, 1u);
+                    if (HasFailure()) return;
+                }
+        }
+    }
+    EXPECT_GT(frames, 12 * 26);
+}
+
+// A cell budget smaller than the frame needs: the rest is drawn per pixel, counted, same image.
+TEST_F(VulkanCellRate, SpritesPastTheCellBudgetFallBackToPerPixel) {
+    const Scene scene = test::hardCaseWorld(glm::dvec3(0.0));
+    const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+    const auto sprites = setupSprites(scene, cam, 0.0);
+    const std::uint64_t firstBytes = cellCount(sprites[0]) * sizeof(std::uint32_t);
+    const NearStats tight =
+        expectMatchesReference(scene, NearRate::Cell, "tight budget", firstBytes);
+    EXPECT_GE(tight.cellSprites, 1u);
+    EXPECT_GE(tight.cellOverBudget, 1u);
+    EXPECT_EQ(tight.cellSprites + tight.cellOverBudget, tight.sprites);
+    EXPECT_LE(tight.cellsTraced * sizeof(std::uint32_t), firstBytes);
+    const NearStats none = expectMatchesReference(scene, NearRate::Cell, "no budget", 0);
+    EXPECT_EQ(none.cellSprites, 0u);
+    EXPECT_EQ(none.cellOverBudget, none.sprites);
+}
+
+// Frames of different cell counts one after another reuse and grow the one cell store.
+TEST_F(VulkanCellRate, ConsecutiveFramesOfGrowingCellCountsStayIdentical) {
+    for (int magnification : {1, 2, 6, 3})
+        expectMatchesReference(
+            test::viewAlong(test::solidBox({20, 14, 9}), glm::dvec3(3, 1, 2), 1.0, magnification)
+                .scene,
+            NearRate::Cell, "magnification " + std::to_string(magnification));
+}
+
+} // namespace
+} // namespace voxtier

@@ -1,0 +1,48 @@
+#include "volumetric/near_rate.hpp"
+
+#include <algorithm>
+
+namespace voxtier {
+
+std::uint64_t cellCount(const SpriteSetup& s) {
+    const glm::ivec4 r = s.gpu.cellRange;
+    if (r.y < r.x || r.w < r.z) return 0;
+    return std::uint64_t(r.y - r.x + 1) * std::uint64_t(r.w - r.z + 1);
+}
+
+std::uint64_t rectPixels(const SpriteSetup& s) {
+    const glm::ivec4 r = s.screenRect;
+    if (r.z <= r.x || r.w <= r.y) return 0;
+    return std::uint64_t(r.z - r.x) * std::uint64_t(r.w - r.y);
+}
+
+CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate rate,
+                          std::uint64_t budgetBytes) {
+    CellRatePlan plan;
+    plan.cellBase.assign(sprites.size(), kNoCells);
+    // Offsets are uint32 on the GPU; kNoCells stays out of reach.
+    const std::uint64_t budgetCells =
+        std::min<std::uint64_t>(budgetBytes / sizeof(std::uint32_t), kNoCells - 1);
+    for (std::size_t k = 0; k < sprites.size(); ++k) {
+        const SpriteSetup& s = *sprites[k];
+        if (!s.visible()) continue;
+        const std::uint64_t cells = cellCount(s), pixels = rectPixels(s);
+        const bool wanted =
+            cells > 0 &&
+            (rate == NearRate::Cell ||
+             (rate == NearRate::Auto && kCellRateCost * double(cells) < double(pixels)));
+        const bool fits = wanted && plan.cells + cells <= budgetCells;
+        if (wanted && !fits) ++plan.overBudget;
+        if (!fits) {
+            plan.pixelsTraced += pixels;
+            continue;
+        }
+        plan.cellBase[k] = std::uint32_t(plan.cells);
+        plan.cells += cells;
+        ++plan.cellSprites;
+        plan.pixelsLookedUp += pixels;
+    }
+    return plan;
+}
+
+} // namespace voxtier

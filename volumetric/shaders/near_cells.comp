@@ -1,0 +1,45 @@
+#version 450
+// The compute pass of cell-rate sprites (volumetric/near_rate.hpp, DESIGN.md §3.11): every
+// lattice cell of every cell-rate sprite of the frame traced once by the shared kernel
+// (core/sprite_kernel.h vtTraceCellOutcome: the primary ray, and the four cardinal neighbour
+// rays on a miss), its packed outcome stored for near.frag to look up. One invocation per cell;
+// a workgroup is one tile of NEAR_CELL_TILE consecutive cells of one sprite.
+#extension GL_GOOGLE_include_directive : require
+#include "volumetric/shaders/near_shared.h"
+
+layout(local_size_x = 64) in; // NEAR_CELL_TILE
+
+layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
+ivec3 vtAtlasBase;
+uint vtFetchVoxel(ivec3 cell) {
+    return texelFetch(vtAtlas, vtAtlasBase + cell, 0).r;
+}
+#include "core/sprite_kernel.h"
+
+layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites {
+    SpriteGpu vtSprites[];
+};
+layout(std430, set = 0, binding = NEAR_BINDING_CELL_BASES) readonly buffer CellBases {
+    uint vtCellBases[];
+};
+layout(std430, set = 0, binding = NEAR_BINDING_CELLS) writeonly buffer Cells {
+    uint vtCells[];
+};
+layout(std430, set = 0, binding = NEAR_BINDING_CELL_TILES) readonly buffer CellTiles {
+    uvec2 vtTiles[]; // (sprite index, first cell slot)
+};
+layout(push_constant) uniform Push {
+    uint tileCount;
+};
+
+void main() {
+    uint tile = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (tile >= tileCount) return;
+    uvec2 t = vtTiles[tile];
+    SpriteGpu s = vtSprites[t.x];
+    uint slot = t.y + gl_LocalInvocationID.x;
+    uint rows = uint(s.cellRange.w - s.cellRange.z + 1);
+    if (slot >= rows * vtCellRowLength(s)) return;
+    vtAtlasBase = ivec3(s.atlas.xyz);
+    vtCells[vtCellBases[t.x] + slot] = vtTraceCellOutcome(s, vtSlotCell(s, slot));
+}
