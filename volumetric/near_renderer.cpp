@@ -24,6 +24,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// The plan's marker and the shaders' marker are one value: near_shared.h is not installed with
+// the public near_rate.hpp, so the two spellings are tied here instead of by an include.
+static_assert(kNoCells == near_gpu::NEAR_NO_CELLS);
+
 constexpr VkFormat kColorFormat = VK_FORMAT_R32_UINT; // packed RGBA8 from the kernel, bit-exact
 constexpr VkFormat kIdFormat = VK_FORMAT_R32_UINT;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT; // the kernel's float depth, stored as is
