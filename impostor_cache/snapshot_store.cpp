@@ -165,9 +165,11 @@ Digest128 digestGrid(const VoxelGrid& grid) {
     return digestBytes(grid.data(), seed);
 }
 
-std::filesystem::path snapshotFileName(const SnapshotFileKey& k) {
-    std::vector<std::uint8_t> bytes;
-    Writer w(bytes);
+namespace {
+
+/// What determines a snapshot's bytes, in file order: both the file name (its digest) and the
+/// header (checked on read) are made of it.
+void writeKey(Writer& w, const SnapshotFileKey& k) {
     w.u32(kSnapshotFileVersion);
     w.u32(kSnapshotLatticeRule);
     w.u64(k.grid.lo);
@@ -176,6 +178,14 @@ std::filesystem::path snapshotFileName(const SnapshotFileKey& k) {
     for (int c = 0; c < 3; ++c) w.i32(k.view.lattice[c]);
     w.f64(k.sigma);
     w.u32(k.withDepth ? kFlagDepth : 0);
+}
+
+} // namespace
+
+std::filesystem::path snapshotFileName(const SnapshotFileKey& k) {
+    std::vector<std::uint8_t> bytes;
+    Writer w(bytes);
+    writeKey(w, k);
     const Digest128 d = digestBytes(bytes);
     const std::string name = hex(d.lo) + hex(d.hi);
     return std::filesystem::path(name.substr(0, 2)) / (name + ".snap");
@@ -186,14 +196,7 @@ std::vector<std::uint8_t> encodeSnapshotFile(const SnapshotFileKey& k, const Sna
     out.reserve(fileSize(s.cells.size(), s.depth.size()));
     Writer w(out);
     w.bytes(kMagic, sizeof kMagic);
-    w.u32(kSnapshotFileVersion);
-    w.u32(kSnapshotLatticeRule);
-    w.u64(k.grid.lo);
-    w.u64(k.grid.hi);
-    for (int c = 0; c < 3; ++c) w.i32(k.dims[c]);
-    for (int c = 0; c < 3; ++c) w.i32(k.view.lattice[c]);
-    w.f64(k.sigma);
-    w.u32(k.withDepth ? kFlagDepth : 0);
+    writeKey(w, k);
     for (int c = 0; c < 4; ++c) w.i32(s.lattice.cellRange[c]);
     w.u64(s.cells.size());
     w.u64(s.depth.size());

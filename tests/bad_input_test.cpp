@@ -20,16 +20,11 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path scratch() {
-    const fs::path d =
-        fs::path(::testing::TempDir()) / ("voxtier_bad_input_" + std::to_string(getpid()));
-    fs::create_directories(d);
-    return d;
+    return test::scratchDir("voxtier_bad_input");
 }
 
 std::string write(const std::string& name, const std::string& text) {
-    const fs::path p = scratch() / name;
-    std::ofstream(p) << text;
-    return p.string();
+    return test::writeText(scratch(), name, text);
 }
 
 std::string repo(const std::string& rel) {

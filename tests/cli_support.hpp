@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -41,6 +42,24 @@ inline CliRun runCli(const std::string& args, const std::string& env = "") {
     std::remove(outFile.c_str());
     std::remove(errFile.c_str());
     return r;
+}
+
+/// A scratch folder under the test temp dir, one per process (CTest runs cases as separate
+/// processes) and, with perTest, one per test case too.
+inline std::filesystem::path scratchDir(const std::string& prefix, bool perTest = false) {
+    std::filesystem::path d =
+        std::filesystem::path(::testing::TempDir()) / (prefix + "_" + std::to_string(getpid()));
+    if (perTest) d /= ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    std::filesystem::create_directories(d);
+    return d;
+}
+
+/// Writes `text` to dir/name and returns the path.
+inline std::string writeText(const std::filesystem::path& dir, const std::string& name,
+                             const std::string& text) {
+    const std::filesystem::path p = dir / name;
+    std::ofstream(p) << text;
+    return p.string();
 }
 
 inline std::size_t lineCount(const std::string& s) {

@@ -17,9 +17,7 @@
 namespace voxtier {
 namespace {
 
-std::string sourcePath(const std::string& rel) {
-    return std::string(VOXTIER_SOURCE_DIR) + "/" + rel;
-}
+using test::sourcePath;
 
 struct RateImages {
     Image fragment, cell, automatic;
@@ -120,44 +118,24 @@ TEST(ReferenceCellRate, PartlyOffScreenAndCrossingTheNearPlane) {
 // Every model shipped in scenes/vox/ (the list the Vulkan sweep keeps complete) from the 26
 // canonical and 20 seeded random directions at sigma 0.5, 1, 2 and 3.
 TEST(ReferenceCellRate, EveryVoxModelEveryDirectionEverySigma) {
-    std::vector<glm::dvec3> dirs;
-    for (glm::ivec3 w : test::canonicalDirections()) dirs.push_back(glm::dvec3(w));
-    std::mt19937_64 rng(20240601);
-    std::normal_distribution<double> n(0.0, 1.0);
-    while (dirs.size() < 26 + 20) {
-        const glm::dvec3 d{n(rng), n(rng), n(rng)};
-        if (glm::length(d) > 1e-3) dirs.push_back(glm::normalize(d));
-    }
+    const std::vector<glm::dvec3> dirs = test::sweepDirections();
     int frames = 0, cellFrames = 0;
-    for (const auto& e : std::filesystem::recursive_directory_iterator(sourcePath("scenes/vox"))) {
-        if (e.path().extension() != ".vox" || e.path().filename() == "not_a.vox") continue;
-        const VoxFile vox = readVoxFile(e.path().string());
-        for (std::size_t m = 0; m < vox.models.size(); ++m) {
-            auto model = std::make_shared<VoxelModel>("m", vox.palette,
-                                                      std::vector<VoxelGrid>{vox.models[m]});
-            if (model->frame(0).solidCount() == 0) continue;
-            for (double sigma : {0.5, 1.0, 2.0, 3.0})
-                for (std::size_t k = 0; k < dirs.size(); ++k) {
-                    ModelView view;
-                    const glm::dvec3 w = glm::normalize(worldFromVoxelSwizzle() * dirs[k]);
-                    view.elevationDeg = glm::degrees(std::asin(std::clamp(w.y, -1.0, 1.0)));
-                    view.azimuthDeg =
-                        std::abs(w.y) > 0.999999 ? 0.0 : glm::degrees(std::atan2(w.x, w.z));
-                    view.sigma = sigma;
-                    view.width = 64;
-                    view.height = 48;
-                    const Scene scene = sceneForModel(model, view);
-                    const RateImages r = renderAtRates(scene, 0.0f, kDefaultCellBudgetBytes, 4);
-                    ++frames;
-                    cellFrames += r.cellCompared;
-                    ASSERT_EQ(test::describeDifference(r.cell, r.fragment, "cell", "fragment"), "")
-                        << e.path() << " model " << m << " sigma " << sigma << " direction #" << k;
-                    ASSERT_EQ(test::describeDifference(r.automatic, r.fragment, "auto", "fragment"),
-                              "")
-                        << e.path() << " model " << m << " sigma " << sigma << " direction #" << k;
-                }
-        }
-    }
+    for (const test::BundledModel& b : test::bundledVoxModels())
+        for (double sigma : {0.5, 1.0, 2.0, 3.0})
+            for (std::size_t k = 0; k < dirs.size(); ++k) {
+                const Scene scene =
+                    sceneForModel(b.model, test::viewToward(dirs[k], sigma, 64, 48));
+                const RateImages r = renderAtRates(scene, 0.0f, kDefaultCellBudgetBytes, 4);
+                ++frames;
+                cellFrames += r.cellCompared;
+                const std::string where = b.file + " model " + std::to_string(b.index) + " sigma " +
+                                          std::to_string(sigma) + " direction #" +
+                                          std::to_string(k);
+                ASSERT_EQ(test::describeDifference(r.cell, r.fragment, "cell", "fragment"), "")
+                    << where;
+                ASSERT_EQ(test::describeDifference(r.automatic, r.fragment, "auto", "fragment"), "")
+                    << where;
+            }
     EXPECT_GT(frames, 12 * 4 * 46);
     EXPECT_GT(cellFrames, frames / 2) << "most frames compare forced cell-rate too";
 }

@@ -22,17 +22,11 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path scratch() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    const fs::path d = fs::path(::testing::TempDir()) /
-                       ("voxtier_render_output_" + std::to_string(getpid())) / info->name();
-    fs::create_directories(d);
-    return d;
+    return test::scratchDir("voxtier_render_output", true);
 }
 
 std::string write(const std::string& name, const std::string& text) {
-    const fs::path p = scratch() / name;
-    std::ofstream(p) << text;
-    return p.string();
+    return test::writeText(scratch(), name, text);
 }
 
 /// A box at the origin; a static camera close to it and a 1 s path at 10 fps from farther away.
@@ -203,7 +197,9 @@ TEST(RenderOutput, TransparentBackgroundOnlyWhereNoSpriteIsDrawn) {
             const bool background = base.color[i] == packRgba(40, 44, 52);
             ASSERT_EQ(channel(im.color[i], 3), background ? 0u : 255u) << "pixel " << i;
             // Sprite colours unchanged (OIIO reads a transparent PNG pixel premultiplied: 0).
-            if (!background) ASSERT_EQ(im.color[i], base.color[i]) << "pixel " << i;
+            if (!background) {
+                ASSERT_EQ(im.color[i], base.color[i]) << "pixel " << i;
+            }
             transparentPixels += background;
         }
         EXPECT_GT(transparentPixels, im.pixelCount() / 2);

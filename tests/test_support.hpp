@@ -2,8 +2,10 @@
 // Shared helpers for the test suites: small scenes built in code and an independent,
 // closed-form model of what a sprite must look like (double precision, no kernel code).
 #include "core/image.hpp"
+#include "core/model_view.hpp"
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
+#include "core/vox_reader.hpp"
 #include "volumetric/near_renderer.hpp"
 #include "volumetric/reference_renderer.hpp"
 
@@ -14,7 +16,9 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -45,6 +49,61 @@ inline std::vector<glm::ivec3> canonicalDirections() {
 /// at the distance where one virtual pixel is exactly `magnification` screen pixels (the
 /// sprite plane is then parallel to the image plane and the screen mapping is affine).
 /// `rollQuarterTurns` rotates the camera about its forward axis by multiples of 90 degrees.
+/// A file of the source tree (scenes, models) by its path relative to the repository root.
+inline std::string sourcePath(const std::string& rel) {
+    return std::string(VOXTIER_SOURCE_DIR) + "/" + rel;
+}
+
+/// The identity sweeps' directions (voxel space, towards the viewer): the 26 canonical ones,
+/// then 20 seeded random ones.
+inline std::vector<glm::dvec3> sweepDirections() {
+    std::vector<glm::dvec3> dirs;
+    for (glm::ivec3 w : canonicalDirections()) dirs.push_back(glm::dvec3(w));
+    std::mt19937_64 rng(20240601);
+    std::normal_distribution<double> n(0.0, 1.0);
+    while (dirs.size() < 26 + 20) {
+        const glm::dvec3 d{n(rng), n(rng), n(rng)};
+        if (glm::length(d) > 1e-3) dirs.push_back(glm::normalize(d));
+    }
+    return dirs;
+}
+
+/// A model view (the model fitted to a width x height image) looking along the voxel-space
+/// direction `voxelDir` (towards the viewer). Canonical directions become azimuth/elevation
+/// round trips with rounding zeros; the 1e-6 direction snap of core/sprite.cpp must restore them.
+inline ModelView viewToward(glm::dvec3 voxelDir, double sigma, int width, int height) {
+    const glm::dvec3 w = glm::normalize(worldFromVoxelSwizzle() * voxelDir);
+    ModelView v;
+    v.elevationDeg = glm::degrees(std::asin(std::clamp(w.y, -1.0, 1.0)));
+    v.azimuthDeg = std::abs(w.y) > 0.999999 ? 0.0 : glm::degrees(std::atan2(w.x, w.z));
+    v.sigma = sigma;
+    v.width = width;
+    v.height = height;
+    return v;
+}
+
+struct BundledModel {
+    std::string file; ///< path of the .vox file
+    std::size_t index = 0;
+    std::shared_ptr<VoxelModel> model; ///< one frame: the file's model `index`
+};
+
+/// Every non-empty model of every .vox file shipped in scenes/vox/ (not_a.vox is the bad-input
+/// sample, not a model).
+inline std::vector<BundledModel> bundledVoxModels() {
+    std::vector<BundledModel> out;
+    for (const auto& e : std::filesystem::recursive_directory_iterator(sourcePath("scenes/vox"))) {
+        if (e.path().extension() != ".vox" || e.path().filename() == "not_a.vox") continue;
+        const VoxFile vox = readVoxFile(e.path().string());
+        for (std::size_t m = 0; m < vox.models.size(); ++m) {
+            auto model = std::make_shared<VoxelModel>("m", vox.palette,
+                                                      std::vector<VoxelGrid>{vox.models[m]});
+            if (model->frame(0).solidCount() > 0) out.push_back({e.path().string(), m, model});
+        }
+    }
+    return out;
+}
+
 struct ViewSetup {
     Scene scene;
     double distance = 0.0;

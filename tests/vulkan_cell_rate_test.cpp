@@ -16,9 +16,7 @@ namespace {
 
 const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRendererEnvironment);
 
-std::string sourcePath(const std::string& rel) {
-    return std::string(VOXTIER_SOURCE_DIR) + "/" + rel;
-}
+using test::sourcePath;
 
 class VulkanCellRate : public test::VulkanTest {
   protected:
@@ -91,38 +89,23 @@ TEST_F(VulkanCellRate, AtTheCrossoverAndOnA256CubedModel) {
 // their pixels more than 4 : 1 are left to the CPU test (auto never draws them cell-rate).
 TEST_F(VulkanCellRate, EveryVoxModelCanonicalDirectionsAtCellRate) {
     int frames = 0;
-    for (const auto& e : std::filesystem::recursive_directory_iterator(sourcePath("scenes/vox"))) {
-        if (e.path().extension() != ".vox" || e.path().filename() == "not_a.vox") continue;
-        const VoxFile vox = readVoxFile(e.path().string());
-        for (std::size_t m = 0; m < vox.models.size(); ++m) {
-            auto model = std::make_shared<VoxelModel>("m", vox.palette,
-                                                      std::vector<VoxelGrid>{vox.models[m]});
-            if (model->frame(0).solidCount() == 0) continue;
-            for (double sigma : {0.5, 1.0, 2.0, 3.0})
-                for (glm::ivec3 d : test::canonicalDirections()) {
-                    const glm::dvec3 w = glm::normalize(worldFromVoxelSwizzle() * glm::dvec3(d));
-                    ModelView view;
-                    view.elevationDeg = glm::degrees(std::asin(std::clamp(w.y, -1.0, 1.0)));
-                    view.azimuthDeg =
-                        std::abs(w.y) > 0.999999 ? 0.0 : glm::degrees(std::atan2(w.x, w.z));
-                    view.sigma = sigma;
-                    view.width = 64;
-                    view.height = 48;
-                    const Scene scene = sceneForModel(model, view);
-                    const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
-                    const auto sprites = setupSprites(scene, cam, 0.0);
-                    if (!sprites[0].visible() || cellCount(sprites[0]) > 4 * rectPixels(sprites[0]))
-                        continue;
-                    ++frames;
-                    const NearStats st =
-                        expectMatchesReference(scene, NearRate::Cell,
-                                               e.path().string() + " model " + std::to_string(m) +
-                                                   " sigma " + std::to_string(sigma));
-                    ASSERT_EQ(st.cellSprites, 1u);
-                    if (HasFailure()) return;
-                }
-        }
-    }
+    for (const test::BundledModel& b : test::bundledVoxModels())
+        for (double sigma : {0.5, 1.0, 2.0, 3.0})
+            for (glm::ivec3 d : test::canonicalDirections()) {
+                const Scene scene =
+                    sceneForModel(b.model, test::viewToward(glm::dvec3(d), sigma, 64, 48));
+                const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+                const auto sprites = setupSprites(scene, cam, 0.0);
+                if (!sprites[0].visible() || cellCount(sprites[0]) > 4 * rectPixels(sprites[0]))
+                    continue;
+                ++frames;
+                const NearStats st =
+                    expectMatchesReference(scene, NearRate::Cell,
+                                           b.file + " model " + std::to_string(b.index) +
+                                               " sigma " + std::to_string(sigma));
+                ASSERT_EQ(st.cellSprites, 1u);
+                if (HasFailure()) return;
+            }
     EXPECT_GT(frames, 12 * 26);
 }
 

@@ -21,9 +21,7 @@ namespace {
 
 const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRendererEnvironment);
 
-std::string sourcePath(const std::string& rel) {
-    return std::string(VOXTIER_SOURCE_DIR) + "/" + rel;
-}
+using test::sourcePath;
 
 std::string str(glm::dvec3 v) {
     char buf[96];
@@ -80,41 +78,13 @@ INSTANTIATE_TEST_SUITE_P(
                (std::get<1>(info.param) == NearProxy::Hull ? "_hull" : "_quad");
     });
 
-/// Voxel-space direction (model centre -> viewer) as the azimuth / elevation of a ModelView:
-/// the entity is unrotated, so world = (v.x, v.z, -v.y). The trigonometry does not return exact
-/// zeros for canonical directions; the 1e-6 direction snap of core/sprite.cpp must restore them.
-ModelView viewToward(glm::dvec3 voxelDir, double sigma) {
-    const glm::dvec3 w = glm::normalize(worldFromVoxelSwizzle() * voxelDir);
-    ModelView v;
-    v.elevationDeg = glm::degrees(std::asin(std::clamp(w.y, -1.0, 1.0)));
-    v.azimuthDeg = std::abs(w.y) > 0.999999 ? 0.0 : glm::degrees(std::atan2(w.x, w.z));
-    v.sigma = sigma;
-    // Moderate images: lavapipe is a CPU rasterizer and the suite must stay fast. The model is
-    // fitted to the view, so large models get sub-pixel cells (a hard case in itself).
-    v.width = 112;
-    v.height = 84;
-    return v;
-}
-
-std::vector<glm::dvec3> sweepDirections() {
-    std::vector<glm::dvec3> dirs;
-    for (glm::ivec3 w : test::canonicalDirections()) dirs.push_back(glm::dvec3(w));
-    std::mt19937_64 rng(20240601);
-    std::normal_distribution<double> n(0.0, 1.0);
-    while (dirs.size() < 26 + 20) {
-        const glm::dvec3 d{n(rng), n(rng), n(rng)};
-        if (glm::length(d) > 1e-3) dirs.push_back(glm::normalize(d));
-    }
-    return dirs;
-}
-
 class VoxModelSweep : public test::VulkanTest, public ::testing::WithParamInterface<std::string> {};
 
 // Each model of the file, 46 directions x sigma {1, 2}: the near tier equals the reference.
 TEST_P(VoxModelSweep, EveryModelEveryDirectionMatchesReference) {
     const VoxFile vox = readVoxFile(sourcePath("scenes/vox/" + GetParam()));
     ASSERT_FALSE(vox.models.empty());
-    const auto dirs = sweepDirections();
+    const auto dirs = test::sweepDirections();
     int frames = 0, drawnFrames = 0;
     for (std::size_t m = 0; m < vox.models.size(); ++m) {
         auto model = std::make_shared<VoxelModel>(GetParam() + "#" + std::to_string(m), vox.palette,
@@ -122,7 +92,9 @@ TEST_P(VoxModelSweep, EveryModelEveryDirectionMatchesReference) {
         if (model->frame(0).solidCount() == 0) continue;
         for (double sigma : {1.0, 2.0})
             for (std::size_t k = 0; k < dirs.size(); ++k) {
-                const Scene scene = sceneForModel(model, viewToward(dirs[k], sigma));
+                // Moderate images: lavapipe is a CPU rasterizer and the suite must stay fast. The
+                // model is fitted to the view, so large models get sub-pixel cells (a hard case).
+                const Scene scene = sceneForModel(model, test::viewToward(dirs[k], sigma, 112, 84));
                 const auto r = test::renderBoth(nearRenderer(), scene);
                 ++frames;
                 if (k <

@@ -16,9 +16,7 @@ const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRende
 using test::VulkanTest;
 class NearMeasurements : public VulkanTest {};
 
-std::string sourcePath(const std::string& rel) {
-    return std::string(VOXTIER_SOURCE_DIR) + "/" + rel;
-}
+using test::sourcePath;
 
 TEST_F(NearMeasurements, StepCounterVariantCountsExactlyTheReferenceVoxelReads) {
     for (const char* file : {"scenes/golden/crowd.json", "scenes/golden/arrows.json"})
