@@ -162,10 +162,12 @@ void run(const RenderArgs& a) {
             std::printf("Vulkan device: %s\n", renderer.nearDeviceName().c_str());
         std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, "
                     "%d fading), "
-                    "%d switches, %d bakes, %.1f ms -> %s\n",
+                    "%d switches, %d bakes, worst predicted far displacement %.2f vpx, %.1f ms -> "
+                    "%s\n",
                     a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height,
                     st.entities, st.culled, st.nearDrawn, st.farDrawn, st.fading,
-                    st.switchesToFar + st.switchesToNear, st.farBakes, st.totalMs, file.c_str());
+                    st.switchesToFar + st.switchesToNear, st.farBakes, st.farPredictedWorstVpx,
+                    st.totalMs, file.c_str());
     }
     if (csv) std::fclose(csv);
     if (pops) std::fclose(pops);
