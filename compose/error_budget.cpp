@@ -3,6 +3,7 @@
 #include "compose/frame_error.hpp"
 
 #include <algorithm>
+#include <array>
 
 namespace voxtier {
 
@@ -63,21 +64,32 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
         if (available(*current)) return current;
         if (bakesLeft_ > 0) return bake(*current);
     }
+    // Each level's nearest view and its prediction, computed once (this runs for every entity
+    // the selector puts far, each frame).
+    struct Level {
+        ViewId view;
+        double predicted = 0.0;
+        int cached = -1; ///< -1 not asked yet, else whether the snapshot is available
+    };
+    std::array<Level, kViewLadder.size()> levels;
+    std::size_t count = 0;
+    for (int n : kViewLadder) {
+        if (n > config.ladderCap) break;
+        const ViewId v = nearestLadderView(n, -sprite.lattice.dir);
+        levels[count++] = {v, predictedBudgetUnits(sprite, v)};
+    }
     // The levels' nearest views within the budget, coarse to fine. A fresh choice aims at
     // far_at's share of the budget where it can, so the next small move does not switch again;
     // a snapshot already cached (or baking this frame) wins over one that needs a bake.
     const double targets[2] = {budget * std::min(1.0, config.farAt / config.nearAt), budget};
     std::optional<ViewId> pick, pickNeedingBake;
     for (const double target : targets) {
-        for (int n : kViewLadder) {
-            if (n > config.ladderCap) break;
-            const ViewId v = nearestLadderView(n, -sprite.lattice.dir);
-            if (predictedBudgetUnits(sprite, v) > target) continue;
-            if (available(v)) {
-                pick = v;
-                break;
-            }
-            if (!pickNeedingBake) pickNeedingBake = v;
+        for (std::size_t k = 0; k < count && !pick; ++k) {
+            Level& l = levels[k];
+            if (l.predicted > target) continue;
+            if (l.cached < 0) l.cached = available(l.view);
+            if (l.cached) pick = l.view;
+            if (!pickNeedingBake) pickNeedingBake = l.view;
         }
         if (pick) break;
     }
