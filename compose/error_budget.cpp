@@ -31,13 +31,32 @@ double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config) 
 
 void ErrorBudgetViews::beginFrame(std::size_t entities, int bakes) {
     current_.resize(entities);
+    fades_.resize(entities);
+    for (Fade& f : fades_)
+        if (f.left > 0) --f.left;
     baking_.clear();
     bakesLeft_ = bakes;
     viewChanges_ = 0;
 }
 
 void ErrorBudgetViews::drop(std::size_t entity) {
-    if (entity < current_.size()) current_[entity].reset();
+    if (entity < current_.size()) current_[entity].reset(), fades_[entity].left = 0;
+}
+
+bool ErrorBudgetViews::viewFade(std::size_t entity, const SpriteSetup& sprite,
+                                const SelectorConfig& config, const IsCached& isCached,
+                                float* share, ViewId* from) {
+    Fade& f = fades_.at(entity);
+    if (f.left <= 0) return false;
+    if (predictedBudgetUnits(sprite, f.from) > config.budgetVpx || !isCached(sprite, f.from)) {
+        f.left = 0;
+        return false;
+    }
+    // Frame k of N after the switch shows k/(N+1) of the new view, as a tier cross-fade does.
+    const int shown = config.crossfadeFrames - f.left + 1;
+    *share = float(shown) / float(config.crossfadeFrames + 1);
+    *from = f.from;
+    return true;
 }
 
 std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteSetup& sprite,
@@ -94,7 +113,10 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
         if (pick) break;
     }
     if (!pick && pickNeedingBake && bakesLeft_ > 0) pick = bake(*pickNeedingBake);
-    if (pick && current && !(*pick == *current)) ++viewChanges_;
+    if (pick && current && !(*pick == *current)) {
+        ++viewChanges_;
+        if (config.crossfadeFrames > 0) fades_.at(entity) = {*current, config.crossfadeFrames};
+    }
     current = pick;
     return pick;
 }

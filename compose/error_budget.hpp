@@ -31,7 +31,7 @@ class ErrorBudgetViews {
     /// Whether a snapshot of (sprite's model and frame, view, sprite's sigma) is cached.
     using IsCached = std::function<bool(const SpriteSetup&, ViewId)>;
 
-    void reset() { current_.clear(); }
+    void reset() { current_.clear(), fades_.clear(); }
     /// Starts a frame: `bakes` snapshots may still be baked in it.
     void beginFrame(std::size_t entities, int bakes);
     /// The view `sprite` (entity `entity`) is drawn far from, or nullopt if no view within the
@@ -42,11 +42,22 @@ class ErrorBudgetViews {
                                  const SelectorConfig& config, const IsCached& isCached);
     /// The entity is drawn near: the next far frame picks its view afresh.
     void drop(std::size_t entity);
+    /// After choose(): whether the entity is inside a view switch's cross-fade
+    /// (config.crossfadeFrames > 0), with the share of pixels already showing the new view and
+    /// the old view. The old view must still be within the budget and cached; else the switch
+    /// is instant (a cross-fade never shows a view past the budget, nor bakes one).
+    bool viewFade(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
+                  const IsCached& isCached, float* share, ViewId* from);
     int viewChangesThisFrame() const { return viewChanges_; }
     int bakesLeft() const { return bakesLeft_; }
 
   private:
     std::vector<std::optional<ViewId>> current_;
+    struct Fade {
+        ViewId from;
+        int left = 0; ///< frames of the cross-fade still to show
+    };
+    std::vector<Fade> fades_;
     /// Views this frame already asked to bake (a second entity sharing one costs nothing).
     std::vector<std::pair<const SpriteSetup*, ViewId>> baking_;
     int bakesLeft_ = 0;

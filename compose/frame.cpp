@@ -58,6 +58,8 @@ struct TierShares {
                 near.push_back(share(i, p, /*keepBelow=*/p.tier == Tier::Near));
             if (p.drawsFar() && onlyTier != Tier::Near)
                 far.emplace_back(share(i, p, /*keepBelow=*/p.tier == Tier::Far), p.view);
+            if (p.fadeFromView && p.fade > 0.0f && onlyTier != Tier::Near)
+                far.emplace_back(share(i, p, /*keepBelow=*/false), p.fadeFromView);
         }
     }
     std::vector<const SpriteSetup*> nearSprites() const {
@@ -259,6 +261,12 @@ void FrameRenderer::planBudgetView(std::size_t entity, const SpriteSetup& sprite
     // No view within the budget without passing this frame's bake bound: near this frame (the
     // selector keeps its far state, so the entity goes far as soon as a view can be had).
     if (!p.view) p = EntityPlan{};
+    // A view switch cross-fades like a tier switch (not on top of one).
+    float share = 0.0f;
+    ViewId from;
+    if (p.view && p.tier == Tier::Far && p.fade <= 0.0f &&
+        budgetViews_.viewFade(entity, sprite, scene_.selector, isCached, &share, &from))
+        p.fade = share, p.fadeFrom = Tier::Far, p.fadeFromView = from;
 }
 
 Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,

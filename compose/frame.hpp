@@ -77,6 +77,9 @@ struct EntityPlan {
     float fade = 0.0f; ///< share of pixels already showing `tier` (0 = no cross-fade)
     Tier fadeFrom = Tier::Near;
     std::optional<ViewId> view; ///< far view (when the far tier draws the entity)
+    /// A view switch's cross-fade (fade > 0, both tiers far): the old view, drawn by the far tier
+    /// on the pixels the new one leaves (the complementary dither half).
+    std::optional<ViewId> fadeFromView;
     bool drawsNear() const { return tier == Tier::Near || (fade > 0.0f && fadeFrom == Tier::Near); }
     bool drawsFar() const { return tier == Tier::Far || (fade > 0.0f && fadeFrom == Tier::Far); }
     bool operator==(const EntityPlan&) const = default;

@@ -6,6 +6,7 @@
 #include "compose/frame.hpp"
 #include "compose/frame_error.hpp"
 #include "core/scene_loader.hpp"
+#include "core/sprite_kernel.h"
 #include "frame_test_support.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 
@@ -241,6 +242,88 @@ TEST(ErrorBudget, OnlyTheViewsDrawnAreBakedAndBakesPerFrameAreBounded) {
     }
     EXPECT_GT(drawn.size(), 3u);
     EXPECT_EQ(r.snapshotCache().counters().bakes, drawn.size());
+}
+
+// A view switch cross-fades like a tier switch: frame k of N shows the new view on the pixels whose
+// dither threshold is below k/(N+1) and the old view on the others, pixel for pixel.
+TEST(ErrorBudget, AViewSwitchCrossFadesBetweenTheTwoSnapshots) {
+    Scene s = benchScene("scenes/bench/vox_crowd.json", 6, 240, 136);
+    FrameRenderer r(s, cpuNear());
+    const CameraFrame cam = makeCameraFrame(s.camera);
+    const std::vector<SpriteSetup> sprites = setupSprites(s, cam, 0.0);
+    int checked = 0;
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        if (!sprites[i].visible()) continue;
+        const std::vector<SpriteSetup> one = {sprites[i]};
+        EntityPlan oldView, newView;
+        oldView.tier = newView.tier = Tier::Far;
+        oldView.view = nearestLadderView(1, -sprites[i].lattice.dir);
+        newView.view = nearestLadderView(4, -sprites[i].lattice.dir);
+        if (*oldView.view == *newView.view) continue;
+        const Image before = r.draw(cam, one, {oldView});
+        const Image after = r.draw(cam, one, {newView});
+        for (float share : {0.25f, 0.5f, 0.75f}) {
+            EntityPlan fading = newView;
+            fading.fade = share;
+            fading.fadeFrom = Tier::Far;
+            fading.fadeFromView = oldView.view;
+            const Image both = r.draw(cam, one, {fading});
+            for (int y = 0; y < both.height; ++y)
+                for (int x = 0; x < both.width; ++x) {
+                    const std::size_t p = both.index(x, y);
+                    const Image& src = kernel::vtDitherThreshold({x, y}) < share ? after : before;
+                    ASSERT_EQ(both.color[p], src.color[p]) << i << " " << share;
+                    ASSERT_EQ(both.id[p], src.id[p]);
+                }
+        }
+        ++checked;
+    }
+    EXPECT_GT(checked, 0);
+
+    // The schedule: after a switch with crossfade_frames 3, shares 1/4, 2/4, 3/4, then done.
+    SelectorConfig c = budgetSelector(1.0);
+    c.crossfadeFrames = 3;
+    ErrorBudgetViews views;
+    const auto cached = [](const SpriteSetup&, ViewId) { return true; };
+    const SpriteSetup a = syntheticSprite({1.0, 0.05, 0.0}, 1.0 / 64.0);
+    const SpriteSetup b = syntheticSprite({1.0, 1.0, 0.0}, 1.0 / 64.0); // another level-1 view
+    c.ladderCap = 1;
+    views.beginFrame(1, 1);
+    const ViewId first = *views.choose(0, a, c, cached);
+    float share = 0.0f;
+    ViewId from;
+    EXPECT_FALSE(views.viewFade(0, a, c, cached, &share, &from));
+    // b's own view is within the budget; a's view is not (45 degrees away): a switch.
+    c.budgetVpx = predictedBudgetUnits(b, nearestLadderView(1, -b.lattice.dir)) + 0.01;
+    ASSERT_GT(predictedBudgetUnits(b, first), c.budgetVpx);
+    views.beginFrame(1, 1);
+    const ViewId second = *views.choose(0, b, c, cached);
+    EXPECT_FALSE(second == first);
+    // The old view is past the budget for b: the switch is instant.
+    EXPECT_FALSE(views.viewFade(0, b, c, cached, &share, &from));
+    // With a budget both views meet, the old one shows for the fade's frames.
+    c.budgetVpx = 1e9;
+    views.reset();
+    views.beginFrame(1, 1);
+    views.choose(0, a, c, cached);
+    views.drop(0);
+    views.beginFrame(1, 1);
+    const ViewId start = *views.choose(0, a, c, cached);
+    EXPECT_EQ(start, first);
+    // Force a switch: a view past a tiny budget is left, the new one is b's nearest.
+    SelectorConfig tight = c;
+    tight.budgetVpx = predictedBudgetUnits(b, nearestLadderView(1, -b.lattice.dir)) + 0.01;
+    views.beginFrame(1, 1);
+    views.choose(0, b, tight, cached);
+    std::vector<float> shares;
+    for (int f = 0; f < 5; ++f) {
+        if (f > 0) views.beginFrame(1, 1), views.choose(0, b, c, cached);
+        if (views.viewFade(0, b, c, cached, &share, &from)) {
+            shares.push_back(share);
+            EXPECT_EQ(from, first);
+        }
+    }
+    EXPECT_EQ(shares, (std::vector<float>{0.25f, 0.5f, 0.75f}));
 }
 
 } // namespace
