@@ -143,6 +143,15 @@ std::vector<Column> columns() {
         {"voxel_steps_per_s", field(&Measurement::voxelStepsPerS)},
         {"blit_pixels_per_s", field(&Measurement::blitPixelsPerS)},
         {"memcpy_pixels_per_s", field(&Measurement::memcpyPixelsPerS)},
+        {"in_motion_ms", field(&Measurement::motionMs)},
+        {"in_motion_cold_ms", field(&Measurement::motionColdMs)},
+        {"in_motion_all_near_vulkan_ms", field(&Measurement::motionBaselineMs)},
+        {"in_motion_speedup_vs_all_near_vulkan", field(&Measurement::motionSpeedup)},
+        {"in_motion_bakes_per_frame", field(&Measurement::motionBakes)},
+        {"in_motion_bake_ms_per_frame", field(&Measurement::motionBakeMs)},
+        {"in_motion_psnr_min", field(&Measurement::motionPsnrMin)},
+        {"in_motion_differing_share", field(&Measurement::motionDifferingShare)},
+        {"in_motion_predicted_worst_vpx", field(&Measurement::motionPredictedWorstVpx)},
         {"cold_first_frame_ms", field(&Measurement::coldMs)},
         {"cold_bake_ms", field(&Measurement::coldBakeMs)},
         {"cold_bakes", field(&Measurement::coldBakes)},
@@ -359,6 +368,8 @@ PlotSet drawPlots(const SuiteResults& r, const fs::path& dir) {
     const std::string scene = r.rows.empty() ? "" : r.rows.front().scene;
     const auto pts = speedErrorPoints(r, scene);
     if (!pts.empty()) out.pngs.push_back("speed_error.png");
+    if (std::any_of(pts.begin(), pts.end(), [](const Measurement* m) { return m->motionMs > 0; }))
+        out.pngs.push_back("motion_error.png");
     for (const char* group : {"scaling_entities", "scaling_size"})
         if (std::any_of(r.rows.begin(), r.rows.end(),
                         [&](const Measurement& m) { return m.group == group; }))
@@ -423,6 +434,22 @@ std::string nearShareCell(const Measurement& m) {
     return m.baselineFragments > 0
                ? pct(perFrame(m, &FrameStats::nearPixelsTested) / m.baselineFragments, 1)
                : "–";
+}
+
+/// The in-motion cells of a row (issue 13): frame ms after the cold start (cold start), speed-up,
+/// bakes per frame, min PSNR and differing pixels against all-near in motion.
+json motionCells(const Measurement& m) {
+    if (m.motionMs <= 0)
+        return {{"motion_ms", "–"},
+                {"motion_speedup", "–"},
+                {"motion_bakes", "–"},
+                {"motion_error", "–"}};
+    return {{"motion_ms", num(m.motionMs) + " (" + num(m.motionColdMs) + ")"},
+            {"motion_speedup", m.motionSpeedup > 0 ? num(m.motionSpeedup, 1) + "×" : "–"},
+            {"motion_bakes", num(m.motionBakes, 1) + " / " + num(m.motionBakeMs, 1) + " ms"},
+            {"motion_error", m.motionPsnrMin > 0 ? num(m.motionPsnrMin, 1) + " dB, " +
+                                                       pct(m.motionDifferingShare) + " px"
+                                                 : "(truth)"}};
 }
 
 /// The error cells of a row, or false for the truth.
@@ -497,7 +524,7 @@ json modesContext(const SuiteResults& r) {
     for (const std::string& scene : sceneNames(r)) {
         json modes = json::array();
         for (const BenchModeInfo& mode : kBenchModes)
-            if (const Measurement* m = find(r, kModesGroup, scene, mode.mode))
+            if (const Measurement* m = find(r, kModesGroup, scene, mode.mode)) {
                 modes.push_back(
                     {{"mode", mode.name},
                      {"entities", entitiesCell(*m)},
@@ -507,6 +534,8 @@ json modesContext(const SuiteResults& r) {
                      {"speedup_vs_fragment",
                       m->speedupVsFragment > 0 ? num(m->speedupVsFragment, 1) + "×" : "–"},
                      {"error", errorCells(*m)}});
+                modes.back().update(motionCells(*m));
+            }
         const Measurement* ref = find(r, kModesGroup, scene, BenchMode::NearReference);
         scenes.push_back(
             {{"scene", scene},
@@ -560,7 +589,8 @@ json throughputContext(const SuiteResults& r) {
 }
 
 /// The sweep table of the first scene (its modes, then the sweep points), Pareto front marked.
-json sweepsContext(const SuiteResults& r, const std::string& scene, bool plotted) {
+json sweepsContext(const SuiteResults& r, const std::string& scene, bool plotted,
+                   bool motionPlotted) {
     std::vector<const Measurement*> sweep;
     for (const Measurement& m : r.rows)
         if (m.group == "sweep" || (m.group == kModesGroup && m.scene == scene)) sweep.push_back(&m);
@@ -580,9 +610,11 @@ json sweepsContext(const SuiteResults& r, const std::string& scene, bool plotted
              {"near_share", m->mode == BenchMode::NearReference ? "–" : nearShareCell(*m)},
              {"error", errorCells(*m)},
              {"pareto", onFront.count(m) ? "P" : ""}});
+    for (std::size_t i = 0; i < sweep.size(); ++i) rows[i].update(motionCells(*sweep[i]));
     return {{"scene", scene},
             {"selector", hyb ? hyb->selector : ""},
             {"plot", plotted ? json("speed_error.png") : json(false)},
+            {"motion_plot", motionPlotted ? json("motion_error.png") : json(false)},
             {"rows", rows}};
 }
 
@@ -633,6 +665,8 @@ json reportContext(const SuiteResults& r, const PlotSet& plots) {
     for (const FrameFigure& f : kFrameFigures)
         if (f.timeStep) timeSteps.push_back(f.words());
     const bool speedErrorPlot = std::count(plots.pngs.begin(), plots.pngs.end(), "speed_error.png");
+    const bool motionErrorPlot =
+        std::count(plots.pngs.begin(), plots.pngs.end(), "motion_error.png");
     return {{"preset", p.preset},
             {"date", date},
             {"wall_s", num(r.wallSeconds, 0)},
@@ -650,7 +684,7 @@ json reportContext(const SuiteResults& r, const PlotSet& plots) {
             {"blit_bytes_per_pixel", num(kBlitBytesPerPixel, 0)},
             {"memcpy_gbps", num(r.memcpyGBps, 1)},
             {"throughput", throughputContext(r)},
-            {"sweeps", sweepsContext(r, first, speedErrorPlot)},
+            {"sweeps", sweepsContext(r, first, speedErrorPlot, motionErrorPlot)},
             {"scaling", scalingContext(r, plots.pngs)},
             {"plot_note", plots.note.empty() ? json(false) : json(plots.note)},
             {"notes", r.notes},

@@ -90,6 +90,11 @@ struct Config {
     std::vector<FrameErrorReport> errors;
     std::vector<char> hasError;
     std::vector<std::uint64_t> countedSteps, countedFragments;
+    struct MotionFrame {
+        FrameStats stats;
+        double psnr = 0.0, differingShare = 0.0;
+    };
+    std::vector<MotionFrame> motion; ///< the in-motion run, frame by frame
 };
 
 struct Row {
@@ -104,6 +109,7 @@ struct Set {
     int repeats = 1;
     std::vector<std::unique_ptr<Config>> configs; ///< truths first; stable addresses
     std::vector<Row> rows;
+    bool inMotion = false; ///< also the in-motion run (runMotion): the scenes' own sets
 };
 
 std::string sceneName(const std::string& file) {
@@ -352,6 +358,79 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
     }
 }
 
+/// In motion (issue 13): the path's first plan.motionFrames frames, consecutive and in order,
+/// each rendered and timed once with the bakes it causes, every configuration starting from a
+/// fresh renderer (empty snapshot cache, selector from the path's start). The configurations
+/// interleave frame by frame, truths first (the others' images are compared with theirs), the
+/// others rotated by one place per frame.
+void runMotion(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& near,
+               Progress& progress) {
+    const Scene& first = set.configs.front()->scene;
+    if (!first.path || plan.motionFrames <= 0) return;
+    const int frames = std::min(plan.motionFrames, first.path->frameCount());
+    std::size_t truths = 0;
+    while (truths < set.configs.size() && set.configs[truths]->isTruth) ++truths;
+    for (auto& c : set.configs) {
+        FrameOptions o;
+        o.sharedNear = near;
+        o.nearBackend = info(c->mode).nearBackend;
+        c->renderer = std::make_unique<FrameRenderer>(c->scene, o);
+        c->motion.clear();
+    }
+    const std::size_t others = set.configs.size() - truths;
+    for (int f = 0; f < frames; ++f) {
+        std::vector<Image> truthImages(set.configs.size());
+        for (std::size_t k = 0; k < set.configs.size(); ++k) {
+            const std::size_t ci = k < truths ? k : truths + (k - truths + std::size_t(f)) % others;
+            Config& c = *set.configs[ci];
+            progress.step(set.label + ": " + c.name + ", in motion, frame " + std::to_string(f));
+            FrameResult r = c.renderer->render(c.scene.timeOfFrame(f), info(c.mode).renderMode, f);
+            Config::MotionFrame m{r.stats};
+            if (c.isTruth) {
+                truthImages[ci] = std::move(r.image);
+            } else if (c.truth >= 0) {
+                const FrameErrorReport e = measureFrameError(truthImages[std::size_t(c.truth)],
+                                                             r.image, r.sprites, r.plan);
+                m.psnr = e.psnr;
+                m.differingShare = double(e.differingPixels) / double(r.image.pixelCount());
+            }
+            c.motion.push_back(m);
+        }
+    }
+}
+
+/// The in-motion figures of a configuration (Measurement::motion*), after the cold start.
+void addMotion(Measurement& m, const Config& c, const Config* truth, const Plan& plan) {
+    const auto timedMs = [&](const Config& of) {
+        std::vector<double> ms;
+        for (std::size_t f = std::size_t(plan.motionWarmup); f < of.motion.size(); ++f)
+            ms.push_back(of.motion[f].stats.totalMs);
+        return ms.empty() ? 0.0 : median(ms);
+    };
+    if (c.motion.size() <= std::size_t(plan.motionWarmup)) return;
+    m.motionMs = timedMs(c);
+    if (truth) m.motionBaselineMs = timedMs(*truth);
+    if (m.motionMs > 0 && m.motionBaselineMs > 0) m.motionSpeedup = m.motionBaselineMs / m.motionMs;
+    m.motionPsnrMin = std::numeric_limits<double>::infinity();
+    double timed = 0;
+    for (std::size_t f = 0; f < c.motion.size(); ++f) {
+        const Config::MotionFrame& mf = c.motion[f];
+        m.motionPredictedWorstVpx =
+            std::max(m.motionPredictedWorstVpx, mf.stats.farPredictedWorstVpx);
+        m.motionPsnrMin = std::min(m.motionPsnrMin, mf.psnr);
+        if (f < std::size_t(plan.motionWarmup)) {
+            m.motionColdMs += mf.stats.totalMs / plan.motionWarmup;
+            continue;
+        }
+        ++timed;
+        m.motionBakes += mf.stats.farBakes;
+        m.motionBakeMs += mf.stats.bakeMs;
+        m.motionDifferingShare += mf.differingShare;
+    }
+    m.motionBakes /= timed, m.motionBakeMs /= timed, m.motionDifferingShare /= timed;
+    if (c.isTruth) m.motionPsnrMin = 0;
+}
+
 /// Each sampled frame's figures: the medians over the timed passes, with the voxel reads of
 /// the counting frame where the mode counts them apart.
 std::vector<FrameStats> frameMedians(const Config& c) {
@@ -422,7 +501,7 @@ void addErrors(Measurement& m) {
     if (farFrames) m.farMismatchMean /= farFrames, m.farIsolatedMismatchMean /= farFrames;
 }
 
-Measurement aggregate(const Set& set, const Row& row) {
+Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
     const Config& c = *set.configs[std::size_t(row.config)];
     Measurement m = row.meta;
     const Config* truth = c.isTruth      ? &c
@@ -462,6 +541,7 @@ Measurement aggregate(const Set& set, const Row& row) {
         }
     addThroughput(m);
     addErrors(m);
+    addMotion(m, c, truth, plan);
     m.coldMs = c.coldFirstMs;
     m.coldBakeMs = c.cold.bakeMs;
     m.coldBakes = c.cold.farBakes;
@@ -484,7 +564,8 @@ struct SweepPoint {
 std::string configKey(const SelectorConfig& c, double sigma) {
     return std::string(toString(c.metric)) + "/" + fmt(c.nearAt) + "/" + fmt(c.farAt) + "/" +
            std::to_string(c.viewSetSize) + "/" + std::to_string(c.crossfadeFrames) + "/" +
-           fmt(c.viewHysteresisDeg) + "/" + fmt(sigma);
+           fmt(c.viewHysteresisDeg) + "/" + fmt(sigma) + "/" + fmt(c.budgetVpx) + "/" +
+           std::to_string(c.ladderCap);
 }
 
 std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
@@ -509,6 +590,21 @@ std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
     farAt(SelectorMetric::Distance, plan.distanceFarAt, 0.8);
     farAt(SelectorMetric::RadiusPx, plan.radiusFarAt, 1.5);
     farAt(SelectorMetric::ErrorPx, plan.errorFarAt, 2.0);
+    // The error budget (issue 13): the budget, then the ladder cap at the scene's budget.
+    for (double b : plan.budgets) {
+        SweepPoint p{"budget (error_budget)", "error_budget " + fmt(b) + " vpx", b, s0, sigma0};
+        p.selector = defaultSelectorFor(SelectorMetric::ErrorBudget);
+        p.selector.budgetVpx = b;
+        pts.push_back(p);
+    }
+    for (int cap : plan.ladderCaps) {
+        SweepPoint p{"ladder cap (error_budget)",
+                     "error_budget 1 vpx, ladder cap " + std::to_string(cap), double(cap), s0,
+                     sigma0};
+        p.selector = defaultSelectorFor(SelectorMetric::ErrorBudget);
+        p.selector.ladderCap = cap;
+        pts.push_back(p);
+    }
     for (int v : plan.viewSets) {
         SweepPoint p{"view set", std::to_string(v) + " views", double(v), s0, sigma0};
         p.selector.viewSetSize = v;
@@ -532,6 +628,7 @@ Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps,
     Set set;
     const std::string name = sceneName(src.file);
     set.label = name;
+    set.inMotion = true;
     Scene base = src.scene;
     applyOverrides(base, plan, /*capEntities=*/true);
     std::tie(set.frames, set.times) = pathSamples(base, plan.pathFrames);
@@ -641,6 +738,7 @@ Plan makePlan(const SuiteOptions& o) {
         p.modelSides = {16, 32};
         p.sizeEntities = 6;
         p.scalingRepeats = 1;
+        p.motionFrames = 3, p.motionWarmup = 1;
     } else if (o.quick) {
         p.preset = "quick";
         p.repeats = 3;
@@ -648,6 +746,9 @@ Plan makePlan(const SuiteOptions& o) {
         p.distanceFarAt = {15, 40};
         p.radiusFarAt = {24, 8};
         p.errorFarAt = {2, 1, 0.5, 0.25};
+        p.budgets = {0.25, 0.5, 1, 2};
+        p.ladderCaps = {4, 16};
+        p.motionFrames = 16, p.motionWarmup = 4;
         p.viewSets = {26, 98};
         p.sigmas = {1, 2};
         p.crossfades = {0, 8};
@@ -662,6 +763,8 @@ Plan makePlan(const SuiteOptions& o) {
         p.distanceFarAt = {10, 20, 40, 80};
         p.radiusFarAt = {32, 16, 8, 4};
         p.errorFarAt = {4, 2, 1, 0.5, 0.25};
+        p.budgets = {0.25, 0.5, 1, 2};
+        p.ladderCaps = {4, 16, 64};
         p.viewSets = {26, 98, 218};
         p.sigmas = {0.5, 1, 2};
         p.crossfades = {0, 4, 8};
@@ -757,6 +860,7 @@ SuiteResults runSuite(const SuiteOptions& options) {
         for (const auto& c : s.configs) counting += info(c->mode).countsStepsApart;
         total +=
             s.frames.size() * (std::size_t(plan.warmup + s.repeats) * s.configs.size() + counting);
+        if (s.inMotion) total += std::size_t(plan.motionFrames) * s.configs.size();
     }
     // One Vulkan device for the whole run; validation (VOXTIER_VALIDATION=1) inflates timings.
     auto near = std::make_shared<NearRenderer>();
@@ -766,7 +870,8 @@ SuiteResults runSuite(const SuiteOptions& options) {
     Progress progress(total);
     for (Set& set : sets) {
         runSet(set, plan, near, progress);
-        for (const Row& row : set.rows) res.rows.push_back(aggregate(set, row));
+        if (set.inMotion) runMotion(set, plan, near, progress);
+        for (const Row& row : set.rows) res.rows.push_back(aggregate(set, row, plan));
         set.configs.clear(); // frees the caches and images of this set
     }
     progress.finish();

@@ -76,11 +76,16 @@ struct SuiteOptions {
 struct Plan {
     std::string preset; ///< "full", "quick" or "smoke"
     int repeats = 7, warmup = 1, pathFrames = 6;
+    /// In motion: the path's first motionFrames frames in order, each timed once with its bakes;
+    /// the first motionWarmup of them are the cold start (0 frames: no in-motion run).
+    int motionFrames = 48, motionWarmup = 6;
     std::optional<int> width, height;
     std::optional<int> entityCap; ///< scenes are cut to their first N entities (smoke)
     bool sweeps = true, scaling = true;
     std::vector<double> distanceFarAt, radiusFarAt, errorFarAt; ///< selector sweeps
     std::vector<int> viewSets, crossfades;
+    std::vector<double> budgets; ///< error_budget sweep (virtual pixels)
+    std::vector<int> ladderCaps; ///< error_budget sweep at 1 vpx
     std::vector<double> sigmas;
     std::vector<int> entityCounts, modelSides;
     int sizeEntities = 500; ///< entities of the model-size curve
@@ -131,6 +136,14 @@ struct Measurement {
     double voxelStepsPerS = 0;   ///< near voxel reads over the near time (draw time on Vulkan)
     double blitPixelsPerS = 0;   ///< footprint pixels the blit evaluated over the blit time
     double memcpyPixelsPerS = 0; ///< memcpy of the same bytes
+    // In motion (issue 13): consecutive path frames from an empty cache, each timed once.
+    double motionMs = 0;                            ///< median frame ms after the cold start
+    double motionColdMs = 0;                        ///< mean frame ms of the cold-start frames
+    double motionBaselineMs = 0, motionSpeedup = 0; ///< all-near (Vulkan) in motion, its ratio
+    double motionBakes = 0, motionBakeMs = 0;       ///< per frame after the cold start (mean)
+    double motionPsnrMin = 0;           ///< against the all-near frame of the same motion frame
+    double motionDifferingShare = 0;    ///< of the frame's pixels, mean (colour, depth or id)
+    double motionPredictedWorstVpx = 0; ///< FrameStats::farPredictedWorstVpx, worst frame
     // Cold (the warm-up pass, first use of every snapshot).
     double coldMs = 0, coldBakeMs = 0, coldBakes = 0, coldRays = 0, raysPerS = 0;
     // Error against the truth (means / worst over the frames).

@@ -21,7 +21,7 @@ namespace {
 namespace fs = std::filesystem;
 
 const char* const kDefaultScenes[] = {"scenes/bench/tank_army.json", "scenes/bench/vox_crowd.json",
-                                      "scenes/bench/rts_topdown.json"};
+                                      "scenes/bench/rts_topdown.json", "scenes/bench/rts_pan.json"};
 
 void prepareOutput(const std::string& out) {
     if (out.empty()) throw InputError("", "--out", "expected a directory");
@@ -80,7 +80,7 @@ void addBenchCommand(CLI::App& app) {
     auto o = std::make_shared<bench::SuiteOptions>();
     bench
         ->add_option("scenes", o->scenes,
-                     "Scene files (default: the three in scenes/bench); the first also gets the "
+                     "Scene files (default: the four in scenes/bench); the first also gets the "
                      "sweeps and scaling curves")
         ->check(CLI::ExistingFile);
     bench->add_flag("--quick", o->quick,

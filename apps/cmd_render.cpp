@@ -233,11 +233,12 @@ void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, c
     }
     std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, "
                 "%d fading), "
-                "%d switches, %d bakes, %.1f ms -> %s%s\n",
+                "%d switches, %d bakes, worst predicted far displacement %.2f vpx, %.1f ms -> "
+                "%s%s\n",
                 a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height,
                 st.entities, st.culled, nearOnly, farOnly, fading,
-                st.switchesToFar + st.switchesToNear, st.farBakes, st.totalMs, file.c_str(),
-                progressText.c_str());
+                st.switchesToFar + st.switchesToNear, st.farBakes, st.farPredictedWorstVpx,
+                st.totalMs, file.c_str(), progressText.c_str());
     std::fflush(stdout);
 }
 

@@ -48,7 +48,7 @@ NearBackend nearBackendFor(RenderMode mode, NearBackend configured) {
 struct TierShares {
     std::vector<SpriteSetup> faded;
     std::vector<std::size_t> near;
-    std::vector<std::pair<std::size_t, std::optional<int>>> far; ///< sprite, view override
+    std::vector<std::pair<std::size_t, std::optional<ViewId>>> far; ///< sprite, view override
 
     TierShares(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
                std::optional<Tier> onlyTier)
@@ -59,8 +59,9 @@ struct TierShares {
             if (p.drawsNear() && onlyTier != Tier::Far)
                 near.push_back(share(i, p, /*keepBelow=*/p.tier == Tier::Near));
             if (p.drawsFar() && onlyTier != Tier::Near)
-                far.emplace_back(share(i, p, /*keepBelow=*/p.tier == Tier::Far),
-                                 p.view >= 0 ? std::optional<int>(p.view) : std::nullopt);
+                far.emplace_back(share(i, p, /*keepBelow=*/p.tier == Tier::Far), p.view);
+            if (p.fadeFromView && p.fade > 0.0f && onlyTier != Tier::Near)
+                far.emplace_back(share(i, p, /*keepBelow=*/false), p.fadeFromView);
         }
     }
     std::vector<const SpriteSetup*> nearSprites() const {
@@ -228,6 +229,9 @@ std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>&
     const ViewSet set = viewSetFromSize(scene_.selector.viewSetSize);
     const auto& views = viewDirections(set);
     auto towardViewer = [](const SpriteSetup& s) { return -s.lattice.dir; };
+    const SelectorConfig& config = scene_.selector;
+    const bool budget = config.metric == SelectorMetric::ErrorBudget && mode == RenderMode::Hybrid;
+    if (selector_.size() == 0) budgetViews_.reset(); // a restarted selector restarts its views
 
     // The selector sees distance, projected radius and the angle to the nearest snapshot view.
     std::vector<SelectorInput> inputs(sprites.size());
@@ -238,9 +242,11 @@ std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>&
         if (s.visible()) {
             const glm::dvec3 w = views[std::size_t(nearestView(set, towardViewer(s)))];
             inputs[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
+            if (budget) inputs[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
         }
     }
     const SelectorStats ss = selector_.update(inputs);
+    budgetViews_.beginFrame(sprites.size(), config.maxBakesPerFrame);
     st.switchesToFar = ss.switchesToFar;
     st.switchesToNear = ss.switchesToNear;
     for (std::size_t i = 0; i < sprites.size(); ++i) {
@@ -251,12 +257,39 @@ std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>&
             Tier from = p.tier;
             if (selector_.fading(i, &share, &from)) p.fade = share, p.fadeFrom = from;
         }
-        if (p.drawsFar() && sprites[i].visible())
-            p.view = selector_.chooseView(i, towardViewer(sprites[i]), views);
+        if (budget)
+            planBudgetView(i, sprites[i], p);
+        else if (p.drawsFar() && sprites[i].visible())
+            p.view = viewIdOf(set, selector_.chooseView(i, towardViewer(sprites[i]), views));
         st.fading += p.fade > 0.0f;
     }
-    st.viewChanges = selector_.viewChangesThisFrame();
+    st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
+    for (std::size_t i = 0; i < sprites.size(); ++i)
+        if (plan[i].drawsFar() && plan[i].view && sprites[i].visible())
+            st.farPredictedWorstVpx =
+                std::max(st.farPredictedWorstVpx, predictedBudgetUnits(sprites[i], *plan[i].view));
     return plan;
+}
+
+void FrameRenderer::planBudgetView(std::size_t entity, const SpriteSetup& sprite, EntityPlan& p) {
+    if (!p.drawsFar() || !sprite.visible()) {
+        budgetViews_.drop(entity);
+        return;
+    }
+    const auto isCached = [&](const SpriteSetup& s, ViewId v) {
+        const VoxelModel& m = *scene_.models.at(std::size_t(s.model));
+        return cache_->find({m.uid(), s.frame, m.version(), v, s.lattice.sigma}) != nullptr;
+    };
+    p.view = budgetViews_.choose(entity, sprite, scene_.selector, isCached);
+    // No view within the budget without passing this frame's bake bound: near this frame (the
+    // selector keeps its far state, so the entity goes far as soon as a view can be had).
+    if (!p.view) p = EntityPlan{};
+    // A view switch cross-fades like a tier switch (not on top of one).
+    float share = 0.0f;
+    ViewId from;
+    if (p.view && p.tier == Tier::Far && p.fade <= 0.0f &&
+        budgetViews_.viewFade(entity, sprite, scene_.selector, isCached, &share, &from))
+        p.fade = share, p.fadeFrom = Tier::Far, p.fadeFromView = from;
 }
 
 Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,
@@ -365,9 +398,10 @@ std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
                      : PopEvent::Kind::ViewSwitch;
         const std::vector<SpriteSetup> one = {sprites[i]};
         EntityPlan oldPlan = before;
-        if (oldPlan.drawsFar() && oldPlan.view < 0)
-            oldPlan.view =
-                nearestView(viewSetFromSize(scene_.selector.viewSetSize), -sprites[i].lattice.dir);
+        if (oldPlan.drawsFar() && !oldPlan.view) {
+            const ViewSet set = viewSetFromSize(scene_.selector.viewSetSize);
+            oldPlan.view = viewIdOf(set, nearestView(set, -sprites[i].lattice.dir));
+        }
         std::vector<SpriteSetup> alone = one;
         alone[0].entityId = std::uint32_t(i);
         FrameStats unused;

@@ -3,9 +3,11 @@
 // snapshots far sprites need (lazy, parallel) -> blit far sprites -> compose by min-z. A
 // FrameRenderer keeps what persists between frames of one scene: the selector's per-entity
 // state, the snapshot cache and the Vulkan device with its voxel atlas.
+#include "compose/error_budget.hpp"
 #include "core/image.hpp"
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
+#include "impostor_cache/view_set.hpp"
 #include "lod/selector.hpp"
 #include "volumetric/near_rate.hpp"
 #include "volumetric/vulkan_options.hpp"
@@ -91,7 +93,10 @@ struct EntityPlan {
     Tier tier = Tier::Near;
     float fade = 0.0f; ///< share of pixels already showing `tier` (0 = no cross-fade)
     Tier fadeFrom = Tier::Near;
-    int view = -1; ///< far view index (when the far tier draws the entity)
+    std::optional<ViewId> view; ///< far view (when the far tier draws the entity)
+    /// A view switch's cross-fade (fade > 0, both tiers far): the old view, drawn by the far tier
+    /// on the pixels the new one leaves (the complementary dither half).
+    std::optional<ViewId> fadeFromView;
     bool drawsNear() const { return tier == Tier::Near || (fade > 0.0f && fadeFrom == Tier::Near); }
     bool drawsFar() const { return tier == Tier::Far || (fade > 0.0f && fadeFrom == Tier::Far); }
     bool operator==(const EntityPlan&) const = default;
@@ -145,6 +150,9 @@ struct FrameStats {
     std::uint64_t farPixelsWritten = 0;    ///< blit pixels that read a solid or outline cell
     std::uint64_t nearKernelFragments = 0; ///< with nearCountSteps: fragments that ran the kernel
     std::uint64_t raysTraced = 0;          ///< by this frame's bakes
+    /// The largest predicted silhouette displacement of a far-drawn entity (DESIGN.md §5,
+    /// predictedBudgetUnits: virtual pixels, screen pixels where a cell is smaller).
+    double farPredictedWorstVpx = 0.0;
 };
 
 struct FrameResult {
@@ -187,6 +195,8 @@ class FrameRenderer {
   private:
     std::vector<EntityPlan> planFrame(const std::vector<SpriteSetup>& sprites, RenderMode mode,
                                       FrameStats& st);
+    /// Metric error_budget: the view within the budget (plan.view), or the entity drawn near.
+    void planBudgetView(std::size_t entity, const SpriteSetup& sprite, EntityPlan& plan);
     /// draw() with the near tier drawn by `nearBackend`.
     Image drawWith(NearBackend nearBackend, const CameraFrame& camera,
                    const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
@@ -202,6 +212,7 @@ class FrameRenderer {
     Scene& scene_;
     FrameOptions options_;
     TierSelector selector_;
+    ErrorBudgetViews budgetViews_; ///< far views under metric error_budget
     std::unique_ptr<SnapshotCache> cache_;
     std::shared_ptr<NearRenderer>
         near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan

@@ -93,8 +93,7 @@ std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame
         std::vector<FarRequest> far;
         for (std::uint32_t id : ids) {
             near.push_back(&sprites[id]);
-            far.push_back({&sprites[id],
-                           plan[id].view >= 0 ? std::optional<int>(plan[id].view) : std::nullopt});
+            far.push_back({&sprites[id], plan[id].view});
         }
         renderReference(scene.models, near, truth);
         drawFarSprites(scene.models, far, cache, set, test);

@@ -98,6 +98,7 @@ struct FrameFigureTable {
         {"far_cells_retraced",        &FrameStats::farCellsRetraced,        Count, Mean},
         {"rays_traced",               &FrameStats::raysTraced,              Count, Mean},
         {"cache_bytes",               &FrameStats::cacheBytes,              Bytes, Worst},
+        {"far_predicted_worst_vpx",   &FrameStats::farPredictedWorstVpx,    Count, Worst},
     };
     // clang-format on
 };

@@ -12,6 +12,8 @@ const char* toString(SelectorMetric m) {
         return "radius_px";
     case SelectorMetric::ErrorPx:
         return "error_px";
+    case SelectorMetric::ErrorBudget:
+        return "error_budget";
     }
     return "?";
 }

@@ -276,7 +276,7 @@ struct SceneBuilder {
             sel.metric = SelectorMetric(
                 choice(c, *m, o.at("metric"),
                        {toString(SelectorMetric::Distance), toString(SelectorMetric::RadiusPx),
-                        toString(SelectorMetric::ErrorPx)}));
+                        toString(SelectorMetric::ErrorPx), toString(SelectorMetric::ErrorBudget)}));
         // Distance grows with distance; the pixel metrics (projected radius, predicted
         // view-quantisation error) shrink with it, so their hysteresis band is mirrored:
         // near->far below far_at, far->near above near_at > far_at (lod/selector.hpp).
@@ -307,6 +307,15 @@ struct SceneBuilder {
                 fail(c, o.at("view_set"), "expected 26, 98 or 218, got " + std::to_string(n));
             sel.viewSetSize = n;
         }
+        o.pos("budget_vpx", sel.budgetVpx);
+        if (auto cap = o.get("ladder_cap")) {
+            const int n = intIn(c, *cap, o.at("ladder_cap"), 1, 64);
+            if ((n & (n - 1)) != 0)
+                fail(c, o.at("ladder_cap"),
+                     "expected 1, 2, 4, 8, 16, 32 or 64, got " + std::to_string(n));
+            sel.ladderCap = n;
+        }
+        o.i("max_bakes_per_frame", sel.maxBakesPerFrame, 0, 1'000'000);
     }
 
     std::string modelName(const Obj& o) {

@@ -18,23 +18,24 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
     const SnapshotCacheCounters before = cache.counters();
     // Distinct (model, frame, view, sigma) of the visible sprites; each is looked up (and baked)
     // once, in parallel, then shared by every sprite that shows it.
-    using Need = std::tuple<int, int, int, double>;
+    using Need = std::tuple<int, int, int, int, int, double>; // model, frame, view x y z, sigma
     std::map<Need, std::size_t> slot;
     std::vector<Need> needs;
     std::vector<std::size_t> spriteSlot(requests.size(), SIZE_MAX);
     for (std::size_t r = 0; r < requests.size(); ++r) {
         const SpriteSetup* sp = requests[r].sprite;
         if (!sp || !sp->visible()) continue;
-        const int view = requests[r].view.value_or(chooseFarView(*sp, set));
-        const Need n{sp->model, sp->frame, view, sp->lattice.sigma};
+        const glm::ivec3 view =
+            requests[r].view.value_or(viewIdOf(set, chooseFarView(*sp, set))).lattice;
+        const Need n{sp->model, sp->frame, view.x, view.y, view.z, sp->lattice.sigma};
         auto [it, inserted] = slot.emplace(n, needs.size());
         if (inserted) needs.push_back(n);
         spriteSlot[r] = it->second;
     }
     std::vector<std::shared_ptr<const Snapshot>> snaps(needs.size());
     tbb::parallel_for(std::size_t(0), needs.size(), [&](std::size_t i) {
-        const auto [m, f, v, sigma] = needs[i];
-        snaps[i] = cache.get(*models.at(std::size_t(m)), f, set, v, sigma);
+        const auto [m, f, x, y, z, sigma] = needs[i];
+        snaps[i] = cache.get(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma);
     });
     const double ensureMs = msSince(t0);
 

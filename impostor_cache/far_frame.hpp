@@ -25,11 +25,12 @@ struct FarFrameStats {
     FarBlitStats blit;
 };
 
-/// One far sprite to draw; `view` overrides the nearest-view choice (e.g. a selector applying
-/// angular hysteresis), nullopt = chooseFarView.
+/// One far sprite to draw; `view` overrides the nearest-view choice (a selector applying angular
+/// hysteresis or an error budget, with a view of any set or ladder level), nullopt =
+/// chooseFarView in the frame's set.
 struct FarRequest {
     const SpriteSetup* sprite = nullptr;
-    std::optional<int> view;
+    std::optional<ViewId> view;
 };
 
 /// Draws `requests` (culled sprites are skipped) through `cache` into `target`. Models are

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdlib>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 
@@ -126,6 +127,46 @@ int nearestView(ViewSet set, glm::dvec3 towardViewer) {
             best = i;
         }
     }
+    return best;
+}
+
+double predictedDisplacementVpx(glm::dvec3 halfExtent, double sigma, glm::dvec3 towardViewer,
+                                ViewId view) {
+    const glm::dvec3 d = -glm::normalize(towardViewer);
+    const glm::dvec3 w = viewDirection(view);
+    const double cosTheta = std::clamp(-glm::dot(w, d), -1.0, 1.0);
+    if (cosTheta <= 0.0) return std::numeric_limits<double>::infinity();
+    // sin from the cross product: exact 0 at w = -d, and accurate at small angles where
+    // sqrt(1 - cos^2) loses digits.
+    const double sinTheta = glm::length(glm::cross(w, d));
+    const double depthExtent = glm::dot(halfExtent, glm::abs(d));
+    return sigma * depthExtent * sinTheta / cosTheta;
+}
+
+long long cubeSurfaceCount(int n) {
+    return 24LL * n * n + 2;
+}
+
+glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
+    const glm::dvec3 a = glm::abs(towardViewer);
+    const int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
+    // The point where the ray along towardViewer leaves the cube [-n, n]^3, rounded.
+    const glm::dvec3 onFace = towardViewer * (double(n) / a[axis]);
+    const glm::ivec3 centre(glm::round(onFace));
+    constexpr int kReach = 2;
+    glm::ivec3 best(0);
+    double bestDot = -2.0;
+    // Lexicographic scan of the small box, strict '>' : the first of equal dots wins, as in a
+    // brute-force scan of the whole lattice in the same order.
+    for (int x = std::max(-n, centre.x - kReach); x <= std::min(n, centre.x + kReach); ++x)
+        for (int y = std::max(-n, centre.y - kReach); y <= std::min(n, centre.y + kReach); ++y)
+            for (int z = std::max(-n, centre.z - kReach); z <= std::min(n, centre.z + kReach);
+                 ++z) {
+                if (std::max({std::abs(x), std::abs(y), std::abs(z)}) != n) continue;
+                const glm::ivec3 p{x, y, z};
+                const double d = glm::dot(viewDirection(viewIdOf(p)), towardViewer);
+                if (d > bestDot) bestDot = d, best = p;
+            }
     return best;
 }
 

@@ -3,6 +3,7 @@
 // centre towards the viewer, in voxel space; its snapshot is the near image seen along d = -w.
 #include <glm/glm.hpp>
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -52,5 +53,35 @@ glm::dvec3 viewDirection(ViewId view);
 /// per-entity ray direction in voxel space). Ties go to the lower index, so the choice is a
 /// deterministic function of the direction.
 int nearestView(ViewSet set, glm::dvec3 towardViewer);
+
+/// The refinement ladder (DESIGN.md §4): the cube-surface lattices {-n..n}^3 with max |component|
+/// = n for these n, 26 ... 98,306 directions. n doubles from level to level, so every level holds
+/// the coarser ones' directions (scaled), and a snapshot keyed by ViewId serves all of them.
+inline constexpr std::array<int, 7> kViewLadder{1, 2, 4, 8, 16, 32, 64};
+/// Surface points of {-n..n}^3: (2n+1)^3 - (2n-1)^3 = 24n^2 + 2.
+long long cubeSurfaceCount(int n);
+
+/// The view of the cube-surface lattice of size n (any n >= 1) maximising
+/// viewDirection(p) . towardViewer, in O(1): towardViewer is projected onto its dominant cube face
+/// and rounded, and only the surface points within 2 lattice steps of that point are compared
+/// (the gnomonic map stretches angles at most sqrt(3)-fold across a face, so the nearest view
+/// lies within 1.3 steps of the projection). Ties go to the lexicographically smallest (x, y, z)
+/// lattice point, so the result equals a brute-force scan in that order. towardViewer need not be
+/// normalised but must not be zero.
+glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer);
+/// DESIGN.md §5: how far (virtual pixels, before quantisation) the far tier moves a silhouette
+/// when it draws a model with half extents `halfExtent` (voxels) from the snapshot of `view` while
+/// the near tier would look along d = -towardViewer. The blit reads the snapshot at the oblique
+/// projection (along w) of each sprite-plane point, so a point X of the model (voxels from its
+/// centre) lands |X . d| tan(theta) from where the near tier draws it, theta the angle between w
+/// and -d; over the model's box |X . d| <= sum_i halfExtent_i |d_i|, and a voxel spans sigma
+/// virtual pixels. 0 when w = -d, +inf from 90 degrees on.
+double predictedDisplacementVpx(glm::dvec3 halfExtent, double sigma, glm::dvec3 towardViewer,
+                                ViewId view);
+
+/// The same as a snapshot key.
+inline ViewId nearestLadderView(int n, glm::dvec3 towardViewer) {
+    return viewIdOf(nearestLatticePoint(n, towardViewer));
+}
 
 } // namespace voxtier

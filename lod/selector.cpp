@@ -20,6 +20,8 @@ double selectorMetric(SelectorMetric metric, const SelectorInput& in) {
         return in.radiusPx;
     case SelectorMetric::ErrorPx:
         return in.radiusPx * std::sin(in.viewAngleRad);
+    case SelectorMetric::ErrorBudget:
+        return in.budgetShare;
     }
     return in.distance;
 }

@@ -22,6 +22,9 @@ struct SelectorInput {
     double radiusPx = 0.0; ///< projected bounding-sphere radius in pixels
     double viewAngleRad =
         0.0; ///< angle from the entity's view direction to the nearest snapshot view
+    /// ErrorBudget: the predicted far displacement from the best view allowed, over the budget
+    /// (compose/error_budget.hpp computes it; the selector only compares it).
+    double budgetShare = 0.0;
 };
 
 /// The value compared against near_at / far_at for `metric`.

@@ -288,8 +288,8 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     for (const json& p : j["plots"]) listed.insert(p.get<std::string>());
     EXPECT_EQ(embedded, listed);
     if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
-        EXPECT_EQ(listed, (std::set<std::string>{"speed_error.png", "scaling_entities.png",
-                                                 "scaling_size.png"}))
+        EXPECT_EQ(listed, (std::set<std::string>{"speed_error.png", "motion_error.png",
+                                                 "scaling_entities.png", "scaling_size.png"}))
             << j["plot_note"];
     } else {
         EXPECT_NE(report.find("gnuplot"),

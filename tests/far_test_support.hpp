@@ -24,7 +24,8 @@ inline Image renderFar(const Scene& s, SnapshotCache& cache, ViewSet set = ViewS
     auto sprites = setupSprites(s, cam, 0.0);
     Image img(cam.width, cam.height, s.render.background);
     std::vector<FarRequest> req;
-    for (const auto& sp : sprites) req.push_back({&sp, view});
+    for (const auto& sp : sprites)
+        req.push_back({&sp, view ? std::optional<ViewId>(viewIdOf(set, *view)) : std::nullopt});
     drawFarSprites(s.models, req, cache, set, img);
     if (setups) *setups = std::move(sprites);
     return img;

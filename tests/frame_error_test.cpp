@@ -98,7 +98,7 @@ TEST(FrameError, AloneErrorOfAFarEntityIgnoresWhatStandsInFrontOfIt) {
     const FrameResult far = r.render(0.0, RenderMode::Far);
     std::vector<EntityPlan> arrowFar = far.plan;
     arrowFar[1].tier = Tier::Near; // the tank near, the arrow far
-    arrowFar[1].view = -1;
+    arrowFar[1].view.reset();
     const Image mixed = r.draw(cam, far.sprites, arrowFar);
 
     const auto aloneAll = isolatedFarErrors(s, cam, far.sprites, far.plan, r.snapshotCache());

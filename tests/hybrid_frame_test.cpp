@@ -115,7 +115,8 @@ TEST(HybridFrame, CrossFadeHalvesAreComplementary) {
             toFar.tier = Tier::Far;
             toFar.fadeFrom = Tier::Near;
             toFar.fade = share;
-            toFar.view = nearestView(ViewSet::Cube26, -sprites[i].lattice.dir);
+            toFar.view =
+                viewIdOf(ViewSet::Cube26, nearestView(ViewSet::Cube26, -sprites[i].lattice.dir));
             const std::vector<SpriteSetup> one = {sprites[i]};
             const Image both = r.draw(cam, one, {toFar});
             EntityPlan plainNear, plainFar;
@@ -188,7 +189,6 @@ TEST(HybridFrame, FarSpritesStayWithinThePredictedErrorAtTheSwitch) {
                                    key(4, {0, 3.5, 24}, {0, 0, -30})};
     Scene s = corridor(6, 3.0, keys, band(14, 16));
     FrameRenderer hybrid(s, cpuNear());
-    const auto& views = viewDirections(ViewSet::Cube26);
     int checked = 0;
     for (int f = 0; f < s.path->frameCount(); ++f) {
         const double t = s.timeOfFrame(f);
@@ -197,8 +197,8 @@ TEST(HybridFrame, FarSpritesStayWithinThePredictedErrorAtTheSwitch) {
         for (std::size_t i = 0; i < h.plan.size(); ++i) {
             const SpriteSetup& sp = h.sprites[i];
             if (h.plan[i].tier != Tier::Far || !sp.visible()) continue;
-            const double theta = std::acos(std::clamp(
-                glm::dot(views[std::size_t(h.plan[i].view)], -sp.lattice.dir), -1.0, 1.0));
+            const double theta = std::acos(
+                std::clamp(glm::dot(viewDirection(*h.plan[i].view), -sp.lattice.dir), -1.0, 1.0));
             const double bound = predictedDisplacementBound(sp, theta, cam);
             // Alone in both tiers, so other entities' occlusion does not enter the comparison.
             const std::vector<SpriteSetup> one = {sp};
@@ -223,7 +223,6 @@ TEST(HybridFrame, ErrorMetricKeepsEveryFarEntityUnderBudget) {
                                    key(6, {2, 6, 60}, {0, 0, -30})};
     Scene s = corridor(8, 3.0, keys, sel);
     FrameRenderer r(s, cpuNear());
-    const auto& views = viewDirections(ViewSet::Cube26);
     int farSeen = 0;
     for (int f = 0; f < s.path->frameCount(); ++f) {
         const FrameResult fr = r.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
@@ -231,8 +230,8 @@ TEST(HybridFrame, ErrorMetricKeepsEveryFarEntityUnderBudget) {
             const SpriteSetup& sp = fr.sprites[i];
             if (fr.plan[i].tier != Tier::Far || !sp.visible()) continue;
             ++farSeen;
-            const double theta = std::acos(std::clamp(
-                glm::dot(views[std::size_t(fr.plan[i].view)], -sp.lattice.dir), -1.0, 1.0));
+            const double theta = std::acos(
+                std::clamp(glm::dot(viewDirection(*fr.plan[i].view), -sp.lattice.dir), -1.0, 1.0));
             EXPECT_LE(sp.radiusPx * std::sin(theta), sel.nearAt)
                 << "frame " << f << " entity " << i;
             // ...and what the far sprite actually shows stays within the error that predicts.

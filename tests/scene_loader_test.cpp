@@ -1,5 +1,6 @@
 // Scene files are untrusted input: every scene we ship must load, and every malformed variant
 // must be a one-line InputError naming the file and the JSON path of the problem.
+#include "compose/error_budget.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
@@ -141,15 +142,17 @@ TEST(SceneLoader, DefaultSceneSpansBothTiersFromTheCameraAndAlongThePath) {
     EXPECT_EQ(s.camera.height, 540);
     EXPECT_DOUBLE_EQ(s.render.voxelSize, 0.1);
     EXPECT_DOUBLE_EQ(s.render.sigma, 1.0);
-    EXPECT_EQ(s.selector.metric, SelectorMetric::Distance);
-    EXPECT_LT(s.selector.nearAt, s.selector.farAt);
+    EXPECT_EQ(s.selector.metric, SelectorMetric::ErrorBudget);
+    EXPECT_DOUBLE_EQ(s.selector.budgetVpx, 1.0);
+    EXPECT_GT(s.selector.nearAt, s.selector.farAt);
     EXPECT_LE(s.entities.size(), 400u);
     EXPECT_GE(s.entities.size(), 100u);
     ASSERT_TRUE(s.path.has_value());
     EXPECT_NEAR(s.path->duration(), 5.0, 1.0);
 
     // Both at the static camera and at both ends of the path, some visible entities are near
-    // (below near_at) and some far (beyond far_at), and the far ones reach hundreds of metres.
+    // (their best view's predicted displacement past near_at of the budget) and some far (below
+    // far_at), and the far ones reach hundreds of metres.
     for (double t : {-1.0, 0.0, s.path->keys.back().time}) {
         SCOPED_TRACE(t);
         const Camera cam = t < 0 ? s.camera : s.cameraAt(t);
@@ -162,8 +165,9 @@ TEST(SceneLoader, DefaultSceneSpansBothTiersFromTheCameraAndAlongThePath) {
         double maxDistance = 0.0;
         for (const auto& sp : sprites) {
             if (!sp.visible()) continue;
-            nearCount += sp.distance < s.selector.nearAt;
-            farCount += sp.distance > s.selector.farAt;
+            const double share = bestBudgetUnits(sp, s.selector) / s.selector.budgetVpx;
+            nearCount += share > s.selector.nearAt;
+            farCount += share < s.selector.farAt;
             maxDistance = std::max(maxDistance, sp.distance);
         }
         EXPECT_GE(nearCount, 3);
@@ -235,6 +239,16 @@ TEST(SceneLoader, MalformedScenesNameFileJsonPathAndExpectation) {
              j["selector"] = {{"view_set", 27}};
          },
          "selector.view_set", "26, 98 or 218"},
+        {"zero error budget",
+         [](json& j) {
+             j["selector"] = {{"metric", "error_budget"}, {"budget_vpx", 0}};
+         },
+         "selector.budget_vpx", "positive"},
+        {"ladder cap off the ladder",
+         [](json& j) {
+             j["selector"] = {{"metric", "error_budget"}, {"ladder_cap", 3}};
+         },
+         "selector.ladder_cap", "1, 2, 4, 8, 16, 32 or 64"},
         {"bad metric",
          [](json& j) {
              j["selector"] = {{"metric", "distanse"}};

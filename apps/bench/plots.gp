@@ -75,6 +75,49 @@ if (wants("speed_error")) {
     set key default
 }
 
+# In motion (issue 13): the in-motion frame ms against the in-motion min PSNR (vs all-near) and
+# against the worst far displacement, the modes as points, the sweep families (error budget,
+# ladder cap, ...) as lines.
+if (wants("motion_error")) {
+    @read_csv
+    set print $rows
+    unset print
+    series = words(modes) + words(families)
+    psnr(x) = x > 99 ? 99 : x
+    do for [k = 1:series] {
+        set table $rows append
+        if (k <= words(modes)) {
+            plot 'results.csv' using (psnr(column("in_motion_psnr_min"))):"far_displacement_worst_vpx":"in_motion_ms" with table \
+                if (strcol("scene") eq scene && strcol("group") eq "modes" && strcol("mode") eq word(modes, k) && column("in_motion_ms") > 0)
+        } else {
+            plot 'results.csv' using (psnr(column("in_motion_psnr_min"))):"far_displacement_worst_vpx":"in_motion_ms" with table \
+                if (strcol("scene") eq scene && strcol("group") eq "sweep" && column("has_error") == 1 && column("in_motion_ms") > 0 && \
+                    strcol("family") eq word(families, k - words(modes)))
+        }
+        unset table
+        @end_block
+    }
+    @read_blocks
+    label(k) = k <= words(modes) ? "mode ".word(modes, k) : word(families, k - words(modes))
+    set terminal pngcairo size 1400,760 font ',10' noenhanced
+    set output 'motion_error.png'
+    set multiplot layout 1,2 title scene.": in motion, frame ms against error (median frame ms of consecutive path frames after the cold start)"
+    set logscale y
+    set ylabel 'in-motion frame ms (log)'
+    set key outside bottom center horizontal maxrows 3 font ',9'
+    set title 'x: min frame PSNR against all-near in motion (dB, 99 = identical)'
+    plot for [k = 1:words(modes)] $rows index (k - 1) using 1:3 with points pt 5 + 2 * (k % 4) ps 2.2 lc rgb color(k) title label(k), \
+         for [k = words(modes) + 1:series] $rows index (k - 1) using 1:3 with linespoints pt 5 + 2 * (k % 4) ps 1.1 lw 2 lc rgb color(k) title label(k)
+    set title 'x: worst silhouette displacement of a far entity drawn alone (virtual pixels)'
+    plot for [k = 1:words(modes)] $rows index (k - 1) using 2:3 with points pt 5 + 2 * (k % 4) ps 2.2 lc rgb color(k) title label(k), \
+         for [k = words(modes) + 1:series] $rows index (k - 1) using 2:3 with linespoints pt 5 + 2 * (k % 4) ps 1.1 lw 2 lc rgb color(k) title label(k)
+    unset multiplot
+    unset logscale
+    unset title
+    set terminal pngcairo size 1400,620 font ',10' noenhanced
+    set key default
+}
+
 # Scaling curves: one block per mode of (param, frame ms, near ms, near fragments, far blit ms,
 # blit pixels, cold bake ms).
 scaling_rows = 'using "param":"frame_ms":"near_ms":"near_fragments":"far_blit_ms":"blit_pixels":"cold_bake_ms" with table'

@@ -1,0 +1,330 @@
+// The far tier under an error budget (DESIGN.md §5): the displacement bound against the measured
+// displacement of real far entities (tanks, .vox models), and the error_budget selector: the
+// budget holds along the bench paths, a wobble below the hysteresis switches nothing, and only
+// the views drawn are baked.
+#include "compose/error_budget.hpp"
+#include "compose/frame.hpp"
+#include "compose/frame_error.hpp"
+#include "core/scene_loader.hpp"
+#include "core/sprite_kernel.h"
+#include "frame_test_support.hpp"
+#include "impostor_cache/snapshot_cache.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <set>
+#include <tuple>
+
+namespace voxtier {
+namespace {
+
+using test::cpuNear;
+
+/// A bench scene cut to its first `entities` entities and a small image, so that a test stays
+/// fast while its models and camera path are the bench's own.
+Scene benchScene(const char* file, std::size_t entities, int width = 320, int height = 180) {
+    Scene s = loadScene(std::string(VOXTIER_SOURCE_DIR) + "/" + file);
+    if (s.entities.size() > entities) s.entities.resize(entities);
+    s.camera.width = width;
+    s.camera.height = height;
+    return s;
+}
+
+/// Measured displacement of every visible entity drawn far from the nearest view of ladder level
+/// n, with its prediction, both in budget units (virtual pixels, screen pixels below one).
+struct Checked {
+    int entities = 0, overPrediction = 0, vanished = 0;
+    double worstExcess = -1e9, worstMeasured = 0.0;
+};
+/// What point sampling adds to the continuous displacement (DESIGN.md §5), in budget units:
+/// the far tier reads the snapshot cell that holds each projected near-cell centre, so a
+/// silhouette cell can flip to its diagonal neighbour (one cell diagonal), and footprints are
+/// sets of whole screen pixels (one pixel diagonal).
+double quantisationAllowance(const SpriteSetup& sp) {
+    const double cellPx = cellSizePx(sp);
+    return std::sqrt(2.0) * (1.0 + std::min(cellPx, 1.0 / cellPx));
+}
+
+/// An entity drawn by one tier only: with cells below a pixel, a model one or two pixels across
+/// can fall between the pixel centres in one tier (point sampling; DESIGN.md §8). The test
+/// allows that for footprints of at most kVanishingPixels and counts it.
+constexpr std::size_t kVanishingPixels = 2;
+
+/// Whether `e` (measured, budget units) is within the prediction plus the quantisation.
+bool withinPrediction(const EntityError& e, const SpriteSetup& sp, double predicted,
+                      int* vanished) {
+    if (!std::isfinite(e.silhouetteDisplacementPx)) {
+        ++*vanished;
+        return std::max(e.footprintTruth, e.footprintTest) <= kVanishingPixels;
+    }
+    const double measured = e.silhouetteDisplacementPx / std::max(1.0, cellSizePx(sp));
+    return measured <= predicted + quantisationAllowance(sp);
+}
+
+Checked checkLevel(const Scene& s, double time, int n, SnapshotCache& cache) {
+    const CameraFrame cam = makeCameraFrame(s.cameraAt(time));
+    const std::vector<SpriteSetup> sprites = setupSprites(s, cam, time);
+    std::vector<EntityPlan> plan(sprites.size());
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        if (!sprites[i].visible()) continue;
+        plan[i].tier = Tier::Far;
+        plan[i].view = nearestLadderView(n, -sprites[i].lattice.dir);
+    }
+    Checked c;
+    for (const EntityError& e : isolatedFarErrors(s, cam, sprites, plan, cache)) {
+        const SpriteSetup& sp = sprites[e.entity];
+        const double measured = e.silhouetteDisplacementPx / std::max(1.0, cellSizePx(sp));
+        const double predicted = predictedBudgetUnits(sp, *plan[e.entity].view);
+        ++c.entities;
+        if (std::isfinite(measured)) c.worstMeasured = std::max(c.worstMeasured, measured);
+        if (std::isfinite(measured)) c.worstExcess = std::max(c.worstExcess, measured - predicted);
+        if (!withinPrediction(e, sp, predicted, &c.vanished)) {
+            ++c.overPrediction;
+            std::printf("n %d t %.1f entity %u measured %.3f predicted %.3f cellPx %.3f rpx %.2f "
+                        "truth %zu test %zu\n",
+                        n, time, e.entity, measured, predicted, cellSizePx(sp), sp.radiusPx,
+                        e.footprintTruth, e.footprintTest);
+        }
+    }
+    return c;
+}
+
+TEST(DisplacementBound, MeasuredWithinPredictedOnTanksAndVoxModels) {
+    for (const char* file : {"scenes/bench/tank_army.json", "scenes/bench/vox_crowd.json"}) {
+        const Scene s = benchScene(file, 40);
+        SnapshotCache cache;
+        for (double t : {0.0, 1.5, 3.0})
+            for (int n : {1, 2, 4, 8}) {
+                const Checked c = checkLevel(s, t, n, cache);
+                std::printf("%s t %.1f n %d: %d entities, worst excess %.3f, worst measured %.3f, "
+                            "%d vanished\n",
+                            file, t, n, c.entities, c.worstExcess, c.worstMeasured, c.vanished);
+                EXPECT_EQ(c.overPrediction, 0) << file << " t " << t << " n " << n;
+                EXPECT_LE(c.vanished * 20, c.entities) << file << " t " << t << " n " << n;
+            }
+    }
+}
+
+SelectorConfig budgetSelector(double budgetVpx = 1.0) {
+    SelectorConfig c = defaultSelectorFor(SelectorMetric::ErrorBudget);
+    c.budgetVpx = budgetVpx;
+    return c;
+}
+
+/// A hand-made visible sprite: a 32x32x16 model seen along -towardViewer, cells of cellPx pixels.
+SpriteSetup syntheticSprite(glm::dvec3 towardViewer, double cellPx) {
+    SpriteSetup s;
+    s.lattice.dims = {32, 32, 16};
+    s.lattice.sigma = 1.0;
+    s.lattice.dir = -glm::normalize(towardViewer);
+    s.radiusPx = cellPx * glm::length(glm::dvec3(s.lattice.dims) * 0.5);
+    return s;
+}
+
+// Along the tank army's and the .vox crowd's paths, every entity the hybrid draws far is within
+// the budget by prediction, and measured within the prediction plus the quantisation allowance.
+TEST(ErrorBudget, EveryFarEntityStaysWithinTheBudgetAlongTheBenchPaths) {
+    for (const char* file : {"scenes/bench/tank_army.json", "scenes/bench/vox_crowd.json"}) {
+        Scene s = benchScene(file, 60);
+        s.selector = budgetSelector(1.0);
+        FrameRenderer r(s, cpuNear());
+        int farChecked = 0, vanished = 0;
+        const int frames = s.path->frameCount();
+        for (int f = 0; f < frames; f += std::max(1, frames / 12)) {
+            const double t = s.timeOfFrame(f);
+            const FrameResult fr = r.render(t, RenderMode::Hybrid, f);
+            const CameraFrame cam = makeCameraFrame(s.cameraAt(t));
+            for (const EntityError& e :
+                 isolatedFarErrors(s, cam, fr.sprites, fr.plan, r.snapshotCache())) {
+                const SpriteSetup& sp = fr.sprites[e.entity];
+                const double predicted = predictedBudgetUnits(sp, *fr.plan[e.entity].view);
+                EXPECT_LE(predicted, s.selector.budgetVpx) << file << " frame " << f;
+                EXPECT_TRUE(withinPrediction(e, sp, predicted, &vanished))
+                    << file << " frame " << f << " entity " << e.entity << " displaced "
+                    << e.silhouetteDisplacementPx << " px, predicted " << predicted;
+                ++farChecked;
+            }
+        }
+        EXPECT_GT(farChecked, 20) << file;
+        EXPECT_LE(vanished * 20, farChecked) << file; // one in twenty at most
+        std::printf("%s: %d far entities checked, %d vanished\n", file, farChecked, vanished);
+    }
+}
+
+// Two level-1 views tie at the edge midpoint between +X and (1, 1, 0): a direction wobbling
+// across it flips the nearest view every frame, but the chosen view stays while it is within the
+// budget; the tier stays inside the selector's band.
+TEST(ErrorBudget, AWobbleBelowTheHysteresisSwitchesNeitherViewNorTier) {
+    const double mid = std::tan(glm::radians(22.5)); // the bisector of +X and (1, 1, 0)
+    const auto wobble = [&](int f) { return glm::dvec3(1.0, mid + (f % 2 ? 1e-3 : -1e-3), 0.0); };
+    ASSERT_FALSE(nearestLadderView(1, wobble(0)) == nearestLadderView(1, wobble(1)));
+    SelectorConfig c = budgetSelector(1.0);
+    c.ladderCap = 1;
+    // Cells of 1/64 pixel: the budget is in screen pixels and 22.5 degrees is well within it.
+    ErrorBudgetViews views;
+    const auto cached = [](const SpriteSetup&, ViewId) { return true; };
+    std::optional<ViewId> first;
+    for (int f = 0; f < 10; ++f) {
+        views.beginFrame(1, 1);
+        const SpriteSetup sp = syntheticSprite(wobble(f), 1.0 / 64.0);
+        const std::optional<ViewId> v = views.choose(0, sp, c, cached);
+        ASSERT_TRUE(v.has_value());
+        if (!first) first = v;
+        EXPECT_EQ(*v, *first) << "frame " << f;
+        EXPECT_EQ(views.viewChangesThisFrame(), 0);
+    }
+    // The tier: a budget share wobbling inside (far_at, near_at) = (0.75, 1) never switches.
+    TierSelector sel(c);
+    std::vector<SelectorInput> in(1);
+    in[0].budgetShare = 0.5;
+    sel.update(in);
+    ASSERT_EQ(sel.tier(0), Tier::Far);
+    for (int f = 0; f < 10; ++f) {
+        in[0].budgetShare = f % 2 ? 0.99 : 0.76;
+        const SelectorStats st = sel.update(in);
+        EXPECT_EQ(st.switchesToFar + st.switchesToNear, 0);
+    }
+    in[0].budgetShare = 1.01; // past the budget: near at once
+    EXPECT_EQ(sel.update(in).switchesToNear, 1);
+}
+
+// A view past the budget is left at once, and the new one comes from the coarsest level whose
+// nearest view meets far_at's share of the budget.
+TEST(ErrorBudget, PicksTheCoarsestLevelWithinTheBudget) {
+    const SelectorConfig c = budgetSelector(1.0);
+    ErrorBudgetViews views;
+    const auto cached = [](const SpriteSetup&, ViewId) { return false; };
+    for (double cellPx : {0.05, 0.3, 1.0, 4.0}) {
+        const SpriteSetup sp = syntheticSprite({0.3, 0.8, 0.52}, cellPx);
+        views.reset();
+        views.beginFrame(1, 1);
+        const std::optional<ViewId> v = views.choose(0, sp, c, cached);
+        ASSERT_TRUE(v.has_value()) << cellPx;
+        const double target = c.budgetVpx * c.farAt / c.nearAt;
+        EXPECT_LE(predictedBudgetUnits(sp, *v), target);
+        int level = 0;
+        for (int n : kViewLadder)
+            if (!level && nearestLadderView(n, -sp.lattice.dir) == *v) level = n;
+        ASSERT_GT(level, 0);
+        if (level > 1) { // the next coarser level would not have done
+            EXPECT_GT(predictedBudgetUnits(sp, nearestLadderView(level / 2, -sp.lattice.dir)),
+                      target)
+                << cellPx;
+        }
+        // No bake left this frame: no view, the entity stays near.
+        views.reset();
+        views.beginFrame(1, 0);
+        EXPECT_FALSE(views.choose(0, sp, c, cached).has_value());
+    }
+}
+
+// The cache holds exactly the snapshots far sprites were drawn from (nothing baked ahead), and no
+// frame bakes more than the bound.
+TEST(ErrorBudget, OnlyTheViewsDrawnAreBakedAndBakesPerFrameAreBounded) {
+    Scene s = benchScene("scenes/bench/tank_army.json", 60);
+    s.selector = budgetSelector(1.0);
+    s.selector.maxBakesPerFrame = 3;
+    FrameRenderer r(s, cpuNear());
+    std::set<std::tuple<std::uint64_t, int, int, int, int>> drawn;
+    const int frames = s.path->frameCount();
+    for (int f = 0; f < frames; f += std::max(1, frames / 15)) {
+        const FrameResult fr = r.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
+        EXPECT_LE(fr.stats.farBakes, 3) << "frame " << f;
+        for (std::size_t i = 0; i < fr.plan.size(); ++i) {
+            if (!fr.plan[i].drawsFar() || !fr.sprites[i].visible()) continue;
+            const glm::ivec3 v = fr.plan[i].view->lattice;
+            drawn.insert({s.models[std::size_t(fr.sprites[i].model)]->uid(), fr.sprites[i].frame,
+                          v.x, v.y, v.z});
+        }
+    }
+    EXPECT_GT(drawn.size(), 3u);
+    EXPECT_EQ(r.snapshotCache().counters().bakes, drawn.size());
+}
+
+// A view switch cross-fades like a tier switch: frame k of N shows the new view on the pixels whose
+// dither threshold is below k/(N+1) and the old view on the others, pixel for pixel.
+TEST(ErrorBudget, AViewSwitchCrossFadesBetweenTheTwoSnapshots) {
+    Scene s = benchScene("scenes/bench/vox_crowd.json", 6, 240, 136);
+    FrameRenderer r(s, cpuNear());
+    const CameraFrame cam = makeCameraFrame(s.camera);
+    const std::vector<SpriteSetup> sprites = setupSprites(s, cam, 0.0);
+    int checked = 0;
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        if (!sprites[i].visible()) continue;
+        const std::vector<SpriteSetup> one = {sprites[i]};
+        EntityPlan oldView, newView;
+        oldView.tier = newView.tier = Tier::Far;
+        oldView.view = nearestLadderView(1, -sprites[i].lattice.dir);
+        newView.view = nearestLadderView(4, -sprites[i].lattice.dir);
+        if (*oldView.view == *newView.view) continue;
+        const Image before = r.draw(cam, one, {oldView});
+        const Image after = r.draw(cam, one, {newView});
+        for (float share : {0.25f, 0.5f, 0.75f}) {
+            EntityPlan fading = newView;
+            fading.fade = share;
+            fading.fadeFrom = Tier::Far;
+            fading.fadeFromView = oldView.view;
+            const Image both = r.draw(cam, one, {fading});
+            for (int y = 0; y < both.height; ++y)
+                for (int x = 0; x < both.width; ++x) {
+                    const std::size_t p = both.index(x, y);
+                    const Image& src = kernel::vtDitherThreshold({x, y}) < share ? after : before;
+                    ASSERT_EQ(both.color[p], src.color[p]) << i << " " << share;
+                    ASSERT_EQ(both.id[p], src.id[p]);
+                }
+        }
+        ++checked;
+    }
+    EXPECT_GT(checked, 0);
+
+    // The schedule: after a switch with crossfade_frames 3, shares 1/4, 2/4, 3/4, then done.
+    SelectorConfig c = budgetSelector(1.0);
+    c.crossfadeFrames = 3;
+    ErrorBudgetViews views;
+    const auto cached = [](const SpriteSetup&, ViewId) { return true; };
+    const SpriteSetup a = syntheticSprite({1.0, 0.05, 0.0}, 1.0 / 64.0);
+    const SpriteSetup b = syntheticSprite({1.0, 1.0, 0.0}, 1.0 / 64.0); // another level-1 view
+    c.ladderCap = 1;
+    views.beginFrame(1, 1);
+    const ViewId first = *views.choose(0, a, c, cached);
+    float share = 0.0f;
+    ViewId from;
+    EXPECT_FALSE(views.viewFade(0, a, c, cached, &share, &from));
+    // b's own view is within the budget; a's view is not (45 degrees away): a switch.
+    c.budgetVpx = predictedBudgetUnits(b, nearestLadderView(1, -b.lattice.dir)) + 0.01;
+    ASSERT_GT(predictedBudgetUnits(b, first), c.budgetVpx);
+    views.beginFrame(1, 1);
+    const ViewId second = *views.choose(0, b, c, cached);
+    EXPECT_FALSE(second == first);
+    // The old view is past the budget for b: the switch is instant.
+    EXPECT_FALSE(views.viewFade(0, b, c, cached, &share, &from));
+    // With a budget both views meet, the old one shows for the fade's frames.
+    c.budgetVpx = 1e9;
+    views.reset();
+    views.beginFrame(1, 1);
+    views.choose(0, a, c, cached);
+    views.drop(0);
+    views.beginFrame(1, 1);
+    const ViewId start = *views.choose(0, a, c, cached);
+    EXPECT_EQ(start, first);
+    // Force a switch: a view past a tiny budget is left, the new one is b's nearest.
+    SelectorConfig tight = c;
+    tight.budgetVpx = predictedBudgetUnits(b, nearestLadderView(1, -b.lattice.dir)) + 0.01;
+    views.beginFrame(1, 1);
+    views.choose(0, b, tight, cached);
+    std::vector<float> shares;
+    for (int f = 0; f < 5; ++f) {
+        if (f > 0) views.beginFrame(1, 1), views.choose(0, b, c, cached);
+        if (views.viewFade(0, b, c, cached, &share, &from)) {
+            shares.push_back(share);
+            EXPECT_EQ(from, first);
+        }
+    }
+    EXPECT_EQ(shares, (std::vector<float>{0.25f, 0.5f, 0.75f}));
+}
+
+} // namespace
+} // namespace voxtier
