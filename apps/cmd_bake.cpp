@@ -56,9 +56,9 @@ struct BakeArgs {
     // Pre-baking into an on-disk cache.
     CacheDirArgs cacheDir;
     bool viewsGiven = false, sigmaGiven = false; ///< else a scene's own
-    std::optional<int> level;                    ///< cube lattice n: 1 -> 26, 2 -> 98, 3 -> 218
-    bool allFrames = false;                      ///< --frames all
-    std::string shard;                           ///< "I/N" (readShard), "" = all the work
+    std::optional<int> level; ///< cube lattice n (1: 26, 2: 98, 3: 218 views ...)
+    bool allFrames = false;   ///< --frames all
+    std::string shard;        ///< "I/N" (readShard), "" = all the work
 };
 
 /// "I/N" -> {I, N}; nullopt unless 1 <= N <= 1000000 and 0 <= I < N.
@@ -91,9 +91,13 @@ std::string dimsText(glm::ivec3 d) {
     return std::to_string(d.x) + "x" + std::to_string(d.y) + "x" + std::to_string(d.z);
 }
 
-/// --level: the cube lattice {-n..n}^3 of level n.
-ViewSet viewSetOfLevel(int level) {
-    return std::array{ViewSet::Cube26, ViewSet::Cube98, ViewSet::Cube218}[std::size_t(level - 1)];
+/// The views to bake: --level n is the cube lattice {-n..n}^3 (the error-budget selector's
+/// ladder levels are n = 1, 2, 4, ... 64), --views one of the fixed sets (n = 1, 2, 3).
+std::vector<ViewId> viewsToBake(ViewSet set, std::optional<int> level) {
+    if (level) return cubeSurfaceViews(*level);
+    std::vector<ViewId> views;
+    for (int v = 0; v < viewCount(set); ++v) views.push_back(viewIdOf(set, v));
+    return views;
 }
 
 void runBake(const BakeArgs& a) {
@@ -107,7 +111,7 @@ void runBake(const BakeArgs& a) {
                              " frames");
     if (a.allFrames) throw CLI::ValidationError("--frames", "applies with --cache-dir only");
     if (!a.shard.empty()) throw CLI::ValidationError("--shard", "applies with --cache-dir only");
-    const ViewSet set = a.level ? viewSetOfLevel(*a.level) : a.views;
+    const std::vector<ViewId> views = viewsToBake(a.views, a.level);
     VoxelSceneOptions so;
     so.geometry = a.geometry;
     BakeOptions bo;
@@ -123,18 +127,18 @@ void runBake(const BakeArgs& a) {
     BakeStats stats;
     std::size_t bytes = 0;
     const auto t0 = BenchClock::now();
-    for (int v = 0; v < viewCount(set); ++v) {
+    for (ViewId v : views) {
         snaps.push_back(
-            std::make_shared<const Snapshot>(bakeSnapshot(scene, set, v, a.sigma, bo, &stats)));
+            std::make_shared<const Snapshot>(bakeSnapshot(scene, v, a.sigma, bo, &stats)));
         bytes += snaps.back()->bytes();
     }
     const double ms = msSince(t0);
     std::printf("baked %d views at sigma %g with %s: %.1f ms, %llu rays, %.2f Mrays/s, %zu bytes "
                 "of snapshots "
                 "(%.1f KB per view)\n",
-                viewCount(set), a.sigma, toString(bo.api), ms,
+                int(views.size()), a.sigma, toString(bo.api), ms,
                 static_cast<unsigned long long>(stats.rays), stats.rays / ms / 1e3, bytes,
-                bytes / 1024.0 / viewCount(set));
+                bytes / 1024.0 / double(views.size()));
     if (!a.sheet.empty()) {
         writeImage(a.sheet, makeContactSheet(snaps, model->palette()));
         std::printf("contact sheet -> %s\n", a.sheet.c_str());
@@ -151,15 +155,16 @@ bool isVox(const std::string& file) {
 struct BakeSource {
     std::string file;
     std::vector<NamedModel> models;
-    ViewSet views = ViewSet::Cube26;
+    std::vector<ViewId> views; ///< every view of every model frame
     double sigma = 1.0;
 };
 
 /// A .vox gives the --model model (every model of the file with --frames all: a multi-model
-/// file is often an animation); a scene gives its models at its own view set and sigma. The
-/// command line's --views / --level / --sigma override both.
+/// file is often an animation); a scene gives its models at its own view set and sigma (with the
+/// error-budget selector: every view of its ladder_cap level, which holds every coarser level's
+/// views). The command line's --views / --level / --sigma override both.
 BakeSource loadSource(const std::string& file, const BakeArgs& a) {
-    BakeSource src{file, {}, ViewSet::Cube26, 1.0};
+    BakeSource src{file, {}, viewsToBake(ViewSet::Cube26, std::nullopt), 1.0};
     if (isVox(file)) {
         const VoxFile vox = readVoxFile(file);
         const std::string stem = std::filesystem::path(file).stem().string();
@@ -174,11 +179,12 @@ BakeSource loadSource(const std::string& file, const BakeArgs& a) {
     } else {
         const Scene scene = loadScene(file);
         for (const auto& m : scene.models) src.models.push_back({m->name(), m});
-        src.views = viewSetFromSize(scene.selector.viewSetSize);
+        src.views = scene.selector.metric == SelectorMetric::ErrorBudget
+                        ? cubeSurfaceViews(scene.selector.ladderCap)
+                        : viewsToBake(viewSetFromSize(scene.selector.viewSetSize), std::nullopt);
         src.sigma = scene.render.sigma;
     }
-    if (a.level) src.views = viewSetOfLevel(*a.level);
-    if (a.viewsGiven) src.views = a.views;
+    if (a.level || a.viewsGiven) src.views = viewsToBake(a.views, a.level);
     if (a.sigmaGiven) src.sigma = a.sigma;
     return src;
 }
@@ -235,9 +241,10 @@ void runPrebake(const BakeArgs& a) {
         const BakeItem& it = items[i];
         const SnapshotCacheCounters before = cache.counters();
         const auto t1 = std::chrono::steady_clock::now();
-        const int n = viewCount(it.source->views);
+        const std::vector<ViewId>& viewList = it.source->views;
+        const int n = int(viewList.size());
         tbb::parallel_for(0, n, [&](int v) {
-            cache.get(*it.model->model, it.frame, it.source->views, v, it.source->sigma);
+            cache.get(*it.model->model, it.frame, viewList[std::size_t(v)], it.source->sigma);
         });
         views += std::uint64_t(n);
         const SnapshotCacheCounters after = cache.counters();
@@ -385,8 +392,9 @@ void addBakeCommand(CLI::App& app) {
             ->transform(oneOf(viewSetNames(), "view set"))
             ->default_str(nameOf(viewSetNames(), args->views));
     cmd->add_option("--level", args->level,
-                    "View set as the cube lattice level n (1: 26, 2: 98, 3: 218 views)")
-        ->check(intIn(1, 3))
+                    "View set as the cube lattice {-n..n}^3 of level n (1: 26, 2: 98, 3: 218, 4: "
+                    "386 ... 64: 98,306 views; the error-budget ladder is 1, 2, 4, ... 64)")
+        ->check(intIn(1, 64))
         ->excludes(views);
     CLI::Option* sigma =
         cmd->add_option("--sigma", args->sigma,

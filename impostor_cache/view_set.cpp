@@ -147,6 +147,12 @@ long long cubeSurfaceCount(int n) {
     return 24LL * n * n + 2;
 }
 
+std::vector<ViewId> cubeSurfaceViews(int n) {
+    std::vector<ViewId> views;
+    for (glm::ivec3 p : latticeSet(n)) views.push_back(viewIdOf(p));
+    return views;
+}
+
 glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
     const glm::dvec3 a = glm::abs(towardViewer);
     const int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);

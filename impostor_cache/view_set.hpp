@@ -60,6 +60,9 @@ int nearestView(ViewSet set, glm::dvec3 towardViewer);
 inline constexpr std::array<int, 7> kViewLadder{1, 2, 4, 8, 16, 32, 64};
 /// Surface points of {-n..n}^3: (2n+1)^3 - (2n-1)^3 = 24n^2 + 2.
 long long cubeSurfaceCount(int n);
+/// Every view of the cube-surface lattice of size n (n >= 1), the 26 canonical ones first: what
+/// a pre-bake of ladder level n writes (n = 1, 2, 3 are the sets of 26, 98 and 218).
+std::vector<ViewId> cubeSurfaceViews(int n);
 
 /// The view of the cube-surface lattice of size n (any n >= 1) maximising
 /// viewDirection(p) . towardViewer, in O(1): towardViewer is projected onto its dominant cube face
