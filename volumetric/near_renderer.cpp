@@ -525,14 +525,9 @@ void NearRenderer::Impl::recordCellTrace(VkCommandBuffer cb, std::uint32_t tiles
     const std::uint32_t x = std::min(tiles, maxX);
     vkCmdDispatch(cb, x, (tiles + x - 1) / x, 1);
     // The draw's fragment shader reads what the dispatch wrote.
-    VkBufferMemoryBarrier b{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
-    b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-    b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
-    b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.buffer = cells.handle();
-    b.size = VK_WHOLE_SIZE;
-    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                         VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, 0, nullptr, 1, &b, 0, nullptr);
+    bufferBarrier(cb, cells.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+                  VK_ACCESS_SHADER_READ_BIT);
 }
 
 void NearRenderer::Impl::writeDescriptors() {
@@ -656,15 +651,9 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 1);
     if (opt.countSteps) {
         vkCmdFillBuffer(cb, counters.handle(), 0, VK_WHOLE_SIZE, 0);
-        VkBufferMemoryBarrier b{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
-        b.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-        b.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
-        b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-        b.buffer = counters.handle();
-        b.size = VK_WHOLE_SIZE;
-        vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                             VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, 0, 0, nullptr, 1, &b, 0,
-                             nullptr);
+        bufferBarrier(cb, counters.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
+                      VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     }
     VkClearValue clears[3]{};
     clears[0].color.uint32[0] = background;
@@ -702,14 +691,9 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     }
     vkCmdEndRenderPass(cb);
     if (opt.countSteps) {
-        VkBufferMemoryBarrier b{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
-        b.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
-        b.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-        b.srcQueueFamilyIndex = b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-        b.buffer = counters.handle();
-        b.size = VK_WHOLE_SIZE;
-        vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT,
-                             0, 0, nullptr, 1, &b, 0, nullptr);
+        bufferBarrier(cb, counters.handle(), VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+                      VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                      VK_ACCESS_HOST_READ_BIT);
     }
     VK_CHECK(vkEndCommandBuffer(cb));
     device.submitAndWait(cb);
@@ -738,14 +722,9 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
         vkCmdCopyImageToBuffer(cb, planes[i]->handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
                                readback.handle(), 1, &region);
     }
-    VkBufferMemoryBarrier hb{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
-    hb.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-    hb.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-    hb.srcQueueFamilyIndex = hb.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    hb.buffer = readback.handle();
-    hb.size = VK_WHOLE_SIZE;
-    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 0,
-                         nullptr, 1, &hb, 0, nullptr);
+    bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
+                  VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                  VK_ACCESS_HOST_READ_BIT);
     VK_CHECK(vkEndCommandBuffer(cb));
     device.submitAndWait(cb);
     Image img;
