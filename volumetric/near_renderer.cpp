@@ -494,7 +494,8 @@ std::uint32_t NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
     const std::size_t n = visible.size();
     ensureBuffer(cellBases, std::max<std::size_t>(n, 1) * sizeof(std::uint32_t),
                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-    std::memcpy(cellBases.mapped(), plan.cellBase.data(), n * sizeof(std::uint32_t));
+    // memcpy from an empty vector's data() (null) is undefined even for 0 bytes (UBSan).
+    if (n) std::memcpy(cellBases.mapped(), plan.cellBase.data(), n * sizeof(std::uint32_t));
     // The store is kept for the next frames and grows by doubling, never past the budget (the
     // plan never needs more than the budget).
     const VkDeviceSize need = plan.cells * sizeof(std::uint32_t);
@@ -511,7 +512,8 @@ std::uint32_t NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
     }
     ensureBuffer(cellTiles, std::max<std::size_t>(tiles.size(), 1) * sizeof(glm::uvec2),
                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-    std::memcpy(cellTiles.mapped(), tiles.data(), tiles.size() * sizeof(glm::uvec2));
+    if (!tiles.empty())
+        std::memcpy(cellTiles.mapped(), tiles.data(), tiles.size() * sizeof(glm::uvec2));
     return std::uint32_t(tiles.size());
 }
 
