@@ -162,6 +162,24 @@ VT_FN uint vtUnpackOutcome(uint outcome, VT_OUT(uint) index, VT_OUT(uint) face) 
 VT_FN uint vtCellRowLength(VT_IN(SpriteGpu) s) {
     return uint(s.cellRange.y - s.cellRange.x + 1);
 }
+// Whether a cell lies in cellRange. Cells outside it cannot be non-empty, so their primary rays
+// miss (core/sprite.cpp grows the projected model box by two cells: the outline ring and one
+// cell of slack for float error).
+VT_FN bool vtCellInRange(VT_IN(SpriteGpu) s, ivec2 cell) {
+    return cell.x >= s.cellRange.x && cell.x <= s.cellRange.y && cell.y >= s.cellRange.z &&
+           cell.y <= s.cellRange.w;
+}
+// §3.7 from stored primary outcomes: a cell's four neighbour rays are exactly the neighbours' own
+// primary rays (vtShadeCell), so a cell-rate sprite traces only the primary ray of each cell and
+// folds the outline in afterwards. Arguments: packed primary outcomes (vtPackOutcome, kind SOLID
+// or EMPTY) of the cell and of its four cardinal neighbours (EMPTY outside cellRange). Returns
+// what vtShadeCell returns for the cell, packed.
+VT_FN uint vtOutcomeFromPrimaries(uint self, uint left, uint right, uint down, uint up) {
+    if ((self & 3u) != VT_KIND_EMPTY) return self;
+    if (((left | right | down | up) & 3u) != VT_KIND_EMPTY)
+        return vtPackOutcome(VT_KIND_OUTLINE, 0u, 0u);
+    return vtPackOutcome(VT_KIND_EMPTY, 0u, 0u);
+}
 // Index of a cell of cellRange in the row-by-row store, and back.
 VT_FN uint vtCellSlot(VT_IN(SpriteGpu) s, ivec2 cell) {
     return uint(cell.y - s.cellRange.z) * vtCellRowLength(s) + uint(cell.x - s.cellRange.x);
@@ -310,12 +328,13 @@ template <class Voxels> struct SpriteTracer {
         return VT_KIND_EMPTY;
     }
 
-    // The packed outcome (vtPackOutcome) of one cell: what a cell-rate sprite stores per cell.
-    VT_FN uint vtTraceCellOutcome(VT_IN(SpriteGpu) s, ivec2 cell) {
+    // The packed primary outcome of one cell (SOLID with index and face, or EMPTY): what a
+    // cell-rate sprite traces per cell before vtOutcomeFromPrimaries adds the outline.
+    VT_FN uint vtTraceCellPrimary(VT_IN(SpriteGpu) s, ivec2 cell) {
         uint index;
         uint face;
-        uint kind = vtShadeCell(s, cell, index, face);
-        return vtPackOutcome(kind, index, face);
+        if (vtTrace(s, cell, index, face)) return vtPackOutcome(VT_KIND_SOLID, index, face);
+        return vtPackOutcome(VT_KIND_EMPTY, 0u, 0u);
     }
 
     // One pixel of one sprite: VT_KIND_*, with palette index and face code when solid.

@@ -1,5 +1,6 @@
 // Cell-rate sprites on Vulkan (volumetric/near_rate.hpp, DESIGN.md §3.11): one compute dispatch
-// traces every cell of the frame's cell-rate sprites, the draw looks them up. The image equals
+// traces every cell of the frame's cell-rate sprites, a second splats their pixels' depth ranks,
+// the draw skips them and a resolve pass shades them over its result. The image equals
 // the per-pixel Vulkan image and the CPU reference pixel for pixel (colour, depth bits, id), and
 // the validation layer (synchronization validation included) stays silent.
 #include "core/model_view.hpp"
@@ -114,16 +115,63 @@ TEST_F(VulkanCellRate, SpritesPastTheCellBudgetFallBackToPerPixel) {
     const Scene scene = test::hardCaseWorld(glm::dvec3(0.0));
     const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
     const auto sprites = setupSprites(scene, cam, 0.0);
-    const std::uint64_t firstBytes = cellCount(sprites[0]) * sizeof(std::uint32_t);
+    const std::uint64_t firstBytes = cellCount(sprites[0]) * kCellStoreBytesPerCell;
     const NearStats tight =
         expectMatchesReference(scene, NearRate::Cell, "tight budget", firstBytes);
     EXPECT_GE(tight.cellSprites, 1u);
     EXPECT_GE(tight.cellOverBudget, 1u);
     EXPECT_EQ(tight.cellSprites + tight.cellOverBudget, tight.sprites);
-    EXPECT_LE(tight.cellsTraced * sizeof(std::uint32_t), firstBytes);
+    EXPECT_LE(tight.cellsTraced * kCellStoreBytesPerCell, firstBytes);
     const NearStats none = expectMatchesReference(scene, NearRate::Cell, "no budget", 0);
     EXPECT_EQ(none.cellSprites, 0u);
     EXPECT_EQ(none.cellOverBudget, none.sprites);
+}
+
+// Equal depth across the two paths: a cell-rate sprite (splat + resolve) and a per-pixel one
+// (drawn) overlapping at the same depth, the lower entity id on either path. The cell budget
+// picks which one is cell-rate: the plan goes in entity order and skips what does not fit.
+TEST_F(VulkanCellRate, EqualDepthTiesBetweenCellRateAndPerPixelSprites) {
+    for (bool smallFirst : {true, false}) {
+        Scene scene = test::equalDepthPair();
+        scene.models[smallFirst ? 1 : 0] = test::solidBox({9, 9, 9}, 7);
+        const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+        const auto sprites = setupSprites(scene, cam, 0.0);
+        ASSERT_EQ(sprites[0].gpu.depth, sprites[1].gpu.depth);
+        const std::size_t small = smallFirst ? 0 : 1;
+        const std::uint64_t budget = cellCount(sprites[small]) * kCellStoreBytesPerCell;
+        const std::string what = smallFirst ? "cell-rate sprite first" : "per-pixel sprite first";
+        const NearStats st = expectMatchesReference(scene, NearRate::Cell, what, budget);
+        EXPECT_EQ(st.cellSprites, 1u) << what;
+        EXPECT_EQ(st.cellOverBudget, 1u) << what;
+        // Both sprites show: the tie really was decided between the two paths.
+        const auto r = test::renderBoth(nearRenderer(), scene, 0.0, {});
+        EXPECT_GT(r.near.countEntity(sprites[0].entityId), 0u);
+        EXPECT_GT(r.near.countEntity(sprites[1].entityId), 0u);
+    }
+}
+
+// Sprites mid cross-fade (both dither sides) drawn cell-rate: the splat applies the dither.
+TEST_F(VulkanCellRate, CrossFadingSpritesAtCellRate) {
+    for (const char* file : {"scenes/golden/crowd.json", "scenes/golden/equal_depth.json"}) {
+        const Scene scene = loadScene(sourcePath(file));
+        const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+        std::vector<SpriteSetup> sprites = setupSprites(scene, cam, 0.0);
+        for (std::size_t i = 0; i < sprites.size(); ++i) {
+            sprites[i].gpu.fade = 0.375f;
+            sprites[i].gpu.fadeSide = i % 2 ? 1.0f : -1.0f;
+        }
+        Image reference(cam.width, cam.height, scene.render.background);
+        renderReference(scene.models, sprites, reference);
+        for (NearRate rate : {NearRate::Cell, NearRate::Auto}) {
+            NearOptions options;
+            options.rate = rate;
+            NearStats st;
+            const Image near = nearRenderer().render(cam, scene.models, sprites,
+                                                     scene.render.background, options, &st);
+            EXPECT_EQ(test::describeDifference(near, reference), "") << file;
+            if (rate == NearRate::Cell) EXPECT_EQ(st.cellSprites, st.sprites) << file;
+        }
+    }
 }
 
 // Frames of different cell counts one after another reuse and grow the one cell store.

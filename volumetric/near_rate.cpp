@@ -20,9 +20,10 @@ CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate 
                           std::uint64_t budgetBytes) {
     CellRatePlan plan;
     plan.cellBase.assign(sprites.size(), kNoCells);
-    // Offsets are uint32 on the GPU; kNoCells stays out of reach.
+    // Offsets (up to twice the cell count: the outcomes follow the primaries) are uint32 on the
+    // GPU; kNoCells stays out of reach.
     const std::uint64_t budgetCells =
-        std::min<std::uint64_t>(budgetBytes / sizeof(std::uint32_t), kNoCells - 1);
+        std::min<std::uint64_t>(budgetBytes / kCellStoreBytesPerCell, kNoCells / 2 - 1);
     for (std::size_t k = 0; k < sprites.size(); ++k) {
         const SpriteSetup& s = *sprites[k];
         if (!s.visible()) continue;

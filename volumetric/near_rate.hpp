@@ -1,10 +1,12 @@
 #pragma once
 // Cell-rate near sprites (DESIGN.md §3.11). A sprite's image is a function of its lattice cells
 // (§3.5): every pixel of a magnified sprite that lands in one cell traces that cell's very rays.
-// A cell-rate sprite traces each cell of its cellRange once (the kernel's vtTraceCellOutcome) and
-// shades its pixels by looking the cell up; the image is the same bit for bit, because the same
-// kernel functions run on the same floats and only the number of times they run changes. Both
-// near backends (the CPU reference and Vulkan) decide per sprite with planCellRate.
+// A cell-rate sprite traces each cell of its cellRange once (the kernel's vtTraceCellPrimary),
+// adds the outline from the neighbours' primaries (vtOutcomeFromPrimaries: they are exactly
+// vtShadeCell's neighbour rays) and shades its pixels by looking the cell up; the image is the same
+// bit for bit, because the same kernel functions run on the same floats and only the number of
+// times they run changes. Both near backends (the CPU reference and Vulkan) decide per sprite with
+// planCellRate.
 #include "core/sprite.hpp"
 
 #include <cstdint>
@@ -32,8 +34,11 @@ enum class NearRate {
 /// uses the same rule (its lookups are cheaper: a smaller k would do there too).
 inline constexpr double kCellRateCost = 4.0;
 
-/// Cell outcomes are one uint each; this many bytes per frame at most (a σ 16 crowd of 256³ models
-/// would need gigabytes). Sprites past the budget fall back to per-pixel tracing.
+/// Bytes of cell store per cell: the primary outcome and the full outcome, one uint each (the
+/// outline pass reads the first and writes the second).
+inline constexpr std::uint64_t kCellStoreBytesPerCell = 8;
+/// This many bytes of cell store per frame at most (a σ 16 crowd of 256³ models would need
+/// gigabytes). Sprites past the budget fall back to per-pixel tracing.
 inline constexpr std::uint64_t kDefaultCellBudgetBytes = std::uint64_t(64) << 20;
 
 /// Marks a sprite that is traced per pixel in CellRatePlan::cellBase.

@@ -12,10 +12,13 @@
 
 // SPIR-V generated at build time by glslangValidator (volumetric/CMakeLists.txt).
 #include "shaders/near_box_vert.h"
+#include "shaders/near_cell_outline_comp.h"
 #include "shaders/near_cells_comp.h"
 #include "shaders/near_frag.h"
 #include "shaders/near_hull_vert.h"
 #include "shaders/near_quad_vert.h"
+#include "shaders/near_resolve_comp.h"
+#include "shaders/near_splat_comp.h"
 #include "shaders/near_steps_frag.h"
 
 namespace voxtier {
@@ -106,24 +109,31 @@ struct NearRenderer::Impl {
     VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
     VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
     VkRenderPass renderPass = VK_NULL_HANDLE;
-    VkPipeline pipelines[3][2] = {};          ///< [proxy][countSteps], created on first use
-    VkPipeline cellPipeline = VK_NULL_HANDLE; ///< the cell-rate compute pass, created on first use
+    VkPipeline pipelines[3][2] = {}; ///< [proxy][countSteps], created on first use
+    /// The cell-rate compute passes (trace, outline, splat, resolve), created on first use.
+    enum ComputePass { TraceCells, Outline, Splat, Resolve, ComputePassCount };
+    VkPipeline computePipelines[ComputePassCount] = {};
     VkQueryPool statsPool = VK_NULL_HANDLE;
-    VkQueryPool timePool = VK_NULL_HANDLE; ///< frame start, cell-rate compute pass done
+    /// Cell-rate compute time: frame start, trace + splat done; resolve start, resolve done.
+    VkQueryPool timePool = VK_NULL_HANDLE;
     VkCommandBuffer drawCb = VK_NULL_HANDLE;
     VkCommandBuffer readCb = VK_NULL_HANDLE;
 
-    // Render targets, re-created when the image size changes.
+    // Render targets, re-created when the image size changes; the readback buffer is also
+    // where near_resolve.comp writes the cell-rate sprites, and pixelRanks holds the splat's
+    // least rank per pixel (device-local).
     int width = 0, height = 0;
     VulkanImage color, id, depth;
     VkFramebuffer framebuffer = VK_NULL_HANDLE;
-    VulkanBuffer readback;
+    VulkanBuffer readback, pixelRanks;
 
     // Per-frame data (host-visible, coherent) and the step counters.
     VulkanBuffer sprites, boxes, hulls, counters;
-    // Cell-rate (near_rate.hpp): per-sprite cell offsets and the compute tiles (host-visible,
-    // written per frame), and the cell store (device-local, grown up to the budget, reused).
-    VulkanBuffer cellBases, cellTiles, cells;
+    // Cell-rate (near_rate.hpp): per-sprite cell offsets, the compute tiles, the splat blocks
+    // and the depth ranks (host-visible, written per frame), and the cell store (device-local,
+    // grown up to the budget, reused).
+    VulkanBuffer cellBases, cellTiles, splatBlocks, splatRanks, cells;
+    std::uint32_t frameCells = 0; ///< cells of this frame's plan (where the outcomes start)
 
     Impl(const VulkanDeviceOptions& options, std::shared_ptr<VulkanMessageLog> log)
         : device(options, std::move(log)), residency(device) {
@@ -139,12 +149,19 @@ struct NearRenderer::Impl {
     void create();
     void destroy() noexcept;
     VkPipeline pipeline(NearProxy proxy, bool countSteps);
-    VkPipeline cellTracePipeline();
-    /// Writes the per-sprite cell offsets and the compute tiles of `plan`; returns the tiles.
-    std::uint32_t prepareCells(const CellRatePlan& plan,
-                               const std::vector<const SpriteSetup*>& visible,
-                               std::uint64_t budgetBytes);
-    void recordCellTrace(VkCommandBuffer cb, std::uint32_t tiles);
+    VkPipeline computePipeline(ComputePass pass);
+    struct CellWork {
+        std::uint32_t tiles = 0;  ///< near_cells.comp workgroups
+        std::uint32_t blocks = 0; ///< near_splat.comp workgroups
+    };
+    /// Writes the per-sprite cell offsets, the compute tiles, the splat blocks and the depth
+    /// ranks of `plan`.
+    CellWork prepareCells(const CellRatePlan& plan, const std::vector<const SpriteSetup*>& visible,
+                          std::uint64_t budgetBytes);
+    void dispatch(VkCommandBuffer cb, ComputePass pass, std::uint32_t count, std::uint32_t groupsX,
+                  std::uint32_t groupsY);
+    void recordCellPasses(VkCommandBuffer cb, CellWork work);
+    void recordResolve(VkCommandBuffer cb, std::uint32_t sprites);
     void ensureTargets(int w, int h);
     void ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes, VkBufferUsageFlags usage,
                       bool hostVisible = true);
@@ -166,23 +183,27 @@ void NearRenderer::Impl::create() {
     VK_CHECK(vkCreateSampler(dev, &sci, nullptr, &sampler));
 
     using namespace near_gpu;
-    const VkShaderStageFlags fc = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
+    const VkShaderStageFlags c = VK_SHADER_STAGE_COMPUTE_BIT;
+    const VkShaderStageFlags fc = VK_SHADER_STAGE_FRAGMENT_BIT | c;
     const VkShaderStageFlags vfc = VK_SHADER_STAGE_VERTEX_BIT | fc;
+    const VkShaderStageFlags vc = VK_SHADER_STAGE_VERTEX_BIT | c;
     const VkDescriptorSetLayoutBinding bindings[] = {
         {NEAR_BINDING_SPRITES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, vfc, nullptr},
         {NEAR_BINDING_ATLAS, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, fc, nullptr},
-        {NEAR_BINDING_PALETTES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
-         nullptr},
+        {NEAR_BINDING_PALETTES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, fc, nullptr},
         {NEAR_BINDING_COUNTERS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
          nullptr},
         {NEAR_BINDING_BOXES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT,
          nullptr},
         {NEAR_BINDING_HULLS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_VERTEX_BIT,
          nullptr},
-        {NEAR_BINDING_CELL_BASES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, fc, nullptr},
-        {NEAR_BINDING_CELLS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, fc, nullptr},
-        {NEAR_BINDING_CELL_TILES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT,
-         nullptr},
+        {NEAR_BINDING_CELL_BASES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, vc, nullptr},
+        {NEAR_BINDING_CELLS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_CELL_TILES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_SPLAT_BLOCKS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_SPLAT_RANKS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_PIXEL_RANKS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_READBACK, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
     };
     VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
     dli.bindingCount = std::uint32_t(std::size(bindings));
@@ -192,12 +213,12 @@ void NearRenderer::Impl::create() {
     VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
     pli.setLayoutCount = 1;
     pli.pSetLayouts = &setLayout;
-    const VkPushConstantRange tileCount{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(std::uint32_t)};
+    const VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(NearComputePush)};
     pli.pushConstantRangeCount = 1;
-    pli.pPushConstantRanges = &tileCount;
+    pli.pPushConstantRanges = &push;
     VK_CHECK(vkCreatePipelineLayout(dev, &pli, nullptr, &pipelineLayout));
 
-    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 8},
+    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 12},
                                           {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1}};
     VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     dpi.maxSets = 1;
@@ -265,7 +286,7 @@ void NearRenderer::Impl::create() {
     if (device.properties().limits.timestampComputeAndGraphics) {
         VkQueryPoolCreateInfo qpi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
         qpi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-        qpi.queryCount = 2;
+        qpi.queryCount = 4;
         VK_CHECK(vkCreateQueryPool(dev, &qpi, nullptr, &timePool));
     }
 
@@ -279,6 +300,8 @@ void NearRenderer::Impl::create() {
     ensureBuffer(hulls, sizeof(near_gpu::NearHull) * 64, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     ensureBuffer(cellBases, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     ensureBuffer(cellTiles, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(splatBlocks, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(splatRanks, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     ensureBuffer(cells, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, false);
 }
 
@@ -291,20 +314,25 @@ void NearRenderer::Impl::destroy() noexcept {
             if (p) vkDestroyPipeline(dev, p, nullptr);
             p = VK_NULL_HANDLE;
         }
-    if (cellPipeline) vkDestroyPipeline(dev, cellPipeline, nullptr);
-    cellPipeline = VK_NULL_HANDLE;
+    for (VkPipeline& p : computePipelines) {
+        if (p) vkDestroyPipeline(dev, p, nullptr);
+        p = VK_NULL_HANDLE;
+    }
     if (framebuffer) vkDestroyFramebuffer(dev, framebuffer, nullptr);
     framebuffer = VK_NULL_HANDLE;
     color.reset();
     id.reset();
     depth.reset();
     readback.reset();
+    pixelRanks.reset();
     sprites.reset();
     boxes.reset();
     hulls.reset();
     counters.reset();
     cellBases.reset();
     cellTiles.reset();
+    splatBlocks.reset();
+    splatRanks.reset();
     cells.reset();
     device.freeCommandBuffer(drawCb);
     device.freeCommandBuffer(readCb);
@@ -450,8 +478,13 @@ void NearRenderer::Impl::ensureTargets(int w, int h) {
     fci.height = std::uint32_t(h);
     fci.layers = 1;
     VK_CHECK(vkCreateFramebuffer(dev, &fci, nullptr, &framebuffer));
-    readback = VulkanBuffer(device, VkDeviceSize(w) * VkDeviceSize(h) * 12,
-                            VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
+    const VkDeviceSize plane = VkDeviceSize(w) * VkDeviceSize(h) * 4;
+    readback =
+        VulkanBuffer(device, 3 * plane,
+                     VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
+    pixelRanks =
+        VulkanBuffer(device, plane,
+                     VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, false);
     width = w;
     height = h;
 }
@@ -464,12 +497,18 @@ void NearRenderer::Impl::ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes, VkBuf
     b = VulkanBuffer(device, size, usage, hostVisible);
 }
 
-VkPipeline NearRenderer::Impl::cellTracePipeline() {
-    if (cellPipeline) return cellPipeline;
+VkPipeline NearRenderer::Impl::computePipeline(ComputePass pass) {
+    VkPipeline& slot = computePipelines[pass];
+    if (slot) return slot;
     VkDevice dev = device.device();
     VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-    mi.codeSize = sizeof(near_cells_comp);
-    mi.pCode = near_cells_comp;
+    const std::span<const std::uint32_t> code =
+        pass == TraceCells ? std::span<const std::uint32_t>(near_cells_comp)
+        : pass == Outline  ? std::span<const std::uint32_t>(near_cell_outline_comp)
+        : pass == Splat    ? std::span<const std::uint32_t>(near_splat_comp)
+                           : std::span<const std::uint32_t>(near_resolve_comp);
+    mi.codeSize = code.size_bytes();
+    mi.pCode = code.data();
     VkShaderModule module = VK_NULL_HANDLE;
     VK_CHECK(vkCreateShaderModule(dev, &mi, nullptr, &module));
     VkComputePipelineCreateInfo cpi{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
@@ -481,16 +520,17 @@ VkPipeline NearRenderer::Impl::cellTracePipeline() {
                  "main",
                  nullptr};
     cpi.layout = pipelineLayout;
-    const VkResult r =
-        vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &cpi, nullptr, &cellPipeline);
+    const VkResult r = vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &cpi, nullptr, &slot);
     vkDestroyShaderModule(dev, module, nullptr);
     VK_CHECK(r);
-    return cellPipeline;
+    return slot;
 }
 
-std::uint32_t NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
-                                               const std::vector<const SpriteSetup*>& visible,
-                                               std::uint64_t budgetBytes) {
+NearRenderer::Impl::CellWork
+NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
+                                 const std::vector<const SpriteSetup*>& visible,
+                                 std::uint64_t budgetBytes) {
+    using near_gpu::NEAR_SPLAT_BLOCK;
     const std::size_t n = visible.size();
     ensureBuffer(cellBases, std::max<std::size_t>(n, 1) * sizeof(std::uint32_t),
                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
@@ -498,38 +538,98 @@ std::uint32_t NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
     if (n) std::memcpy(cellBases.mapped(), plan.cellBase.data(), n * sizeof(std::uint32_t));
     // The store is kept for the next frames and grows by doubling, never past the budget (the
     // plan never needs more than the budget).
-    const VkDeviceSize need = plan.cells * sizeof(std::uint32_t);
+    const VkDeviceSize need = plan.cells * kCellStoreBytesPerCell;
     if (cells.size() < need)
         cells = VulkanBuffer(device,
                              std::max(need, std::min<VkDeviceSize>(2 * cells.size(), budgetBytes)),
                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, false);
     std::vector<glm::uvec2> tiles;
+    std::vector<near_gpu::NearSplatBlock> blocks;
+    std::vector<std::uint32_t> byDepth; // cell-rate sprites, nearest first, ties by entity id
     for (std::size_t k = 0; k < n; ++k) {
         if (plan.cellBase[k] == kNoCells) continue;
+        byDepth.push_back(std::uint32_t(k));
         const std::uint64_t count = cellCount(*visible[k]);
         for (std::uint64_t first = 0; first < count; first += near_gpu::NEAR_CELL_TILE)
             tiles.push_back({std::uint32_t(k), std::uint32_t(first)});
+        const glm::ivec4 r =
+            glm::min(visible[k]->screenRect, glm::ivec4(width, height, width, height));
+        const std::uint32_t end = std::uint32_t(r.z) | std::uint32_t(r.w) << 16;
+        for (int y = r.y; y < r.w; y += int(NEAR_SPLAT_BLOCK))
+            for (int x = r.x; x < r.z; x += int(NEAR_SPLAT_BLOCK))
+                blocks.push_back(
+                    {std::uint32_t(k), std::uint32_t(x) | std::uint32_t(y) << 16, end, 0});
     }
-    ensureBuffer(cellTiles, std::max<std::size_t>(tiles.size(), 1) * sizeof(glm::uvec2),
-                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-    if (!tiles.empty())
-        std::memcpy(cellTiles.mapped(), tiles.data(), tiles.size() * sizeof(glm::uvec2));
-    return std::uint32_t(tiles.size());
+    // `visible` is in ascending entity id, so a stable sort by depth alone gives
+    // Image::writeIfNearer's order: the least rank in a pixel is the sprite the depth test keeps.
+    std::stable_sort(byDepth.begin(), byDepth.end(), [&](std::uint32_t a, std::uint32_t b) {
+        return visible[a]->gpu.depth > visible[b]->gpu.depth;
+    });
+    std::vector<std::uint32_t> ranks(2 * n, near_gpu::NEAR_NO_RANK);
+    for (std::size_t r = 0; r < byDepth.size(); ++r) {
+        ranks[byDepth[r]] = std::uint32_t(r);
+        ranks[n + r] = byDepth[r];
+    }
+    const auto upload = [&](VulkanBuffer& b, const auto& v) {
+        const std::size_t bytes = v.size() * sizeof(v[0]);
+        ensureBuffer(b, std::max<std::size_t>(bytes, 4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+        if (bytes) std::memcpy(b.mapped(), v.data(), bytes);
+    };
+    upload(cellTiles, tiles);
+    upload(splatBlocks, blocks);
+    upload(splatRanks, ranks);
+    return {std::uint32_t(tiles.size()), std::uint32_t(blocks.size())};
 }
 
-void NearRenderer::Impl::recordCellTrace(VkCommandBuffer cb, std::uint32_t tiles) {
-    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, cellTracePipeline());
+void NearRenderer::Impl::dispatch(VkCommandBuffer cb, ComputePass pass, std::uint32_t count,
+                                  std::uint32_t groupsX, std::uint32_t groupsY) {
+    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, computePipeline(pass));
     vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout, 0, 1,
                             &descriptorSet, 0, nullptr);
-    vkCmdPushConstants(cb, pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof tiles, &tiles);
-    // One workgroup per tile, as a 2D grid when there are more tiles than one dimension allows.
+    const near_gpu::NearComputePush push{count, std::uint32_t(width), std::uint32_t(height),
+                                         frameCells};
+    vkCmdPushConstants(cb, pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+    vkCmdDispatch(cb, groupsX, groupsY, 1);
+}
+
+void NearRenderer::Impl::recordCellPasses(VkCommandBuffer cb, CellWork work) {
+    // A list of workgroups as a 2D grid when there are more than one dimension allows.
     const std::uint32_t maxX = device.properties().limits.maxComputeWorkGroupCount[0];
-    const std::uint32_t x = std::min(tiles, maxX);
-    vkCmdDispatch(cb, x, (tiles + x - 1) / x, 1);
-    // The draw's fragment shader reads what the dispatch wrote.
-    bufferBarrier(cb, cells.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                  VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+    const auto grid = [&](ComputePass pass, std::uint32_t groups) {
+        const std::uint32_t x = std::min(groups, maxX);
+        dispatch(cb, pass, groups, x, (groups + x - 1) / x);
+    };
+    const auto cellsWritten = [&] {
+        bufferBarrier(cb, cells.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    };
+    grid(TraceCells, work.tiles);
+    cellsWritten(); // the outline pass reads the primaries
+    grid(Outline, work.tiles);
+    vkCmdFillBuffer(cb, pixelRanks.handle(), 0, VK_WHOLE_SIZE, near_gpu::NEAR_NO_RANK);
+    // The splat reads the outcomes and min-writes the cleared ranks.
+    cellsWritten();
+    bufferBarrier(cb, pixelRanks.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
+                  VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    if (work.blocks) grid(Splat, work.blocks);
+}
+
+void NearRenderer::Impl::recordResolve(VkCommandBuffer cb, std::uint32_t sprites) {
+    // After the copy of the drawn targets into the readback buffer (this command buffer) and the
+    // splat (the frame's draw submission, earlier on the same queue).
+    bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
+                  VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    bufferBarrier(cb, pixelRanks.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT);
+    const std::uint32_t b = near_gpu::NEAR_SPLAT_BLOCK;
+    dispatch(cb, Resolve, sprites, (std::uint32_t(width) + b - 1) / b,
+             (std::uint32_t(height) + b - 1) / b);
+    bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
 }
 
 void NearRenderer::Impl::writeDescriptors() {
@@ -545,29 +645,33 @@ void NearRenderer::Impl::writeDescriptors() {
     const VkDescriptorBufferInfo cellBaseInfo{cellBases.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorBufferInfo cellInfo{cells.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorBufferInfo tileInfo{cellTiles.handle(), 0, VK_WHOLE_SIZE};
-    VkWriteDescriptorSet w[9]{};
-    const std::uint32_t binding[9] = {
-        NEAR_BINDING_SPRITES,    NEAR_BINDING_ATLAS, NEAR_BINDING_PALETTES,
-        NEAR_BINDING_COUNTERS,   NEAR_BINDING_BOXES, NEAR_BINDING_HULLS,
-        NEAR_BINDING_CELL_BASES, NEAR_BINDING_CELLS, NEAR_BINDING_CELL_TILES};
-    for (int i = 0; i < 9; ++i) {
+    const VkDescriptorBufferInfo blockInfo{splatBlocks.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo rankInfo{splatRanks.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo pixelRankInfo{pixelRanks.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo readbackInfo{readback.handle(), 0, VK_WHOLE_SIZE};
+    constexpr int kWrites = 13;
+    VkWriteDescriptorSet w[kWrites]{};
+    const std::uint32_t binding[kWrites] = {
+        NEAR_BINDING_SPRITES,      NEAR_BINDING_ATLAS,       NEAR_BINDING_PALETTES,
+        NEAR_BINDING_COUNTERS,     NEAR_BINDING_BOXES,       NEAR_BINDING_HULLS,
+        NEAR_BINDING_CELL_BASES,   NEAR_BINDING_CELLS,       NEAR_BINDING_CELL_TILES,
+        NEAR_BINDING_SPLAT_BLOCKS, NEAR_BINDING_SPLAT_RANKS, NEAR_BINDING_PIXEL_RANKS,
+        NEAR_BINDING_READBACK};
+    const VkDescriptorBufferInfo* buffers[kWrites] = {
+        &spriteInfo, nullptr,        &paletteInfo, &counterInfo, &boxInfo,
+        &hullInfo,   &cellBaseInfo,  &cellInfo,    &tileInfo,    &blockInfo,
+        &rankInfo,   &pixelRankInfo, &readbackInfo};
+    for (int i = 0; i < kWrites; ++i) {
         w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
         w[i].dstSet = descriptorSet;
         w[i].dstBinding = binding[i];
         w[i].descriptorCount = 1;
         w[i].descriptorType =
             i == 1 ? VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+        w[i].pBufferInfo = buffers[i];
     }
-    w[0].pBufferInfo = &spriteInfo;
     w[1].pImageInfo = &atlasInfo;
-    w[2].pBufferInfo = &paletteInfo;
-    w[3].pBufferInfo = &counterInfo;
-    w[4].pBufferInfo = &boxInfo;
-    w[5].pBufferInfo = &hullInfo;
-    w[6].pBufferInfo = &cellBaseInfo;
-    w[7].pBufferInfo = &cellInfo;
-    w[8].pBufferInfo = &tileInfo;
-    vkUpdateDescriptorSets(device.device(), 9, w, 0, nullptr);
+    vkUpdateDescriptorSets(device.device(), kWrites, w, 0, nullptr);
 }
 
 Image NearRenderer::Impl::render(const CameraFrame& cam,
@@ -626,13 +730,18 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
                 hull[i].corner[k] = glm::vec4(corners[k]);
         }
     }
-    const CellRatePlan plan = planCellRate(visible, opt.rate, opt.cellBudgetBytes);
+    // The resolve pass binds the whole readback buffer; past the device's storage-buffer range
+    // (a huge image) every sprite is traced per pixel.
+    const bool resolvable = readback.size() <= device.properties().limits.maxStorageBufferRange;
+    const CellRatePlan plan =
+        planCellRate(visible, resolvable ? opt.rate : NearRate::Fragment, opt.cellBudgetBytes);
     stats.cellsTraced = plan.cells;
     stats.cellSprites = plan.cellSprites;
     stats.cellOverBudget = plan.overBudget;
     stats.pixelsTraced = plan.pixelsTraced;
     stats.pixelsLookedUp = plan.pixelsLookedUp;
-    const std::uint32_t tiles = prepareCells(plan, visible, opt.cellBudgetBytes);
+    const CellWork work = prepareCells(plan, visible, opt.cellBudgetBytes);
+    frameCells = std::uint32_t(plan.cells);
     writeDescriptors();
     const VkPipeline pipe = n ? pipeline(opt.proxy, opt.countSteps) : VK_NULL_HANDLE;
     const bool query = opt.pipelineStatistics && statsPool && n;
@@ -643,13 +752,14 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     VK_CHECK(vkBeginCommandBuffer(cb, &bi));
     if (query) vkCmdResetQueryPool(cb, statsPool, 0, 1);
-    const bool timed = timePool && tiles;
+    const bool timed = timePool && work.tiles;
     if (timed) {
-        vkCmdResetQueryPool(cb, timePool, 0, 2);
+        vkCmdResetQueryPool(cb, timePool, 0, 4);
         vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timePool, 0);
     }
-    // Cell-rate sprites: every cell traced once, before the draw that looks them up.
-    if (tiles) recordCellTrace(cb, tiles);
+    // Cell-rate sprites: every cell traced once, then every pixel of theirs splatted; the draw
+    // below skips them, the resolve after it shades them.
+    if (work.tiles) recordCellPasses(cb, work);
     if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 1);
     if (opt.countSteps) {
         vkCmdFillBuffer(cb, counters.handle(), 0, VK_WHOLE_SIZE, 0);
@@ -700,12 +810,12 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     VK_CHECK(vkEndCommandBuffer(cb));
     device.submitAndWait(cb);
     stats.drawMs = msSince(tDraw);
+    const double tickMs = double(device.properties().limits.timestampPeriod) * 1e-6;
     if (timed) {
         std::uint64_t t[2] = {};
         VK_CHECK(vkGetQueryPoolResults(device.device(), timePool, 0, 2, sizeof t, t, sizeof t[0],
                                        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-        stats.computeMs =
-            double(t[1] - t[0]) * double(device.properties().limits.timestampPeriod) * 1e-6;
+        stats.computeMs = double(t[1] - t[0]) * tickMs;
         stats.drawMs = std::max(0.0, stats.drawMs - stats.computeMs);
     }
 
@@ -724,11 +834,25 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
         vkCmdCopyImageToBuffer(cb, planes[i]->handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
                                readback.handle(), 1, &region);
     }
-    bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
-                  VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
-                  VK_ACCESS_HOST_READ_BIT);
+    if (work.blocks) {
+        if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, timePool, 2);
+        recordResolve(cb, std::uint32_t(n));
+        if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 3);
+    } else {
+        bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
+                      VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                      VK_ACCESS_HOST_READ_BIT);
+    }
     VK_CHECK(vkEndCommandBuffer(cb));
     device.submitAndWait(cb);
+    double resolveMs = 0.0;
+    if (timed && work.blocks) {
+        std::uint64_t t[2] = {};
+        VK_CHECK(vkGetQueryPoolResults(device.device(), timePool, 2, 2, sizeof t, t, sizeof t[0],
+                                       VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+        resolveMs = double(t[1] - t[0]) * tickMs;
+        stats.computeMs += resolveMs;
+    }
     Image img;
     img.width = width;
     img.height = height;
@@ -741,7 +865,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     img.color.assign(colors, colors + count);
     img.id.assign(ids, ids + count);
     img.depth.assign(depths, depths + count);
-    stats.readbackMs = msSince(tRead);
+    stats.readbackMs = std::max(0.0, msSince(tRead) - resolveMs);
 
     if (query) {
         std::uint64_t invocations = 0;

@@ -56,7 +56,7 @@ struct NearOptions {
     /// Count fragment-shader invocations with a pipeline-statistics query (when supported).
     bool pipelineStatistics = true;
     /// Per-pixel or cell-rate tracing per sprite (near_rate.hpp): cell-rate sprites are traced
-    /// by one compute dispatch before the draw, which then looks their cells up.
+    /// once per cell and shaded per pixel by compute passes; the draw skips them.
     NearRate rate = NearRate::Auto;
     /// The frame's cell store never grows past this; sprites that do not fit trace per pixel.
     std::uint64_t cellBudgetBytes = kDefaultCellBudgetBytes;
@@ -80,11 +80,13 @@ struct NearStats {
     /// pixels traced and looked up; fragmentInvocations counts what the rasteriser ran).
     std::uint64_t cellsTraced = 0, cellSprites = 0, cellOverBudget = 0;
     std::uint64_t pixelsTraced = 0, pixelsLookedUp = 0;
-    /// GPU time of the cell-rate compute pass (timestamp queries; 0 without cell-rate sprites
-    /// or where the device has no timestamps).
+    /// GPU time of the cell-rate compute passes: trace, splat and resolve (timestamp queries; 0
+    /// without cell-rate sprites or where the device has no timestamps).
     double computeMs = 0.0;
-    double drawMs = 0.0;     ///< record + submit + wait of the frame's commands, less computeMs
-    double readbackMs = 0.0; ///< copy of the three targets to host memory + unpack into Image
+    double drawMs =
+        0.0; ///< record + submit + wait of the trace, splat and draw, less their compute
+    /// Copy of the three targets to host memory + unpack into Image, less the resolve pass.
+    double readbackMs = 0.0;
 };
 
 class NearRenderer {

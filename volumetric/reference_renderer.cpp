@@ -31,36 +31,55 @@ struct RowCounters {
     std::uint64_t tested = 0, inSprite = 0, written = 0, fetches = 0, traced = 0, lookedUp = 0;
 };
 
-/// Pass 1 of cell-rate (near_rate.hpp): every cell of every cell-rate sprite traced once with
-/// the kernel, TBB-parallel over sprites and their cell rows, into `cells` at the plan's offsets.
+/// Pass 1 of cell-rate (near_rate.hpp): the primary ray of every cell of every cell-rate sprite
+/// traced once with the kernel, then every cell's outcome from its and its neighbours' primaries
+/// (vtOutcomeFromPrimaries), TBB-parallel over sprites and their cell rows. Returns the outcomes
+/// at the plan's offsets.
 std::vector<kernel::uint>
 traceCellRateSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
                      std::span<const SpriteSetup* const> sprites, const CellRatePlan& plan,
                      tbb::combinable<RowCounters>& counters) {
-    std::vector<kernel::uint> cells(plan.cells);
+    std::vector<kernel::uint> primaries(plan.cells), outcomes(plan.cells);
     std::vector<std::size_t> cellSprites;
     for (std::size_t s = 0; s < sprites.size(); ++s)
         if (plan.cellBase[s] != kNoCells) cellSprites.push_back(s);
-    tbb::parallel_for(std::size_t(0), cellSprites.size(), [&](std::size_t k) {
-        const std::size_t s = cellSprites[k];
+    // Over the rows of every cell-rate sprite: body(sprite index, its SpriteGpu, first row, end).
+    const auto overRows = [&](const auto& body) {
+        tbb::parallel_for(std::size_t(0), cellSprites.size(), [&](std::size_t k) {
+            const std::size_t s = cellSprites[k];
+            const kernel::SpriteGpu& g = sprites[s]->gpu;
+            const int rows = g.cellRange.w - g.cellRange.z + 1;
+            tbb::parallel_for(tbb::blocked_range<int>(0, rows, 4),
+                              [&](const tbb::blocked_range<int>& r) {
+                                  const kernel::uint rowLength = kernel::vtCellRowLength(g);
+                                  body(s, g, kernel::uint(r.begin()) * rowLength,
+                                       kernel::uint(r.end()) * rowLength);
+                              });
+        });
+    };
+    overRows([&](std::size_t s, const kernel::SpriteGpu& g, kernel::uint first, kernel::uint last) {
         const SpriteSetup& sp = *sprites[s];
-        const kernel::SpriteGpu& g = sp.gpu;
-        const VoxelGrid& grid = models[std::size_t(sp.model)]->frame(sp.frame);
-        const kernel::uint rowLength = kernel::vtCellRowLength(g);
-        const int rows = g.cellRange.w - g.cellRange.z + 1;
-        tbb::parallel_for(tbb::blocked_range<int>(0, rows, 4),
-                          [&](const tbb::blocked_range<int>& r) {
-                              const auto voxels = voxelsOf<true>(grid);
-                              kernel::SpriteTracer<GridVoxels<true>> tracer{voxels};
-                              const kernel::uint first = kernel::uint(r.begin()) * rowLength;
-                              const kernel::uint last = kernel::uint(r.end()) * rowLength;
-                              for (kernel::uint slot = first; slot < last; ++slot)
-                                  cells[plan.cellBase[s] + slot] =
-                                      tracer.vtTraceCellOutcome(g, kernel::vtSlotCell(g, slot));
-                              counters.local().fetches += voxels.fetches;
-                          });
+        const auto voxels = voxelsOf<true>(models[std::size_t(sp.model)]->frame(sp.frame));
+        kernel::SpriteTracer<GridVoxels<true>> tracer{voxels};
+        for (kernel::uint slot = first; slot < last; ++slot)
+            primaries[plan.cellBase[s] + slot] =
+                tracer.vtTraceCellPrimary(g, kernel::vtSlotCell(g, slot));
+        counters.local().fetches += voxels.fetches;
     });
-    return cells;
+    overRows([&](std::size_t s, const kernel::SpriteGpu& g, kernel::uint first, kernel::uint last) {
+        const kernel::uint base = plan.cellBase[s];
+        const auto primaryAt = [&](glm::ivec2 c) {
+            return kernel::vtCellInRange(g, c) ? primaries[base + kernel::vtCellSlot(g, c)]
+                                               : kernel::VT_KIND_EMPTY;
+        };
+        for (kernel::uint slot = first; slot < last; ++slot) {
+            const glm::ivec2 c = kernel::vtSlotCell(g, slot);
+            outcomes[base + slot] = kernel::vtOutcomeFromPrimaries(
+                primaryAt(c), primaryAt(c + glm::ivec2(-1, 0)), primaryAt(c + glm::ivec2(1, 0)),
+                primaryAt(c + glm::ivec2(0, -1)), primaryAt(c + glm::ivec2(0, 1)));
+        }
+    });
+    return outcomes;
 }
 
 } // namespace

@@ -4,7 +4,8 @@
 // reference image bit for bit. Outputs: packed RGBA8 colour and entity id as R32_UINT (exact
 // integers, no unorm conversion) and the sprite's billboard depth (reversed-Z, DESIGN.md §3.8).
 // Compiled twice: as is, and with -DVT_COUNT_STEPS, which also counts voxel reads. Sprites drawn
-// cell-rate (volumetric/near_rate.hpp) look their cell's outcome up instead of tracing it.
+// cell-rate (volumetric/near_rate.hpp) never reach this stage: the proxy vertex shaders collapse
+// them, and the compute passes near_cells/near_splat/near_resolve draw them.
 #extension GL_GOOGLE_include_directive : require
 #include "volumetric/shaders/near_shared.h"
 
@@ -29,12 +30,6 @@ layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites 
 };
 layout(std430, set = 0, binding = NEAR_BINDING_PALETTES) readonly buffer Palettes {
     uint vtPalettes[];
-};
-layout(std430, set = 0, binding = NEAR_BINDING_CELL_BASES) readonly buffer CellBases {
-    uint vtCellBases[];
-};
-layout(std430, set = 0, binding = NEAR_BINDING_CELLS) readonly buffer Cells {
-    uint vtCells[];
 };
 #ifdef VT_COUNT_STEPS
 layout(std430, set = 0, binding = NEAR_BINDING_COUNTERS) buffer Counters {
@@ -62,18 +57,7 @@ void main() {
     vtAtlasBase = ivec3(s.atlas.xyz);
     uint index;
     uint face;
-    uint kind = VT_KIND_EMPTY;
-    uint cellBase = vtCellBases[vInstance];
-    if (cellBase == NEAR_NO_CELLS) {
-        kind = vtShadePixel(s, gl_FragCoord.xy, index, face);
-    } else {
-        // Cell-rate sprite: the compute pass traced this cell already (near_cells.comp).
-        ivec2 cell;
-        index = 0u;
-        face = 0u;
-        if (vtPixelCell(s, gl_FragCoord.xy, cell))
-            kind = vtUnpackOutcome(vtCells[cellBase + vtCellSlot(s, cell)], index, face);
-    }
+    uint kind = vtShadePixel(s, gl_FragCoord.xy, index, face);
 #ifdef VT_COUNT_STEPS
     vtCount64(0u, vtFetches);
     vtCount64(1u, 1u);

@@ -22,9 +22,15 @@ const int kBoxTriangles[36] = int[36](
     0, 2, 3, 0, 3, 1,  // -z
     4, 5, 7, 4, 7, 6); // +z
 
+layout(std430, set = 0, binding = NEAR_BINDING_CELL_BASES) readonly buffer CellBases {
+    uint vtCellBases[];
+};
+
 layout(location = 0) flat out uint vInstance;
 
 void main() {
     gl_Position = vtBoxes[gl_InstanceIndex].corner[kBoxTriangles[gl_VertexIndex]];
     vInstance = uint(gl_InstanceIndex);
+    // Cell-rate sprites are drawn by the compute passes: outside the clip volume, no fragments.
+    if (vtCellBases[gl_InstanceIndex] != NEAR_NO_CELLS) gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
 }

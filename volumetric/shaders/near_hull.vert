@@ -11,6 +11,10 @@ layout(std430, set = 0, binding = NEAR_BINDING_HULLS) readonly buffer Hulls {
     NearHull vtHulls[];
 };
 
+layout(std430, set = 0, binding = NEAR_BINDING_CELL_BASES) readonly buffer CellBases {
+    uint vtCellBases[];
+};
+
 layout(location = 0) flat out uint vInstance;
 
 void main() {
@@ -20,4 +24,6 @@ void main() {
     uint corner = (k == 0u || t + 2u >= count) ? 0u : t + k;
     gl_Position = vtHulls[gl_InstanceIndex].corner[corner];
     vInstance = uint(gl_InstanceIndex);
+    // Cell-rate sprites are drawn by the compute passes: outside the clip volume, no fragments.
+    if (vtCellBases[gl_InstanceIndex] != NEAR_NO_CELLS) gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
 }

@@ -13,9 +13,15 @@ layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites 
     SpriteGpu vtSprites[];
 };
 
+layout(std430, set = 0, binding = NEAR_BINDING_CELL_BASES) readonly buffer CellBases {
+    uint vtCellBases[];
+};
+
 layout(location = 0) flat out uint vInstance;
 
 void main() {
     gl_Position = vtSprites[gl_InstanceIndex].quad[gl_VertexIndex];
     vInstance = uint(gl_InstanceIndex);
+    // Cell-rate sprites are drawn by the compute passes: outside the clip volume, no fragments.
+    if (vtCellBases[gl_InstanceIndex] != NEAR_NO_CELLS) gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
 }

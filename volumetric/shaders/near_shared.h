@@ -36,6 +36,16 @@ VT_NEAR_CONST uint NEAR_BINDING_CELL_TILES = 8u;
 VT_NEAR_CONST uint NEAR_NO_CELLS = 0xFFFFFFFFu;
 // Cells per compute workgroup (one invocation per cell; a tile never spans two sprites).
 VT_NEAR_CONST uint NEAR_CELL_TILE = 64u;
+// Cell-rate sprites are shaded without the rasteriser (DESIGN.md §3.11): near_splat.comp takes
+// 32x32 pixel blocks of their screen rectangles (NearSplatBlock) and leaves in every pixel the
+// least depth rank of the cell-rate sprites that cover it (ranks: per sprite, then per rank the
+// sprite); near_resolve.comp shades those pixels into the readback buffer after the draw.
+VT_NEAR_CONST uint NEAR_BINDING_SPLAT_BLOCKS = 9u;
+VT_NEAR_CONST uint NEAR_BINDING_SPLAT_RANKS = 10u;
+VT_NEAR_CONST uint NEAR_BINDING_PIXEL_RANKS = 11u;
+VT_NEAR_CONST uint NEAR_BINDING_READBACK = 12u;
+VT_NEAR_CONST uint NEAR_NO_RANK = 0xFFFFFFFFu;
+VT_NEAR_CONST uint NEAR_SPLAT_BLOCK = 32u; // pixels per side of a splat / resolve workgroup
 
 // Vertices per instance: the quad is a 4-vertex triangle strip (SpriteGpu::quad); the box is a
 // 36-vertex triangle list (12 triangles) indexed by NEAR_BOX_TRIANGLES.
@@ -73,7 +83,29 @@ struct NearHull {
     uint pad2;
 };
 
+// One 32x32 block of a cell-rate sprite's screen rectangle: the sprite, the block's first pixel
+// and the rectangle's end (exclusive), x in the low 16 bits and y in the high 16 (images are at
+// most 16384 pixels wide).
+struct NearSplatBlock {
+    uint sprite;
+    uint origin;
+    uint end;
+    uint pad;
+};
+
+// Push constants of the compute passes: count = cell tiles (near_cells.comp,
+// near_cell_outline.comp), splat blocks (near_splat.comp) or drawn sprites (near_resolve.comp,
+// where the rank-to-sprite table starts); cells = the frame's cell count (the cell store holds
+// the primary outcomes, then the full outcomes from index `cells` on).
+struct NearComputePush {
+    uint count;
+    uint width;
+    uint height;
+    uint cells;
+};
+
 #ifdef __cplusplus
+static_assert(sizeof(NearSplatBlock) == 16 && sizeof(NearComputePush) == 16);
 static_assert(sizeof(NearHull) == 208 && offsetof(NearHull, count) == 192,
               "NearHull must match the std430 array stride in GLSL");
 static_assert(sizeof(NearCounters) == 16 && offsetof(NearCounters, fragmentsLo) == 8);
