@@ -245,11 +245,11 @@ TEST(ReferenceCellRate, AutoCrossoverIsStrict) {
     }
 }
 
-// Near the crossover (2 screen pixels per cell: P ~ 4 C) and on a 256^3 model: identical.
+// Near the crossover (one screen pixel per cell: P ~ C) and on a 256^3 model: identical.
 TEST(ReferenceCellRate, AtTheCrossoverAndOnA256CubedModel) {
     const auto bar = test::markedBar();
     for (double sigma : {0.9, 1.0, 1.1})
-        expectRatesAgree(test::viewAlong(bar, glm::dvec3(1, -2, 3), sigma, 2).scene,
+        expectRatesAgree(test::viewAlong(bar, glm::dvec3(1, -2, 3), sigma, 1).scene,
                          "crossover sigma " + std::to_string(sigma));
     const auto big = test::solidBox({256, 256, 256}, 3);
     const Scene bigScene = test::viewAlong(big, glm::dvec3(1, 2, 3), 0.5, 2).scene;
@@ -265,8 +265,12 @@ TEST(ReferenceCellRate, AutoChoosesByCellsAgainstPixels) {
     const RateImages close =
         renderAtRates(test::viewAlong(model, glm::dvec3(1, 2, 3), 1.0, 4).scene);
     EXPECT_EQ(close.autoStats.cellSprites, 1u);
-    const RateImages small =
-        renderAtRates(test::viewAlong(model, glm::dvec3(1, 2, 3), 3.0, 1).scene);
+    // A third of a pixel per cell: nine cells per pixel.
+    test::ViewSetup far = test::viewAlong(model, glm::dvec3(1, 2, 3), 1.0, 1);
+    Scene& sc = far.scene;
+    sc.camera.position =
+        sc.entities[0].position + (sc.camera.position - sc.entities[0].position) * 3.0;
+    const RateImages small = renderAtRates(sc);
     EXPECT_EQ(small.autoStats.cellSprites, 0u);
     EXPECT_GT(small.autoStats.pixelsTraced, 0u);
 }

@@ -67,6 +67,8 @@ TEST_F(NearMeasurements, OneDrawPerEntityGivesTheSameImageAsOneInstancedDraw) {
 
 // The hull proxy (the default: the model box's parallel projection grown by the kernel's reach and
 // 2 px) is exact like the quad, with fewer fragments: on every golden scene and the default scene.
+// Proxies are rasterised for per-pixel sprites only (cell-rate ones are drawn by compute passes),
+// so these measurements force the per-pixel rate.
 TEST_F(NearMeasurements, HullProxyIsExactWithFewerFragmentsThanTheQuad) {
     for (const char* file :
          {"scenes/golden/arrows.json", "scenes/golden/crowd.json", "scenes/golden/equal_depth.json",
@@ -74,10 +76,12 @@ TEST_F(NearMeasurements, HullProxyIsExactWithFewerFragmentsThanTheQuad) {
         const Scene s = loadScene(sourcePath(file));
         NearOptions hull;
         hull.proxy = NearProxy::Hull;
+        hull.rate = NearRate::Fragment;
         const auto r = test::renderBoth(nearRenderer(), s, 0.0, hull);
         EXPECT_EQ(test::describeDifference(r.near, r.reference), "") << file;
         NearOptions quad;
         quad.proxy = NearProxy::Quad;
+        quad.rate = NearRate::Fragment;
         const auto q = test::renderBoth(nearRenderer(), s, 0.0, quad);
         EXPECT_LT(r.nearStats.fragmentInvocations, q.nearStats.fragmentInvocations) << file;
         std::printf("%s: hull %llu fragments, quad %llu\n", file,
@@ -121,6 +125,7 @@ TEST_F(NearMeasurements, BoxProxyOnlyLosesPixelsAndOnlyAtCloseRange) {
     s.camera.target = {0.0, 0.25, 0.0};
     NearOptions box;
     box.proxy = NearProxy::Box;
+    box.rate = NearRate::Fragment; // the proxy is rasterised for per-pixel sprites only
     std::size_t lostClose = 0, lostFar = 0;
     for (double distance : {1.3, 1.6, 2.0, 8.0}) {
         for (double azimuth : {0.0, 0.8, 2.0}) {
