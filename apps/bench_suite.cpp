@@ -276,17 +276,24 @@ double memcpyMs(std::size_t bytes) {
     return median(ms);
 }
 
+/// How every configuration renders, warm re-render and in motion alike: its near backend, the
+/// per-pixel rate for the per-pixel rows, the plan's rate otherwise, the plan's cache directory.
+FrameOptions frameOptions(const Config& c, const Plan& plan,
+                          const std::shared_ptr<NearRenderer>& near) {
+    FrameOptions o;
+    o.sharedNear = near;
+    o.nearBackend = info(c.mode).nearBackend;
+    o.cacheDir = plan.cacheDir;
+    o.cacheDirBytes = plan.cacheDirBytes;
+    o.nearRate = info(c.mode).perPixel ? NearRate::Fragment : plan.nearRate;
+    return o;
+}
+
 void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& near,
             Progress& progress) {
     const std::size_t F = set.frames.size();
     for (auto& c : set.configs) {
-        FrameOptions o;
-        o.sharedNear = near;
-        o.nearBackend = info(c->mode).nearBackend;
-        o.cacheDir = plan.cacheDir;
-        o.cacheDirBytes = plan.cacheDirBytes;
-        o.nearRate = info(c->mode).perPixel ? NearRate::Fragment : plan.nearRate;
-        c->renderer = std::make_unique<FrameRenderer>(c->scene, o);
+        c->renderer = std::make_unique<FrameRenderer>(c->scene, frameOptions(*c, plan, near));
         c->samples.assign(F, {});
         c->errors.assign(F, {});
         c->hasError.assign(F, 0);
@@ -371,10 +378,7 @@ void runMotion(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& 
     std::size_t truths = 0;
     while (truths < set.configs.size() && set.configs[truths]->isTruth) ++truths;
     for (auto& c : set.configs) {
-        FrameOptions o;
-        o.sharedNear = near;
-        o.nearBackend = info(c->mode).nearBackend;
-        c->renderer = std::make_unique<FrameRenderer>(c->scene, o);
+        c->renderer = std::make_unique<FrameRenderer>(c->scene, frameOptions(*c, plan, near));
         c->motion.clear();
     }
     const std::size_t others = set.configs.size() - truths;
