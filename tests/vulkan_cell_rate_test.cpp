@@ -174,6 +174,44 @@ TEST_F(VulkanCellRate, CrossFadingSpritesAtCellRate) {
     }
 }
 
+// The scale the budget exists for: a sigma 16 crowd of 256^3 models (about 50 million cells
+// each, 400 MB of cell store) among small 16^3 ones, forced cell-rate under the default 64 MiB
+// budget. Small sprites fit until the store is full (each needs 1.5 MB), every 256^3 one falls
+// back to per pixel and is counted, the store stays under the budget, and the image is the
+// reference's.
+TEST_F(VulkanCellRate, Sigma16CrowdOf256CubedModelsFallsBackPastTheDefaultBudget) {
+    Scene scene;
+    scene.render.sigma = 16.0;
+    scene.render.voxelSize = 0.01;
+    scene.models = {test::solidBox({256, 256, 256}, 3), test::solidBox({16, 16, 16}, 1)};
+    for (int k = 0; k < 400; ++k) {
+        Entity e;
+        e.model = k % 4 == 0 ? 0 : 1; // 100 big, 300 small
+        e.position = {double(k % 20) * 0.6 - 6.0, double(k / 20 % 5) * 0.5 - 1.0,
+                      -4.0 - double(k / 100) * 6.0};
+        scene.entities.push_back(e);
+    }
+    scene.camera.position = {0.0, 0.0, 2.0};
+    scene.camera.target = {0.0, 0.0, -10.0};
+    scene.camera.width = 160;
+    scene.camera.height = 96;
+    const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+    const auto sprites = setupSprites(scene, cam, 0.0);
+    std::uint64_t bigVisible = 0;
+    for (const SpriteSetup& sp : sprites)
+        if (sp.visible() && sp.model == 0) {
+            ++bigVisible;
+            ASSERT_GT(cellCount(sp) * kCellStoreBytesPerCell, kDefaultCellBudgetBytes);
+        }
+    ASSERT_GT(bigVisible, 10u);
+    const NearStats st = expectMatchesReference(scene, NearRate::Cell, "sigma 16, 256^3 crowd");
+    EXPECT_GE(st.cellOverBudget, bigVisible);
+    EXPECT_GT(st.cellSprites, 10u);
+    EXPECT_EQ(st.cellSprites + st.cellOverBudget, st.sprites);
+    EXPECT_LE(st.cellsTraced * kCellStoreBytesPerCell, kDefaultCellBudgetBytes);
+    EXPECT_GT(st.pixelsTraced, 0u);
+}
+
 // Frames of different cell counts one after another reuse and grow the one cell store.
 TEST_F(VulkanCellRate, ConsecutiveFramesOfGrowingCellCountsStayIdentical) {
     for (int magnification : {1, 2, 6, 3})
