@@ -154,6 +154,15 @@ SnapshotCacheConfig cacheConfig(const FrameOptions& o) {
             SnapshotStoreOptions{.dir = o.cacheDir, .limitBytes = o.cacheDirBytes});
     return c;
 }
+
+/// A near backend's cell-rate counts into the frame's figures (both backends carry them).
+void addCellRateCounts(FrameStats& st, const CellRateCounts& c) {
+    st.nearCellsTraced += c.cellsTraced;
+    st.nearPixelsTraced += c.pixelsTraced;
+    st.nearPixelsLookedUp += c.pixelsLookedUp;
+    st.nearCellSprites += int(c.cellSprites);
+    st.nearCellOverBudget += int(c.cellOverBudget);
+}
 } // namespace
 
 FrameRenderer::FrameRenderer(Scene& scene, FrameOptions options)
@@ -338,22 +347,14 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
         st.nearDrawMs += ns.drawMs;
         st.nearReadbackMs += ns.readbackMs;
         st.nearComputeMs += ns.computeMs;
-        st.nearCellsTraced += ns.cellsTraced;
-        st.nearPixelsTraced += ns.pixelsTraced;
-        st.nearPixelsLookedUp += ns.pixelsLookedUp;
-        st.nearCellSprites += int(ns.cellSprites);
-        st.nearCellOverBudget += int(ns.cellOverBudget);
+        addCellRateCounts(st, ns);
     } else {
         image = Image(cam.width, cam.height, scene_.render.background);
         ReferenceStats rs;
         renderReference(scene_.models, sprites, image, &rs, {options_.nearRate});
         st.nearPixelsTested += rs.pixelsTested;
         st.voxelFetches += rs.voxelFetches;
-        st.nearCellsTraced += rs.cellsTraced;
-        st.nearPixelsTraced += rs.pixelsTraced;
-        st.nearPixelsLookedUp += rs.pixelsLookedUp;
-        st.nearCellSprites += int(rs.cellSprites);
-        st.nearCellOverBudget += int(rs.cellOverBudget);
+        addCellRateCounts(st, rs);
     }
     st.nearMs = msSince(t0);
     return image;

@@ -1,8 +1,9 @@
-// Cell-rate sprites on Vulkan (volumetric/near_rate.hpp, DESIGN.md §3.11): one compute dispatch
-// traces every cell of the frame's cell-rate sprites, a second splats their pixels' depth ranks,
-// the draw skips them and a resolve pass shades them over its result. The image equals
-// the per-pixel Vulkan image and the CPU reference pixel for pixel (colour, depth bits, id), and
-// the validation layer (synchronization validation included) stays silent.
+// Cell-rate sprites on Vulkan (volumetric/near_rate.hpp, DESIGN.md §3.11): compute passes trace
+// every cell of the frame's cell-rate sprites (primary rays, then the outline from the
+// neighbours), splat their pixels' depth ranks, and after the draw of the per-pixel sprites
+// shade the pixels they won. The image equals the per-pixel Vulkan image and the CPU reference
+// pixel for pixel (colour, depth bits, id), and the validation layer (synchronization
+// validation included) stays silent.
 #include "core/model_view.hpp"
 #include "core/scene_loader.hpp"
 #include "core/vox_reader.hpp"

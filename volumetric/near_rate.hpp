@@ -47,6 +47,17 @@ inline constexpr std::uint64_t kDefaultCellBudgetBytes = std::uint64_t(64) << 20
 /// Marks a sprite that is traced per pixel in CellRatePlan::cellBase.
 inline constexpr std::uint32_t kNoCells = 0xFFFFFFFFu;
 
+/// What a near backend's frame did at each rate (both backends' stats carry it).
+struct CellRateCounts {
+    std::uint64_t cellsTraced = 0;    ///< cells traced once for cell-rate sprites
+    std::uint64_t cellSprites = 0;    ///< sprites drawn cell-rate
+    std::uint64_t cellOverBudget = 0; ///< sprites that wanted cell-rate but did not fit the budget
+    /// Pixels traced per pixel and pixels looked up from a cell: counted by the CPU reference;
+    /// on Vulkan the on-screen rectangle pixels of per-pixel and of cell-rate sprites (the plan's
+    /// estimate; NearStats::fragmentInvocations counts what the rasteriser ran).
+    std::uint64_t pixelsTraced = 0, pixelsLookedUp = 0;
+};
+
 struct CellRatePlan {
     /// Per sprite (the order given): offset of its first cell in the frame's cell store, or
     /// kNoCells when it is traced per pixel.

@@ -62,7 +62,7 @@ struct NearOptions {
     std::uint64_t cellBudgetBytes = kDefaultCellBudgetBytes;
 };
 
-struct NearStats {
+struct NearStats : CellRateCounts {
     std::uint64_t sprites = 0; ///< instances drawn
     std::uint64_t drawCalls = 0;
     /// FRAGMENT_SHADER_INVOCATIONS of the draw (0 when the device has no statistics queries).
@@ -74,12 +74,6 @@ struct NearStats {
     std::uint64_t uploadRegions = 0;
     std::uint64_t atlasGrowths = 0; ///< the atlas was re-created larger this frame
     double uploadMs = 0.0;          ///< residency: pack + copy + wait
-    /// Cell-rate: cells traced by the compute pass, sprites drawn cell-rate, sprites the rate
-    /// chose cell-rate that did not fit the cell budget (drawn per pixel); the on-screen
-    /// rectangle pixels of per-pixel and of cell-rate sprites (the rate decision's estimate of
-    /// pixels traced and looked up; fragmentInvocations counts what the rasteriser ran).
-    std::uint64_t cellsTraced = 0, cellSprites = 0, cellOverBudget = 0;
-    std::uint64_t pixelsTraced = 0, pixelsLookedUp = 0;
     /// GPU time of the cell-rate compute passes: trace, splat and resolve (timestamp queries; 0
     /// without cell-rate sprites or where the device has no timestamps).
     double computeMs = 0.0;

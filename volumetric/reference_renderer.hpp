@@ -15,17 +15,12 @@
 
 namespace voxtier {
 
-struct ReferenceStats {
+struct ReferenceStats : CellRateCounts {
     std::uint64_t sprites = 0;        ///< sprites drawn
     std::uint64_t pixelsTested = 0;   ///< pixels of sprite rectangles evaluated ("fragments")
     std::uint64_t pixelsInSprite = 0; ///< of those, pixels that map to a lattice cell
     std::uint64_t pixelsWritten = 0;  ///< solid or outline outcomes
     std::uint64_t voxelFetches = 0;   ///< DDA steps (one voxel read each)
-    /// Cell-rate (near_rate.hpp): pixels that traced their cell's rays, cells traced once for
-    /// cell-rate sprites, pixels that looked their cell up; sprites drawn cell-rate, and sprites
-    /// that wanted cell-rate but did not fit the cell budget (traced per pixel instead).
-    std::uint64_t pixelsTraced = 0, cellsTraced = 0, pixelsLookedUp = 0;
-    std::uint64_t cellSprites = 0, cellOverBudget = 0;
     double milliseconds = 0.0;
 };
 
