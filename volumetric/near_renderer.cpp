@@ -16,8 +16,8 @@
 #include "shaders/near_cells_comp.h"
 #include "shaders/near_frag.h"
 #include "shaders/near_hull_vert.h"
+#include "shaders/near_paint_comp.h"
 #include "shaders/near_quad_vert.h"
-#include "shaders/near_resolve_comp.h"
 #include "shaders/near_splat_comp.h"
 #include "shaders/near_steps_frag.h"
 
@@ -110,17 +110,17 @@ struct NearRenderer::Impl {
     VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
     VkRenderPass renderPass = VK_NULL_HANDLE;
     VkPipeline pipelines[3][2] = {}; ///< [proxy][countSteps], created on first use
-    /// The cell-rate compute passes (trace, outline, splat, resolve), created on first use.
-    enum ComputePass { TraceCells, Outline, Splat, Resolve, ComputePassCount };
+    /// The cell-rate compute passes (trace, outline, splat, paint), created on first use.
+    enum ComputePass { TraceCells, Outline, Splat, Paint, ComputePassCount };
     VkPipeline computePipelines[ComputePassCount] = {};
     VkQueryPool statsPool = VK_NULL_HANDLE;
-    /// Cell-rate compute time: frame start, trace + splat done; resolve start, resolve done.
+    /// Cell-rate compute time: frame start, trace + splat done; paint start, paint done.
     VkQueryPool timePool = VK_NULL_HANDLE;
     VkCommandBuffer drawCb = VK_NULL_HANDLE;
     VkCommandBuffer readCb = VK_NULL_HANDLE;
 
     // Render targets, re-created when the image size changes; the readback buffer is also
-    // where near_resolve.comp writes the cell-rate sprites, and pixelRanks holds the splat's
+    // where the paint pass writes the cell-rate sprites, and pixelRanks holds the splat's
     // least rank per pixel (device-local).
     int width = 0, height = 0;
     VulkanImage color, id, depth;
@@ -158,10 +158,10 @@ struct NearRenderer::Impl {
     /// ranks of `plan`.
     CellWork prepareCells(const CellRatePlan& plan, const std::vector<const SpriteSetup*>& visible,
                           std::uint64_t budgetBytes);
-    void dispatch(VkCommandBuffer cb, ComputePass pass, std::uint32_t count, std::uint32_t groupsX,
-                  std::uint32_t groupsY);
+    /// Records one compute pass over `groups` workgroups (its push constant count).
+    void dispatch(VkCommandBuffer cb, ComputePass pass, std::uint32_t groups);
     void recordCellPasses(VkCommandBuffer cb, CellWork work);
-    void recordResolve(VkCommandBuffer cb, std::uint32_t sprites);
+    void recordPaint(VkCommandBuffer cb, std::uint32_t blocks);
     void ensureTargets(int w, int h);
     void ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes, VkBufferUsageFlags usage,
                       bool hostVisible = true);
@@ -506,7 +506,7 @@ VkPipeline NearRenderer::Impl::computePipeline(ComputePass pass) {
         pass == TraceCells ? std::span<const std::uint32_t>(near_cells_comp)
         : pass == Outline  ? std::span<const std::uint32_t>(near_cell_outline_comp)
         : pass == Splat    ? std::span<const std::uint32_t>(near_splat_comp)
-                           : std::span<const std::uint32_t>(near_resolve_comp);
+                           : std::span<const std::uint32_t>(near_paint_comp);
     mi.codeSize = code.size_bytes();
     mi.pCode = code.data();
     VkShaderModule module = VK_NULL_HANDLE;
@@ -565,11 +565,8 @@ NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
     std::stable_sort(byDepth.begin(), byDepth.end(), [&](std::uint32_t a, std::uint32_t b) {
         return visible[a]->gpu.depth > visible[b]->gpu.depth;
     });
-    std::vector<std::uint32_t> ranks(2 * n, near_gpu::NEAR_NO_RANK);
-    for (std::size_t r = 0; r < byDepth.size(); ++r) {
-        ranks[byDepth[r]] = std::uint32_t(r);
-        ranks[n + r] = byDepth[r];
-    }
+    std::vector<std::uint32_t> ranks(n, near_gpu::NEAR_NO_RANK);
+    for (std::size_t r = 0; r < byDepth.size(); ++r) ranks[byDepth[r]] = std::uint32_t(r);
     const auto upload = [&](VulkanBuffer& b, const auto& v) {
         const std::size_t bytes = v.size() * sizeof(v[0]);
         ensureBuffer(b, std::max<std::size_t>(bytes, 4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
@@ -581,42 +578,38 @@ NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
     return {std::uint32_t(tiles.size()), std::uint32_t(blocks.size())};
 }
 
-void NearRenderer::Impl::dispatch(VkCommandBuffer cb, ComputePass pass, std::uint32_t count,
-                                  std::uint32_t groupsX, std::uint32_t groupsY) {
+void NearRenderer::Impl::dispatch(VkCommandBuffer cb, ComputePass pass, std::uint32_t groups) {
+    // A list of workgroups, as a 2D grid when there are more than one dimension allows.
+    const std::uint32_t maxX = device.properties().limits.maxComputeWorkGroupCount[0];
+    const std::uint32_t groupsX = std::min(groups, maxX);
     vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, computePipeline(pass));
     vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout, 0, 1,
                             &descriptorSet, 0, nullptr);
-    const near_gpu::NearComputePush push{count, std::uint32_t(width), std::uint32_t(height),
+    const near_gpu::NearComputePush push{groups, std::uint32_t(width), std::uint32_t(height),
                                          frameCells};
     vkCmdPushConstants(cb, pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-    vkCmdDispatch(cb, groupsX, groupsY, 1);
+    vkCmdDispatch(cb, groupsX, (groups + groupsX - 1) / groupsX, 1);
 }
 
 void NearRenderer::Impl::recordCellPasses(VkCommandBuffer cb, CellWork work) {
-    // A list of workgroups as a 2D grid when there are more than one dimension allows.
-    const std::uint32_t maxX = device.properties().limits.maxComputeWorkGroupCount[0];
-    const auto grid = [&](ComputePass pass, std::uint32_t groups) {
-        const std::uint32_t x = std::min(groups, maxX);
-        dispatch(cb, pass, groups, x, (groups + x - 1) / x);
-    };
     const auto cellsWritten = [&] {
         bufferBarrier(cb, cells.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                       VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     };
-    grid(TraceCells, work.tiles);
+    dispatch(cb, TraceCells, work.tiles);
     cellsWritten(); // the outline pass reads the primaries
-    grid(Outline, work.tiles);
+    dispatch(cb, Outline, work.tiles);
     vkCmdFillBuffer(cb, pixelRanks.handle(), 0, VK_WHOLE_SIZE, near_gpu::NEAR_NO_RANK);
     // The splat reads the outcomes and min-writes the cleared ranks.
     cellsWritten();
     bufferBarrier(cb, pixelRanks.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
                   VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-    if (work.blocks) grid(Splat, work.blocks);
+    if (work.blocks) dispatch(cb, Splat, work.blocks);
 }
 
-void NearRenderer::Impl::recordResolve(VkCommandBuffer cb, std::uint32_t sprites) {
+void NearRenderer::Impl::recordPaint(VkCommandBuffer cb, std::uint32_t blocks) {
     // After the copy of the drawn targets into the readback buffer (this command buffer) and the
     // splat (the frame's draw submission, earlier on the same queue).
     bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
@@ -625,9 +618,7 @@ void NearRenderer::Impl::recordResolve(VkCommandBuffer cb, std::uint32_t sprites
     bufferBarrier(cb, pixelRanks.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT);
-    const std::uint32_t b = near_gpu::NEAR_SPLAT_BLOCK;
-    dispatch(cb, Resolve, sprites, (std::uint32_t(width) + b - 1) / b,
-             (std::uint32_t(height) + b - 1) / b);
+    dispatch(cb, Paint, blocks);
     bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
 }
@@ -730,7 +721,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
                 hull[i].corner[k] = glm::vec4(corners[k]);
         }
     }
-    // The resolve pass binds the whole readback buffer; past the device's storage-buffer range
+    // The paint pass binds the whole readback buffer; past the device's storage-buffer range
     // (a huge image) every sprite is traced per pixel.
     const bool resolvable = readback.size() <= device.properties().limits.maxStorageBufferRange;
     const CellRatePlan plan =
@@ -758,7 +749,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
         vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timePool, 0);
     }
     // Cell-rate sprites: every cell traced once, then every pixel of theirs splatted; the draw
-    // below skips them, the resolve after it shades them.
+    // below skips them, the paint pass after it shades them.
     if (work.tiles) recordCellPasses(cb, work);
     if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 1);
     if (opt.countSteps) {
@@ -836,7 +827,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     }
     if (work.blocks) {
         if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, timePool, 2);
-        recordResolve(cb, std::uint32_t(n));
+        recordPaint(cb, work.blocks);
         if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 3);
     } else {
         bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
@@ -845,13 +836,13 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     }
     VK_CHECK(vkEndCommandBuffer(cb));
     device.submitAndWait(cb);
-    double resolveMs = 0.0;
+    double paintMs = 0.0;
     if (timed && work.blocks) {
         std::uint64_t t[2] = {};
         VK_CHECK(vkGetQueryPoolResults(device.device(), timePool, 2, 2, sizeof t, t, sizeof t[0],
                                        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-        resolveMs = double(t[1] - t[0]) * tickMs;
-        stats.computeMs += resolveMs;
+        paintMs = double(t[1] - t[0]) * tickMs;
+        stats.computeMs += paintMs;
     }
     Image img;
     img.width = width;
@@ -865,7 +856,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     img.color.assign(colors, colors + count);
     img.id.assign(ids, ids + count);
     img.depth.assign(depths, depths + count);
-    stats.readbackMs = std::max(0.0, msSince(tRead) - resolveMs);
+    stats.readbackMs = std::max(0.0, msSince(tRead) - paintMs);
 
     if (query) {
         std::uint64_t invocations = 0;

@@ -5,7 +5,7 @@
 // integers, no unorm conversion) and the sprite's billboard depth (reversed-Z, DESIGN.md §3.8).
 // Compiled twice: as is, and with -DVT_COUNT_STEPS, which also counts voxel reads. Sprites drawn
 // cell-rate (volumetric/near_rate.hpp) never reach this stage: the proxy vertex shaders collapse
-// them, and the compute passes near_cells/near_splat/near_resolve draw them.
+// them, and the compute passes near_cells, near_cell_outline and near_splat draw them.
 #extension GL_GOOGLE_include_directive : require
 #include "volumetric/shaders/near_shared.h"
 

@@ -38,14 +38,14 @@ VT_NEAR_CONST uint NEAR_NO_CELLS = 0xFFFFFFFFu;
 VT_NEAR_CONST uint NEAR_CELL_TILE = 64u;
 // Cell-rate sprites are shaded without the rasteriser (DESIGN.md §3.11): near_splat.comp takes
 // 32x32 pixel blocks of their screen rectangles (NearSplatBlock) and leaves in every pixel the
-// least depth rank of the cell-rate sprites that cover it (ranks: per sprite, then per rank the
-// sprite); near_resolve.comp shades those pixels into the readback buffer after the draw.
+// least depth rank (one per sprite) of the cell-rate sprites that cover it; after the draw its
+// paint variant lets each pixel's winner shade it into the readback buffer.
 VT_NEAR_CONST uint NEAR_BINDING_SPLAT_BLOCKS = 9u;
 VT_NEAR_CONST uint NEAR_BINDING_SPLAT_RANKS = 10u;
 VT_NEAR_CONST uint NEAR_BINDING_PIXEL_RANKS = 11u;
 VT_NEAR_CONST uint NEAR_BINDING_READBACK = 12u;
 VT_NEAR_CONST uint NEAR_NO_RANK = 0xFFFFFFFFu;
-VT_NEAR_CONST uint NEAR_SPLAT_BLOCK = 32u; // pixels per side of a splat / resolve workgroup
+VT_NEAR_CONST uint NEAR_SPLAT_BLOCK = 32u; // pixels per side of a splat / paint workgroup
 
 // Vertices per instance: the quad is a 4-vertex triangle strip (SpriteGpu::quad); the box is a
 // 36-vertex triangle list (12 triangles) indexed by NEAR_BOX_TRIANGLES.
@@ -94,9 +94,9 @@ struct NearSplatBlock {
 };
 
 // Push constants of the compute passes: count = cell tiles (near_cells.comp,
-// near_cell_outline.comp), splat blocks (near_splat.comp) or drawn sprites (near_resolve.comp,
-// where the rank-to-sprite table starts); cells = the frame's cell count (the cell store holds
-// the primary outcomes, then the full outcomes from index `cells` on).
+// near_cell_outline.comp) or splat blocks (near_splat.comp, splat and paint); cells = the frame's
+// cell count (the cell store holds the primary outcomes, then the full outcomes from index
+// `cells` on).
 struct NearComputePush {
     uint count;
     uint width;
