@@ -28,7 +28,8 @@ double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config);
 /// Per-entity far views under the budget.
 class ErrorBudgetViews {
   public:
-    /// Whether a snapshot of (sprite's model and frame, view, sprite's sigma) is cached.
+    /// Whether a snapshot of (sprite's model and frame, view, sprite's sigma) can be drawn
+    /// without a bake: cached in memory or on disk (SnapshotCache::availableWithoutBake).
     using IsCached = std::function<bool(const SpriteSetup&, ViewId)>;
 
     void reset() { current_.clear(), fades_.clear(); }

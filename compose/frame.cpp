@@ -276,9 +276,10 @@ void FrameRenderer::planBudgetView(std::size_t entity, const SpriteSetup& sprite
         budgetViews_.drop(entity);
         return;
     }
+    // In memory or on disk (--cache-dir): either way drawing from it is not a bake.
     const auto isCached = [&](const SpriteSetup& s, ViewId v) {
-        const VoxelModel& m = *scene_.models.at(std::size_t(s.model));
-        return cache_->find({m.uid(), s.frame, m.version(), v, s.lattice.sigma}) != nullptr;
+        return cache_->availableWithoutBake(*scene_.models.at(std::size_t(s.model)), s.frame, v,
+                                            s.lattice.sigma);
     };
     p.view = budgetViews_.choose(entity, sprite, scene_.selector, isCached);
     // No view within the budget without passing this frame's bake bound: near this frame (the

@@ -9,14 +9,17 @@
 #include "core/sprite_kernel.h"
 #include "frame_test_support.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
+#include "test_support.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <set>
 #include <tuple>
+#include <unistd.h>
 
 namespace voxtier {
 namespace {
@@ -242,6 +245,62 @@ TEST(ErrorBudget, OnlyTheViewsDrawnAreBakedAndBakesPerFrameAreBounded) {
     }
     EXPECT_GT(drawn.size(), 3u);
     EXPECT_EQ(r.snapshotCache().counters().bakes, drawn.size());
+}
+
+// A snapshot in the on-disk store is not a bake: with a directory pre-baked by an earlier run, the
+// first frame of a fresh renderer draws far every entity the earlier run drew far, from the same
+// views and pixel for pixel, loading them from disk under a bake bound of 0 or 1 with no bake;
+// without the directory the same frame under the same bound draws them all near.
+TEST(ErrorBudget, SnapshotsOnDiskCountAsCachedNotAsBakes) {
+    Scene s = benchScene("scenes/bench/tank_army.json", 40);
+    s.selector = budgetSelector(1.0);
+    const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) /
+                                      ("voxtier_budget_disk_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    FrameOptions withDir = cpuNear();
+    withDir.cacheDir = dir.string();
+    const auto farCount = [](const FrameResult& fr) {
+        int far = 0;
+        for (std::size_t i = 0; i < fr.plan.size(); ++i)
+            far += fr.plan[i].drawsFar() && fr.sprites[i].visible();
+        return far;
+    };
+
+    // The pre-bake: a run that may bake as much as it likes writes its snapshots to `dir`.
+    FrameResult baked;
+    {
+        FrameRenderer r(s, withDir);
+        baked = r.render(0.0, RenderMode::Hybrid, 0);
+    }
+    ASSERT_GT(baked.stats.farBakes, 0);
+    ASSERT_GE(farCount(baked), 10);
+
+    // Everything the selector puts far is far at once, nothing baked, the same image.
+    Image allNear;
+    for (int bound : {0, 1}) {
+        s.selector.maxBakesPerFrame = bound;
+        FrameRenderer fromDisk(s, withDir);
+        const FrameResult fr = fromDisk.render(0.0, RenderMode::Hybrid, 0);
+        EXPECT_EQ(fr.stats.farBakes, 0) << bound;
+        EXPECT_EQ(farCount(fr), farCount(baked)) << bound;
+        EXPECT_GT(fromDisk.snapshotCache().counters().diskLoads, 0u);
+        for (std::size_t i = 0; i < fr.plan.size(); ++i)
+            EXPECT_TRUE(fr.plan[i] == baked.plan[i]) << "bound " << bound << " entity " << i;
+        EXPECT_EQ(test::describeDifference(baked.image, fr.image, "pre-bake", "from disk"), "");
+
+        // Without the directory the bound keeps them near: the all-near image.
+        FrameRenderer noDir(s, cpuNear());
+        const FrameResult near = noDir.render(0.0, RenderMode::Hybrid, 0);
+        EXPECT_LE(near.stats.farBakes, bound);
+        EXPECT_LT(farCount(near), farCount(fr)) << bound; // one bake: the entities of one view
+        if (bound == 0) {
+            EXPECT_EQ(farCount(near), 0);
+            allNear = noDir.render(0.0, RenderMode::Near, 0).image;
+            EXPECT_EQ(test::describeDifference(allNear, near.image, "all near", "no dir"), "");
+            EXPECT_NE(test::describeDifference(allNear, fr.image, "all near", "from disk"), "");
+        }
+    }
+    std::filesystem::remove_all(dir);
 }
 
 // A view switch cross-fades like a tier switch: frame k of N shows the new view on the pixels whose
