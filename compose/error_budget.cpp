@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <unordered_map>
 
 namespace voxtier {
 
@@ -29,12 +30,29 @@ double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config) 
     return predictedBudgetUnits(sprite, nearestLadderView(config.ladderCap, -sprite.lattice.dir));
 }
 
+double screenRectPx(const SpriteSetup& sprite) {
+    const glm::ivec4 r = sprite.screenRect;
+    return double(std::max(0, r.z - r.x)) * double(std::max(0, r.w - r.y));
+}
+
+double BakeCosts::farSavingMs(const SpriteSetup& sprite) const {
+    return screenRectPx(sprite) * (nearMsPerPx - blitMsPerPx);
+}
+
+std::size_t ErrorBudgetViews::BakeKeyHash::operator()(const BakeKey& k) const {
+    std::size_t h = std::hash<int>{}(k.model) * 31 + std::hash<int>{}(k.frame);
+    h = h * 31 + std::hash<double>{}(k.sigma);
+    for (int c = 0; c < 3; ++c) h = h * 31 + std::hash<int>{}(k.view.lattice[c]);
+    return h;
+}
+
 void ErrorBudgetViews::beginFrame(std::size_t entities, int bakes) {
     current_.resize(entities);
     fades_.resize(entities);
     for (Fade& f : fades_)
         if (f.left > 0) --f.left;
     baking_.clear();
+    bakingSet_.clear();
     bakesLeft_ = bakes;
     viewChanges_ = 0;
 }
@@ -65,15 +83,12 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
     std::optional<ViewId>& current = current_.at(entity);
     const double budget = config.budgetVpx;
     const auto available = [&](ViewId v) {
-        if (isCached(sprite, v)) return true;
-        return std::any_of(baking_.begin(), baking_.end(), [&](const auto& b) {
-            return b.second == v && b.first->model == sprite.model &&
-                   b.first->frame == sprite.frame && b.first->lattice.sigma == sprite.lattice.sigma;
-        });
+        return isCached(sprite, v) || bakingSet_.count(keyOf(sprite, v)) > 0;
     };
     const auto bake = [&](ViewId v) {
         --bakesLeft_;
-        baking_.emplace_back(&sprite, v);
+        baking_.push_back(keyOf(sprite, v));
+        bakingSet_.insert(baking_.back());
         return v;
     };
     // Hysteresis on the view and level: a view within the budget is kept however the camera
@@ -119,6 +134,54 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
     }
     current = pick;
     return pick;
+}
+
+std::vector<std::size_t>
+ErrorBudgetViews::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+                                      const std::vector<std::optional<ViewId>>& drawnFrom,
+                                      const BakeCosts& costs) {
+    std::vector<std::size_t> givenUp;
+    if (!costs.known() || baking_.empty()) return givenUp;
+    // What each bake's users save, and what every far sprite saves (cached views included: the
+    // sprites already far pay for the bakes of the frame, so the frame is never slower than
+    // drawing them all near, as far as the measured costs tell).
+    std::unordered_map<BakeKey, std::size_t, BakeKeyHash> index;
+    for (std::size_t k = 0; k < baking_.size(); ++k) index[baking_[k]] = k;
+    std::vector<double> saving(baking_.size(), 0.0);
+    std::vector<std::vector<std::size_t>> users(baking_.size());
+    double savedMs = 0.0;
+    for (std::size_t i = 0; i < sprites.size() && i < drawnFrom.size(); ++i) {
+        if (!drawnFrom[i]) continue;
+        const double s = costs.farSavingMs(sprites[i]);
+        savedMs += s;
+        const auto b = index.find(keyOf(sprites[i], *drawnFrom[i]));
+        if (b == index.end()) continue;
+        saving[b->second] += s;
+        users[b->second].push_back(i);
+    }
+    std::vector<std::size_t> order(baking_.size());
+    for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return saving[a] < saving[b]; });
+    double bakeMs = double(baking_.size()) * costs.msPerBake;
+    std::vector<bool> dropped(baking_.size(), false);
+    // Giving up a bake that saves at least its cost would not bring the frame nearer the bound.
+    for (std::size_t k : order) {
+        if (bakeMs <= savedMs || saving[k] >= costs.msPerBake) break;
+        dropped[k] = true;
+        bakeMs -= costs.msPerBake;
+        savedMs -= saving[k];
+        ++bakesLeft_;
+        for (std::size_t i : users[k]) givenUp.push_back(i);
+    }
+    std::vector<BakeKey> kept;
+    for (std::size_t k = 0; k < baking_.size(); ++k)
+        if (!dropped[k]) kept.push_back(baking_[k]);
+        else bakingSet_.erase(baking_[k]);
+    baking_ = std::move(kept);
+    std::sort(givenUp.begin(), givenUp.end());
+    for (std::size_t i : givenUp) drop(i);
+    return givenUp;
 }
 
 } // namespace voxtier

@@ -216,6 +216,7 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
     if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
+    measureCosts(out.sprites, out.plan, st);
     previousPlan_ = out.plan;
     st.cacheBytes = cache_->counters().bytes;
     st.totalMs = msSince(t0);
@@ -263,6 +264,7 @@ std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>&
             p.view = viewIdOf(set, selector_.chooseView(i, towardViewer(sprites[i]), views));
         st.fading += p.fade > 0.0f;
     }
+    if (budget) keepAffordableBakes(sprites, plan);
     st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
     for (std::size_t i = 0; i < sprites.size(); ++i)
         if (plan[i].drawsFar() && plan[i].view && sprites[i].visible())
@@ -291,6 +293,37 @@ void FrameRenderer::planBudgetView(std::size_t entity, const SpriteSetup& sprite
     if (p.view && p.tier == Tier::Far && p.fade <= 0.0f &&
         budgetViews_.viewFade(entity, sprite, scene_.selector, isCached, &share, &from))
         p.fade = share, p.fadeFrom = Tier::Far, p.fadeFromView = from;
+}
+
+void FrameRenderer::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+                                        std::vector<EntityPlan>& plan) {
+    if (!options_.costAwareBakes) return;
+    std::vector<std::optional<ViewId>> drawnFrom(plan.size());
+    for (std::size_t i = 0; i < plan.size(); ++i)
+        if (plan[i].drawsFar() && sprites[i].visible()) drawnFrom[i] = plan[i].view;
+    const BakeCosts& costs = options_.bakeCosts ? *options_.bakeCosts : measuredCosts_;
+    // Given up: near this frame, as under the bake bound (the selector keeps its far state).
+    for (std::size_t i : budgetViews_.keepAffordableBakes(sprites, drawnFrom, costs))
+        plan[i] = EntityPlan{};
+}
+
+void FrameRenderer::measureCosts(const std::vector<SpriteSetup>& sprites,
+                                 const std::vector<EntityPlan>& plan, const FrameStats& st) {
+    double nearPx = 0.0, farPx = 0.0;
+    for (std::size_t i = 0; i < sprites.size() && i < plan.size(); ++i) {
+        if (!sprites[i].visible()) continue;
+        const double px = screenRectPx(sprites[i]);
+        if (plan[i].drawsNear()) nearPx += px;
+        if (plan[i].drawsFar()) farPx += px;
+    }
+    // Running averages: each frame moves the estimate a third of the way to its own figure, so
+    // one slow frame (another process on the cores) does not swing the next frame's plan.
+    const auto blend = [](double& average, double sample) {
+        average = average > 0.0 ? average + (sample - average) / 3.0 : sample;
+    };
+    if (st.farBakes > 0) blend(measuredCosts_.msPerBake, st.bakeMs / st.farBakes);
+    if (nearPx > 0.0 && st.nearMs > 0.0) blend(measuredCosts_.nearMsPerPx, st.nearMs / nearPx);
+    if (farPx > 0.0 && st.blitMs > 0.0) blend(measuredCosts_.blitMsPerPx, st.blitMs / farPx);
 }
 
 Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,
