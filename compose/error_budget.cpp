@@ -176,8 +176,10 @@ ErrorBudgetViews::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
     }
     std::vector<BakeKey> kept;
     for (std::size_t k = 0; k < baking_.size(); ++k)
-        if (!dropped[k]) kept.push_back(baking_[k]);
-        else bakingSet_.erase(baking_[k]);
+        if (!dropped[k])
+            kept.push_back(baking_[k]);
+        else
+            bakingSet_.erase(baking_[k]);
     baking_ = std::move(kept);
     std::sort(givenUp.begin(), givenUp.end());
     for (std::size_t i : givenUp) drop(i);

@@ -70,9 +70,10 @@ class ErrorBudgetViews {
     /// users' farSavingMs, summed) is given up if it saves less than it costs, and its users are
     /// drawn near this frame. `drawnFrom[i]` is the view entity i is drawn far from (nullopt:
     /// near). Returns the entities given up, in ascending order (their views are dropped).
-    std::vector<std::size_t> keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
-                                                 const std::vector<std::optional<ViewId>>& drawnFrom,
-                                                 const BakeCosts& costs);
+    std::vector<std::size_t>
+    keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+                        const std::vector<std::optional<ViewId>>& drawnFrom,
+                        const BakeCosts& costs);
     int viewChangesThisFrame() const { return viewChanges_; }
     int bakesLeft() const { return bakesLeft_; }
     /// Views this frame asks to bake (after keepAffordableBakes: the ones it kept).

@@ -371,7 +371,8 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
         o.bakeCosts = costs;
         FrameRenderer r(s, o);
         std::vector<FrameResult> out;
-        for (int f = 0; f < frames; ++f) out.push_back(r.render(s.timeOfFrame(f), RenderMode::Hybrid, f));
+        for (int f = 0; f < frames; ++f)
+            out.push_back(r.render(s.timeOfFrame(f), RenderMode::Hybrid, f));
         return out;
     };
     const std::vector<FrameResult> bound = run(std::nullopt);
