@@ -98,20 +98,27 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
         if (available(*current)) return current;
         if (bakesLeft_ > 0) return bake(*current);
     }
-    // Each level's nearest view and its prediction, computed once (this runs for every entity
-    // the selector puts far, each frame).
+    // Each level's nearest view and its prediction, computed once and only when the scan below
+    // reaches it (this runs for every entity the selector puts far, each frame; a scan that
+    // stops at a coarse level never looks up the finer ones).
     struct Level {
         ViewId view;
         double predicted = 0.0;
         int cached = -1; ///< -1 not asked yet, else whether the snapshot is available
+        bool known = false;
     };
     std::array<Level, kViewLadder.size()> levels;
     std::size_t count = 0;
-    for (int n : kViewLadder) {
-        if (n > config.ladderCap) break;
-        const ViewId v = nearestLadderView(n, -sprite.lattice.dir);
-        levels[count++] = {v, predictedBudgetUnits(sprite, v)};
-    }
+    while (count < kViewLadder.size() && kViewLadder[count] <= config.ladderCap) ++count;
+    const auto level = [&](std::size_t k) -> Level& {
+        Level& l = levels[k];
+        if (!l.known) {
+            l.view = nearestLadderView(kViewLadder[k], -sprite.lattice.dir);
+            l.predicted = predictedBudgetUnits(sprite, l.view);
+            l.known = true;
+        }
+        return l;
+    };
     // The levels' nearest views within the budget, coarse to fine. A fresh choice aims at
     // far_at's share of the budget where it can, so the next small move does not switch again;
     // a snapshot already cached (or baking this frame) wins over one that needs a bake.
@@ -119,7 +126,7 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
     std::optional<ViewId> pick, pickNeedingBake;
     for (const double target : targets) {
         for (std::size_t k = 0; k < count && !pick; ++k) {
-            Level& l = levels[k];
+            Level& l = level(k);
             if (l.predicted > target) continue;
             if (l.cached < 0) l.cached = available(l.view);
             if (l.cached) pick = l.view;

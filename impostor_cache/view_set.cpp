@@ -165,13 +165,12 @@ class SurfaceDirections {
   public:
     static constexpr int kTabledN = 64;
 
-    glm::dvec3 of(int n, glm::ivec3 p) {
-        if (n > kTabledN) return viewDirection(viewIdOf(p));
+    /// Level n's table, indexed by index(n, p); null past kTabledN.
+    const glm::dvec3* table(int n) {
+        if (n > kTabledN) return nullptr;
         std::call_once(built_[std::size_t(n)], [&] { build(n); });
-        return table_[std::size_t(n)][index(n, p)];
+        return table_[std::size_t(n)].data();
     }
-
-  private:
     /// Face (the first axis at +-n, and its sign), then the two other coordinates.
     static std::size_t index(int n, glm::ivec3 p) {
         const int side = 2 * n + 1;
@@ -180,6 +179,8 @@ class SurfaceDirections {
         const int u = p[(axis + 1) % 3] + n, v = p[(axis + 2) % 3] + n;
         return std::size_t((face * side + u) * side + v);
     }
+
+  private:
     void build(int n) {
         const int side = 2 * n + 1;
         std::vector<glm::dvec3>& t = table_[std::size_t(n)];
@@ -214,6 +215,7 @@ glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
     const glm::dvec3 onFace = towardViewer * (double(n) / a[axis]);
     const glm::ivec3 centre(glm::round(onFace));
     constexpr int kReach = 2;
+    const glm::dvec3* directions = surfaceDirections().table(n);
     glm::ivec3 best(0);
     double bestDot = -2.0;
     // Lexicographic scan of the small box, strict '>' : the first of equal dots wins, as in a
@@ -224,7 +226,9 @@ glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
                  ++z) {
                 if (std::max({std::abs(x), std::abs(y), std::abs(z)}) != n) continue;
                 const glm::ivec3 p{x, y, z};
-                const double d = glm::dot(surfaceDirections().of(n, p), towardViewer);
+                const glm::dvec3 w = directions ? directions[SurfaceDirections::index(n, p)]
+                                                : viewDirection(viewIdOf(p));
+                const double d = glm::dot(w, towardViewer);
                 if (d > bestDot) bestDot = d, best = p;
             }
     return best;
