@@ -170,7 +170,7 @@ ErrorBudgetViews::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
     for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
     std::stable_sort(order.begin(), order.end(),
                      [&](std::size_t a, std::size_t b) { return saving[a] < saving[b]; });
-    double bakeMs = double(baking_.size()) * costs.msPerBake;
+    double bakeMs = double(baking_.size()) * costs.msPerBake + costs.planMs;
     std::vector<bool> dropped(baking_.size(), false);
     // Giving up a bake that saves at least its cost would not bring the frame nearer the bound.
     for (std::size_t k : order) {

@@ -35,6 +35,9 @@ struct BakeCosts {
     double msPerBake = 0.0;
     double nearMsPerPx = 0.0;
     double blitMsPerPx = 0.0;
+    /// The planner's own time per frame (selection and views): all-near spends none of it, so
+    /// the far sprites must save it too.
+    double planMs = 0.0;
     /// Both a bake and the near tier have been measured: the cost bound can apply.
     bool known() const { return msPerBake > 0.0 && nearMsPerPx > 0.0; }
     /// What drawing `sprite` far instead of near saves this frame (ms; negative if nothing).
@@ -65,10 +68,10 @@ class ErrorBudgetViews {
     /// is instant (a cross-fade never shows a view past the budget, nor bakes one).
     bool viewFade(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                   const IsCached& isCached, float* share, ViewId* from);
-    /// Ends the frame's choices under the cost bound (DESIGN.md §5): while the frame's bakes
-    /// cost more than the near time all its far sprites save, the bake that saves least (its
-    /// users' farSavingMs, summed) is given up if it saves less than it costs, and its users are
-    /// drawn near this frame. `drawnFrom[i]` is the view entity i is drawn far from (nullopt:
+    /// Ends the frame's choices under the cost bound (DESIGN.md §5): while the frame's bakes and
+    /// planning cost more than the near time all its far sprites save, the bake that saves least
+    /// (its users' farSavingMs, summed) is given up if it saves less than it costs, and its users
+    /// are drawn near this frame. `drawnFrom[i]` is the view entity i is drawn far from (nullopt:
     /// near). Returns the entities given up, in ascending order (their views are dropped).
     std::vector<std::size_t>
     keepAffordableBakes(const std::vector<SpriteSetup>& sprites,

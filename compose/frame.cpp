@@ -216,7 +216,9 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
     if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
-    measureCosts(out.sprites, out.plan, st);
+    measureCosts(out.sprites, out.plan, st,
+                 mode == RenderMode::Hybrid &&
+                     scene_.selector.metric == SelectorMetric::ErrorBudget);
     previousPlan_ = out.plan;
     st.cacheBytes = cache_->counters().bytes;
     st.totalMs = msSince(t0);
@@ -308,7 +310,8 @@ void FrameRenderer::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
 }
 
 void FrameRenderer::measureCosts(const std::vector<SpriteSetup>& sprites,
-                                 const std::vector<EntityPlan>& plan, const FrameStats& st) {
+                                 const std::vector<EntityPlan>& plan, const FrameStats& st,
+                                 bool planned) {
     double nearPx = 0.0, farPx = 0.0;
     for (std::size_t i = 0; i < sprites.size() && i < plan.size(); ++i) {
         if (!sprites[i].visible()) continue;
@@ -324,6 +327,7 @@ void FrameRenderer::measureCosts(const std::vector<SpriteSetup>& sprites,
     if (st.farBakes > 0) blend(measuredCosts_.msPerBake, st.bakeMs / st.farBakes);
     if (nearPx > 0.0 && st.nearMs > 0.0) blend(measuredCosts_.nearMsPerPx, st.nearMs / nearPx);
     if (farPx > 0.0 && st.blitMs > 0.0) blend(measuredCosts_.blitMsPerPx, st.blitMs / farPx);
+    if (planned) blend(measuredCosts_.planMs, st.selectMs);
 }
 
 Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,

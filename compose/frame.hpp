@@ -206,9 +206,10 @@ class FrameRenderer {
     /// Metric error_budget, after every entity's view: the bakes the frame can afford.
     void keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
                              std::vector<EntityPlan>& plan);
-    /// What this frame's near, blit and bakes cost per unit, into measuredCosts_.
+    /// What this frame's near, blit and bakes cost per unit, and its planning (`planned`: an
+    /// error-budget frame), into measuredCosts_.
     void measureCosts(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
-                      const FrameStats& stats);
+                      const FrameStats& stats, bool planned);
     /// draw() with the near tier drawn by `nearBackend`.
     Image drawWith(NearBackend nearBackend, const CameraFrame& camera,
                    const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,

@@ -338,6 +338,12 @@ TEST(ErrorBudget, ABakeIsGivenUpWhenItsUsersSaveLessThanItCosts) {
     // A large cached sprite (1.69 ms saved) pays for c's bake: nothing is given up.
     EXPECT_EQ(plan(13, &givenUp), 2u);
     EXPECT_TRUE(givenUp.empty());
+    // The planner's own 2 ms must be saved too: c's bake goes again (a and b's stays: giving it
+    // up would save less than it costs).
+    costs.planMs = 2.0;
+    EXPECT_EQ(plan(13, &givenUp), 1u);
+    EXPECT_EQ(givenUp, (std::vector<std::size_t>{2}));
+    costs.planMs = 0.0;
     // Blitting costs almost what drawing near does: even a and b's bake goes.
     costs.blitMsPerPx = 0.0099;
     EXPECT_EQ(plan(13, &givenUp), 0u);
