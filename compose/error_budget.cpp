@@ -82,10 +82,10 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
                                                const IsCached& isCached) {
     std::optional<ViewId>& current = current_.at(entity);
     const double budget = config.budgetVpx;
-    const auto available = [&](ViewId v) {
-        return isCached(sprite, v) || bakingSet_.count(keyOf(sprite, v)) > 0;
-    };
+    const auto baking = [&](ViewId v) { return bakingSet_.count(keyOf(sprite, v)) > 0; };
+    const auto available = [&](ViewId v) { return isCached(sprite, v) || baking(v); };
     const auto bake = [&](ViewId v) {
+        if (baking(v)) return v; // another entity's bake this frame: no second one
         --bakesLeft_;
         baking_.push_back(keyOf(sprite, v));
         bakingSet_.insert(baking_.back());
@@ -104,7 +104,7 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
     struct Level {
         ViewId view;
         double predicted = 0.0;
-        int cached = -1; ///< -1 not asked yet, else whether the snapshot is available
+        int cached = -1; ///< -1 not asked yet, else whether the snapshot is cached
         bool known = false;
     };
     std::array<Level, kViewLadder.size()> levels;
@@ -121,20 +121,26 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
     };
     // The levels' nearest views within the budget, coarse to fine. A fresh choice aims at
     // far_at's share of the budget where it can, so the next small move does not switch again;
-    // a snapshot already cached (or baking this frame) wins over one that needs a bake.
+    // a snapshot already cached (in memory or on disk) wins over one that needs a bake. A view
+    // another entity bakes this frame is not preferred to the coarsest one (so that a frame
+    // picks the same views whether its snapshots were baked before or are baked now: a
+    // pre-baked directory gives the cold image), only taken when the bake bound is spent.
     const double targets[2] = {budget * std::min(1.0, config.farAt / config.nearAt), budget};
-    std::optional<ViewId> pick, pickNeedingBake;
+    std::optional<ViewId> pick, pickNeedingBake, pickBaking;
     for (const double target : targets) {
         for (std::size_t k = 0; k < count && !pick; ++k) {
             Level& l = level(k);
             if (l.predicted > target) continue;
-            if (l.cached < 0) l.cached = available(l.view);
+            if (l.cached < 0) l.cached = isCached(sprite, l.view);
             if (l.cached) pick = l.view;
             if (!pickNeedingBake) pickNeedingBake = l.view;
+            if (!pickBaking && baking(l.view)) pickBaking = l.view;
         }
         if (pick) break;
     }
-    if (!pick && pickNeedingBake && bakesLeft_ > 0) pick = bake(*pickNeedingBake);
+    if (!pick && pickNeedingBake && (bakesLeft_ > 0 || baking(*pickNeedingBake)))
+        pick = bake(*pickNeedingBake);
+    if (!pick) pick = pickBaking;
     if (pick && current && !(*pick == *current)) {
         ++viewChanges_;
         if (config.crossfadeFrames > 0) fades_.at(entity) = {*current, config.crossfadeFrames};
