@@ -236,17 +236,20 @@ std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>&
     const bool budget = config.metric == SelectorMetric::ErrorBudget && mode == RenderMode::Hybrid;
     if (selector_.size() == 0) budgetViews_.reset(); // a restarted selector restarts its views
 
-    // The selector sees distance, projected radius and the angle to the nearest snapshot view.
+    // The selector sees distance, projected radius and the angle to the nearest snapshot view
+    // (or, under the error budget, the best prediction over the budget).
     std::vector<SelectorInput> inputs(sprites.size());
     for (std::size_t i = 0; i < sprites.size(); ++i) {
         const SpriteSetup& s = sprites[i];
         inputs[i].distance = s.distance;
         inputs[i].radiusPx = s.radiusPx;
-        if (s.visible()) {
-            const glm::dvec3 w = views[std::size_t(nearestView(set, towardViewer(s)))];
-            inputs[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
-            if (budget) inputs[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
+        if (!s.visible()) continue;
+        if (budget) { // the error budget's metric; the view angle serves only error_px
+            inputs[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
+            continue;
         }
+        const glm::dvec3 w = views[std::size_t(nearestView(set, towardViewer(s)))];
+        inputs[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
     }
     const SelectorStats ss = selector_.update(inputs);
     budgetViews_.beginFrame(sprites.size(), config.maxBakesPerFrame);
