@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <unordered_map>
 
 namespace voxtier {
 
@@ -29,12 +30,29 @@ double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config) 
     return predictedBudgetUnits(sprite, nearestLadderView(config.ladderCap, -sprite.lattice.dir));
 }
 
+double screenRectPx(const SpriteSetup& sprite) {
+    const glm::ivec4 r = sprite.screenRect;
+    return double(std::max(0, r.z - r.x)) * double(std::max(0, r.w - r.y));
+}
+
+double BakeCosts::farSavingMs(const SpriteSetup& sprite) const {
+    return screenRectPx(sprite) * (nearMsPerPx - blitMsPerPx);
+}
+
+std::size_t ErrorBudgetViews::BakeKeyHash::operator()(const BakeKey& k) const {
+    std::size_t h = std::hash<int>{}(k.model) * 31 + std::hash<int>{}(k.frame);
+    h = h * 31 + std::hash<double>{}(k.sigma);
+    for (int c = 0; c < 3; ++c) h = h * 31 + std::hash<int>{}(k.view.lattice[c]);
+    return h;
+}
+
 void ErrorBudgetViews::beginFrame(std::size_t entities, int bakes) {
     current_.resize(entities);
     fades_.resize(entities);
     for (Fade& f : fades_)
         if (f.left > 0) --f.left;
     baking_.clear();
+    bakingSet_.clear();
     bakesLeft_ = bakes;
     viewChanges_ = 0;
 }
@@ -64,16 +82,13 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
                                                const IsCached& isCached) {
     std::optional<ViewId>& current = current_.at(entity);
     const double budget = config.budgetVpx;
-    const auto available = [&](ViewId v) {
-        if (isCached(sprite, v)) return true;
-        return std::any_of(baking_.begin(), baking_.end(), [&](const auto& b) {
-            return b.second == v && b.first->model == sprite.model &&
-                   b.first->frame == sprite.frame && b.first->lattice.sigma == sprite.lattice.sigma;
-        });
-    };
+    const auto baking = [&](ViewId v) { return bakingSet_.count(keyOf(sprite, v)) > 0; };
+    const auto available = [&](ViewId v) { return isCached(sprite, v) || baking(v); };
     const auto bake = [&](ViewId v) {
+        if (baking(v)) return v; // another entity's bake this frame: no second one
         --bakesLeft_;
-        baking_.emplace_back(&sprite, v);
+        baking_.push_back(keyOf(sprite, v));
+        bakingSet_.insert(baking_.back());
         return v;
     };
     // Hysteresis on the view and level: a view within the budget is kept however the camera
@@ -83,42 +98,105 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
         if (available(*current)) return current;
         if (bakesLeft_ > 0) return bake(*current);
     }
-    // Each level's nearest view and its prediction, computed once (this runs for every entity
-    // the selector puts far, each frame).
+    // Each level's nearest view and its prediction, computed once and only when the scan below
+    // reaches it (this runs for every entity the selector puts far, each frame; a scan that
+    // stops at a coarse level never looks up the finer ones).
     struct Level {
         ViewId view;
         double predicted = 0.0;
-        int cached = -1; ///< -1 not asked yet, else whether the snapshot is available
+        int cached = -1; ///< -1 not asked yet, else whether the snapshot is cached
+        bool known = false;
     };
     std::array<Level, kViewLadder.size()> levels;
     std::size_t count = 0;
-    for (int n : kViewLadder) {
-        if (n > config.ladderCap) break;
-        const ViewId v = nearestLadderView(n, -sprite.lattice.dir);
-        levels[count++] = {v, predictedBudgetUnits(sprite, v)};
-    }
+    while (count < kViewLadder.size() && kViewLadder[count] <= config.ladderCap) ++count;
+    const auto level = [&](std::size_t k) -> Level& {
+        Level& l = levels[k];
+        if (!l.known) {
+            l.view = nearestLadderView(kViewLadder[k], -sprite.lattice.dir);
+            l.predicted = predictedBudgetUnits(sprite, l.view);
+            l.known = true;
+        }
+        return l;
+    };
     // The levels' nearest views within the budget, coarse to fine. A fresh choice aims at
     // far_at's share of the budget where it can, so the next small move does not switch again;
-    // a snapshot already cached (or baking this frame) wins over one that needs a bake.
+    // a snapshot already cached (in memory or on disk) wins over one that needs a bake. A view
+    // another entity bakes this frame is not preferred to the coarsest one (so that a frame
+    // picks the same views whether its snapshots were baked before or are baked now: a
+    // pre-baked directory gives the cold image), only taken when the bake bound is spent.
     const double targets[2] = {budget * std::min(1.0, config.farAt / config.nearAt), budget};
-    std::optional<ViewId> pick, pickNeedingBake;
+    std::optional<ViewId> pick, pickNeedingBake, pickBaking;
     for (const double target : targets) {
         for (std::size_t k = 0; k < count && !pick; ++k) {
-            Level& l = levels[k];
+            Level& l = level(k);
             if (l.predicted > target) continue;
-            if (l.cached < 0) l.cached = available(l.view);
+            if (l.cached < 0) l.cached = isCached(sprite, l.view);
             if (l.cached) pick = l.view;
             if (!pickNeedingBake) pickNeedingBake = l.view;
+            if (!pickBaking && baking(l.view)) pickBaking = l.view;
         }
         if (pick) break;
     }
-    if (!pick && pickNeedingBake && bakesLeft_ > 0) pick = bake(*pickNeedingBake);
+    if (!pick && pickNeedingBake && (bakesLeft_ > 0 || baking(*pickNeedingBake)))
+        pick = bake(*pickNeedingBake);
+    if (!pick) pick = pickBaking;
     if (pick && current && !(*pick == *current)) {
         ++viewChanges_;
         if (config.crossfadeFrames > 0) fades_.at(entity) = {*current, config.crossfadeFrames};
     }
     current = pick;
     return pick;
+}
+
+std::vector<std::size_t>
+ErrorBudgetViews::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+                                      const std::vector<std::optional<ViewId>>& drawnFrom,
+                                      const BakeCosts& costs) {
+    std::vector<std::size_t> givenUp;
+    if (!costs.known() || baking_.empty()) return givenUp;
+    // What each bake's users save, and what every far sprite saves (cached views included: the
+    // sprites already far pay for the bakes of the frame, so the frame is never slower than
+    // drawing them all near, as far as the measured costs tell).
+    std::unordered_map<BakeKey, std::size_t, BakeKeyHash> index;
+    for (std::size_t k = 0; k < baking_.size(); ++k) index[baking_[k]] = k;
+    std::vector<double> saving(baking_.size(), 0.0);
+    std::vector<std::vector<std::size_t>> users(baking_.size());
+    double savedMs = 0.0;
+    for (std::size_t i = 0; i < sprites.size() && i < drawnFrom.size(); ++i) {
+        if (!drawnFrom[i]) continue;
+        const double s = costs.farSavingMs(sprites[i]);
+        savedMs += s;
+        const auto b = index.find(keyOf(sprites[i], *drawnFrom[i]));
+        if (b == index.end()) continue;
+        saving[b->second] += s;
+        users[b->second].push_back(i);
+    }
+    std::vector<std::size_t> order(baking_.size());
+    for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return saving[a] < saving[b]; });
+    double bakeMs = double(baking_.size()) * costs.msPerBake + costs.planMs;
+    std::vector<bool> dropped(baking_.size(), false);
+    // Giving up a bake that saves at least its cost would not bring the frame nearer the bound.
+    for (std::size_t k : order) {
+        if (bakeMs <= savedMs || saving[k] >= costs.msPerBake) break;
+        dropped[k] = true;
+        bakeMs -= costs.msPerBake;
+        savedMs -= saving[k];
+        ++bakesLeft_;
+        for (std::size_t i : users[k]) givenUp.push_back(i);
+    }
+    std::vector<BakeKey> kept;
+    for (std::size_t k = 0; k < baking_.size(); ++k)
+        if (!dropped[k])
+            kept.push_back(baking_[k]);
+        else
+            bakingSet_.erase(baking_[k]);
+    baking_ = std::move(kept);
+    std::sort(givenUp.begin(), givenUp.end());
+    for (std::size_t i : givenUp) drop(i);
+    return givenUp;
 }
 
 } // namespace voxtier

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <functional>
 #include <optional>
+#include <unordered_set>
 #include <vector>
 
 namespace voxtier {
@@ -25,10 +26,29 @@ double predictedBudgetUnits(const SpriteSetup& sprite, ViewId view);
 /// cap level's nearest view (the levels nest, so a finer level is never further away).
 double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config);
 
+/// Pixels of the sprite's screen rectangle: what the costs below are measured per.
+double screenRectPx(const SpriteSetup& sprite);
+
+/// What the planner knows of the frame's costs (measured on earlier frames, or given by a test):
+/// a bake, and drawing a sprite near or blitting it far per pixel of its screen rectangle.
+struct BakeCosts {
+    double msPerBake = 0.0;
+    double nearMsPerPx = 0.0;
+    double blitMsPerPx = 0.0;
+    /// The planner's own time per frame (selection and views): all-near spends none of it, so
+    /// the far sprites must save it too.
+    double planMs = 0.0;
+    /// Both a bake and the near tier have been measured: the cost bound can apply.
+    bool known() const { return msPerBake > 0.0 && nearMsPerPx > 0.0; }
+    /// What drawing `sprite` far instead of near saves this frame (ms; negative if nothing).
+    double farSavingMs(const SpriteSetup& sprite) const;
+};
+
 /// Per-entity far views under the budget.
 class ErrorBudgetViews {
   public:
-    /// Whether a snapshot of (sprite's model and frame, view, sprite's sigma) is cached.
+    /// Whether a snapshot of (sprite's model and frame, view, sprite's sigma) can be drawn
+    /// without a bake: cached in memory or on disk (SnapshotCache::availableWithoutBake).
     using IsCached = std::function<bool(const SpriteSetup&, ViewId)>;
 
     void reset() { current_.clear(), fades_.clear(); }
@@ -48,18 +68,46 @@ class ErrorBudgetViews {
     /// is instant (a cross-fade never shows a view past the budget, nor bakes one).
     bool viewFade(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                   const IsCached& isCached, float* share, ViewId* from);
+    /// Ends the frame's choices under the cost bound (DESIGN.md §5): while the frame's bakes and
+    /// planning cost more than the near time all its far sprites save, the bake that saves least
+    /// (its users' farSavingMs, summed) is given up if it saves less than it costs, and its users
+    /// are drawn near this frame. `drawnFrom[i]` is the view entity i is drawn far from (nullopt:
+    /// near). Returns the entities given up, in ascending order (their views are dropped).
+    std::vector<std::size_t>
+    keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+                        const std::vector<std::optional<ViewId>>& drawnFrom,
+                        const BakeCosts& costs);
     int viewChangesThisFrame() const { return viewChanges_; }
     int bakesLeft() const { return bakesLeft_; }
+    /// Views this frame asks to bake (after keepAffordableBakes: the ones it kept).
+    std::size_t bakesAsked() const { return baking_.size(); }
 
   private:
+    /// A snapshot as the planner tells them apart: the requesting sprite's model, frame, sigma.
+    struct BakeKey {
+        int model = 0;
+        int frame = 0;
+        double sigma = 1.0;
+        ViewId view;
+        bool operator==(const BakeKey&) const = default;
+    };
+    struct BakeKeyHash {
+        std::size_t operator()(const BakeKey& k) const;
+    };
+    static BakeKey keyOf(const SpriteSetup& sprite, ViewId view) {
+        return {sprite.model, sprite.frame, sprite.lattice.sigma, view};
+    }
+
     std::vector<std::optional<ViewId>> current_;
     struct Fade {
         ViewId from;
         int left = 0; ///< frames of the cross-fade still to show
     };
     std::vector<Fade> fades_;
-    /// Views this frame already asked to bake (a second entity sharing one costs nothing).
-    std::vector<std::pair<const SpriteSetup*, ViewId>> baking_;
+    /// Views this frame already asked to bake (a second entity sharing one costs nothing), in
+    /// the order asked, and as a set (looked up for every level of every far entity).
+    std::vector<BakeKey> baking_;
+    std::unordered_set<BakeKey, BakeKeyHash> bakingSet_;
     int bakesLeft_ = 0;
     int viewChanges_ = 0;
 };

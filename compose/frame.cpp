@@ -225,6 +225,9 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
     if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
+    measureCosts(out.sprites, out.plan, st,
+                 mode == RenderMode::Hybrid &&
+                     scene_.selector.metric == SelectorMetric::ErrorBudget);
     previousPlan_ = out.plan;
     st.cacheBytes = cache_->counters().bytes;
     st.totalMs = msSince(t0);
@@ -242,17 +245,20 @@ std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>&
     const bool budget = config.metric == SelectorMetric::ErrorBudget && mode == RenderMode::Hybrid;
     if (selector_.size() == 0) budgetViews_.reset(); // a restarted selector restarts its views
 
-    // The selector sees distance, projected radius and the angle to the nearest snapshot view.
+    // The selector sees distance, projected radius and the angle to the nearest snapshot view
+    // (or, under the error budget, the best prediction over the budget).
     std::vector<SelectorInput> inputs(sprites.size());
     for (std::size_t i = 0; i < sprites.size(); ++i) {
         const SpriteSetup& s = sprites[i];
         inputs[i].distance = s.distance;
         inputs[i].radiusPx = s.radiusPx;
-        if (s.visible()) {
-            const glm::dvec3 w = views[std::size_t(nearestView(set, towardViewer(s)))];
-            inputs[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
-            if (budget) inputs[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
+        if (!s.visible()) continue;
+        if (budget) { // the error budget's metric; the view angle serves only error_px
+            inputs[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
+            continue;
         }
+        const glm::dvec3 w = views[std::size_t(nearestView(set, towardViewer(s)))];
+        inputs[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
     }
     const SelectorStats ss = selector_.update(inputs);
     budgetViews_.beginFrame(sprites.size(), config.maxBakesPerFrame);
@@ -272,6 +278,7 @@ std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>&
             p.view = viewIdOf(set, selector_.chooseView(i, towardViewer(sprites[i]), views));
         st.fading += p.fade > 0.0f;
     }
+    if (budget) keepAffordableBakes(sprites, plan);
     st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
     for (std::size_t i = 0; i < sprites.size(); ++i)
         if (plan[i].drawsFar() && plan[i].view && sprites[i].visible())
@@ -285,9 +292,10 @@ void FrameRenderer::planBudgetView(std::size_t entity, const SpriteSetup& sprite
         budgetViews_.drop(entity);
         return;
     }
+    // In memory or on disk (--cache-dir): either way drawing from it is not a bake.
     const auto isCached = [&](const SpriteSetup& s, ViewId v) {
-        const VoxelModel& m = *scene_.models.at(std::size_t(s.model));
-        return cache_->find({m.uid(), s.frame, m.version(), v, s.lattice.sigma}) != nullptr;
+        return cache_->availableWithoutBake(*scene_.models.at(std::size_t(s.model)), s.frame, v,
+                                            s.lattice.sigma);
     };
     p.view = budgetViews_.choose(entity, sprite, scene_.selector, isCached);
     // No view within the budget without passing this frame's bake bound: near this frame (the
@@ -299,6 +307,39 @@ void FrameRenderer::planBudgetView(std::size_t entity, const SpriteSetup& sprite
     if (p.view && p.tier == Tier::Far && p.fade <= 0.0f &&
         budgetViews_.viewFade(entity, sprite, scene_.selector, isCached, &share, &from))
         p.fade = share, p.fadeFrom = Tier::Far, p.fadeFromView = from;
+}
+
+void FrameRenderer::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+                                        std::vector<EntityPlan>& plan) {
+    if (!options_.costAwareBakes) return;
+    std::vector<std::optional<ViewId>> drawnFrom(plan.size());
+    for (std::size_t i = 0; i < plan.size(); ++i)
+        if (plan[i].drawsFar() && sprites[i].visible()) drawnFrom[i] = plan[i].view;
+    const BakeCosts& costs = options_.bakeCosts ? *options_.bakeCosts : measuredCosts_;
+    // Given up: near this frame, as under the bake bound (the selector keeps its far state).
+    for (std::size_t i : budgetViews_.keepAffordableBakes(sprites, drawnFrom, costs))
+        plan[i] = EntityPlan{};
+}
+
+void FrameRenderer::measureCosts(const std::vector<SpriteSetup>& sprites,
+                                 const std::vector<EntityPlan>& plan, const FrameStats& st,
+                                 bool planned) {
+    double nearPx = 0.0, farPx = 0.0;
+    for (std::size_t i = 0; i < sprites.size() && i < plan.size(); ++i) {
+        if (!sprites[i].visible()) continue;
+        const double px = screenRectPx(sprites[i]);
+        if (plan[i].drawsNear()) nearPx += px;
+        if (plan[i].drawsFar()) farPx += px;
+    }
+    // Running averages: each frame moves the estimate a third of the way to its own figure, so
+    // one slow frame (another process on the cores) does not swing the next frame's plan.
+    const auto blend = [](double& average, double sample) {
+        average = average > 0.0 ? average + (sample - average) / 3.0 : sample;
+    };
+    if (st.farBakes > 0) blend(measuredCosts_.msPerBake, st.bakeMs / st.farBakes);
+    if (nearPx > 0.0 && st.nearMs > 0.0) blend(measuredCosts_.nearMsPerPx, st.nearMs / nearPx);
+    if (farPx > 0.0 && st.blitMs > 0.0) blend(measuredCosts_.blitMsPerPx, st.blitMs / farPx);
+    if (planned) blend(measuredCosts_.planMs, st.selectMs);
 }
 
 Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,

@@ -85,6 +85,12 @@ struct FrameOptions {
     /// A near renderer to draw with instead of creating one: several FrameRenderers (bench
     /// configurations, views of one world) can share one Vulkan device. Null: created on first use.
     std::shared_ptr<NearRenderer> sharedNear;
+    /// Metric error_budget: bakes that cost more than the near time the frame's far sprites save
+    /// are given up (ErrorBudgetViews::keepAffordableBakes, DESIGN.md §5), by the costs measured
+    /// on earlier frames, or by `bakeCosts` where set (a test must not depend on timing). false:
+    /// only SelectorConfig::maxBakesPerFrame bounds the bakes.
+    bool costAwareBakes = true;
+    std::optional<BakeCosts> bakeCosts;
 };
 
 /// What one entity does this frame: its tier, an optional cross-fade (both tiers draw it, with
@@ -197,6 +203,13 @@ class FrameRenderer {
                                       FrameStats& st);
     /// Metric error_budget: the view within the budget (plan.view), or the entity drawn near.
     void planBudgetView(std::size_t entity, const SpriteSetup& sprite, EntityPlan& plan);
+    /// Metric error_budget, after every entity's view: the bakes the frame can afford.
+    void keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+                             std::vector<EntityPlan>& plan);
+    /// What this frame's near, blit and bakes cost per unit, and its planning (`planned`: an
+    /// error-budget frame), into measuredCosts_.
+    void measureCosts(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
+                      const FrameStats& stats, bool planned);
     /// draw() with the near tier drawn by `nearBackend`.
     Image drawWith(NearBackend nearBackend, const CameraFrame& camera,
                    const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
@@ -213,6 +226,7 @@ class FrameRenderer {
     FrameOptions options_;
     TierSelector selector_;
     ErrorBudgetViews budgetViews_; ///< far views under metric error_budget
+    BakeCosts measuredCosts_;      ///< running averages over the frames drawn so far
     std::unique_ptr<SnapshotCache> cache_;
     std::shared_ptr<NearRenderer>
         near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan

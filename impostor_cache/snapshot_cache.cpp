@@ -54,6 +54,12 @@ std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int 
     using Older = decltype(snapshots_)::Older;
     const ViewKey key{model.uid(), frame, view, sigma};
     return snapshots_.get(key, model.version(), [&](const std::optional<Older>& stale) {
+        {
+            // Whatever happens below (a load, a bake, a file write that fails), the next
+            // availableWithoutBake of this key looks at the directory again.
+            std::lock_guard lock(mutex_);
+            diskAnswers_.erase(key);
+        }
         // A stale snapshot of this view (an older version of the model) is brought up to date
         // where the edits since reach, if the model's log still knows what they were; otherwise
         // the per-(model, frame, version) scene (shared by all views) bakes this view whole.
@@ -114,6 +120,24 @@ SnapshotFileKey SnapshotCache::fileKey(const VoxelModel& model, int frame, ViewI
 
 std::shared_ptr<const Snapshot> SnapshotCache::find(const SnapshotKey& key) const {
     return snapshots_.find({key.modelUid, key.frame, key.view, key.sigma}, key.version);
+}
+
+bool SnapshotCache::availableWithoutBake(const VoxelModel& model, int frame, ViewId view,
+                                         double sigma) {
+    const ViewKey key{model.uid(), frame, view, sigma};
+    if (snapshots_.find(key, model.version())) return true;
+    if (!config_.store) return false;
+    {
+        std::lock_guard lock(mutex_);
+        const auto known = diskAnswers_.find(key);
+        if (known != diskAnswers_.end() && known->second.version == model.version())
+            return known->second.present;
+    }
+    const bool present = config_.store->contains(fileKey(model, frame, view, sigma));
+    std::lock_guard lock(mutex_);
+    if (diskAnswers_.size() >= kMaxDiskAnswers) diskAnswers_.clear();
+    diskAnswers_[key] = {model.version(), present};
+    return present;
 }
 
 SnapshotCacheCounters SnapshotCache::counters() const {

@@ -26,6 +26,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <unordered_map>
 
 namespace voxtier {
 
@@ -94,6 +95,14 @@ class SnapshotCache {
     }
     /// The cached snapshot or nullptr; never bakes, does not count or touch the LRU order.
     std::shared_ptr<const Snapshot> find(const SnapshotKey& key) const;
+    /// Whether get() can have this snapshot without baking: cached here, or a file for it in
+    /// the on-disk store (its existence only: get() still validates the file and bakes in place
+    /// of a bad one). What a frame planner asks before counting a bake against its bound. Never
+    /// bakes, counts or touches either LRU order; the disk answer is remembered per key and
+    /// version until get() produces that key, so a frame of many entities costs few file
+    /// lookups. An edited model with a cached older version is refreshed, not read from disk,
+    /// whatever this says (a file of the edited voxels is rare: nobody pre-bakes an edit).
+    bool availableWithoutBake(const VoxelModel& model, int frame, ViewId view, double sigma);
     /// The Embree scene of the model's current version of `frame` (built once, shared).
     std::shared_ptr<const VoxelScene> scene(const VoxelModel& model, int frame);
 
@@ -132,7 +141,16 @@ class SnapshotCache {
     /// once for all its views, since it reads every voxel of the frame.
     VersionedLru<FrameKey, Digest128, FrameKeyHash> digests_;
     VersionedLru<FrameKey, VoxelScene, FrameKeyHash> scenes_;
-    mutable std::mutex mutex_;       ///< for counters_
+    /// availableWithoutBake's memory of the on-disk store: whether the key's file existed when
+    /// last asked, for that model version. Cleared whole past kMaxDiskAnswers entries.
+    struct DiskAnswer {
+        std::uint64_t version;
+        bool present;
+    };
+    static constexpr std::size_t kMaxDiskAnswers = std::size_t(1) << 16;
+    std::unordered_map<ViewKey, DiskAnswer, ViewKeyHash> diskAnswers_;
+
+    mutable std::mutex mutex_;       ///< for counters_ and diskAnswers_
     SnapshotCacheCounters counters_; ///< what baking and building cost; the LRU counts its own
 };
 

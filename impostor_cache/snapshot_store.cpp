@@ -351,6 +351,11 @@ void SnapshotStore::warn(const std::filesystem::path& file, const std::string& r
     options_.warn("warning: " + file.string() + ": " + reason + "; baking it again");
 }
 
+bool SnapshotStore::contains(const SnapshotFileKey& key) const {
+    std::error_code ec;
+    return std::filesystem::is_regular_file(pathOf(key), ec);
+}
+
 std::optional<Snapshot> SnapshotStore::load(const SnapshotFileKey& key) {
     const auto t0 = std::chrono::steady_clock::now();
     const std::filesystem::path path = pathOf(key);

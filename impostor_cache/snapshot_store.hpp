@@ -115,6 +115,10 @@ class SnapshotStore {
     /// The snapshot stored for `key`, or nullopt when there is no file or it is not usable (then
     /// one warning line; the caller bakes and save() replaces the file). Marks the file used.
     std::optional<Snapshot> load(const SnapshotFileKey& key);
+    /// Whether a file for `key` exists (not read, not validated, not marked used): enough for
+    /// planning what a frame can have without baking, since load() still checks the file and
+    /// the caller re-bakes a bad one.
+    bool contains(const SnapshotFileKey& key) const;
     /// Writes the file (temporary name, then rename), then keeps the size limit. A failure to
     /// write is a warning, not an error: the cache is an optimisation.
     void save(const SnapshotFileKey& key, const Snapshot& snap);

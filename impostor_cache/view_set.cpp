@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdlib>
 #include <limits>
+#include <mutex>
 #include <numeric>
 #include <stdexcept>
 
@@ -153,6 +154,60 @@ std::vector<ViewId> cubeSurfaceViews(int n) {
     return views;
 }
 
+namespace {
+
+/// viewDirection(viewIdOf(p)) of every surface point p of {-n..n}^3, per n up to kTabledN,
+/// computed on the first lookup of that n: nearestLatticePoint compares up to 25 of them per
+/// call, and the error-budget planner calls it for each ladder level of each entity every frame
+/// (two gcds and a square root each, otherwise: most of the planner's time on the tank army).
+/// The same doubles, so every result is the same.
+class SurfaceDirections {
+  public:
+    static constexpr int kTabledN = 64;
+
+    /// Level n's table, indexed by index(n, p); null past kTabledN.
+    const glm::dvec3* table(int n) {
+        if (n > kTabledN) return nullptr;
+        std::call_once(built_[std::size_t(n)], [&] { build(n); });
+        return table_[std::size_t(n)].data();
+    }
+    /// Face (the first axis at +-n, and its sign), then the two other coordinates.
+    static std::size_t index(int n, glm::ivec3 p) {
+        const int side = 2 * n + 1;
+        const int axis = std::abs(p.x) == n ? 0 : (std::abs(p.y) == n ? 1 : 2);
+        const int face = axis * 2 + (p[axis] < 0 ? 1 : 0);
+        const int u = p[(axis + 1) % 3] + n, v = p[(axis + 2) % 3] + n;
+        return std::size_t((face * side + u) * side + v);
+    }
+
+  private:
+    void build(int n) {
+        const int side = 2 * n + 1;
+        std::vector<glm::dvec3>& t = table_[std::size_t(n)];
+        t.resize(std::size_t(6 * side * side));
+        for (int axis = 0; axis < 3; ++axis)
+            for (int sign : {1, -1})
+                for (int u = -n; u <= n; ++u)
+                    for (int v = -n; v <= n; ++v) {
+                        glm::ivec3 p;
+                        p[axis] = sign * n;
+                        p[(axis + 1) % 3] = u;
+                        p[(axis + 2) % 3] = v;
+                        t[index(n, p)] = viewDirection(viewIdOf(p));
+                    }
+    }
+
+    std::array<std::once_flag, kTabledN + 1> built_;
+    std::array<std::vector<glm::dvec3>, kTabledN + 1> table_;
+};
+
+SurfaceDirections& surfaceDirections() {
+    static SurfaceDirections directions;
+    return directions;
+}
+
+} // namespace
+
 glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
     const glm::dvec3 a = glm::abs(towardViewer);
     const int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
@@ -160,6 +215,7 @@ glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
     const glm::dvec3 onFace = towardViewer * (double(n) / a[axis]);
     const glm::ivec3 centre(glm::round(onFace));
     constexpr int kReach = 2;
+    const glm::dvec3* directions = surfaceDirections().table(n);
     glm::ivec3 best(0);
     double bestDot = -2.0;
     // Lexicographic scan of the small box, strict '>' : the first of equal dots wins, as in a
@@ -170,7 +226,9 @@ glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
                  ++z) {
                 if (std::max({std::abs(x), std::abs(y), std::abs(z)}) != n) continue;
                 const glm::ivec3 p{x, y, z};
-                const double d = glm::dot(viewDirection(viewIdOf(p)), towardViewer);
+                const glm::dvec3 w = directions ? directions[SurfaceDirections::index(n, p)]
+                                                : viewDirection(viewIdOf(p));
+                const double d = glm::dot(w, towardViewer);
                 if (d > bestDot) bestDot = d, best = p;
             }
     return best;

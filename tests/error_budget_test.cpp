@@ -9,14 +9,17 @@
 #include "core/sprite_kernel.h"
 #include "frame_test_support.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
+#include "test_support.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <set>
 #include <tuple>
+#include <unistd.h>
 
 namespace voxtier {
 namespace {
@@ -242,6 +245,183 @@ TEST(ErrorBudget, OnlyTheViewsDrawnAreBakedAndBakesPerFrameAreBounded) {
     }
     EXPECT_GT(drawn.size(), 3u);
     EXPECT_EQ(r.snapshotCache().counters().bakes, drawn.size());
+}
+
+// A snapshot in the on-disk store is not a bake: with a directory pre-baked by an earlier run, the
+// first frame of a fresh renderer draws far every entity the earlier run drew far, from the same
+// views and pixel for pixel, loading them from disk under a bake bound of 0 or 1 with no bake;
+// without the directory the same frame under the same bound draws them all near.
+TEST(ErrorBudget, SnapshotsOnDiskCountAsCachedNotAsBakes) {
+    Scene s = benchScene("scenes/bench/tank_army.json", 40);
+    s.selector = budgetSelector(1.0);
+    const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) /
+                                      ("voxtier_budget_disk_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    FrameOptions withDir = cpuNear();
+    withDir.cacheDir = dir.string();
+    const auto farCount = [](const FrameResult& fr) {
+        int far = 0;
+        for (std::size_t i = 0; i < fr.plan.size(); ++i)
+            far += fr.plan[i].drawsFar() && fr.sprites[i].visible();
+        return far;
+    };
+
+    // The pre-bake: a run that may bake as much as it likes writes its snapshots to `dir`.
+    FrameResult baked;
+    {
+        FrameRenderer r(s, withDir);
+        baked = r.render(0.0, RenderMode::Hybrid, 0);
+    }
+    ASSERT_GT(baked.stats.farBakes, 0);
+    ASSERT_GE(farCount(baked), 10);
+
+    // Everything the selector puts far is far at once, nothing baked, the same image.
+    Image allNear;
+    for (int bound : {0, 1}) {
+        s.selector.maxBakesPerFrame = bound;
+        FrameRenderer fromDisk(s, withDir);
+        const FrameResult fr = fromDisk.render(0.0, RenderMode::Hybrid, 0);
+        EXPECT_EQ(fr.stats.farBakes, 0) << bound;
+        EXPECT_EQ(farCount(fr), farCount(baked)) << bound;
+        EXPECT_GT(fromDisk.snapshotCache().counters().diskLoads, 0u);
+        for (std::size_t i = 0; i < fr.plan.size(); ++i)
+            EXPECT_TRUE(fr.plan[i] == baked.plan[i]) << "bound " << bound << " entity " << i;
+        EXPECT_EQ(test::describeDifference(baked.image, fr.image, "pre-bake", "from disk"), "");
+
+        // Without the directory the bound keeps them near: the all-near image.
+        FrameRenderer noDir(s, cpuNear());
+        const FrameResult near = noDir.render(0.0, RenderMode::Hybrid, 0);
+        EXPECT_LE(near.stats.farBakes, bound);
+        EXPECT_LT(farCount(near), farCount(fr)) << bound; // one bake: the entities of one view
+        if (bound == 0) {
+            EXPECT_EQ(farCount(near), 0);
+            allNear = noDir.render(0.0, RenderMode::Near, 0).image;
+            EXPECT_EQ(test::describeDifference(allNear, near.image, "all near", "no dir"), "");
+            EXPECT_NE(test::describeDifference(allNear, fr.image, "all near", "from disk"), "");
+        }
+    }
+    std::filesystem::remove_all(dir);
+}
+
+// The cost bound (DESIGN.md §5): a bake is given up when the frame's bakes cost more than the
+// near time its far sprites save and that bake's own users save less than it costs.
+TEST(ErrorBudget, ABakeIsGivenUpWhenItsUsersSaveLessThanItCosts) {
+    const SelectorConfig c = budgetSelector(1.0);
+    const auto sprite = [](int model, glm::dvec3 towardViewer, int side) {
+        SpriteSetup sp = syntheticSprite(towardViewer, 1.0 / 8.0);
+        sp.model = model;
+        sp.screenRect = {0, 0, side, side};
+        return sp;
+    };
+    // a and b share one view to bake (64 px each), c needs a view of its own (49 px), d is
+    // cached (its model's snapshots are all there).
+    const glm::dvec3 along(0.3, 0.8, 0.52);
+    BakeCosts costs{.msPerBake = 1.0, .nearMsPerPx = 0.01};
+    const auto plan = [&](int dSide, std::vector<std::size_t>* givenUp) {
+        const std::vector<SpriteSetup> sprites = {sprite(0, along, 8), sprite(0, along, 8),
+                                                  sprite(1, along, 7), sprite(2, along, dSide)};
+        const auto cached = [](const SpriteSetup& s, ViewId) { return s.model == 2; };
+        ErrorBudgetViews views;
+        views.beginFrame(sprites.size(), 8);
+        std::vector<std::optional<ViewId>> drawn;
+        for (std::size_t i = 0; i < sprites.size(); ++i)
+            drawn.push_back(views.choose(i, sprites[i], c, cached));
+        for (const auto& v : drawn) EXPECT_TRUE(v.has_value());
+        EXPECT_EQ(views.bakesAsked(), 2u);
+        *givenUp = views.keepAffordableBakes(sprites, drawn, costs);
+        return views.bakesAsked();
+    };
+    std::vector<std::size_t> givenUp;
+    // Bakes 2 ms, saved 0.64 + 0.64 + 0.49 + 0.09: c's bake (0.49 ms) goes, a and b's stays.
+    EXPECT_EQ(plan(3, &givenUp), 1u);
+    EXPECT_EQ(givenUp, (std::vector<std::size_t>{2}));
+    // A large cached sprite (1.69 ms saved) pays for c's bake: nothing is given up.
+    EXPECT_EQ(plan(13, &givenUp), 2u);
+    EXPECT_TRUE(givenUp.empty());
+    // The planner's own 2 ms must be saved too: c's bake goes again (a and b's stays: giving it
+    // up would save less than it costs).
+    costs.planMs = 2.0;
+    EXPECT_EQ(plan(13, &givenUp), 1u);
+    EXPECT_EQ(givenUp, (std::vector<std::size_t>{2}));
+    costs.planMs = 0.0;
+    // Blitting costs almost what drawing near does: even a and b's bake goes.
+    costs.blitMsPerPx = 0.0099;
+    EXPECT_EQ(plan(13, &givenUp), 0u);
+    EXPECT_EQ(givenUp, (std::vector<std::size_t>{0, 1, 2}));
+    // Unknown costs (no bake or near frame measured yet): only the bake bound applies.
+    costs = {};
+    EXPECT_EQ(plan(3, &givenUp), 2u);
+    EXPECT_TRUE(givenUp.empty());
+}
+
+/// What the far sprites of a frame save by the given costs (ms).
+double farSavingMs(const FrameResult& fr, const BakeCosts& costs) {
+    double saved = 0.0;
+    for (std::size_t i = 0; i < fr.plan.size(); ++i)
+        if (fr.plan[i].drawsFar() && fr.sprites[i].visible())
+            saved += costs.farSavingMs(fr.sprites[i]);
+    return saved;
+}
+
+// Along the tank army's path, consecutive frames with fixed costs (no timing): free bakes change
+// nothing; bakes dearer than any sprite leave every frame all near, pixel for pixel; in between,
+// no frame's bakes cost more than the near time its far sprites save, and some bakes the bake
+// bound alone would have made are given up.
+TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
+    Scene s = benchScene("scenes/bench/tank_army.json", 60, 240, 136);
+    s.selector = budgetSelector(0.25);
+    const int frames = std::min(8, s.path->frameCount());
+    const auto run = [&](std::optional<BakeCosts> costs) {
+        FrameOptions o = cpuNear();
+        o.costAwareBakes = costs.has_value();
+        o.bakeCosts = costs;
+        FrameRenderer r(s, o);
+        std::vector<FrameResult> out;
+        for (int f = 0; f < frames; ++f)
+            out.push_back(r.render(s.timeOfFrame(f), RenderMode::Hybrid, f));
+        return out;
+    };
+    const std::vector<FrameResult> bound = run(std::nullopt);
+    int boundBakes = 0;
+    for (const FrameResult& fr : bound) boundBakes += fr.stats.farBakes;
+    ASSERT_GT(boundBakes, 10);
+
+    const std::vector<FrameResult> free = run(BakeCosts{.msPerBake = 1e-12, .nearMsPerPx = 1.0});
+    for (int f = 0; f < frames; ++f) {
+        EXPECT_TRUE(free[f].plan == bound[f].plan) << "frame " << f;
+        EXPECT_EQ(test::describeDifference(bound[f].image, free[f].image, "bound", "free"), "");
+    }
+
+    FrameRenderer allNear(s, cpuNear());
+    const std::vector<FrameResult> dear = run(BakeCosts{.msPerBake = 1e12, .nearMsPerPx = 1.0});
+    for (int f = 0; f < frames; ++f) {
+        EXPECT_EQ(dear[f].stats.farBakes, 0) << "frame " << f;
+        EXPECT_EQ(dear[f].stats.farDrawn, 0) << "frame " << f;
+        const Image near = allNear.render(s.timeOfFrame(f), RenderMode::Near, f).image;
+        EXPECT_EQ(test::describeDifference(near, dear[f].image, "all near", "dear bakes"), "");
+    }
+
+    // A bake costs what drawing 400 pixels near does.
+    const BakeCosts costs{.msPerBake = 4.0, .nearMsPerPx = 0.01};
+    const std::vector<FrameResult> costed = run(costs);
+    int costedBakes = 0, farFrames = 0, costedFar = 0, boundFar = 0;
+    for (int f = 0; f < frames; ++f) {
+        const FrameResult& fr = costed[f];
+        costedBakes += fr.stats.farBakes;
+        farFrames += fr.stats.farDrawn > 0;
+        costedFar += fr.stats.farDrawn, boundFar += bound[f].stats.farDrawn;
+        EXPECT_LE(fr.stats.farBakes * costs.msPerBake, farSavingMs(fr, costs) + 1e-9)
+            << "frame " << f;
+    }
+    std::printf("over %d frames: %d bakes and %d far sprites under the bound alone, %d and %d "
+                "under the costs\n",
+                frames, boundBakes, boundFar, costedBakes, costedFar);
+    // The first frame has only its own bakes' users to pay for them: fewer bakes than the bound
+    // allows. Later frames' cached far sprites pay for more.
+    EXPECT_LT(costed[0].stats.farBakes, bound[0].stats.farBakes);
+    EXPECT_LT(costedFar, boundFar);
+    EXPECT_GT(costedBakes, 0);
+    EXPECT_EQ(farFrames, frames);
 }
 
 // A view switch cross-fades like a tier switch: frame k of N shows the new view on the pixels whose
