@@ -210,23 +210,34 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     const double v0 = L.gV + (L.cellRange.z - 1) / sigma - marginVox;
     const double v1 = L.gV + (L.cellRange.w + 2) / sigma + marginVox;
     const glm::dvec2 corners[4] = {{u0, v0}, {u1, v0}, {u0, v1}, {u1, v1}}; // triangle strip
-    bool allInFront = true;
-    glm::dvec2 lo(1e300), hi(-1e300);
+    glm::dvec4 clip[4];
     for (int i = 0; i < 4; ++i) {
         const glm::dvec3 P = C + k * (corners[i].x * rW + corners[i].y * uW);
-        const glm::dvec4 clip = clipFromCameraRelative(cam, P);
-        g.quad[i] = glm::vec4(toGpuFloat(clip.x), toGpuFloat(clip.y), toGpuFloat(clip.z),
-                              toGpuFloat(clip.w));
-        if (!(clip.w > cam.zNear)) {
-            allInFront = false;
-            continue;
-        }
-        const glm::dvec2 px{(clip.x / clip.w + 1.0) * 0.5 * cam.width,
-                            (clip.y / clip.w + 1.0) * 0.5 * cam.height};
+        clip[i] = clipFromCameraRelative(cam, P);
+        g.quad[i] = glm::vec4(toGpuFloat(clip[i].x), toGpuFloat(clip[i].y), toGpuFloat(clip[i].z),
+                              toGpuFloat(clip[i].w));
+    }
+    // The screen rectangle: the bounds of the quad's part at view depth >= zNear (the kernel
+    // draws only where the pixel ray meets the plane at >= 2 zNear, vtPixelCell's denMax), the
+    // quad clipped there in clip space, where depth is linear. Unclipped, a quad crossing the
+    // near plane would claim the whole image, and every cell-rate pass and reference row walks
+    // the rectangle.
+    glm::dvec2 lo(1e300), hi(-1e300);
+    const auto extend = [&](const glm::dvec4& c) {
+        const glm::dvec2 px{(c.x / c.w + 1.0) * 0.5 * cam.width,
+                            (c.y / c.w + 1.0) * 0.5 * cam.height};
         lo = glm::min(lo, px);
         hi = glm::max(hi, px);
+    };
+    const int ring[4] = {0, 1, 3, 2}; // the strip's corners in polygon order
+    for (int e = 0; e < 4; ++e) {
+        const glm::dvec4& a = clip[ring[e]];
+        const glm::dvec4& b = clip[ring[(e + 1) % 4]];
+        const bool aIn = a.w >= cam.zNear, bIn = b.w >= cam.zNear;
+        if (aIn) extend(a);
+        if (aIn != bIn) extend(a + (b - a) * ((a.w - cam.zNear) / (a.w - b.w)));
     }
-    if (allInFront) {
+    if (hi.x >= lo.x) {
         // Clamp in double first: a huge quad must not overflow the int conversion.
         const double W = cam.width, H = cam.height;
         S.screenRect = {int(std::clamp(std::floor(lo.x) - 1.0, 0.0, W)),
@@ -234,8 +245,7 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
                         int(std::clamp(std::ceil(hi.x) + 1.0, 0.0, W)),
                         int(std::clamp(std::ceil(hi.y) + 1.0, 0.0, H))};
     } else {
-        // The quad crosses the near plane: the kernel's denMax test decides per pixel.
-        S.screenRect = {0, 0, cam.width, cam.height};
+        S.screenRect = {0, 0, 0, 0}; // the whole quad is nearer than zNear
     }
     if (S.screenRect.x >= S.screenRect.z || S.screenRect.y >= S.screenRect.w)
         S.cull = CullReason::OffScreen;
