@@ -532,10 +532,14 @@ NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
                                  std::uint64_t budgetBytes) {
     using near_gpu::NEAR_SPLAT_BLOCK;
     const std::size_t n = visible.size();
-    ensureBuffer(cellBases, std::max<std::size_t>(n, 1) * sizeof(std::uint32_t),
-                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-    // memcpy from an empty vector's data() (null) is undefined even for 0 bytes (UBSan).
-    if (n) std::memcpy(cellBases.mapped(), plan.cellBase.data(), n * sizeof(std::uint32_t));
+    // Per-frame host-visible arrays: grown as needed, at least 4 bytes (a binding never has
+    // size 0), and no memcpy from an empty vector's data() (null: undefined even for 0 bytes).
+    const auto upload = [&](VulkanBuffer& b, const auto& v) {
+        const std::size_t bytes = v.size() * sizeof(v[0]);
+        ensureBuffer(b, std::max<std::size_t>(bytes, 4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+        if (bytes) std::memcpy(b.mapped(), v.data(), bytes);
+    };
+    upload(cellBases, plan.cellBase);
     // The store is kept for the next frames and grows by doubling, never past the budget (the
     // plan never needs more than the budget).
     const VkDeviceSize need = plan.cells * kCellStoreBytesPerCell;
@@ -567,11 +571,6 @@ NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
     });
     std::vector<std::uint32_t> ranks(n, near_gpu::NEAR_NO_RANK);
     for (std::size_t r = 0; r < byDepth.size(); ++r) ranks[byDepth[r]] = std::uint32_t(r);
-    const auto upload = [&](VulkanBuffer& b, const auto& v) {
-        const std::size_t bytes = v.size() * sizeof(v[0]);
-        ensureBuffer(b, std::max<std::size_t>(bytes, 4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-        if (bytes) std::memcpy(b.mapped(), v.data(), bytes);
-    };
     upload(cellTiles, tiles);
     upload(splatBlocks, blocks);
     upload(splatRanks, ranks);
