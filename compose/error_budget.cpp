@@ -36,7 +36,7 @@ double screenRectPx(const SpriteSetup& sprite) {
 }
 
 double BakeCosts::farSavingMs(const SpriteSetup& sprite) const {
-    return screenRectPx(sprite) * (nearMsPerPx - blitMsPerPx);
+    return nearCostUnits(sprite, nearRate) * nearMsPerUnit - screenRectPx(sprite) * blitMsPerPx;
 }
 
 std::size_t ErrorBudgetViews::BakeKeyHash::operator()(const BakeKey& k) const {

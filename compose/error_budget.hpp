@@ -8,6 +8,7 @@
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
 #include "impostor_cache/view_set.hpp"
+#include "volumetric/near_rate.hpp"
 
 #include <cstddef>
 #include <functional>
@@ -30,16 +31,20 @@ double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config);
 double screenRectPx(const SpriteSetup& sprite);
 
 /// What the planner knows of the frame's costs (measured on earlier frames, or given by a test):
-/// a bake, and drawing a sprite near or blitting it far per pixel of its screen rectangle.
+/// a bake, drawing a sprite near per unit of its near cost (nearCostUnits: its cells where it
+/// is drawn cell-rate, else its rectangle pixels; the near tier's per-frame cost excluded) and
+/// blitting it far per pixel of its screen rectangle.
 struct BakeCosts {
     double msPerBake = 0.0;
-    double nearMsPerPx = 0.0;
+    double nearMsPerUnit = 0.0;
     double blitMsPerPx = 0.0;
     /// The planner's own time per frame (selection and views): all-near spends none of it, so
     /// the far sprites must save it too.
     double planMs = 0.0;
+    /// The near tier's rate (what a sprite's nearCostUnits are).
+    NearRate nearRate = NearRate::Auto;
     /// Both a bake and the near tier have been measured: the cost bound can apply.
-    bool known() const { return msPerBake > 0.0 && nearMsPerPx > 0.0; }
+    bool known() const { return msPerBake > 0.0 && nearMsPerUnit > 0.0; }
     /// What drawing `sprite` far instead of near saves this frame (ms; negative if nothing).
     double farSavingMs(const SpriteSetup& sprite) const;
 };

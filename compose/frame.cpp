@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 namespace voxtier {
 
@@ -225,7 +226,7 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
     if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
-    measureCosts(out.sprites, out.plan, st,
+    measureCosts(cam, nearBackendFor(mode, options_.nearBackend), out.sprites, out.plan, st,
                  mode == RenderMode::Hybrid &&
                      scene_.selector.metric == SelectorMetric::ErrorBudget);
     previousPlan_ = out.plan;
@@ -278,7 +279,7 @@ std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>&
             p.view = viewIdOf(set, selector_.chooseView(i, towardViewer(sprites[i]), views));
         st.fading += p.fade > 0.0f;
     }
-    if (budget) keepAffordableBakes(sprites, plan);
+    if (budget) st.farBakesGivenUp = keepAffordableBakes(sprites, plan);
     st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
     for (std::size_t i = 0; i < sprites.size(); ++i)
         if (plan[i].drawsFar() && plan[i].view && sprites[i].visible())
@@ -309,9 +310,10 @@ void FrameRenderer::planBudgetView(std::size_t entity, const SpriteSetup& sprite
         p.fade = share, p.fadeFrom = Tier::Far, p.fadeFromView = from;
 }
 
-void FrameRenderer::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
-                                        std::vector<EntityPlan>& plan) {
-    if (!options_.costAwareBakes) return;
+int FrameRenderer::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+                                       std::vector<EntityPlan>& plan) {
+    if (!options_.costAwareBakes) return 0;
+    const std::size_t asked = budgetViews_.bakesAsked();
     std::vector<std::optional<ViewId>> drawnFrom(plan.size());
     for (std::size_t i = 0; i < plan.size(); ++i)
         if (plan[i].drawsFar() && sprites[i].visible()) drawnFrom[i] = plan[i].view;
@@ -319,17 +321,19 @@ void FrameRenderer::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
     // Given up: near this frame, as under the bake bound (the selector keeps its far state).
     for (std::size_t i : budgetViews_.keepAffordableBakes(sprites, drawnFrom, costs))
         plan[i] = EntityPlan{};
+    return int(asked - budgetViews_.bakesAsked());
 }
 
-void FrameRenderer::measureCosts(const std::vector<SpriteSetup>& sprites,
+void FrameRenderer::measureCosts(const CameraFrame& cam, NearBackend nearBackend,
+                                 const std::vector<SpriteSetup>& sprites,
                                  const std::vector<EntityPlan>& plan, const FrameStats& st,
                                  bool planned) {
-    double nearPx = 0.0, farPx = 0.0;
+    measuredCosts_.nearRate = options_.nearRate;
+    double nearUnits = 0.0, farPx = 0.0;
     for (std::size_t i = 0; i < sprites.size() && i < plan.size(); ++i) {
         if (!sprites[i].visible()) continue;
-        const double px = screenRectPx(sprites[i]);
-        if (plan[i].drawsNear()) nearPx += px;
-        if (plan[i].drawsFar()) farPx += px;
+        if (plan[i].drawsNear()) nearUnits += nearCostUnits(sprites[i], options_.nearRate);
+        if (plan[i].drawsFar()) farPx += screenRectPx(sprites[i]);
     }
     // Running averages: each frame moves the estimate a third of the way to its own figure, so
     // one slow frame (another process on the cores) does not swing the next frame's plan.
@@ -337,9 +341,50 @@ void FrameRenderer::measureCosts(const std::vector<SpriteSetup>& sprites,
         average = average > 0.0 ? average + (sample - average) / 3.0 : sample;
     };
     if (st.farBakes > 0) blend(measuredCosts_.msPerBake, st.bakeMs / st.farBakes);
-    if (nearPx > 0.0 && st.nearMs > 0.0) blend(measuredCosts_.nearMsPerPx, st.nearMs / nearPx);
+    if (nearUnits > 0.0 && st.nearMs > 0.0) {
+        // What a sprite drawn far saves is its share of the near time above the tier's
+        // per-frame cost (targets, clear, submit, readback), which stays while any sprite is
+        // near, and above the voxel uploads, which a model pays once: charged to the sprites,
+        // they made one near sprite look as dear as 4 ms of them. Never below 1 % of the
+        // frame: a near sprite is not free, whatever the noise.
+        const double fixedMs = planned ? nearFixedMs(cam, nearBackend) : 0.0;
+        const double spriteMs = std::max(st.nearMs - st.nearUploadMs - fixedMs, 0.01 * st.nearMs);
+        // A ratio of decayed sums, not an average of ratios: a frame with one small sprite near
+        // (most frames of a far-heavy hybrid) measures its sprite time as a small difference
+        // of two noisy times, and must weigh as little as the work it did. The renderer's first
+        // near frame is no sample: lavapipe compiles its pipelines in it.
+        if (nearFramesSeen_++ > 0) {
+            nearCostSums_ = {nearCostSums_.ms * (2.0 / 3.0) + spriteMs,
+                             nearCostSums_.units * (2.0 / 3.0) + nearUnits};
+            measuredCosts_.nearMsPerUnit = nearCostSums_.ms / nearCostSums_.units;
+        }
+    }
     if (farPx > 0.0 && st.blitMs > 0.0) blend(measuredCosts_.blitMsPerPx, st.blitMs / farPx);
     if (planned) blend(measuredCosts_.planMs, st.selectMs);
+}
+
+double FrameRenderer::nearFixedMs(const CameraFrame& cam, NearBackend nearBackend) {
+    const bool vulkan = nearBackend == NearBackend::Vulkan && near_;
+    if (nearFixed_.ms >= 0.0 && nearFixed_.vulkan == vulkan && nearFixed_.width == cam.width &&
+        nearFixed_.height == cam.height)
+        return nearFixed_.ms;
+    // Measured once (per backend and image size): the near tier drawing no sprite. The least of
+    // three, since the first may still be warming caches.
+    double least = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k) {
+        const auto t0 = Clock::now();
+        if (vulkan) {
+            NearOptions no;
+            no.rate = options_.nearRate;
+            (void)near_->render(cam, scene_.models, std::span<const SpriteSetup* const>{},
+                                scene_.render.background, no, nullptr);
+        } else {
+            (void)Image(cam.width, cam.height, scene_.render.background);
+        }
+        least = std::min(least, msSince(t0));
+    }
+    nearFixed_ = {least, vulkan, cam.width, cam.height};
+    return least;
 }
 
 Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,

@@ -133,6 +133,9 @@ struct FrameStats {
     int fading = 0;                  ///< entities drawn by both tiers (cross-fade)
     int switchesToFar = 0, switchesToNear = 0, viewChanges = 0;
     int farBakes = 0; ///< snapshots baked during this frame
+    /// Metric error_budget: bakes the planner asked for and gave up under the cost bound (their
+    /// entities drawn near this frame; ErrorBudgetViews::keepAffordableBakes).
+    int farBakesGivenUp = 0;
     /// Edits (DESIGN.md §4): of the bakes, stale snapshots refreshed after an edit, how many of
     /// those only where the edit reaches, and the cells they re-traced; the voxel bytes the near
     /// tier copied to the GPU (whole frames when new, only dirty boxes after edits).
@@ -204,12 +207,15 @@ class FrameRenderer {
     /// Metric error_budget: the view within the budget (plan.view), or the entity drawn near.
     void planBudgetView(std::size_t entity, const SpriteSetup& sprite, EntityPlan& plan);
     /// Metric error_budget, after every entity's view: the bakes the frame can afford.
-    void keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
-                             std::vector<EntityPlan>& plan);
+    /// Returns the bakes given up.
+    int keepAffordableBakes(const std::vector<SpriteSetup>& sprites, std::vector<EntityPlan>& plan);
     /// What this frame's near, blit and bakes cost per unit, and its planning (`planned`: an
     /// error-budget frame), into measuredCosts_.
-    void measureCosts(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
+    void measureCosts(const CameraFrame& camera, NearBackend nearBackend,
+                      const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
                       const FrameStats& stats, bool planned);
+    /// The near tier's per-frame cost whatever it draws (ms): measured once, drawing nothing.
+    double nearFixedMs(const CameraFrame& camera, NearBackend nearBackend);
     /// draw() with the near tier drawn by `nearBackend`.
     Image drawWith(NearBackend nearBackend, const CameraFrame& camera,
                    const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
@@ -227,6 +233,16 @@ class FrameRenderer {
     TierSelector selector_;
     ErrorBudgetViews budgetViews_; ///< far views under metric error_budget
     BakeCosts measuredCosts_;      ///< running averages over the frames drawn so far
+    /// measuredCosts_.nearMsPerUnit as decayed sums of near sprite ms and near cost units.
+    struct {
+        double ms = 0.0, units = 0.0;
+    } nearCostSums_;
+    int nearFramesSeen_ = 0; ///< frames whose near tier drew a sprite (the first is no sample)
+    struct NearFixed {
+        double ms = -1.0; ///< < 0: not measured yet
+        bool vulkan = false;
+        int width = 0, height = 0;
+    } nearFixed_; ///< nearFixedMs(), for the backend and image size it was measured with
     std::unique_ptr<SnapshotCache> cache_;
     std::shared_ptr<NearRenderer>
         near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan

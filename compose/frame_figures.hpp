@@ -93,6 +93,7 @@ struct FrameFigureTable {
         {"blit_pixels",               &FrameStats::farPixelsTested,         Count, Mean},
         {"blit_pixels_written",       &FrameStats::farPixelsWritten,        Count, Mean},
         {"far_bakes",                 &FrameStats::farBakes,                Count, Mean},
+        {"far_bakes_given_up",        &FrameStats::farBakesGivenUp,         Count, Mean},
         {"far_refreshes",             &FrameStats::farRefreshes,            Count, Mean},
         {"far_incremental_refreshes", &FrameStats::farIncrementalRefreshes, Count, Mean},
         {"far_cells_retraced",        &FrameStats::farCellsRetraced,        Count, Mean},

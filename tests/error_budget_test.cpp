@@ -316,7 +316,7 @@ TEST(ErrorBudget, ABakeIsGivenUpWhenItsUsersSaveLessThanItCosts) {
     // a and b share one view to bake (64 px each), c needs a view of its own (49 px), d is
     // cached (its model's snapshots are all there).
     const glm::dvec3 along(0.3, 0.8, 0.52);
-    BakeCosts costs{.msPerBake = 1.0, .nearMsPerPx = 0.01};
+    BakeCosts costs{.msPerBake = 1.0, .nearMsPerUnit = 0.01, .nearRate = NearRate::Fragment};
     const auto plan = [&](int dSide, std::vector<std::size_t>* givenUp) {
         const std::vector<SpriteSetup> sprites = {sprite(0, along, 8), sprite(0, along, 8),
                                                   sprite(1, along, 7), sprite(2, along, dSide)};
@@ -349,9 +349,32 @@ TEST(ErrorBudget, ABakeIsGivenUpWhenItsUsersSaveLessThanItCosts) {
     EXPECT_EQ(plan(13, &givenUp), 0u);
     EXPECT_EQ(givenUp, (std::vector<std::size_t>{0, 1, 2}));
     // Unknown costs (no bake or near frame measured yet): only the bake bound applies.
-    costs = {};
+    costs = {.nearRate = NearRate::Fragment};
     EXPECT_EQ(plan(3, &givenUp), 2u);
     EXPECT_TRUE(givenUp.empty());
+}
+
+// A sprite drawn far saves what it would cost near at the near tier's rate: its cells where it
+// would be drawn cell-rate (a magnified sprite), its rectangle pixels where it would be traced
+// per pixel; less what blitting its rectangle costs.
+TEST(ErrorBudget, AFarSpriteSavesItsNearCostAtTheNearRate) {
+    const auto sprite = [](int cellsSide, int pxSide) {
+        SpriteSetup sp = syntheticSprite({0.3, 0.8, 0.52}, 1.0);
+        sp.gpu.cellRange = {0, cellsSide - 1, 0, cellsSide - 1};
+        sp.screenRect = {10, 20, 10 + pxSide, 20 + pxSide};
+        return sp;
+    };
+    const SpriteSetup magnified = sprite(8, 32), minified = sprite(32, 10);
+    BakeCosts c{.msPerBake = 1.0, .nearMsPerUnit = 0.01, .blitMsPerPx = 0.001};
+    EXPECT_DOUBLE_EQ(c.farSavingMs(magnified), 64 * 0.01 - 1024 * 0.001);
+    EXPECT_DOUBLE_EQ(c.farSavingMs(minified), 100 * 0.01 - 100 * 0.001);
+    c.nearRate = NearRate::Fragment;
+    EXPECT_DOUBLE_EQ(c.farSavingMs(magnified), 1024 * (0.01 - 0.001));
+    EXPECT_DOUBLE_EQ(c.farSavingMs(minified), 100 * (0.01 - 0.001));
+    c.nearRate = NearRate::Cell;
+    EXPECT_DOUBLE_EQ(c.farSavingMs(magnified), 64 * 0.01 - 1024 * 0.001);
+    EXPECT_DOUBLE_EQ(c.farSavingMs(minified), 1024 * 0.01 - 100 * 0.001);
+    EXPECT_EQ(nearCostUnits(magnified, NearRate::Auto), kCellRateCost * 64);
 }
 
 /// What the far sprites of a frame save by the given costs (ms).
@@ -386,14 +409,15 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
     for (const FrameResult& fr : bound) boundBakes += fr.stats.farBakes;
     ASSERT_GT(boundBakes, 10);
 
-    const std::vector<FrameResult> free = run(BakeCosts{.msPerBake = 1e-12, .nearMsPerPx = 1.0});
+    const std::vector<FrameResult> free = run(BakeCosts{.msPerBake = 1e-12, .nearMsPerUnit = 1.0});
     for (int f = 0; f < frames; ++f) {
         EXPECT_TRUE(free[f].plan == bound[f].plan) << "frame " << f;
+        EXPECT_EQ(free[f].stats.farBakesGivenUp, 0) << "frame " << f;
         EXPECT_EQ(test::describeDifference(bound[f].image, free[f].image, "bound", "free"), "");
     }
 
     FrameRenderer allNear(s, cpuNear());
-    const std::vector<FrameResult> dear = run(BakeCosts{.msPerBake = 1e12, .nearMsPerPx = 1.0});
+    const std::vector<FrameResult> dear = run(BakeCosts{.msPerBake = 1e12, .nearMsPerUnit = 1.0});
     for (int f = 0; f < frames; ++f) {
         EXPECT_EQ(dear[f].stats.farBakes, 0) << "frame " << f;
         EXPECT_EQ(dear[f].stats.farDrawn, 0) << "frame " << f;
@@ -402,12 +426,13 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
     }
 
     // A bake costs what drawing 400 pixels near does.
-    const BakeCosts costs{.msPerBake = 4.0, .nearMsPerPx = 0.01};
+    const BakeCosts costs{.msPerBake = 4.0, .nearMsPerUnit = 0.01};
     const std::vector<FrameResult> costed = run(costs);
-    int costedBakes = 0, farFrames = 0, costedFar = 0, boundFar = 0;
+    int costedBakes = 0, farFrames = 0, costedFar = 0, boundFar = 0, givenUp = 0;
     for (int f = 0; f < frames; ++f) {
         const FrameResult& fr = costed[f];
         costedBakes += fr.stats.farBakes;
+        givenUp += fr.stats.farBakesGivenUp;
         farFrames += fr.stats.farDrawn > 0;
         costedFar += fr.stats.farDrawn, boundFar += bound[f].stats.farDrawn;
         EXPECT_LE(fr.stats.farBakes * costs.msPerBake, farSavingMs(fr, costs) + 1e-9)
@@ -421,6 +446,7 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
     EXPECT_LT(costed[0].stats.farBakes, bound[0].stats.farBakes);
     EXPECT_LT(costedFar, boundFar);
     EXPECT_GT(costedBakes, 0);
+    EXPECT_GT(givenUp, 0); // the frame figure counts them
     EXPECT_EQ(farFrames, frames);
 }
 

@@ -16,6 +16,17 @@ std::uint64_t rectPixels(const SpriteSetup& s) {
     return std::uint64_t(r.z - r.x) * std::uint64_t(r.w - r.y);
 }
 
+bool wantsCellRate(const SpriteSetup& s, NearRate rate) {
+    const std::uint64_t cells = cellCount(s);
+    return cells > 0 &&
+           (rate == NearRate::Cell ||
+            (rate == NearRate::Auto && kCellRateCost * double(cells) < double(rectPixels(s))));
+}
+
+double nearCostUnits(const SpriteSetup& s, NearRate rate) {
+    return wantsCellRate(s, rate) ? kCellRateCost * double(cellCount(s)) : double(rectPixels(s));
+}
+
 CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate rate,
                           std::uint64_t budgetBytes) {
     CellRatePlan plan;
@@ -28,10 +39,7 @@ CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate 
         const SpriteSetup& s = *sprites[k];
         if (!s.visible()) continue;
         const std::uint64_t cells = cellCount(s), pixels = rectPixels(s);
-        const bool wanted =
-            cells > 0 &&
-            (rate == NearRate::Cell ||
-             (rate == NearRate::Auto && kCellRateCost * double(cells) < double(pixels)));
+        const bool wanted = wantsCellRate(s, rate);
         const bool fits = wanted && plan.cells + cells <= budgetCells;
         if (wanted && !fits) ++plan.overBudget;
         if (!fits) {

@@ -73,6 +73,13 @@ struct CellRatePlan {
 std::uint64_t cellCount(const SpriteSetup& sprite);
 /// Pixels of a sprite's screen rectangle (already clamped to the image).
 std::uint64_t rectPixels(const SpriteSetup& sprite);
+/// Whether `rate` draws the (visible) sprite cell-rate, as long as the cell budget lasts.
+bool wantsCellRate(const SpriteSetup& sprite, NearRate rate);
+/// What drawing the sprite near costs in the unit kCellRateCost is measured in (one pixel's
+/// fragment): kCellRateCost * cells where `rate` draws it cell-rate, else its rectangle pixels.
+/// The far tier's cost bound (DESIGN.md §5) weighs each sprite by it: since cell-rate, a
+/// magnified sprite costs its cells, not its pixels.
+double nearCostUnits(const SpriteSetup& sprite, NearRate rate);
 
 /// Chooses the rate of every sprite in order (visible ones; others get kNoCells) and lays out
 /// the cell store, at most budgetBytes of it.
