@@ -211,7 +211,9 @@ TEST_F(VulkanCellRate, CrossFadingSpritesAtCellRate) {
             const Image near = nearRenderer().render(cam, scene.models, sprites,
                                                      scene.render.background, options, &st);
             EXPECT_EQ(test::describeDifference(near, reference), "") << file;
-            if (rate == NearRate::Cell) EXPECT_EQ(st.cellSprites, st.sprites) << file;
+            if (rate == NearRate::Cell) {
+                EXPECT_EQ(st.cellSprites, st.sprites) << file;
+            }
         }
     }
 }
