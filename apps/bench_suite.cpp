@@ -792,6 +792,18 @@ Plan makePlan(const SuiteOptions& o) {
         if (o.pathFrames < 1) throw InputError("", "--frames", "must be >= 1");
         p.pathFrames = o.pathFrames;
     }
+    if (o.motionFrames != -1) {
+        if (o.motionFrames < 2) throw InputError("", "--motion-frames", "must be >= 2");
+        p.motionFrames = o.motionFrames;
+    }
+    if (o.motionWarmup != -1) {
+        if (o.motionWarmup < 1) throw InputError("", "--motion-warmup", "must be >= 1");
+        p.motionWarmup = o.motionWarmup;
+    }
+    if (p.motionWarmup >= p.motionFrames)
+        throw InputError("", "--motion-warmup",
+                         "must be less than --motion-frames (" + std::to_string(p.motionFrames) +
+                             "): no frame would be timed in motion");
     if (!o.size.empty()) {
         int w = 0, h = 0;
         char tail = 0;

@@ -64,7 +64,8 @@ struct SuiteOptions {
     int repeats = -1;    ///< -1: the preset's
     int warmup = -1;     ///< -1: the preset's (at least 1: the cold bakes are measured there)
     int pathFrames = -1; ///< -1: the preset's
-    std::string size;    ///< WxH override of every scene's image size ("" = the scene's)
+    int motionFrames = -1, motionWarmup = -1; ///< -1: the preset's
+    std::string size; ///< WxH override of every scene's image size ("" = the scene's)
     bool sweeps = true, scaling = true;
     std::string entityCounts, modelSides; ///< comma-separated overrides of the scaling points
     std::string cacheDir;            ///< on-disk snapshot cache of every configuration ("" = none)

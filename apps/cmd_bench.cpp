@@ -100,6 +100,17 @@ void addBenchCommand(CLI::App& app) {
         ->add_option("--frames", o->pathFrames,
                      "Path frames sampled per scene (default: 6, --quick 2)")
         ->check(atLeast(1));
+    bench
+        ->add_option("--motion-frames", o->motionFrames,
+                     "Consecutive path frames of the in-motion run, cold start included "
+                     "(default: 48, --quick 16); an animated crowd fills its snapshot cache "
+                     "over one animation cycle")
+        ->check(atLeast(2));
+    bench
+        ->add_option("--motion-warmup", o->motionWarmup,
+                     "Of those, the first frames reported as the cold start, not timed in motion "
+                     "(default: 6, --quick 4)")
+        ->check(atLeast(1));
     bench->add_option("--size", o->size, "Image size of every scene (default: each scene's)")
         ->type_name("WxH")
         ->check(imageSize());
