@@ -111,14 +111,17 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     ScratchDir dir;
     const fs::path exact = dir.path / "exact.json", out = dir.path / "out";
     writeExactScene(exact);
-    const CliRun r = runCli("bench --smoke --out '" + out.string() +
-                            "' scenes/bench/tank_army.json '" + exact.string() + "'");
+    const CliRun r =
+        runCli("bench --smoke --motion-frames 4 --motion-warmup 2 --out '" + out.string() +
+               "' scenes/bench/tank_army.json '" + exact.string() + "'");
     ASSERT_EQ(r.status, 0) << r.out << r.err;
     for (const char* f : {"report.md", "results.csv", "results.json"})
         ASSERT_TRUE(fs::exists(out / f)) << f;
 
     // results.json: the five modes for each scene, the sweep point, both scaling curves.
     const json j = json::parse(slurp(out / "results.json"));
+    EXPECT_EQ(j["plan"]["motion_frames"], 4);
+    EXPECT_EQ(j["plan"]["motion_warmup"], 2);
     const std::vector<std::string> modes = {"near_vulkan", "near_vulkan_fragment", "near_reference",
                                             "far", "hybrid"};
     EXPECT_EQ(j["modes"], json(modes));
@@ -354,6 +357,11 @@ TEST(BenchCommand, BadInputIsOneLineNamingTheFileOrFlag) {
                   "--repeats");
     expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --entity-counts 10,x" + out),
                   "--entity-counts");
+    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --motion-frames 1" + out),
+                  "--motion-frames");
+    // The smoke preset's in-motion run is 3 frames: a cold start of 3 would leave none timed.
+    expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --motion-warmup 3" + out),
+                  "--motion-warmup");
     EXPECT_FALSE(fs::exists(dir.path / "out" / "results.csv"));
 }
 
