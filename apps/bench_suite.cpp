@@ -19,6 +19,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <numeric>
 #include <sstream>
 #include <thread>
 #include <unistd.h>
@@ -28,6 +29,7 @@ namespace voxtier::bench {
 using cli::median;
 using cli::msSince;
 using cli::parseList;
+using cli::quantile;
 
 namespace {
 
@@ -409,11 +411,15 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Plan&
         std::vector<double> ms;
         for (std::size_t f = std::size_t(plan.motionWarmup); f < of.motion.size(); ++f)
             ms.push_back(of.motion[f].stats.totalMs);
-        return ms.empty() ? 0.0 : median(ms);
+        return ms;
     };
     if (c.motion.size() <= std::size_t(plan.motionWarmup)) return;
-    m.motionMs = timedMs(c);
-    if (truth) m.motionBaselineMs = timedMs(*truth);
+    const std::vector<double> ms = timedMs(c);
+    m.motionMs = median(ms);
+    m.motionMeanMs = std::accumulate(ms.begin(), ms.end(), 0.0) / double(ms.size());
+    m.motionP90Ms = quantile(ms, 0.9);
+    m.motionWorstMs = quantile(ms, 1.0);
+    if (truth) m.motionBaselineMs = median(timedMs(*truth));
     if (m.motionMs > 0 && m.motionBaselineMs > 0) m.motionSpeedup = m.motionBaselineMs / m.motionMs;
     m.motionPsnrMin = std::numeric_limits<double>::infinity();
     double timed = 0;

@@ -138,7 +138,10 @@ struct Measurement {
     double blitPixelsPerS = 0;   ///< footprint pixels the blit evaluated over the blit time
     double memcpyPixelsPerS = 0; ///< memcpy of the same bytes
     // In motion (issue 13): consecutive path frames from an empty cache, each timed once.
-    double motionMs = 0;                            ///< median frame ms after the cold start
+    double motionMs = 0; ///< median frame ms after the cold start
+    /// The same frames' mean, 90th percentile and worst: bakes come in bursts (an animation
+    /// step asks for new snapshots at once), so the median alone can hide or exaggerate them.
+    double motionMeanMs = 0, motionP90Ms = 0, motionWorstMs = 0;
     double motionColdMs = 0;                        ///< mean frame ms of the cold-start frames
     double motionBaselineMs = 0, motionSpeedup = 0; ///< all-near (Vulkan) in motion, its ratio
     double motionBakes = 0, motionBakeMs = 0;       ///< per frame after the cold start (mean)

@@ -29,6 +29,15 @@ inline double median(std::vector<double> v) {
     return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
 }
 
+/// The q-quantile of the samples (0 <= q <= 1), nearest rank: the least sample at or above a
+/// share q of them; 0 for none.
+inline double quantile(std::vector<double> v, double q) {
+    if (v.empty()) return 0.0;
+    std::sort(v.begin(), v.end());
+    const auto rank = std::size_t(std::ceil(q * double(v.size())));
+    return v[std::min(v.size() - 1, rank > 0 ? rank - 1 : 0)];
+}
+
 /// The 1-minute load average ("?" when unknown): printed beside timings taken on a shared machine.
 inline std::string loadAverage() {
     std::ifstream in("/proc/loadavg");

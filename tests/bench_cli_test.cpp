@@ -133,6 +133,15 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
             EXPECT_FALSE((*m)["frames"].empty());
             EXPECT_GT((*m)["frame_ms"].get<double>(), 0.0);
             EXPECT_GT((*m)["visible"].get<double>(), 0.0) << scene;
+            // In motion (the scene with a path), 2 timed frames: median = mean, p90 = worst =
+            // the slower one.
+            if (scene == "tank_army") {
+                const auto motion = [&](const char* k) { return (*m)[k].get<double>(); };
+                EXPECT_GT(motion("in_motion_ms"), 0.0) << mode;
+                EXPECT_DOUBLE_EQ(motion("in_motion_mean_ms"), motion("in_motion_ms"));
+                EXPECT_GE(motion("in_motion_p90_ms"), motion("in_motion_ms"));
+                EXPECT_EQ(motion("in_motion_worst_ms"), motion("in_motion_p90_ms"));
+            }
             if (mode == "near_vulkan") {
                 EXPECT_TRUE((*m)["error"].is_null()); // the truth itself
                 EXPECT_EQ((*m)["far_entities"].get<double>(), 0.0);
