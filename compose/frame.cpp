@@ -341,13 +341,15 @@ void FrameRenderer::measureCosts(const CameraFrame& cam, NearBackend nearBackend
         average = average > 0.0 ? average + (sample - average) / 3.0 : sample;
     };
     if (st.farBakes > 0) blend(measuredCosts_.msPerBake, st.bakeMs / st.farBakes);
-    if (nearUnits > 0.0 && st.nearMs > 0.0) {
+    // Only the error-budget planner reads the near cost, and only its frames pay for measuring
+    // the near tier's fixed cost: other frames (all-near, all-far, other metrics) are no sample.
+    if (planned && nearUnits > 0.0 && st.nearMs > 0.0) {
         // What a sprite drawn far saves is its share of the near time above the tier's
         // per-frame cost (targets, clear, submit, readback), which stays while any sprite is
         // near, and above the voxel uploads, which a model pays once: charged to the sprites,
         // they made one near sprite look as dear as 4 ms of them. Never below 1 % of the
         // frame: a near sprite is not free, whatever the noise.
-        const double fixedMs = planned ? nearFixedMs(cam, nearBackend) : 0.0;
+        const double fixedMs = nearFixedMs(cam, nearBackend);
         const double spriteMs = std::max(st.nearMs - st.nearUploadMs - fixedMs, 0.01 * st.nearMs);
         // A ratio of decayed sums, not an average of ratios: a frame with one small sprite near
         // (most frames of a far-heavy hybrid) measures its sprite time as a small difference

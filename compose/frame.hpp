@@ -237,7 +237,8 @@ class FrameRenderer {
     struct {
         double ms = 0.0, units = 0.0;
     } nearCostSums_;
-    int nearFramesSeen_ = 0; ///< frames whose near tier drew a sprite (the first is no sample)
+    /// Error-budget frames whose near tier drew a sprite (the first is no sample).
+    int nearFramesSeen_ = 0;
     struct NearFixed {
         double ms = -1.0; ///< < 0: not measured yet
         bool vulkan = false;
