@@ -245,6 +245,29 @@ TEST(ReferenceCellRate, AutoCrossoverIsStrict) {
     }
 }
 
+// The Vulkan splat orders cell-rate sprites by a depth rank in 19 bits of a pixel word: past
+// maxCellSprites (kMaxCellSprites by default) a frame's sprites are traced per pixel, in order,
+// and counted as over budget.
+TEST(ReferenceCellRate, SpritesPastTheSpriteCapFallBackToPerPixel) {
+    EXPECT_EQ(kMaxCellSprites, std::uint64_t(1) << 19);
+    std::vector<SpriteSetup> sprites(3);
+    for (std::size_t k = 0; k < sprites.size(); ++k) {
+        sprites[k].gpu.cellRange = {0, 9, 0, 9}; // 100 cells
+        sprites[k].screenRect = {0, 0, 50 + int(k), 40};
+    }
+    const SpriteSetup* all[] = {&sprites[0], &sprites[1], &sprites[2]};
+    const CellRatePlan capped = planCellRate(all, NearRate::Cell, kDefaultCellBudgetBytes, 2);
+    EXPECT_EQ(capped.cellSprites, 2u);
+    EXPECT_EQ(capped.overBudget, 1u);
+    EXPECT_EQ(capped.cells, 200u);
+    EXPECT_EQ(capped.cellBase, (std::vector<std::uint32_t>{0, 100, kNoCells}));
+    EXPECT_EQ(capped.pixelsTraced, rectPixels(sprites[2]));
+    EXPECT_EQ(capped.pixelsLookedUp, rectPixels(sprites[0]) + rectPixels(sprites[1]));
+    const CellRatePlan uncapped = planCellRate(all, NearRate::Cell);
+    EXPECT_EQ(uncapped.cellSprites, 3u);
+    EXPECT_EQ(uncapped.overBudget, 0u);
+}
+
 // Near the crossover (one screen pixel per cell: P ~ C) and on a 256^3 model: identical.
 TEST(ReferenceCellRate, AtTheCrossoverAndOnA256CubedModel) {
     const auto bar = test::markedBar();

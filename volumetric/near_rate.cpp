@@ -28,7 +28,7 @@ double nearCostUnits(const SpriteSetup& s, NearRate rate) {
 }
 
 CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate rate,
-                          std::uint64_t budgetBytes) {
+                          std::uint64_t budgetBytes, std::uint64_t maxCellSprites) {
     CellRatePlan plan;
     plan.cellBase.assign(sprites.size(), kNoCells);
     // Offsets (up to twice the cell count: the outcomes follow the primaries) are uint32 on the
@@ -40,7 +40,8 @@ CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate 
         if (!s.visible()) continue;
         const std::uint64_t cells = cellCount(s), pixels = rectPixels(s);
         const bool wanted = wantsCellRate(s, rate);
-        const bool fits = wanted && plan.cells + cells <= budgetCells;
+        const bool fits =
+            wanted && plan.cells + cells <= budgetCells && plan.cellSprites < maxCellSprites;
         if (wanted && !fits) ++plan.overBudget;
         if (!fits) {
             plan.pixelsTraced += pixels;

@@ -44,6 +44,11 @@ inline constexpr std::uint64_t kCellStoreBytesPerCell = 8;
 /// gigabytes). Sprites past the budget fall back to per-pixel tracing.
 inline constexpr std::uint64_t kDefaultCellBudgetBytes = std::uint64_t(64) << 20;
 
+/// At most this many sprites a frame are drawn cell-rate: the Vulkan splat orders them by a depth
+/// rank held in 19 bits of a pixel word (volumetric/shaders/near_shared.h NEAR_MAX_CELL_SPRITES).
+/// The rest fall back to per-pixel tracing, counted as over budget.
+inline constexpr std::uint64_t kMaxCellSprites = std::uint64_t(1) << 19;
+
 /// Marks a sprite that is traced per pixel in CellRatePlan::cellBase.
 inline constexpr std::uint32_t kNoCells = 0xFFFFFFFFu;
 
@@ -82,8 +87,9 @@ bool wantsCellRate(const SpriteSetup& sprite, NearRate rate);
 double nearCostUnits(const SpriteSetup& sprite, NearRate rate);
 
 /// Chooses the rate of every sprite in order (visible ones; others get kNoCells) and lays out
-/// the cell store, at most budgetBytes of it.
+/// the cell store, at most budgetBytes of it and at most maxCellSprites sprites.
 CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate rate,
-                          std::uint64_t budgetBytes = kDefaultCellBudgetBytes);
+                          std::uint64_t budgetBytes = kDefaultCellBudgetBytes,
+                          std::uint64_t maxCellSprites = kMaxCellSprites);
 
 } // namespace voxtier

@@ -16,8 +16,8 @@
 #include "shaders/near_cells_comp.h"
 #include "shaders/near_frag.h"
 #include "shaders/near_hull_vert.h"
-#include "shaders/near_paint_comp.h"
 #include "shaders/near_quad_vert.h"
+#include "shaders/near_resolve_comp.h"
 #include "shaders/near_splat_comp.h"
 #include "shaders/near_steps_frag.h"
 
@@ -30,6 +30,7 @@ using Clock = std::chrono::steady_clock;
 // The plan's marker and the shaders' marker are one value: near_shared.h is not installed with
 // the public near_rate.hpp, so the two spellings are tied here instead of by an include.
 static_assert(kNoCells == near_gpu::NEAR_NO_CELLS);
+static_assert(kMaxCellSprites == near_gpu::NEAR_MAX_CELL_SPRITES);
 
 constexpr VkFormat kColorFormat = VK_FORMAT_R32_UINT; // packed RGBA8 from the kernel, bit-exact
 constexpr VkFormat kIdFormat = VK_FORMAT_R32_UINT;
@@ -110,29 +111,29 @@ struct NearRenderer::Impl {
     VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
     VkRenderPass renderPass = VK_NULL_HANDLE;
     VkPipeline pipelines[3][2] = {}; ///< [proxy][countSteps], created on first use
-    /// The cell-rate compute passes (trace, outline, splat, paint), created on first use.
-    enum ComputePass { TraceCells, Outline, Splat, Paint, ComputePassCount };
+    /// The cell-rate compute passes (trace, outline, splat, resolve), created on first use.
+    enum ComputePass { TraceCells, Outline, Splat, Resolve, ComputePassCount };
     VkPipeline computePipelines[ComputePassCount] = {};
     VkQueryPool statsPool = VK_NULL_HANDLE;
-    /// Cell-rate compute time: frame start, trace + splat done; paint start, paint done.
+    /// Cell-rate compute time: frame start, trace + splat done; resolve start, resolve done.
     VkQueryPool timePool = VK_NULL_HANDLE;
     VkCommandBuffer drawCb = VK_NULL_HANDLE;
     VkCommandBuffer readCb = VK_NULL_HANDLE;
 
     // Render targets, re-created when the image size changes; the readback buffer is also
-    // where the paint pass writes the cell-rate sprites, and pixelRanks holds the splat's
-    // least rank per pixel (device-local).
+    // where the resolve pass writes the cell-rate sprites, and pixelWords holds the splat's
+    // least word per pixel (device-local).
     int width = 0, height = 0;
     VulkanImage color, id, depth;
     VkFramebuffer framebuffer = VK_NULL_HANDLE;
-    VulkanBuffer readback, pixelRanks;
+    VulkanBuffer readback, pixelWords;
 
     // Per-frame data (host-visible, coherent) and the step counters.
     VulkanBuffer sprites, boxes, hulls, counters;
     // Cell-rate (near_rate.hpp): per-sprite cell offsets, the compute tiles, the splat blocks
-    // and the depth ranks (host-visible, written per frame), and the cell store (device-local,
-    // grown up to the budget, reused).
-    VulkanBuffer cellBases, cellTiles, splatBlocks, splatRanks, cells;
+    // and the sprite of each depth rank (host-visible, written per frame), and the cell store
+    // (device-local, grown up to the budget, reused).
+    VulkanBuffer cellBases, cellTiles, splatBlocks, rankSprites, cells;
     std::uint32_t frameCells = 0; ///< cells of this frame's plan (where the outcomes start)
 
     Impl(const VulkanDeviceOptions& options, std::shared_ptr<VulkanMessageLog> log)
@@ -152,16 +153,16 @@ struct NearRenderer::Impl {
     VkPipeline computePipeline(ComputePass pass);
     struct CellWork {
         std::uint32_t tiles = 0;  ///< near_cells.comp workgroups
-        std::uint32_t blocks = 0; ///< near_splat.comp workgroups
+        std::uint32_t blocks = 0; ///< near_splat.comp workgroups (0: no resolve either)
     };
-    /// Writes the per-sprite cell offsets, the compute tiles, the splat blocks and the depth
-    /// ranks of `plan`.
+    /// Writes the per-sprite cell offsets, the compute tiles, the splat blocks and the sprite of
+    /// each depth rank of `plan`.
     CellWork prepareCells(const CellRatePlan& plan, const std::vector<const SpriteSetup*>& visible,
                           std::uint64_t budgetBytes);
     /// Records one compute pass over `groups` workgroups (its push constant count).
     void dispatch(VkCommandBuffer cb, ComputePass pass, std::uint32_t groups);
     void recordCellPasses(VkCommandBuffer cb, CellWork work);
-    void recordPaint(VkCommandBuffer cb, std::uint32_t blocks);
+    void recordResolve(VkCommandBuffer cb);
     void ensureTargets(int w, int h);
     void ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes, VkBufferUsageFlags usage,
                       bool hostVisible = true);
@@ -201,8 +202,8 @@ void NearRenderer::Impl::create() {
         {NEAR_BINDING_CELLS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
         {NEAR_BINDING_CELL_TILES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
         {NEAR_BINDING_SPLAT_BLOCKS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
-        {NEAR_BINDING_SPLAT_RANKS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
-        {NEAR_BINDING_PIXEL_RANKS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_RANK_SPRITES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_PIXEL_WORDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
         {NEAR_BINDING_READBACK, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
     };
     VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
@@ -301,7 +302,7 @@ void NearRenderer::Impl::create() {
     ensureBuffer(cellBases, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     ensureBuffer(cellTiles, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     ensureBuffer(splatBlocks, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-    ensureBuffer(splatRanks, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(rankSprites, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     ensureBuffer(cells, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, false);
 }
 
@@ -324,7 +325,7 @@ void NearRenderer::Impl::destroy() noexcept {
     id.reset();
     depth.reset();
     readback.reset();
-    pixelRanks.reset();
+    pixelWords.reset();
     sprites.reset();
     boxes.reset();
     hulls.reset();
@@ -332,7 +333,7 @@ void NearRenderer::Impl::destroy() noexcept {
     cellBases.reset();
     cellTiles.reset();
     splatBlocks.reset();
-    splatRanks.reset();
+    rankSprites.reset();
     cells.reset();
     device.freeCommandBuffer(drawCb);
     device.freeCommandBuffer(readCb);
@@ -482,7 +483,7 @@ void NearRenderer::Impl::ensureTargets(int w, int h) {
     readback =
         VulkanBuffer(device, 3 * plane,
                      VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
-    pixelRanks =
+    pixelWords =
         VulkanBuffer(device, plane,
                      VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, false);
     width = w;
@@ -506,7 +507,7 @@ VkPipeline NearRenderer::Impl::computePipeline(ComputePass pass) {
         pass == TraceCells ? std::span<const std::uint32_t>(near_cells_comp)
         : pass == Outline  ? std::span<const std::uint32_t>(near_cell_outline_comp)
         : pass == Splat    ? std::span<const std::uint32_t>(near_splat_comp)
-                           : std::span<const std::uint32_t>(near_paint_comp);
+                           : std::span<const std::uint32_t>(near_resolve_comp);
     mi.codeSize = code.size_bytes();
     mi.pCode = code.data();
     VkShaderModule module = VK_NULL_HANDLE;
@@ -550,6 +551,7 @@ NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
     std::vector<glm::uvec2> tiles;
     std::vector<near_gpu::NearSplatBlock> blocks;
     std::vector<std::uint32_t> byDepth; // cell-rate sprites, nearest first, ties by entity id
+    byDepth.reserve(plan.cellSprites);
     for (std::size_t k = 0; k < n; ++k) {
         if (plan.cellBase[k] == kNoCells) continue;
         byDepth.push_back(std::uint32_t(k));
@@ -571,9 +573,10 @@ NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
     });
     std::vector<std::uint32_t> ranks(n, near_gpu::NEAR_NO_RANK);
     for (std::size_t r = 0; r < byDepth.size(); ++r) ranks[byDepth[r]] = std::uint32_t(r);
+    for (auto& b : blocks) b.rank = ranks[b.sprite];
     upload(cellTiles, tiles);
     upload(splatBlocks, blocks);
-    upload(splatRanks, ranks);
+    upload(rankSprites, byDepth);
     return {std::uint32_t(tiles.size()), std::uint32_t(blocks.size())};
 }
 
@@ -599,25 +602,27 @@ void NearRenderer::Impl::recordCellPasses(VkCommandBuffer cb, CellWork work) {
     dispatch(cb, TraceCells, work.tiles);
     cellsWritten(); // the outline pass reads the primaries
     dispatch(cb, Outline, work.tiles);
-    vkCmdFillBuffer(cb, pixelRanks.handle(), 0, VK_WHOLE_SIZE, near_gpu::NEAR_NO_RANK);
-    // The splat reads the outcomes and min-writes the cleared ranks.
+    vkCmdFillBuffer(cb, pixelWords.handle(), 0, VK_WHOLE_SIZE, near_gpu::NEAR_NO_RANK);
+    // The splat reads the outcomes and min-writes the cleared words.
     cellsWritten();
-    bufferBarrier(cb, pixelRanks.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
+    bufferBarrier(cb, pixelWords.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
                   VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     if (work.blocks) dispatch(cb, Splat, work.blocks);
 }
 
-void NearRenderer::Impl::recordPaint(VkCommandBuffer cb, std::uint32_t blocks) {
+void NearRenderer::Impl::recordResolve(VkCommandBuffer cb) {
     // After the copy of the drawn targets into the readback buffer (this command buffer) and the
     // splat (the frame's draw submission, earlier on the same queue).
     bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
                   VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-    bufferBarrier(cb, pixelRanks.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+    bufferBarrier(cb, pixelWords.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT);
-    dispatch(cb, Paint, blocks);
+    const std::uint64_t pixels = std::uint64_t(width) * std::uint64_t(height);
+    const std::uint64_t perGroup = std::uint64_t(near_gpu::NEAR_RESOLVE_SPAN) * 64;
+    dispatch(cb, Resolve, std::uint32_t((pixels + perGroup - 1) / perGroup));
     bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
 }
@@ -636,21 +641,21 @@ void NearRenderer::Impl::writeDescriptors() {
     const VkDescriptorBufferInfo cellInfo{cells.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorBufferInfo tileInfo{cellTiles.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorBufferInfo blockInfo{splatBlocks.handle(), 0, VK_WHOLE_SIZE};
-    const VkDescriptorBufferInfo rankInfo{splatRanks.handle(), 0, VK_WHOLE_SIZE};
-    const VkDescriptorBufferInfo pixelRankInfo{pixelRanks.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo rankInfo{rankSprites.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo pixelWordInfo{pixelWords.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorBufferInfo readbackInfo{readback.handle(), 0, VK_WHOLE_SIZE};
     constexpr int kWrites = 13;
     VkWriteDescriptorSet w[kWrites]{};
     const std::uint32_t binding[kWrites] = {
-        NEAR_BINDING_SPRITES,      NEAR_BINDING_ATLAS,       NEAR_BINDING_PALETTES,
-        NEAR_BINDING_COUNTERS,     NEAR_BINDING_BOXES,       NEAR_BINDING_HULLS,
-        NEAR_BINDING_CELL_BASES,   NEAR_BINDING_CELLS,       NEAR_BINDING_CELL_TILES,
-        NEAR_BINDING_SPLAT_BLOCKS, NEAR_BINDING_SPLAT_RANKS, NEAR_BINDING_PIXEL_RANKS,
+        NEAR_BINDING_SPRITES,      NEAR_BINDING_ATLAS,        NEAR_BINDING_PALETTES,
+        NEAR_BINDING_COUNTERS,     NEAR_BINDING_BOXES,        NEAR_BINDING_HULLS,
+        NEAR_BINDING_CELL_BASES,   NEAR_BINDING_CELLS,        NEAR_BINDING_CELL_TILES,
+        NEAR_BINDING_SPLAT_BLOCKS, NEAR_BINDING_RANK_SPRITES, NEAR_BINDING_PIXEL_WORDS,
         NEAR_BINDING_READBACK};
     const VkDescriptorBufferInfo* buffers[kWrites] = {
         &spriteInfo, nullptr,        &paletteInfo, &counterInfo, &boxInfo,
         &hullInfo,   &cellBaseInfo,  &cellInfo,    &tileInfo,    &blockInfo,
-        &rankInfo,   &pixelRankInfo, &readbackInfo};
+        &rankInfo,   &pixelWordInfo, &readbackInfo};
     for (int i = 0; i < kWrites; ++i) {
         w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
         w[i].dstSet = descriptorSet;
@@ -720,7 +725,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
                 hull[i].corner[k] = glm::vec4(corners[k]);
         }
     }
-    // The paint pass binds the whole readback buffer; past the device's storage-buffer range
+    // The resolve pass binds the whole readback buffer; past the device's storage-buffer range
     // (a huge image) every sprite is traced per pixel.
     const bool resolvable = readback.size() <= device.properties().limits.maxStorageBufferRange;
     const CellRatePlan plan =
@@ -748,7 +753,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
         vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timePool, 0);
     }
     // Cell-rate sprites: every cell traced once, then every pixel of theirs splatted; the draw
-    // below skips them, the paint pass after it shades them.
+    // below skips them, the resolve pass after it shades them.
     if (work.tiles) recordCellPasses(cb, work);
     if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 1);
     if (opt.countSteps) {
@@ -826,7 +831,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     }
     if (work.blocks) {
         if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, timePool, 2);
-        recordPaint(cb, work.blocks);
+        recordResolve(cb);
         if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 3);
     } else {
         bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
@@ -835,13 +840,13 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     }
     VK_CHECK(vkEndCommandBuffer(cb));
     device.submitAndWait(cb);
-    double paintMs = 0.0;
+    double resolveMs = 0.0;
     if (timed && work.blocks) {
         std::uint64_t t[2] = {};
         VK_CHECK(vkGetQueryPoolResults(device.device(), timePool, 2, 2, sizeof t, t, sizeof t[0],
                                        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-        paintMs = double(t[1] - t[0]) * tickMs;
-        stats.computeMs += paintMs;
+        resolveMs = double(t[1] - t[0]) * tickMs;
+        stats.computeMs += resolveMs;
     }
     Image img;
     img.width = width;
@@ -855,7 +860,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     img.color.assign(colors, colors + count);
     img.id.assign(ids, ids + count);
     img.depth.assign(depths, depths + count);
-    stats.readbackMs = std::max(0.0, msSince(tRead) - paintMs);
+    stats.readbackMs = std::max(0.0, msSince(tRead) - resolveMs);
 
     if (query) {
         std::uint64_t invocations = 0;

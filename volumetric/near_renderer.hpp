@@ -74,12 +74,12 @@ struct NearStats : CellRateCounts {
     std::uint64_t uploadRegions = 0;
     std::uint64_t atlasGrowths = 0; ///< the atlas was re-created larger this frame
     double uploadMs = 0.0;          ///< residency: pack + copy + wait
-    /// GPU time of the cell-rate compute passes: trace, outline, splat and paint (timestamp
+    /// GPU time of the cell-rate compute passes: trace, outline, splat and resolve (timestamp
     /// queries; 0 without cell-rate sprites or where the device has no timestamps).
     double computeMs = 0.0;
     double drawMs =
         0.0; ///< record + submit + wait of the trace, splat and draw, less their compute
-    /// Copy of the three targets to host memory + unpack into Image, less the paint pass.
+    /// Copy of the three targets to host memory + unpack into Image, less the resolve pass.
     double readbackMs = 0.0;
 };
 

@@ -37,15 +37,26 @@ VT_NEAR_CONST uint NEAR_NO_CELLS = 0xFFFFFFFFu;
 // Cells per compute workgroup (one invocation per cell; a tile never spans two sprites).
 VT_NEAR_CONST uint NEAR_CELL_TILE = 64u;
 // Cell-rate sprites are shaded without the rasteriser (DESIGN.md §3.11): near_splat.comp takes
-// 32x32 pixel blocks of their screen rectangles (NearSplatBlock) and leaves in every pixel the
-// least depth rank (one per sprite) of the cell-rate sprites that cover it; after the draw its
-// paint variant lets each pixel's winner shade it into the readback buffer.
+// 32x32 pixel blocks of their screen rectangles (NearSplatBlock) and leaves in every pixel one
+// word, the least over the cell-rate sprites that cover it of (depth rank, the pixel's cell
+// outcome): nearPixelWord. The rank is in the high bits, so the least word is the nearest
+// sprite's, and it carries what that sprite shows there. After the draw, near_resolve.comp
+// shades each pixel's word into the readback buffer where it beats what the draw left.
 VT_NEAR_CONST uint NEAR_BINDING_SPLAT_BLOCKS = 9u;
-VT_NEAR_CONST uint NEAR_BINDING_SPLAT_RANKS = 10u;
-VT_NEAR_CONST uint NEAR_BINDING_PIXEL_RANKS = 11u;
+VT_NEAR_CONST uint NEAR_BINDING_RANK_SPRITES = 10u; // uint[]: sprite index of each depth rank
+VT_NEAR_CONST uint NEAR_BINDING_PIXEL_WORDS = 11u;
 VT_NEAR_CONST uint NEAR_BINDING_READBACK = 12u;
-VT_NEAR_CONST uint NEAR_NO_RANK = 0xFFFFFFFFu;
-VT_NEAR_CONST uint NEAR_SPLAT_BLOCK = 32u; // pixels per side of a splat / paint workgroup
+VT_NEAR_CONST uint NEAR_NO_RANK = 0xFFFFFFFFu; // a pixel word no cell-rate sprite wrote
+VT_NEAR_CONST uint NEAR_SPLAT_BLOCK = 32u;     // pixels per side of a splat workgroup
+// A pixel word: depth rank << NEAR_RANK_SHIFT | kind | face << 2 | palette index << 5. The
+// outcome fields fit 13 bits (kind < 3, face < 8, index < 256); the rank gets the other 19, so a
+// frame draws at most NEAR_MAX_CELL_SPRITES sprites cell-rate (kind < 3 keeps every word below
+// NEAR_NO_RANK).
+VT_NEAR_CONST uint NEAR_RANK_SHIFT = 13u;
+VT_NEAR_CONST uint NEAR_MAX_CELL_SPRITES = 1u << (32u - NEAR_RANK_SHIFT);
+// The resolve pass: a workgroup of 64 invocations walks NEAR_RESOLVE_SPAN runs of 64
+// consecutive pixels (llvmpipe pays about 0.8 µs per workgroup).
+VT_NEAR_CONST uint NEAR_RESOLVE_SPAN = 32u;
 
 // Vertices per instance: the quad is a 4-vertex triangle strip (SpriteGpu::quad); the box is a
 // 36-vertex triangle list (12 triangles) indexed by NEAR_BOX_TRIANGLES.
@@ -90,11 +101,12 @@ struct NearSplatBlock {
     uint sprite;
     uint origin;
     uint end;
-    uint pad;
+    uint rank; // the sprite's depth rank
 };
 
 // Push constants of the compute passes: count = cell tiles (near_cells.comp,
-// near_cell_outline.comp) or splat blocks (near_splat.comp, splat and paint); cells = the frame's
+// near_cell_outline.comp), splat blocks (near_splat.comp) or resolve workgroups
+// (near_resolve.comp); cells = the frame's
 // cell count (the cell store holds the primary outcomes, then the full outcomes from index
 // `cells` on).
 struct NearComputePush {

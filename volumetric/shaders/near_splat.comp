@@ -1,16 +1,12 @@
 #version 450
-// The splat and paint passes of cell-rate sprites (DESIGN.md §3.11). Both walk every pixel of
-// every cell-rate sprite's screen rectangle, map it to its lattice cell (the kernel's
-// vtPixelCell, dither included) and look the cell's outcome up; pixels whose cell is empty are
-// skipped. No fragment runs for these sprites (the rasteriser's fixed cost per fragment was most
-// of their time).
-//  - Splat (before the draw): offer the sprite's depth rank to the pixel with atomicMin. A rank
-//    orders the frame's cell-rate sprites nearest first, lower entity id first at equal depth:
-//    Image::writeIfNearer's rule, so the least rank is the sprite the depth test would keep.
-//  - Paint (compiled with -DVT_PAINT, after the draw's targets are copied into the host-visible
-//    readback buffer): the sprite that holds the pixel's least rank writes its colour, entity id
-//    and depth there, where it beats what the draw left by the same rule. The sprite is uniform
-//    per workgroup, so the shading reads little per pixel.
+// The splat pass of cell-rate sprites (DESIGN.md §3.11). It walks every pixel of every cell-rate
+// sprite's screen rectangle, maps it to its lattice cell (the kernel's vtPixelCell, dither
+// included) and looks the cell's outcome up; pixels whose cell is empty are skipped. Every other
+// pixel gets atomicMin of its pixel word (near_shared.h): the sprite's depth rank above the
+// outcome. A rank orders the frame's cell-rate sprites nearest first, lower entity id first at
+// equal depth: Image::writeIfNearer's rule, so the least word is the sprite the depth test would
+// keep, with what it shows there. No fragment runs for these sprites (the rasteriser's fixed cost
+// per fragment was most of their time); near_resolve.comp shades the words after the draw.
 // A workgroup is one NEAR_SPLAT_BLOCK² block of one sprite's rectangle, 32 x 2 invocations
 // walking it two rows at a time: llvmpipe pays about 0.8 µs per workgroup, which at 8 x 8
 // pixels per workgroup cost more than the pixels themselves.
@@ -35,20 +31,9 @@ layout(std430, set = 0, binding = NEAR_BINDING_CELLS) readonly buffer Cells {
 layout(std430, set = 0, binding = NEAR_BINDING_SPLAT_BLOCKS) readonly buffer SplatBlocks {
     NearSplatBlock vtBlocks[];
 };
-layout(std430, set = 0, binding = NEAR_BINDING_SPLAT_RANKS) readonly buffer SplatRanks {
-    uint vtRanks[]; // the depth rank of each sprite (NEAR_NO_RANK for per-pixel ones)
+layout(std430, set = 0, binding = NEAR_BINDING_PIXEL_WORDS) buffer PixelWords {
+    uint vtPixelWords[];
 };
-layout(std430, set = 0, binding = NEAR_BINDING_PIXEL_RANKS) buffer PixelRanks {
-    uint vtPixelRanks[];
-};
-#ifdef VT_PAINT
-layout(std430, set = 0, binding = NEAR_BINDING_PALETTES) readonly buffer Palettes {
-    uint vtPalettes[];
-};
-layout(std430, set = 0, binding = NEAR_BINDING_READBACK) buffer Readback {
-    uint vtPlanes[]; // colour, then entity id, then depth bits: width * height each
-};
-#endif
 layout(push_constant) uniform Push {
     NearComputePush vtPush;
 };
@@ -62,10 +47,7 @@ void main() {
     uint yEnd = min(b.end >> 16, (b.origin >> 16) + NEAR_SPLAT_BLOCK);
     SpriteGpu s = vtSprites[b.sprite];
     uint base = vtPush.cells + vtCellBases[b.sprite];
-    uint rank = vtRanks[b.sprite];
-#ifdef VT_PAINT
-    uint plane = vtPush.width * vtPush.height;
-#endif
+    uint rankBits = b.rank << NEAR_RANK_SHIFT;
     for (uint y = (b.origin >> 16) + gl_LocalInvocationID.y; y < yEnd; y += 2u) {
         ivec2 cell;
         if (!vtPixelCell(s, vec2(float(x) + 0.5f, float(y) + 0.5f), cell)) continue;
@@ -73,19 +55,6 @@ void main() {
         uint face;
         uint kind = vtUnpackOutcome(vtCells[base + vtCellSlot(s, cell)], index, face);
         if (kind == VT_KIND_EMPTY) continue;
-        uint p = y * vtPush.width + x;
-#ifdef VT_PAINT
-        if (vtPixelRanks[p] != rank) continue;
-        float drawnDepth = uintBitsToFloat(vtPlanes[2u * plane + p]);
-        if (!(s.depth > drawnDepth || (s.depth == drawnDepth && s.dims.w < vtPlanes[plane + p])))
-            continue;
-        vtPlanes[p] = kind == VT_KIND_SOLID
-                          ? vtLit(vtPalettes[s.atlas.w + index], vtFaceLight(s, face))
-                          : VT_OUTLINE_RGBA;
-        vtPlanes[plane + p] = s.dims.w;
-        vtPlanes[2u * plane + p] = floatBitsToUint(s.depth);
-#else
-        atomicMin(vtPixelRanks[p], rank);
-#endif
+        atomicMin(vtPixelWords[y * vtPush.width + x], rankBits | kind | (face << 2) | (index << 5));
     }
 }
