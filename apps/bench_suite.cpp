@@ -435,9 +435,13 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Plan&
         ++timed;
         m.motionBakes += mf.stats.farBakes;
         m.motionBakeMs += mf.stats.bakeMs;
+        m.motionNearMs += mf.stats.nearMs;
+        m.motionNearEntities += mf.stats.nearDrawn;
+        m.motionFarEntities += mf.stats.farDrawn;
         m.motionDifferingShare += mf.differingShare;
     }
     m.motionBakes /= timed, m.motionBakeMs /= timed, m.motionDifferingShare /= timed;
+    m.motionNearMs /= timed, m.motionNearEntities /= timed, m.motionFarEntities /= timed;
     if (c.isTruth) m.motionPsnrMin = 0;
 }
 
@@ -602,7 +606,7 @@ std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
     farAt(SelectorMetric::ErrorPx, plan.errorFarAt, 2.0);
     // The error budget (issue 13): the budget, then the ladder cap at the scene's budget.
     for (double b : plan.budgets) {
-        SweepPoint p{"budget (error_budget)", "error_budget " + fmt(b) + " vpx", b, s0, sigma0};
+        SweepPoint p{kBudgetFamily, "error_budget " + fmt(b) + " vpx", b, s0, sigma0};
         p.selector = defaultSelectorFor(SelectorMetric::ErrorBudget);
         p.selector.budgetVpx = b;
         pts.push_back(p);
@@ -749,6 +753,7 @@ Plan makePlan(const SuiteOptions& o) {
         p.sizeEntities = 6;
         p.scalingRepeats = 1;
         p.motionFrames = 3, p.motionWarmup = 1;
+        p.budgets = {1};
     } else if (o.quick) {
         p.preset = "quick";
         p.repeats = 3;

@@ -217,7 +217,7 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         if (m["group"] == "scaling_entities") counts.insert(m["entities"].get<double>());
         if (m["group"] == "scaling_size") sides.insert(m["param"].get<double>());
     }
-    EXPECT_EQ(sweeps, 1);
+    EXPECT_EQ(sweeps, 2); // error_px far_at 1 and error_budget 1 vpx
     EXPECT_EQ(counts, (std::set<double>{4, 12}));
     EXPECT_EQ(sides, (std::set<double>{16, 32}));
 
@@ -231,7 +231,8 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     for (const char* c :
          {"group", "scene", "mode", "frame_ms", "speedup_vs_all_near_vulkan", "mismatch_mean",
           "far_displacement_worst_vpx", "rays_per_s", "voxel_steps_per_s", "blit_pixels_per_s",
-          "memcpy_pixels_per_s", "cache_bytes", "near_entities", "far_entities", "cold_bake_ms"})
+          "memcpy_pixels_per_s", "cache_bytes", "near_entities", "far_entities", "cold_bake_ms",
+          "in_motion_near_ms", "in_motion_near_entities", "in_motion_far_entities"})
         ASSERT_TRUE(col.count(c)) << c;
     for (const FrameFigure& f : kFrameFigures) EXPECT_TRUE(col.count(f.name)) << f.name;
     std::size_t n = 0;
@@ -290,6 +291,27 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     }
     EXPECT_NE(report.find("tank_army"), std::string::npos);
     EXPECT_NE(report.find("exact"), std::string::npos);
+    // The error budget in motion (the smoke plan sweeps 1 vpx on the first scene): the near
+    // tier's share of the in-motion frame is part of the frame, so the ceiling (per-pixel mean
+    // over the near ms) is at least the measured mean speed-up; the report states the target
+    // with a verdict and the ceiling for the scene.
+    const json* budget = nullptr;
+    for (const json& m : rows)
+        if (m["family"] == "budget (error_budget)" && m["scene"] == "tank_army") budget = &m;
+    ASSERT_NE(budget, nullptr);
+    const double nearMs = (*budget)["in_motion_near_ms"].get<double>();
+    EXPECT_GT(nearMs, 0.0);
+    EXPECT_LE(nearMs, (*budget)["in_motion_mean_ms"].get<double>());
+    EXPECT_GE((*budget)["in_motion_near_entities"].get<double>() +
+                  (*budget)["in_motion_far_entities"].get<double>(),
+              1.0);
+    EXPECT_NE(report.find("## The error budget in motion: target and bound"), std::string::npos);
+    const auto verdictAt = report.find("- **tank_army**: at 1 vpx, ");
+    ASSERT_NE(verdictAt, std::string::npos) << report;
+    const std::string verdictLine =
+        report.substr(verdictAt, report.find('\n', verdictAt) - verdictAt);
+    EXPECT_NE(verdictLine.find("would give at most"), std::string::npos) << verdictLine;
+    EXPECT_NE(verdictLine.find("PSNR ≥ 40 dB"), std::string::npos) << verdictLine;
     std::set<std::string> embedded;
     const std::regex image(R"(!\[[^\]]*\]\(([^)]+)\))");
     for (auto it = std::sregex_iterator(report.begin(), report.end(), image);
