@@ -152,17 +152,19 @@ struct NearRenderer::Impl {
     VkPipeline pipeline(NearProxy proxy, bool countSteps);
     VkPipeline computePipeline(ComputePass pass);
     struct CellWork {
-        std::uint32_t tiles = 0;  ///< near_cells.comp workgroups
-        std::uint32_t blocks = 0; ///< near_splat.comp workgroups (0: no resolve either)
+        std::uint32_t tiles = 0;        ///< near_cells.comp workgroups
+        std::uint32_t blocks = 0;       ///< near_splat.comp workgroups (0: no resolve either)
+        std::uint32_t resolveTiles = 0; ///< near_resolve.comp workgroups, after the blocks
     };
-    /// Writes the per-sprite cell offsets, the compute tiles, the splat blocks and the sprite of
-    /// each depth rank of `plan`.
+    /// Writes the per-sprite cell offsets, the compute tiles, the splat blocks and resolve tiles,
+    /// and the sprite of each depth rank of `plan`.
     CellWork prepareCells(const CellRatePlan& plan, const std::vector<const SpriteSetup*>& visible,
                           std::uint64_t budgetBytes);
     /// Records one compute pass over `groups` workgroups (its push constant count).
-    void dispatch(VkCommandBuffer cb, ComputePass pass, std::uint32_t groups);
+    void dispatch(VkCommandBuffer cb, ComputePass pass, std::uint32_t groups,
+                  std::uint32_t first = 0);
     void recordCellPasses(VkCommandBuffer cb, CellWork work);
-    void recordResolve(VkCommandBuffer cb);
+    void recordResolve(VkCommandBuffer cb, CellWork work);
     void ensureTargets(int w, int h);
     void ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes, VkBufferUsageFlags usage,
                       bool hostVisible = true);
@@ -574,13 +576,38 @@ NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
     std::vector<std::uint32_t> ranks(n, near_gpu::NEAR_NO_RANK);
     for (std::size_t r = 0; r < byDepth.size(); ++r) ranks[byDepth[r]] = std::uint32_t(r);
     for (auto& b : blocks) b.rank = ranks[b.sprite];
+    // The resolve's tiles: every 32x32 tile of the image grid that a cell-rate rectangle touches,
+    // once, so that a frame with a few small cell-rate sprites resolves a few tiles and not the
+    // whole image.
+    const std::uint32_t splatCount = std::uint32_t(blocks.size());
+    const int tilesX = (width + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
+    const int tilesY = (height + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
+    std::vector<std::uint8_t> touched(std::size_t(tilesX) * std::size_t(tilesY), 0);
+    for (std::uint32_t k : byDepth) {
+        const glm::ivec4 r =
+            glm::min(visible[k]->screenRect, glm::ivec4(width, height, width, height));
+        if (r.z <= r.x || r.w <= r.y) continue;
+        for (int ty = r.y / int(NEAR_SPLAT_BLOCK); ty <= (r.w - 1) / int(NEAR_SPLAT_BLOCK); ++ty)
+            for (int tx = r.x / int(NEAR_SPLAT_BLOCK); tx <= (r.z - 1) / int(NEAR_SPLAT_BLOCK);
+                 ++tx)
+                touched[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)] = 1;
+    }
+    const std::uint32_t imageEnd = std::uint32_t(width) | std::uint32_t(height) << 16;
+    for (int ty = 0; ty < tilesY; ++ty)
+        for (int tx = 0; tx < tilesX; ++tx)
+            if (touched[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)])
+                blocks.push_back({0,
+                                  std::uint32_t(tx) * NEAR_SPLAT_BLOCK |
+                                      (std::uint32_t(ty) * NEAR_SPLAT_BLOCK) << 16,
+                                  imageEnd, 0});
     upload(cellTiles, tiles);
     upload(splatBlocks, blocks);
     upload(rankSprites, byDepth);
-    return {std::uint32_t(tiles.size()), std::uint32_t(blocks.size())};
+    return {std::uint32_t(tiles.size()), splatCount, std::uint32_t(blocks.size()) - splatCount};
 }
 
-void NearRenderer::Impl::dispatch(VkCommandBuffer cb, ComputePass pass, std::uint32_t groups) {
+void NearRenderer::Impl::dispatch(VkCommandBuffer cb, ComputePass pass, std::uint32_t groups,
+                                  std::uint32_t first) {
     // A list of workgroups, as a 2D grid when there are more than one dimension allows.
     const std::uint32_t maxX = device.properties().limits.maxComputeWorkGroupCount[0];
     const std::uint32_t groupsX = std::min(groups, maxX);
@@ -588,7 +615,7 @@ void NearRenderer::Impl::dispatch(VkCommandBuffer cb, ComputePass pass, std::uin
     vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout, 0, 1,
                             &descriptorSet, 0, nullptr);
     const near_gpu::NearComputePush push{groups, std::uint32_t(width), std::uint32_t(height),
-                                         frameCells};
+                                         frameCells, first};
     vkCmdPushConstants(cb, pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
     vkCmdDispatch(cb, groupsX, (groups + groupsX - 1) / groupsX, 1);
 }
@@ -611,7 +638,7 @@ void NearRenderer::Impl::recordCellPasses(VkCommandBuffer cb, CellWork work) {
     if (work.blocks) dispatch(cb, Splat, work.blocks);
 }
 
-void NearRenderer::Impl::recordResolve(VkCommandBuffer cb) {
+void NearRenderer::Impl::recordResolve(VkCommandBuffer cb, CellWork work) {
     // After the copy of the drawn targets into the readback buffer (this command buffer) and the
     // splat (the frame's draw submission, earlier on the same queue).
     bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
@@ -620,9 +647,7 @@ void NearRenderer::Impl::recordResolve(VkCommandBuffer cb) {
     bufferBarrier(cb, pixelWords.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT);
-    const std::uint64_t pixels = std::uint64_t(width) * std::uint64_t(height);
-    const std::uint64_t perGroup = std::uint64_t(near_gpu::NEAR_RESOLVE_SPAN) * 64;
-    dispatch(cb, Resolve, std::uint32_t((pixels + perGroup - 1) / perGroup));
+    dispatch(cb, Resolve, work.resolveTiles, work.blocks);
     bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
 }
@@ -831,7 +856,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     }
     if (work.blocks) {
         if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, timePool, 2);
-        recordResolve(cb);
+        recordResolve(cb, work);
         if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 3);
     } else {
         bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,

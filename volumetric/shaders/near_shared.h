@@ -54,9 +54,6 @@ VT_NEAR_CONST uint NEAR_SPLAT_BLOCK = 32u;     // pixels per side of a splat wor
 // NEAR_NO_RANK).
 VT_NEAR_CONST uint NEAR_RANK_SHIFT = 13u;
 VT_NEAR_CONST uint NEAR_MAX_CELL_SPRITES = 1u << (32u - NEAR_RANK_SHIFT);
-// The resolve pass: a workgroup of 64 invocations walks NEAR_RESOLVE_SPAN runs of 64
-// consecutive pixels (llvmpipe pays about 0.8 µs per workgroup).
-VT_NEAR_CONST uint NEAR_RESOLVE_SPAN = 32u;
 
 // Vertices per instance: the quad is a 4-vertex triangle strip (SpriteGpu::quad); the box is a
 // 36-vertex triangle list (12 triangles) indexed by NEAR_BOX_TRIANGLES.
@@ -96,7 +93,9 @@ struct NearHull {
 
 // One 32x32 block of a cell-rate sprite's screen rectangle: the sprite, the block's first pixel
 // and the rectangle's end (exclusive), x in the low 16 bits and y in the high 16 (images are at
-// most 16384 pixels wide).
+// most 16384 pixels wide). The resolve pass walks blocks too: the 32x32 tiles of the image grid
+// that some cell-rate rectangle touches, each once (sprite and rank unused, end = the image's
+// size), stored after the splat blocks.
 struct NearSplatBlock {
     uint sprite;
     uint origin;
@@ -105,19 +104,19 @@ struct NearSplatBlock {
 };
 
 // Push constants of the compute passes: count = cell tiles (near_cells.comp,
-// near_cell_outline.comp), splat blocks (near_splat.comp) or resolve workgroups
-// (near_resolve.comp); cells = the frame's
-// cell count (the cell store holds the primary outcomes, then the full outcomes from index
-// `cells` on).
+// near_cell_outline.comp) or blocks (near_splat.comp, near_resolve.comp: blocks first to
+// first + count - 1); cells = the frame's cell count (the cell store holds the primary outcomes,
+// then the full outcomes from index `cells` on).
 struct NearComputePush {
     uint count;
     uint width;
     uint height;
     uint cells;
+    uint first;
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(NearSplatBlock) == 16 && sizeof(NearComputePush) == 16);
+static_assert(sizeof(NearSplatBlock) == 16 && sizeof(NearComputePush) == 20);
 static_assert(sizeof(NearHull) == 208 && offsetof(NearHull, count) == 192,
               "NearHull must match the std430 array stride in GLSL");
 static_assert(sizeof(NearCounters) == 16 && offsetof(NearCounters, fragmentsLo) == 8);

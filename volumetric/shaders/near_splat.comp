@@ -41,7 +41,7 @@ layout(push_constant) uniform Push {
 void main() {
     uint block = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
     if (block >= vtPush.count) return;
-    NearSplatBlock b = vtBlocks[block];
+    NearSplatBlock b = vtBlocks[vtPush.first + block];
     uint x = (b.origin & 0xFFFFu) + gl_LocalInvocationID.x;
     if (x >= (b.end & 0xFFFFu)) return;
     uint yEnd = min(b.end >> 16, (b.origin >> 16) + NEAR_SPLAT_BLOCK);
