@@ -165,7 +165,7 @@ ErrorBudgetViews::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
     double savedMs = 0.0;
     for (std::size_t i = 0; i < sprites.size() && i < drawnFrom.size(); ++i) {
         if (!drawnFrom[i]) continue;
-        const double s = costs.savingTrust * costs.farSavingMs(sprites[i]);
+        const double s = costs.farSavingMs(sprites[i]);
         savedMs += s;
         const auto b = index.find(keyOf(sprites[i], *drawnFrom[i]));
         if (b == index.end()) continue;

@@ -34,16 +34,6 @@ double screenRectPx(const SpriteSetup& sprite);
 /// a bake, drawing a sprite near per unit of its near cost (nearCostUnits: its cells where it
 /// is drawn cell-rate, else its rectangle pixels; the near tier's per-frame cost excluded) and
 /// blitting it far per pixel of its screen rectangle.
-///
-/// The cost bound counts on half of the estimated saving (kFarSavingTrust). The estimate prices
-/// every unit alike, but the sprites a budget sends far (small, distant) cost less per unit than
-/// the ones it keeps near, so it overstates what a frame saves: measured against the all-near
-/// frames of the same 48 path frames (`voxtier render --frames 0:48 --csv`, lavapipe), the
-/// saving actually made was 0.32 of the estimate on the RTS pan and 0.64 on the tank army
-/// (medians), and the 1 vpx pan ran at 0.92-0.94x all-near in motion with the whole estimate
-/// trusted, 1.01-1.04x with half (DESIGN.md §5).
-inline constexpr double kFarSavingTrust = 0.5;
-
 struct BakeCosts {
     double msPerBake = 0.0;
     double nearMsPerUnit = 0.0;
@@ -53,8 +43,6 @@ struct BakeCosts {
     double planMs = 0.0;
     /// The near tier's rate (what a sprite's nearCostUnits are).
     NearRate nearRate = NearRate::Auto;
-    /// The share of the far sprites' estimated saving the bound counts on.
-    double savingTrust = kFarSavingTrust;
     /// Both a bake and the near tier have been measured: the cost bound can apply.
     bool known() const { return msPerBake > 0.0 && nearMsPerUnit > 0.0; }
     /// What drawing `sprite` far instead of near saves this frame (ms; negative if nothing).
@@ -86,9 +74,8 @@ class ErrorBudgetViews {
     bool viewFade(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                   const IsCached& isCached, float* share, ViewId* from);
     /// Ends the frame's choices under the cost bound (DESIGN.md §5): while the frame's bakes and
-    /// planning cost more than the near time all its far sprites save (costs.savingTrust of
-    /// their farSavingMs), the bake that saves least (its users' share, summed) is given up if
-    /// it saves less than it costs, and its users
+    /// planning cost more than the near time all its far sprites save, the bake that saves least
+    /// (its users' farSavingMs, summed) is given up if it saves less than it costs, and its users
     /// are drawn near this frame. `drawnFrom[i]` is the view entity i is drawn far from (nullopt:
     /// near). Returns the entities given up, in ascending order (their views are dropped).
     std::vector<std::size_t>

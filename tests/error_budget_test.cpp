@@ -316,10 +316,7 @@ TEST(ErrorBudget, ABakeIsGivenUpWhenItsUsersSaveLessThanItCosts) {
     // a and b share one view to bake (64 px each), c needs a view of its own (49 px), d is
     // cached (its model's snapshots are all there).
     const glm::dvec3 along(0.3, 0.8, 0.52);
-    BakeCosts costs{.msPerBake = 1.0,
-                    .nearMsPerUnit = 0.01,
-                    .nearRate = NearRate::Fragment,
-                    .savingTrust = 1.0};
+    BakeCosts costs{.msPerBake = 1.0, .nearMsPerUnit = 0.01, .nearRate = NearRate::Fragment};
     const auto plan = [&](int dSide, std::vector<std::size_t>* givenUp) {
         const std::vector<SpriteSetup> sprites = {sprite(0, along, 8), sprite(0, along, 8),
                                                   sprite(1, along, 7), sprite(2, along, dSide)};
@@ -341,13 +338,6 @@ TEST(ErrorBudget, ABakeIsGivenUpWhenItsUsersSaveLessThanItCosts) {
     // A large cached sprite (1.69 ms saved) pays for c's bake: nothing is given up.
     EXPECT_EQ(plan(13, &givenUp), 2u);
     EXPECT_TRUE(givenUp.empty());
-    // Counting on half of every saving (the default trust): 1.73 ms for 2 ms of bakes, so c's
-    // bake (0.245 ms counted) goes again.
-    costs.savingTrust = kFarSavingTrust;
-    ASSERT_EQ(kFarSavingTrust, 0.5);
-    EXPECT_EQ(plan(13, &givenUp), 1u);
-    EXPECT_EQ(givenUp, (std::vector<std::size_t>{2}));
-    costs.savingTrust = 1.0;
     // The planner's own 2 ms must be saved too: c's bake goes again (a and b's stays: giving it
     // up would save less than it costs).
     costs.planMs = 2.0;
@@ -435,8 +425,8 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
         EXPECT_EQ(test::describeDifference(near, dear[f].image, "all near", "dear bakes"), "");
     }
 
-    // A bake costs what drawing 400 pixels near does; the whole estimated saving counts.
-    const BakeCosts costs{.msPerBake = 4.0, .nearMsPerUnit = 0.01, .savingTrust = 1.0};
+    // A bake costs what drawing 400 pixels near does.
+    const BakeCosts costs{.msPerBake = 4.0, .nearMsPerUnit = 0.01};
     const std::vector<FrameResult> costed = run(costs);
     int costedBakes = 0, farFrames = 0, costedFar = 0, boundFar = 0, givenUp = 0;
     for (int f = 0; f < frames; ++f) {
@@ -445,8 +435,7 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
         givenUp += fr.stats.farBakesGivenUp;
         farFrames += fr.stats.farDrawn > 0;
         costedFar += fr.stats.farDrawn, boundFar += bound[f].stats.farDrawn;
-        EXPECT_LE(fr.stats.farBakes * costs.msPerBake,
-                  costs.savingTrust * farSavingMs(fr, costs) + 1e-9)
+        EXPECT_LE(fr.stats.farBakes * costs.msPerBake, farSavingMs(fr, costs) + 1e-9)
             << "frame " << f;
     }
     std::printf("over %d frames: %d bakes and %d far sprites under the bound alone, %d and %d "
