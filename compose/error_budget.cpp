@@ -30,13 +30,9 @@ double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config) 
     return predictedBudgetUnits(sprite, nearestLadderView(config.ladderCap, -sprite.lattice.dir));
 }
 
-double screenRectPx(const SpriteSetup& sprite) {
-    const glm::ivec4 r = sprite.screenRect;
-    return double(std::max(0, r.z - r.x)) * double(std::max(0, r.w - r.y));
-}
-
 double BakeCosts::farSavingMs(const SpriteSetup& sprite) const {
-    return nearCostUnits(sprite, nearRate) * nearMsPerUnit - screenRectPx(sprite) * blitMsPerPx;
+    return nearCostUnits(sprite, nearRate) * nearMsPerUnit -
+           double(rectPixels(sprite)) * blitMsPerPx;
 }
 
 std::size_t ErrorBudgetViews::BakeKeyHash::operator()(const BakeKey& k) const {

@@ -27,9 +27,6 @@ double predictedBudgetUnits(const SpriteSetup& sprite, ViewId view);
 /// cap level's nearest view (the levels nest, so a finer level is never further away).
 double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config);
 
-/// Pixels of the sprite's screen rectangle: what the costs below are measured per.
-double screenRectPx(const SpriteSetup& sprite);
-
 /// What the planner knows of the frame's costs (measured on earlier frames, or given by a test):
 /// a bake, drawing a sprite near per unit of its near cost (nearCostUnits: its cells where it
 /// is drawn cell-rate, else its rectangle pixels; the near tier's per-frame cost excluded) and

@@ -333,7 +333,7 @@ void FrameRenderer::measureCosts(const CameraFrame& cam, NearBackend nearBackend
     for (std::size_t i = 0; i < sprites.size() && i < plan.size(); ++i) {
         if (!sprites[i].visible()) continue;
         if (plan[i].drawsNear()) nearUnits += nearCostUnits(sprites[i], options_.nearRate);
-        if (plan[i].drawsFar()) farPx += screenRectPx(sprites[i]);
+        if (plan[i].drawsFar()) farPx += double(rectPixels(sprites[i]));
     }
     // Running averages: each frame moves the estimate a third of the way to its own figure, so
     // one slow frame (another process on the cores) does not swing the next frame's plan.
