@@ -554,6 +554,12 @@ NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
     std::vector<near_gpu::NearSplatBlock> blocks;
     std::vector<std::uint32_t> byDepth; // cell-rate sprites, nearest first, ties by entity id
     byDepth.reserve(plan.cellSprites);
+    // The resolve's tiles: every 32x32 tile of the image grid that a cell-rate rectangle touches,
+    // once, so that a frame with a few small cell-rate sprites resolves a few tiles and not the
+    // whole image.
+    const int tilesX = (width + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
+    const int tilesY = (height + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
+    std::vector<std::uint8_t> touched(std::size_t(tilesX) * std::size_t(tilesY), 0);
     for (std::size_t k = 0; k < n; ++k) {
         if (plan.cellBase[k] == kNoCells) continue;
         byDepth.push_back(std::uint32_t(k));
@@ -567,6 +573,11 @@ NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
             for (int x = r.x; x < r.z; x += int(NEAR_SPLAT_BLOCK))
                 blocks.push_back(
                     {std::uint32_t(k), std::uint32_t(x) | std::uint32_t(y) << 16, end, 0});
+        if (r.z <= r.x || r.w <= r.y) continue;
+        for (int ty = r.y / int(NEAR_SPLAT_BLOCK); ty <= (r.w - 1) / int(NEAR_SPLAT_BLOCK); ++ty)
+            for (int tx = r.x / int(NEAR_SPLAT_BLOCK); tx <= (r.z - 1) / int(NEAR_SPLAT_BLOCK);
+                 ++tx)
+                touched[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)] = 1;
     }
     // `visible` is in ascending entity id, so a stable sort by depth alone gives
     // Image::writeIfNearer's order: the least rank in a pixel is the sprite the depth test keeps.
@@ -576,22 +587,8 @@ NearRenderer::Impl::prepareCells(const CellRatePlan& plan,
     std::vector<std::uint32_t> ranks(n, near_gpu::NEAR_NO_RANK);
     for (std::size_t r = 0; r < byDepth.size(); ++r) ranks[byDepth[r]] = std::uint32_t(r);
     for (auto& b : blocks) b.rank = ranks[b.sprite];
-    // The resolve's tiles: every 32x32 tile of the image grid that a cell-rate rectangle touches,
-    // once, so that a frame with a few small cell-rate sprites resolves a few tiles and not the
-    // whole image.
+    // The resolve tiles follow the splat blocks in the same buffer.
     const std::uint32_t splatCount = std::uint32_t(blocks.size());
-    const int tilesX = (width + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
-    const int tilesY = (height + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
-    std::vector<std::uint8_t> touched(std::size_t(tilesX) * std::size_t(tilesY), 0);
-    for (std::uint32_t k : byDepth) {
-        const glm::ivec4 r =
-            glm::min(visible[k]->screenRect, glm::ivec4(width, height, width, height));
-        if (r.z <= r.x || r.w <= r.y) continue;
-        for (int ty = r.y / int(NEAR_SPLAT_BLOCK); ty <= (r.w - 1) / int(NEAR_SPLAT_BLOCK); ++ty)
-            for (int tx = r.x / int(NEAR_SPLAT_BLOCK); tx <= (r.z - 1) / int(NEAR_SPLAT_BLOCK);
-                 ++tx)
-                touched[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)] = 1;
-    }
     const std::uint32_t imageEnd = std::uint32_t(width) | std::uint32_t(height) << 16;
     for (int ty = 0; ty < tilesY; ++ty)
         for (int tx = 0; tx < tilesX; ++tx)
