@@ -55,9 +55,9 @@ void main() {
         float drawnDepth = uintBitsToFloat(vtPlanes[2u * plane + p]);
         if (!(depth > drawnDepth || (depth == drawnDepth && entity < vtPlanes[plane + p])))
             continue;
-        uint kind = word & 3u;
-        uint face = (word >> 2) & 7u;
-        uint index = (word >> 5) & 255u;
+        uint index;
+        uint face;
+        uint kind = vtUnpackOutcome(nearWordOutcome(word), index, face);
         vtPlanes[p] = kind == VT_KIND_SOLID ? vtLit(vtPalettes[vtSprites[sprite].atlas.w + index],
                                                     vtFaceLight(vtSprites[sprite], face))
                                             : VT_OUTLINE_RGBA;

@@ -115,6 +115,17 @@ struct NearComputePush {
     uint first;
 };
 
+#ifndef __cplusplus
+// A pixel word from a sprite's depth rank and its cell's outcome as the kernel packs it
+// (vtPackOutcome: kind | face << 2 | palette index << 8), and that outcome back from a word.
+uint nearPixelWord(uint rank, uint outcome) {
+    return (rank << NEAR_RANK_SHIFT) | (outcome & 0x1Fu) | ((outcome >> 8) << 5);
+}
+uint nearWordOutcome(uint word) {
+    return (word & 0x1Fu) | (((word >> 5) & 0xFFu) << 8);
+}
+#endif
+
 #ifdef __cplusplus
 static_assert(sizeof(NearSplatBlock) == 16 && sizeof(NearComputePush) == 20);
 static_assert(sizeof(NearHull) == 208 && offsetof(NearHull, count) == 192,

@@ -47,14 +47,13 @@ void main() {
     uint yEnd = min(b.end >> 16, (b.origin >> 16) + NEAR_SPLAT_BLOCK);
     SpriteGpu s = vtSprites[b.sprite];
     uint base = vtPush.cells + vtCellBases[b.sprite];
-    uint rankBits = b.rank << NEAR_RANK_SHIFT;
     for (uint y = (b.origin >> 16) + gl_LocalInvocationID.y; y < yEnd; y += 2u) {
         ivec2 cell;
         if (!vtPixelCell(s, vec2(float(x) + 0.5f, float(y) + 0.5f), cell)) continue;
         uint index;
         uint face;
-        uint kind = vtUnpackOutcome(vtCells[base + vtCellSlot(s, cell)], index, face);
-        if (kind == VT_KIND_EMPTY) continue;
-        atomicMin(vtPixelWords[y * vtPush.width + x], rankBits | kind | (face << 2) | (index << 5));
+        uint outcome = vtCells[base + vtCellSlot(s, cell)];
+        if (vtUnpackOutcome(outcome, index, face) == VT_KIND_EMPTY) continue;
+        atomicMin(vtPixelWords[y * vtPush.width + x], nearPixelWord(b.rank, outcome));
     }
 }
