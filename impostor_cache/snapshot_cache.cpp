@@ -24,7 +24,8 @@ std::size_t SnapshotCache::FrameKeyHash::operator()(const FrameKey& k) const {
 
 SnapshotCache::SnapshotCache(SnapshotCacheConfig config)
     : config_(config), snapshots_(LruBudget{config.budgetBytes}),
-      digests_(LruBudget{.entries = 256}), scenes_(LruBudget{.entries = config.maxScenes}) {}
+      digests_(LruBudget{.entries = 256}),
+      scenes_(LruBudget{.bytes = config.sceneBudgetBytes, .entries = config.maxScenes}) {}
 SnapshotCache::~SnapshotCache() = default;
 
 std::shared_ptr<const VoxelScene> SnapshotCache::scene(const VoxelModel& model, int frame) {

@@ -119,6 +119,32 @@ TEST(SnapshotCache, LruEvictionKeepsTheBudgetAndDropsTheLeastRecentlyUsed) {
 }
 
 // An edit bumps the model version: the next request misses and bakes the edited model.
+// A frame bakes views of many (model, animation frame)s in turn; each needs its Embree scene.
+// Twelve models asked for one view each, round after round: under the default byte budget each
+// scene is built once; under a budget of two and a half scenes they are rebuilt (least recently
+// used goes first), and the bytes held never pass the budget.
+TEST(SnapshotCache, EmbreeScenesAreKeptWithinTheirByteBudget) {
+    std::vector<std::shared_ptr<VoxelModel>> models;
+    for (int i = 0; i < 12; ++i) models.push_back(makeBox({6 + i % 3, 7, 8 + i / 3}));
+    auto rounds = [&](SnapshotCache& cache) {
+        for (int round = 0; round < 3; ++round)
+            for (const auto& m : models) cache.get(*m, 0, ViewSet::Cube26, round, 1.0);
+    };
+    SnapshotCache roomy;
+    rounds(roomy);
+    EXPECT_EQ(roomy.counters().bakes, 36u);
+    EXPECT_EQ(roomy.counters().scenesBuilt, 12u);
+
+    SnapshotCacheConfig cfg;
+    cfg.sceneBudgetBytes = 5 * std::size_t(roomy.counters().sceneBytes) / 24;
+    SnapshotCache tight(cfg);
+    rounds(tight);
+    EXPECT_EQ(tight.counters().bakes, 36u);
+    EXPECT_EQ(tight.counters().scenesBuilt, 36u); // round robin over 12 with room for 2
+    EXPECT_LE(tight.counters().sceneBytes, cfg.sceneBudgetBytes);
+    EXPECT_GT(tight.counters().sceneBytes, 0u);
+}
+
 TEST(SnapshotCache, VersionBumpMissesAndBakesTheEditedModel) {
     const auto m = makeBox({6, 6, 6});
     SnapshotCache cache;
