@@ -95,6 +95,7 @@ struct Config {
     struct MotionFrame {
         FrameStats stats;
         double psnr = 0.0, differingShare = 0.0;
+        std::size_t differingPixels = 0;
     };
     std::vector<MotionFrame> motion; ///< the in-motion run, frame by frame
 };
@@ -399,6 +400,7 @@ void runMotion(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& 
                                                              r.image, r.sprites, r.plan);
                 m.psnr = e.psnr;
                 m.differingShare = double(e.differingPixels) / double(r.image.pixelCount());
+                m.differingPixels = e.differingPixels;
             }
             c.motion.push_back(m);
         }
@@ -427,7 +429,12 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Plan&
         const Config::MotionFrame& mf = c.motion[f];
         m.motionPredictedWorstVpx =
             std::max(m.motionPredictedWorstVpx, mf.stats.farPredictedWorstVpx);
-        m.motionPsnrMin = std::min(m.motionPsnrMin, mf.psnr);
+        if (mf.psnr < m.motionPsnrMin) {
+            m.motionPsnrMin = mf.psnr;
+            m.motionPsnrMinShare = mf.differingShare;
+            m.motionPsnrMinPixels = double(mf.differingPixels);
+            m.motionPsnrMinFar = double(mf.stats.farDrawn);
+        }
         if (f < std::size_t(plan.motionWarmup)) {
             m.motionColdMs += mf.stats.totalMs / plan.motionWarmup;
             continue;

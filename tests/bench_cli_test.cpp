@@ -312,6 +312,13 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         report.substr(verdictAt, report.find('\n', verdictAt) - verdictAt);
     EXPECT_NE(verdictLine.find("would give at most"), std::string::npos) << verdictLine;
     EXPECT_NE(verdictLine.find("PSNR ≥ 40 dB"), std::string::npos) << verdictLine;
+    // Below 40 dB the verdict says how many differing pixels 40 dB would allow, from the worst
+    // frame's own figures.
+    const json& psnrMin = (*budget)["in_motion_psnr_min"]; // null where +inf (equal frames)
+    if (psnrMin.is_number() && psnrMin.get<double>() < 40.0) {
+        EXPECT_GT((*budget)["in_motion_psnr_min_differing_pixels"].get<double>(), 0.0);
+        EXPECT_NE(verdictLine.find("40 dB asks for a "), std::string::npos) << verdictLine;
+    }
     std::set<std::string> embedded;
     const std::regex image(R"(!\[[^\]]*\]\(([^)]+)\))");
     for (auto it = std::sregex_iterator(report.begin(), report.end(), image);
