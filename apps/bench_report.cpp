@@ -610,7 +610,7 @@ std::string psnrBound(const Measurement& m) {
              num(m.motionPsnrMinFar, 0) +
              " far), while a far sprite drawn from any view but an "
              "exact one moves its outline cells";
-    return s + ".";
+    return s + ". ";
 }
 
 /// The error budget in motion, per scene with budget sweep rows: each budget against the
