@@ -312,6 +312,12 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         report.substr(verdictAt, report.find('\n', verdictAt) - verdictAt);
     EXPECT_NE(verdictLine.find("would give at most"), std::string::npos) << verdictLine;
     EXPECT_NE(verdictLine.find("PSNR ≥ 40 dB"), std::string::npos) << verdictLine;
+    // The measured displacement stands beside the prediction wherever far entities were
+    // measured alone on the sampled frames.
+    const json& err = (*budget)["error"];
+    if (err.is_object() && err["far_alone_entities"].is_number() &&
+        err["far_alone_entities"].get<double>() > 0.0)
+        EXPECT_NE(verdictLine.find("(measured worst "), std::string::npos) << verdictLine;
     // Below 40 dB the verdict says how many differing pixels 40 dB would allow, from the worst
     // frame's own figures.
     const json& psnrMin = (*budget)["in_motion_psnr_min"]; // null where +inf (equal frames)
