@@ -454,6 +454,7 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
     drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize),
                    image, &fs);
     st.farBakes += int(fs.bakes);
+    st.farScenesBuilt += int(fs.scenesBuilt);
     st.farRefreshes += int(fs.refreshes);
     st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
     st.farCellsRetraced += fs.cellsRetraced;

@@ -136,6 +136,9 @@ struct FrameStats {
     /// Metric error_budget: bakes the planner asked for and gave up under the cost bound (their
     /// entities drawn near this frame; ErrorBudgetViews::keepAffordableBakes).
     int farBakesGivenUp = 0;
+    /// Embree scenes the frame's bakes had to build first (a (model, animation frame, version)
+    /// not in the cache's scene budget): each costs several bakes (DESIGN.md §4, Budget).
+    int farScenesBuilt = 0;
     /// Edits (DESIGN.md §4): of the bakes, stale snapshots refreshed after an edit, how many of
     /// those only where the edit reaches, and the cells they re-traced; the voxel bytes the near
     /// tier copied to the GPU (whole frames when new, only dirty boxes after edits).

@@ -94,6 +94,7 @@ struct FrameFigureTable {
         {"blit_pixels_written",       &FrameStats::farPixelsWritten,        Count, Mean},
         {"far_bakes",                 &FrameStats::farBakes,                Count, Mean},
         {"far_bakes_given_up",        &FrameStats::farBakesGivenUp,         Count, Mean},
+        {"far_scenes_built",          &FrameStats::farScenesBuilt,          Count, Mean},
         {"far_refreshes",             &FrameStats::farRefreshes,            Count, Mean},
         {"far_incremental_refreshes", &FrameStats::farIncrementalRefreshes, Count, Mean},
         {"far_cells_retraced",        &FrameStats::farCellsRetraced,        Count, Mean},

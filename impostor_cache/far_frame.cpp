@@ -54,6 +54,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
         stats->snapshotsUsed += needs.size();
         const SnapshotCacheCounters after = cache.counters();
         stats->bakes += after.bakes - before.bakes;
+        stats->scenesBuilt += after.scenesBuilt - before.scenesBuilt;
         stats->refreshes += after.refreshes - before.refreshes;
         stats->incrementalRefreshes += after.incrementalRefreshes - before.incrementalRefreshes;
         stats->cellsRetraced += after.cellsRetraced - before.cellsRetraced;

@@ -18,6 +18,7 @@ struct FarFrameStats {
     std::uint64_t sprites = 0;       ///< visible sprites drawn through the cache
     std::uint64_t snapshotsUsed = 0; ///< distinct snapshots this frame
     std::uint64_t bakes = 0;         ///< of those, baked during this frame
+    std::uint64_t scenesBuilt = 0;   ///< Embree scenes those bakes built first
     /// Of the bakes, stale snapshots brought up to date after an edit; of those, the ones
     /// re-traced only where the edit reaches, and the rays they traced (SnapshotCacheCounters).
     std::uint64_t refreshes = 0, incrementalRefreshes = 0, cellsRetraced = 0;
