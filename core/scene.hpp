@@ -67,8 +67,12 @@ struct SelectorConfig {
     /// ErrorBudget: snapshots a frame may bake; past it, an entity stays near. Small sprites bake
     /// in well under a millisecond: on the tank army, 16 kept 1,215 of 1,638 entities near and
     /// the frame at 0.68x all-near's time; unbounded, all went far at 0.07-0.11x (100 bakes a
-    /// frame on average, 65-79 ms of them).
-    int maxBakesPerFrame = 128;
+    /// frame on average, 65-79 ms of them). Once bakes and near frames are measured the cost
+    /// bound (DESIGN.md §5) decides which bakes pay; this bound is what is left before that and
+    /// a cap on a burst. It was 128 until bakes got 4x cheaper (the Embree scene budget): at 1
+    /// vpx it then kept ~350 tanks near that the cost bound would have sent far (in motion, a
+    /// median frame of 50.0 ms against 16.8 at 512).
+    int maxBakesPerFrame = 512;
 };
 /// Defaults per metric: 30/40 m; 24/16 px radius; 1.0/0.5 px predicted error; for the budget,
 /// far below 0.75 of it and near again above all of it (a far entity never exceeds it).
