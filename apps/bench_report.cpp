@@ -631,7 +631,8 @@ std::string psnrBound(const Measurement& m) {
 /// The error budget in motion, per scene with budget sweep rows: each budget against the
 /// per-pixel near tier, and a verdict that says what stops the target. The ceiling is the
 /// per-pixel frame's in-motion mean over the budget frame's near time: the speed-up if far
-/// sprites and bakes cost nothing, since the entities the budget keeps near still cost that.
+/// sprites and bakes cost nothing, since the entities drawn near (kept by the budget or by the
+/// bake bounds) still cost that.
 json budgetTargetContext(const SuiteResults& r) {
     json scenes = json::array();
     for (const std::string& scene : sceneNames(r)) {

@@ -146,7 +146,7 @@ struct Measurement {
     double motionBaselineMs = 0, motionSpeedup = 0; ///< all-near (Vulkan) in motion, its ratio
     double motionBakes = 0, motionBakeMs = 0;       ///< per frame after the cold start (mean)
     /// The near tier's ms and the entities each tier drew, per frame after the cold start
-    /// (means): what the entities a budget keeps near cost even if far sprites were free.
+    /// (means): what the entities drawn near cost even if far sprites were free.
     double motionNearMs = 0, motionNearEntities = 0, motionFarEntities = 0;
     double motionPsnrMin = 0; ///< against the all-near frame of the same motion frame
     /// That worst frame's differing share and far sprites: how far its error is from a PSNR
