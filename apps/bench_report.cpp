@@ -610,9 +610,8 @@ std::string measuredDisplacement(const Measurement& m) {
 /// one does (DESIGN.md §5), so the allowance per far sprite says whether the target is in reach.
 std::string psnrBound(const Measurement& m) {
     const double psnr = m.motionPsnrMin;
-    if (!std::isfinite(psnr) || psnr >= kBudgetTarget.minPsnrDb || m.motionPsnrMinShare <= 0 ||
-        m.motionPsnrMinPixels <= 0)
-        return "";
+    if (!std::isfinite(psnr) || psnr >= kBudgetTarget.minPsnrDb || m.motionPsnrMinPixels <= 0)
+        return ""; // (no differing pixel: no share either)
     const double factor = std::pow(10.0, (kBudgetTarget.minPsnrDb - psnr) / 10.0);
     const double pixels = m.motionPsnrMinPixels / factor;
     std::string s =

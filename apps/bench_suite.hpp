@@ -149,8 +149,8 @@ struct Measurement {
     /// (means): what the entities drawn near cost even if far sprites were free.
     double motionNearMs = 0, motionNearEntities = 0, motionFarEntities = 0;
     double motionPsnrMin = 0; ///< against the all-near frame of the same motion frame
-    /// That worst frame's differing share and far sprites: how far its error is from a PSNR
-    /// target follows from them (bench report, "target and bound").
+    /// That worst frame's differing share, differing pixels and far sprites: how far its error
+    /// is from a PSNR target follows from them (bench report, "target and bound").
     double motionPsnrMinShare = 0, motionPsnrMinPixels = 0, motionPsnrMinFar = 0;
     double motionDifferingShare = 0;    ///< of the frame's pixels, mean (colour, depth or id)
     double motionPredictedWorstVpx = 0; ///< FrameStats::farPredictedWorstVpx, worst frame

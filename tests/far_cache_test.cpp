@@ -118,7 +118,6 @@ TEST(SnapshotCache, LruEvictionKeepsTheBudgetAndDropsTheLeastRecentlyUsed) {
     EXPECT_GT(held->solidCount(), 0u);
 }
 
-// An edit bumps the model version: the next request misses and bakes the edited model.
 // A frame bakes views of many (model, animation frame)s in turn; each needs its Embree scene.
 // Twelve models asked for one view each, round after round: under the default byte budget each
 // scene is built once; under a budget of two and a half scenes they are rebuilt (least recently
@@ -145,6 +144,7 @@ TEST(SnapshotCache, EmbreeScenesAreKeptWithinTheirByteBudget) {
     EXPECT_GT(tight.counters().sceneBytes, 0u);
 }
 
+// An edit bumps the model version: the next request misses and bakes the edited model.
 TEST(SnapshotCache, VersionBumpMissesAndBakesTheEditedModel) {
     const auto m = makeBox({6, 6, 6});
     SnapshotCache cache;
