@@ -1,6 +1,7 @@
 #include "impostor_cache/far_blit.hpp"
 
 #include "core/stopwatch.hpp"
+#include "impostor_cache/detail/far_blit_band.hpp"
 
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
@@ -33,19 +34,14 @@ int chooseFarView(const SpriteSetup& sprite, ViewSet set) {
     return nearestView(set, -sprite.lattice.dir);
 }
 
-namespace {
-struct RowCounters {
-    std::uint64_t tested = 0, written = 0;
-};
+namespace detail {
 
-/// The columns [x0, x1) of pixel row `py` (pixel centre y) outside which the kernel's
-/// vtPixelCell cannot find a cell of the sprite. Along a row the kernel's pixel -> cell map is
-/// q(x) = (a x + b) / (d x + e) per axis, monotone where the denominator is positive, so the
-/// pixels whose cell lies in the range form an interval; it is found here in double from the same
-/// coefficients, with the range widened by one cell on every side (the float kernel is off by
-/// far less than a cell near a sprite) and the columns by one pixel. The sprite's quad rectangle
-/// is up to several times its footprint for close, oblique sprites, and every pixel skipped is a
-/// reciprocal and two affine forms saved.
+/// Along a row the kernel's pixel -> cell map is q(x) = (a x + b) / (d x + e) per axis, monotone
+/// where the denominator is positive, so the pixels whose cell lies in the range form an
+/// interval; it is found here in double from the same coefficients, with the range widened by
+/// one cell on every side (the float kernel is off by far less than a cell near a sprite) and
+/// the columns by one pixel. The sprite's quad rectangle is up to several times its footprint
+/// for close, oblique sprites, and every pixel skipped is a reciprocal and two affine forms saved.
 std::pair<int, int> candidateColumns(const kernel::SpriteGpu& g, double py, int rx0, int rx1) {
     double lo = -std::numeric_limits<double>::infinity(),
            hi = std::numeric_limits<double>::infinity();
@@ -74,76 +70,125 @@ std::pair<int, int> candidateColumns(const kernel::SpriteGpu& g, double py, int 
     const double x1 = std::clamp(std::ceil(hi - 0.5) + 2.0, double(rx0), double(rx1));
     return {int(x0), std::max(int(x0), int(x1))};
 }
-} // namespace
 
-void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* stats) {
-    const auto t0 = std::chrono::steady_clock::now();
-    // Each row is written by exactly one task (no locks); the depth/id rule makes the result
-    // independent of the order sprites are visited in.
-    std::vector<std::vector<std::uint32_t>> rows(std::size_t(target.height));
-    std::vector<SnapshotCellMap> maps(sprites.size());
-    std::uint64_t drawn = 0;
-    for (std::uint32_t s = 0; s < sprites.size(); ++s) {
-        const FarSprite& f = sprites[s];
-        if (!f.sprite || !f.snapshot || !f.palette || !f.sprite->visible()) continue;
-        ++drawn;
-        maps[s] = snapshotCellMap(f.sprite->lattice, f.snapshot->lattice);
-        for (int y = f.sprite->screenRect.y; y < std::min(f.sprite->screenRect.w, target.height);
-             ++y)
-            rows[std::size_t(y)].push_back(s);
+void blitSpriteScalar(const BlitSprite& s, int y0, int y1, Image& target, BlitCounters& rc) {
+    const kernel::SpriteGpu& g = *s.gpu;
+    const Snapshot& snap = *s.snapshot;
+    for (int y = y0; y < y1; ++y) {
+        const float py = float(y) + 0.5f;
+        // What a pixel shows depends only on its near cell, and neighbouring pixels mostly share
+        // one: the last cell's outcome is reused along the row.
+        glm::ivec2 lastCell(INT_MIN, INT_MIN);
+        bool lastDrawn = false;
+        Rgba8 lastColor = 0;
+        const std::size_t rowBase = target.index(0, y);
+        const auto [x0, x1] = candidateColumns(g, double(py), s.rect.x, s.rect.z);
+        rc.tested += std::uint64_t(x1 - x0);
+        for (int x = x0; x < x1; ++x) {
+            glm::ivec2 cell;
+            if (!kernel::vtPixelCell(g, glm::vec2(float(x) + 0.5f, py), cell)) continue;
+            if (cell != lastCell) {
+                lastCell = cell;
+                const glm::ivec2 sc = s.map(cell); // the snapshot cell under the near cell's centre
+                const SnapshotCell c = snap.at(sc.x, sc.y);
+                lastDrawn = c.code != snapshot_code::kEmpty;
+                if (lastDrawn)
+                    lastColor =
+                        snapshot_code::isSolid(c.code)
+                            ? kernel::vtLit(s.palette[c.index],
+                                            kernel::vtFaceLight(g, snapshot_code::face(c.code)))
+                            : kernel::VT_OUTLINE_RGBA;
+            }
+            if (!lastDrawn) continue;
+            ++rc.written;
+            target.writeIfNearer(rowBase + std::size_t(x), lastColor, g.depth, s.entity);
+        }
     }
-    tbb::combinable<RowCounters> counters;
+}
+
+void blitBandScalar(const BlitBand& band, BlitCounters& counters) {
+    for (std::size_t k = 0; k < band.count; ++k) {
+        const BlitSprite& s = band.sprites[band.list[k]];
+        blitSpriteScalar(s, std::max(s.rect.y, band.y0), std::min(s.rect.w, band.y1), *band.target,
+                         counters);
+    }
+}
+
+} // namespace detail
+
+void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* stats,
+             const FarBlitOptions& options) {
+    const auto t0 = std::chrono::steady_clock::now();
+    using detail::BlitSprite;
+    // Each band of rows is written by exactly one task (no locks); the depth/id rule makes the
+    // result independent of the order sprites are visited in.
+    const int bandRows = std::max(1, options.bandRows);
+    const int bands = target.height > 0 ? (target.height + bandRows - 1) / bandRows : 0;
+    std::vector<BlitSprite> drawn;
+    drawn.reserve(sprites.size());
+    for (const FarSprite& f : sprites) {
+        if (!f.sprite || !f.snapshot || !f.palette || !f.sprite->visible()) continue;
+        const SpriteSetup& sp = *f.sprite;
+        BlitSprite b;
+        b.gpu = &sp.gpu;
+        b.snapshot = f.snapshot;
+        b.palette = f.palette->colors.data();
+        b.map = snapshotCellMap(sp.lattice, f.snapshot->lattice);
+        b.rect = {sp.screenRect.x, sp.screenRect.y, sp.screenRect.z,
+                  std::min(sp.screenRect.w, target.height)};
+        b.entity = sp.entityId;
+        for (unsigned face = 0; face < 6; ++face)
+            b.lightByCode[snapshot_code::kSolid0 + face] = kernel::vtFaceLight(sp.gpu, face);
+        drawn.push_back(b);
+    }
+    // Sprites bucketed by band (counting sort, sprite order kept within a band).
+    std::vector<std::uint32_t> bandStart(std::size_t(bands) + 1, 0), list;
+    const auto bandsOf = [&](const BlitSprite& b) {
+        return std::pair<int, int>{b.rect.y / bandRows, (b.rect.w - 1) / bandRows + 1};
+    };
+    for (const BlitSprite& b : drawn) {
+        if (b.rect.y >= b.rect.w) continue;
+        const auto [first, last] = bandsOf(b);
+        for (int k = first; k < last; ++k) ++bandStart[std::size_t(k) + 1];
+    }
+    for (std::size_t k = 0; k < std::size_t(bands); ++k) bandStart[k + 1] += bandStart[k];
+    list.resize(bandStart.back());
+    {
+        std::vector<std::uint32_t> fill(bandStart.begin(), bandStart.end() - 1);
+        for (std::uint32_t i = 0; i < drawn.size(); ++i) {
+            if (drawn[i].rect.y >= drawn[i].rect.w) continue;
+            const auto [first, last] = bandsOf(drawn[i]);
+            for (int k = first; k < last; ++k) list[fill[std::size_t(k)]++] = i;
+        }
+    }
+    const bool simd = options.kernel == FarBlitKernel::Simd;
+    tbb::combinable<detail::BlitCounters> counters;
+    // A grain of about four rows, as the row layout always had.
+    const int grain = std::max(1, 4 / bandRows);
     tbb::parallel_for(
-        tbb::blocked_range<int>(0, target.height, 4), [&](const tbb::blocked_range<int>& r) {
-            RowCounters& rc = counters.local();
-            for (int y = r.begin(); y < r.end(); ++y) {
-                const float py = float(y) + 0.5f;
-                for (std::uint32_t s : rows[std::size_t(y)]) {
-                    const FarSprite& f = sprites[s];
-                    const SpriteSetup& sp = *f.sprite;
-                    const SnapshotCellMap& map = maps[s];
-                    const Snapshot& snap = *f.snapshot;
-                    const kernel::SpriteGpu& g = sp.gpu;
-                    // What a pixel shows depends only on its near cell, and neighbouring pixels
-                    // mostly share one: the last cell's outcome is reused along the row.
-                    glm::ivec2 lastCell(INT_MIN, INT_MIN);
-                    bool lastDrawn = false;
-                    Rgba8 lastColor = 0;
-                    const std::size_t rowBase = target.index(0, y);
-                    const auto [x0, x1] =
-                        candidateColumns(g, double(py), sp.screenRect.x, sp.screenRect.z);
-                    for (int x = x0; x < x1; ++x) {
-                        ++rc.tested;
-                        glm::ivec2 cell;
-                        if (!kernel::vtPixelCell(g, glm::vec2(float(x) + 0.5f, py), cell)) continue;
-                        if (cell != lastCell) {
-                            lastCell = cell;
-                            const glm::ivec2 sc =
-                                map(cell); // the snapshot cell under the near cell's centre
-                            const SnapshotCell c = snap.at(sc.x, sc.y);
-                            lastDrawn = c.code != snapshot_code::kEmpty;
-                            if (lastDrawn)
-                                lastColor = snapshot_code::isSolid(c.code)
-                                                ? kernel::vtLit(f.palette->colors[c.index],
-                                                                kernel::vtFaceLight(
-                                                                    g, snapshot_code::face(c.code)))
-                                                : kernel::VT_OUTLINE_RGBA;
-                        }
-                        if (!lastDrawn) continue;
-                        ++rc.written;
-                        target.writeIfNearer(rowBase + std::size_t(x), lastColor, g.depth,
-                                             sp.entityId);
-                    }
-                }
+        tbb::blocked_range<int>(0, bands, grain), [&](const tbb::blocked_range<int>& r) {
+            detail::BlitCounters& rc = counters.local();
+            for (int k = r.begin(); k < r.end(); ++k) {
+                detail::BlitBand band;
+                band.sprites = drawn.data();
+                band.list = list.data() + bandStart[std::size_t(k)];
+                band.count = bandStart[std::size_t(k) + 1] - bandStart[std::size_t(k)];
+                band.y0 = k * bandRows;
+                band.y1 = std::min(target.height, band.y0 + bandRows);
+                band.target = &target;
+                if (simd)
+                    detail::blitBandSimd(band, rc);
+                else
+                    detail::blitBandScalar(band, rc);
             }
         });
     if (stats) {
-        RowCounters total;
-        counters.combine_each([&](const RowCounters& c) {
+        detail::BlitCounters total;
+        counters.combine_each([&](const detail::BlitCounters& c) {
             total.tested += c.tested;
             total.written += c.written;
         });
-        stats->sprites += drawn;
+        stats->sprites += drawn.size();
         stats->pixelsTested += total.tested;
         stats->pixelsWritten += total.written;
         stats->milliseconds += msSince(t0);

@@ -52,12 +52,33 @@ struct SnapshotCellMap {
 SnapshotCellMap snapshotCellMap(const SpriteLattice& nearLattice,
                                 const SpriteLattice& snapshotLattice);
 
+/// Which kernel evaluates the blit's pixels. Both write the same image, bit for bit (colour,
+/// depth and id; tests/far_blit_simd_test.cpp); the scalar one is the reference the vectorised
+/// one is tested against, and the way to measure what vectorising buys.
+enum class FarBlitKernel {
+    Simd,   ///< spans of 4-16 pixels at once, the widest SIMD target this CPU has (Highway)
+    Scalar, ///< one pixel at a time: kernel::vtPixelCell, SnapshotCellMap, vtLit, writeIfNearer
+};
+struct FarBlitOptions {
+    FarBlitKernel kernel = FarBlitKernel::Simd;
+    /// Image rows per parallel task. A task draws every sprite touching its band, sprite by
+    /// sprite, so a sprite's snapshot and the band's target rows stay in cache while it is drawn;
+    /// 1 visits the sprites of each row in turn (the blit's layout before the band).
+    int bandRows = 16;
+};
+
+/// The SIMD target FarBlitKernel::Simd runs on this CPU (Highway's name: "AVX3", "AVX2",
+/// "SSE4", "NEON", "EMU128" ...).
+const char* farBlitSimdTarget();
+
 /// The view the far tier shows for a sprite: w* = argmax w . (-d), d = sprite.lattice.dir
 /// (the per-entity direction the near tier uses, so the tiers agree on it).
 int chooseFarView(const SpriteSetup& sprite, ViewSet set);
 
 /// Draws the sprites into `target` (keeping what it holds) with the shared depth/id rule,
-/// TBB-parallel over rows, sprites bucketed by row like the reference renderer.
-void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* stats = nullptr);
+/// TBB-parallel over bands of rows, sprites bucketed by band. The result does not depend on the
+/// kernel, the band height or the order sprites are visited in (the depth/id rule decides).
+void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* stats = nullptr,
+             const FarBlitOptions& options = {});
 
 } // namespace voxtier

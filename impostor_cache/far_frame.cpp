@@ -13,7 +13,7 @@ namespace voxtier {
 
 void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
-                    Image& target, FarFrameStats* stats) {
+                    Image& target, FarFrameStats* stats, const FarBlitOptions& blitOptions) {
     const auto t0 = std::chrono::steady_clock::now();
     const SnapshotCacheCounters before = cache.counters();
     // Distinct (model, frame, view, sigma) of the visible sprites; each is looked up (and baked)
@@ -48,7 +48,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
             {sp, snaps[spriteSlot[r]].get(), &models.at(std::size_t(sp->model))->palette()});
     }
     FarBlitStats blit;
-    blitFar(draws, target, &blit);
+    blitFar(draws, target, &blit, blitOptions);
     if (stats) {
         stats->sprites += draws.size();
         stats->snapshotsUsed += needs.size();

@@ -38,6 +38,6 @@ struct FarRequest {
 /// indexed by SpriteSetup::model; each sprite's snapshot has the sprite's own sigma.
 void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
-                    Image& target, FarFrameStats* stats = nullptr);
+                    Image& target, FarFrameStats* stats = nullptr, const FarBlitOptions& blit = {});
 
 } // namespace voxtier

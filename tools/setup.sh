@@ -10,6 +10,8 @@ packages=(
     cmake ninja-build g++ pkgconf
     libembree-dev libglm-dev libopenimageio-dev libtbb-dev
     libvulkan-dev glslang-tools nlohmann-json3-dev libcli11-dev
+    # the far blit's SIMD kernel with run-time dispatch (Highway)
+    libhwy-dev
     # the bench report's template engine (header-only)
     libkainjow-mustache-dev
     # Debian's OpenImageIO CMake config (OpenImageIOTargets.cmake) refuses to load unless the

@@ -1,0 +1,64 @@
+#pragma once
+// Internal to impostor_cache (not installed): what the far blit's two kernels share. blitFar
+// (far_blit.cpp) gathers each far sprite's constants once per frame, buckets the sprites by
+// band of image rows, and hands each band to one task; the band kernel is either the scalar
+// reference (far_blit.cpp) or the vectorised one (far_blit_simd.cpp), which must write the same
+// bits.
+#include "core/image.hpp"
+#include "core/sprite_kernel.h"
+#include "impostor_cache/far_blit.hpp"
+#include "impostor_cache/snapshot.hpp"
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+
+namespace voxtier::detail {
+
+/// One far sprite, as both kernels read it.
+struct BlitSprite {
+    const kernel::SpriteGpu* gpu = nullptr;
+    const Snapshot* snapshot = nullptr;
+    const Rgba8* palette = nullptr; ///< 256 colours
+    SnapshotCellMap map;            ///< near cell -> snapshot cell
+    glm::ivec4 rect{0};             ///< screen rectangle x0, y0, x1, y1 (half-open)
+    std::uint32_t entity = 0;
+    /// kernel::vtFaceLight by snapshot code: [kSolid0 + f] is face f's factor, the rest 0. A
+    /// table lookup by code is what lets the SIMD kernel light 16 pixels without a branch.
+    std::array<std::uint32_t, 8> lightByCode{};
+};
+
+/// Entries after a cell table (far_blit_simd.cpp) that its building may overwrite: a vector's
+/// spill past the last row (the widest Highway target has 64 lanes of 32 bits).
+inline constexpr std::size_t kCellTablePadding = 64;
+
+struct BlitCounters {
+    std::uint64_t tested = 0, written = 0;
+};
+
+/// Rows [y0, y1) of the target, drawn by one task: the sprites `list[0 .. count)` (indices into
+/// `sprites`) are those whose rectangle meets the band.
+struct BlitBand {
+    const BlitSprite* sprites = nullptr;
+    const std::uint32_t* list = nullptr;
+    std::size_t count = 0;
+    int y0 = 0, y1 = 0;
+    Image* target = nullptr;
+};
+
+/// The columns [x0, x1) of pixel row `py` (pixel centre y) outside which vtPixelCell cannot find
+/// a cell of the sprite (far_blit.cpp). Both kernels test exactly these pixels.
+std::pair<int, int> candidateColumns(const kernel::SpriteGpu& g, double py, int rx0, int rx1);
+
+/// The reference: per pixel, kernel::vtPixelCell, SnapshotCellMap, vtLit and writeIfNearer.
+void blitBandScalar(const BlitBand& band, BlitCounters& counters);
+/// One sprite's rows [y0, y1) by the reference (what the SIMD kernel falls back to for the cases
+/// it does not vectorise: images narrower than a vector, snapshots of under two cells).
+void blitSpriteScalar(const BlitSprite& sprite, int y0, int y1, Image& target,
+                      BlitCounters& counters);
+/// The vectorised kernel on the best SIMD target of this CPU (Highway dynamic dispatch).
+void blitBandSimd(const BlitBand& band, BlitCounters& counters);
+
+
+} // namespace voxtier::detail
