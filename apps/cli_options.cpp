@@ -221,4 +221,14 @@ CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate) {
         ->default_str(toString(rate));
 }
 
+CLI::Option* addFarBlitOption(CLI::App& cmd, FarBlitKernel& kernel) {
+    return cmd
+        .add_option("--far-blit", kernel,
+                    "The far blit's kernel: simd (spans of pixels on the widest SIMD unit of this "
+                    "CPU) or scalar (one pixel at a time, the reference); same image")
+        ->type_name("TEXT")
+        ->transform(oneOf(kFarBlitNames, "far blit"))
+        ->default_str(toString(kernel));
+}
+
 } // namespace voxtier::cli

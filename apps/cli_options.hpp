@@ -10,6 +10,7 @@
 // prints DBL_MAX in full, and CheckedTransformer lists an enum's integers ("{far->2,...} OR
 // {2,...}"). These keep CLI11's mechanism (and its `{a,b}` / ExistingFile forms) with the
 // project's one-line messages.
+#include "impostor_cache/far_blit.hpp"
 #include "impostor_cache/view_set.hpp"
 #include "volumetric/near_rate.hpp"
 
@@ -103,6 +104,8 @@ inline std::vector<std::pair<std::string, ViewSet>> viewSetNames() {
 /// `--near-rate auto|fragment|cell` (compose/frame.hpp kNearRateNames) on `cmd`, for `render`
 /// and `bench` alike.
 CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate);
+/// `--far-blit simd|scalar` (compose/frame.hpp kFarBlitNames) on `cmd`, for `render` and `bench`.
+CLI::Option* addFarBlitOption(CLI::App& cmd, FarBlitKernel& kernel);
 
 /// The name of `value` in a name table (for ->default_str).
 template <class Names, class E> std::string nameOf(const Names& names, E value) {

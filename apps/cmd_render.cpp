@@ -29,8 +29,9 @@ struct RenderArgs {
     std::string input;
     std::string out;
     RenderMode mode = RenderMode::Hybrid;
-    NearBackend nearBackend = NearBackend::Vulkan;
+    NearBackend nearBackend = NearBackend::Auto;
     NearRate nearRate = NearRate::Auto;
+    FarBlitKernel farBlit = FarBlitKernel::Simd;
     bool path = false;
     bool alpha = false; ///< transparent background (alpha 0 where no sprite is drawn)
     std::string overlay, csv, pops;
@@ -232,11 +233,14 @@ void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, c
             ++(r.plan[i].tier == Tier::Near ? nearOnly : farOnly);
     }
     std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, "
-                "%d fading), "
+                "%d fading%s), "
                 "%d switches, %d bakes, worst predicted far displacement %.2f vpx, %.1f ms -> "
                 "%s%s\n",
                 a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height,
                 st.entities, st.culled, nearOnly, farOnly, fading,
+                st.nearDrawn == 0 ? ""
+                : st.nearOnVulkan ? "; near tier on Vulkan"
+                                  : "; near tier on the CPU reference",
                 st.switchesToFar + st.switchesToNear, st.farBakes, st.farPredictedWorstVpx,
                 st.totalMs, file.c_str(), progressText.c_str());
     std::fflush(stdout);
@@ -249,6 +253,7 @@ void run(const RenderArgs& a) {
     FrameOptions opt;
     opt.nearBackend = a.nearBackend;
     opt.nearRate = a.nearRate;
+    opt.farBlit.kernel = a.farBlit;
     opt.overlay = !a.overlay.empty();
     opt.measurePops = !a.pops.empty();
     if (a.cacheMb) opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
@@ -268,6 +273,7 @@ void run(const RenderArgs& a) {
     if (plan.sequence && endsWith(out, ".gif"))
         animation.emplace(out, (scene.path ? scene.path->fps : 30.0) / plan.step);
     const auto start = std::chrono::steady_clock::now();
+    bool choiceSaid = false;
     for (std::size_t k = 0; k < plan.frames.size(); ++k) {
         const int frame = plan.frames[k];
         const double time = plan.fixedTime ? *plan.fixedTime : scene.timeOfFrame(frame);
@@ -289,6 +295,12 @@ void run(const RenderArgs& a) {
                          e.changedPixels, e.changedFraction, e.displacementPx, e.radiusPx);
         if (k == 0 && !renderer.nearDeviceName().empty())
             std::printf("Vulkan device: %s\n", renderer.nearDeviceName().c_str());
+        // Auto's choice, once, when a frame drew near sprites: which backend and why.
+        if (!choiceSaid && r.stats.nearDrawn > 0 && !renderer.nearBackendChoice().empty() &&
+            mode != RenderMode::Near && mode != RenderMode::Reference) {
+            std::printf("%s\n", renderer.nearBackendChoice().c_str());
+            choiceSaid = true;
+        }
         printStatus(a, mode, frame, time, r, file, progress(plan, k + 1, msSince(start)));
     }
     if (animation) animation->close();
@@ -319,11 +331,13 @@ void addRenderCommand(CLI::App& app) {
         ->transform(oneOf(kRenderModeNames, "render mode"))
         ->default_str(toString(args->mode));
     cmd->add_option("--near-backend", args->nearBackend,
-                    "vulkan, or reference (the CPU tracer draws the near tier; same image)")
+                    "auto (Vulkan on a GPU; the CPU reference where the only Vulkan device is a "
+                    "CPU, as lavapipe is, or there is none), vulkan, or reference; same image")
         ->type_name("TEXT")
         ->transform(oneOf(kNearBackendNames, "near backend"))
         ->default_str(toString(args->nearBackend));
     addNearRateOption(*cmd, args->nearRate);
+    addFarBlitOption(*cmd, args->farBlit);
     auto* path =
         cmd->add_flag("--path", args->path,
                       "Render every frame of the camera path (OUT becomes OUT_0000.png ...; "

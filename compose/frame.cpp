@@ -36,7 +36,7 @@ SpriteSetup fadedCopy(const SpriteSetup& s, float share, bool keepBelow) {
 }
 
 /// Who draws near sprites: reference mode is the CPU tracer by definition, near mode is Vulkan,
-/// the others use the configured backend.
+/// the others use the configured backend (Auto is resolved where a near sprite is drawn).
 NearBackend nearBackendFor(RenderMode mode, NearBackend configured) {
     return mode == RenderMode::Reference ? NearBackend::Reference
            : mode == RenderMode::Near    ? NearBackend::Vulkan
@@ -126,6 +126,10 @@ const char* toString(NearBackend b) {
     return nameOf(kNearBackendNames, b);
 }
 
+const char* toString(FarBlitKernel k) {
+    return nameOf(kFarBlitNames, k);
+}
+
 NearRate parseNearRate(const std::string& name) {
     return fromName(kNearRateNames, name, "--near-rate", "near rate");
 }
@@ -178,6 +182,38 @@ FrameRenderer::~FrameRenderer() = default;
 
 std::string FrameRenderer::nearDeviceName() const {
     return near_ ? near_->deviceName() : std::string();
+}
+
+NearBackend FrameRenderer::nearBackend() {
+    if (options_.nearBackend != NearBackend::Auto) return options_.nearBackend;
+    if (!autoChoice_) {
+        // A shared device (the bench's) is asked what it is; otherwise the loader is probed.
+        VulkanProbe probe;
+        if (options_.sharedNear) {
+            probe.found = true;
+            probe.cpu = options_.sharedNear->deviceIsCpu();
+            probe.name = options_.sharedNear->deviceName();
+        } else {
+            probe = probeVulkanDevice();
+        }
+        autoChoice_ = probe.found && !probe.cpu ? NearBackend::Vulkan : NearBackend::Reference;
+        autoReason_ =
+            !probe.found ? "near tier: CPU reference (--near-backend auto: " + probe.whyNone + ")"
+            : probe.cpu
+                ? "near tier: CPU reference (--near-backend auto: the only Vulkan device, " +
+                      probe.name +
+                      ", runs on the CPU, where the reference is faster; --near-backend "
+                      "vulkan uses it)"
+                : "near tier: Vulkan on " + probe.name + " (--near-backend auto)";
+    }
+    return *autoChoice_;
+}
+
+const std::string& FrameRenderer::nearBackendChoice() {
+    static const std::string none;
+    if (options_.nearBackend != NearBackend::Auto) return none;
+    nearBackend();
+    return autoReason_;
 }
 
 void FrameRenderer::applyEditsThrough(int frame) {
@@ -366,7 +402,7 @@ void FrameRenderer::measureCosts(const CameraFrame& cam, NearBackend nearBackend
 }
 
 double FrameRenderer::nearFixedMs(const CameraFrame& cam, NearBackend nearBackend) {
-    const bool vulkan = nearBackend == NearBackend::Vulkan && near_;
+    const bool vulkan = resolved(nearBackend) == NearBackend::Vulkan && near_;
     if (nearFixed_.ms >= 0.0 && nearFixed_.vulkan == vulkan && nearFixed_.width == cam.width &&
         nearFixed_.height == cam.height)
         return nearFixed_.ms;
@@ -416,7 +452,9 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
                               const std::vector<const SpriteSetup*>& sprites, FrameStats& st) {
     const auto t0 = Clock::now();
     Image image;
+    if (!sprites.empty()) nearBackend = resolved(nearBackend);
     if (nearBackend == NearBackend::Vulkan && !sprites.empty()) {
+        st.nearOnVulkan = 1;
         // Created on first use: reference- and far-only runs never touch Vulkan.
         if (!near_)
             near_ = options_.sharedNear
@@ -452,7 +490,7 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
     FarFrameStats fs;
     const std::uint64_t raysBefore = cache_->counters().raysTraced;
     drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize),
-                   image, &fs);
+                   image, &fs, options_.farBlit);
     st.farBakes += int(fs.bakes);
     st.farScenesBuilt += int(fs.scenesBuilt);
     st.farRefreshes += int(fs.refreshes);

@@ -7,6 +7,7 @@
 #include "core/image.hpp"
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
+#include "impostor_cache/far_blit.hpp"
 #include "impostor_cache/view_set.hpp"
 #include "lod/selector.hpp"
 #include "volumetric/near_rate.hpp"
@@ -44,17 +45,27 @@ inline constexpr std::array<std::pair<const char*, RenderMode>, 4> kRenderModeNa
 RenderMode parseRenderMode(const std::string& name); ///< throws InputError(field "--mode")
 const char* toString(RenderMode m);
 
-/// Who draws the near tier. Both produce the same image (the near tier's contract), so tests
-/// and measurements that are not about the GPU may use the cheaper one.
-enum class NearBackend { Vulkan, Reference };
+/// Who draws the near tier. Both produce the same image (the near tier's contract), so a frame
+/// may use the faster one: Auto takes Vulkan where the device is a GPU, and the CPU reference
+/// where the only Vulkan device is a CPU implementation (lavapipe: the reference, natively
+/// compiled on the same cores, is several times faster) or there is none at all.
+enum class NearBackend { Auto, Vulkan, Reference };
 /// The one table of near backend names, like kRenderModeNames.
-inline constexpr std::array<std::pair<const char*, NearBackend>, 2> kNearBackendNames{{
+inline constexpr std::array<std::pair<const char*, NearBackend>, 3> kNearBackendNames{{
+    {"auto", NearBackend::Auto},
     {"vulkan", NearBackend::Vulkan},
     {"reference", NearBackend::Reference},
 }};
 /// Throws InputError(field "--near-backend") for a name not in kNearBackendNames.
 NearBackend parseNearBackend(const std::string& name);
 const char* toString(NearBackend b);
+
+/// The one table of far blit kernel names (impostor_cache/far_blit.hpp), like kRenderModeNames.
+inline constexpr std::array<std::pair<const char*, FarBlitKernel>, 2> kFarBlitNames{{
+    {"simd", FarBlitKernel::Simd},
+    {"scalar", FarBlitKernel::Scalar},
+}};
+const char* toString(FarBlitKernel k);
 
 /// The one table of near rate names (volumetric/near_rate.hpp), like kRenderModeNames.
 inline constexpr std::array<std::pair<const char*, NearRate>, 3> kNearRateNames{{
@@ -67,9 +78,12 @@ NearRate parseNearRate(const std::string& name);
 const char* toString(NearRate r);
 
 struct FrameOptions {
-    NearBackend nearBackend = NearBackend::Vulkan;
+    /// Of hybrid and far frames (reference frames use the CPU tracer, near frames Vulkan).
+    NearBackend nearBackend = NearBackend::Auto;
     /// Per-pixel or cell-rate near sprites, on either backend (same image).
     NearRate nearRate = NearRate::Auto;
+    /// The far blit's kernel: SIMD (default) or the scalar reference (same image, for measuring).
+    FarBlitOptions farBlit;
     VulkanDeviceOptions vulkan;                  ///< device options when Vulkan is used
     std::shared_ptr<VulkanMessageLog> vulkanLog; ///< validation messages (outlives the device)
     bool overlay = false;                        ///< also produce FrameResult::overlay (tier tint)
@@ -158,6 +172,9 @@ struct FrameStats {
     std::uint64_t nearCellsTraced = 0, nearPixelsTraced = 0, nearPixelsLookedUp = 0;
     int nearCellSprites = 0, nearCellOverBudget = 0;
     double blitMs = 0.0; ///< the far blit alone
+    /// 1 when this frame's near sprites were drawn by the Vulkan near tier, 0 when by the CPU
+    /// reference or when there were none (FrameRenderer::nearBackend says which Auto chose).
+    int nearOnVulkan = 0;
     std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;
     std::uint64_t farPixelsWritten = 0;    ///< blit pixels that read a solid or outline cell
     std::uint64_t nearKernelFragments = 0; ///< with nearCountSteps: fragments that ran the kernel
@@ -203,6 +220,12 @@ class FrameRenderer {
     FrameOptions& options() { return options_; }
     /// The Vulkan device of the near tier ("" until a frame needed it).
     std::string nearDeviceName() const;
+    /// Who draws near sprites in hybrid and far frames: options().nearBackend, or what Auto
+    /// chose on this machine (decided once, probing the Vulkan loader, by the first frame that
+    /// draws a near sprite or by this call).
+    NearBackend nearBackend();
+    /// Auto's choice and its reason in one line ("" when the backend was given, not chosen).
+    const std::string& nearBackendChoice();
 
   private:
     std::vector<EntityPlan> planFrame(const std::vector<SpriteSetup>& sprites, RenderMode mode,
@@ -223,6 +246,8 @@ class FrameRenderer {
     Image drawWith(NearBackend nearBackend, const CameraFrame& camera,
                    const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
                    FrameStats& stats, std::optional<Tier> onlyTier = std::nullopt);
+    /// `b`, with Auto resolved (nearBackend()).
+    NearBackend resolved(NearBackend b) { return b == NearBackend::Auto ? nearBackend() : b; }
     Image drawNear(NearBackend nearBackend, const CameraFrame& camera,
                    const std::vector<const SpriteSetup*>& sprites, FrameStats& stats);
     void drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& stats);
@@ -247,6 +272,8 @@ class FrameRenderer {
         bool vulkan = false;
         int width = 0, height = 0;
     } nearFixed_; ///< nearFixedMs(), for the backend and image size it was measured with
+    std::optional<NearBackend> autoChoice_; ///< what NearBackend::Auto resolved to
+    std::string autoReason_;
     std::unique_ptr<SnapshotCache> cache_;
     std::shared_ptr<NearRenderer>
         near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan

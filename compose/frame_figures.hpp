@@ -101,6 +101,7 @@ struct FrameFigureTable {
         {"rays_traced",               &FrameStats::raysTraced,              Count, Mean},
         {"cache_bytes",               &FrameStats::cacheBytes,              Bytes, Worst},
         {"far_predicted_worst_vpx",   &FrameStats::farPredictedWorstVpx,    Count, Worst},
+        {"near_on_vulkan",            &FrameStats::nearOnVulkan,            Count, Mean},
     };
     // clang-format on
 };

@@ -175,8 +175,8 @@ TEST(BadInput, BadArgumentsAreOneLineErrors) {
 TEST(BadInput, HelpListsTheAllowedValues) {
     const std::vector<std::pair<std::string, std::vector<std::string>>> expected = {
         {"render",
-         {"{hybrid,near,far,reference}=hybrid", "{vulkan,reference}=vulkan",
-          "--cache-mb FLOAT:in [1, 65536] MiB", "--sigma FLOAT:in (0, 16]",
+         {"{hybrid,near,far,reference}=hybrid", "{auto,vulkan,reference}=auto",
+          "{simd,scalar}=simd", "--cache-mb FLOAT:in [1, 65536] MiB", "--sigma FLOAT:in (0, 16]",
           "--size WxH:W, H in [1, 16384]", "--frame INT:>= 0", "ELEVATION in [-90, 90]"}},
         {"bake",
          {"--views INT:{26,98,218}=26", "{quads,boxes}", "{packet8,packet16,stream}",
@@ -216,25 +216,32 @@ TEST(BadInput, SizeAndSigmaOverrideTheScene) {
     EXPECT_LT(outline(two), outline(one));
 }
 
-// Without any Vulkan driver the GPU modes fail with one clear line; the CPU modes still work.
+// Without any Vulkan driver the GPU modes fail with one clear line; the CPU modes still work,
+// and so does the default hybrid frame (--near-backend auto), which says in one line that the
+// CPU reference draws its near tier and why.
 TEST(BadInput, MissingVulkanDeviceFailsGpuModesOnlyOneLine) {
     const std::string scene = write("novk.json", kScene);
     const std::string noDriver =
         "VK_DRIVER_FILES=/nonexistent/none.json VK_ICD_FILENAMES=/nonexistent/none.json";
-    for (const char* mode : {"near", "hybrid"})
+    for (const char* args : {"--mode near", "--mode hybrid --near-backend vulkan"})
         expectOneLineError(
-            {std::string("no Vulkan device, --mode ") + mode,
-             "render " + scene + " --mode " + mode + " -o " + (scratch() / "x.png").string(),
+            {std::string("no Vulkan device, ") + args,
+             "render " + scene + " " + args + " -o " + (scratch() / "x.png").string(),
              "no Vulkan device", kInputError, noDriver});
-    for (const char* mode : {"reference", "far"}) {
+    for (const char* mode : {"reference", "far", "hybrid"}) {
         const test::CliRun r = test::runCli("render " + scene + " --mode " + mode + " -o " +
                                                 (scratch() / "y.png").string(),
                                             noDriver);
         EXPECT_EQ(r.status, 0) << mode << ": " << r.err;
         std::printf("[ input    ] no Vulkan device, --mode %s | works (exit 0)\n", mode);
+        if (std::string(mode) == "hybrid") {
+            // The scene has near entities: the CPU reference drew them, and the output says so.
+            EXPECT_NE(r.out.find("near tier: CPU reference (--near-backend auto: no Vulkan device"),
+                      std::string::npos)
+                << r.out;
+            EXPECT_NE(r.out.find("; near tier on the CPU reference)"), std::string::npos) << r.out;
+        }
     }
-    // The hybrid frame with only far entities never needs the device either... but it must not
-    // silently draw near entities some other way: the error above proves it does not.
 }
 
 } // namespace

@@ -199,6 +199,48 @@ VKAPI_ATTR VkBool32 VKAPI_CALL VulkanDevice::onMessage(
     return VK_FALSE;
 }
 
+VulkanProbe probeVulkanDevice() {
+    VulkanProbe probe;
+    VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+    app.pApplicationName = "voxtier";
+    app.pEngineName = "voxtier";
+    app.apiVersion = VK_API_VERSION_1_2;
+    VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+    ici.pApplicationInfo = &app;
+    VkInstance instance = VK_NULL_HANDLE;
+    const VkResult created = vkCreateInstance(&ici, nullptr, &instance);
+    if (created != VK_SUCCESS) {
+        probe.whyNone = created == VK_ERROR_INCOMPATIBLE_DRIVER
+                            ? std::string(kNoVulkanDeviceMessage)
+                            : std::string("vkCreateInstance: ") + vkResultName(created);
+        return probe;
+    }
+    std::uint32_t count = 0;
+    std::vector<VkPhysicalDevice> devices;
+    if (vkEnumeratePhysicalDevices(instance, &count, nullptr) == VK_SUCCESS && count) {
+        devices.resize(count);
+        if (vkEnumeratePhysicalDevices(instance, &count, devices.data()) != VK_SUCCESS)
+            devices.clear();
+    }
+    pinLoadedLibrariesForSanitizers(); // drivers and layers are loaded by now
+    // The same choice as VulkanDevice's: the best-ranked usable device.
+    int bestRank = 1 << 30;
+    for (VkPhysicalDevice pd : devices) {
+        if (usableQueueFamily(pd) < 0) continue;
+        VkPhysicalDeviceProperties props{};
+        vkGetPhysicalDeviceProperties(pd, &props);
+        if (deviceRank(props.deviceType) < bestRank) {
+            bestRank = deviceRank(props.deviceType);
+            probe.found = true;
+            probe.cpu = props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+            probe.name = props.deviceName;
+        }
+    }
+    if (!probe.found) probe.whyNone = kNoVulkanDeviceMessage;
+    vkDestroyInstance(instance, nullptr);
+    return probe;
+}
+
 VulkanDevice::VulkanDevice(const VulkanDeviceOptions& options,
                            std::shared_ptr<VulkanMessageLog> log)
     : log_(log ? std::move(log) : std::make_shared<VulkanMessageLog>()),
