@@ -7,6 +7,7 @@
 #include "core/error.hpp"
 #include "embedded/bench_plots_gp.h"
 #include "embedded/bench_report_template.h"
+#include "impostor_cache/far_blit.hpp"
 
 #include <kainjow/mustache.hpp>
 #include <nlohmann/json.hpp>
@@ -150,6 +151,9 @@ std::vector<Column> columns() {
         {"in_motion_cold_ms", field(&Measurement::motionColdMs)},
         {"in_motion_all_near_vulkan_ms", field(&Measurement::motionBaselineMs)},
         {"in_motion_speedup_vs_all_near_vulkan", field(&Measurement::motionSpeedup)},
+        {"in_motion_all_near_reference_ms", field(&Measurement::motionReferenceMs)},
+        {"in_motion_speedup_vs_all_near_reference", field(&Measurement::motionSpeedupVsReference)},
+        {"near_backend", field(&Measurement::nearBackend)},
         {"in_motion_bakes_per_frame", field(&Measurement::motionBakes)},
         {"in_motion_bake_ms_per_frame", field(&Measurement::motionBakeMs)},
         {"in_motion_near_ms", field(&Measurement::motionNearMs)},
@@ -270,6 +274,7 @@ json planJson(const Plan& p) {
                    {"crossfade_frames", p.crossfades}}}};
     if (p.width) plan["size"] = {*p.width, *p.height};
     if (p.entityCap) plan["entity_cap"] = *p.entityCap;
+    if (p.budgetVpx) plan["budget_vpx"] = *p.budgetVpx;
     return plan;
 }
 
@@ -529,6 +534,44 @@ json headlineContext(const SuiteResults& r, const std::string& scene) {
               {"mismatch", pct(kGoals.maxMeanMismatch, 0)}}},
             {"goal_columns",
              {goalColumn(hyb, "–"), goalColumn(best, "none measured"), goalColumn(fastest, "–")}}};
+}
+
+/// Per scene, the hybrid in motion against both exact paths (issue 24): all-near on the CPU
+/// reference and on Vulkan, which of them is faster on this machine, and the error the speed-up
+/// costs, beside the far blit's throughput.
+json baselinesContext(const SuiteResults& r) {
+    json rows = json::array();
+    for (const std::string& scene : sceneNames(r)) {
+        const Measurement* h = find(r, kModesGroup, scene, BenchMode::Hybrid);
+        const Measurement* ref = find(r, kModesGroup, scene, BenchMode::NearReference);
+        const Measurement* vk = find(r, kModesGroup, scene, BenchMode::NearVulkan);
+        if (!h || !ref || !vk || h->motionMs <= 0) continue;
+        const bool referenceFaster = ref->motionMs > 0 && ref->motionMs < vk->motionMs;
+        const double fastestMs = referenceFaster ? ref->motionMs : vk->motionMs;
+        rows.push_back(
+            {{"scene", scene},
+             {"hybrid_ms", num(h->motionMs)},
+             {"near_backend", h->nearBackend},
+             {"reference_ms", num(ref->motionMs)},
+             {"vs_reference",
+              h->motionSpeedupVsReference > 0 ? num(h->motionSpeedupVsReference, 1) + "×" : "–"},
+             {"vulkan_ms", num(vk->motionMs)},
+             {"vs_vulkan", h->motionSpeedup > 0 ? num(h->motionSpeedup, 1) + "×" : "–"},
+             {"fastest", referenceFaster ? "near_reference" : "near_vulkan"},
+             {"vs_fastest", num(fastestMs / h->motionMs, 1) + "×"},
+             {"error", h->motionPsnrMin > 0 ? num(h->motionPsnrMin, 1) + " dB, " +
+                                                  pct(h->motionDifferingShare) + " px"
+                                            : "–"},
+             {"displacement", h->hasError ? num(h->displacementWorstCells, 2) : "–"},
+             {"blit",
+              h->blitPixelsPerS > 0
+                  ? mega(h->blitPixelsPerS) + " M (" +
+                        (h->memcpyPixelsPerS > 0 ? pct(h->blitPixelsPerS / h->memcpyPixelsPerS, 1)
+                                                 : std::string("–")) +
+                        ")"
+                  : "–"}});
+    }
+    return rows;
 }
 
 json modesContext(const SuiteResults& r) {
@@ -817,6 +860,8 @@ json reportContext(const SuiteResults& r, const PlotSet& plots) {
             {"motion_warmup", std::to_string(p.motionWarmup)},
             {"scaling_repeats", std::to_string(p.scalingRepeats)},
             {"headline", headlineContext(r, first)},
+            {"baselines", baselinesContext(r)},
+            {"far_blit_target", farBlitSimdTarget()},
             {"scenes", modesContext(r)},
             {"time_steps", timeSteps},
             {"time_split", timeSplitContext(r)},

@@ -210,6 +210,14 @@ Scene fromJson(const SceneSource& src, const json& doc) {
 
 void applyOverrides(Scene& s, const Plan& plan, bool capEntities) {
     if (plan.width) s.camera.width = *plan.width, s.camera.height = *plan.height;
+    if (plan.budgetVpx) {
+        SelectorConfig c = defaultSelectorFor(SelectorMetric::ErrorBudget);
+        c.budgetVpx = *plan.budgetVpx;
+        c.viewSetSize = s.selector.viewSetSize;
+        c.viewHysteresisDeg = s.selector.viewHysteresisDeg;
+        c.crossfadeFrames = s.selector.crossfadeFrames;
+        s.selector = c;
+    }
     if (capEntities && plan.entityCap && int(s.entities.size()) > *plan.entityCap)
         s.entities.resize(std::size_t(*plan.entityCap));
 }
@@ -408,7 +416,8 @@ void runMotion(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& 
 }
 
 /// The in-motion figures of a configuration (Measurement::motion*), after the cold start.
-void addMotion(Measurement& m, const Config& c, const Config* truth, const Plan& plan) {
+void addMotion(Measurement& m, const Config& c, const Config* truth, const Config* reference,
+               const Plan& plan) {
     const auto timedMs = [&](const Config& of) {
         std::vector<double> ms;
         for (std::size_t f = std::size_t(plan.motionWarmup); f < of.motion.size(); ++f)
@@ -423,6 +432,10 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Plan&
     m.motionWorstMs = quantile(ms, 1.0);
     if (truth) m.motionBaselineMs = median(timedMs(*truth));
     if (m.motionMs > 0 && m.motionBaselineMs > 0) m.motionSpeedup = m.motionBaselineMs / m.motionMs;
+    if (reference && reference->motion.size() > std::size_t(plan.motionWarmup))
+        m.motionReferenceMs = median(timedMs(*reference));
+    if (m.motionMs > 0 && m.motionReferenceMs > 0)
+        m.motionSpeedupVsReference = m.motionReferenceMs / m.motionMs;
     m.motionPsnrMin = std::numeric_limits<double>::infinity();
     double timed = 0;
     for (std::size_t f = 0; f < c.motion.size(); ++f) {
@@ -560,9 +573,18 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
                 m.speedupVsFragment = m.fragmentMs / m.frameMs();
             break;
         }
+    const Config* reference = nullptr;
+    for (const auto& other : set.configs)
+        if (other->mode == BenchMode::NearReference &&
+            other->scene.render.sigma == c.scene.render.sigma)
+            reference = other.get();
     addThroughput(m);
     addErrors(m);
-    addMotion(m, c, truth, plan);
+    addMotion(m, c, truth, reference, plan);
+    const RenderMode renderMode = info(c.mode).renderMode;
+    m.nearBackend = renderMode == RenderMode::Reference ? "reference"
+                    : renderMode == RenderMode::Near    ? "vulkan"
+                                                        : toString(c.renderer->nearBackend());
     m.coldMs = c.coldFirstMs;
     m.coldBakeMs = c.cold.bakeMs;
     m.coldBakes = c.cold.farBakes;
@@ -748,6 +770,10 @@ Plan makePlan(const SuiteOptions& o) {
     p.cacheDir = o.cacheDir;
     p.cacheDirBytes = o.cacheDirBytes;
     p.nearRate = o.nearRate;
+    // The same bounds as the command line's (cmd_bench.cpp), for other callers.
+    if (o.budgetVpx && !(*o.budgetVpx >= 0.01 && *o.budgetVpx <= 64.0))
+        throw InputError("", "--budget", "must be in [0.01, 64] virtual pixels");
+    p.budgetVpx = o.budgetVpx;
     if (o.smoke) {
         p.preset = "smoke";
         p.repeats = 1;

@@ -49,7 +49,7 @@ inline constexpr BenchModeInfo kBenchModes[] = {
     {BenchMode::NearVulkanFragment, "near_vulkan_fragment", RenderMode::Near,      NearBackend::Vulkan,    true,     false, false},
     {BenchMode::NearReference,      "near_reference",       RenderMode::Reference, NearBackend::Reference, false,    false, false},
     {BenchMode::Far,                "far",                  RenderMode::Far,       NearBackend::Reference, false,    false, false},
-    {BenchMode::Hybrid,             "hybrid",               RenderMode::Hybrid,    NearBackend::Vulkan,    false,    false, false},
+    {BenchMode::Hybrid,             "hybrid",               RenderMode::Hybrid,    NearBackend::Auto,      false,    false, false},
 };
 // clang-format on
 const BenchModeInfo& info(BenchMode mode);
@@ -71,6 +71,9 @@ struct SuiteOptions {
     std::string cacheDir;            ///< on-disk snapshot cache of every configuration ("" = none)
     std::uint64_t cacheDirBytes = 0; ///< its size limit (0 = none)
     NearRate nearRate = NearRate::Auto; ///< of every mode but near_vulkan_fragment
+    /// Every scene's selector becomes the error budget at this many virtual pixels (its view set,
+    /// view hysteresis and cross-fade kept); unset: each scene's own selector.
+    std::optional<double> budgetVpx;
 };
 
 /// The resolved plan (preset + overrides).
@@ -94,6 +97,7 @@ struct Plan {
     std::string cacheDir; ///< SuiteOptions::cacheDir
     std::uint64_t cacheDirBytes = 0;
     NearRate nearRate = NearRate::Auto; ///< SuiteOptions::nearRate
+    std::optional<double> budgetVpx;    ///< SuiteOptions::budgetVpx
 };
 
 /// One sampled path frame of a measured configuration.
@@ -144,7 +148,13 @@ struct Measurement {
     double motionMeanMs = 0, motionP90Ms = 0, motionWorstMs = 0;
     double motionColdMs = 0;                        ///< mean frame ms of the cold-start frames
     double motionBaselineMs = 0, motionSpeedup = 0; ///< all-near (Vulkan) in motion, its ratio
-    double motionBakes = 0, motionBakeMs = 0;       ///< per frame after the cold start (mean)
+    /// The CPU reference all-near (near_reference) in motion, same frames, same run, and the
+    /// ratio: the fastest exact path a machine without a GPU has (issue 24).
+    double motionReferenceMs = 0, motionSpeedupVsReference = 0;
+    /// Who drew the near tier: "vulkan" or "reference" (what --near-backend auto chose, for the
+    /// hybrid).
+    std::string nearBackend;
+    double motionBakes = 0, motionBakeMs = 0; ///< per frame after the cold start (mean)
     /// The near tier's ms and the entities each tier drew, per frame after the cold start
     /// (means): what the entities drawn near cost even if far sprites were free.
     double motionNearMs = 0, motionNearEntities = 0, motionFarEntities = 0;

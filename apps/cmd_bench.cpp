@@ -118,6 +118,12 @@ void addBenchCommand(CLI::App& app) {
                     "Skip the selector / view set / sigma / cross-fade sweeps");
     bench->add_flag("!--no-scaling", o->scaling, "Skip the scaling curves");
     addNearRateOption(*bench, o->nearRate);
+    bench
+        ->add_option("--budget", o->budgetVpx,
+                     "Measure every scene with the error_budget selector at this many virtual "
+                     "pixels (default: each scene's own selector)")
+        ->type_name("VPX")
+        ->check(numberIn(0.01, 64.0, "vpx"));
     // The same bounds as bench::makePlan's, which checks them again for callers other than
     // the command line.
     bench->add_option("--entity-counts", o->entityCounts, "Entity counts of the scaling curve")

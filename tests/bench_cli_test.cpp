@@ -112,8 +112,8 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     const fs::path exact = dir.path / "exact.json", out = dir.path / "out";
     writeExactScene(exact);
     const CliRun r =
-        runCli("bench --smoke --motion-frames 4 --motion-warmup 2 --out '" + out.string() +
-               "' scenes/bench/tank_army.json '" + exact.string() + "'");
+        runCli("bench --smoke --motion-frames 4 --motion-warmup 2 --budget 1 --out '" +
+               out.string() + "' scenes/bench/tank_army.json '" + exact.string() + "'");
     ASSERT_EQ(r.status, 0) << r.out << r.err;
     for (const char* f : {"report.md", "results.csv", "results.json"})
         ASSERT_TRUE(fs::exists(out / f)) << f;
@@ -122,6 +122,7 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     const json j = json::parse(slurp(out / "results.json"));
     EXPECT_EQ(j["plan"]["motion_frames"], 4);
     EXPECT_EQ(j["plan"]["motion_warmup"], 2);
+    EXPECT_EQ(j["plan"]["budget_vpx"], 1.0);
     const std::vector<std::string> modes = {"near_vulkan", "near_vulkan_fragment", "near_reference",
                                             "far", "hybrid"};
     EXPECT_EQ(j["modes"], json(modes));
@@ -141,6 +142,26 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
                 EXPECT_DOUBLE_EQ(motion("in_motion_mean_ms"), motion("in_motion_ms"));
                 EXPECT_GE(motion("in_motion_p90_ms"), motion("in_motion_ms"));
                 EXPECT_EQ(motion("in_motion_worst_ms"), motion("in_motion_p90_ms"));
+                // Both exact baselines in motion: all-near on Vulkan and on the CPU reference.
+                EXPECT_NEAR(motion("in_motion_speedup_vs_all_near_reference") *
+                                motion("in_motion_ms"),
+                            motion("in_motion_all_near_reference_ms"),
+                            1e-6 * motion("in_motion_all_near_reference_ms"))
+                    << mode;
+            }
+            // --budget 1: every configuration but the sweeps measures the error budget.
+            EXPECT_NE((*m)["selector"].get<std::string>().find("error_budget"), std::string::npos)
+                << (*m)["selector"];
+            // Who drew the near tier; the hybrid's is --near-backend auto's choice, and its
+            // frames say the same where they drew near sprites.
+            const std::string backend = (*m)["near_backend"].get<std::string>();
+            if (mode == "near_vulkan" || mode == "near_vulkan_fragment")
+                EXPECT_EQ(backend, "vulkan");
+            if (mode == "near_reference") EXPECT_EQ(backend, "reference");
+            if (mode == "hybrid") {
+                EXPECT_TRUE(backend == "vulkan" || backend == "reference") << backend;
+                if ((*m)["near_entities"].get<double>() > 0)
+                    EXPECT_EQ((*m)["near_on_vulkan"].get<double>() > 0, backend == "vulkan");
             }
             if (mode == "near_vulkan") {
                 EXPECT_TRUE((*m)["error"].is_null()); // the truth itself
