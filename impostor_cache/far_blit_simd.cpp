@@ -10,17 +10,16 @@
 // store of the three target planes in place of a branch per pixel.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "impostor_cache/far_blit_simd.cpp"
-#include <hwy/foreach_target.h> // IWYU pragma: keep
+#include "impostor_cache/detail/far_blit_band.hpp"
 
 #include <hwy/cache_control.h>
+#include <hwy/foreach_target.h> // IWYU pragma: keep
 #include <hwy/highway.h>
-
-#include "impostor_cache/detail/far_blit_band.hpp"
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -71,8 +70,8 @@ class CellShader {
         const double mi = std::max(std::abs(r.x), std::abs(r.y));
         const double mj = std::max(std::abs(r.z), std::abs(r.w));
         const auto bound = [&](double c0, double cI, double cJ) {
-            return hn::Set(df_, float(16.0 * 0x1p-24 * (std::abs(c0) + std::abs(cI) * mi +
-                                                        std::abs(cJ) * mj)));
+            return hn::Set(df_, float(16.0 * 0x1p-24 *
+                                      (std::abs(c0) + std::abs(cI) * mi + std::abs(cJ) * mj)));
         };
         if (hn::Lanes(du_) >= 8) lightTable_ = hn::LoadU(du_, lightsWide(s).data());
         fu_ = {hn::Set(df_, float(s.map.u0)), hn::Set(df_, float(s.map.ui)),
@@ -125,8 +124,9 @@ class CellShader {
         // passes the end of the payload), or starts with it for the first cell.
         const auto offset = hn::Max(hn::Sub(hn::ShiftLeft<1>(slot), hn::Set(di_, 2)), zeroI);
         const auto word = hn::GatherOffset(du_, cellWords_, offset);
-        const auto cell = hn::IfThenElse(hn::RebindMask(du_, hn::Eq(slot, zeroI)),
-                                         hn::And(word, hn::Set(du_, 0xFFFFu)), hn::ShiftRight<16>(word));
+        const auto cell =
+            hn::IfThenElse(hn::RebindMask(du_, hn::Eq(slot, zeroI)),
+                           hn::And(word, hn::Set(du_, 0xFFFFu)), hn::ShiftRight<16>(word));
         const auto byteMask = hn::Set(du_, 255u);
         const auto index = hn::And(cell, byteMask);
         const auto code = hn::And(hn::ShiftRight<8>(cell), byteMask);
@@ -153,7 +153,8 @@ class CellShader {
                           hn::ShiftLeft<8>(lit(hn::And(hn::ShiftRight<8>(rgba), byteMask)))),
                    hn::Or(hn::ShiftLeft<16>(lit(hn::And(hn::ShiftRight<16>(rgba), byteMask))),
                           hn::Set(du_, 255u << 24)));
-        return hn::IfThenElseZero(drawn, hn::IfThenElse(solid, shaded, hn::Set(du_, kernel::VT_OUTLINE_RGBA)));
+        return hn::IfThenElseZero(
+            drawn, hn::IfThenElse(solid, shaded, hn::Set(du_, kernel::VT_OUTLINE_RGBA)));
     }
 
   private:
@@ -209,9 +210,9 @@ class RowColumns {
         const hn::Rebind<float, decltype(dd)> df;
         const hn::Rebind<std::int32_t, decltype(dd)> di;
         // The pixel centre's y, rounded to float as the kernel has it, then widened.
-        const auto py = hn::PromoteTo(
-            dd, hn::Add(hn::ConvertTo(df, hn::Add(hn::Iota(di, 0), hn::Set(di, y0))),
-                        hn::Set(df, 0.5f)));
+        const auto py =
+            hn::PromoteTo(dd, hn::Add(hn::ConvertTo(df, hn::Add(hn::Iota(di, 0), hn::Set(di, y0))),
+                                      hn::Set(df, 0.5f)));
         const auto rowTerm = [&](const glm::vec3& m) { // double(m.y) * py + double(m.z)
             return hn::Add(hn::Mul(hn::Set(dd, double(m.y)), py), hn::Set(dd, double(m.z)));
         };
@@ -280,9 +281,11 @@ glm::ivec2 CellRowsReached(const kernel::SpriteGpu& g, int y0, int rows, const i
         if (x0[k] >= x1[k]) continue;
         const double py = double(float(y0 + k) + 0.5f);
         for (const double px : {double(x0[k]) + 0.5, double(x1[k]) - 0.5}) {
-            const double den = double(g.mapDen.x) * px + double(g.mapDen.y) * py + double(g.mapDen.z);
+            const double den =
+                double(g.mapDen.x) * px + double(g.mapDen.y) * py + double(g.mapDen.z);
             if (!(den > 0.0)) return {g.cellRange.z, g.cellRange.w};
-            const double q = (double(g.mapJ.x) * px + double(g.mapJ.y) * py + double(g.mapJ.z)) / den;
+            const double q =
+                (double(g.mapJ.x) * px + double(g.mapJ.y) * py + double(g.mapJ.z)) / den;
             lo = std::min(lo, q);
             hi = std::max(hi, q);
         }
@@ -342,8 +345,10 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
     const auto iX = hn::Set(df, g.mapI.x), iZ = hn::Set(df, g.mapI.z);
     const auto jX = hn::Set(df, g.mapJ.x), jZ = hn::Set(df, g.mapJ.z);
     const auto denMax = hn::Set(df, g.denMax);
-    const auto cellI0 = hn::Set(df, float(g.cellRange.x)), cellI1 = hn::Set(df, float(g.cellRange.y));
-    const auto cellJ0 = hn::Set(df, float(g.cellRange.z)), cellJ1 = hn::Set(df, float(g.cellRange.w));
+    const auto cellI0 = hn::Set(df, float(g.cellRange.x)),
+               cellI1 = hn::Set(df, float(g.cellRange.y));
+    const auto cellJ0 = hn::Set(df, float(g.cellRange.z)),
+               cellJ1 = hn::Set(df, float(g.cellRange.w));
     const int tableWidth = g.cellRange.y - g.cellRange.x + 1;
     const bool fading = g.fade > 0.0f;
     const auto fade = hn::Set(df, g.fade);
@@ -354,21 +359,24 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
     const RowColumns columns(g, s.rect.x, s.rect.z);
     const bool minified =
         std::uint64_t(tableWidth) * std::uint64_t(g.cellRange.w - g.cellRange.z + 1) >=
-        std::uint64_t(std::max(0, s.rect.z - s.rect.x)) * std::uint64_t(std::max(0, s.rect.w - s.rect.y));
+        std::uint64_t(std::max(0, s.rect.z - s.rect.x)) *
+            std::uint64_t(std::max(0, s.rect.w - s.rect.y));
     constexpr int kMaxRowLanes = HWY_MAX_BYTES / 8;
     int spanFirst[kChunkRows + kMaxRowLanes], spanLast[kChunkRows + kMaxRowLanes];
     thread_local std::vector<Rgba8> table;
     for (int yc = y0; yc < y1; yc += kChunkRows) {
         const int rows = std::min(kChunkRows, y1 - yc);
         std::uint64_t pixels = 0;
-        for (int k = 0; k < rows; k += RowColumns::rows()) columns(yc + k, spanFirst + k, spanLast + k);
+        for (int k = 0; k < rows; k += RowColumns::rows())
+            columns(yc + k, spanFirst + k, spanLast + k);
         for (int k = 0; k < rows; ++k) pixels += std::uint64_t(spanLast[k] - spanFirst[k]);
         counters.tested += pixels;
         if (pixels == 0) continue;
         // A minified sprite (more cells than rectangle pixels) never gains from a table.
-        const glm::ivec2 reach = minified ? glm::ivec2(0, -1)
-                                          : CellRowsReached(g, yc, rows, spanFirst, spanLast);
-        const std::uint64_t cells = std::uint64_t(std::max(0, reach.y - reach.x + 1)) * std::uint64_t(tableWidth);
+        const glm::ivec2 reach =
+            minified ? glm::ivec2(0, -1) : CellRowsReached(g, yc, rows, spanFirst, spanLast);
+        const std::uint64_t cells =
+            std::uint64_t(std::max(0, reach.y - reach.x + 1)) * std::uint64_t(tableWidth);
         const bool tabled = cells > 0 && cells * kCellTableCost < pixels;
         if (tabled) {
             if (table.size() < cells + kCellTablePadding) table.resize(cells + kCellTablePadding);
@@ -430,8 +438,8 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
                 if (tabled && hn::AllFalse(di, hn::And(keepI, hn::Or(hn::Lt(cj, tableJ0),
                                                                      hn::Gt(cj, tableJ1))))) {
                     const auto slot = hn::IfThenElseZero(
-                        keepI, hn::Add(hn::Mul(hn::Sub(cj, tableJ0), tableStride),
-                                       hn::Sub(ci, tableI0)));
+                        keepI,
+                        hn::Add(hn::Mul(hn::Sub(cj, tableJ0), tableStride), hn::Sub(ci, tableI0)));
                     color = hn::IfThenElseZero(hn::RebindMask(du, keepI),
                                                hn::GatherIndex(du, table.data(), slot));
                 } else {
@@ -443,9 +451,9 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
                 // writeIfNearer: nearer (greater reversed-Z depth), or as near and a lower id.
                 const auto oldDepth = hn::LoadU(df, depthRow + start);
                 const auto oldId = hn::LoadU(du, idRow + start);
-                const auto wins = hn::Or(hn::RebindMask(du, hn::Gt(depth, oldDepth)),
-                                         hn::And(hn::RebindMask(du, hn::Eq(depth, oldDepth)),
-                                                 hn::Lt(entity, oldId)));
+                const auto wins = hn::Or(
+                    hn::RebindMask(du, hn::Gt(depth, oldDepth)),
+                    hn::And(hn::RebindMask(du, hn::Eq(depth, oldDepth)), hn::Lt(entity, oldId)));
                 const auto write = hn::And(drawn, wins);
                 hn::BlendedStore(color, write, du, colorRow + start);
                 hn::BlendedStore(depth, hn::RebindMask(df, write), df, depthRow + start);

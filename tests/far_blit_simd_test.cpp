@@ -57,15 +57,16 @@ Scene crowdAlong(std::shared_ptr<VoxelModel> model, glm::dvec3 towardViewer, dou
     const double halfW = dist * pixelScale * 0.5 * double(s.camera.width) / s.camera.height;
     const double halfH = dist * pixelScale * 0.5;
     const glm::dvec3 places[4] = {
-        s.entities[0].position - camRight * halfW + camUp * (0.3 * halfH),  // cut by the left edge
-        s.entities[0].position + camRight * halfW + camUp * halfH,          // cut at a corner
-        s.entities[0].position + fwd * (3.0 * r) + camRight * (0.4 * r),    // behind
+        s.entities[0].position - camRight * halfW + camUp * (0.3 * halfH), // cut by the left edge
+        s.entities[0].position + camRight * halfW + camUp * halfH,         // cut at a corner
+        s.entities[0].position + fwd * (3.0 * r) + camRight * (0.4 * r),   // behind
         s.entities[0].position - fwd * (1.5 * r) + camUp * (0.5 * r)};     // in front
     for (const glm::dvec3& p : places) {
         Entity e = s.entities[0];
         e.position = p;
-        e.rotation = glm::angleAxis(3.14159 * u(rng), glm::normalize(glm::dvec3(u(rng), u(rng), u(rng)) +
-                                                                     glm::dvec3(0.0, 0.0, 1e-3)));
+        e.rotation =
+            glm::angleAxis(3.14159 * u(rng), glm::normalize(glm::dvec3(u(rng), u(rng), u(rng)) +
+                                                            glm::dvec3(0.0, 0.0, 1e-3)));
         s.entities.push_back(e);
     }
     return std::move(s);
@@ -73,14 +74,19 @@ Scene crowdAlong(std::shared_ptr<VoxelModel> model, glm::dvec3 towardViewer, dou
 
 /// The target as a frame may hold it when the far tier draws: here and there a pixel already
 /// drawn at exactly some sprite's depth, by a lower or higher entity id, or nearer or farther.
-Image prefilledTarget(const Scene& s, const std::vector<SpriteSetup>& sprites, std::mt19937_64& rng) {
+Image prefilledTarget(const Scene& s, const std::vector<SpriteSetup>& sprites,
+                      std::mt19937_64& rng) {
     Image img(s.camera.width, s.camera.height, s.render.background);
     for (std::size_t p = 0; p < img.pixelCount(); ++p) {
         if (rng() % 3 != 0 || sprites.empty()) continue;
         const SpriteSetup& sp = sprites[rng() % sprites.size()];
         const std::uint32_t k = std::uint32_t(rng() % 4);
-        img.depth[p] = k == 3 ? sp.gpu.depth * 1.001f : k == 2 ? sp.gpu.depth * 0.999f : sp.gpu.depth;
-        img.id[p] = k == 0 ? sp.entityId + 1 : k == 1 ? (sp.entityId > 0 ? sp.entityId - 1 : 100) : 50;
+        img.depth[p] = k == 3   ? sp.gpu.depth * 1.001f
+                       : k == 2 ? sp.gpu.depth * 0.999f
+                                : sp.gpu.depth;
+        img.id[p] = k == 0   ? sp.entityId + 1
+                    : k == 1 ? (sp.entityId > 0 ? sp.entityId - 1 : 100)
+                             : 50;
         img.color[p] = packRgba(unsigned(rng() % 256), 7, 9);
     }
     return img;
@@ -161,8 +167,8 @@ TEST(FarBlitSimd, WritesTheScalarKernelsBitsOnEveryBundledModel) {
             if (maxDim > 64) sigma = std::min(sigma, 1.0);
             const double roll = 90.0 * double(k % 4) + (k % 3 == 2 ? 17.0 : 0.0);
             // Dyadic, so camera-relative doubles are exact: the far-from-origin hard case.
-            const glm::dvec3 offset = k % 5 == 4 ? glm::dvec3(1048576.0, -524288.0, 1048576.0)
-                                                 : glm::dvec3(0.0);
+            const glm::dvec3 offset =
+                k % 5 == 4 ? glm::dvec3(1048576.0, -524288.0, 1048576.0) : glm::dvec3(0.0);
             const Scene s = crowdAlong(bm.model, dirs[k], sigma, roll, offset, rng);
             compareKernels(s, cache, rng,
                            bm.file + " model " + std::to_string(bm.index) + " direction " +
@@ -178,8 +184,8 @@ TEST(FarBlitSimd, WritesTheScalarKernelsBitsOnEveryBundledModel) {
 // the image is the same for every band, on both kernels.
 TEST(FarBlitSimd, EveryBandHeightWritesTheSameImage) {
     std::mt19937_64 rng(7);
-    const Scene s = crowdAlong(makeTank(3, 1), glm::dvec3(0.3, -1.0, 0.5), 1.37, 17.0,
-                               glm::dvec3(0.0), rng);
+    const Scene s =
+        crowdAlong(makeTank(3, 1), glm::dvec3(0.3, -1.0, 0.5), 1.37, 17.0, glm::dvec3(0.0), rng);
     const CameraFrame cam = makeCameraFrame(s.camera);
     const std::vector<SpriteSetup> sprites = setupSprites(s, cam, 0.0);
     SnapshotCache cache;
@@ -187,8 +193,9 @@ TEST(FarBlitSimd, EveryBandHeightWritesTheSameImage) {
     for (const SpriteSetup& sp : sprites)
         if (sp.visible())
             far.push_back({&sp,
-                           cache.get(*s.models[0], 0, ViewSet::Cube26,
-                                     chooseFarView(sp, ViewSet::Cube26), sp.lattice.sigma)
+                           cache
+                               .get(*s.models[0], 0, ViewSet::Cube26,
+                                    chooseFarView(sp, ViewSet::Cube26), sp.lattice.sigma)
                                .get(),
                            &s.models[0]->palette()});
     const Image before = prefilledTarget(s, sprites, rng);

@@ -60,5 +60,4 @@ void blitSpriteScalar(const BlitSprite& sprite, int y0, int y1, Image& target,
 /// The vectorised kernel on the best SIMD target of this CPU (Highway dynamic dispatch).
 void blitBandSimd(const BlitBand& band, BlitCounters& counters);
 
-
 } // namespace voxtier::detail
