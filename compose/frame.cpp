@@ -236,6 +236,9 @@ void FrameRenderer::applyEditsThrough(int frame) {
 }
 
 FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
+    // Auto's one-time probe of the Vulkan loader (lavapipe's instance alone takes ~0.1 s) is not
+    // part of any frame's time: a hybrid frame decides before the clock starts.
+    if (mode == RenderMode::Hybrid) (void)nearBackend();
     const auto t0 = Clock::now();
     FrameResult out;
     FrameStats& st = out.stats;
