@@ -275,6 +275,7 @@ json planJson(const Plan& p) {
     if (p.width) plan["size"] = {*p.width, *p.height};
     if (p.entityCap) plan["entity_cap"] = *p.entityCap;
     if (p.budgetVpx) plan["budget_vpx"] = *p.budgetVpx;
+    plan["far_blit"] = p.farBlit == FarBlitKernel::Simd ? "simd" : "scalar";
     return plan;
 }
 
@@ -861,7 +862,9 @@ json reportContext(const SuiteResults& r, const PlotSet& plots) {
             {"scaling_repeats", std::to_string(p.scalingRepeats)},
             {"headline", headlineContext(r, first)},
             {"baselines", baselinesContext(r)},
-            {"far_blit_target", farBlitSimdTarget()},
+            {"far_blit", r.plan.farBlit == FarBlitKernel::Simd
+                             ? std::string("SIMD, ") + farBlitSimdTarget()
+                             : std::string("scalar")},
             {"scenes", modesContext(r)},
             {"time_steps", timeSteps},
             {"time_split", timeSplitContext(r)},

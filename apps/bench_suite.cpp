@@ -297,6 +297,7 @@ FrameOptions frameOptions(const Config& c, const Plan& plan,
     o.cacheDir = plan.cacheDir;
     o.cacheDirBytes = plan.cacheDirBytes;
     o.nearRate = info(c.mode).perPixel ? NearRate::Fragment : plan.nearRate;
+    o.farBlit.kernel = plan.farBlit;
     return o;
 }
 
@@ -774,6 +775,7 @@ Plan makePlan(const SuiteOptions& o) {
     if (o.budgetVpx && !(*o.budgetVpx >= 0.01 && *o.budgetVpx <= 64.0))
         throw InputError("", "--budget", "must be in [0.01, 64] virtual pixels");
     p.budgetVpx = o.budgetVpx;
+    p.farBlit = o.farBlit;
     if (o.smoke) {
         p.preset = "smoke";
         p.repeats = 1;

@@ -70,7 +70,8 @@ struct SuiteOptions {
     std::string entityCounts, modelSides; ///< comma-separated overrides of the scaling points
     std::string cacheDir;            ///< on-disk snapshot cache of every configuration ("" = none)
     std::uint64_t cacheDirBytes = 0; ///< its size limit (0 = none)
-    NearRate nearRate = NearRate::Auto; ///< of every mode but near_vulkan_fragment
+    NearRate nearRate = NearRate::Auto;          ///< of every mode but near_vulkan_fragment
+    FarBlitKernel farBlit = FarBlitKernel::Simd; ///< of every mode
     /// Every scene's selector becomes the error budget at this many virtual pixels (its view set,
     /// view hysteresis and cross-fade kept); unset: each scene's own selector.
     std::optional<double> budgetVpx;
@@ -96,8 +97,9 @@ struct Plan {
     int scalingRepeats = 5;
     std::string cacheDir; ///< SuiteOptions::cacheDir
     std::uint64_t cacheDirBytes = 0;
-    NearRate nearRate = NearRate::Auto; ///< SuiteOptions::nearRate
-    std::optional<double> budgetVpx;    ///< SuiteOptions::budgetVpx
+    NearRate nearRate = NearRate::Auto;          ///< SuiteOptions::nearRate
+    std::optional<double> budgetVpx;             ///< SuiteOptions::budgetVpx
+    FarBlitKernel farBlit = FarBlitKernel::Simd; ///< SuiteOptions::farBlit
 };
 
 /// One sampled path frame of a measured configuration.

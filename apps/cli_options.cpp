@@ -212,23 +212,17 @@ CLI::Validator imageFileName() {
 }
 
 CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate) {
-    return cmd
-        .add_option("--near-rate", rate,
-                    "Near sprites traced per pixel (fragment), once per lattice cell and looked "
-                    "up per pixel (cell), or cell-rate where it is cheaper (auto); same image")
-        ->type_name("TEXT")
-        ->transform(oneOf(kNearRateNames, "near rate"))
-        ->default_str(toString(rate));
+    return addChoiceOption(
+        cmd, "--near-rate", rate, kNearRateNames, "near rate",
+        "Near sprites traced per pixel (fragment), once per lattice cell and looked up per pixel "
+        "(cell), or cell-rate where it is cheaper (auto); same image");
 }
 
 CLI::Option* addFarBlitOption(CLI::App& cmd, FarBlitKernel& kernel) {
-    return cmd
-        .add_option("--far-blit", kernel,
-                    "The far blit's kernel: simd (spans of pixels on the widest SIMD unit of this "
-                    "CPU) or scalar (one pixel at a time, the reference); same image")
-        ->type_name("TEXT")
-        ->transform(oneOf(kFarBlitNames, "far blit"))
-        ->default_str(toString(kernel));
+    return addChoiceOption(cmd, "--far-blit", kernel, kFarBlitNames, "far blit",
+                           "The far blit's kernel: simd (spans of pixels on the widest SIMD unit "
+                           "of this CPU) or scalar (one pixel at a time, the reference); same "
+                           "image");
 }
 
 } // namespace voxtier::cli

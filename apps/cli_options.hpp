@@ -114,4 +114,14 @@ template <class Names, class E> std::string nameOf(const Names& names, E value) 
     return "?";
 }
 
+/// An option `name` taking one of the names of a name table (oneOf), defaulting to `value`'s.
+template <class Names, class E>
+CLI::Option* addChoiceOption(CLI::App& cmd, const std::string& name, E& value, const Names& names,
+                             const std::string& what, const std::string& help) {
+    return cmd.add_option(name, value, help)
+        ->type_name("TEXT")
+        ->transform(oneOf(names, what))
+        ->default_str(nameOf(names, value));
+}
+
 } // namespace voxtier::cli

@@ -118,6 +118,7 @@ void addBenchCommand(CLI::App& app) {
                     "Skip the selector / view set / sigma / cross-fade sweeps");
     bench->add_flag("!--no-scaling", o->scaling, "Skip the scaling curves");
     addNearRateOption(*bench, o->nearRate);
+    addFarBlitOption(*bench, o->farBlit);
     bench
         ->add_option("--budget", o->budgetVpx,
                      "Measure every scene with the error_budget selector at this many virtual "
