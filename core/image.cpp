@@ -2,6 +2,8 @@
 
 #include "core/sprite_kernel.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cassert>
 #include <cstring>
@@ -13,9 +15,19 @@ Image::Image(int w, int h, Rgba8 background) : width(w), height(h) {
 }
 
 void Image::clear(Rgba8 background) {
-    color.assign(pixelCount(), background);
-    depth.assign(pixelCount(), 0.0f);
-    id.assign(pixelCount(), kernel::VT_NO_ENTITY);
+    const std::size_t n = pixelCount();
+    color.resize(n);
+    depth.resize(n);
+    id.resize(n);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, std::size_t(1) << 15),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                          std::fill(color.begin() + std::ptrdiff_t(r.begin()),
+                                    color.begin() + std::ptrdiff_t(r.end()), background);
+                          std::fill(depth.begin() + std::ptrdiff_t(r.begin()),
+                                    depth.begin() + std::ptrdiff_t(r.end()), 0.0f);
+                          std::fill(id.begin() + std::ptrdiff_t(r.begin()),
+                                    id.begin() + std::ptrdiff_t(r.end()), kernel::VT_NO_ENTITY);
+                      });
 }
 
 std::size_t Image::countEntity(std::uint32_t entity) const {

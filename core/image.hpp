@@ -4,15 +4,32 @@
 #include "core/voxel_model.hpp"
 
 #include <cstdint>
+#include <memory>
+#include <utility>
 #include <vector>
 
 namespace voxtier {
 
+/// std::allocator, except that a vector's new elements are left uninitialised (default-init)
+/// instead of zeroed: an image's planes are filled by Image::clear, on every core, so zeroing
+/// them first would write the frame's 12 bytes a pixel twice, once on one core.
+template <class T> struct UninitialisedAllocator : std::allocator<T> {
+    template <class U> struct rebind { using other = UninitialisedAllocator<U>; };
+    UninitialisedAllocator() = default;
+    template <class U> UninitialisedAllocator(const UninitialisedAllocator<U>&) noexcept {}
+    template <class U> void construct(U* p) noexcept { ::new (static_cast<void*>(p)) U; }
+    template <class U, class... A> void construct(U* p, A&&... a) {
+        ::new (static_cast<void*>(p)) U(std::forward<A>(a)...);
+    }
+};
+/// One plane of an image.
+template <class T> using Plane = std::vector<T, UninitialisedAllocator<T>>;
+
 struct Image {
     int width = 0, height = 0;
-    std::vector<Rgba8> color;
-    std::vector<float> depth;
-    std::vector<std::uint32_t> id;
+    Plane<Rgba8> color;
+    Plane<float> depth;
+    Plane<std::uint32_t> id;
 
     Image() = default;
     Image(int w, int h, Rgba8 background);
@@ -20,7 +37,8 @@ struct Image {
         return std::size_t(y) * std::size_t(width) + std::size_t(x);
     }
     std::size_t pixelCount() const { return std::size_t(width) * std::size_t(height); }
-    /// Resets every pixel to the background: colour, depth 0, no entity.
+    /// Resets every pixel to the background: colour, depth 0, no entity (TBB-parallel: a
+    /// 960x540 frame is 6 MB, 0.3 ms on one core).
     void clear(Rgba8 background);
     /// Writes one sprite pixel when it wins the shared depth/id rule (core/sprite.hpp). Inline:
     /// the CPU tiers call it per pixel.

@@ -46,8 +46,7 @@ TEST_F(NearBackendAuto, DrawsWithTheFasterBackendAndTheForcedVulkanImage) {
     EXPECT_EQ(v.stats.nearOnVulkan, 1);
     EXPECT_EQ(vulkanRenderer.nearBackend(), NearBackend::Vulkan);
     EXPECT_EQ(vulkanRenderer.nearBackendChoice(), ""); // given, not chosen
-    EXPECT_NE(autoRenderer.nearBackendChoice().find(nearRenderer().deviceName()),
-              std::string::npos)
+    EXPECT_NE(autoRenderer.nearBackendChoice().find(nearRenderer().deviceName()), std::string::npos)
         << autoRenderer.nearBackendChoice();
     EXPECT_EQ(a.stats.nearDrawn, v.stats.nearDrawn);
     EXPECT_EQ(test::describeDifference(v.image, a.image, "vulkan", "auto"), "");
