@@ -536,6 +536,15 @@ void addErrors(Measurement& m) {
     if (farFrames) m.farMismatchMean /= farFrames, m.farIsolatedMismatchMean /= farFrames;
 }
 
+/// The configuration of `mode` in `set` at `c`'s sigma (the baselines a measurement is set
+/// against), or null.
+const Config* sameSigma(const Set& set, const Config& c, BenchMode mode) {
+    for (const auto& other : set.configs)
+        if (other->mode == mode && other->scene.render.sigma == c.scene.render.sigma)
+            return other.get();
+    return nullptr;
+}
+
 Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
     const Config& c = *set.configs[std::size_t(row.config)];
     Measurement m = row.meta;
@@ -566,19 +575,11 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
         m.baselineFragments = t.of(&FrameStats::nearPixelsTested);
     }
     if (m.frameMs() > 0 && m.baselineMs > 0) m.speedup = m.baselineMs / m.frameMs();
-    for (const auto& other : set.configs)
-        if (other->mode == BenchMode::NearVulkanFragment &&
-            other->scene.render.sigma == c.scene.render.sigma) {
-            m.fragmentMs = acrossFrames(frameMedians(*other)).of(&FrameStats::totalMs);
-            if (m.frameMs() > 0 && m.fragmentMs > 0)
-                m.speedupVsFragment = m.fragmentMs / m.frameMs();
-            break;
-        }
-    const Config* reference = nullptr;
-    for (const auto& other : set.configs)
-        if (other->mode == BenchMode::NearReference &&
-            other->scene.render.sigma == c.scene.render.sigma)
-            reference = other.get();
+    if (const Config* fragment = sameSigma(set, c, BenchMode::NearVulkanFragment)) {
+        m.fragmentMs = acrossFrames(frameMedians(*fragment)).of(&FrameStats::totalMs);
+        if (m.frameMs() > 0 && m.fragmentMs > 0) m.speedupVsFragment = m.fragmentMs / m.frameMs();
+    }
+    const Config* reference = sameSigma(set, c, BenchMode::NearReference);
     addThroughput(m);
     addErrors(m);
     addMotion(m, c, truth, reference, plan);

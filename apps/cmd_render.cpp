@@ -323,19 +323,13 @@ void addRenderCommand(CLI::App& app) {
                     "Output image (.png, or .exr with Z and id channels; .gif with --path: "
                     "animated); default out/<name>.png")
         ->check(imageFileName());
-    cmd->add_option("--mode", args->mode,
+    addChoiceOption(*cmd, "--mode", args->mode, kRenderModeNames, "render mode",
                     "hybrid (the selector hands entities between the tiers), near (Vulkan near "
                     "tier for every entity; VOXTIER_VALIDATION=1 enables validation), far (every "
-                    "entity through the snapshot cache) or reference (CPU reference tracer)")
-        ->type_name("TEXT")
-        ->transform(oneOf(kRenderModeNames, "render mode"))
-        ->default_str(toString(args->mode));
-    cmd->add_option("--near-backend", args->nearBackend,
+                    "entity through the snapshot cache) or reference (CPU reference tracer)");
+    addChoiceOption(*cmd, "--near-backend", args->nearBackend, kNearBackendNames, "near backend",
                     "auto (Vulkan on a GPU; the CPU reference where the only Vulkan device is a "
-                    "CPU, as lavapipe is, or there is none), vulkan, or reference; same image")
-        ->type_name("TEXT")
-        ->transform(oneOf(kNearBackendNames, "near backend"))
-        ->default_str(toString(args->nearBackend));
+                    "CPU, as lavapipe is, or there is none), vulkan, or reference; same image");
     addNearRateOption(*cmd, args->nearRate);
     addFarBlitOption(*cmd, args->farBlit);
     auto* path =

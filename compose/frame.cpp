@@ -36,7 +36,7 @@ SpriteSetup fadedCopy(const SpriteSetup& s, float share, bool keepBelow) {
 }
 
 /// Who draws near sprites: reference mode is the CPU tracer by definition, near mode is Vulkan,
-/// the others use the configured backend (Auto is resolved where a near sprite is drawn).
+/// the others use the configured backend (Auto resolved by FrameRenderer::nearBackend).
 NearBackend nearBackendFor(RenderMode mode, NearBackend configured) {
     return mode == RenderMode::Reference ? NearBackend::Reference
            : mode == RenderMode::Near    ? NearBackend::Vulkan

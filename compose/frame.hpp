@@ -221,8 +221,9 @@ class FrameRenderer {
     /// The Vulkan device of the near tier ("" until a frame needed it).
     std::string nearDeviceName() const;
     /// Who draws near sprites in hybrid and far frames: options().nearBackend, or what Auto
-    /// chose on this machine (decided once, probing the Vulkan loader, by the first frame that
-    /// draws a near sprite or by this call).
+    /// chose on this machine (decided once, probing the Vulkan loader, before the first hybrid
+    /// frame's clock starts, by the first other frame that draws a near sprite, or by this
+    /// call).
     NearBackend nearBackend();
     /// Auto's choice and its reason in one line ("" when the backend was given, not chosen).
     const std::string& nearBackendChoice();

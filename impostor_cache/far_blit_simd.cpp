@@ -43,6 +43,9 @@ using MI = hn::Mask<DI>;
 /// Rows of pixels a chunk of a sprite takes together: its cell table holds the cell rows they
 /// reach. A chunk of 16 rows of a sprite magnified k times reaches about 16 / k + 3 cell rows.
 constexpr int kChunkRows = 16;
+/// Entries after a cell table that its building may overwrite: a vector's spill past the last
+/// row (the widest Highway target has 64 lanes of 32 bits).
+constexpr std::size_t kCellTablePadding = 64;
 /// A chunk gets a cell table when the cells of the rows it reaches, times this, are fewer than
 /// its pixels (measured in DESIGN.md §4, Blit).
 constexpr std::uint64_t kCellTableCost = 1;
@@ -189,10 +192,9 @@ class CellShader {
 /// bounds, floor, ceil and clamp run per lane.
 class RowColumns {
   public:
-    RowColumns(const kernel::SpriteGpu& g, int rx0, int rx1)
-        : den_(g.mapDen), lowest_(rx0), highest_(rx1) {
+    RowColumns(const kernel::SpriteGpu& g, int rx0, int rx1) : lowest_(rx0), highest_(rx1) {
         const double d = g.mapDen.x;
-        constraints_[count_++] = {d, 0.0, 1.0, true, g.mapDen}; // denominator >= 0
+        constraints_[count_++] = {d, 0.0, 1.0, true, g.mapDen}; // denominator >= 0 (first)
         const auto axis = [&](const glm::vec3& m, int first, int last) {
             const double a = m.x;
             const double qlo = first - 1.0, qhi = last + 2.0;
@@ -216,7 +218,7 @@ class RowColumns {
         const auto rowTerm = [&](const glm::vec3& m) { // double(m.y) * py + double(m.z)
             return hn::Add(hn::Mul(hn::Set(dd, double(m.y)), py), hn::Set(dd, double(m.z)));
         };
-        const auto e = rowTerm(den_);
+        const auto e = rowTerm(constraints_[0].form); // the denominator's row term
         auto lo = hn::Set(dd, -std::numeric_limits<double>::infinity());
         auto hi = hn::Set(dd, std::numeric_limits<double>::infinity());
         auto empty = hn::Lt(e, e); // all false
@@ -259,7 +261,6 @@ class RowColumns {
     };
     Constraint constraints_[5];
     int count_ = 0;
-    glm::vec3 den_;
     int lowest_, highest_;
 };
 

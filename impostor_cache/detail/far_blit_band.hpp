@@ -29,10 +29,6 @@ struct BlitSprite {
     std::array<std::uint32_t, 8> lightByCode{};
 };
 
-/// Entries after a cell table (far_blit_simd.cpp) that its building may overwrite: a vector's
-/// spill past the last row (the widest Highway target has 64 lanes of 32 bits).
-inline constexpr std::size_t kCellTablePadding = 64;
-
 struct BlitCounters {
     std::uint64_t tested = 0, written = 0;
 };
