@@ -298,6 +298,7 @@ FrameOptions frameOptions(const Config& c, const Plan& plan,
     o.cacheDirBytes = plan.cacheDirBytes;
     o.nearRate = info(c.mode).perPixel ? NearRate::Fragment : plan.nearRate;
     o.farBlit.kernel = plan.farBlit;
+    o.occlusionCull = plan.occlusionCull;
     return o;
 }
 
@@ -777,6 +778,7 @@ Plan makePlan(const SuiteOptions& o) {
         throw InputError("", "--budget", "must be in [0.01, 64] virtual pixels");
     p.budgetVpx = o.budgetVpx;
     p.farBlit = o.farBlit;
+    p.occlusionCull = o.occlusionCull;
     if (o.smoke) {
         p.preset = "smoke";
         p.repeats = 1;

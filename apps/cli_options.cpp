@@ -225,4 +225,11 @@ CLI::Option* addFarBlitOption(CLI::App& cmd, FarBlitKernel& kernel) {
                            "image");
 }
 
+CLI::Option* addNoCullFlag(CLI::App& cmd, bool& occlusionCull) {
+    return cmd.add_flag("!--no-cull", occlusionCull,
+                        "Draw every visible sprite whole, without exact occlusion culling (the "
+                        "CPU tiers skip what nearer sprites already hide); same image, for tests "
+                        "and comparisons");
+}
+
 } // namespace voxtier::cli

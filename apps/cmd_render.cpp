@@ -32,6 +32,7 @@ struct RenderArgs {
     NearBackend nearBackend = NearBackend::Auto;
     NearRate nearRate = NearRate::Auto;
     FarBlitKernel farBlit = FarBlitKernel::Simd;
+    bool occlusionCull = true;
     bool path = false;
     bool alpha = false; ///< transparent background (alpha 0 where no sprite is drawn)
     std::string overlay, csv, pops;
@@ -254,6 +255,7 @@ void run(const RenderArgs& a) {
     opt.nearBackend = a.nearBackend;
     opt.nearRate = a.nearRate;
     opt.farBlit.kernel = a.farBlit;
+    opt.occlusionCull = a.occlusionCull;
     opt.overlay = !a.overlay.empty();
     opt.measurePops = !a.pops.empty();
     if (a.cacheMb) opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
@@ -332,6 +334,7 @@ void addRenderCommand(CLI::App& app) {
                     "CPU, as lavapipe is, or there is none), vulkan, or reference; same image");
     addNearRateOption(*cmd, args->nearRate);
     addFarBlitOption(*cmd, args->farBlit);
+    addNoCullFlag(*cmd, args->occlusionCull);
     auto* path =
         cmd->add_flag("--path", args->path,
                       "Render every frame of the camera path (OUT becomes OUT_0000.png ...; "

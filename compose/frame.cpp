@@ -480,8 +480,13 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
     } else {
         image = Image(cam.width, cam.height, scene_.render.background);
         ReferenceStats rs;
-        renderReference(scene_.models, sprites, image, &rs, {options_.nearRate});
+        ReferenceOptions ro;
+        ro.rate = options_.nearRate;
+        ro.occlusionCull = options_.occlusionCull;
+        renderReference(scene_.models, sprites, image, &rs, ro);
         st.nearPixelsTested += rs.pixelsTested;
+        st.nearPixelsWritten += rs.pixelsWritten;
+        st.nearOccluded += int(rs.culled);
         st.voxelFetches += rs.voxelFetches;
         addCellRateCounts(st, rs);
     }
@@ -492,8 +497,11 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
 void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& st) {
     FarFrameStats fs;
     const std::uint64_t raysBefore = cache_->counters().raysTraced;
+    FarBlitOptions blit = options_.farBlit;
+    blit.occlusionCull = options_.occlusionCull;
     drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize),
-                   image, &fs, options_.farBlit);
+                   image, &fs, blit);
+    st.farOccluded += int(fs.culled);
     st.farBakes += int(fs.bakes);
     st.farScenesBuilt += int(fs.scenesBuilt);
     st.farRefreshes += int(fs.refreshes);

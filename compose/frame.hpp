@@ -105,6 +105,9 @@ struct FrameOptions {
     /// only SelectorConfig::maxBakesPerFrame bounds the bakes.
     bool costAwareBakes = true;
     std::optional<BakeCosts> bakeCosts;
+    /// Exact occlusion culling in the CPU tiers (the far blit and the CPU reference near tier;
+    /// core/occlusion.hpp): the same image, bit for bit, with less drawn. false: --no-cull.
+    bool occlusionCull = true;
 };
 
 /// What one entity does this frame: its tier, an optional cross-fade (both tiers draw it, with
@@ -176,7 +179,13 @@ struct FrameStats {
     /// reference or when there were none (FrameRenderer::nearBackend says which Auto chose).
     int nearOnVulkan = 0;
     std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;
-    std::uint64_t farPixelsWritten = 0;    ///< blit pixels that read a solid or outline cell
+    std::uint64_t farPixelsWritten = 0; ///< blit pixels that read a solid or outline cell
+    /// Near sprite pixels that took a solid or outline outcome (the CPU reference counts them;
+    /// 0 on Vulkan).
+    std::uint64_t nearPixelsWritten = 0;
+    /// Visible sprites occlusion culling dropped whole, before any bake or trace (the CPU tiers;
+    /// FrameOptions::occlusionCull), per tier.
+    int nearOccluded = 0, farOccluded = 0;
     std::uint64_t nearKernelFragments = 0; ///< with nearCountSteps: fragments that ran the kernel
     std::uint64_t raysTraced = 0;          ///< by this frame's bakes
     /// The largest predicted silhouette displacement of a far-drawn entity (DESIGN.md §5,

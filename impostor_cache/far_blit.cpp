@@ -107,17 +107,17 @@ void blitSpriteScalar(const BlitSprite& s, int y0, int y1, Image& target, BlitCo
 }
 
 void blitBandScalar(const BlitBand& band, BlitCounters& counters) {
-    for (std::size_t k = 0; k < band.count; ++k) {
-        const BlitSprite& s = band.sprites[band.list[k]];
-        blitSpriteScalar(s, std::max(s.rect.y, band.y0), std::min(s.rect.w, band.y1), *band.target,
-                         counters);
-    }
+    for (std::size_t k = 0; k < band.count; ++k)
+        drawInBand(band, band.sprites[band.list[k]], counters,
+                   [&](const BlitSprite& part, int y0, int y1) {
+                       blitSpriteScalar(part, y0, y1, *band.target, counters);
+                   });
 }
 
 } // namespace detail
 
 void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* stats,
-             const FarBlitOptions& options) {
+             const FarBlitOptions& options, OcclusionTiles* tiles) {
     const auto t0 = std::chrono::steady_clock::now();
     using detail::BlitSprite;
     // Each band of rows is written by exactly one task (no locks); the depth/id rule makes the
@@ -141,6 +141,15 @@ void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* st
             b.lightByCode[snapshot_code::kSolid0 + face] = kernel::vtFaceLight(sp.gpu, face);
         drawn.push_back(b);
     }
+    // Bands can keep occlusion tiles only when they are whole tile rows (each band's tiles its
+    // own); the band then draws its sprites front to back, so the tiles fill before the sprites
+    // behind them come (a stable sort: the bucketing keeps this order within a band).
+    if (tiles && bandRows % OcclusionTiles::kTile != 0) tiles = nullptr;
+    if (tiles)
+        std::stable_sort(drawn.begin(), drawn.end(), [](const BlitSprite& a, const BlitSprite& b) {
+            return a.gpu->depth > b.gpu->depth ||
+                   (a.gpu->depth == b.gpu->depth && a.entity < b.entity);
+        });
     // Sprites bucketed by band (counting sort, sprite order kept within a band).
     std::vector<std::uint32_t> bandStart(std::size_t(bands) + 1, 0), list;
     const auto bandsOf = [&](const BlitSprite& b) {
@@ -176,6 +185,7 @@ void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* st
                 band.y0 = k * bandRows;
                 band.y1 = std::min(target.height, band.y0 + bandRows);
                 band.target = &target;
+                band.tiles = tiles;
                 if (simd)
                     detail::blitBandSimd(band, rc);
                 else
@@ -187,10 +197,12 @@ void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* st
         counters.combine_each([&](const detail::BlitCounters& c) {
             total.tested += c.tested;
             total.written += c.written;
+            total.partsCulled += c.partsCulled;
         });
         stats->sprites += drawn.size();
         stats->pixelsTested += total.tested;
         stats->pixelsWritten += total.written;
+        stats->partsCulled += total.partsCulled;
         stats->milliseconds += msSince(t0);
     }
 }

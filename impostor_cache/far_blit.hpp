@@ -7,6 +7,7 @@
 // roll of a multiple of 90 degrees every read lands half a cell away from any snapshot cell
 // boundary, which is why far == near there exactly.
 #include "core/image.hpp"
+#include "core/occlusion.hpp"
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"
@@ -28,6 +29,8 @@ struct FarBlitStats {
     std::uint64_t pixelsTested =
         0; ///< pixels evaluated (of each row, the columns that can hold a cell)
     std::uint64_t pixelsWritten = 0; ///< solid or outline snapshot cells read
+    /// (sprite, 16-row tile row) parts not drawn because occlusion tiles hid them
+    std::uint64_t partsCulled = 0;
     double milliseconds = 0.0;
 };
 
@@ -65,6 +68,10 @@ struct FarBlitOptions {
     /// sprite, so a sprite's snapshot and the band's target rows stay in cache while it is drawn;
     /// 1 visits the sprites of each row in turn (the blit's layout before the band).
     int bandRows = 16;
+    /// Exact occlusion culling (core/occlusion.hpp): sprites drawn front to back, and whatever
+    /// the depth already drawn hides is skipped, whole sprites before their snapshots are looked
+    /// up or baked. The image is the same without it (--no-cull).
+    bool occlusionCull = true;
 };
 
 /// The SIMD target FarBlitKernel::Simd runs on this CPU (Highway's name: "AVX3", "AVX2",
@@ -78,7 +85,10 @@ int chooseFarView(const SpriteSetup& sprite, ViewSet set);
 /// Draws the sprites into `target` (keeping what it holds) with the shared depth/id rule,
 /// TBB-parallel over bands of rows, sprites bucketed by band. The result does not depend on the
 /// kernel, the band height or the order sprites are visited in (the depth/id rule decides).
+/// With `tiles` (over `target`; ignored unless options.bandRows is a multiple of its tile), the
+/// sprites are drawn front to back and the parts of each the tiles hide are skipped; the tiles
+/// learn what was drawn. The image is the same either way.
 void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* stats = nullptr,
-             const FarBlitOptions& options = {});
+             const FarBlitOptions& options = {}, OcclusionTiles* tiles = nullptr);
 
 } // namespace voxtier

@@ -485,8 +485,9 @@ void BlitBand(const BlitBand& band, BlitCounters& counters) {
             const std::size_t bytes = next.snapshot->cells.size() * 2;
             for (std::size_t b = 0; b < bytes; b += 64) hwy::Prefetch(p + b);
         }
-        BlitSpriteRows(s, std::max(s.rect.y, band.y0), std::min(s.rect.w, band.y1), *band.target,
-                       counters);
+        drawInBand(band, s, counters, [&](const BlitSprite& part, int y0, int y1) {
+            BlitSpriteRows(part, y0, y1, *band.target, counters);
+        });
     }
 }
 

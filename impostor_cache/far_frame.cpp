@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <map>
+#include <optional>
 #include <tuple>
 
 namespace voxtier {
@@ -14,43 +15,70 @@ namespace voxtier {
 void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
                     Image& target, FarFrameStats* stats, const FarBlitOptions& blitOptions) {
-    const auto t0 = std::chrono::steady_clock::now();
     const SnapshotCacheCounters before = cache.counters();
-    // Distinct (model, frame, view, sigma) of the visible sprites; each is looked up (and baked)
-    // once, in parallel, then shared by every sprite that shows it.
+    std::vector<const SpriteSetup*> sprites(requests.size());
+    for (std::size_t r = 0; r < requests.size(); ++r) sprites[r] = requests[r].sprite;
+    // With culling: front to back, in runs, each run's sprites tested whole against what the runs
+    // before drew, so a hidden sprite is dropped before its snapshot is looked up or baked.
+    const bool cull = blitOptions.occlusionCull;
+    std::vector<std::uint32_t> order;
+    if (cull) {
+        order = frontToBack(sprites);
+    } else {
+        for (std::uint32_t r = 0; r < requests.size(); ++r)
+            if (sprites[r] && sprites[r]->visible()) order.push_back(r);
+    }
+    const auto runs = cull ? frontToBackRuns(order, sprites, target.pixelCount())
+                           : std::vector<std::pair<std::size_t, std::size_t>>{{0, order.size()}};
+    std::optional<OcclusionTiles> tiles;
+    if (cull) tiles.emplace(target);
+
+    // Distinct (model, frame, view, sigma) of the drawn sprites; each is looked up (and baked)
+    // once, in parallel per run, then shared by every sprite that shows it.
     using Need = std::tuple<int, int, int, int, int, double>; // model, frame, view x y z, sigma
     std::map<Need, std::size_t> slot;
     std::vector<Need> needs;
-    std::vector<std::size_t> spriteSlot(requests.size(), SIZE_MAX);
-    for (std::size_t r = 0; r < requests.size(); ++r) {
-        const SpriteSetup* sp = requests[r].sprite;
-        if (!sp || !sp->visible()) continue;
-        const glm::ivec3 view =
-            requests[r].view.value_or(viewIdOf(set, chooseFarView(*sp, set))).lattice;
-        const Need n{sp->model, sp->frame, view.x, view.y, view.z, sp->lattice.sigma};
-        auto [it, inserted] = slot.emplace(n, needs.size());
-        if (inserted) needs.push_back(n);
-        spriteSlot[r] = it->second;
-    }
-    std::vector<std::shared_ptr<const Snapshot>> snaps(needs.size());
-    tbb::parallel_for(std::size_t(0), needs.size(), [&](std::size_t i) {
-        const auto [m, f, x, y, z, sigma] = needs[i];
-        snaps[i] = cache.get(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma);
-    });
-    const double ensureMs = msSince(t0);
-
-    std::vector<FarSprite> draws;
-    draws.reserve(requests.size());
-    for (std::size_t r = 0; r < requests.size(); ++r) {
-        if (spriteSlot[r] == SIZE_MAX) continue;
-        const SpriteSetup* sp = requests[r].sprite;
-        draws.push_back(
-            {sp, snaps[spriteSlot[r]].get(), &models.at(std::size_t(sp->model))->palette()});
-    }
+    std::vector<std::shared_ptr<const Snapshot>> snaps;
+    std::uint64_t drawnSprites = 0, culled = 0;
+    double ensureMs = 0.0;
     FarBlitStats blit;
-    blitFar(draws, target, &blit, blitOptions);
+    std::vector<std::pair<std::uint32_t, std::size_t>> runDraws; // request, snapshot slot
+    std::vector<FarSprite> draws;
+    for (const auto& [first, last] : runs) {
+        const auto t0 = std::chrono::steady_clock::now();
+        runDraws.clear();
+        const std::size_t newFrom = needs.size();
+        for (std::size_t k = first; k < last; ++k) {
+            const std::uint32_t r = order[k];
+            const SpriteSetup& sp = *sprites[r];
+            if (tiles && tiles->hides(sp.screenRect, sp.gpu.depth)) {
+                ++culled;
+                continue;
+            }
+            const glm::ivec3 view =
+                requests[r].view.value_or(viewIdOf(set, chooseFarView(sp, set))).lattice;
+            const Need n{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma};
+            auto [it, inserted] = slot.emplace(n, needs.size());
+            if (inserted) needs.push_back(n);
+            runDraws.push_back({r, it->second});
+        }
+        snaps.resize(needs.size());
+        tbb::parallel_for(newFrom, needs.size(), [&](std::size_t i) {
+            const auto [m, f, x, y, z, sigma] = needs[i];
+            snaps[i] = cache.get(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma);
+        });
+        ensureMs += msSince(t0);
+        draws.clear();
+        for (const auto& [r, i] : runDraws) {
+            const SpriteSetup* sp = sprites[r];
+            draws.push_back({sp, snaps[i].get(), &models.at(std::size_t(sp->model))->palette()});
+        }
+        drawnSprites += draws.size();
+        blitFar(draws, target, &blit, blitOptions, tiles ? &*tiles : nullptr);
+    }
     if (stats) {
-        stats->sprites += draws.size();
+        stats->sprites += drawnSprites;
+        stats->culled += culled;
         stats->snapshotsUsed += needs.size();
         const SnapshotCacheCounters after = cache.counters();
         stats->bakes += after.bakes - before.bakes;
@@ -62,6 +90,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
         stats->blit.sprites += blit.sprites;
         stats->blit.pixelsTested += blit.pixelsTested;
         stats->blit.pixelsWritten += blit.pixelsWritten;
+        stats->blit.partsCulled += blit.partsCulled;
         stats->blit.milliseconds += blit.milliseconds;
     }
 }

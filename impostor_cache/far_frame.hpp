@@ -16,6 +16,7 @@ namespace voxtier {
 
 struct FarFrameStats {
     std::uint64_t sprites = 0;       ///< visible sprites drawn through the cache
+    std::uint64_t culled = 0;        ///< visible sprites occlusion culling dropped whole
     std::uint64_t snapshotsUsed = 0; ///< distinct snapshots this frame
     std::uint64_t bakes = 0;         ///< of those, baked during this frame
     std::uint64_t scenesBuilt = 0;   ///< Embree scenes those bakes built first

@@ -1,11 +1,14 @@
 #include "volumetric/reference_renderer.hpp"
 
+#include "core/occlusion.hpp"
 #include "core/stopwatch.hpp"
 
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
+#include <optional>
 
 namespace voxtier {
 
@@ -84,66 +87,145 @@ traceCellRateSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
 
 } // namespace
 
+namespace {
+
+/// Pass 2 of one sprite's rows [y0, y1), columns [x0, x1): every pixel's kernel outcome (traced,
+/// or looked up from its cell) shaded and written with the depth/id rule. `open(x)` says whether
+/// the occlusion tile holding column x may still take the sprite.
+template <class Open>
+void drawSpriteRows(const std::vector<std::shared_ptr<VoxelModel>>& models, const SpriteSetup& sp,
+                    kernel::uint cellBase, const std::vector<kernel::uint>& cells, int y0, int y1,
+                    int x0, int x1, Open&& open, Image& target, RowCounters& rc) {
+    const VoxelModel& model = *models[std::size_t(sp.model)];
+    const auto voxels = voxelsOf<true>(model.frame(sp.frame));
+    kernel::SpriteTracer<GridVoxels<true>> tracer{voxels};
+    const kernel::SpriteGpu& g = sp.gpu;
+    for (int y = y0; y < y1; ++y) {
+        const float py = float(y) + 0.5f;
+        for (int x = x0; x < x1; ++x) {
+            if (!open(x)) { // a hidden tile: on to the next one
+                x = (x / OcclusionTiles::kTile + 1) * OcclusionTiles::kTile - 1;
+                continue;
+            }
+            ++rc.tested;
+            glm::ivec2 cell;
+            const glm::vec2 pc(float(x) + 0.5f, py);
+            if (!kernel::vtPixelCell(g, pc, cell)) continue;
+            ++rc.inSprite;
+            kernel::uint index, face, kind;
+            if (cellBase == kNoCells) {
+                ++rc.traced;
+                kind = tracer.vtShadeCell(g, cell, index, face);
+            } else {
+                ++rc.lookedUp;
+                kind = kernel::vtUnpackOutcome(cells[cellBase + kernel::vtCellSlot(g, cell)], index,
+                                               face);
+            }
+            if (kind == kernel::VT_KIND_EMPTY) continue;
+            ++rc.written;
+            const Rgba8 color =
+                kind == kernel::VT_KIND_SOLID
+                    ? kernel::vtLit(model.palette().colors[index], kernel::vtFaceLight(g, face))
+                    : kernel::VT_OUTLINE_RGBA;
+            target.writeIfNearer(target.index(x, y), color, g.depth, sp.entityId);
+        }
+    }
+    rc.fetches += voxels.fetches;
+}
+
+} // namespace
+
 void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                      std::span<const SpriteSetup* const> sprites, Image& target,
                      ReferenceStats* stats, const ReferenceOptions& options) {
     const auto t0 = std::chrono::steady_clock::now();
-    // Bucket sprites by row so each row is written by exactly one task (no locks, and the
-    // depth/id rule makes the result independent of the order sprites are visited in).
-    std::vector<std::vector<std::uint32_t>> rows(std::size_t(target.height));
-    std::uint64_t drawn = 0;
-    for (std::uint32_t s = 0; s < sprites.size(); ++s) {
-        const SpriteSetup& sp = *sprites[s];
-        if (!sp.visible()) continue;
-        ++drawn;
-        for (int y = sp.screenRect.y; y < std::min(sp.screenRect.w, target.height); ++y)
-            rows[std::size_t(y)].push_back(s);
+    constexpr int kBand = OcclusionTiles::kTile;
+    // With culling the sprites go front to back in runs (core/occlusion.hpp): a run's sprites are
+    // tested whole against what the runs before drew, so a hidden sprite traces no cell, and the
+    // rest skip the tiles that already hide them. Without, one run in the order given.
+    std::vector<std::uint32_t> order;
+    if (options.occlusionCull) {
+        order = frontToBack(sprites);
+    } else {
+        for (std::uint32_t s = 0; s < sprites.size(); ++s)
+            if (sprites[s]->visible()) order.push_back(s);
     }
+    const auto runs = options.occlusionCull
+                          ? frontToBackRuns(order, sprites, target.pixelCount())
+                          : std::vector<std::pair<std::size_t, std::size_t>>{{0, order.size()}};
+    std::optional<OcclusionTiles> tiles;
+    if (options.occlusionCull) tiles.emplace(target);
+    const int bands = (target.height + kBand - 1) / kBand;
+
     tbb::combinable<RowCounters> counters;
-    const CellRatePlan plan = planCellRate(sprites, options.rate, options.cellBudgetBytes);
-    const std::vector<kernel::uint> cells = traceCellRateSprites(models, sprites, plan, counters);
-    // Pass 2: every pixel of every sprite's rectangle; per-pixel sprites trace, cell-rate ones
-    // look their cell's outcome up. Either way the same kernel outcome reaches the same shading.
-    tbb::parallel_for(
-        tbb::blocked_range<int>(0, target.height, 4), [&](const tbb::blocked_range<int>& r) {
+    std::uint64_t drawn = 0, culled = 0;
+    CellRateCounts rate;
+    std::vector<const SpriteSetup*> run;
+    for (const auto& [first, last] : runs) {
+        run.clear();
+        for (std::size_t k = first; k < last; ++k) {
+            const SpriteSetup* sp = sprites[order[k]];
+            if (tiles && tiles->hides(sp->screenRect, sp->gpu.depth)) {
+                ++culled;
+                continue;
+            }
+            run.push_back(sp);
+        }
+        drawn += run.size();
+        const CellRatePlan plan = planCellRate(run, options.rate, options.cellBudgetBytes);
+        const std::vector<kernel::uint> cells = traceCellRateSprites(models, run, plan, counters);
+        rate.cellsTraced += plan.cells;
+        rate.cellSprites += plan.cellSprites;
+        rate.cellOverBudget += plan.overBudget;
+        // Pass 2, bucketed by band of 16 rows, each band written by exactly one task (no locks;
+        // the depth/id rule makes the image independent of the order sprites are visited in).
+        std::vector<std::uint32_t> bandStart(std::size_t(bands) + 1, 0), list;
+        const auto bandsOf = [&](const SpriteSetup& sp) {
+            return std::pair<int, int>{sp.screenRect.y / kBand,
+                                       (std::min(sp.screenRect.w, target.height) - 1) / kBand + 1};
+        };
+        for (const SpriteSetup* sp : run) {
+            const auto [b0, b1] = bandsOf(*sp);
+            for (int b = b0; b < b1; ++b) ++bandStart[std::size_t(b) + 1];
+        }
+        for (std::size_t b = 0; b < std::size_t(bands); ++b) bandStart[b + 1] += bandStart[b];
+        list.resize(bandStart.back());
+        {
+            std::vector<std::uint32_t> fill(bandStart.begin(), bandStart.end() - 1);
+            for (std::uint32_t i = 0; i < run.size(); ++i) {
+                const auto [b0, b1] = bandsOf(*run[i]);
+                for (int b = b0; b < b1; ++b) list[fill[std::size_t(b)]++] = i;
+            }
+        }
+        tbb::parallel_for(0, bands, [&](int b) {
             RowCounters& rc = counters.local();
-            for (int y = r.begin(); y < r.end(); ++y) {
-                for (std::uint32_t s : rows[std::size_t(y)]) {
-                    const SpriteSetup& sp = *sprites[s];
-                    const VoxelModel& model = *models[std::size_t(sp.model)];
-                    const VoxelGrid& grid = model.frame(sp.frame);
-                    const auto voxels = voxelsOf<true>(grid);
-                    kernel::SpriteTracer<GridVoxels<true>> tracer{voxels};
-                    const kernel::SpriteGpu& g = sp.gpu;
-                    const kernel::uint cellBase = plan.cellBase[s];
-                    const float py = float(y) + 0.5f;
-                    for (int x = sp.screenRect.x; x < sp.screenRect.z; ++x) {
-                        ++rc.tested;
-                        glm::ivec2 cell;
-                        const glm::vec2 pc(float(x) + 0.5f, py);
-                        if (!kernel::vtPixelCell(g, pc, cell)) continue;
-                        ++rc.inSprite;
-                        kernel::uint index, face, kind;
-                        if (cellBase == kNoCells) {
-                            ++rc.traced;
-                            kind = tracer.vtShadeCell(g, cell, index, face);
-                        } else {
-                            ++rc.lookedUp;
-                            kind = kernel::vtUnpackOutcome(
-                                cells[cellBase + kernel::vtCellSlot(g, cell)], index, face);
-                        }
-                        if (kind == kernel::VT_KIND_EMPTY) continue;
-                        ++rc.written;
-                        const Rgba8 color = kind == kernel::VT_KIND_SOLID
-                                                ? kernel::vtLit(model.palette().colors[index],
-                                                                kernel::vtFaceLight(g, face))
-                                                : kernel::VT_OUTLINE_RGBA;
-                        target.writeIfNearer(target.index(x, y), color, g.depth, sp.entityId);
-                    }
-                    rc.fetches += voxels.fetches;
+            const int y0 = b * kBand, y1 = std::min(target.height, y0 + kBand);
+            for (std::uint32_t k = bandStart[std::size_t(b)]; k < bandStart[std::size_t(b) + 1];
+                 ++k) {
+                const SpriteSetup& sp = *run[list[k]];
+                const int r0 = std::max(sp.screenRect.y, y0), r1 = std::min(sp.screenRect.w, y1);
+                if (!tiles) {
+                    drawSpriteRows(
+                        models, sp, plan.cellBase[list[k]], cells, r0, r1, sp.screenRect.x,
+                        sp.screenRect.z, [](int) { return true; }, target, rc);
+                    continue;
                 }
+                const auto [x0, x1] =
+                    tiles->visibleColumns(b, sp.screenRect.x, sp.screenRect.z, sp.gpu.depth);
+                if (x0 >= x1) continue;
+                // Which tiles between the two ends are still open, read once per sprite and band.
+                thread_local std::vector<char> open;
+                const int c0 = x0 / kBand;
+                open.resize(std::size_t((x1 - 1) / kBand - c0 + 1));
+                for (std::size_t c = 0; c < open.size(); ++c)
+                    open[c] = tiles->tileOpen(b, (c0 + int(c)) * kBand, sp.gpu.depth);
+                drawSpriteRows(
+                    models, sp, plan.cellBase[list[k]], cells, r0, r1, x0, x1,
+                    [&](int x) { return open[std::size_t(x / kBand - c0)] != 0; }, target, rc);
+                tiles->drawn(b, x0, x1, r1 - r0);
             }
         });
+    }
     if (stats) {
         RowCounters total;
         counters.combine_each([&](const RowCounters& c) {
@@ -155,15 +237,16 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
             total.lookedUp += c.lookedUp;
         });
         stats->sprites += drawn;
+        stats->culled += culled;
         stats->pixelsTested += total.tested;
         stats->pixelsInSprite += total.inSprite;
         stats->pixelsWritten += total.written;
         stats->voxelFetches += total.fetches;
         stats->pixelsTraced += total.traced;
         stats->pixelsLookedUp += total.lookedUp;
-        stats->cellsTraced += plan.cells;
-        stats->cellSprites += plan.cellSprites;
-        stats->cellOverBudget += plan.overBudget;
+        stats->cellsTraced += rate.cellsTraced;
+        stats->cellSprites += rate.cellSprites;
+        stats->cellOverBudget += rate.cellOverBudget;
         stats->milliseconds += msSince(t0);
     }
 }

@@ -1,7 +1,7 @@
 #pragma once
 // The CPU reference tracer: the executable form of DESIGN.md §3. It runs the shared sprite
 // kernel (core/sprite_kernel.h) for every pixel of every sprite's screen rectangle, TBB-
-// parallel over rows, and writes with the shared depth/id rule. The Vulkan renderer must
+// parallel over bands of rows, and writes with the shared depth/id rule. The Vulkan renderer must
 // produce exactly this image.
 #include "core/image.hpp"
 #include "core/sprite.hpp"
@@ -17,6 +17,7 @@ namespace voxtier {
 
 struct ReferenceStats : CellRateCounts {
     std::uint64_t sprites = 0;        ///< sprites drawn
+    std::uint64_t culled = 0;         ///< visible sprites occlusion culling dropped whole
     std::uint64_t pixelsTested = 0;   ///< pixels of sprite rectangles evaluated ("fragments")
     std::uint64_t pixelsInSprite = 0; ///< of those, pixels that map to a lattice cell
     std::uint64_t pixelsWritten = 0;  ///< solid or outline outcomes
@@ -29,6 +30,9 @@ struct ReferenceStats : CellRateCounts {
 struct ReferenceOptions {
     NearRate rate = NearRate::Fragment;
     std::uint64_t cellBudgetBytes = kDefaultCellBudgetBytes;
+    /// Exact occlusion culling (core/occlusion.hpp): front to back, skipping what the depth
+    /// already drawn hides, whole sprites before any of their cells is traced. Same image.
+    bool occlusionCull = true;
 };
 
 /// Draws `sprites` (visible ones; culled entries are skipped) into `target`, which keeps what

@@ -1,0 +1,106 @@
+#include "core/occlusion.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <limits>
+
+namespace voxtier {
+
+namespace {
+/// Below this many rectangle pixels drawn since the last reading a tile is not read again, even
+/// if fewer were empty: a tile that never fills (sky between two silhouettes) would otherwise be
+/// re-read for every small sprite over it. Costs culling only, never a pixel.
+constexpr int kMinDrawnBeforeReread = 64;
+} // namespace
+
+OcclusionTiles::OcclusionTiles(const Image& image)
+    : image_(&image), cols_((image.width + kTile - 1) / kTile),
+      rows_((image.height + kTile - 1) / kTile), tiles_(std::size_t(cols_) * std::size_t(rows_)) {}
+
+float OcclusionTiles::farthest(int row, int col) {
+    Tile& t = tile(row, col);
+    if (t.read && (t.empty == 0 || t.drawnSince < std::max(t.empty, kMinDrawnBeforeReread)))
+        return t.empty == 0 ? t.farthest : 0.0f;
+    const int x0 = col * kTile, x1 = std::min(x0 + kTile, image_->width);
+    const int y0 = row * kTile, y1 = std::min(y0 + kTile, image_->height);
+    int empty = 0;
+    float least = std::numeric_limits<float>::infinity();
+    for (int y = y0; y < y1; ++y) {
+        const float* d = image_->depth.data() + image_->index(0, y);
+        for (int x = x0; x < x1; ++x) {
+            // No sprite writes a depth <= 0 (zNear / viewDepth): such a pixel is empty.
+            empty += !(d[x] > 0.0f);
+            least = std::min(least, d[x]);
+        }
+    }
+    t = {empty == 0 ? least : 0.0f, empty, 0, true};
+    return t.farthest;
+}
+
+bool OcclusionTiles::tileOpen(int tileRow, int x, float depth) {
+    return !(farthest(tileRow, x / kTile) > depth);
+}
+
+std::pair<int, int> OcclusionTiles::visibleColumns(int tileRow, int x0, int x1, float depth) {
+    while (x0 < x1 && !tileOpen(tileRow, x0, depth)) x0 = (x0 / kTile + 1) * kTile;
+    while (x0 < x1 && !tileOpen(tileRow, x1 - 1, depth)) x1 = ((x1 - 1) / kTile) * kTile;
+    return {x0, std::max(x0, x1)};
+}
+
+void OcclusionTiles::drawn(int tileRow, int x0, int x1, int rows) {
+    for (int x = x0; x < x1;) {
+        const int end = std::min(x1, (x / kTile + 1) * kTile);
+        tile(tileRow, x / kTile).drawnSince += (end - x) * rows;
+        x = end;
+    }
+}
+
+bool OcclusionTiles::hides(glm::ivec4 rect, float depth) {
+    if (rect.x >= rect.z || rect.y >= rect.w) return false;
+    const int r1 = std::min((rect.w - 1) / kTile, rows_ - 1);
+    const int c1 = std::min((rect.z - 1) / kTile, cols_ - 1);
+    for (int r = rect.y / kTile; r <= r1; ++r)
+        for (int c = rect.x / kTile; c <= c1; ++c)
+            if (!(farthest(r, c) > depth)) return false;
+    return true;
+}
+
+std::vector<std::uint32_t> frontToBack(std::span<const SpriteSetup* const> sprites) {
+    // One 64-bit key per sprite: the depth's bits inverted (positive floats order like their
+    // bits, so this puts nearer first), then the entity id; the index rides along.
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
+    keyed.reserve(sprites.size());
+    for (std::uint32_t i = 0; i < sprites.size(); ++i) {
+        const SpriteSetup* s = sprites[i];
+        if (!s || !s->visible()) continue;
+        const std::uint32_t depthBits = std::bit_cast<std::uint32_t>(std::max(s->gpu.depth, 0.0f));
+        keyed.push_back({(std::uint64_t(~depthBits) << 32) | s->entityId, i});
+    }
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<std::uint32_t> order(keyed.size());
+    for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
+    return order;
+}
+
+std::vector<std::pair<std::size_t, std::size_t>>
+frontToBackRuns(std::span<const std::uint32_t> order, std::span<const SpriteSetup* const> sprites,
+                std::size_t imagePixels) {
+    std::vector<std::pair<std::size_t, std::size_t>> runs;
+    double total = 0.0, runArea = 0.0, target = 0.5 * double(std::max<std::size_t>(imagePixels, 1));
+    std::size_t begin = 0;
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        const glm::ivec4 r = sprites[order[k]]->screenRect;
+        runArea += double(std::max(0, r.z - r.x)) * double(std::max(0, r.w - r.y));
+        if (runArea >= target) {
+            runs.push_back({begin, k + 1});
+            begin = k + 1;
+            total += runArea;
+            runArea = 0.0;
+            target = total;
+        }
+    }
+    if (begin < order.size()) runs.push_back({begin, order.size()});
+    return runs;
+}
+
+} // namespace voxtier
