@@ -19,6 +19,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <regex>
 #include <set>
 
@@ -809,6 +810,10 @@ json scalingContext(const SuiteResults& r, const std::vector<std::string>& plots
     for (const Curve& c : {Curve{"scaling_entities", "Scaling: entity count", "entities"},
                            Curve{"scaling_size", "Scaling: model size", "model"}}) {
         json rows = json::array();
+        // Each mode's frame against its own frame at the curve's first point: how the cost grows.
+        std::map<std::string, double> firstMs;
+        for (const Measurement& m : r.rows)
+            if (m.group == c.group) firstMs.emplace(toString(m.mode), m.frameMs());
         for (const Measurement& m : r.rows)
             if (m.group == c.group)
                 rows.push_back(
@@ -816,7 +821,14 @@ json scalingContext(const SuiteResults& r, const std::vector<std::string>& plots
                      {"mode", toString(m.mode)},
                      {"entities", entitiesCell(m)},
                      {"frame_ms", num(m.frameMs())},
+                     {"growth", num(m.frameMs() / firstMs[toString(m.mode)], 1) + "×"},
                      {"speedup", speedupCell(m)},
+                     {"setup_ms",
+                      num(perFrame(m, &FrameStats::setupMs) + perFrame(m, &FrameStats::selectMs))},
+                     {"occluded", num(perFrame(m, &FrameStats::nearOccluded), 0) + " / " +
+                                      num(perFrame(m, &FrameStats::farOccluded), 0)},
+                     {"near_written", num(perFrame(m, &FrameStats::nearPixelsWritten), 0)},
+                     {"blit_written", num(perFrame(m, &FrameStats::farPixelsWritten), 0)},
                      {"near_ms", num(perFrame(m, &FrameStats::nearMs))},
                      {"near_fragments", num(perFrame(m, &FrameStats::nearPixelsTested), 0)},
                      {"voxel_steps", num(perFrame(m, &FrameStats::voxelFetches), 0)},

@@ -821,7 +821,7 @@ Plan makePlan(const SuiteOptions& o) {
         p.viewSets = {26, 98, 218};
         p.sigmas = {0.5, 1, 2};
         p.crossfades = {0, 4, 8};
-        p.entityCounts = {10, 100, 300, 1000, 3000, 10000};
+        p.entityCounts = {10, 100, 300, 1000, 3000, 10000, 30000, 100000};
         p.modelSides = {16, 32, 64, 128};
         p.sizeEntities = 500;
         p.scalingRepeats = 5;

@@ -82,25 +82,4 @@ std::vector<std::uint32_t> frontToBack(std::span<const SpriteSetup* const> sprit
     return order;
 }
 
-std::vector<std::pair<std::size_t, std::size_t>>
-frontToBackRuns(std::span<const std::uint32_t> order, std::span<const SpriteSetup* const> sprites,
-                std::size_t imagePixels) {
-    std::vector<std::pair<std::size_t, std::size_t>> runs;
-    double total = 0.0, runArea = 0.0, target = 0.5 * double(std::max<std::size_t>(imagePixels, 1));
-    std::size_t begin = 0;
-    for (std::size_t k = 0; k < order.size(); ++k) {
-        const glm::ivec4 r = sprites[order[k]]->screenRect;
-        runArea += double(std::max(0, r.z - r.x)) * double(std::max(0, r.w - r.y));
-        if (runArea >= target) {
-            runs.push_back({begin, k + 1});
-            begin = k + 1;
-            total += runArea;
-            runArea = 0.0;
-            target = total;
-        }
-    }
-    if (begin < order.size()) runs.push_back({begin, order.size()});
-    return runs;
-}
-
 } // namespace voxtier

@@ -9,6 +9,7 @@
 #include "core/image.hpp"
 #include "core/sprite.hpp"
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <utility>
@@ -63,12 +64,47 @@ class OcclusionTiles {
 /// Returns indices into `sprites` of the visible ones.
 std::vector<std::uint32_t> frontToBack(std::span<const SpriteSetup* const> sprites);
 
-/// Splits a front-to-back order into runs drawn one after another, each tested as a whole against
-/// what the runs before it drew: the first covers about half the image's area in sprite
-/// rectangles, each later one as much rectangle area as all before it, so a frame takes
-/// O(log(overdraw)) runs and a crowd's hidden majority meets a full set of tiles.
-std::vector<std::pair<std::size_t, std::size_t>>
-frontToBackRuns(std::span<const std::uint32_t> order, std::span<const SpriteSetup* const> sprites,
-                std::size_t imagePixels);
+/// The run size the tiers use: half the image in sprite rectangle area. Smaller runs cull more
+/// (each sprite meets tiles filled closer in front of it) and pay more per-run overhead (a
+/// parallel pass, a snapshot lookup round); half a screen keeps a frame to a few runs of drawn
+/// sprites, since the hidden ones never join a run.
+inline std::size_t occlusionRunPixels(std::size_t imagePixels) {
+    return std::max<std::size_t>(imagePixels / 2, 1024);
+}
+
+/// Draws the sprites `order` lists (front to back, from frontToBack) in runs: each sprite is
+/// first tested whole against `tiles`, and the ones they hide are dropped; the others gather into
+/// runs of about `runPixels` of rectangle area, and `drawRun(span of sprite indices)` draws each
+/// run (and tells `tiles` what it drew) before the next sprites are tested. So a sprite meets every
+/// tile the runs before it filled, and a crowd's hidden majority is dropped without being drawn.
+/// Without tiles, one run of everything. Returns how many sprites were dropped.
+template <class DrawRun>
+std::size_t drawFrontToBack(std::span<const std::uint32_t> order,
+                            std::span<const SpriteSetup* const> sprites, OcclusionTiles* tiles,
+                            std::size_t runPixels, DrawRun&& drawRun) {
+    if (!tiles) {
+        if (!order.empty()) drawRun(order);
+        return 0;
+    }
+    std::vector<std::uint32_t> run;
+    std::size_t culled = 0, area = 0;
+    for (const std::uint32_t i : order) {
+        const SpriteSetup& s = *sprites[i];
+        if (tiles->hides(s.screenRect, s.gpu.depth)) {
+            ++culled;
+            continue;
+        }
+        run.push_back(i);
+        area += std::size_t(std::max(0, s.screenRect.z - s.screenRect.x)) *
+                std::size_t(std::max(0, s.screenRect.w - s.screenRect.y));
+        if (area >= runPixels) {
+            drawRun(std::span<const std::uint32_t>(run));
+            run.clear();
+            area = 0;
+        }
+    }
+    if (!run.empty()) drawRun(std::span<const std::uint32_t>(run));
+    return culled;
+}
 
 } // namespace voxtier

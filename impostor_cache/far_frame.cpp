@@ -28,8 +28,6 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
         for (std::uint32_t r = 0; r < requests.size(); ++r)
             if (sprites[r] && sprites[r]->visible()) order.push_back(r);
     }
-    const auto runs = cull ? frontToBackRuns(order, sprites, target.pixelCount())
-                           : std::vector<std::pair<std::size_t, std::size_t>>{{0, order.size()}};
     std::optional<OcclusionTiles> tiles;
     if (cull) tiles.emplace(target);
 
@@ -39,43 +37,41 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
     std::map<Need, std::size_t> slot;
     std::vector<Need> needs;
     std::vector<std::shared_ptr<const Snapshot>> snaps;
-    std::uint64_t drawnSprites = 0, culled = 0;
+    std::uint64_t drawnSprites = 0;
     double ensureMs = 0.0;
     FarBlitStats blit;
-    std::vector<std::pair<std::uint32_t, std::size_t>> runDraws; // request, snapshot slot
+    std::vector<std::size_t> runSlots;
     std::vector<FarSprite> draws;
-    for (const auto& [first, last] : runs) {
-        const auto t0 = std::chrono::steady_clock::now();
-        runDraws.clear();
-        const std::size_t newFrom = needs.size();
-        for (std::size_t k = first; k < last; ++k) {
-            const std::uint32_t r = order[k];
-            const SpriteSetup& sp = *sprites[r];
-            if (tiles && tiles->hides(sp.screenRect, sp.gpu.depth)) {
-                ++culled;
-                continue;
+    const std::size_t culled = drawFrontToBack(
+        order, sprites, tiles ? &*tiles : nullptr, occlusionRunPixels(target.pixelCount()),
+        [&](std::span<const std::uint32_t> run) {
+            const auto t0 = std::chrono::steady_clock::now();
+            runSlots.clear();
+            const std::size_t newFrom = needs.size();
+            for (const std::uint32_t r : run) {
+                const SpriteSetup& sp = *sprites[r];
+                const glm::ivec3 view =
+                    requests[r].view.value_or(viewIdOf(set, chooseFarView(sp, set))).lattice;
+                const Need n{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma};
+                auto [it, inserted] = slot.emplace(n, needs.size());
+                if (inserted) needs.push_back(n);
+                runSlots.push_back(it->second);
             }
-            const glm::ivec3 view =
-                requests[r].view.value_or(viewIdOf(set, chooseFarView(sp, set))).lattice;
-            const Need n{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma};
-            auto [it, inserted] = slot.emplace(n, needs.size());
-            if (inserted) needs.push_back(n);
-            runDraws.push_back({r, it->second});
-        }
-        snaps.resize(needs.size());
-        tbb::parallel_for(newFrom, needs.size(), [&](std::size_t i) {
-            const auto [m, f, x, y, z, sigma] = needs[i];
-            snaps[i] = cache.get(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma);
+            snaps.resize(needs.size());
+            tbb::parallel_for(newFrom, needs.size(), [&](std::size_t i) {
+                const auto [m, f, x, y, z, sigma] = needs[i];
+                snaps[i] = cache.get(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma);
+            });
+            ensureMs += msSince(t0);
+            draws.clear();
+            for (std::size_t k = 0; k < run.size(); ++k) {
+                const SpriteSetup* sp = sprites[run[k]];
+                draws.push_back(
+                    {sp, snaps[runSlots[k]].get(), &models.at(std::size_t(sp->model))->palette()});
+            }
+            drawnSprites += draws.size();
+            blitFar(draws, target, &blit, blitOptions, tiles ? &*tiles : nullptr);
         });
-        ensureMs += msSince(t0);
-        draws.clear();
-        for (const auto& [r, i] : runDraws) {
-            const SpriteSetup* sp = sprites[r];
-            draws.push_back({sp, snaps[i].get(), &models.at(std::size_t(sp->model))->palette()});
-        }
-        drawnSprites += draws.size();
-        blitFar(draws, target, &blit, blitOptions, tiles ? &*tiles : nullptr);
-    }
     if (stats) {
         stats->sprites += drawnSprites;
         stats->culled += culled;

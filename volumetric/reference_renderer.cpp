@@ -150,82 +150,78 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
         for (std::uint32_t s = 0; s < sprites.size(); ++s)
             if (sprites[s]->visible()) order.push_back(s);
     }
-    const auto runs = options.occlusionCull
-                          ? frontToBackRuns(order, sprites, target.pixelCount())
-                          : std::vector<std::pair<std::size_t, std::size_t>>{{0, order.size()}};
     std::optional<OcclusionTiles> tiles;
     if (options.occlusionCull) tiles.emplace(target);
     const int bands = (target.height + kBand - 1) / kBand;
 
     tbb::combinable<RowCounters> counters;
-    std::uint64_t drawn = 0, culled = 0;
+    std::uint64_t drawn = 0;
     CellRateCounts rate;
     std::vector<const SpriteSetup*> run;
-    for (const auto& [first, last] : runs) {
-        run.clear();
-        for (std::size_t k = first; k < last; ++k) {
-            const SpriteSetup* sp = sprites[order[k]];
-            if (tiles && tiles->hides(sp->screenRect, sp->gpu.depth)) {
-                ++culled;
-                continue;
+    const std::size_t culled = drawFrontToBack(
+        order, sprites, tiles ? &*tiles : nullptr, occlusionRunPixels(target.pixelCount()),
+        [&](std::span<const std::uint32_t> indices) {
+            run.clear();
+            for (const std::uint32_t i : indices) run.push_back(sprites[i]);
+            drawn += run.size();
+            const CellRatePlan plan = planCellRate(run, options.rate, options.cellBudgetBytes);
+            const std::vector<kernel::uint> cells =
+                traceCellRateSprites(models, run, plan, counters);
+            rate.cellsTraced += plan.cells;
+            rate.cellSprites += plan.cellSprites;
+            rate.cellOverBudget += plan.overBudget;
+            // Pass 2, bucketed by band of 16 rows, each band written by exactly one task (no locks;
+            // the depth/id rule makes the image independent of the order sprites are visited in).
+            std::vector<std::uint32_t> bandStart(std::size_t(bands) + 1, 0), list;
+            const auto bandsOf = [&](const SpriteSetup& sp) {
+                return std::pair<int, int>{sp.screenRect.y / kBand,
+                                           (std::min(sp.screenRect.w, target.height) - 1) / kBand +
+                                               1};
+            };
+            for (const SpriteSetup* sp : run) {
+                const auto [b0, b1] = bandsOf(*sp);
+                for (int b = b0; b < b1; ++b) ++bandStart[std::size_t(b) + 1];
             }
-            run.push_back(sp);
-        }
-        drawn += run.size();
-        const CellRatePlan plan = planCellRate(run, options.rate, options.cellBudgetBytes);
-        const std::vector<kernel::uint> cells = traceCellRateSprites(models, run, plan, counters);
-        rate.cellsTraced += plan.cells;
-        rate.cellSprites += plan.cellSprites;
-        rate.cellOverBudget += plan.overBudget;
-        // Pass 2, bucketed by band of 16 rows, each band written by exactly one task (no locks;
-        // the depth/id rule makes the image independent of the order sprites are visited in).
-        std::vector<std::uint32_t> bandStart(std::size_t(bands) + 1, 0), list;
-        const auto bandsOf = [&](const SpriteSetup& sp) {
-            return std::pair<int, int>{sp.screenRect.y / kBand,
-                                       (std::min(sp.screenRect.w, target.height) - 1) / kBand + 1};
-        };
-        for (const SpriteSetup* sp : run) {
-            const auto [b0, b1] = bandsOf(*sp);
-            for (int b = b0; b < b1; ++b) ++bandStart[std::size_t(b) + 1];
-        }
-        for (std::size_t b = 0; b < std::size_t(bands); ++b) bandStart[b + 1] += bandStart[b];
-        list.resize(bandStart.back());
-        {
-            std::vector<std::uint32_t> fill(bandStart.begin(), bandStart.end() - 1);
-            for (std::uint32_t i = 0; i < run.size(); ++i) {
-                const auto [b0, b1] = bandsOf(*run[i]);
-                for (int b = b0; b < b1; ++b) list[fill[std::size_t(b)]++] = i;
-            }
-        }
-        tbb::parallel_for(0, bands, [&](int b) {
-            RowCounters& rc = counters.local();
-            const int y0 = b * kBand, y1 = std::min(target.height, y0 + kBand);
-            for (std::uint32_t k = bandStart[std::size_t(b)]; k < bandStart[std::size_t(b) + 1];
-                 ++k) {
-                const SpriteSetup& sp = *run[list[k]];
-                const int r0 = std::max(sp.screenRect.y, y0), r1 = std::min(sp.screenRect.w, y1);
-                if (!tiles) {
-                    drawSpriteRows(
-                        models, sp, plan.cellBase[list[k]], cells, r0, r1, sp.screenRect.x,
-                        sp.screenRect.z, [](int) { return true; }, target, rc);
-                    continue;
+            for (std::size_t b = 0; b < std::size_t(bands); ++b) bandStart[b + 1] += bandStart[b];
+            list.resize(bandStart.back());
+            {
+                std::vector<std::uint32_t> fill(bandStart.begin(), bandStart.end() - 1);
+                for (std::uint32_t i = 0; i < run.size(); ++i) {
+                    const auto [b0, b1] = bandsOf(*run[i]);
+                    for (int b = b0; b < b1; ++b) list[fill[std::size_t(b)]++] = i;
                 }
-                const auto [x0, x1] =
-                    tiles->visibleColumns(b, sp.screenRect.x, sp.screenRect.z, sp.gpu.depth);
-                if (x0 >= x1) continue;
-                // Which tiles between the two ends are still open, read once per sprite and band.
-                thread_local std::vector<char> open;
-                const int c0 = x0 / kBand;
-                open.resize(std::size_t((x1 - 1) / kBand - c0 + 1));
-                for (std::size_t c = 0; c < open.size(); ++c)
-                    open[c] = tiles->tileOpen(b, (c0 + int(c)) * kBand, sp.gpu.depth);
-                drawSpriteRows(
-                    models, sp, plan.cellBase[list[k]], cells, r0, r1, x0, x1,
-                    [&](int x) { return open[std::size_t(x / kBand - c0)] != 0; }, target, rc);
-                tiles->drawn(b, x0, x1, r1 - r0);
             }
+            tbb::parallel_for(0, bands, [&](int b) {
+                RowCounters& rc = counters.local();
+                const int y0 = b * kBand, y1 = std::min(target.height, y0 + kBand);
+                for (std::uint32_t k = bandStart[std::size_t(b)]; k < bandStart[std::size_t(b) + 1];
+                     ++k) {
+                    const SpriteSetup& sp = *run[list[k]];
+                    const int r0 = std::max(sp.screenRect.y, y0),
+                              r1 = std::min(sp.screenRect.w, y1);
+                    if (!tiles) {
+                        drawSpriteRows(
+                            models, sp, plan.cellBase[list[k]], cells, r0, r1, sp.screenRect.x,
+                            sp.screenRect.z, [](int) { return true; }, target, rc);
+                        continue;
+                    }
+                    const auto [x0, x1] =
+                        tiles->visibleColumns(b, sp.screenRect.x, sp.screenRect.z, sp.gpu.depth);
+                    if (x0 >= x1) continue;
+                    // Which tiles between the two ends are still open, read once per sprite and
+                    // band.
+                    thread_local std::vector<char> open;
+                    const int c0 = x0 / kBand;
+                    open.resize(std::size_t((x1 - 1) / kBand - c0 + 1));
+                    for (std::size_t c = 0; c < open.size(); ++c)
+                        open[c] = tiles->tileOpen(b, (c0 + int(c)) * kBand, sp.gpu.depth);
+                    drawSpriteRows(
+                        models, sp, plan.cellBase[list[k]], cells, r0, r1, x0, x1,
+                        [&](int x) { return open[std::size_t(x / kBand - c0)] != 0; }, target, rc);
+                    tiles->drawn(b, x0, x1, r1 - r0);
+                }
+            });
         });
-    }
     if (stats) {
         RowCounters total;
         counters.combine_each([&](const RowCounters& c) {
