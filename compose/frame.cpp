@@ -268,18 +268,17 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
     if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
     // What a bake costs must not depend on what the on-disk store holds, or the cost bound
-    // gives up bakes that a render without the directory keeps and the image depends on which
-    // process baked what (issue 28). A frame that read snapshots from the directory is no
-    // sample: its few bakes each built their Embree scene alone, where a render without the
-    // directory bakes them all and shares the scenes (2 bakes in 46 ms against 142 in 11 ms,
-    // measured). In the other frames, the store's writes (and the size limit) are not the
-    // bakes' cost: only the bakes' share of the lookup time counts.
-    const double bakeWork =
-        (cacheAfter.bakeMs + cacheAfter.sceneMs) - (cacheBefore.bakeMs + cacheBefore.sceneMs);
-    const double storeWork = cacheAfter.storeMs - cacheBefore.storeMs;
-    const double bakeShare = cacheAfter.diskLoads > cacheBefore.diskLoads ? 0.0
-                             : storeWork > 0.0 ? bakeWork / (bakeWork + storeWork)
-                                               : 1.0;
+    // gives up bakes that a render without the directory keeps, and the image depends on which
+    // process baked what (issue 28). So the far lookups' time counts only in the bakes' share
+    // of the work: not the store's reads and writes, and not the Embree scene builds. A scene
+    // is built once per model frame and serves every later bake of it, so which frame pays for
+    // it depends on history: a process that read frame 0's snapshots from the directory built
+    // the scenes for its first 2 bakes alone (46 ms, against 11 ms for a lone render's 142
+    // bakes), learnt a 20x bake cost and gave up bakes the lone render kept.
+    const double bakeWork = cacheAfter.bakeMs - cacheBefore.bakeMs;
+    const double otherWork =
+        (cacheAfter.sceneMs - cacheBefore.sceneMs) + (cacheAfter.storeMs - cacheBefore.storeMs);
+    const double bakeShare = otherWork > 0.0 ? bakeWork / (bakeWork + otherWork) : 1.0;
     measureCosts(cam, nearBackendFor(mode, options_.nearBackend), out.sprites, out.plan, st,
                  mode == RenderMode::Hybrid &&
                      scene_.selector.metric == SelectorMetric::ErrorBudget,
@@ -400,8 +399,7 @@ void FrameRenderer::measureCosts(const CameraFrame& cam, NearBackend nearBackend
     const auto blend = [](double& average, double sample) {
         average = average > 0.0 ? average + (sample - average) / 3.0 : sample;
     };
-    if (st.farBakes > 0 && bakeShare > 0.0)
-        blend(measuredCosts_.msPerBake, st.bakeMs * bakeShare / st.farBakes);
+    if (st.farBakes > 0) blend(measuredCosts_.msPerBake, st.bakeMs * bakeShare / st.farBakes);
     // Only the error-budget planner reads the near cost, and only its frames pay for measuring
     // the near tier's fixed cost: other frames (all-near, all-far, other metrics) are no sample.
     if (planned && nearUnits > 0.0 && st.nearMs > 0.0) {

@@ -238,7 +238,7 @@ class FrameRenderer {
     int keepAffordableBakes(const std::vector<SpriteSetup>& sprites, std::vector<EntityPlan>& plan);
     /// What this frame's near, blit and bakes cost per unit, and its planning (`planned`: an
     /// error-budget frame), into measuredCosts_. `bakeShare`: the share of stats.bakeMs the bakes
-    /// took (the rest went to the on-disk store's writes); 0: the frame is no bake-cost sample.
+    /// themselves took (the rest: Embree scene builds and the on-disk store's reads and writes).
     void measureCosts(const CameraFrame& camera, NearBackend nearBackend,
                       const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
                       const FrameStats& stats, bool planned, double bakeShare);
