@@ -34,7 +34,8 @@ struct RenderArgs {
     NearRate nearRate = NearRate::Auto;
     FarBlitKernel farBlit = FarBlitKernel::Simd;
     bool path = false;
-    bool alpha = false; ///< transparent background (alpha 0 where no sprite is drawn)
+    bool alpha = false;    ///< transparent background (alpha 0 where no sprite is drawn)
+    bool costBound = true; ///< FrameOptions::costAwareBakes
     std::string overlay, csv, pops;
     std::optional<double> time;
     std::optional<int> frame;
@@ -269,6 +270,7 @@ void run(const RenderArgs& a) {
     opt.farBlit.kernel = a.farBlit;
     opt.overlay = !a.overlay.empty();
     opt.measurePops = !a.pops.empty();
+    opt.costAwareBakes = a.costBound;
     if (a.cacheMb) opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
     opt.cacheDir = a.cacheDir.dir;
     opt.cacheDirBytes = a.cacheDir.limitBytes();
@@ -307,11 +309,14 @@ void run(const RenderArgs& a) {
             if (r.overlay) writeImage(name(a.overlay), *r.overlay);
             if (!a.ids.empty()) writeIdImage(name(a.ids), r.image);
         } catch (const InputError& e) {
-            if (!plan.sequence || animation) throw;
-            // Which frame, and that the earlier frames stand (each was written whole).
+            if (!plan.sequence) throw;
+            // Which frame, and what stands: the earlier numbered frames (each written whole),
+            // never a GIF (written only whole, after the last frame).
+            const std::string kept =
+                animation ? out + " is not written"
+                          : "the " + std::to_string(k) + " frames before it are written";
             throw InputError(e.file(), e.field(),
-                             e.reason() + " (frame " + std::to_string(frame) + "; the " +
-                                 std::to_string(k) + " frames before it are written)");
+                             e.reason() + " (frame " + std::to_string(frame) + "; " + kept + ")");
         }
         csv += std::to_string(frame) + ",";
         std::snprintf(row, sizeof row, "%.6f,", time);
@@ -371,6 +376,12 @@ void addRenderCommand(CLI::App& app) {
         cmd->add_flag("--path", args->path,
                       "Render every frame of the camera path (OUT becomes OUT_0000.png ...; "
                       "OUT.gif: one animated GIF at the path's frame rate)");
+    // The cost bound learns a bake's cost from measured times, so under another load a run may
+    // draw an entity near where another drew it far: a comparison of images needs it off.
+    cmd->add_flag("!--no-cost-bound", args->costBound,
+                  "Error-budget scenes: bound bakes only by max_bakes_per_frame, not by the costs "
+                  "measured on earlier frames, so that the image does not depend on the machine's "
+                  "load (for comparing images)");
     cmd->add_flag("--alpha", args->alpha,
                   "Transparent background: alpha 0 where no sprite is drawn (PNG, EXR; like a "
                   "scene background [r, g, b, 0])");
