@@ -39,8 +39,19 @@ void writeFileWhole(const std::filesystem::path& file, std::span<const std::uint
         std::filesystem::create_directories(file.parent_path(), ec);
         if (ec) fail(ec.value());
     }
-    const std::filesystem::path tmp = tempNameFor(file);
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    // A symbolic link stays one: the file it names is replaced. Something that is not a regular
+    // file (/dev/stdout, a pipe) is written in place: a rename would replace the device node.
+    std::filesystem::path target = file;
+    std::error_code lec;
+    if (std::filesystem::is_symlink(file, lec)) {
+        target = std::filesystem::weakly_canonical(file, lec);
+        if (lec) fail(lec.value());
+    }
+    struct stat st {};
+    const bool special = ::stat(target.c_str(), &st) == 0 && !S_ISREG(st.st_mode);
+    const std::filesystem::path tmp = special ? target : tempNameFor(target);
+    const int fd = special ? ::open(tmp.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC)
+                           : ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0) fail(errno);
     int err = 0;
     for (std::size_t done = 0; done < bytes.size() && !err;) {
@@ -50,10 +61,15 @@ void writeFileWhole(const std::filesystem::path& file, std::span<const std::uint
         if (n == 0) err = ENOSPC; // write(2) returns 0 for a non-empty buffer only when full
         if (n > 0) done += std::size_t(n);
     }
-    if (!err && sync && ::fsync(fd) != 0 && errno != EINVAL) err = errno; // EINVAL: a pipe
+    // EINVAL, EROFS: a pipe or a device, which have nothing to sync.
+    if (!err && sync && ::fsync(fd) != 0 && errno != EINVAL && errno != EROFS) err = errno;
     // close(2) is where NFS reports a failed flush; its error counts like a write's.
     if (::close(fd) != 0 && !err && errno != EINTR) err = errno;
-    if (!err && ::rename(tmp.c_str(), file.c_str()) != 0) err = errno;
+    if (special) {
+        if (err) fail(err);
+        return;
+    }
+    if (!err && ::rename(tmp.c_str(), target.c_str()) != 0) err = errno;
     if (err) {
         ::unlink(tmp.c_str());
         fail(err);

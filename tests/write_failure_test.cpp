@@ -14,6 +14,7 @@
 #include <sys/file.h>
 #include <sys/mount.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/wait.h>
 
 #include <cerrno>
@@ -186,6 +187,27 @@ TEST(WriteFailure, AFailedWriteKeepsThePreviousFile) {
     ::umount2(d.c_str(), MNT_DETACH);
     EXPECT_EQ(fs::file_size(file), before);
     EXPECT_EQ(readColorImage(file).width, 8);
+}
+
+// A symbolic link stays a link to the new file; a device node is written in place, not replaced.
+TEST(WriteFailure, WholeFilesKeepSymlinksAndWriteDevicesInPlace) {
+    const fs::path d = scratch() / "links";
+    fs::create_directories(d);
+    const fs::path real = d / "real.csv", link = d / "link.csv";
+    writeFileWhole(real, std::string_view("old\n"));
+    fs::create_symlink(real.filename(), link);
+    writeFileWhole(link, std::string_view("new\n"));
+    EXPECT_TRUE(fs::is_symlink(link));
+    std::ifstream in(real);
+    EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), "new\n");
+    // A private copy of /dev/null (mknod needs root), so that a wrong rename cannot hit /dev.
+    const fs::path node = d / "null";
+    if (::mknod(node.c_str(), S_IFCHR | 0666, makedev(1, 3)) != 0)
+        GTEST_SKIP() << "mknod: " << std::strerror(errno);
+    writeFileWhole(node, std::string_view("discarded"));
+    EXPECT_TRUE(fs::is_character_file(node));
+    for (const auto& e : fs::directory_iterator(d))
+        EXPECT_FALSE(contains(e.path().filename().string(), std::string(kTempMarker))) << e.path();
 }
 
 // A path whose frame 2 cannot be written (its name is taken by a folder): the error names the
