@@ -41,16 +41,20 @@ void writeFileWhole(const std::filesystem::path& file, std::span<const std::uint
     }
     // A symbolic link stays one: the file it names is replaced. Something that is not a regular
     // file (/dev/stdout, a pipe) is written in place: a rename would replace the device node.
+    // /dev/stdout and /dev/fd/N name whatever the descriptor is, a redirected regular file too:
+    // written in place, as the shell's descriptor expects.
+    const std::string name = file.lexically_normal().string();
+    const bool descriptor = name.rfind("/dev/", 0) == 0 || name.rfind("/proc/", 0) == 0;
+    struct stat st {};
+    const bool special = descriptor || (::stat(file.c_str(), &st) == 0 && !S_ISREG(st.st_mode));
     std::filesystem::path target = file;
     std::error_code lec;
-    if (std::filesystem::is_symlink(file, lec)) {
+    if (!special && std::filesystem::is_symlink(file, lec)) {
         target = std::filesystem::weakly_canonical(file, lec);
         if (lec) fail(lec.value());
     }
-    struct stat st {};
-    const bool special = ::stat(target.c_str(), &st) == 0 && !S_ISREG(st.st_mode);
-    const std::filesystem::path tmp = special ? target : tempNameFor(target);
-    const int fd = special ? ::open(tmp.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC)
+    const std::filesystem::path tmp = special ? file : tempNameFor(target);
+    const int fd = special ? ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666)
                            : ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0) fail(errno);
     int err = 0;
