@@ -44,7 +44,8 @@ void writeFileWhole(const std::filesystem::path& file, std::span<const std::uint
     // /dev/stdout and /dev/fd/N name whatever the descriptor is, a redirected regular file too:
     // written in place, as the shell's descriptor expects.
     const std::string name = file.lexically_normal().string();
-    const bool descriptor = name.rfind("/dev/", 0) == 0 || name.rfind("/proc/", 0) == 0;
+    const bool descriptor = name == "/dev/stdout" || name == "/dev/stderr" ||
+                            name.rfind("/dev/fd/", 0) == 0 || name.rfind("/proc/self/fd/", 0) == 0;
     struct stat st {};
     const bool special = descriptor || (::stat(file.c_str(), &st) == 0 && !S_ISREG(st.st_mode));
     std::filesystem::path target = file;
@@ -54,7 +55,8 @@ void writeFileWhole(const std::filesystem::path& file, std::span<const std::uint
         if (lec) fail(lec.value());
     }
     const std::filesystem::path tmp = special ? file : tempNameFor(target);
-    const int fd = special ? ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666)
+    // Appending: what the process wrote to a redirected stdout before stays.
+    const int fd = special ? ::open(tmp.c_str(), O_WRONLY | O_APPEND | O_CLOEXEC)
                            : ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0) fail(errno);
     int err = 0;

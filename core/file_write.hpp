@@ -22,8 +22,8 @@ inline constexpr std::string_view kTempMarker = ".tmp-";
 /// on device" or "Permission denied". `sync`: fsync before the close, so that a filesystem that
 /// reports a full disk or a lost server only at writeback (NFS, delayed allocation) reports it
 /// here. A symbolic link keeps pointing at the (replaced) file; a target that exists and is not
-/// a regular file (a named pipe, a device), or a path under /dev or /proc (/dev/stdout even when
-/// it is redirected to a file), is written in place, without a temporary.
+/// a regular file (a named pipe, a device), or a descriptor's name (/dev/stdout, /dev/stderr,
+/// /dev/fd/N, /proc/self/fd/N, even when redirected to a file), is appended to in place.
 void writeFileWhole(const std::filesystem::path& file, std::span<const std::uint8_t> bytes,
                     bool sync = true);
 inline void writeFileWhole(const std::filesystem::path& file, std::string_view text,
