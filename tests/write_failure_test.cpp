@@ -174,9 +174,12 @@ TEST(WriteFailure, AFailedWriteKeepsThePreviousFile) {
     writeImage(file, img);
     const auto before = fs::file_size(file);
     // A read-only bind of the folder: the temporary cannot be created, as on a full disk.
-    if (!run("mount --bind '" + d.string() + "' '" + d.string() +
-             "' && mount -o remount,bind,ro '" + d.string() + "'"))
-        GTEST_SKIP() << "cannot mount a read-only folder here (needs root)";
+    if (!run("mount --bind '" + d.string() + "' '" + d.string() + "'"))
+        GTEST_SKIP() << "cannot bind-mount a folder here (needs root)";
+    if (!run("mount -o remount,bind,ro '" + d.string() + "'")) {
+        ::umount2(d.c_str(), MNT_DETACH);
+        GTEST_SKIP() << "cannot remount a folder read-only here";
+    }
     Image other(16, 16, 0);
     try {
         writeImage(file, other);
