@@ -32,4 +32,11 @@ std::string cacheDirSummary(const SnapshotStoreOptions& o, const SnapshotStoreCo
     return buf;
 }
 
+std::string cacheDirWriteWarning(const SnapshotStoreOptions& o, const SnapshotStoreCounters& c) {
+    return "warning: cache dir " + o.dir.string() + ": " + std::to_string(c.writeFailures) +
+           " snapshot file" + (c.writeFailures == 1 ? "" : "s") + " could not be written (" +
+           (c.writeFailureReason.empty() ? "unknown reason" : c.writeFailureReason) +
+           "); they are baked again when next needed";
+}
+
 } // namespace voxtier::cli

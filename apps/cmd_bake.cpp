@@ -100,9 +100,23 @@ std::vector<ViewId> viewsToBake(ViewSet set, std::optional<int> level) {
     return views;
 }
 
+bool isVox(const std::string& file) {
+    std::string ext = std::filesystem::path(file).extension().string();
+    for (char& c : ext) c = char(std::tolower(c));
+    return ext == ".vox";
+}
+
+/// A scene (or any non-.vox file) given where a .vox model is read: say what to do instead of the
+/// .vox reader's "not a MagicaVoxel file".
+void requireVox(const std::string& file, const char* instead) {
+    if (!isVox(file)) throw InputError(file, "", instead);
+}
+
 void runBake(const BakeArgs& a) {
     if (a.inputs.size() != 1)
         throw CLI::ValidationError("model", "bake takes one .vox file (or --bench)");
+    requireVox(a.inputs[0], "bake without --cache-dir takes one .vox model; to pre-bake a "
+                            "scene's models add --cache-dir DIR");
     std::string name;
     const auto model = loadModel(a.inputs[0], a.model, &name);
     if (a.frame >= model->frameCount())
@@ -143,12 +157,6 @@ void runBake(const BakeArgs& a) {
         writeImage(a.sheet, makeContactSheet(snaps, model->palette()));
         std::printf("contact sheet -> %s\n", a.sheet.c_str());
     }
-}
-
-bool isVox(const std::string& file) {
-    std::string ext = std::filesystem::path(file).extension().string();
-    for (char& c : ext) c = char(std::tolower(c));
-    return ext == ".vox";
 }
 
 /// What one input asks to be baked: its models with the view set and sigma to bake them at.
@@ -269,6 +277,14 @@ void runPrebake(const BakeArgs& a) {
                 static_cast<unsigned long long>(c.raysTraced), c.raysTraced / ms / 1e3,
                 double(views) * 1e3 / ms);
     std::printf("%s\n", cacheDirSummary(config.store->options(), sc).c_str());
+    // A pre-bake exists to fill the directory: a snapshot not written fails the run (exit 1),
+    // so that a user or a scheduler (--shard) does not take a partial library for a full one.
+    if (sc.writeFailures > 0)
+        throw InputError(a.cacheDir.dir, "--cache-dir",
+                         std::to_string(sc.writeFailures) + " of " + std::to_string(views) +
+                             " snapshots could not be written (" + sc.writeFailureReason + "); " +
+                             std::to_string(sc.writes) + " written, " +
+                             std::to_string(c.diskLoads) + " already there");
 }
 
 void runBench(const BakeArgs& a) {
@@ -279,6 +295,7 @@ void runBench(const BakeArgs& a) {
             models.push_back({"ball " + dimsText(glm::ivec3(2 * r)), makeSphere(r)});
     }
     for (const std::string& f : a.inputs) {
+        requireVox(f, "bake --bench takes .vox models");
         std::string name;
         auto m = loadModel(f, a.model, &name);
         models.push_back({name, m});

@@ -5,6 +5,7 @@
 #include "compose/frame.hpp"
 #include "compose/frame_figures.hpp"
 #include "core/error.hpp"
+#include "core/file_write.hpp"
 #include "core/image_io.hpp"
 #include "core/model_view.hpp"
 #include "core/scene_loader.hpp"
@@ -34,7 +35,8 @@ struct RenderArgs {
     FarBlitKernel farBlit = FarBlitKernel::Simd;
     bool occlusionCull = true;
     bool path = false;
-    bool alpha = false; ///< transparent background (alpha 0 where no sprite is drawn)
+    bool alpha = false;    ///< transparent background (alpha 0 where no sprite is drawn)
+    bool costBound = true; ///< FrameOptions::costAwareBakes
     std::string overlay, csv, pops;
     std::optional<double> time;
     std::optional<int> frame;
@@ -150,14 +152,26 @@ std::string numbered(const std::string& pattern, int frame) {
     return (p.parent_path() / (p.stem().string() + buf + p.extension().string())).string();
 }
 
-std::FILE* openCsv(const std::string& file, const char* header) {
-    if (file.empty()) return nullptr;
-    const std::filesystem::path p(file);
-    if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
-    std::FILE* f = std::fopen(file.c_str(), "w");
-    if (!f) throw InputError(file, "", "cannot open for writing");
-    std::fputs(header, f);
-    return f;
+/// The files a render writes, by option: no two may be one file (the later write would replace
+/// the earlier one without a word), and none may be the input. Numbered sequences share their
+/// pattern's rule, so comparing the patterns covers every frame.
+void rejectCollidingOutputs(const RenderArgs& a, const std::string& out) {
+    const std::pair<const char*, const std::string*> outputs[] = {{"--out", &out},
+                                                                  {"--overlay", &a.overlay},
+                                                                  {"--ids", &a.ids},
+                                                                  {"--csv", &a.csv},
+                                                                  {"--pops", &a.pops}};
+    for (std::size_t i = 0; i < std::size(outputs); ++i) {
+        if (outputs[i].second->empty()) continue;
+        if (sameOutputFile(*outputs[i].second, a.input))
+            throw CLI::ValidationError(outputs[i].first, *outputs[i].second + " is the input file");
+        for (std::size_t j = 0; j < i; ++j)
+            if (!outputs[j].second->empty() &&
+                sameOutputFile(*outputs[i].second, *outputs[j].second))
+                throw CLI::ValidationError(outputs[i].first,
+                                           *outputs[i].second + " is also " + outputs[j].first +
+                                               "'s file; each output needs its own");
+    }
 }
 
 /// Which frames one render writes.
@@ -258,16 +272,20 @@ void run(const RenderArgs& a) {
     opt.occlusionCull = a.occlusionCull;
     opt.overlay = !a.overlay.empty();
     opt.measurePops = !a.pops.empty();
+    opt.costAwareBakes = a.costBound;
     if (a.cacheMb) opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
     opt.cacheDir = a.cacheDir.dir;
     opt.cacheDirBytes = a.cacheDir.limitBytes();
-    FrameRenderer renderer(scene, opt);
     std::string out = a.out;
     if (out.empty()) out = "out/" + std::filesystem::path(a.input).stem().string() + ".png";
+    rejectCollidingOutputs(a, out);
+    FrameRenderer renderer(scene, opt);
 
-    std::FILE* csv = openCsv(a.csv, ("frame,time," + figureCsvHeader() + "\n").c_str());
-    std::FILE* pops = openCsv(
-        a.pops, "frame,entity,kind,changed_pixels,changed_fraction,displacement_px,radius_px\n");
+    // The CSVs are kept in memory and written whole after the last frame (core/file_write.hpp).
+    std::string csv = "frame,time," + figureCsvHeader() + "\n";
+    std::string pops =
+        "frame,entity,kind,changed_pixels,changed_fraction,displacement_px,radius_px\n";
+    char row[512];
     // A lone frame starts the selector fresh (tiers from the metric alone); a sequence runs its
     // frames in order, so hysteresis and cross-fades behave as in a game.
     // A sequence to .gif is one animated GIF at the path's frame rate (per rendered frame).
@@ -285,16 +303,32 @@ void run(const RenderArgs& a) {
             return plan.sequence ? numbered(f, frame) : f;
         };
         const std::string file = animation ? out : name(out);
-        if (animation)
-            animation->add(r.image);
-        else
-            writeImage(file, r.image, scene.cameraAt(time).zNear);
-        if (r.overlay) writeImage(name(a.overlay), *r.overlay);
-        if (!a.ids.empty()) writeIdImage(name(a.ids), r.image);
-        if (csv) std::fprintf(csv, "%d,%.6f,%s\n", frame, time, figureCsvRow(r.stats).c_str());
-        for (const PopEvent& e : r.pops)
-            std::fprintf(pops, "%d,%u,%s,%zu,%.6f,%.3f,%.3f\n", e.frame, e.entity, toString(e.kind),
-                         e.changedPixels, e.changedFraction, e.displacementPx, e.radiusPx);
+        try {
+            if (animation)
+                animation->add(r.image);
+            else
+                writeImage(file, r.image, scene.cameraAt(time).zNear);
+            if (r.overlay) writeImage(name(a.overlay), *r.overlay);
+            if (!a.ids.empty()) writeIdImage(name(a.ids), r.image);
+        } catch (const InputError& e) {
+            if (!plan.sequence) throw;
+            // Which frame, and what stands: the earlier numbered frames (each written whole),
+            // never a GIF (written only whole, after the last frame).
+            const std::string kept =
+                animation ? out + " is not written"
+                          : "the " + std::to_string(k) + " frames before it are written";
+            throw InputError(e.file(), e.field(),
+                             e.reason() + " (frame " + std::to_string(frame) + "; " + kept + ")");
+        }
+        csv += std::to_string(frame) + ",";
+        std::snprintf(row, sizeof row, "%.6f,", time);
+        csv += row + figureCsvRow(r.stats) + "\n";
+        for (const PopEvent& e : r.pops) {
+            std::snprintf(row, sizeof row, "%d,%u,%s,%zu,%.6f,%.3f,%.3f\n", e.frame, e.entity,
+                          toString(e.kind), e.changedPixels, e.changedFraction, e.displacementPx,
+                          e.radiusPx);
+            pops += row;
+        }
         if (k == 0 && !renderer.nearDeviceName().empty())
             std::printf("Vulkan device: %s\n", renderer.nearDeviceName().c_str());
         // Auto's choice, once, when a frame drew near sprites: which backend and why.
@@ -306,10 +340,16 @@ void run(const RenderArgs& a) {
         printStatus(a, mode, frame, time, r, file, progress(plan, k + 1, msSince(start)));
     }
     if (animation) animation->close();
-    if (csv) std::fclose(csv);
-    if (pops) std::fclose(pops);
-    if (const auto& store = renderer.snapshotCache().config().store)
-        std::printf("%s\n", cacheDirSummary(store->options(), store->counters()).c_str());
+    if (!a.csv.empty()) writeFileWhole(a.csv, csv);
+    if (!a.pops.empty()) writeFileWhole(a.pops, pops);
+    if (const auto& store = renderer.snapshotCache().config().store) {
+        const SnapshotStoreCounters c = store->counters();
+        std::printf("%s\n", cacheDirSummary(store->options(), c).c_str());
+        // The image does not depend on the cache, so failed writes do not fail the render; one
+        // line says they happened and why (the store itself does not warn per file).
+        if (c.writeFailures > 0)
+            std::fprintf(stderr, "%s\n", cacheDirWriteWarning(store->options(), c).c_str());
+    }
 }
 
 } // namespace
@@ -339,6 +379,12 @@ void addRenderCommand(CLI::App& app) {
         cmd->add_flag("--path", args->path,
                       "Render every frame of the camera path (OUT becomes OUT_0000.png ...; "
                       "OUT.gif: one animated GIF at the path's frame rate)");
+    // The cost bound learns a bake's cost from measured times, so under another load a run may
+    // draw an entity near where another drew it far: a comparison of images needs it off.
+    cmd->add_flag("!--no-cost-bound", args->costBound,
+                  "Error-budget scenes: bound bakes only by max_bakes_per_frame, not by the costs "
+                  "measured on earlier frames, so that the image does not depend on the machine's "
+                  "load (for comparing images)");
     cmd->add_flag("--alpha", args->alpha,
                   "Transparent background: alpha 0 where no sprite is drawn (PNG, EXR; like a "
                   "scene background [r, g, b, 0])");

@@ -75,11 +75,13 @@ bool ErrorBudgetViews::viewFade(std::size_t entity, const SpriteSetup& sprite,
 
 std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteSetup& sprite,
                                                const SelectorConfig& config,
-                                               const IsCached& isCached) {
+                                               const IsCached& isCached,
+                                               const IsCached& withoutBake) {
     std::optional<ViewId>& current = current_.at(entity);
     const double budget = config.budgetVpx;
     const auto baking = [&](ViewId v) { return bakingSet_.count(keyOf(sprite, v)) > 0; };
-    const auto available = [&](ViewId v) { return isCached(sprite, v) || baking(v); };
+    const auto onDisk = [&](ViewId v) { return withoutBake && withoutBake(sprite, v); };
+    const auto available = [&](ViewId v) { return isCached(sprite, v) || baking(v) || onDisk(v); };
     const auto bake = [&](ViewId v) {
         if (baking(v)) return v; // another entity's bake this frame: no second one
         --bakesLeft_;
@@ -134,6 +136,9 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
         }
         if (pick) break;
     }
+    // The view a bake would be for, read from disk instead when a file has it: the same view
+    // either way, only the bake is spared.
+    if (!pick && pickNeedingBake && onDisk(*pickNeedingBake)) pick = pickNeedingBake;
     if (!pick && pickNeedingBake && (bakesLeft_ > 0 || baking(*pickNeedingBake)))
         pick = bake(*pickNeedingBake);
     if (!pick) pick = pickBaking;

@@ -59,9 +59,14 @@ class ErrorBudgetViews {
     /// The view `sprite` (entity `entity`) is drawn far from, or nullopt if no view within the
     /// budget can be had this frame without passing the bake bound (then draw it near). Keeps
     /// the entity's current view while that stays within the budget; otherwise the coarsest
-    /// level whose nearest view is within the budget, a cached one first.
+    /// level whose nearest view is within the budget, a cached one first. `withoutBake` (may be
+    /// empty): a view that can be had without a bake although not cached (a file in the on-disk
+    /// store). It spares the bake bound but is never preferred: which files a shared directory
+    /// holds depends on other processes and earlier runs, and the views a frame picks must not
+    /// (a render is the same whoever baked its snapshots, issue 28).
     std::optional<ViewId> choose(std::size_t entity, const SpriteSetup& sprite,
-                                 const SelectorConfig& config, const IsCached& isCached);
+                                 const SelectorConfig& config, const IsCached& isCached,
+                                 const IsCached& withoutBake = {});
     /// The entity is drawn near: the next far frame picks its view afresh.
     void drop(std::size_t entity);
     /// After choose(): whether the entity is inside a view switch's cross-fade

@@ -256,8 +256,10 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     st.selectMs = msSince(t1);
 
     // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z.
+    const SnapshotCacheCounters cacheBefore = cache_->counters();
     out.image =
         drawWith(nearBackendFor(mode, options_.nearBackend), cam, out.sprites, out.plan, st);
+    const SnapshotCacheCounters cacheAfter = cache_->counters();
 
     // 6. Where no sprite drew: the ground plane, or a (transparent) background.
     drawBackdrop(scene_, cam, out.image);
@@ -265,9 +267,22 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
     if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
+    // What a bake costs must not depend on what the on-disk store holds, or the cost bound
+    // gives up bakes that a render without the directory keeps, and the image depends on which
+    // process baked what (issue 28). So the far lookups' time counts only in the bakes' share
+    // of the work: not the store's reads and writes, and not the Embree scene builds. A scene
+    // is built once per model frame and serves every later bake of it, so which frame pays for
+    // it depends on history: a process that read frame 0's snapshots from the directory built
+    // the scenes for its first 2 bakes alone (46 ms, against 11 ms for a lone render's 142
+    // bakes), learnt a 20x bake cost and gave up bakes the lone render kept.
+    const double bakeWork = cacheAfter.bakeMs - cacheBefore.bakeMs;
+    const double otherWork =
+        (cacheAfter.sceneMs - cacheBefore.sceneMs) + (cacheAfter.storeMs - cacheBefore.storeMs);
+    const double bakeShare = otherWork > 0.0 ? bakeWork / (bakeWork + otherWork) : 1.0;
     measureCosts(cam, nearBackendFor(mode, options_.nearBackend), out.sprites, out.plan, st,
                  mode == RenderMode::Hybrid &&
-                     scene_.selector.metric == SelectorMetric::ErrorBudget);
+                     scene_.selector.metric == SelectorMetric::ErrorBudget,
+                 bakeShare);
     previousPlan_ = out.plan;
     st.cacheBytes = cache_->counters().bytes;
     st.totalMs = msSince(t0);
@@ -332,12 +347,17 @@ void FrameRenderer::planBudgetView(std::size_t entity, const SpriteSetup& sprite
         budgetViews_.drop(entity);
         return;
     }
-    // In memory or on disk (--cache-dir): either way drawing from it is not a bake.
+    // In memory: preferred. On disk (--cache-dir): not a bake either, but never preferred, since
+    // what a shared directory holds is up to other processes (ErrorBudgetViews::choose).
     const auto isCached = [&](const SpriteSetup& s, ViewId v) {
+        return cache_->inMemory(*scene_.models.at(std::size_t(s.model)), s.frame, v,
+                                s.lattice.sigma);
+    };
+    const auto withoutBake = [&](const SpriteSetup& s, ViewId v) {
         return cache_->availableWithoutBake(*scene_.models.at(std::size_t(s.model)), s.frame, v,
                                             s.lattice.sigma);
     };
-    p.view = budgetViews_.choose(entity, sprite, scene_.selector, isCached);
+    p.view = budgetViews_.choose(entity, sprite, scene_.selector, isCached, withoutBake);
     // No view within the budget without passing this frame's bake bound: near this frame (the
     // selector keeps its far state, so the entity goes far as soon as a view can be had).
     if (!p.view) p = EntityPlan{};
@@ -366,7 +386,7 @@ int FrameRenderer::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
 void FrameRenderer::measureCosts(const CameraFrame& cam, NearBackend nearBackend,
                                  const std::vector<SpriteSetup>& sprites,
                                  const std::vector<EntityPlan>& plan, const FrameStats& st,
-                                 bool planned) {
+                                 bool planned, double bakeShare) {
     measuredCosts_.nearRate = options_.nearRate;
     double nearUnits = 0.0, farPx = 0.0;
     for (std::size_t i = 0; i < sprites.size() && i < plan.size(); ++i) {
@@ -379,7 +399,7 @@ void FrameRenderer::measureCosts(const CameraFrame& cam, NearBackend nearBackend
     const auto blend = [](double& average, double sample) {
         average = average > 0.0 ? average + (sample - average) / 3.0 : sample;
     };
-    if (st.farBakes > 0) blend(measuredCosts_.msPerBake, st.bakeMs / st.farBakes);
+    if (st.farBakes > 0) blend(measuredCosts_.msPerBake, st.bakeMs * bakeShare / st.farBakes);
     // Only the error-budget planner reads the near cost, and only its frames pay for measuring
     // the near tier's fixed cost: other frames (all-near, all-far, other metrics) are no sample.
     if (planned && nearUnits > 0.0 && st.nearMs > 0.0) {

@@ -246,10 +246,11 @@ class FrameRenderer {
     /// Returns the bakes given up.
     int keepAffordableBakes(const std::vector<SpriteSetup>& sprites, std::vector<EntityPlan>& plan);
     /// What this frame's near, blit and bakes cost per unit, and its planning (`planned`: an
-    /// error-budget frame), into measuredCosts_.
+    /// error-budget frame), into measuredCosts_. `bakeShare`: the share of stats.bakeMs the bakes
+    /// themselves took (the rest: Embree scene builds and the on-disk store's reads and writes).
     void measureCosts(const CameraFrame& camera, NearBackend nearBackend,
                       const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
-                      const FrameStats& stats, bool planned);
+                      const FrameStats& stats, bool planned, double bakeShare);
     /// The near tier's per-frame cost whatever it draws (ms): measured once, drawing nothing.
     double nearFixedMs(const CameraFrame& camera, NearBackend nearBackend);
     /// draw() with the near tier drawn by `nearBackend`.

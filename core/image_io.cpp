@@ -1,8 +1,10 @@
 #include "core/image_io.hpp"
 
 #include "core/error.hpp"
+#include "core/file_write.hpp"
 #include "core/sprite_kernel.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
@@ -27,10 +29,33 @@ float linearFromSrgb8(unsigned code) {
     return float(c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4));
 }
 
-void writeBuf(const std::filesystem::path& file, const OIIO::ImageBuf& buf) {
-    if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path());
-    if (!buf.write(file.string()))
-        throw InputError(file.string(), "", "cannot write image: " + buf.geterror());
+/// An ImageOutput for `file`'s format that writes into `proxy` (memory) instead of the file, so
+/// that the bytes reach the disk only through writeFileWhole, which checks every OS result.
+std::unique_ptr<OIIO::ImageOutput> memoryOutput(const std::string& file,
+                                                OIIO::Filesystem::IOProxy* proxy) {
+    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(file);
+    if (!out) throw InputError(file, "", "cannot write image: " + OIIO::geterror());
+    if (!out->supports("ioproxy") || !out->set_ioproxy(proxy))
+        throw InputError(file, "", "cannot write an image in this format");
+    return out;
+}
+
+/// Encodes the pixels in `file`'s format, then writes the file whole or not at all.
+void writeEncoded(const std::filesystem::path& file, const OIIO::ImageSpec& spec,
+                  OIIO::TypeDesc type, const void* pixels) {
+    const std::string name = file.string();
+    std::vector<unsigned char> bytes;
+    OIIO::Filesystem::IOVecOutput proxy(bytes);
+    const std::unique_ptr<OIIO::ImageOutput> out = memoryOutput(name, &proxy);
+    const bool ok = out->open(name, spec) && out->write_image(type, pixels);
+    // close() also flushes the encoder's last bytes: its result counts like a write's.
+    if (!out->close() || !ok) throw InputError(name, "", "cannot encode image: " + out->geterror());
+    writeFileWhole(file, bytes);
+}
+
+void writeColor(const std::filesystem::path& file, const Image& img) {
+    writeEncoded(file, OIIO::ImageSpec(img.width, img.height, 4, OIIO::TypeDesc::UINT8),
+                 OIIO::TypeDesc::UINT8, img.color.data());
 }
 
 } // namespace
@@ -39,7 +64,7 @@ void writeImage(const std::filesystem::path& file, const Image& img, double zNea
     std::string ext = file.extension().string();
     for (char& c : ext) c = char(std::tolower(c));
     if (ext != ".exr") {
-        writeBuf(file, colorBuf(img));
+        writeColor(file, img);
         return;
     }
     // EXR: RGB decoded from the 8-bit sRGB colour to linear (EXR's convention, what
@@ -61,14 +86,16 @@ void writeImage(const std::filesystem::path& file, const Image& img, double zNea
             (d > 0.0f && zNear > 0.0) ? float(zNear / d) : std::numeric_limits<float>::infinity();
         px[i * 6 + 5] = img.id[i] == kernel::VT_NO_ENTITY ? -1.0f : float(img.id[i]);
     }
-    OIIO::ImageBuf buf(spec);
-    buf.set_pixels(OIIO::ROI::All(), OIIO::TypeDesc::FLOAT, px.data());
-    writeBuf(file, buf);
+    writeEncoded(file, spec, OIIO::TypeDesc::FLOAT, px.data());
 }
 
 struct AnimationWriter::Impl {
     std::filesystem::path file;
     double fps = 30.0;
+    /// The frames are encoded into memory and reach the disk whole at close(): a run killed or
+    /// failing part-way leaves no shorter GIF that looks complete.
+    std::vector<unsigned char> bytes;
+    OIIO::Filesystem::IOVecOutput proxy{bytes};
     std::unique_ptr<OIIO::ImageOutput> out;
     int width = 0, height = 0;
     bool open = false;
@@ -80,12 +107,7 @@ AnimationWriter::AnimationWriter(std::filesystem::path file, double fps)
     impl_->fps = fps;
 }
 
-AnimationWriter::~AnimationWriter() {
-    try {
-        close();
-    } catch (...) {
-    }
-}
+AnimationWriter::~AnimationWriter() = default;
 
 void AnimationWriter::add(const Image& img) {
     Impl& m = *impl_;
@@ -98,21 +120,20 @@ void AnimationWriter::add(const Image& img) {
     spec.attribute("oiio:Movie", 1);
     spec.attribute("gif:LoopCount", 0); // loop forever
     if (!m.open) {
-        if (m.file.has_parent_path()) std::filesystem::create_directories(m.file.parent_path());
-        m.out = OIIO::ImageOutput::create(name);
-        if (!m.out || !m.out->supports("appendsubimage"))
+        m.out = memoryOutput(name, &m.proxy);
+        if (!m.out->supports("appendsubimage"))
             throw InputError(name, "", "cannot write an animation in this format (use .gif)");
         if (!m.out->open(name, spec, OIIO::ImageOutput::Create))
-            throw InputError(name, "", "cannot write image: " + m.out->geterror());
+            throw InputError(name, "", "cannot encode image: " + m.out->geterror());
         m.width = img.width, m.height = img.height, m.open = true;
     } else {
         if (img.width != m.width || img.height != m.height)
             throw InputError(name, "", "animation frames must all be the same size");
         if (!m.out->open(name, spec, OIIO::ImageOutput::AppendSubimage))
-            throw InputError(name, "", "cannot write image: " + m.out->geterror());
+            throw InputError(name, "", "cannot encode image: " + m.out->geterror());
     }
     if (!m.out->write_image(OIIO::TypeDesc::UINT8, img.color.data()))
-        throw InputError(name, "", "cannot write image: " + m.out->geterror());
+        throw InputError(name, "", "cannot encode image: " + m.out->geterror());
 }
 
 void AnimationWriter::close() {
@@ -121,7 +142,8 @@ void AnimationWriter::close() {
     const bool ok = m.out->close();
     const std::string err = ok ? "" : m.out->geterror();
     m.out.reset();
-    if (!ok) throw InputError(m.file.string(), "", "cannot write image: " + err);
+    if (!ok) throw InputError(m.file.string(), "", "cannot encode image: " + err);
+    writeFileWhole(m.file, m.bytes);
 }
 
 void writeIdImage(const std::filesystem::path& file, const Image& img) {
@@ -135,7 +157,7 @@ void writeIdImage(const std::filesystem::path& file, const Image& img) {
         h ^= h >> 15;
         vis.color[i] = packRgba(64 + (h & 191), 64 + ((h >> 8) & 191), 64 + ((h >> 16) & 191));
     }
-    writeBuf(file, colorBuf(vis));
+    writeColor(file, vis);
 }
 
 Image readColorImage(const std::filesystem::path& file) {

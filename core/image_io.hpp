@@ -12,11 +12,14 @@ namespace voxtier {
 /// "Linear"; premultiplied by A, as EXR expects), A, then "Z", the view depth in metres of the
 /// sprite's model centre (DESIGN.md §3.8: every pixel of a sprite has its centre's depth; +inf
 /// where empty; needs the camera's zNear), and "id", the entity id as float (-1 where empty).
-/// Throws InputError on failure, naming the file.
+/// The file is whole or absent (core/file_write.hpp): encoded in memory, written under a
+/// temporary name, renamed. Throws InputError naming the file and the OS reason on failure.
 void writeImage(const std::filesystem::path& file, const Image& image, double zNear = 0.0);
 /// An animated image (GIF), written one frame at a time: every frame the same size, shown for
 /// 1/fps s (GIF stores the delay in 1/100 s, so 30 fps plays at 100/3 fps). InputError naming
-/// the file when it cannot be written or a frame's size differs from the first.
+/// the file when it cannot be written or a frame's size differs from the first. Nothing reaches
+/// the disk before close(), which writes the whole file (core/file_write.hpp); an animation
+/// destroyed without close() (a run that failed or was killed part-way) leaves no file.
 class AnimationWriter {
   public:
     AnimationWriter(std::filesystem::path file, double fps);
@@ -24,7 +27,7 @@ class AnimationWriter {
     AnimationWriter(const AnimationWriter&) = delete;
     AnimationWriter& operator=(const AnimationWriter&) = delete;
     void add(const Image& frame);
-    /// Finishes the file (also done by the destructor, which cannot report a failure).
+    /// Finishes and writes the file.
     void close();
 
   private:

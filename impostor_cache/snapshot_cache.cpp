@@ -1,5 +1,8 @@
 #include "impostor_cache/snapshot_cache.hpp"
 
+#include "core/stopwatch.hpp"
+
+#include <chrono>
 #include <functional>
 #include <optional>
 
@@ -80,9 +83,12 @@ std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int 
             // A whole snapshot is needed: the on-disk cache has it if anyone baked these voxels.
             std::optional<SnapshotFileKey> fileKey;
             if (config_.store) {
+                const auto t0 = std::chrono::steady_clock::now();
                 fileKey = this->fileKey(model, frame, view, sigma);
-                if (std::optional<Snapshot> loaded = config_.store->load(*fileKey)) {
-                    std::lock_guard lock(mutex_);
+                std::optional<Snapshot> loaded = config_.store->load(*fileKey);
+                std::lock_guard lock(mutex_);
+                counters_.storeMs += msSince(t0);
+                if (loaded) {
                     ++counters_.diskLoads;
                     return std::make_shared<const Snapshot>(std::move(*loaded));
                 }
@@ -90,7 +96,12 @@ std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int 
             const std::shared_ptr<const VoxelScene> sc = scene(model, frame);
             snap = std::make_shared<const Snapshot>(
                 bakeSnapshot(*sc, view, sigma, config_.bake, &stats));
-            if (fileKey) config_.store->save(*fileKey, *snap);
+            if (fileKey) {
+                const auto t0 = std::chrono::steady_clock::now();
+                config_.store->save(*fileKey, *snap);
+                std::lock_guard lock(mutex_);
+                counters_.storeMs += msSince(t0);
+            }
         }
         std::lock_guard lock(mutex_);
         ++counters_.bakes;
@@ -139,6 +150,10 @@ bool SnapshotCache::availableWithoutBake(const VoxelModel& model, int frame, Vie
     if (diskAnswers_.size() >= kMaxDiskAnswers) diskAnswers_.clear();
     diskAnswers_[key] = {model.version(), present};
     return present;
+}
+
+bool SnapshotCache::inMemory(const VoxelModel& model, int frame, ViewId view, double sigma) const {
+    return snapshots_.find({model.uid(), frame, view, sigma}, model.version()) != nullptr;
 }
 
 SnapshotCacheCounters SnapshotCache::counters() const {

@@ -67,6 +67,9 @@ struct SnapshotCacheCounters {
     std::uint64_t scenesBuilt = 0;
     std::uint64_t sceneBytes = 0; ///< bytes of the Embree scenes held now
     double bakeMs = 0.0, sceneMs = 0.0;
+    /// Time in the on-disk store's reads and writes (size limit included), summed over threads:
+    /// not part of what a bake costs (a render without the directory spends none of it).
+    double storeMs = 0.0;
     // Invalidation: what edits cost.
     std::uint64_t refreshes = 0; ///< bakes that replaced a stale snapshot of the same view (a
                                  ///< subset of bakes; only views that are requested)
@@ -109,6 +112,10 @@ class SnapshotCache {
     /// lookups. An edited model with a cached older version is refreshed, not read from disk,
     /// whatever this says (a file of the edited voxels is rare: nobody pre-bakes an edit).
     bool availableWithoutBake(const VoxelModel& model, int frame, ViewId view, double sigma);
+    /// Whether the snapshot is cached in this process's memory (the model's current version).
+    /// Unlike availableWithoutBake, this depends only on what this process asked for, never on
+    /// what other processes or earlier runs left in the directory: what a planner may prefer.
+    bool inMemory(const VoxelModel& model, int frame, ViewId view, double sigma) const;
     /// The Embree scene of the model's current version of `frame` (built once, shared).
     std::shared_ptr<const VoxelScene> scene(const VoxelModel& model, int frame);
 

@@ -341,6 +341,7 @@ SnapshotStore::SnapshotStore(SnapshotStoreOptions options) : options_(std::move(
                          "cannot create the directory" + (ec ? ": " + ec.message() : ""));
     if (!options_.warn)
         options_.warn = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+    removeStaleTemporaries();
 }
 
 std::filesystem::path SnapshotStore::pathOf(const SnapshotFileKey& key) const {
@@ -392,7 +393,7 @@ std::optional<Snapshot> SnapshotStore::load(const SnapshotFileKey& key) {
     return snap;
 }
 
-void SnapshotStore::save(const SnapshotFileKey& key, const Snapshot& snap) {
+bool SnapshotStore::save(const SnapshotFileKey& key, const Snapshot& snap) {
     const auto t0 = std::chrono::steady_clock::now();
     const std::filesystem::path path = pathOf(key);
     const std::vector<std::uint8_t> bytes = encodeSnapshotFile(key, snap);
@@ -403,16 +404,31 @@ void SnapshotStore::save(const SnapshotFileKey& key, const Snapshot& snap) {
     tmp += ".tmp" + std::to_string(::getpid()) + "-" + std::to_string(serial++);
     std::error_code ec;
     std::filesystem::create_directories(path.parent_path(), ec);
-    std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    bool ok = f && std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size();
-    if (f) ok = (std::fclose(f) == 0) && ok;
-    if (ok) std::filesystem::rename(tmp, path, ec);
-    if (!ok || ec) {
-        std::filesystem::remove(tmp, ec);
-        options_.warn("warning: " + path.string() + ": cannot write the snapshot file");
+    int err = 0;
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0) {
+        err = errno;
+    } else {
+        // Held until the rename: the stale-temporary sweep never removes a live writer's file.
+        ::flock(fd, LOCK_EX | LOCK_NB);
+        for (std::size_t done = 0; done < bytes.size() && !err;) {
+            const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+            if (n < 0 && errno == EINTR) continue;
+            if (n < 0) err = errno;
+            if (n == 0) err = ENOSPC; // 0 for a non-empty buffer: nothing more fits
+            if (n > 0) done += std::size_t(n);
+        }
+        // No fsync: a snapshot lost in a power cut is a checksum mismatch, re-baked on read.
+        // close(2) is where NFS reports a failed flush: checked before the file gets its name.
+        if (::close(fd) != 0 && !err && errno != EINTR) err = errno;
+        if (!err && ::rename(tmp.c_str(), path.c_str()) != 0) err = errno;
+        if (err) ::unlink(tmp.c_str());
+    }
+    if (err) {
         std::lock_guard lock(mutex_);
-        ++counters_.writeFailures;
-        return;
+        if (counters_.writeFailures++ == 0)
+            counters_.writeFailureReason = std::generic_category().message(err);
+        return false;
     }
     {
         std::lock_guard lock(mutex_);
@@ -421,6 +437,42 @@ void SnapshotStore::save(const SnapshotFileKey& key, const Snapshot& snap) {
         counters_.writeMs += msSince(t0);
     }
     keepLimitAfterWrite(bytes.size());
+    return true;
+}
+
+namespace {
+/// A writer's temporary: "<digest>.snap.tmp<pid>-<serial>".
+bool isTemporary(const std::filesystem::path& p) {
+    return p.filename().string().find(".snap.tmp") != std::string::npos;
+}
+} // namespace
+
+std::size_t SnapshotStore::removeStaleTemporaries() {
+    const auto now = std::filesystem::file_time_type::clock::now();
+    std::size_t removed = 0;
+    std::error_code ec;
+    for (auto it = std::filesystem::recursive_directory_iterator(options_.dir, ec);
+         !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec)) {
+        if (it.depth() > 1 || !isTemporary(it->path())) continue;
+        std::error_code fec;
+        const auto time = it->last_write_time(fec);
+        if (fec || now - time < options_.staleTempAge) continue;
+        const int fd = ::open(it->path().c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0) continue; // renamed or removed meanwhile
+        // Not waiting: a temporary someone holds is a live writer's, whatever its age.
+        struct stat held {
+        }, named{};
+        if (::flock(fd, LOCK_EX | LOCK_NB) == 0 && fstat(fd, &held) == 0 &&
+            ::stat(it->path().c_str(), &named) == 0 && held.st_ino == named.st_ino &&
+            held.st_dev == named.st_dev && ::unlink(it->path().c_str()) == 0)
+            ++removed;
+        ::close(fd);
+    }
+    if (removed > 0) {
+        std::lock_guard lock(mutex_);
+        counters_.staleTempsRemoved += removed;
+    }
+    return removed;
 }
 
 void SnapshotStore::keepLimitAfterWrite(std::uint64_t fileBytes) {
@@ -460,6 +512,7 @@ std::vector<SnapshotStoreFile> SnapshotStore::list() const {
 }
 
 std::uint64_t SnapshotStore::evictDownTo(std::uint64_t targetBytes) {
+    removeStaleTemporaries(); // they take space too, and nothing else removes them
     const std::vector<SnapshotStoreFile> files = list();
     std::uint64_t total = 0;
     for (const SnapshotStoreFile& f : files) total += f.bytes;

@@ -16,10 +16,23 @@
 // Size limit: readers hold a shared flock while they read and then touch the file's mtime (the
 // least-recently-used order); the evictor removes the oldest files first and only those it can
 // lock exclusively without waiting, so a file another process is reading is never removed.
+//
+// Write failures (a full disk, a read-only directory) are counted with the first one's OS reason,
+// not warned per file: the caller says so once (render: one warning line; bake: a failed run).
+//
+// Temporaries of writers that died (a killed bake) are removed when a store is opened and by the
+// size limit's sweep: a "*.snap.tmp*" file whose mtime is older than staleTempAge (an hour) and
+// that no process holds (a writer keeps an exclusive flock on its temporary until it is renamed;
+// the sweeper removes only what it can lock without waiting). Why that is safe with concurrent
+// writers on shared storage: a write takes milliseconds, so an hour-old temporary is a dead
+// writer's; where flock does not reach across machines, the age alone decides, and even removing
+// a live (hour-stalled) writer's temporary only makes its rename fail, which is a counted write
+// failure, never a partial file under a final name.
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"
 #include "impostor_cache/view_set.hpp"
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -86,6 +99,8 @@ struct SnapshotStoreOptions {
     std::uint64_t limitBytes = 0;
     /// Where warnings go (one line each, no newline); default: stderr.
     std::function<void(const std::string&)> warn;
+    /// A temporary file older than this that no process holds is a dead writer's (see above).
+    std::chrono::seconds staleTempAge{3600};
 };
 
 struct SnapshotStoreCounters {
@@ -96,7 +111,9 @@ struct SnapshotStoreCounters {
     std::uint64_t writes = 0; ///< files written
     std::uint64_t bytesRead = 0, bytesWritten = 0;
     std::uint64_t evicted = 0, bytesEvicted = 0; ///< files removed for the size limit
-    std::uint64_t writeFailures = 0;             ///< files that could not be written (warned)
+    std::uint64_t writeFailures = 0;             ///< files that could not be written
+    std::string writeFailureReason;              ///< the first failure's OS reason
+    std::uint64_t staleTempsRemoved = 0;         ///< dead writers' temporaries removed
     double readMs = 0.0, writeMs = 0.0;
 };
 
@@ -119,9 +136,12 @@ class SnapshotStore {
     /// planning what a frame can have without baking, since load() still checks the file and
     /// the caller re-bakes a bad one.
     bool contains(const SnapshotFileKey& key) const;
-    /// Writes the file (temporary name, then rename), then keeps the size limit. A failure to
-    /// write is a warning, not an error: the cache is an optimisation.
-    void save(const SnapshotFileKey& key, const Snapshot& snap);
+    /// Writes the file (temporary name, then rename), then keeps the size limit. Returns false
+    /// when it could not be written (counted, with the reason; no warning, no file left): the
+    /// cache is an optimisation, the caller decides whether that fails its run.
+    bool save(const SnapshotFileKey& key, const Snapshot& snap);
+    /// Removes the temporaries of writers that died (the rule above). Returns how many.
+    std::size_t removeStaleTemporaries();
     /// Removes least recently used files until the directory is at most `targetBytes`, skipping
     /// files another process is reading. Returns the bytes left.
     std::uint64_t evictDownTo(std::uint64_t targetBytes);
