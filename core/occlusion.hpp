@@ -20,7 +20,8 @@ namespace voxtier {
 /// Per 16x16 tile of an image, the farthest depth drawn, known only once every pixel of the tile
 /// holds a sprite (an empty pixel is infinitely far). Kept lazily: a tile is re-read from the
 /// image only when enough sprite rectangle has been drawn over it since its last reading to have
-/// filled the pixels that were empty then, so a tile that fills is read about twice.
+/// filled the pixels that were empty then (and, for a tile that keeps not filling, twice as much
+/// as before), so a tile is read a few times at most.
 class OcclusionTiles {
   public:
     static constexpr int kTile = 16;
@@ -48,6 +49,7 @@ class OcclusionTiles {
         float farthest = 0.0f; ///< the least depth in the tile once it is full, else 0
         int empty = 0;         ///< empty pixels at the last reading
         int drawnSince = 0;    ///< rectangle pixels drawn over the tile since then
+        int reread = 0;        ///< read again after at least this many (occlusion.cpp)
         bool read = false;
     };
     Tile& tile(int row, int col) { return tiles_[std::size_t(row) * std::size_t(cols_) + col]; }
