@@ -10,6 +10,7 @@
 #include "apps/cache_dir_options.hpp"
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
+#include "apps/progress.hpp"
 #include "core/error.hpp"
 #include "core/image_io.hpp"
 #include "core/procedural.hpp"
@@ -141,10 +142,14 @@ void runBake(const BakeArgs& a) {
     BakeStats stats;
     std::size_t bytes = 0;
     const auto t0 = BenchClock::now();
-    for (ViewId v : views) {
-        snaps.push_back(
-            std::make_shared<const Snapshot>(bakeSnapshot(scene, v, a.sigma, bo, &stats)));
-        bytes += snaps.back()->bytes();
+    {
+        Progress progress("views", views.size());
+        for (ViewId v : views) {
+            snaps.push_back(
+                std::make_shared<const Snapshot>(bakeSnapshot(scene, v, a.sigma, bo, &stats)));
+            bytes += snaps.back()->bytes();
+            progress.done(snaps.size());
+        }
     }
     const double ms = msSince(t0);
     std::printf("baked %d views at sigma %g with %s: %.1f ms, %llu rays, %.2f Mrays/s, %zu bytes "
@@ -245,6 +250,7 @@ void runPrebake(const BakeArgs& a) {
     SnapshotCache cache(config);
     const auto t0 = std::chrono::steady_clock::now();
     std::uint64_t views = 0;
+    std::optional<Progress> progress(std::in_place, "model frames", items.size());
     for (std::size_t i = 0; i < items.size(); ++i) {
         const BakeItem& it = items[i];
         const SnapshotCacheCounters before = cache.counters();
@@ -256,6 +262,7 @@ void runPrebake(const BakeArgs& a) {
         });
         views += std::uint64_t(n);
         const SnapshotCacheCounters after = cache.counters();
+        progress->clear();
         std::printf(
             "[%zu/%zu] %s %s frame %d: %d views at sigma %g, %llu baked, %llu already "
             "there, %.1f ms\n",
@@ -263,7 +270,9 @@ void runPrebake(const BakeArgs& a) {
             it.source->sigma, static_cast<unsigned long long>(after.bakes - before.bakes),
             static_cast<unsigned long long>(after.diskLoads - before.diskLoads), msSince(t1));
         std::fflush(stdout);
+        progress->done(i + 1);
     }
+    progress.reset();
     const double ms = msSince(t0);
     const SnapshotCacheCounters c = cache.counters();
     const SnapshotStoreCounters sc = config.store->counters();

@@ -2,6 +2,8 @@
 #include "apps/cache_dir_options.hpp"
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
+#include "apps/progress.hpp"
+#include "compose/error_budget.hpp"
 #include "compose/frame.hpp"
 #include "compose/frame_figures.hpp"
 #include "core/error.hpp"
@@ -14,6 +16,7 @@
 #include "core/vox_reader.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -30,6 +33,7 @@ struct RenderArgs {
     std::string input;
     std::string out;
     RenderMode mode = RenderMode::Hybrid;
+    bool modeGiven = false; ///< --mode on the command line (else a .vox preview is exact)
     NearBackend nearBackend = NearBackend::Auto;
     NearRate nearRate = NearRate::Auto;
     FarBlitKernel farBlit = FarBlitKernel::Simd;
@@ -75,8 +79,8 @@ void rejectSingleModelOptions(const RenderArgs& a) {
 
 /// A .vox has no camera path and no animation clock: frame options would be silently ignored.
 void rejectPathOptions(const RenderArgs& a) {
-    const char* why = "applies to a scene input only (a .vox has no camera path; pick one of "
-                      "its models with --model N)";
+    const char* why = "applies to a scene input only (a .vox has no camera path or animation "
+                      "clock; --view and --distance place its camera)";
     if (a.frame) throw CLI::ValidationError("--frame", why);
     if (a.time) throw CLI::ValidationError("--time", why);
     if (a.frames) throw CLI::ValidationError("--frames", why);
@@ -191,6 +195,27 @@ void checkPathFrame(const RenderArgs& a, const Scene& scene, const char* option,
                              std::to_string(scene.path->frameCount() - 1));
 }
 
+/// The longest animation time --time takes without a camera path: 11.6 days, far past any
+/// animation loop, so no real use is refused, while a typo such as 1e308 is not taken silently.
+constexpr double kMaxAnimationTime = 1e6;
+
+/// --time inside the camera path's keys (or in [0, kMaxAnimationTime] without a path), else an
+/// error naming --time, as --frame past the path's last frame is.
+void checkPathTime(const RenderArgs& a, const Scene& scene, double t) {
+    const double lo = scene.path ? scene.path->keys.front().time : 0.0;
+    const double hi = scene.path ? scene.path->keys.back().time : kMaxAnimationTime;
+    if (t >= lo && t <= hi) return;
+    char msg[160];
+    if (scene.path)
+        std::snprintf(msg, sizeof msg, "t=%g s is %s the camera path's %s at %g s", t,
+                      t < lo ? "before" : "past", t < lo ? "first key" : "last key",
+                      t < lo ? lo : hi);
+    else
+        std::snprintf(msg, sizeof msg, "t=%g s is outside [0, %g] s (the scene has no camera path)",
+                      t, hi);
+    throw InputError(a.input, "--time", msg);
+}
+
 /// The camera rule (docs/scenes.md "Which camera a render uses"): --path, --frames, --frame and
 /// --time follow the camera path; a plain render shows the static camera when the scene file
 /// positions one, else the path at its first frame.
@@ -212,6 +237,7 @@ FramePlan planFrames(const RenderArgs& a, Scene& scene) {
         checkPathFrame(a, scene, "--frame", *a.frame);
         p.frames = {*a.frame};
     } else if (a.time) {
+        checkPathTime(a, scene, *a.time);
         p.fixedTime = *a.time;
         const int f = scene.path
                           ? int(std::floor(
@@ -236,7 +262,7 @@ std::string progress(const FramePlan& plan, std::size_t done, double elapsedMs) 
 
 /// The one console line per frame.
 void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, const FrameResult& r,
-                 const std::string& file, const std::string& progressText) {
+                 double wallMs, const std::string& file, const std::string& progressText) {
     const FrameStats& st = r.stats;
     // Each visible entity once: a cross-fading one is drawn by both tiers but counted as fading.
     int nearOnly = 0, farOnly = 0, fading = 0;
@@ -256,14 +282,41 @@ void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, c
                 st.nearDrawn == 0 ? ""
                 : st.nearOnVulkan ? "; near tier on Vulkan"
                                   : "; near tier on the CPU reference",
-                st.switchesToFar + st.switchesToNear, st.farBakes, st.farPredictedWorstVpx,
-                st.totalMs, file.c_str(), progressText.c_str());
+                st.switchesToFar + st.switchesToNear, st.farBakes, st.farPredictedWorstVpx, wallMs,
+                file.c_str(), progressText.c_str());
     std::fflush(stdout);
 }
 
+/// Far sprites drawn from a snapshot whose predicted silhouette displacement (DESIGN.md §5) is
+/// over 1 virtual pixel: where the image is visibly approximate.
+struct Approximation {
+    std::size_t sprites = 0; ///< far sprite draws over 1 vpx, all frames together
+    double worstVpx = 0.0;
+
+    void add(const FrameResult& r) {
+        for (std::size_t i = 0; i < r.plan.size(); ++i) {
+            if (!r.plan[i].drawsFar() || !r.plan[i].view || !r.sprites[i].visible()) continue;
+            const double vpx = predictedBudgetUnits(r.sprites[i], *r.plan[i].view);
+            if (vpx <= 1.0) continue;
+            ++sprites;
+            worstVpx = std::max(worstVpx, vpx);
+        }
+    }
+};
+
+/// A file that cannot hold an alpha channel: --alpha would be dropped without a word.
+void rejectAlphaFormat(const RenderArgs& a, const std::string& out) {
+    if (!a.alpha) return;
+    for (const char* ext : {".gif", ".jpg", ".jpeg"})
+        if (endsWith(out, ext))
+            throw CLI::ValidationError("--alpha", std::string("a ") + ext +
+                                                      " file cannot hold the transparency; write "
+                                                      ".png, .exr or .tif");
+}
+
 void run(const RenderArgs& a) {
+    const auto runStart = std::chrono::steady_clock::now();
     Scene scene = loadInput(a);
-    const RenderMode mode = a.mode;
     const FramePlan plan = planFrames(a, scene);
     FrameOptions opt;
     opt.nearBackend = a.nearBackend;
@@ -279,7 +332,16 @@ void run(const RenderArgs& a) {
     std::string out = a.out;
     if (out.empty()) out = "out/" + std::filesystem::path(a.input).stem().string() + ".png";
     rejectCollidingOutputs(a, out);
+    rejectAlphaFormat(a, out);
     FrameRenderer renderer(scene, opt);
+    // A .vox render is a preview, where a user judges the model (or the file's scene graph):
+    // without --mode it is drawn exactly, by the near tier (Vulkan on a GPU, else the CPU
+    // reference: the same pixels, tests/vulkan_identity_test.cpp), never from a far snapshot.
+    RenderMode mode = a.mode;
+    const bool exactPreview = endsWith(a.input, ".vox") && !a.modeGiven;
+    if (exactPreview)
+        mode = renderer.nearBackend() == NearBackend::Vulkan ? RenderMode::Near
+                                                             : RenderMode::Reference;
 
     // The CSVs are kept in memory and written whole after the last frame (core/file_write.hpp).
     std::string csv = "frame,time," + figureCsvHeader() + "\n";
@@ -294,11 +356,15 @@ void run(const RenderArgs& a) {
         animation.emplace(out, (scene.path ? scene.path->fps : 30.0) / plan.step);
     const auto start = std::chrono::steady_clock::now();
     bool choiceSaid = false;
+    Approximation approx;
+    std::optional<Progress> progressLine(std::in_place, "frames", plan.frames.size());
     for (std::size_t k = 0; k < plan.frames.size(); ++k) {
+        const auto frameStart = std::chrono::steady_clock::now();
         const int frame = plan.frames[k];
         const double time = plan.fixedTime ? *plan.fixedTime : scene.timeOfFrame(frame);
         renderer.applyEditsThrough(frame);
         const FrameResult r = renderer.render(time, mode, frame);
+        approx.add(r);
         const auto name = [&](const std::string& f) {
             return plan.sequence ? numbered(f, frame) : f;
         };
@@ -333,15 +399,30 @@ void run(const RenderArgs& a) {
             std::printf("Vulkan device: %s\n", renderer.nearDeviceName().c_str());
         // Auto's choice, once, when a frame drew near sprites: which backend and why.
         if (!choiceSaid && r.stats.nearDrawn > 0 && !renderer.nearBackendChoice().empty() &&
-            mode != RenderMode::Near && mode != RenderMode::Reference) {
+            (exactPreview || (mode != RenderMode::Near && mode != RenderMode::Reference))) {
             std::printf("%s\n", renderer.nearBackendChoice().c_str());
             choiceSaid = true;
         }
-        printStatus(a, mode, frame, time, r, file, progress(plan, k + 1, msSince(start)));
+        // The frame's wall time, writing included (a GIF's frames are written at the end).
+        progressLine->clear();
+        printStatus(a, mode, frame, time, r, msSince(frameStart), file,
+                    progress(plan, k + 1, msSince(start)));
+        progressLine->done(k + 1);
     }
+    progressLine.reset();
     if (animation) animation->close();
     if (!a.csv.empty()) writeFileWhole(a.csv, csv);
     if (!a.pops.empty()) writeFileWhole(a.pops, pops);
+    if (plan.sequence)
+        std::printf("%zu frames in %.1f s (wall time: loading, rendering and writing) -> %s\n",
+                    plan.frames.size(), msSince(runStart) / 1000.0,
+                    animation ? out.c_str() : numbered(out, plan.frames.front()).c_str());
+    if (approx.sprites > 0)
+        std::fprintf(stderr,
+                     "voxtier: warning: %zu far sprite%s drawn from snapshots predicted to be off "
+                     "by over 1 virtual pixel (worst %.2f vpx): the image is approximate there; "
+                     "--mode near or --mode reference draws every entity exactly\n",
+                     approx.sprites, approx.sprites == 1 ? "" : "s", approx.worstVpx);
     if (const auto& store = renderer.snapshotCache().config().store) {
         const SnapshotStoreCounters c = store->counters();
         std::printf("%s\n", cacheDirSummary(store->options(), c).c_str());
@@ -362,13 +443,16 @@ void addRenderCommand(CLI::App& app) {
         ->required()
         ->check(CLI::ExistingFile);
     cmd->add_option("-o,--out", args->out,
-                    "Output image (.png, or .exr with Z and id channels; .gif with --path: "
-                    "animated); default out/<name>.png")
+                    "Output image by extension: .png, .exr (linear colour with Z and id "
+                    "channels), .tif, .jpg (no alpha), .gif (no alpha; with --path or --frames: "
+                    "one animated GIF); default out/<name>.png")
         ->check(imageFileName());
-    addChoiceOption(*cmd, "--mode", args->mode, kRenderModeNames, "render mode",
-                    "hybrid (the selector hands entities between the tiers), near (Vulkan near "
-                    "tier for every entity; VOXTIER_VALIDATION=1 enables validation), far (every "
-                    "entity through the snapshot cache) or reference (CPU reference tracer)");
+    auto* modeOption = addChoiceOption(
+        *cmd, "--mode", args->mode, kRenderModeNames, "render mode",
+        "hybrid (the selector hands entities between the tiers), near (Vulkan near tier for "
+        "every entity; VOXTIER_VALIDATION=1 enables validation), far (every entity through the "
+        "snapshot cache) or reference (CPU reference tracer). Default: hybrid for a scene; a "
+        ".vox preview is drawn exactly, by the near tier (near on a GPU, else reference)");
     addChoiceOption(*cmd, "--near-backend", args->nearBackend, kNearBackendNames, "near backend",
                     "auto (Vulkan on a GPU; the CPU reference where the only Vulkan device is a "
                     "CPU, as lavapipe is, or there is none), vulkan, or reference; same image");
@@ -386,18 +470,19 @@ void addRenderCommand(CLI::App& app) {
                   "measured on earlier frames, so that the image does not depend on the machine's "
                   "load (for comparing images)");
     cmd->add_flag("--alpha", args->alpha,
-                  "Transparent background: alpha 0 where no sprite is drawn (PNG, EXR; like a "
-                  "scene background [r, g, b, 0])");
+                  "Transparent background: alpha 0 where no sprite is drawn (PNG, EXR, TIFF; "
+                  "like a scene background [r, g, b, 0]); an error with .gif and .jpg");
     cmd->add_option("--overlay", args->overlay,
                     "Also write the tier overlay (near blue, far orange, cross-fading green; "
                     "with a legend)");
     cmd->add_option("--csv", args->csv, "Per-frame CSV: tier counts, switches, bakes, timings");
     cmd->add_option("--pops", args->pops,
                     "Per-switch CSV: the image change each tier/view switch causes alone");
-    auto* t = cmd->add_option("--time", args->time,
-                              "Time in seconds along the camera path (without one: the animation "
-                              "time, with the static camera)")
-                  ->check(finite());
+    auto* t =
+        cmd->add_option("--time", args->time,
+                        "Time in seconds along the camera path, within its keys (without one: "
+                        "the animation time in [0, 1e6], with the static camera)")
+            ->check(finite());
     auto* f = cmd->add_option("--frame", args->frame,
                               "Frame number of the camera path (applies scripted edits up to it; "
                               "without a path: the animation at N/30 s)")
@@ -432,7 +517,10 @@ void addRenderCommand(CLI::App& app) {
                     "Which model of a multi-model file (default: a file with a scene graph "
                     "renders whole, else model 0)")
         ->check(atLeast(0));
-    cmd->callback([args] { run(*args); });
+    cmd->callback([args, modeOption] {
+        args->modeGiven = modeOption->count() > 0;
+        run(*args);
+    });
 }
 
 } // namespace voxtier::cli

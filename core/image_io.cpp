@@ -9,6 +9,7 @@
 #include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -101,6 +102,55 @@ struct AnimationWriter::Impl {
     bool open = false;
 };
 
+namespace {
+
+/// The GIF delay of frame `k` (1/100 s): frame k starts at round(100 k / fps) centiseconds, so
+/// that the delays sum to the path's duration and the average frame rate is fps (30 fps:
+/// 3, 3, 4, 3, 3, 4 ...) instead of 100 / round(100 / fps) (33.3 fps at 30).
+int gifDelay(double fps, int k) {
+    const auto start = [fps](int i) { return std::llround(100.0 * double(i) / fps); };
+    return int(std::clamp<long long>(start(k + 1) - start(k), 1, 65535));
+}
+
+/// Sets the delay of the k-th frame of the GIF in `gif` to gifDelay(fps, k). OIIO 2.4's GIF
+/// writer takes one delay for the whole file (from the first frame's FramesPerSecond), so the
+/// delays are rewritten in the encoded bytes: each frame's Graphic Control Extension (GIF89a
+/// spec section 23) holds it in bytes 4-5. The walk follows the block structure (section 18 on),
+/// so image data that happens to hold the extension's bytes is never touched. Returns false if
+/// the bytes are not the GIF structure expected.
+bool spreadGifDelays(std::vector<unsigned char>& gif, double fps) {
+    const std::size_t n = gif.size();
+    const auto colorTable = [&](std::size_t flagsAt) {
+        return (gif[flagsAt] & 0x80) ? std::size_t(3) << ((gif[flagsAt] & 7) + 1) : 0;
+    };
+    const auto skipSubBlocks = [&](std::size_t at) {
+        while (at < n && gif[at] != 0) at += std::size_t(gif[at]) + 1;
+        return at + 1; // past the terminator
+    };
+    if (n < 13) return false;
+    std::size_t at = 13 + colorTable(10);
+    int frame = 0;
+    while (at < n) {
+        if (gif[at] == 0x3B) return true; // trailer
+        if (gif[at] == 0x21 && at + 1 < n) {
+            if (gif[at + 1] == 0xF9 && at + 7 < n && gif[at + 2] == 4) {
+                const int d = gifDelay(fps, frame++);
+                gif[at + 4] = static_cast<unsigned char>(d & 0xFF);
+                gif[at + 5] = static_cast<unsigned char>(d >> 8);
+            }
+            at = skipSubBlocks(at + 2);
+        } else if (gif[at] == 0x2C && at + 10 < n) {
+            at += 10 + colorTable(at + 9);
+            at = skipSubBlocks(at + 1); // past the LZW minimum code size
+        } else {
+            return false;
+        }
+    }
+    return false;
+}
+
+} // namespace
+
 AnimationWriter::AnimationWriter(std::filesystem::path file, double fps)
     : impl_(std::make_unique<Impl>()) {
     impl_->file = std::move(file);
@@ -113,7 +163,8 @@ void AnimationWriter::add(const Image& img) {
     Impl& m = *impl_;
     const std::string name = m.file.string();
     OIIO::ImageSpec spec(img.width, img.height, 4, OIIO::TypeDesc::UINT8);
-    // OIIO's GIF writer takes the frame delay from FramesPerSecond (a rational).
+    // OIIO's GIF writer takes the frame delay from FramesPerSecond (a rational); close()
+    // spreads the delays (spreadGifDelays).
     const int fpsNum = int(std::lround(m.fps * 1000.0));
     const int rational[2] = {fpsNum, 1000};
     spec.attribute("FramesPerSecond", OIIO::TypeRational, rational);
@@ -143,6 +194,9 @@ void AnimationWriter::close() {
     const std::string err = ok ? "" : m.out->geterror();
     m.out.reset();
     if (!ok) throw InputError(m.file.string(), "", "cannot encode image: " + err);
+    if (!spreadGifDelays(m.bytes, m.fps))
+        throw InputError(m.file.string(), "",
+                         "cannot set the GIF frame delays: unexpected encoding");
     writeFileWhole(m.file, m.bytes);
 }
 

@@ -16,9 +16,9 @@ namespace voxtier {
 /// temporary name, renamed. Throws InputError naming the file and the OS reason on failure.
 void writeImage(const std::filesystem::path& file, const Image& image, double zNear = 0.0);
 /// An animated image (GIF), written one frame at a time: every frame the same size, shown for
-/// 1/fps s (GIF stores the delay in 1/100 s, so 30 fps plays at 100/3 fps). InputError naming
-/// the file when it cannot be written or a frame's size differs from the first. Nothing reaches
-/// the disk before close(), which writes the whole file (core/file_write.hpp); an animation
+/// 1/fps s on average (GIF stores the delay in 1/100 s, so 30 fps alternates 3, 3, 4). InputError
+/// naming the file when it cannot be written or a frame's size differs from the first. Nothing
+/// reaches the disk before close(), which writes the whole file (core/file_write.hpp); an animation
 /// destroyed without close() (a run that failed or was killed part-way) leaves no file.
 class AnimationWriter {
   public:

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -60,6 +61,23 @@ inline std::string writeText(const std::filesystem::path& dir, const std::string
     const std::filesystem::path p = dir / name;
     std::ofstream(p) << text;
     return p.string();
+}
+
+/// `err` without the line a render prints when it drew far sprites predicted over 1 vpx off
+/// (apps/cmd_render.cpp): for tests of the other lines on stderr of a far or hybrid render.
+inline std::string withoutFarWarning(const std::string& err) {
+    std::string kept;
+    std::size_t at = 0;
+    while (at < err.size()) {
+        const std::size_t end = std::min(err.find('\n', at), err.size());
+        const std::string line = err.substr(at, end - at);
+        if (!(line.rfind("voxtier: warning: ", 0) == 0 &&
+              line.find(" drawn from snapshots predicted to be off by over 1 virtual pixel") !=
+                  std::string::npos))
+            kept += line + (end < err.size() ? "\n" : "");
+        at = end + 1;
+    }
+    return kept;
 }
 
 inline std::size_t lineCount(const std::string& s) {
