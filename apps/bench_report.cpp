@@ -277,6 +277,7 @@ json planJson(const Plan& p) {
     if (p.entityCap) plan["entity_cap"] = *p.entityCap;
     if (p.budgetVpx) plan["budget_vpx"] = *p.budgetVpx;
     plan["far_blit"] = p.farBlit == FarBlitKernel::Simd ? "simd" : "scalar";
+    plan["occlusion_cull"] = p.occlusionCull;
     return plan;
 }
 

@@ -72,7 +72,7 @@ struct SuiteOptions {
     std::uint64_t cacheDirBytes = 0; ///< its size limit (0 = none)
     NearRate nearRate = NearRate::Auto;          ///< of every mode but near_vulkan_fragment
     FarBlitKernel farBlit = FarBlitKernel::Simd; ///< of every mode
-    bool occlusionCull = true;                   ///< of every mode (--no-cull: false)
+    bool occlusionCull = false;                  ///< of every mode (--cull: true)
     /// Every scene's selector becomes the error budget at this many virtual pixels (its view set,
     /// view hysteresis and cross-fade kept); unset: each scene's own selector.
     std::optional<double> budgetVpx;
@@ -101,7 +101,7 @@ struct Plan {
     NearRate nearRate = NearRate::Auto;          ///< SuiteOptions::nearRate
     std::optional<double> budgetVpx;             ///< SuiteOptions::budgetVpx
     FarBlitKernel farBlit = FarBlitKernel::Simd; ///< SuiteOptions::farBlit
-    bool occlusionCull = true;                   ///< SuiteOptions::occlusionCull
+    bool occlusionCull = false;                  ///< SuiteOptions::occlusionCull
 };
 
 /// One sampled path frame of a measured configuration.

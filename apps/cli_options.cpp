@@ -225,11 +225,12 @@ CLI::Option* addFarBlitOption(CLI::App& cmd, FarBlitKernel& kernel) {
                            "image");
 }
 
-CLI::Option* addNoCullFlag(CLI::App& cmd, bool& occlusionCull) {
-    return cmd.add_flag("!--no-cull", occlusionCull,
-                        "Draw every visible sprite whole, without exact occlusion culling (the "
-                        "CPU tiers skip what nearer sprites already hide); same image, for tests "
-                        "and comparisons");
+CLI::Option* addCullFlag(CLI::App& cmd, bool& occlusionCull) {
+    return cmd.add_flag("--cull,!--no-cull", occlusionCull,
+                        "Exact occlusion culling in the CPU tiers: sprites drawn front to back, "
+                        "skipping what nearer sprites already hide (pays where large sprites hide "
+                        "whole others; the default --no-cull draws every visible sprite); same "
+                        "image");
 }
 
 } // namespace voxtier::cli

@@ -106,8 +106,8 @@ inline std::vector<std::pair<std::string, ViewSet>> viewSetNames() {
 CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate);
 /// `--far-blit simd|scalar` (compose/frame.hpp kFarBlitNames) on `cmd`, for `render` and `bench`.
 CLI::Option* addFarBlitOption(CLI::App& cmd, FarBlitKernel& kernel);
-/// --no-cull: FrameOptions::occlusionCull off.
-CLI::Option* addNoCullFlag(CLI::App& cmd, bool& occlusionCull);
+/// --cull / --no-cull (the default): FrameOptions::occlusionCull.
+CLI::Option* addCullFlag(CLI::App& cmd, bool& occlusionCull);
 
 /// The name of `value` in a name table (for ->default_str).
 template <class Names, class E> std::string nameOf(const Names& names, E value) {

@@ -119,7 +119,7 @@ void addBenchCommand(CLI::App& app) {
     bench->add_flag("!--no-scaling", o->scaling, "Skip the scaling curves");
     addNearRateOption(*bench, o->nearRate);
     addFarBlitOption(*bench, o->farBlit);
-    addNoCullFlag(*bench, o->occlusionCull);
+    addCullFlag(*bench, o->occlusionCull);
     bench
         ->add_option("--budget", o->budgetVpx,
                      "Measure every scene with the error_budget selector at this many virtual "

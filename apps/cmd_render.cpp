@@ -37,7 +37,7 @@ struct RenderArgs {
     NearBackend nearBackend = NearBackend::Auto;
     NearRate nearRate = NearRate::Auto;
     FarBlitKernel farBlit = FarBlitKernel::Simd;
-    bool occlusionCull = true;
+    bool occlusionCull = false;
     bool path = false;
     bool alpha = false;    ///< transparent background (alpha 0 where no sprite is drawn)
     bool costBound = true; ///< FrameOptions::costAwareBakes
@@ -458,7 +458,7 @@ void addRenderCommand(CLI::App& app) {
                     "CPU, as lavapipe is, or there is none), vulkan, or reference; same image");
     addNearRateOption(*cmd, args->nearRate);
     addFarBlitOption(*cmd, args->farBlit);
-    addNoCullFlag(*cmd, args->occlusionCull);
+    addCullFlag(*cmd, args->occlusionCull);
     auto* path =
         cmd->add_flag("--path", args->path,
                       "Render every frame of the camera path (OUT becomes OUT_0000.png ...; "

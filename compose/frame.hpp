@@ -106,8 +106,10 @@ struct FrameOptions {
     bool costAwareBakes = true;
     std::optional<BakeCosts> bakeCosts;
     /// Exact occlusion culling in the CPU tiers (the far blit and the CPU reference near tier;
-    /// core/occlusion.hpp): the same image, bit for bit, with less drawn. false: --no-cull.
-    bool occlusionCull = true;
+    /// core/occlusion.hpp): the same image, bit for bit, with less drawn. Off by default
+    /// (--cull turns it on): on the bench's crowds it costs more than it saves, and it pays only
+    /// where large sprites hide whole others (DESIGN.md §6, Occlusion, with the figures).
+    bool occlusionCull = false;
 };
 
 /// What one entity does this frame: its tier, an optional cross-fade (both tiers draw it, with

@@ -70,8 +70,9 @@ struct FarBlitOptions {
     int bandRows = 16;
     /// Exact occlusion culling (core/occlusion.hpp): sprites drawn front to back, and whatever
     /// the depth already drawn hides is skipped, whole sprites before their snapshots are looked
-    /// up or baked. The image is the same without it (--no-cull).
-    bool occlusionCull = true;
+    /// up or baked. The same image either way; off by default, since on the bench scenes it
+    /// costs more than it saves (DESIGN.md §6, Occlusion).
+    bool occlusionCull = false;
 };
 
 /// The SIMD target FarBlitKernel::Simd runs on this CPU (Highway's name: "AVX3", "AVX2",

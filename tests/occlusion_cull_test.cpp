@@ -2,7 +2,9 @@
 // already hide, and the image must not change by a single bit of colour, depth or id. Every
 // frame here is drawn twice, with and without culling, in every mode whose tiers cull (the CPU
 // reference near tier, the far blit, the hybrid of both with cross-fades), and compared whole.
+#include "cli_support.hpp"
 #include "compose/frame.hpp"
+#include "core/image_io.hpp"
 #include "core/occlusion.hpp"
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
@@ -80,6 +82,7 @@ TEST(OcclusionTiles, FrontToBackOrdersByDepthThenId) {
 int expectCullingChangesNothing(Scene scene, RenderMode mode, const std::vector<int>& frames,
                                 const std::string& what) {
     FrameOptions on = test::cpuNear(), off = test::cpuNear();
+    on.occlusionCull = true;
     off.occlusionCull = false;
     Scene copy = scene;
     FrameRenderer culled(scene, on), whole(copy, off);
@@ -204,10 +207,11 @@ TEST(Culling, EntitiesBehindAWallAreDroppedBeforeAnyBake) {
     s.camera.height = 120;
     s.camera.position = {0, 0, 2};
     s.camera.target = {0, 0, -10};
-    FrameOptions off = test::cpuNear();
+    FrameOptions on = test::cpuNear(), off = test::cpuNear();
+    on.occlusionCull = true;
     off.occlusionCull = false;
     Scene copy = s;
-    FrameRenderer culled(s, test::cpuNear()), whole(copy, off);
+    FrameRenderer culled(s, on), whole(copy, off);
     const FrameResult a = culled.render(0.0, RenderMode::Far, 0);
     const FrameResult b = whole.render(0.0, RenderMode::Far, 0);
     EXPECT_TRUE(diffImages(a.image, b.image).identical());
@@ -218,6 +222,24 @@ TEST(Culling, EntitiesBehindAWallAreDroppedBeforeAnyBake) {
     const FrameResult c = culled.render(0.0, RenderMode::Reference, 0);
     EXPECT_EQ(c.stats.nearOccluded, 30);
     EXPECT_LT(c.stats.voxelFetches, whole.render(0.0, RenderMode::Reference, 0).stats.voxelFetches);
+}
+
+// The command line's switch: render --cull and the default (--no-cull) write the same colours
+// in every CPU mode (the library-level cases above compare depth and id too).
+TEST(Culling, RenderCullAndNoCullWriteTheSameImage) {
+    const auto dir = test::scratchDir("cull_cli", true);
+    for (const char* mode : {"reference", "far", "hybrid"}) {
+        const std::string base = "render " + test::sourcePath("scenes/bench/street.json") +
+                                 " --near-backend reference --size 320x180 --mode " + mode;
+        const std::string a = (dir / (std::string(mode) + "_cull.exr")).string();
+        const std::string b = (dir / (std::string(mode) + "_whole.exr")).string();
+        const auto ra = test::runCli(base + " --cull -o " + a);
+        const auto rb = test::runCli(base + " -o " + b);
+        ASSERT_EQ(ra.status, 0) << ra.err;
+        ASSERT_EQ(rb.status, 0) << rb.err;
+        const Image ia = readColorImage(a), ib = readColorImage(b);
+        EXPECT_TRUE(diffImages(ia, ib).identical()) << mode;
+    }
 }
 
 // The crowd the issue is about: the tank army at 100,000 entities, where culling drops most

@@ -139,7 +139,9 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                      std::span<const SpriteSetup* const> sprites, Image& target,
                      ReferenceStats* stats, const ReferenceOptions& options) {
     const auto t0 = std::chrono::steady_clock::now();
-    constexpr int kBand = OcclusionTiles::kTile;
+    // With culling a band is one tile row (its tiles its own); without, 4 rows, the grain the
+    // row-parallel pass always had.
+    const int bandRows = options.occlusionCull ? OcclusionTiles::kTile : 4;
     // With culling the sprites go front to back in runs (core/occlusion.hpp): a run's sprites are
     // tested whole against what the runs before drew, so a hidden sprite traces no cell, and the
     // rest skip the tiles that already hide them. Without, one run in the order given.
@@ -152,7 +154,7 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
     }
     std::optional<OcclusionTiles> tiles;
     if (options.occlusionCull) tiles.emplace(target);
-    const int bands = (target.height + kBand - 1) / kBand;
+    const int bands = (target.height + bandRows - 1) / bandRows;
 
     tbb::combinable<RowCounters> counters;
     std::uint64_t drawn = 0;
@@ -170,13 +172,13 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
             rate.cellsTraced += plan.cells;
             rate.cellSprites += plan.cellSprites;
             rate.cellOverBudget += plan.overBudget;
-            // Pass 2, bucketed by band of 16 rows, each band written by exactly one task (no locks;
+            // Pass 2, bucketed by band of rows, each band written by exactly one task (no locks;
             // the depth/id rule makes the image independent of the order sprites are visited in).
             std::vector<std::uint32_t> bandStart(std::size_t(bands) + 1, 0), list;
             const auto bandsOf = [&](const SpriteSetup& sp) {
-                return std::pair<int, int>{sp.screenRect.y / kBand,
-                                           (std::min(sp.screenRect.w, target.height) - 1) / kBand +
-                                               1};
+                return std::pair<int, int>{
+                    sp.screenRect.y / bandRows,
+                    (std::min(sp.screenRect.w, target.height) - 1) / bandRows + 1};
             };
             for (const SpriteSetup* sp : run) {
                 const auto [b0, b1] = bandsOf(*sp);
@@ -193,7 +195,7 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
             }
             tbb::parallel_for(0, bands, [&](int b) {
                 RowCounters& rc = counters.local();
-                const int y0 = b * kBand, y1 = std::min(target.height, y0 + kBand);
+                const int y0 = b * bandRows, y1 = std::min(target.height, y0 + bandRows);
                 for (std::uint32_t k = bandStart[std::size_t(b)]; k < bandStart[std::size_t(b) + 1];
                      ++k) {
                     const SpriteSetup& sp = *run[list[k]];
@@ -211,13 +213,14 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     // Which tiles between the two ends are still open, read once per sprite and
                     // band.
                     thread_local std::vector<char> open;
-                    const int c0 = x0 / kBand;
-                    open.resize(std::size_t((x1 - 1) / kBand - c0 + 1));
+                    constexpr int kTile = OcclusionTiles::kTile;
+                    const int c0 = x0 / kTile;
+                    open.resize(std::size_t((x1 - 1) / kTile - c0 + 1));
                     for (std::size_t c = 0; c < open.size(); ++c)
-                        open[c] = tiles->tileOpen(b, (c0 + int(c)) * kBand, sp.gpu.depth);
+                        open[c] = tiles->tileOpen(b, (c0 + int(c)) * kTile, sp.gpu.depth);
                     drawSpriteRows(
                         models, sp, plan.cellBase[list[k]], cells, r0, r1, x0, x1,
-                        [&](int x) { return open[std::size_t(x / kBand - c0)] != 0; }, target, rc);
+                        [&](int x) { return open[std::size_t(x / kTile - c0)] != 0; }, target, rc);
                     tiles->drawn(b, x0, x1, r1 - r0);
                 }
             });

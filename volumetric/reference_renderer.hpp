@@ -31,8 +31,9 @@ struct ReferenceOptions {
     NearRate rate = NearRate::Fragment;
     std::uint64_t cellBudgetBytes = kDefaultCellBudgetBytes;
     /// Exact occlusion culling (core/occlusion.hpp): front to back, skipping what the depth
-    /// already drawn hides, whole sprites before any of their cells is traced. Same image.
-    bool occlusionCull = true;
+    /// already drawn hides, whole sprites before any of their cells is traced. Same image; off by
+    /// default (DESIGN.md §6, Occlusion: it pays only where large sprites hide others).
+    bool occlusionCull = false;
 };
 
 /// Draws `sprites` (visible ones; culled entries are skipped) into `target`, which keeps what
