@@ -136,6 +136,10 @@ std::size_t fileSize(std::size_t cells, std::size_t depths) {
 
 } // namespace
 
+std::uint64_t snapshotFileBytes(glm::ivec3 dims, ViewId view, double sigma) {
+    return fileSize(cellCount(snapshotLattice(viewDirection(view), dims, sigma)), 0);
+}
+
 Digest128 digestBytes(std::span<const std::uint8_t> bytes, std::uint64_t seed) {
     // Two independent multiply-rotate lanes over 16-byte blocks (a grid of 256^3 digests in a
     // few ms), the length and a finaliser at the end.

@@ -82,6 +82,11 @@ class SnapshotFileError : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
+/// The bytes of the file a snapshot without depth takes, for a model frame of `dims` seen along
+/// `view` at `sigma`: the snapshot lattice fixes the cell count before anything is traced, so
+/// `bake` can say what it will write before it writes it.
+std::uint64_t snapshotFileBytes(glm::ivec3 dims, ViewId view, double sigma);
+
 /// The file bytes of a snapshot baked for `key`.
 std::vector<std::uint8_t> encodeSnapshotFile(const SnapshotFileKey& key, const Snapshot& snap);
 struct DecodedSnapshotFile {
