@@ -86,4 +86,12 @@ std::vector<std::uint32_t> frontToBack(std::span<const SpriteSetup* const> sprit
     return order;
 }
 
+std::vector<std::uint32_t> drawOrder(std::span<const SpriteSetup* const> sprites, bool cull) {
+    if (cull) return frontToBack(sprites);
+    std::vector<std::uint32_t> order;
+    for (std::uint32_t i = 0; i < sprites.size(); ++i)
+        if (sprites[i] && sprites[i]->visible()) order.push_back(i);
+    return order;
+}
+
 } // namespace voxtier

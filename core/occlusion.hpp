@@ -65,6 +65,8 @@ class OcclusionTiles {
 /// ascending entity id, so a sprite is only ever tested against sprites in front of it.
 /// Returns indices into `sprites` of the visible ones.
 std::vector<std::uint32_t> frontToBack(std::span<const SpriteSetup* const> sprites);
+/// The order a tier draws in: frontToBack when it culls, else the visible sprites as given.
+std::vector<std::uint32_t> drawOrder(std::span<const SpriteSetup* const> sprites, bool cull);
 
 /// The run size the tiers use: half the image in sprite rectangle area. Smaller runs cull more
 /// (each sprite meets tiles filled closer in front of it) and pay more per-run overhead (a

@@ -1,5 +1,6 @@
 #include "impostor_cache/far_blit.hpp"
 
+#include "core/row_bands.hpp"
 #include "core/stopwatch.hpp"
 #include "impostor_cache/detail/far_blit_band.hpp"
 
@@ -150,26 +151,9 @@ void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* st
             return a.gpu->depth > b.gpu->depth ||
                    (a.gpu->depth == b.gpu->depth && a.entity < b.entity);
         });
-    // Sprites bucketed by band (counting sort, sprite order kept within a band).
-    std::vector<std::uint32_t> bandStart(std::size_t(bands) + 1, 0), list;
-    const auto bandsOf = [&](const BlitSprite& b) {
-        return std::pair<int, int>{b.rect.y / bandRows, (b.rect.w - 1) / bandRows + 1};
-    };
-    for (const BlitSprite& b : drawn) {
-        if (b.rect.y >= b.rect.w) continue;
-        const auto [first, last] = bandsOf(b);
-        for (int k = first; k < last; ++k) ++bandStart[std::size_t(k) + 1];
-    }
-    for (std::size_t k = 0; k < std::size_t(bands); ++k) bandStart[k + 1] += bandStart[k];
-    list.resize(bandStart.back());
-    {
-        std::vector<std::uint32_t> fill(bandStart.begin(), bandStart.end() - 1);
-        for (std::uint32_t i = 0; i < drawn.size(); ++i) {
-            if (drawn[i].rect.y >= drawn[i].rect.w) continue;
-            const auto [first, last] = bandsOf(drawn[i]);
-            for (int k = first; k < last; ++k) list[fill[std::size_t(k)]++] = i;
-        }
-    }
+    const RowBands byBand = bucketByBand(drawn.size(), bands, bandRows, [&](std::size_t i) {
+        return std::pair<int, int>{drawn[i].rect.y, drawn[i].rect.w};
+    });
     const bool simd = options.kernel == FarBlitKernel::Simd;
     tbb::combinable<detail::BlitCounters> counters;
     // A grain of about four rows, as the row layout always had.
@@ -180,8 +164,8 @@ void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* st
             for (int k = r.begin(); k < r.end(); ++k) {
                 detail::BlitBand band;
                 band.sprites = drawn.data();
-                band.list = list.data() + bandStart[std::size_t(k)];
-                band.count = bandStart[std::size_t(k) + 1] - bandStart[std::size_t(k)];
+                band.list = byBand.list.data() + byBand.start[std::size_t(k)];
+                band.count = byBand.start[std::size_t(k) + 1] - byBand.start[std::size_t(k)];
                 band.y0 = k * bandRows;
                 band.y1 = std::min(target.height, band.y0 + bandRows);
                 band.target = &target;

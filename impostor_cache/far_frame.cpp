@@ -22,13 +22,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
     // With culling: front to back, in runs, each run's sprites tested whole against what the runs
     // before drew, so a hidden sprite is dropped before its snapshot is looked up or baked.
     const bool cull = blitOptions.occlusionCull;
-    std::vector<std::uint32_t> order;
-    if (cull) {
-        order = frontToBack(sprites);
-    } else {
-        for (std::uint32_t r = 0; r < requests.size(); ++r)
-            if (sprites[r] && sprites[r]->visible()) order.push_back(r);
-    }
+    const std::vector<std::uint32_t> order = drawOrder(sprites, cull);
     std::optional<OcclusionTiles> tiles;
     if (cull) tiles.emplace(target);
 

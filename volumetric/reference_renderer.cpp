@@ -1,6 +1,7 @@
 #include "volumetric/reference_renderer.hpp"
 
 #include "core/occlusion.hpp"
+#include "core/row_bands.hpp"
 #include "core/stopwatch.hpp"
 
 #include <tbb/combinable.h>
@@ -145,13 +146,7 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
     // With culling the sprites go front to back in runs (core/occlusion.hpp): a run's sprites are
     // tested whole against what the runs before drew, so a hidden sprite traces no cell, and the
     // rest skip the tiles that already hide them. Without, one run in the order given.
-    std::vector<std::uint32_t> order;
-    if (options.occlusionCull) {
-        order = frontToBack(sprites);
-    } else {
-        for (std::uint32_t s = 0; s < sprites.size(); ++s)
-            if (sprites[s]->visible()) order.push_back(s);
-    }
+    const std::vector<std::uint32_t> order = drawOrder(sprites, options.occlusionCull);
     std::optional<OcclusionTiles> tiles;
     if (options.occlusionCull) tiles.emplace(target);
     const int bands = (target.height + bandRows - 1) / bandRows;
@@ -174,36 +169,22 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
             rate.cellOverBudget += plan.overBudget;
             // Pass 2, bucketed by band of rows, each band written by exactly one task (no locks;
             // the depth/id rule makes the image independent of the order sprites are visited in).
-            std::vector<std::uint32_t> bandStart(std::size_t(bands) + 1, 0), list;
-            const auto bandsOf = [&](const SpriteSetup& sp) {
-                return std::pair<int, int>{
-                    sp.screenRect.y / bandRows,
-                    (std::min(sp.screenRect.w, target.height) - 1) / bandRows + 1};
-            };
-            for (const SpriteSetup* sp : run) {
-                const auto [b0, b1] = bandsOf(*sp);
-                for (int b = b0; b < b1; ++b) ++bandStart[std::size_t(b) + 1];
-            }
-            for (std::size_t b = 0; b < std::size_t(bands); ++b) bandStart[b + 1] += bandStart[b];
-            list.resize(bandStart.back());
-            {
-                std::vector<std::uint32_t> fill(bandStart.begin(), bandStart.end() - 1);
-                for (std::uint32_t i = 0; i < run.size(); ++i) {
-                    const auto [b0, b1] = bandsOf(*run[i]);
-                    for (int b = b0; b < b1; ++b) list[fill[std::size_t(b)]++] = i;
-                }
-            }
+            const RowBands byBand = bucketByBand(run.size(), bands, bandRows, [&](std::size_t i) {
+                return std::pair<int, int>{run[i]->screenRect.y,
+                                           std::min(run[i]->screenRect.w, target.height)};
+            });
             tbb::parallel_for(0, bands, [&](int b) {
                 RowCounters& rc = counters.local();
                 const int y0 = b * bandRows, y1 = std::min(target.height, y0 + bandRows);
-                for (std::uint32_t k = bandStart[std::size_t(b)]; k < bandStart[std::size_t(b) + 1];
-                     ++k) {
-                    const SpriteSetup& sp = *run[list[k]];
+                for (std::uint32_t k = byBand.start[std::size_t(b)];
+                     k < byBand.start[std::size_t(b) + 1]; ++k) {
+                    const std::uint32_t i = byBand.list[k];
+                    const SpriteSetup& sp = *run[i];
                     const int r0 = std::max(sp.screenRect.y, y0),
                               r1 = std::min(sp.screenRect.w, y1);
                     if (!tiles) {
                         drawSpriteRows(
-                            models, sp, plan.cellBase[list[k]], cells, r0, r1, sp.screenRect.x,
+                            models, sp, plan.cellBase[i], cells, r0, r1, sp.screenRect.x,
                             sp.screenRect.z, [](int) { return true; }, target, rc);
                         continue;
                     }
@@ -219,7 +200,7 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     for (std::size_t c = 0; c < open.size(); ++c)
                         open[c] = tiles->tileOpen(b, (c0 + int(c)) * kTile, sp.gpu.depth);
                     drawSpriteRows(
-                        models, sp, plan.cellBase[list[k]], cells, r0, r1, x0, x1,
+                        models, sp, plan.cellBase[i], cells, r0, r1, x0, x1,
                         [&](int x) { return open[std::size_t(x / kTile - c0)] != 0; }, target, rc);
                     tiles->drawn(b, x0, x1, r1 - r0);
                 }
