@@ -42,8 +42,13 @@ struct Image {
     void clear(Rgba8 background);
     /// Writes one sprite pixel when it wins the shared depth/id rule (core/sprite.hpp). Inline:
     /// the CPU tiers call it per pixel.
+    /// Whether writeIfNearer(i, *, d, entity) would write: the min-z rule (reversed-Z, larger is
+    /// nearer) with the deterministic id rule at equal depths.
+    bool wouldWrite(std::size_t i, float d, std::uint32_t entity) const {
+        return d > depth[i] || (d == depth[i] && entity < id[i]);
+    }
     void writeIfNearer(std::size_t i, Rgba8 c, float d, std::uint32_t entity) {
-        if (d > depth[i] || (d == depth[i] && entity < id[i])) {
+        if (wouldWrite(i, d, entity)) {
             color[i] = c;
             depth[i] = d;
             id[i] = entity;

@@ -284,12 +284,13 @@ struct NearAndReference {
     ReferenceStats referenceStats;
 };
 inline NearAndReference renderBoth(NearRenderer& renderer, const Scene& scene, double time = 0.0,
-                                   const NearOptions& options = {}) {
+                                   const NearOptions& options = {},
+                                   const ReferenceOptions& referenceOptions = {}) {
     NearAndReference r;
     const CameraFrame cam = makeCameraFrame(scene.cameraAt(time));
     r.sprites = setupSprites(scene, cam, time);
     r.reference = Image(cam.width, cam.height, scene.render.background);
-    renderReference(scene.models, r.sprites, r.reference, &r.referenceStats);
+    renderReference(scene.models, r.sprites, r.reference, &r.referenceStats, referenceOptions);
     r.near = renderer.render(cam, scene.models, r.sprites, scene.render.background, options,
                              &r.nearStats);
     return r;

@@ -8,6 +8,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <optional>
 
@@ -32,71 +33,41 @@ template <bool Count> GridVoxels<Count> voxelsOf(const VoxelGrid& g) {
 }
 
 struct RowCounters {
-    std::uint64_t tested = 0, inSprite = 0, written = 0, fetches = 0, traced = 0, lookedUp = 0;
+    std::uint64_t tested = 0, hidden = 0, inSprite = 0, written = 0, fetches = 0, traced = 0,
+                  lookedUp = 0, cellsTraced = 0;
 };
 
-/// Pass 1 of cell-rate (near_rate.hpp): the primary ray of every cell of every cell-rate sprite
-/// traced once with the kernel, then every cell's outcome from its and its neighbours' primaries
-/// (vtOutcomeFromPrimaries), TBB-parallel over sprites and their cell rows. Returns the outcomes
-/// at the plan's offsets.
-std::vector<kernel::uint>
-traceCellRateSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
-                     std::span<const SpriteSetup* const> sprites, const CellRatePlan& plan,
-                     tbb::combinable<RowCounters>& counters) {
-    std::vector<kernel::uint> primaries(plan.cells), outcomes(plan.cells);
-    std::vector<std::size_t> cellSprites;
-    for (std::size_t s = 0; s < sprites.size(); ++s)
-        if (plan.cellBase[s] != kNoCells) cellSprites.push_back(s);
-    // Over the rows of every cell-rate sprite: body(sprite index, its SpriteGpu, first row, end).
-    const auto overRows = [&](const auto& body) {
-        tbb::parallel_for(std::size_t(0), cellSprites.size(), [&](std::size_t k) {
-            const std::size_t s = cellSprites[k];
-            const kernel::SpriteGpu& g = sprites[s]->gpu;
-            const int rows = g.cellRange.w - g.cellRange.z + 1;
-            tbb::parallel_for(tbb::blocked_range<int>(0, rows, 4),
-                              [&](const tbb::blocked_range<int>& r) {
-                                  const kernel::uint rowLength = kernel::vtCellRowLength(g);
-                                  body(s, g, kernel::uint(r.begin()) * rowLength,
-                                       kernel::uint(r.end()) * rowLength);
-                              });
-        });
-    };
-    overRows([&](std::size_t s, const kernel::SpriteGpu& g, kernel::uint first, kernel::uint last) {
-        const SpriteSetup& sp = *sprites[s];
-        const auto voxels = voxelsOf<true>(models[std::size_t(sp.model)]->frame(sp.frame));
-        kernel::SpriteTracer<GridVoxels<true>> tracer{voxels};
-        for (kernel::uint slot = first; slot < last; ++slot)
-            primaries[plan.cellBase[s] + slot] =
-                tracer.vtTraceCellPrimary(g, kernel::vtSlotCell(g, slot));
-        counters.local().fetches += voxels.fetches;
-    });
-    overRows([&](std::size_t s, const kernel::SpriteGpu& g, kernel::uint first, kernel::uint last) {
-        const kernel::uint base = plan.cellBase[s];
-        const auto primaryAt = [&](glm::ivec2 c) {
-            return kernel::vtCellInRange(g, c) ? primaries[base + kernel::vtCellSlot(g, c)]
-                                               : kernel::VT_KIND_EMPTY;
-        };
-        for (kernel::uint slot = first; slot < last; ++slot) {
-            const glm::ivec2 c = kernel::vtSlotCell(g, slot);
-            outcomes[base + slot] = kernel::vtOutcomeFromPrimaries(
-                primaryAt(c), primaryAt(c + glm::ivec2(-1, 0)), primaryAt(c + glm::ivec2(1, 0)),
-                primaryAt(c + glm::ivec2(0, -1)), primaryAt(c + glm::ivec2(0, 1)));
-        }
-    });
-    return outcomes;
+/// The cell-rate sprites' cells (near_rate.hpp), traced on first use rather than all before the
+/// pixels: a cell's primary ray is traced the first time a pixel of it or of one of its four
+/// neighbours needs it (vtOutcomeFromPrimaries reads all five), so the cells under pixels the
+/// early depth test rejects, or that occlusion tiles skip, are never traced. A cell may be needed
+/// by two band tasks at once (a magnified cell spans bands): both trace it and store the same value
+/// (the kernel is deterministic), through atomic_ref so that the race is a defined one.
+struct LazyCells {
+    static constexpr kernel::uint kUnknown = 0xFFFFFFFFu; // no packed outcome has all bits set
+    std::vector<kernel::uint> primaries, outcomes;
+    explicit LazyCells(std::uint64_t cells)
+        : primaries(std::size_t(cells), kUnknown), outcomes(std::size_t(cells), kUnknown) {}
+};
+
+/// A memoised slot: its value, computing and storing it with `make` the first time.
+template <class Make> kernel::uint memoised(kernel::uint& slot, Make&& make) {
+    std::atomic_ref<kernel::uint> ref(slot);
+    kernel::uint v = ref.load(std::memory_order_relaxed);
+    if (v == LazyCells::kUnknown) {
+        v = make();
+        ref.store(v, std::memory_order_relaxed);
+    }
+    return v;
 }
 
-} // namespace
-
-namespace {
-
-/// Pass 2 of one sprite's rows [y0, y1), columns [x0, x1): every pixel's kernel outcome (traced,
-/// or looked up from its cell) shaded and written with the depth/id rule. `open(x)` says whether
-/// the occlusion tile holding column x may still take the sprite.
+/// One sprite's rows [y0, y1), columns [x0, x1): every pixel the depth/id rule may still let the
+/// sprite write gets its kernel outcome (traced, or from its cell), shaded and written. `open(x)`
+/// says whether the occlusion tile holding column x may still take the sprite.
 template <class Open>
 void drawSpriteRows(const std::vector<std::shared_ptr<VoxelModel>>& models, const SpriteSetup& sp,
-                    kernel::uint cellBase, const std::vector<kernel::uint>& cells, int y0, int y1,
-                    int x0, int x1, Open&& open, Image& target, RowCounters& rc) {
+                    kernel::uint cellBase, LazyCells& cells, int y0, int y1, int x0, int x1,
+                    Open&& open, bool earlyDepth, Image& target, RowCounters& rc) {
     const VoxelModel& model = *models[std::size_t(sp.model)];
     const auto voxels = voxelsOf<true>(model.frame(sp.frame));
     kernel::SpriteTracer<GridVoxels<true>> tracer{voxels};
@@ -109,6 +80,15 @@ void drawSpriteRows(const std::vector<std::shared_ptr<VoxelModel>>& models, cons
                 continue;
             }
             ++rc.tested;
+            // Early depth test: the sprite writes one depth everywhere, so where the pixel already
+            // holds what the depth/id rule keeps against it, no outcome of the kernel can be
+            // written, and the pixel is neither traced nor looked up. Exact by construction: the
+            // test is the write's own condition, taken before the work instead of after.
+            const std::size_t p = target.index(x, y);
+            if (earlyDepth && !target.wouldWrite(p, g.depth, sp.entityId)) {
+                ++rc.hidden;
+                continue;
+            }
             glm::ivec2 cell;
             const glm::vec2 pc(float(x) + 0.5f, py);
             if (!kernel::vtPixelCell(g, pc, cell)) continue;
@@ -119,8 +99,21 @@ void drawSpriteRows(const std::vector<std::shared_ptr<VoxelModel>>& models, cons
                 kind = tracer.vtShadeCell(g, cell, index, face);
             } else {
                 ++rc.lookedUp;
-                kind = kernel::vtUnpackOutcome(cells[cellBase + kernel::vtCellSlot(g, cell)], index,
-                                               face);
+                const auto primary = [&](glm::ivec2 c) -> kernel::uint {
+                    if (!kernel::vtCellInRange(g, c)) return kernel::VT_KIND_EMPTY;
+                    return memoised(cells.primaries[cellBase + kernel::vtCellSlot(g, c)], [&] {
+                        ++rc.cellsTraced;
+                        return tracer.vtTraceCellPrimary(g, c);
+                    });
+                };
+                const kernel::uint outcome =
+                    memoised(cells.outcomes[cellBase + kernel::vtCellSlot(g, cell)], [&] {
+                        return kernel::vtOutcomeFromPrimaries(
+                            primary(cell), primary(cell + glm::ivec2(-1, 0)),
+                            primary(cell + glm::ivec2(1, 0)), primary(cell + glm::ivec2(0, -1)),
+                            primary(cell + glm::ivec2(0, 1)));
+                    });
+                kind = kernel::vtUnpackOutcome(outcome, index, face);
             }
             if (kind == kernel::VT_KIND_EMPTY) continue;
             ++rc.written;
@@ -128,7 +121,7 @@ void drawSpriteRows(const std::vector<std::shared_ptr<VoxelModel>>& models, cons
                 kind == kernel::VT_KIND_SOLID
                     ? kernel::vtLit(model.palette().colors[index], kernel::vtFaceLight(g, face))
                     : kernel::VT_OUTLINE_RGBA;
-            target.writeIfNearer(target.index(x, y), color, g.depth, sp.entityId);
+            target.writeIfNearer(p, color, g.depth, sp.entityId);
         }
     }
     rc.fetches += voxels.fetches;
@@ -162,13 +155,11 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
             for (const std::uint32_t i : indices) run.push_back(sprites[i]);
             drawn += run.size();
             const CellRatePlan plan = planCellRate(run, options.rate, options.cellBudgetBytes);
-            const std::vector<kernel::uint> cells =
-                traceCellRateSprites(models, run, plan, counters);
-            rate.cellsTraced += plan.cells;
+            LazyCells cells(plan.cells);
             rate.cellSprites += plan.cellSprites;
             rate.cellOverBudget += plan.overBudget;
-            // Pass 2, bucketed by band of rows, each band written by exactly one task (no locks;
-            // the depth/id rule makes the image independent of the order sprites are visited in).
+            // Bucketed by band of rows, each band written by exactly one task (no locks; the
+            // depth/id rule makes the image independent of the order sprites are visited in).
             const RowBands byBand = bucketByBand(run.size(), bands, bandRows, [&](std::size_t i) {
                 return std::pair<int, int>{run[i]->screenRect.y,
                                            std::min(run[i]->screenRect.w, target.height)};
@@ -185,7 +176,8 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     if (!tiles) {
                         drawSpriteRows(
                             models, sp, plan.cellBase[i], cells, r0, r1, sp.screenRect.x,
-                            sp.screenRect.z, [](int) { return true; }, target, rc);
+                            sp.screenRect.z, [](int) { return true; }, options.earlyDepthTest,
+                            target, rc);
                         continue;
                     }
                     const auto [x0, x1] =
@@ -201,7 +193,8 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                         open[c] = tiles->tileOpen(b, (c0 + int(c)) * kTile, sp.gpu.depth);
                     drawSpriteRows(
                         models, sp, plan.cellBase[i], cells, r0, r1, x0, x1,
-                        [&](int x) { return open[std::size_t(x / kTile - c0)] != 0; }, target, rc);
+                        [&](int x) { return open[std::size_t(x / kTile - c0)] != 0; },
+                        options.earlyDepthTest, target, rc);
                     tiles->drawn(b, x0, x1, r1 - r0);
                 }
             });
@@ -210,21 +203,24 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
         RowCounters total;
         counters.combine_each([&](const RowCounters& c) {
             total.tested += c.tested;
+            total.hidden += c.hidden;
             total.inSprite += c.inSprite;
             total.written += c.written;
             total.fetches += c.fetches;
             total.traced += c.traced;
             total.lookedUp += c.lookedUp;
+            total.cellsTraced += c.cellsTraced;
         });
         stats->sprites += drawn;
         stats->culled += culled;
         stats->pixelsTested += total.tested;
+        stats->pixelsHidden += total.hidden;
         stats->pixelsInSprite += total.inSprite;
         stats->pixelsWritten += total.written;
         stats->voxelFetches += total.fetches;
         stats->pixelsTraced += total.traced;
         stats->pixelsLookedUp += total.lookedUp;
-        stats->cellsTraced += rate.cellsTraced;
+        stats->cellsTraced += total.cellsTraced;
         stats->cellSprites += rate.cellSprites;
         stats->cellOverBudget += rate.cellOverBudget;
         stats->milliseconds += msSince(t0);

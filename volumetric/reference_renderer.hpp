@@ -19,6 +19,7 @@ struct ReferenceStats : CellRateCounts {
     std::uint64_t sprites = 0;        ///< sprites drawn
     std::uint64_t culled = 0;         ///< visible sprites occlusion culling dropped whole
     std::uint64_t pixelsTested = 0;   ///< pixels of sprite rectangles evaluated ("fragments")
+    std::uint64_t pixelsHidden = 0;   ///< of those, already nearer: neither traced nor looked up
     std::uint64_t pixelsInSprite = 0; ///< of those, pixels that map to a lattice cell
     std::uint64_t pixelsWritten = 0;  ///< solid or outline outcomes
     std::uint64_t voxelFetches = 0;   ///< DDA steps (one voxel read each)
@@ -34,6 +35,10 @@ struct ReferenceOptions {
     /// already drawn hides, whole sprites before any of their cells is traced. Same image; off by
     /// default (DESIGN.md §6, Occlusion: it pays only where large sprites hide others).
     bool occlusionCull = false;
+    /// Skip the kernel where the pixel already holds what the depth/id rule keeps against the
+    /// sprite (its one depth is known before any tracing). Same image, fewer traces; off only to
+    /// count the voxel reads of the Vulkan fragment shader, which traces every covered pixel.
+    bool earlyDepthTest = true;
 };
 
 /// Draws `sprites` (visible ones; culled entries are skipped) into `target`, which keeps what
