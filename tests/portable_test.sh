@@ -4,7 +4,8 @@
 # Vulkan loader with Mesa's lavapipe and what lavapipe itself links (the part a GPU machine brings
 # with its driver). There it renders scenes/default.json byte-identical to the ordinary build
 # (colour and the entity ids, as .pam), on the CPU reference and on Vulkan, passes `voxtier
-# check` on a golden scene, and refuses a .png with one line. Usage: portable_test.sh BUILD_DIR
+# check` on a golden scene, and refuses a .png with one line; and where even the C++ runtime is
+# missing, renders the same with the folder's lib/fallback/. Usage: portable_test.sh BUILD_DIR
 # SOURCE_DIR (BUILD_DIR holds voxtier and voxtier-portable).
 set -euo pipefail
 build="$(cd "$1" && pwd)"
@@ -100,6 +101,29 @@ grep -q "Vulkan device: llvmpipe" "$work/out/near_vulkan.log" || {
     cat "$work/out/near_vulkan.log" >&2
     exit 1
 }
+
+# A machine with no C++ runtime at all (no Mesa driver either): the folder's lib/fallback/ on
+# LD_LIBRARY_PATH (what gpu_check.sh sets there) serves it; only the loader family and the
+# Vulkan loader (no driver: the CPU reference draws the near tier) are in this sandbox.
+minimal=(--ro-bind "$libvulkan" "$libvulkan")
+for path in $(ldd "$libvulkan" "$build/voxtier-portable" | awk '$2 == "=>" && $3 ~ /^\// {print $3} $1 ~ /^\// {print $1}' |
+    grep -E '/(ld-linux[^/]*|libc|libm)\.so' | sort -u); do
+    [[ "$path" == "$libvulkan" ]] || minimal+=(--ro-bind "$path" "$path")
+done
+if bwrap --unshare-all --clearenv --dev /dev --proc /proc --tmpfs /tmp --ro-bind "$work/pkg" /pkg \
+    "${minimal[@]}" /pkg/voxtier --version >/dev/null 2>&1; then
+    echo "portable_test: the minimal sandbox has a C++ runtime; it should not" >&2
+    exit 1
+fi
+bwrap --unshare-all --clearenv --setenv LD_LIBRARY_PATH /pkg/lib/fallback --dev /dev --proc /proc \
+    --tmpfs /tmp --ro-bind "$work/pkg" /pkg --bind "$work/out" /out "${minimal[@]}" \
+    /pkg/voxtier render /pkg/scenes/default.json --near-backend reference -o /out/minimal.pam \
+    >"$work/out/minimal.log" 2>&1 || {
+    cat "$work/out/minimal.log" >&2
+    exit 1
+}
+cmp "$work/out/hybrid.normal.pam" "$work/out/minimal.pam"
+echo "portable_test: without a system C++ runtime, with lib/fallback: identical"
 
 # The Vulkan near tier equals the CPU reference in the sandbox too (in memory, no files).
 sandbox /pkg/voxtier check /pkg/scenes/golden/equal_depth.json

@@ -62,6 +62,11 @@ out="${out:-gpu-check}"
 mkdir -p "$out/logs"
 out="$(cd "$out" && pwd)"
 
+# The portable folder's C++ runtime, only where the machine has none (tools/portable.sh).
+if [[ -d "$(dirname "$bin")/lib/fallback" ]] && ! ldconfig -p 2>/dev/null | grep -q 'libstdc++\.so\.6 '; then
+    LD_LIBRARY_PATH="$(dirname "$bin")/lib/fallback${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+    export LD_LIBRARY_PATH
+fi
 # The machine brings its own Vulkan loader; say so in one line when it lacks one.
 if ! "$bin" --version >/dev/null 2>"$out/logs/version.err"; then
     echo "gpu_check: $bin does not start: $(head -1 "$out/logs/version.err")" >&2

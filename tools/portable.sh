@@ -4,7 +4,8 @@
 #   voxtier         the CLI, built without OpenImageIO (writes .pam; VOXTIER_IMAGE_FILES=OFF),
 #                   DT_RPATH $ORIGIN/lib, debug info stripped
 #   lib/            the shared libraries it links that the other machine may lack (ldd), less the
-#                   C library and loader family and libvulkan.so.1, which that machine brings
+#                   C library and loader family and libvulkan.so.1, which that machine brings;
+#                   lib/fallback/ the C++ runtime, used only where that machine has none
 #   scenes/         the golden and bench scenes and the bundled models they name (scenes/vox)
 #   gpu_check.sh    tools/gpu_check.sh: identity checks and the bench, report.md + results.csv
 #   MANIFEST.txt    what is in it, from which commit, and its size
@@ -31,7 +32,7 @@ while [[ $# -gt 0 ]]; do
         shift 2
         ;;
     -h | --help)
-        sed -n '2,22p' "$0"
+        sed -n '2,23p' "$0"
         exit 0
         ;;
     -*)
@@ -85,34 +86,52 @@ if [[ -n "$(ls -A "$out")" && ! -f "$out/MANIFEST.txt" ]]; then
     echo "portable.sh: $out is not empty and not a portable folder; choose another" >&2
     exit 1
 fi
-rm -rf "$out/voxtier" "$out/lib" "$out/scenes" "$out/gpu_check.sh" "$out/MANIFEST.txt"
+rm -rf "${out:?}/voxtier" "${out:?}/lib" "${out:?}/scenes" "${out:?}/gpu_check.sh" "${out:?}/MANIFEST.txt"
 mkdir -p "$out/lib"
 
 strip --strip-debug -o "$out/voxtier" "$bin"
 # The C library and the dynamic loader come with every Linux (and must match its kernel and
 # loader); the Vulkan loader comes with the GPU's driver. Everything else is copied.
 system='^(linux-vdso\.so|linux-gate\.so|ld-linux[-a-z0-9_.]*\.so|libc\.so|libm\.so|libdl\.so|libpthread\.so|librt\.so|libresolv\.so|libutil\.so|libmvec\.so|libvulkan\.so)'
+# The C++ runtime goes to lib/fallback/, off the search path: a machine with a Vulkan driver
+# has one (Mesa's drivers link it), as new as its driver needs, and a copy of ours found first
+# would be older than a newer distribution's driver asks for. gpu_check.sh adds lib/fallback to
+# LD_LIBRARY_PATH only where the machine has none. MANIFEST.txt says which versions it needs.
+fallback='^(libstdc\+\+\.so|libgcc_s\.so)'
+mkdir -p "$out/lib/fallback"
 libs=()
 while read -r name path; do
     [[ "$name" =~ $system ]] && continue
     [[ -f "$path" ]] || continue
-    libs+=("$name")
-    strip --strip-unneeded -o "$out/lib/$name" "$path"
+    if [[ "$name" =~ $fallback ]]; then
+        libs+=("fallback/$name")
+        strip --strip-unneeded -o "$out/lib/fallback/$name" "$path"
+    else
+        libs+=("$name")
+        strip --strip-unneeded -o "$out/lib/$name" "$path"
+    fi
 done < <(ldd "$bin" | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}')
 
 cp -r "$root/scenes" "$out/scenes"
 cp "$root/tools/gpu_check.sh" "$out/gpu_check.sh"
 
+needs() { # PREFIX FILES...: the newest symbol version PREFIX_x.y the files ask for
+    local prefix="$1"
+    shift
+    objdump -T "$@" | grep -o "${prefix}_[0-9.]*" | sort -uV | tail -1 | sed "s/${prefix}_//"
+}
 bytes=$(du -sb "$out" | cut -f1)
 mib=$(awk -v b="$bytes" 'BEGIN {printf "%.1f", b / 1048576}')
 {
     echo "voxtier portable folder (tools/portable.sh)"
     echo "commit: $(git -C "$root" rev-parse --short HEAD 2>/dev/null || echo unknown)$(git -C "$root" diff --quiet 2>/dev/null || echo ' (with local changes)')"
-    echo "built on: $(. /etc/os-release && echo "$PRETTY_NAME"), glibc $(ldd --version | head -1 | awk '{print $NF}') (the other machine needs this glibc or newer)"
+    echo "built on: $(. /etc/os-release && echo "$PRETTY_NAME"), glibc $(ldd --version | head -1 | awk '{print $NF}')"
+    echo "needs: glibc $(needs GLIBC "$out/voxtier" "$out"/lib/*.so*) or newer; a libstdc++ with GLIBCXX_$(needs GLIBCXX "$out/voxtier" "$out"/lib/*.so*) (else lib/fallback/)"
     echo "size: $mib MiB"
     echo "run: ./gpu_check.sh [OUTDIR]   or   ./voxtier render scenes/default.json -o out.pam"
     echo "lib/ (${#libs[@]} libraries):"
-    (cd "$out/lib" && du -b -- * | sort -rn | awk '{printf "  %-40s %6.2f MiB\n", $2, $1 / 1048576}')
+    (cd "$out/lib" && find . -type f -printf '%s %P\n' | sort -rn |
+        awk '{printf "  %-40s %6.2f MiB\n", $2, $1 / 1048576}')
 } >"$out/MANIFEST.txt"
 
 echo "portable: $out: $mib MiB (binary $(du -b "$out/voxtier" | awk '{printf "%.1f", $1 / 1048576}') MiB, ${#libs[@]} libraries $(du -sb "$out/lib" | awk '{printf "%.1f", $1 / 1048576}') MiB, scenes $(du -sb "$out/scenes" | awk '{printf "%.1f", $1 / 1048576}') MiB)"
