@@ -72,8 +72,8 @@ if ldd "$bin" | grep -qi openimageio; then
     echo "portable.sh: $bin links OpenImageIO; it must not (VOXTIER_IMAGE_FILES=OFF)" >&2
     exit 1
 fi
-if ! readelf -d "$bin" | grep -q 'RPATH.*\$ORIGIN/lib'; then
-    echo "portable.sh: $bin has no DT_RPATH \$ORIGIN/lib" >&2
+if ! readelf -d "$bin" | grep -q 'RPATH.*\[\$ORIGIN/lib\]$'; then
+    echo "portable.sh: $bin has not exactly the DT_RPATH \$ORIGIN/lib" >&2
     exit 1
 fi
 if ldd "$bin" | grep -q 'not found'; then
