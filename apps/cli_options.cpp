@@ -2,6 +2,7 @@
 
 #include "compose/frame.hpp"
 #include "core/error.hpp"
+#include "image_files/image_files.hpp"
 
 #include <cerrno>
 #include <climits>
@@ -205,10 +206,14 @@ CLI::Validator imageFileName() {
             std::string ext = std::filesystem::path(text).extension().string();
             for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
             for (const char* e : kImageExtensions)
-                if (ext == e) return std::string();
+                if (ext == e) return imageFormatRefusal(text);
             return "expected an image file name ending in one of " + list + got(text);
         },
         "");
+}
+
+const char* defaultImageExtension() {
+    return imageLibraryAvailable() ? ".png" : ".pam";
 }
 
 CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate) {

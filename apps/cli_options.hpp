@@ -58,10 +58,14 @@ std::optional<FrameRange> readFrameRange(const std::string& text);
 /// A frame range A:B[:STEP] (readFrameRange).
 CLI::Validator frameRange();
 
-/// The image file extensions voxtier writes (OpenImageIO picks the format from it).
-inline constexpr const char* kImageExtensions[] = {".png", ".exr", ".gif", ".tif", ".jpg"};
-/// A file name ending in one of kImageExtensions (any case).
+/// The image file extensions voxtier writes (image_files/image_files.hpp): .pam with no library,
+/// the others through OpenImageIO where the build has it.
+inline constexpr const char* kImageExtensions[] = {".png", ".exr", ".gif", ".tif", ".jpg", ".pam"};
+/// A file name ending in one of kImageExtensions (any case) that this build can write (a build
+/// without OpenImageIO refuses all but .pam, with image_files' one-line reason).
 CLI::Validator imageFileName();
+/// The extension of the default output image: .png, or .pam in a build without OpenImageIO.
+const char* defaultImageExtension();
 
 /// One of the names of a name table (pairs of name and enum value, e.g. compose/frame.hpp's
 /// kRenderModeNames): `--help` lists them as {a,b,c}, a bad value reads "unknown <what> 'x'

@@ -8,12 +8,12 @@
 #include "compose/frame_figures.hpp"
 #include "core/error.hpp"
 #include "core/file_write.hpp"
-#include "core/image_io.hpp"
 #include "core/model_view.hpp"
 #include "core/scene_loader.hpp"
 #include "core/sprite.hpp"
 #include "core/stopwatch.hpp"
 #include "core/vox_reader.hpp"
+#include "image_files/image_files.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 
 #include <algorithm>
@@ -330,9 +330,13 @@ void run(const RenderArgs& a) {
     opt.cacheDir = a.cacheDir.dir;
     opt.cacheDirBytes = a.cacheDir.limitBytes();
     std::string out = a.out;
-    if (out.empty()) out = "out/" + std::filesystem::path(a.input).stem().string() + ".png";
+    if (out.empty())
+        out = "out/" + std::filesystem::path(a.input).stem().string() + defaultImageExtension();
     rejectCollidingOutputs(a, out);
     rejectAlphaFormat(a, out);
+    // A build without OpenImageIO writes .pam alone: say so before rendering, not after.
+    for (const std::string& f : {a.overlay, a.ids})
+        if (!f.empty() && !canWriteImageFormat(f)) throw InputError(f, "", imageFormatRefusal(f));
     FrameRenderer renderer(scene, opt);
     // A .vox render is a preview, where a user judges the model (or the file's scene graph):
     // without --mode it is drawn exactly, by the near tier (Vulkan on a GPU, else the CPU
@@ -445,7 +449,8 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_option("-o,--out", args->out,
                     "Output image by extension: .png, .exr (linear colour with Z and id "
                     "channels), .tif, .jpg (no alpha), .gif (no alpha; with --path or --frames: "
-                    "one animated GIF); default out/<name>.png")
+                    "one animated GIF), .pam (RGBA written with no image library: the one format "
+                    "of a build without OpenImageIO); default out/<name>.png (.pam there)")
         ->check(imageFileName());
     auto* modeOption = addChoiceOption(
         *cmd, "--mode", args->mode, kRenderModeNames, "render mode",

@@ -7,6 +7,8 @@ namespace voxtier::cli {
 void addRenderCommand(CLI::App& app);
 void addInfoCommand(CLI::App& app);
 void addBakeCommand(CLI::App& app);
+/// `check SCENES...`: Vulkan near tier == CPU reference, in memory (apps/cmd_check.cpp).
+void addCheckCommand(CLI::App& app);
 /// `bench [SCENES...]` and its subcommands (apps/cmd_bench.cpp registers them all).
 void addBenchCommand(CLI::App& app);
 void addBenchNearCommand(CLI::App& bench);  ///< `bench near` (apps/cmd_bench_near.cpp)

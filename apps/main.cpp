@@ -78,6 +78,7 @@ int main(int argc, char** argv) {
     voxtier::cli::addInfoCommand(app);
     voxtier::cli::addBakeCommand(app);
     voxtier::cli::addBenchCommand(app);
+    voxtier::cli::addCheckCommand(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

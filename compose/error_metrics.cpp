@@ -3,7 +3,7 @@
 // envelope of parabolas per row, then per column, exact and linear in the pixel count.
 #include "compose/error_metrics.hpp"
 
-#include "core/image_io.hpp"
+#include "core/color_compare.hpp"
 #include "core/sprite_kernel.h"
 
 #include <algorithm>

@@ -47,7 +47,7 @@ struct FrameError {
     double meanMismatch = 0.0, worstMismatch = 0.0;
     double meanDisplacementPx = 0.0, worstDisplacementPx = 0.0;
     std::uint32_t worstEntity = 0;
-    double rmse = 0.0, psnr = 0.0; ///< colour, OpenImageIO's compare
+    double rmse = 0.0, psnr = 0.0; ///< colour (core/color_compare.hpp)
     std::size_t changedPixels = 0; ///< pixels whose colour differs
 };
 FrameError summarize(const std::vector<EntityError>& perEntity, const Image& truth,

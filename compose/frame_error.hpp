@@ -37,8 +37,8 @@ struct FrameErrorReport {
     /// caller (it re-draws).
     EntityErrorSummary farIsolated;
     double rmse = 0.0,
-           psnr = 0.0; ///< colour, OpenImageIO's compare (psnr is +inf for equal images)
-    std::size_t changedPixels = 0;   ///< colour differs
+           psnr = 0.0;             ///< colour, core/color_compare.hpp (psnr +inf for equal images)
+    std::size_t changedPixels = 0; ///< colour differs
     std::size_t differingPixels = 0; ///< colour, depth or entity id differs
 };
 

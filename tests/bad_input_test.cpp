@@ -4,7 +4,7 @@
 // Each case prints "[ input    ] <class> | <what the user sees>" so the table in the issue note
 // is this test's output.
 #include "cli_support.hpp"
-#include "core/image_io.hpp"
+#include "image_files/image_files.hpp"
 
 #include <gtest/gtest.h>
 

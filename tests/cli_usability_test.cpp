@@ -3,7 +3,7 @@
 // --frame, --alpha is refused where the format cannot hold it, an unknown option gets a "did
 // you mean", GIF delays keep the path's frame rate, and a path render ends with its wall time.
 #include "cli_support.hpp"
-#include "core/image_io.hpp"
+#include "image_files/image_files.hpp"
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
@@ -157,7 +157,7 @@ TEST(CliUsability, PathOnAVoxSaysWhy) {
 TEST(CliUsability, HelpListsEveryOutputFormat) {
     const test::CliRun r = test::runCli("render --help");
     ASSERT_EQ(r.status, 0) << r.err;
-    for (const char* ext : {".png", ".exr", ".tif", ".jpg", ".gif"})
+    for (const char* ext : {".png", ".exr", ".tif", ".jpg", ".gif", ".pam"})
         EXPECT_NE(r.out.find(ext), std::string::npos) << ext << " missing from:\n" << r.out;
 }
 

@@ -1,7 +1,7 @@
 // The far tier's command-line surface: `voxtier bake` (with a contact sheet), `voxtier bake
 // --bench` on a small model, `voxtier render --mode far`.
 #include "cli_support.hpp"
-#include "core/image_io.hpp"
+#include "image_files/image_files.hpp"
 
 #include <gtest/gtest.h>
 

@@ -4,11 +4,11 @@
 // reference near tier, the far blit, the hybrid of both with cross-fades), and compared whole.
 #include "cli_support.hpp"
 #include "compose/frame.hpp"
-#include "core/image_io.hpp"
 #include "core/occlusion.hpp"
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
 #include "frame_test_support.hpp"
+#include "image_files/image_files.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>

@@ -2,9 +2,9 @@
 // ranges, animated GIFs, EXR colour, transparency and the CLI's messages, end to end.
 #include "cli_support.hpp"
 #include "compose/frame.hpp"
-#include "core/image_io.hpp"
 #include "core/model_view.hpp"
 #include "core/scene_loader.hpp"
+#include "image_files/image_files.hpp"
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
@@ -232,8 +232,8 @@ TEST(RenderOutput, CliMessagesSayWhatWorks) {
         {"rendr " + scene, "unknown command 'rendr' (did you mean 'render'?)", 2},
         {"bak", "unknown command 'bak' (did you mean 'bake'?)", 2},
         {"render " + scene + " -o x",
-         "--out: expected an image file name ending in one of .png, .exr, .gif, .tif, .jpg, got "
-         "'x'",
+         "--out: expected an image file name ending in one of .png, .exr, .gif, .tif, .jpg, .pam, "
+         "got 'x'",
          2},
         {"render " + scene + " -o out/x.bogus", "ending in one of .png, .exr", 2},
         {"render " + missingVox,

@@ -8,7 +8,7 @@
 // every run before the fix), and processes rendering and baking into one size-limited directory
 // at once and staggered, round after round, each image compared with a lone render.
 #include "cli_support.hpp"
-#include "core/image_io.hpp"
+#include "image_files/image_files.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/mount.h>

@@ -1,8 +1,8 @@
 // The numerically hard cases of DESIGN.md §7 / HARD_CASES.md on the Vulkan near tier: each image
 // must equal the CPU reference exactly, and where a closed form exists (solid boxes along the 26
 // canonical directions), equal that too, independently of the kernel code.
-#include "core/image_io.hpp"
 #include "core/procedural.hpp"
+#include "image_files/image_files.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>

@@ -7,7 +7,7 @@
 #include "cli_support.hpp"
 #include "core/error.hpp"
 #include "core/file_write.hpp"
-#include "core/image_io.hpp"
+#include "image_files/image_files.hpp"
 #include "impostor_cache/snapshot_store.hpp"
 
 #include <gtest/gtest.h>

@@ -21,6 +21,8 @@ packages=(
     mesa-vulkan-drivers
     # tests
     libgtest-dev vulkan-validationlayers
+    # tests: the portable folder run isolated (tests/portable_test.sh)
+    bubblewrap
     # tests: tools/validate_scenes.py (scene files against docs/scene.schema.json)
     python3-jsonschema
     # bench plots

@@ -1,10 +1,15 @@
-// Renders a procedural model through the installed voxtier (reference and far tiers, no GPU
-// needed) and checks the two agree on which pixels the entity covers.
+// Renders a procedural model through the installed voxtier (the CPU reference, no GPU needed),
+// checks the entity covers pixels, and writes the frame through the installed image_files module
+// (a .pam: the library-free format; the file must be the header plus 4 bytes a pixel).
 #include "compose/frame.hpp"
 #include "core/model_view.hpp"
 #include "core/procedural.hpp"
+#include "image_files/image_files.hpp"
 
 #include <cstdio>
+#include <filesystem>
+#include <string>
+#include <unistd.h>
 
 int main() {
     voxtier::ModelView view;
@@ -17,5 +22,11 @@ int main() {
     const auto reference = renderer.render(0.0, voxtier::RenderMode::Reference);
     const std::size_t drawn = reference.image.countEntity(0);
     std::printf("consumer: %zu pixels of the arrow drawn\n", drawn);
-    return drawn > 100 ? 0 : 1;
+    const std::filesystem::path pam = std::filesystem::temp_directory_path() /
+                                      ("voxtier_consumer_" + std::to_string(getpid()) + ".pam");
+    voxtier::writeImage(pam, reference.image);
+    const auto bytes = std::filesystem::file_size(pam);
+    std::filesystem::remove(pam);
+    std::printf("consumer: %ju bytes of .pam\n", std::uintmax_t(bytes));
+    return drawn > 100 && bytes == 67 + 96 * 72 * 4 ? 0 : 1;
 }

@@ -1,12 +1,13 @@
-#include "core/image_io.hpp"
-
+// The formats that need an image library, through OpenImageIO: the only file of voxtier that
+// includes it (DESIGN.md §1). Linked where VOXTIER_IMAGE_FILES=ON.
 #include "core/error.hpp"
 #include "core/file_write.hpp"
 #include "core/sprite_kernel.h"
+#include "image_files/detail/image_library.hpp"
+#include "image_files/image_files.hpp"
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -16,13 +17,6 @@
 namespace voxtier {
 
 namespace {
-
-OIIO::ImageBuf colorBuf(const Image& img) {
-    OIIO::ImageSpec spec(img.width, img.height, 4, OIIO::TypeDesc::UINT8);
-    OIIO::ImageBuf buf(spec);
-    buf.set_pixels(OIIO::ROI::All(), OIIO::TypeDesc::UINT8, img.color.data());
-    return buf;
-}
 
 /// The sRGB transfer function's inverse (IEC 61966-2-1): 8-bit sRGB code -> linear [0, 1].
 float linearFromSrgb8(unsigned code) {
@@ -61,10 +55,17 @@ void writeColor(const std::filesystem::path& file, const Image& img) {
 
 } // namespace
 
-void writeImage(const std::filesystem::path& file, const Image& img, double zNear) {
+namespace detail {
+
+bool imageLibraryLinked() {
+    return true;
+}
+
+void writeWithImageLibrary(const std::filesystem::path& file, const Image& img, double zNear,
+                           bool colorOnly) {
     std::string ext = file.extension().string();
-    for (char& c : ext) c = char(std::tolower(c));
-    if (ext != ".exr") {
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (ext != ".exr" || colorOnly) {
         writeColor(file, img);
         return;
     }
@@ -89,6 +90,8 @@ void writeImage(const std::filesystem::path& file, const Image& img, double zNea
     }
     writeEncoded(file, spec, OIIO::TypeDesc::FLOAT, px.data());
 }
+
+} // namespace detail
 
 struct AnimationWriter::Impl {
     std::filesystem::path file;
@@ -200,20 +203,6 @@ void AnimationWriter::close() {
     writeFileWhole(m.file, m.bytes);
 }
 
-void writeIdImage(const std::filesystem::path& file, const Image& img) {
-    Image vis = img;
-    for (std::size_t i = 0; i < img.pixelCount(); ++i) {
-        if (img.id[i] == kernel::VT_NO_ENTITY) {
-            vis.color[i] = packRgba(0, 0, 0);
-            continue;
-        }
-        std::uint32_t h = img.id[i] * 2654435761u;
-        h ^= h >> 15;
-        vis.color[i] = packRgba(64 + (h & 191), 64 + ((h >> 8) & 191), 64 + ((h >> 16) & 191));
-    }
-    writeColor(file, vis);
-}
-
 Image readColorImage(const std::filesystem::path& file) {
     OIIO::ImageBuf buf(file.string());
     if (!buf.read(0, 0, true, OIIO::TypeDesc::UINT8))
@@ -230,17 +219,6 @@ Image readColorImage(const std::filesystem::path& file) {
         img.color[i] = packRgba(ch[0], ch[1], ch[2], ch[3]);
     }
     return img;
-}
-
-ColorCompare compareColor(const Image& a, const Image& b, float threshold) {
-    const OIIO::ImageBuf A = colorBuf(a), B = colorBuf(b);
-    const auto r = OIIO::ImageBufAlgo::compare(A, B, threshold, threshold);
-    ColorCompare out;
-    out.rmse = r.rms_error;
-    out.psnr = r.PSNR;
-    out.maxError = r.maxerror;
-    out.pixelsOverThreshold = std::size_t(r.nfail + r.nwarn);
-    return out;
 }
 
 } // namespace voxtier

@@ -1,0 +1,68 @@
+#pragma once
+// Image files (DESIGN.md §1): the one module that writes and reads them. The renderer's modules
+// (core to compose) never touch a file format; apps and tests call this module.
+//
+// Two kinds of format:
+// - .pam (Netpbm's PAM, 8-bit RGBA, no compression) is written here with no library at all, so
+//   that every build of voxtier, the portable one included (tools/portable.sh), can write an
+//   image and two builds' renders can be compared byte for byte.
+// - Every other format (.png, .exr, .tif, .jpg, .gif) goes through OpenImageIO
+//   (image_files/oiio_files.cpp, the only file that includes it). A build configured with
+//   VOXTIER_IMAGE_FILES=OFF has no OpenImageIO: there those formats are refused with one
+//   InputError line naming the file, before anything is rendered where the CLI can tell.
+#include "core/image.hpp"
+
+#include <filesystem>
+#include <memory>
+#include <string>
+
+namespace voxtier {
+
+/// Whether this build writes and reads the formats that need OpenImageIO (the CMake option
+/// VOXTIER_IMAGE_FILES). .pam is written either way.
+bool imageLibraryAvailable();
+/// Whether `file`'s extension (any case) names a format this build writes: .pam always, .png,
+/// .exr, .tif, .jpg and .gif where imageLibraryAvailable().
+bool canWriteImageFormat(const std::filesystem::path& file);
+/// The one-line reason a file of this format cannot be written by this build ("" where it can).
+std::string imageFormatRefusal(const std::filesystem::path& file);
+
+/// Writes the colour image; the format follows the extension (.pam, .png, .exr, .tif, ...).
+/// .pam is P7 with TUPLTYPE RGB_ALPHA, MAXVAL 255: the colour plane's bytes exactly, row by row
+/// from the top (no library; identical bytes from every build).
+/// .exr is float: R, G, B linear (decoded from the 8-bit sRGB colour; tagged oiio:ColorSpace
+/// "Linear"; premultiplied by A, as EXR expects), A, then "Z", the view depth in metres of the
+/// sprite's model centre (DESIGN.md §3.8: every pixel of a sprite has its centre's depth; +inf
+/// where empty; needs the camera's zNear), and "id", the entity id as float (-1 where empty).
+/// The file is whole or absent (core/file_write.hpp): encoded in memory, written under a
+/// temporary name, renamed. Throws InputError naming the file and the OS reason on failure, or
+/// imageFormatRefusal when this build cannot write the format.
+void writeImage(const std::filesystem::path& file, const Image& image, double zNear = 0.0);
+/// An animated image (GIF), written one frame at a time: every frame the same size, shown for
+/// 1/fps s on average (GIF stores the delay in 1/100 s, so 30 fps alternates 3, 3, 4). InputError
+/// naming the file when it cannot be written or a frame's size differs from the first. Nothing
+/// reaches the disk before close(), which writes the whole file (core/file_write.hpp); an animation
+/// destroyed without close() (a run that failed or was killed part-way) leaves no file. Needs
+/// imageLibraryAvailable() (else the constructor throws imageFormatRefusal).
+class AnimationWriter {
+  public:
+    AnimationWriter(std::filesystem::path file, double fps);
+    ~AnimationWriter();
+    AnimationWriter(const AnimationWriter&) = delete;
+    AnimationWriter& operator=(const AnimationWriter&) = delete;
+    void add(const Image& frame);
+    /// Finishes and writes the file.
+    void close();
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+/// The entity-id buffer as a colour-coded image (each id a stable pseudo-random colour, black
+/// where empty), in any format writeImage writes.
+void writeIdImage(const std::filesystem::path& file, const Image& image);
+/// Reads an 8-bit RGBA image (depth and id left empty). Needs imageLibraryAvailable().
+Image readColorImage(const std::filesystem::path& file);
+
+} // namespace voxtier

@@ -1,0 +1,39 @@
+// A build without OpenImageIO (VOXTIER_IMAGE_FILES=OFF, tools/portable.sh): .pam is written by
+// image_files.cpp; every format that needs the library is refused with one InputError line.
+#include "core/error.hpp"
+#include "image_files/detail/image_library.hpp"
+#include "image_files/image_files.hpp"
+
+namespace voxtier {
+
+namespace detail {
+
+bool imageLibraryLinked() {
+    return false;
+}
+
+void writeWithImageLibrary(const std::filesystem::path& file, const Image&, double, bool) {
+    throw InputError(file.string(), "", imageFormatRefusal(file));
+}
+
+} // namespace detail
+
+struct AnimationWriter::Impl {};
+
+AnimationWriter::AnimationWriter(std::filesystem::path file, double) {
+    throw InputError(file.string(), "", imageFormatRefusal(file));
+}
+
+AnimationWriter::~AnimationWriter() = default;
+
+void AnimationWriter::add(const Image&) {}
+
+void AnimationWriter::close() {}
+
+Image readColorImage(const std::filesystem::path& file) {
+    throw InputError(file.string(), "",
+                     "cannot read an image: this voxtier is built without OpenImageIO "
+                     "(VOXTIER_IMAGE_FILES=OFF)");
+}
+
+} // namespace voxtier

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# tools/gpu_check.sh --short against this build: it must pass its identity check, name the
+# Vulkan device, and write report.md and results.csv with the identity rows (0 differing pixels)
+# and the bench's rows. Usage: gpu_check_test.sh VOXTIER SOURCE_DIR
+set -euo pipefail
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+VOXTIER="$1" VOXTIER_SCENES="$2/scenes" bash "$2/tools/gpu_check.sh" --short "$work/out" |
+    tee "$work/log"
+fail() {
+    echo "gpu_check_test: $*" >&2
+    exit 1
+}
+grep -q "^gpu_check: Vulkan device used: ." "$work/log" || fail "no 'Vulkan device used' line"
+for f in report.md results.csv identity_near.csv bench/results.csv; do
+    [[ -s "$work/out/$f" ]] || fail "$f missing or empty"
+done
+grep -q "^| golden/equal_depth.json | 0.000 |.*| 0 | 0 | 0 | identical |" "$work/out/report.md" ||
+    fail "report.md lacks the identity row of golden/equal_depth.json"
+grep -q "^- Vulkan device: \*\*.\+\*\*" "$work/out/report.md" || fail "report.md names no device"
+grep -q "^identity_near,golden/equal_depth.json,t=0.000 id_diffs,0,pixels" "$work/out/results.csv" ||
+    fail "results.csv lacks the identity rows"
+grep -q "^bench,street,hybrid.*in_motion_ms,[0-9.]\+,ms" "$work/out/results.csv" ||
+    fail "results.csv lacks the hybrid's in-motion ms"
+echo "gpu_check_test: ok"

@@ -1,0 +1,265 @@
+#!/usr/bin/env bash
+# The GPU check: on the machine it runs on, with the Vulkan device that machine has,
+#   (a) identity: the Vulkan near tier draws the golden scenes and the default scene exactly as
+#       the CPU reference does (`voxtier check`: colour, depth, id compared in memory, 0 pixels
+#       may differ), and, where the binary has `render --far-backend`, the Vulkan far pass
+#       exactly as the CPU blit (colour and ids, byte for byte as .pam);
+#   (b) speed: `voxtier bench` on the street, tank army and RTS pan scenes in motion at the
+#       1 vpx error budget (48 frames, 6 of them the cold start).
+# It writes OUTDIR/report.md (device, driver, the identity results, the bench tables with
+# absolute ms and ratios) and OUTDIR/results.csv (the same figures, one row each), and keeps
+# the commands' own output beside them (identity_near.csv, bench/, logs/).
+#
+# Runs from the portable folder (tools/portable.sh: ./gpu_check.sh there), from a source tree
+# with a build (tools/gpu_check.sh uses build/voxtier), or with VOXTIER=/path/to/voxtier.
+# Under 6 minutes on a GPU; on lavapipe (2 CPU cores) the full run takes much longer
+# (DESIGN.md §8). Exit status 1 when an identity check fails or a command fails.
+#
+# Usage: gpu_check.sh [--short] [OUTDIR]      (OUTDIR default: gpu-check)
+#   --short   one golden scene and one small bench (what CI runs, tests/CMakeLists.txt)
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+short=0
+out=""
+while [[ $# -gt 0 ]]; do
+    case "$1" in
+    --short)
+        short=1
+        shift
+        ;;
+    -h | --help)
+        sed -n '2,21p' "$0"
+        exit 0
+        ;;
+    -*)
+        echo "gpu_check: unknown option '$1' (see --help)" >&2
+        exit 2
+        ;;
+    *)
+        out="$1"
+        shift
+        ;;
+    esac
+done
+
+# The binary and the scenes: the portable folder's, else the source tree's.
+if [[ -n "${VOXTIER:-}" ]]; then
+    bin="$VOXTIER"
+    scenes="${VOXTIER_SCENES:-$here/../scenes}"
+elif [[ -x "$here/voxtier" && -d "$here/scenes" ]]; then
+    bin="$here/voxtier"
+    scenes="$here/scenes"
+else
+    bin="$here/../build/voxtier"
+    scenes="$here/../scenes"
+fi
+[[ -x "$bin" ]] || {
+    echo "gpu_check: no voxtier at $bin (build it, or set VOXTIER)" >&2
+    exit 1
+}
+scenes="$(cd "$scenes" && pwd)"
+out="${out:-gpu-check}"
+mkdir -p "$out/logs"
+out="$(cd "$out" && pwd)"
+
+# The portable folder's C++ runtime, only where the machine has none (tools/portable.sh).
+if [[ -d "$(dirname "$bin")/lib/fallback" ]] && ! ldconfig -p 2>/dev/null | grep -q 'libstdc++\.so\.6 '; then
+    LD_LIBRARY_PATH="$(dirname "$bin")/lib/fallback${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+    export LD_LIBRARY_PATH
+fi
+# The machine brings its own Vulkan loader; say so in one line when it lacks one.
+if ! "$bin" --version >/dev/null 2>"$out/logs/version.err"; then
+    echo "gpu_check: $bin does not start: $(head -1 "$out/logs/version.err")" >&2
+    if grep -q libvulkan "$out/logs/version.err"; then
+        echo "gpu_check: this machine has no Vulkan loader (libvulkan.so.1): install one (Debian/Ubuntu: libvulkan1)" >&2
+    fi
+    exit 1
+fi
+# An NVIDIA driver that the loader does not list (its manifest outside the loader's search
+# path, as on the device machines here): point the loader at it.
+nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+if [[ -z "${VK_DRIVER_FILES:-}${VK_ICD_FILENAMES:-}" && -f "$nvidia_icd" ]]; then
+    export VK_DRIVER_FILES="$nvidia_icd"
+fi
+
+start=$(date +%s)
+failed=0
+version="$("$bin" --version)"
+echo "gpu_check: $version ($bin), scenes $scenes, output $out"
+
+# --- (a) identity --------------------------------------------------------------------------
+if ((short)); then
+    golden=("$scenes/golden/equal_depth.json")
+else
+    golden=("$scenes"/golden/*.json "$scenes/default.json")
+fi
+set +e
+"$bin" check "${golden[@]}" --csv "$out/identity_near.csv" 2>&1 | tee "$out/logs/check.log"
+near_rc=${PIPESTATUS[0]}
+set -e
+device="$(sed -n 's/^Vulkan device: //p' "$out/logs/check.log" | head -1)"
+if [[ -z "$device" ]]; then
+    echo "gpu_check: no Vulkan device: $(tail -1 "$out/logs/check.log")" >&2
+    exit 1
+fi
+echo "gpu_check: Vulkan device used: $device"
+((near_rc == 0)) || failed=1
+
+# Vulkan far == CPU far, where the binary has the far pass on Vulkan (issue 26).
+far_rows=""
+if "$bin" render --help 2>/dev/null | grep -q -- '--far-backend'; then
+    mkdir -p "$out/far"
+    for s in "${golden[@]}"; do
+        name=$(basename "$s" .json)
+        colour=identical ids=identical
+        for backend in cpu vulkan; do
+            if ! "$bin" render "$s" --mode far --far-backend "$backend" --no-cost-bound \
+                -o "$out/far/$name.$backend.pam" --ids "$out/far/$name.$backend.ids.pam" \
+                >>"$out/logs/far.log" 2>&1; then
+                colour="render failed ($backend, logs/far.log)" ids=-
+            fi
+        done
+        if [[ $ids != - ]]; then
+            cmp -s "$out/far/$name.cpu.pam" "$out/far/$name.vulkan.pam" || colour=different
+            cmp -s "$out/far/$name.cpu.ids.pam" "$out/far/$name.vulkan.ids.pam" || ids=different
+        fi
+        [[ $colour == identical && $ids == identical ]] || failed=1
+        echo "$s: Vulkan far vs CPU far: colour $colour, ids $ids"
+        far_rows+="$s,$colour,$ids"$'\n'
+    done
+    rm -f "$out"/far/*.pam
+else
+    echo "gpu_check: Vulkan far vs CPU far: skipped (this voxtier has no render --far-backend)"
+fi
+
+# --- (b) the bench -------------------------------------------------------------------------
+if ((short)); then
+    bench_args=("$scenes/bench/street.json" --smoke --no-sweeps --no-scaling --budget 1
+        --motion-frames 4 --motion-warmup 2)
+else
+    bench_args=("$scenes/bench/street.json" "$scenes/bench/tank_army.json"
+        "$scenes/bench/rts_pan.json" --quick --no-sweeps --no-scaling --budget 1
+        --motion-frames 48 --motion-warmup 6)
+fi
+bench_start=$(date +%s)
+set +e
+"$bin" bench "${bench_args[@]}" -o "$out/bench" >"$out/logs/bench.log" 2>&1
+bench_rc=$?
+set -e
+bench_s=$(($(date +%s) - bench_start))
+if ((bench_rc != 0)); then
+    echo "gpu_check: the bench failed (exit $bench_rc): $(tail -1 "$out/logs/bench.log")" >&2
+    failed=1
+fi
+total_s=$(($(date +%s) - start))
+
+# --- report.md and results.csv -------------------------------------------------------------
+export GC_OUT="$out" GC_DEVICE="$device" GC_VERSION="$version" GC_FAR_ROWS="$far_rows"
+export GC_TOTAL_S="$total_s" GC_BENCH_S="$bench_s" GC_SHORT="$short" GC_FAILED="$failed"
+export GC_BENCH_CMD="voxtier bench ${bench_args[*]//$scenes\//scenes/}"
+if command -v python3 >/dev/null; then
+    python3 - <<'PY'
+import csv, os, platform, datetime
+out = os.environ["GC_OUT"]
+rows = []  # results.csv: section, scene, item, value, unit
+lines = ["# voxtier GPU check", ""]
+lines += [f"- Date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC; host {platform.node()}, {os.cpu_count()} CPUs",
+          f"- Binary: {os.environ['GC_VERSION']}",
+          f"- Vulkan device: **{os.environ['GC_DEVICE']}**",
+          f"- Run: {'--short (CI)' if os.environ['GC_SHORT'] == '1' else 'full'}; "
+          f"{os.environ['GC_TOTAL_S']} s in all, the bench {os.environ['GC_BENCH_S']} s",
+          f"- Result: {'**FAILED**' if os.environ['GC_FAILED'] == '1' else 'every identity check passed'}", ""]
+rows.append(("run", "", "device", os.environ["GC_DEVICE"], ""))
+rows.append(("run", "", "total_s", os.environ["GC_TOTAL_S"], "s"))
+lines += ["## Identity: Vulkan near vs CPU reference (`voxtier check`)", "",
+          "| scene | time (s) | size | drawn px | colour ≠ | depth ≠ | id ≠ | result |", "|---|---|---|---|---|---|---|---|"]
+with open(os.path.join(out, "identity_near.csv")) as f:
+    for r in csv.DictReader(f):
+        scene = r["scene"].split("/scenes/")[-1]
+        lines.append(f"| {scene} | {float(r['time']):.3f} | {r['width']}×{r['height']} | {r['drawn_pixels']} | "
+                     f"{r['colour_diffs']} | {r['depth_diffs']} | {r['id_diffs']} | {r['result']} |")
+        for k in ("colour_diffs", "depth_diffs", "id_diffs"):
+            rows.append(("identity_near", scene, f"t={float(r['time']):.3f} {k}", r[k], "pixels"))
+lines.append("")
+far = [l.split(",") for l in os.environ["GC_FAR_ROWS"].splitlines() if l]
+lines += ["## Identity: Vulkan far vs CPU far", ""]
+if far:
+    lines += ["| scene | colour | ids |", "|---|---|---|"]
+    for s, c, i in far:
+        scene = s.split("/scenes/")[-1]
+        lines.append(f"| {scene} | {c} | {i} |")
+        rows.append(("identity_far", scene, "colour", c, ""))
+        rows.append(("identity_far", scene, "ids", i, ""))
+else:
+    lines.append("Skipped: this voxtier has no `render --far-backend` (the Vulkan far pass, issue 26).")
+lines.append("")
+bench_csv = os.path.join(out, "bench", "results.csv")
+lines += ["## Bench in motion", "", f"`{os.environ['GC_BENCH_CMD']}`", ""]
+if os.path.exists(bench_csv):
+    with open(bench_csv) as f:
+        bench = [r for r in csv.DictReader(f) if r.get("group") == "modes"]
+    cols = [("in_motion_ms", "in motion median (ms)", "ms"), ("in_motion_p90_ms", "p90 (ms)", "ms"),
+            ("in_motion_cold_ms", "cold start (ms)", "ms"),
+            ("in_motion_all_near_vulkan_ms", "all-near Vulkan (ms)", "ms"),
+            ("in_motion_speedup_vs_all_near_vulkan", "× vs all-near Vulkan", "x"),
+            ("in_motion_all_near_reference_ms", "all-near CPU reference (ms)", "ms"),
+            ("in_motion_speedup_vs_all_near_reference", "× vs all-near reference", "x"),
+            ("near_backend", "near drawn by", ""), ("in_motion_psnr_min", "min PSNR (dB)", "dB")]
+    lines += ["| scene | mode | " + " | ".join(c[1] for c in cols) + " |", "|---|---|" + "---|" * len(cols)]
+    def fmt(v):
+        try:
+            return f"{float(v):.3g}" if abs(float(v)) < 100 else f"{float(v):.0f}"
+        except ValueError:
+            return v or "–"
+    aims = []
+    for r in bench:
+        scene = os.path.basename(r["scene"]).removesuffix(".json")
+        mode = r["mode"] + (f" ({r['setting']})" if r.get("setting") else "")
+        truth = r.get("truth") == "itself"
+        shown = [fmt(r.get(c, "")) if not (truth and c == "in_motion_psnr_min") else "–" for c, _, _ in cols]
+        lines.append(f"| {scene} | {mode}{' (truth)' if truth else ''} | " + " | ".join(shown) + " |")
+        for c, _, unit in cols:
+            rows.append(("bench", scene, f"{mode} {c}", r.get(c, ""), unit))
+        if r["mode"].startswith("hybrid") and scene in ("tank_army", "rts_pan"):
+            try:
+                x = float(r["in_motion_speedup_vs_all_near_vulkan"])
+                aims.append(f"- {scene}, {mode}: {x:.2f}× all-near Vulkan in motion "
+                            f"({fmt(r['in_motion_ms'])} vs {fmt(r['in_motion_all_near_vulkan_ms'])} ms): "
+                            f"{'met' if x >= 5 else 'not met'}")
+            except (KeyError, ValueError):
+                pass
+    if aims:
+        lines += ["", "Aim (issue 26): the hybrid at least 5× all-near Vulkan at 1 vpx in motion on the "
+                  "tank army and the RTS pan.", ""] + aims
+    lines += ["", "The bench's own report, with every column: `bench/report.md`; every figure: `bench/results.csv`."]
+else:
+    lines.append("The bench wrote no results (see logs/bench.log).")
+with open(os.path.join(out, "report.md"), "w") as f:
+    f.write("\n".join(lines) + "\n")
+with open(os.path.join(out, "results.csv"), "w", newline="") as f:
+    w = csv.writer(f)
+    w.writerow(("section", "scene", "item", "value", "unit"))
+    w.writerows(rows)
+PY
+else
+    # No python3: the same facts, less tabulated.
+    {
+        echo "# voxtier GPU check"
+        echo
+        echo "- Binary: $version"
+        echo "- Vulkan device: **$device**"
+        echo "- ${total_s} s in all, the bench ${bench_s} s; $([[ $failed == 1 ]] && echo FAILED || echo 'every identity check passed')"
+        echo
+        echo "Identity (Vulkan near vs CPU reference): identity_near.csv. Bench: bench/report.md."
+    } >"$out/report.md"
+    {
+        echo "section,scene,item,value,unit"
+        echo "run,,device,\"$device\","
+        tail -n +2 "$out/identity_near.csv" | awk -F, '{print "identity_near," $1 ",colour/depth/id diffs," $8 "/" $9 "/" $10 ",pixels"}'
+    } >"$out/results.csv"
+fi
+echo "gpu_check: ${total_s} s; wrote $out/report.md and $out/results.csv"
+((failed == 0)) || {
+    echo "gpu_check: FAILED (see $out/report.md)" >&2
+    exit 1
+}
