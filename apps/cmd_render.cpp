@@ -424,6 +424,7 @@ void run(const RenderArgs& a) {
                      "--mode near or --mode reference draws every entity exactly\n",
                      approx.sprites, approx.sprites == 1 ? "" : "s", approx.worstVpx);
     if (const auto& store = renderer.snapshotCache().config().store) {
+        store->flush(); // what is still buffered, so that the summary counts every write
         const SnapshotStoreCounters c = store->counters();
         std::printf("%s\n", cacheDirSummary(store->options(), c).c_str());
         // The image does not depend on the cache, so failed writes do not fail the render; one
