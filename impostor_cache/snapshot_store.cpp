@@ -457,23 +457,6 @@ void preadExact(int fd, std::uint8_t* dst, std::size_t n, std::uint64_t offset) 
     }
 }
 
-/// The index of an open pack: the header, then exactly the index it implies.
-PackIndex readPackIndex(int fd) {
-    struct stat st {};
-    if (fstat(fd, &st) != 0) throw SnapshotFileError("cannot stat");
-    const std::uint64_t size = std::uint64_t(st.st_size);
-    if (size < kPackHeaderBytes + kChecksumBytes)
-        throw SnapshotFileError("truncated (" + std::to_string(size) +
-                                " bytes, shorter than the header)");
-    std::uint8_t header[kPackHeaderBytes];
-    preadExact(fd, header, kPackHeaderBytes, 0);
-    SnapshotFileKey frame;
-    const std::size_t count = decodePackHeader(header, size, frame);
-    std::vector<std::uint8_t> index(count * kPackIndexEntryBytes + kChecksumBytes);
-    preadExact(fd, index.data(), index.size(), kPackHeaderBytes);
-    return decodePackIndex(header, index, count, frame, size);
-}
-
 const PackIndexEntry* findView(const PackIndex& index, ViewId view) {
     const auto it = std::lower_bound(
         index.entries.begin(), index.entries.end(), viewOrder(view),
@@ -482,6 +465,55 @@ const PackIndexEntry* findView(const PackIndex& index, ViewId view) {
 }
 
 } // namespace
+
+/// A parsed index and what identifies the pack it came from: a pack is never changed in place
+/// (a writer renames a new file over it), so the same file, size, header and index checksum is
+/// the same index. (Were it damaged in place meanwhile, each snapshot still has its own key and
+/// checksum: a wrong offset is a rejected snapshot, never a wrong one.)
+struct SnapshotStore::CachedIndex {
+    dev_t dev = 0;
+    ino_t ino = 0;
+    std::uint64_t size = 0;
+    std::array<std::uint8_t, kPackHeaderBytes + kChecksumBytes> headerAndSum{};
+    PackIndex index;
+};
+
+/// The index of an open pack: the header, the index checksum, then (unless this store parsed
+/// that very index already) exactly the index they imply.
+std::shared_ptr<const SnapshotStore::CachedIndex>
+SnapshotStore::readPackIndex(int fd, const std::string& rel) const {
+    struct stat st {};
+    if (fstat(fd, &st) != 0) throw SnapshotFileError("cannot stat");
+    const std::uint64_t size = std::uint64_t(st.st_size);
+    if (size < kPackHeaderBytes + kChecksumBytes)
+        throw SnapshotFileError("truncated (" + std::to_string(size) +
+                                " bytes, shorter than the header)");
+    auto fresh = std::make_shared<CachedIndex>();
+    fresh->dev = st.st_dev;
+    fresh->ino = st.st_ino;
+    fresh->size = size;
+    std::uint8_t* header = fresh->headerAndSum.data();
+    preadExact(fd, header, kPackHeaderBytes, 0);
+    SnapshotFileKey frame;
+    const std::size_t count = decodePackHeader(header, size, frame);
+    const std::uint64_t indexBytes = count * kPackIndexEntryBytes;
+    preadExact(fd, header + kPackHeaderBytes, kChecksumBytes, kPackHeaderBytes + indexBytes);
+    {
+        std::lock_guard lock(mutex_);
+        const auto known = indexes_.find(rel);
+        if (known != indexes_.end() && known->second->dev == fresh->dev &&
+            known->second->ino == fresh->ino && known->second->size == size &&
+            known->second->headerAndSum == fresh->headerAndSum)
+            return known->second;
+    }
+    std::vector<std::uint8_t> index(indexBytes + kChecksumBytes);
+    preadExact(fd, index.data(), index.size(), kPackHeaderBytes);
+    fresh->index = decodePackIndex(header, index, count, frame, size);
+    std::lock_guard lock(mutex_);
+    if (indexes_.size() >= kMaxCachedIndexes) indexes_.clear();
+    indexes_[rel] = fresh;
+    return fresh;
+}
 
 std::filesystem::path snapshotPackName(const SnapshotFileKey& k) {
     std::vector<std::uint8_t> bytes;
@@ -593,8 +625,9 @@ bool SnapshotStore::contains(const SnapshotFileKey& key) const {
     if (fd >= 0) {
         bool found = false;
         try {
-            const PackIndex index = readPackIndex(fd);
-            found = sameFrame(index.frame, key) && findView(index, key.view) != nullptr;
+            const auto cached = readPackIndex(fd, rel);
+            found =
+                sameFrame(cached->index.frame, key) && findView(cached->index, key.view) != nullptr;
         } catch (const SnapshotFileError&) {
             // load() says what is wrong with it
         }
@@ -625,9 +658,10 @@ std::optional<Snapshot> SnapshotStore::load(const SnapshotFileKey& key) {
         // Shared lock while reading: the evictor skips packs it cannot lock exclusively.
         lockShared(fd);
         try {
-            const PackIndex index = readPackIndex(fd);
-            if (!sameFrame(index.frame, key)) throw SnapshotFileError("written for another key");
-            const PackIndexEntry* e = findView(index, key.view);
+            const auto cached = readPackIndex(fd, rel.string());
+            if (!sameFrame(cached->index.frame, key))
+                throw SnapshotFileError("written for another key");
+            const PackIndexEntry* e = findView(cached->index, key.view);
             if (e) {
                 file.resize(std::size_t(e->bytes));
                 preadExact(fd, file.data(), file.size(), e->offset);

@@ -61,6 +61,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -236,6 +237,8 @@ class SnapshotStore {
         int error = 0; ///< errno of the failure, 0: written
         std::uint64_t bytes = 0, replacedBytes = 0;
     };
+    struct CachedIndex;
+    std::shared_ptr<const CachedIndex> readPackIndex(int fd, const std::string& pack) const;
     bool flushLocked();
     PackWrite writePack(const std::filesystem::path& pack, const Pending& pending);
     std::optional<Snapshot> loadFormerFile(const SnapshotFileKey& key,
@@ -255,6 +258,9 @@ class SnapshotStore {
     std::uint64_t pendingBytes_ = 0;
     std::chrono::steady_clock::time_point pendingSince_;
     std::mutex flushMutex_; ///< one flush at a time
+    /// The packs' indexes parsed so far (under mutex_), reused while a pack is the same file.
+    mutable std::map<std::string, std::shared_ptr<const CachedIndex>> indexes_;
+    static constexpr std::size_t kMaxCachedIndexes = 4096;
     /// Packs warned about as a whole (one line each), under mutex_; forgotten when rewritten.
     std::set<std::string> warnedPacks_;
 };
