@@ -68,8 +68,8 @@ struct BakeArgs {
 /// A pre-bake that would take more than this on disk is refused unless the user says --yes or
 /// caps the directory (--cache-dir-mb). 256 MiB is about 10x every frame of the bundled default
 /// scene (19,686 snapshots in 51 packs, ~26 MB on disk) and 4x a 267-voxel character at
-/// --level 64 (98,306 snapshots, ~61 MB; 402 MB on disk when each snapshot was a file of its
-/// own); the same character at --level 64 --sigma 4 (~1 GB) is refused.
+/// --level 64 (98,306 snapshots in a 64 MB pack; 402 MB on disk when each snapshot was a file of
+/// its own); the same character at --level 64 --sigma 4 (487 MB) is refused.
 constexpr std::uint64_t kConfirmDiskBytes = std::uint64_t(256) << 20;
 
 /// "I/N" -> {I, N}; nullopt unless 1 <= N <= 1000000 and 0 <= I < N.
@@ -287,11 +287,12 @@ void runPrebake(const BakeArgs& a) {
     }
 
     const BakeEstimate est = estimateBake(items, a.cacheDir.dir);
-    std::printf("estimate: %llu snapshots in %llu pack files, %.2f MB, %.2f MB on disk "
+    std::printf("estimate: %llu snapshots in %llu pack file%s, %.2f MB, %.2f MB on disk "
                 "(%llu-byte blocks; snapshots already there are not written again)\n",
                 static_cast<unsigned long long>(est.snapshots),
-                static_cast<unsigned long long>(est.files), double(est.bytes) / 1e6,
-                double(est.diskBytes) / 1e6, static_cast<unsigned long long>(est.blockBytes));
+                static_cast<unsigned long long>(est.files), est.files == 1 ? "" : "s",
+                double(est.bytes) / 1e6, double(est.diskBytes) / 1e6,
+                static_cast<unsigned long long>(est.blockBytes));
     std::fflush(stdout);
     if (est.diskBytes > kConfirmDiskBytes && !a.yes && !a.cacheDir.limitMb)
         throw InputError(a.cacheDir.dir, "--cache-dir",

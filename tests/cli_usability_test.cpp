@@ -207,7 +207,7 @@ TEST(CliUsability, BakeEstimatesWhatItWrites) {
     const auto at = r.out.find("estimate: ");
     ASSERT_NE(at, std::string::npos) << r.out;
     ASSERT_EQ(std::sscanf(r.out.c_str() + at,
-                          "estimate: %llu snapshots in %llu pack files, %lf MB, %lf MB on disk "
+                          "estimate: %llu snapshots in %llu pack file, %lf MB, %lf MB on disk "
                           "(%llu-byte",
                           &snapshots, &files, &mb, &diskMb, &block),
               5)
@@ -230,7 +230,7 @@ TEST(CliUsability, BakeEstimatesWhatItWrites) {
 
 // A bake estimated over 256 MiB on disk is refused before it writes anything, with one line
 // saying how to go ahead (the 267-voxel character at --level 64 and sigma 4: 98,306 snapshots,
-// ~1 GB).
+// 487 MB).
 TEST(CliUsability, AHugeBakeIsRefusedWithoutYes) {
     const fs::path dir = scratch() / "huge";
     fs::remove_all(dir);
