@@ -6,6 +6,7 @@
 #include "core/image.hpp"
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
+#include "core/work_progress.hpp"
 #include "volumetric/near_rate.hpp"
 
 #include <cstdint>
@@ -34,6 +35,10 @@ struct ReferenceOptions {
     /// already drawn hides, whole sprites before any of their cells is traced. Same image; off by
     /// default (DESIGN.md §6, Occlusion: it pays only where large sprites hide others).
     bool occlusionCull = false;
+    /// Where to count sprite rows (null: not counted): each run of sprites adds its rows (the
+    /// screen rows of each sprite's rectangle) to total before it draws them, each band of rows
+    /// what it finished. The cell-rate trace before a run is not counted.
+    WorkProgress* progress = nullptr;
 };
 
 /// Draws `sprites` (visible ones; culled entries are skipped) into `target`, which keeps what
