@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 #include <sys/file.h>
+#include <sys/wait.h>
 
 #include <chrono>
 #include <fcntl.h>
@@ -459,6 +460,50 @@ TEST(SnapshotStore, TwoProcessesBakingIntoOneDirectoryBothSucceed) {
     EXPECT_EQ(warm.status, 0) << warm.err;
     EXPECT_NE(warm.out.find(", 0 bakes,"), std::string::npos) << warm.out;
     EXPECT_EQ(readBytes(dir.string() + "_a.png"), readBytes(dir.string() + "_c.png"));
+}
+
+// Writers in several processes adding views of one model frame at once: each view rewrites the
+// pack (a flush per save, the most contention there can be), and the subdirectory's lock makes
+// each merge see the others' views, so none is dropped; the pack is the one a lone writer gives.
+TEST(SnapshotStore, WritersInSeveralProcessesAddTheirViewsToOnePack) {
+    const fs::path dir = freshDir(), alone = freshDir("_alone");
+    const auto m = test::solidBox({6, 5, 4});
+    SnapshotCache cache;
+    std::vector<std::pair<SnapshotFileKey, std::shared_ptr<const Snapshot>>> views;
+    for (int v = 0; v < 26; ++v) {
+        const ViewId view = viewIdOf(ViewSet::Cube26, v);
+        views.push_back({{digestGrid(m->frame(0)), m->frame(0).dims(), view, 1.0, false},
+                         cache.get(*m, 0, view, 1.0)});
+    }
+    constexpr int kWriters = 4;
+    std::vector<pid_t> writers;
+    for (int p = 0; p < kWriters; ++p) {
+        const pid_t pid = fork();
+        ASSERT_GE(pid, 0);
+        if (pid == 0) {
+            bool ok = true;
+            {
+                SnapshotStore store({.dir = dir});
+                for (std::size_t v = std::size_t(p); v < views.size(); v += kWriters)
+                    ok = store.save(views[v].first, *views[v].second) && store.flush() && ok;
+            }
+            ::_exit(ok ? 0 : 1);
+        }
+        writers.push_back(pid);
+    }
+    for (const pid_t w : writers) {
+        int status = 0;
+        ASSERT_EQ(::waitpid(w, &status, 0), w);
+        EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+    }
+    {
+        SnapshotStore store({.dir = alone});
+        for (const auto& [key, snap] : views) ASSERT_TRUE(store.save(key, *snap));
+    }
+    const fs::path pack = snapshotPackName(views[0].first);
+    EXPECT_EQ(decodeSnapshotPack(readBytes(dir / pack)).entries.size(), views.size());
+    EXPECT_TRUE(readBytes(dir / pack) == readBytes(alone / pack));
+    EXPECT_EQ(snapshotFiles(dir).size(), 1u); // no temporary left
 }
 
 // ---- pre-baking: voxtier bake --cache-dir [--shard I/N] ------------------------------------
