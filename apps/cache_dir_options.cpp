@@ -13,8 +13,8 @@ void addCacheDirOptions(CLI::App& cmd, CacheDirArgs& args, const std::string& wh
                                           "re-baked)");
     // Beyond a petabyte is a typo, not a budget.
     cmd.add_option("--cache-dir-mb", args.limitMb,
-                   "Size limit of the --cache-dir directory in MiB (least recently used files "
-                   "are removed first; default: no limit)")
+                   "Size limit of the --cache-dir directory in MiB (the least recently used "
+                   "model frames' packs are removed first; default: no limit)")
         ->check(numberIn(1, 1e9, "MiB"))
         ->needs(dir);
 }
@@ -34,7 +34,7 @@ std::string cacheDirSummary(const SnapshotStoreOptions& o, const SnapshotStoreCo
 
 std::string cacheDirWriteWarning(const SnapshotStoreOptions& o, const SnapshotStoreCounters& c) {
     return "warning: cache dir " + o.dir.string() + ": " + std::to_string(c.writeFailures) +
-           " snapshot file" + (c.writeFailures == 1 ? "" : "s") + " could not be written (" +
+           " snapshot" + (c.writeFailures == 1 ? "" : "s") + " could not be written (" +
            (c.writeFailureReason.empty() ? "unknown reason" : c.writeFailureReason) +
            "); they are baked again when next needed";
 }

@@ -24,7 +24,7 @@ void addCacheDirOptions(CLI::App& cmd, CacheDirArgs& args, const std::string& wh
 /// "cache dir DIR: 98 read, 0 written (0.0 MB), 0 rejected, 0 evicted, read 12.3 ms".
 std::string cacheDirSummary(const SnapshotStoreOptions& options,
                             const SnapshotStoreCounters& counters);
-/// "warning: cache dir DIR: 126 snapshot files could not be written (No space left on device)"
+/// "warning: cache dir DIR: 126 snapshots could not be written (No space left on device)"
 /// when counters.writeFailures > 0: the one line a run prints about failed writes.
 std::string cacheDirWriteWarning(const SnapshotStoreOptions& options,
                                  const SnapshotStoreCounters& counters);

@@ -66,9 +66,10 @@ struct BakeArgs {
 };
 
 /// A pre-bake that would take more than this on disk is refused unless the user says --yes or
-/// caps the directory (--cache-dir-mb). 256 MiB is almost 3x every frame of the bundled default
-/// scene (19,686 files, 92 MB on disk in 4 KiB blocks) and below one small model at --level 64
-/// (98,306 files, 402 MB on disk for a 267-voxel character), the bake that fills a disk unasked.
+/// caps the directory (--cache-dir-mb). 256 MiB is about 10x every frame of the bundled default
+/// scene (19,686 snapshots in 51 packs, ~26 MB on disk) and 4x a 267-voxel character at
+/// --level 64 (98,306 snapshots in a 64 MB pack; 402 MB on disk when each snapshot was a file of
+/// its own); the same character at --level 64 --sigma 4 (487 MB) is refused.
 constexpr std::uint64_t kConfirmDiskBytes = std::uint64_t(256) << 20;
 
 /// "I/N" -> {I, N}; nullopt unless 1 <= N <= 1000000 and 0 <= I < N.
@@ -234,11 +235,12 @@ std::vector<BakeItem> workList(const std::vector<BakeSource>& sources, const Bak
     return items;
 }
 
-/// What a pre-bake will write at most (files already in the directory are not written again):
-/// the files, their bytes, and the disk they take, each file rounded up to the filesystem's
-/// block and the subdirectories the file names spread over counted as a block each.
+/// What a pre-bake will write at most (snapshots already in the directory are not written
+/// again): the snapshots, the pack files holding them (one per model frame), their bytes, and the
+/// disk they take, each pack rounded up to the filesystem's block and the subdirectories the
+/// pack names spread over counted as a block each (their empty ".lock" files take none).
 struct BakeEstimate {
-    std::uint64_t files = 0, bytes = 0, diskBytes = 0, blockBytes = 4096;
+    std::uint64_t snapshots = 0, files = 0, bytes = 0, diskBytes = 0, blockBytes = 4096;
 };
 
 BakeEstimate estimateBake(const std::vector<BakeItem>& items, const std::string& dir) {
@@ -253,14 +255,14 @@ BakeEstimate estimateBake(const std::vector<BakeItem>& items, const std::string&
     };
     for (const BakeItem& it : items) {
         const glm::ivec3 dims = it.model->model->frame(it.frame).dims();
-        for (ViewId v : it.source->views) {
-            const std::uint64_t b = snapshotFileBytes(dims, v, it.source->sigma);
-            ++e.files;
-            e.bytes += b;
-            e.diskBytes += rounded(b);
-        }
+        std::uint64_t pack = snapshotPackOverhead(it.source->views.size());
+        for (ViewId v : it.source->views) pack += snapshotFileBytes(dims, v, it.source->sigma);
+        e.snapshots += it.source->views.size();
+        ++e.files;
+        e.bytes += pack;
+        e.diskBytes += rounded(pack);
     }
-    // Files go to 256 subdirectories by the first byte of their hash: the expected number used.
+    // Packs go to 256 subdirectories by the first byte of their hash: the expected number used.
     const double dirs = 256.0 * (1.0 - std::pow(1.0 - 1.0 / 256.0, double(e.files)));
     e.diskBytes += std::uint64_t(std::ceil(dirs)) * e.blockBytes;
     return e;
@@ -285,14 +287,16 @@ void runPrebake(const BakeArgs& a) {
     }
 
     const BakeEstimate est = estimateBake(items, a.cacheDir.dir);
-    std::printf("estimate: %llu snapshot files, %.2f MB, %.2f MB on disk (%llu-byte blocks; "
-                "files already there are not written again)\n",
-                static_cast<unsigned long long>(est.files), double(est.bytes) / 1e6,
-                double(est.diskBytes) / 1e6, static_cast<unsigned long long>(est.blockBytes));
+    std::printf("estimate: %llu snapshots in %llu pack file%s, %.2f MB, %.2f MB on disk "
+                "(%llu-byte blocks; snapshots already there are not written again)\n",
+                static_cast<unsigned long long>(est.snapshots),
+                static_cast<unsigned long long>(est.files), est.files == 1 ? "" : "s",
+                double(est.bytes) / 1e6, double(est.diskBytes) / 1e6,
+                static_cast<unsigned long long>(est.blockBytes));
     std::fflush(stdout);
     if (est.diskBytes > kConfirmDiskBytes && !a.yes && !a.cacheDir.limitMb)
         throw InputError(a.cacheDir.dir, "--cache-dir",
-                         "this bake would write " + std::to_string(est.files) + " files, " +
+                         "this bake would write " + std::to_string(est.snapshots) + " snapshots, " +
                              std::to_string(est.diskBytes >> 20) +
                              " MiB on disk (over 256 MiB); add --yes to go ahead, or "
                              "--cache-dir-mb MB to cap the directory");
@@ -314,6 +318,7 @@ void runPrebake(const BakeArgs& a) {
         tbb::parallel_for(0, n, [&](int v) {
             cache.get(*it.model->model, it.frame, viewList[std::size_t(v)], it.source->sigma);
         });
+        config.store->flush(); // the model frame's pack, written once
         views += std::uint64_t(n);
         const SnapshotCacheCounters after = cache.counters();
         progress->clear();

@@ -323,6 +323,9 @@ void run(const RenderArgs& a) {
     opt.nearRate = a.nearRate;
     opt.farBlit.kernel = a.farBlit;
     opt.occlusionCull = a.occlusionCull;
+    // The CPU reference's rows, for the progress line of a lone long frame.
+    WorkProgress nearRows;
+    opt.nearProgress = &nearRows;
     opt.overlay = !a.overlay.empty();
     opt.measurePops = !a.pops.empty();
     opt.costAwareBakes = a.costBound;
@@ -361,18 +364,22 @@ void run(const RenderArgs& a) {
     const auto start = std::chrono::steady_clock::now();
     bool choiceSaid = false;
     Approximation approx;
-    std::optional<Progress> progressLine(std::in_place, "frames", plan.frames.size());
+    std::optional<Progress> progressLine(std::in_place,
+                                         plan.frames.size() == 1 ? "frame" : "frames",
+                                         plan.frames.size(), &nearRows, "sprite rows");
     for (std::size_t k = 0; k < plan.frames.size(); ++k) {
         const auto frameStart = std::chrono::steady_clock::now();
         const int frame = plan.frames[k];
         const double time = plan.fixedTime ? *plan.fixedTime : scene.timeOfFrame(frame);
         renderer.applyEditsThrough(frame);
+        nearRows.reset();
         const FrameResult r = renderer.render(time, mode, frame);
         approx.add(r);
         const auto name = [&](const std::string& f) {
             return plan.sequence ? numbered(f, frame) : f;
         };
         const std::string file = animation ? out : name(out);
+        if (!animation) progressLine->note("writing " + file);
         try {
             if (animation)
                 animation->add(r.image);
@@ -408,6 +415,7 @@ void run(const RenderArgs& a) {
             choiceSaid = true;
         }
         // The frame's wall time, writing included (a GIF's frames are written at the end).
+        progressLine->note("");
         progressLine->clear();
         printStatus(a, mode, frame, time, r, msSince(frameStart), file,
                     progress(plan, k + 1, msSince(start)));
@@ -428,6 +436,7 @@ void run(const RenderArgs& a) {
                      "--mode near or --mode reference draws every entity exactly\n",
                      approx.sprites, approx.sprites == 1 ? "" : "s", approx.worstVpx);
     if (const auto& store = renderer.snapshotCache().config().store) {
+        store->flush(); // what is still buffered, so that the summary counts every write
         const SnapshotStoreCounters c = store->counters();
         std::printf("%s\n", cacheDirSummary(store->options(), c).c_str());
         // The image does not depend on the cache, so failed writes do not fail the render; one

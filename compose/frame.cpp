@@ -503,6 +503,7 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
         ReferenceOptions ro;
         ro.rate = options_.nearRate;
         ro.occlusionCull = options_.occlusionCull;
+        ro.progress = options_.nearProgress;
         renderReference(scene_.models, sprites, image, &rs, ro);
         st.nearPixelsTested += rs.pixelsTested;
         st.nearPixelsWritten += rs.pixelsWritten;

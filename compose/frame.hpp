@@ -7,6 +7,7 @@
 #include "core/image.hpp"
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
+#include "core/work_progress.hpp"
 #include "impostor_cache/far_blit.hpp"
 #include "impostor_cache/view_set.hpp"
 #include "lod/selector.hpp"
@@ -110,6 +111,10 @@ struct FrameOptions {
     /// (--cull turns it on): on the bench's crowds it costs more than it saves, and it pays only
     /// where large sprites hide whole others (DESIGN.md §6, Occlusion, with the figures).
     bool occlusionCull = false;
+    /// Near sprites drawn by the CPU reference count their rows here (ReferenceOptions::progress;
+    /// null: not counted), for a progress line polled by another thread. A Vulkan near tier is
+    /// one submit per frame: it counts nothing.
+    WorkProgress* nearProgress = nullptr;
 };
 
 /// What one entity does this frame: its tier, an optional cross-fade (both tiers draw it, with

@@ -335,6 +335,246 @@ DecodedSnapshotFile decodeSnapshotFile(std::span<const std::uint8_t> bytes) {
     return out;
 }
 
+namespace {
+
+// ---- pack layout ----------------------------------------------------------------------------
+// Little-endian, fixed offsets:
+//   magic[8] "VXPACK\r\n" | u32 pack version | u32 lattice rule | u64 grid digest lo, hi |
+//   i32 dims[3] | f64 sigma | u32 flags (bit 0: depth) | u32 entry count | u64 pack bytes |
+//   index: (i32 view[3] | u64 offset | u64 bytes) x entry count, views ascending (x, y, z) |
+//   u64 checksum lo, hi (digestBytes of the header and the index) |
+//   the entries' snapshot files, contiguous, in index order
+constexpr char kPackMagic[8] = {'V', 'X', 'P', 'A', 'C', 'K', '\r', '\n'};
+constexpr std::size_t kPackHeaderBytes = 8 + 4 + 4 + 16 + 12 + 8 + 4 + 4 + 8;
+constexpr std::size_t kPackIndexEntryBytes = 12 + 8 + 8;
+
+/// The model frame part of a key, as a pack's header and name hold it.
+void writeFrameKey(Writer& w, const SnapshotFileKey& k) {
+    w.u32(kSnapshotPackVersion);
+    w.u32(kSnapshotLatticeRule);
+    w.u64(k.grid.lo);
+    w.u64(k.grid.hi);
+    for (int c = 0; c < 3; ++c) w.i32(k.dims[c]);
+    w.f64(k.sigma);
+    w.u32(k.withDepth ? kFlagDepth : 0);
+}
+
+bool sameFrame(const SnapshotFileKey& a, const SnapshotFileKey& b) {
+    return a.grid == b.grid && a.dims == b.dims && a.sigma == b.sigma && a.withDepth == b.withDepth;
+}
+
+std::array<int, 3> viewOrder(ViewId v) {
+    return {v.lattice.x, v.lattice.y, v.lattice.z};
+}
+
+struct PackIndexEntry {
+    ViewId view;
+    std::uint64_t offset = 0, bytes = 0;
+};
+struct PackIndex {
+    SnapshotFileKey frame;
+    std::vector<PackIndexEntry> entries;
+    std::uint64_t indexEnd = 0; ///< where the first entry starts
+};
+
+/// Parses the header (the caller has kPackHeaderBytes of it) of a pack of `actualBytes`: every
+/// field bounded, the entry count against the bytes there are. Returns the count.
+std::size_t decodePackHeader(const std::uint8_t* header, std::uint64_t actualBytes,
+                             SnapshotFileKey& frame) {
+    if (std::memcmp(header, kPackMagic, sizeof kPackMagic) != 0)
+        throw SnapshotFileError("not a voxtier snapshot pack (magic)");
+    Reader r(header + sizeof kPackMagic);
+    const std::uint32_t version = r.u32(), rule = r.u32();
+    if (version != kSnapshotPackVersion)
+        throw SnapshotFileError("stale format version " + std::to_string(version) + " (expected " +
+                                std::to_string(kSnapshotPackVersion) + ")");
+    if (rule != kSnapshotLatticeRule)
+        throw SnapshotFileError("stale lattice rule " + std::to_string(rule) + " (expected " +
+                                std::to_string(kSnapshotLatticeRule) + ")");
+    frame.grid.lo = r.u64();
+    frame.grid.hi = r.u64();
+    for (int c = 0; c < 3; ++c) frame.dims[c] = r.i32();
+    frame.sigma = r.f64();
+    const std::uint32_t flags = r.u32();
+    if (flags & ~kFlagDepth) throw SnapshotFileError("unknown flags");
+    frame.withDepth = flags & kFlagDepth;
+    const std::uint32_t count = r.u32();
+    const std::uint64_t total = r.u64();
+    for (int c = 0; c < 3; ++c)
+        if (frame.dims[c] < 1 || frame.dims[c] > Limits::kMaxModelDim)
+            throw SnapshotFileError("dims out of range");
+    if (!(frame.sigma > 0.0 && frame.sigma <= Limits::kMaxSigma))
+        throw SnapshotFileError("sigma out of range");
+    checkSize(actualBytes, total);
+    const std::uint64_t minEntry = kPackIndexEntryBytes + kHeaderBytes + kChecksumBytes;
+    if (count > (total - kPackHeaderBytes - kChecksumBytes) / minEntry)
+        throw SnapshotFileError("entry count does not fit the pack");
+    return count;
+}
+
+/// Parses the index (`bytes`: the header's count of entries, then the checksum) and checks it
+/// against `header` and the pack's size: views primitive and ascending, entries contiguous to
+/// the end.
+PackIndex decodePackIndex(const std::uint8_t* header, std::span<const std::uint8_t> index,
+                          std::size_t count, const SnapshotFileKey& frame, std::uint64_t total) {
+    std::vector<std::uint8_t> summed(header, header + kPackHeaderBytes);
+    summed.insert(summed.end(), index.begin(), index.end() - kChecksumBytes);
+    const Digest128 sum = digestBytes(summed);
+    Reader tail(index.data() + index.size() - kChecksumBytes);
+    if (tail.u64() != sum.lo || tail.u64() != sum.hi)
+        throw SnapshotFileError("index checksum mismatch (corrupted)");
+    PackIndex out{frame, {}, kPackHeaderBytes + count * kPackIndexEntryBytes + kChecksumBytes};
+    out.entries.resize(count);
+    Reader r(index.data());
+    std::uint64_t at = out.indexEnd;
+    for (std::size_t i = 0; i < count; ++i) {
+        PackIndexEntry& e = out.entries[i];
+        for (int c = 0; c < 3; ++c) e.view.lattice[c] = r.i32();
+        e.offset = r.u64();
+        e.bytes = r.u64();
+        for (int c = 0; c < 3; ++c)
+            if (e.view.lattice[c] < -kMaxViewComponent || e.view.lattice[c] > kMaxViewComponent)
+                throw SnapshotFileError("index: view out of range");
+        if (e.view.lattice == glm::ivec3(0) || !(viewIdOf(e.view.lattice) == e.view))
+            throw SnapshotFileError("index: view is not a primitive lattice vector");
+        if (i > 0 && !(viewOrder(out.entries[i - 1].view) < viewOrder(e.view)))
+            throw SnapshotFileError("index: views not ascending");
+        if (e.offset != at || e.bytes < kHeaderBytes + kChecksumBytes || e.bytes > total - at)
+            throw SnapshotFileError("index: entry outside the pack");
+        at += e.bytes;
+    }
+    if (at != total) throw SnapshotFileError("index: entries do not end the pack");
+    return out;
+}
+
+/// Reads exactly `n` bytes at `offset`, or throws SnapshotFileError.
+void preadExact(int fd, std::uint8_t* dst, std::size_t n, std::uint64_t offset) {
+    for (std::size_t done = 0; done < n;) {
+        const ssize_t got = ::pread(fd, dst + done, n - done, off_t(offset + done));
+        if (got < 0 && errno == EINTR) continue;
+        if (got <= 0) throw SnapshotFileError("truncated while reading");
+        done += std::size_t(got);
+    }
+}
+
+const PackIndexEntry* findView(const PackIndex& index, ViewId view) {
+    const auto it = std::lower_bound(
+        index.entries.begin(), index.entries.end(), viewOrder(view),
+        [](const PackIndexEntry& e, const std::array<int, 3>& v) { return viewOrder(e.view) < v; });
+    return it != index.entries.end() && it->view == view ? &*it : nullptr;
+}
+
+} // namespace
+
+/// A parsed index and what identifies the pack it came from: a pack is never changed in place
+/// (a writer renames a new file over it), so the same file, size, header and index checksum is
+/// the same index. (Were it damaged in place meanwhile, each snapshot still has its own key and
+/// checksum: a wrong offset is a rejected snapshot, never a wrong one.)
+struct SnapshotStore::CachedIndex {
+    dev_t dev = 0;
+    ino_t ino = 0;
+    std::uint64_t size = 0;
+    std::array<std::uint8_t, kPackHeaderBytes + kChecksumBytes> headerAndSum{};
+    PackIndex index;
+};
+
+/// The index of an open pack: the header, the index checksum, then (unless this store parsed
+/// that very index already) exactly the index they imply.
+std::shared_ptr<const SnapshotStore::CachedIndex>
+SnapshotStore::readPackIndex(int fd, const std::string& rel) const {
+    struct stat st {};
+    if (fstat(fd, &st) != 0) throw SnapshotFileError("cannot stat");
+    const std::uint64_t size = std::uint64_t(st.st_size);
+    if (size < kPackHeaderBytes + kChecksumBytes)
+        throw SnapshotFileError("truncated (" + std::to_string(size) +
+                                " bytes, shorter than the header)");
+    auto fresh = std::make_shared<CachedIndex>();
+    fresh->dev = st.st_dev;
+    fresh->ino = st.st_ino;
+    fresh->size = size;
+    std::uint8_t* header = fresh->headerAndSum.data();
+    preadExact(fd, header, kPackHeaderBytes, 0);
+    SnapshotFileKey frame;
+    const std::size_t count = decodePackHeader(header, size, frame);
+    const std::uint64_t indexBytes = count * kPackIndexEntryBytes;
+    preadExact(fd, header + kPackHeaderBytes, kChecksumBytes, kPackHeaderBytes + indexBytes);
+    {
+        std::lock_guard lock(mutex_);
+        const auto known = indexes_.find(rel);
+        if (known != indexes_.end() && known->second->dev == fresh->dev &&
+            known->second->ino == fresh->ino && known->second->size == size &&
+            known->second->headerAndSum == fresh->headerAndSum)
+            return known->second;
+    }
+    std::vector<std::uint8_t> index(indexBytes + kChecksumBytes);
+    preadExact(fd, index.data(), index.size(), kPackHeaderBytes);
+    fresh->index = decodePackIndex(header, index, count, frame, size);
+    std::lock_guard lock(mutex_);
+    if (indexes_.size() >= kMaxCachedIndexes) indexes_.clear();
+    indexes_[rel] = fresh;
+    return fresh;
+}
+
+std::filesystem::path snapshotPackName(const SnapshotFileKey& k) {
+    std::vector<std::uint8_t> bytes;
+    Writer w(bytes);
+    writeFrameKey(w, k);
+    const Digest128 d = digestBytes(bytes);
+    const std::string name = hex(d.lo) + hex(d.hi);
+    return std::filesystem::path(name.substr(0, 2)) / (name + ".pack");
+}
+
+std::uint64_t snapshotPackOverhead(std::size_t views) {
+    return kPackHeaderBytes + views * kPackIndexEntryBytes + kChecksumBytes;
+}
+
+std::vector<std::uint8_t> encodeSnapshotPack(const SnapshotFileKey& frame,
+                                             std::vector<SnapshotPackEntry> entries) {
+    std::sort(entries.begin(), entries.end(),
+              [](const SnapshotPackEntry& a, const SnapshotPackEntry& b) {
+                  return viewOrder(a.view) < viewOrder(b.view);
+              });
+    std::uint64_t total = snapshotPackOverhead(entries.size());
+    for (const SnapshotPackEntry& e : entries) total += e.file.size();
+    std::vector<std::uint8_t> out;
+    out.reserve(total);
+    Writer w(out);
+    w.bytes(kPackMagic, sizeof kPackMagic);
+    writeFrameKey(w, frame);
+    w.u32(std::uint32_t(entries.size()));
+    w.u64(total);
+    std::uint64_t at = snapshotPackOverhead(entries.size());
+    for (const SnapshotPackEntry& e : entries) {
+        for (int c = 0; c < 3; ++c) w.i32(e.view.lattice[c]);
+        w.u64(at);
+        w.u64(e.file.size());
+        at += e.file.size();
+    }
+    const Digest128 sum = digestBytes(out);
+    w.u64(sum.lo);
+    w.u64(sum.hi);
+    for (const SnapshotPackEntry& e : entries) out.insert(out.end(), e.file.begin(), e.file.end());
+    return out;
+}
+
+DecodedSnapshotPack decodeSnapshotPack(std::span<const std::uint8_t> bytes) {
+    if (bytes.size() < kPackHeaderBytes + kChecksumBytes)
+        throw SnapshotFileError("truncated (" + std::to_string(bytes.size()) +
+                                " bytes, shorter than the header)");
+    DecodedSnapshotPack out;
+    const std::size_t count = decodePackHeader(bytes.data(), bytes.size(), out.frame);
+    const PackIndex index = decodePackIndex(
+        bytes.data(),
+        bytes.subspan(kPackHeaderBytes, count * kPackIndexEntryBytes + kChecksumBytes), count,
+        out.frame, bytes.size());
+    for (const PackIndexEntry& e : index.entries) {
+        const auto file = bytes.subspan(std::size_t(e.offset), std::size_t(e.bytes));
+        out.entries.push_back({e.view, {file.begin(), file.end()}});
+    }
+    if (!out.entries.empty()) out.frame.view = out.entries.front().view;
+    return out;
+}
+
 // ---- the store ------------------------------------------------------------------------------
 
 SnapshotStore::SnapshotStore(SnapshotStoreOptions options) : options_(std::move(options)) {
@@ -348,31 +588,128 @@ SnapshotStore::SnapshotStore(SnapshotStoreOptions options) : options_(std::move(
     removeStaleTemporaries();
 }
 
+SnapshotStore::~SnapshotStore() {
+    flush();
+}
+
 std::filesystem::path SnapshotStore::pathOf(const SnapshotFileKey& key) const {
-    return options_.dir / snapshotFileName(key);
+    return options_.dir / snapshotPackName(key);
 }
 
 void SnapshotStore::warn(const std::filesystem::path& file, const std::string& reason) {
     options_.warn("warning: " + file.string() + ": " + reason + "; baking it again");
 }
 
+namespace {
+std::string viewText(ViewId v) {
+    return "view (" + std::to_string(v.lattice.x) + " " + std::to_string(v.lattice.y) + " " +
+           std::to_string(v.lattice.z) + ")";
+}
+int openRead(const std::filesystem::path& p) {
+    return ::open(p.c_str(), O_RDONLY | O_CLOEXEC);
+}
+void lockShared(int fd) {
+    while (::flock(fd, LOCK_SH) != 0 && errno == EINTR) {
+    }
+}
+} // namespace
+
 bool SnapshotStore::contains(const SnapshotFileKey& key) const {
+    const std::string rel = snapshotPackName(key).string();
+    {
+        std::lock_guard lock(mutex_);
+        const auto p = pending_.find(rel);
+        if (p != pending_.end() && p->second.files.count(viewOrder(key.view))) return true;
+    }
+    const int fd = openRead(options_.dir / rel);
+    if (fd >= 0) {
+        bool found = false;
+        try {
+            const auto cached = readPackIndex(fd, rel);
+            found =
+                sameFrame(cached->index.frame, key) && findView(cached->index, key.view) != nullptr;
+        } catch (const SnapshotFileError&) {
+            // load() says what is wrong with it
+        }
+        ::close(fd);
+        if (found) return true;
+    }
     std::error_code ec;
-    return std::filesystem::is_regular_file(pathOf(key), ec);
+    return std::filesystem::is_regular_file(options_.dir / snapshotFileName(key), ec);
 }
 
 std::optional<Snapshot> SnapshotStore::load(const SnapshotFileKey& key) {
     const auto t0 = std::chrono::steady_clock::now();
-    const std::filesystem::path path = pathOf(key);
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    const std::filesystem::path rel = snapshotPackName(key);
+    std::vector<std::uint8_t> file;
+    {
+        // Buffered by this process and not written yet.
+        std::lock_guard lock(mutex_);
+        const auto p = pending_.find(rel.string());
+        if (p != pending_.end()) {
+            const auto f = p->second.files.find(viewOrder(key.view));
+            if (f != p->second.files.end()) file = f->second;
+        }
+    }
+    const std::filesystem::path path = options_.dir / rel;
+    if (file.empty()) {
+        const int fd = openRead(path);
+        if (fd < 0) return loadFormerFile(key, t0);
+        // Shared lock while reading: the evictor skips packs it cannot lock exclusively.
+        lockShared(fd);
+        try {
+            const auto cached = readPackIndex(fd, rel.string());
+            if (!sameFrame(cached->index.frame, key))
+                throw SnapshotFileError("written for another key");
+            const PackIndexEntry* e = findView(cached->index, key.view);
+            if (e) {
+                file.resize(std::size_t(e->bytes));
+                preadExact(fd, file.data(), file.size(), e->offset);
+                ::futimens(fd, nullptr); // now: most recently used (atime is unreliable)
+            }
+        } catch (const SnapshotFileError& e) {
+            // The pack as a whole: one line per pack, however many of its views are asked for.
+            ::close(fd);
+            bool first = false;
+            {
+                std::lock_guard lock(mutex_);
+                ++counters_.rejected;
+                first = warnedPacks_.insert(rel.string()).second;
+            }
+            if (first) warn(path, e.what());
+            return std::nullopt;
+        }
+        ::close(fd);
+        if (file.empty()) return loadFormerFile(key, t0);
+    }
+    std::optional<Snapshot> snap;
+    try {
+        DecodedSnapshotFile f = decodeSnapshotFile(file);
+        if (!(f.key == key)) throw SnapshotFileError("written for another key");
+        snap = std::move(f.snapshot);
+    } catch (const SnapshotFileError& e) {
+        warn(path, viewText(key.view) + ": " + e.what());
+        std::lock_guard lock(mutex_);
+        ++counters_.rejected;
+        return std::nullopt;
+    }
+    std::lock_guard lock(mutex_);
+    ++counters_.reads;
+    counters_.bytesRead += file.size();
+    counters_.readMs += msSince(t0);
+    return snap;
+}
+
+std::optional<Snapshot> SnapshotStore::loadFormerFile(const SnapshotFileKey& key,
+                                                      std::chrono::steady_clock::time_point t0) {
+    const std::filesystem::path path = options_.dir / snapshotFileName(key);
+    const int fd = openRead(path);
     if (fd < 0) {
         std::lock_guard lock(mutex_);
         ++counters_.misses;
         return std::nullopt;
     }
-    // Shared lock while reading: the evictor skips files it cannot lock exclusively.
-    while (::flock(fd, LOCK_SH) != 0 && errno == EINTR) {
-    }
+    lockShared(fd);
     std::optional<Snapshot> snap;
     std::size_t bytes = 0;
     try {
@@ -381,7 +718,7 @@ std::optional<Snapshot> SnapshotStore::load(const SnapshotFileKey& key) {
         DecodedSnapshotFile f = decodeSnapshotFile(data);
         if (!(f.key == key)) throw SnapshotFileError("written for another key");
         snap = std::move(f.snapshot);
-        ::futimens(fd, nullptr); // now: most recently used (atime is unreliable: noatime)
+        ::futimens(fd, nullptr);
     } catch (const SnapshotFileError& e) {
         ::close(fd);
         warn(path, e.what());
@@ -398,56 +735,150 @@ std::optional<Snapshot> SnapshotStore::load(const SnapshotFileKey& key) {
 }
 
 bool SnapshotStore::save(const SnapshotFileKey& key, const Snapshot& snap) {
-    const auto t0 = std::chrono::steady_clock::now();
-    const std::filesystem::path path = pathOf(key);
-    const std::vector<std::uint8_t> bytes = encodeSnapshotFile(key, snap);
-    // A name no other writer uses (pid + a process-wide counter): concurrent writers of one key
-    // each rename a complete file of their own over the final name.
+    std::vector<std::uint8_t> file = encodeSnapshotFile(key, snap);
+    const std::string rel = snapshotPackName(key).string();
+    const auto now = std::chrono::steady_clock::now();
+    bool due = false;
+    {
+        std::lock_guard lock(mutex_);
+        if (pending_.empty()) pendingSince_ = now;
+        Pending& p = pending_[rel];
+        p.frame = key;
+        pendingBytes_ += file.size();
+        auto [it, added] = p.files.try_emplace(viewOrder(key.view), std::move(file));
+        if (!added) pendingBytes_ -= it->second.size(); // the same bytes again
+        due = pendingBytes_ >= options_.flushBytes || now - pendingSince_ >= options_.flushAfter;
+    }
+    // A flush already running in another thread writes what was there before; the rest waits
+    // for the next one rather than this thread waiting for it.
+    if (!due || !flushMutex_.try_lock()) return true;
+    std::lock_guard flushing(flushMutex_, std::adopt_lock);
+    return flushLocked();
+}
+
+bool SnapshotStore::flush() {
+    std::lock_guard flushing(flushMutex_);
+    return flushLocked();
+}
+
+bool SnapshotStore::flushLocked() {
+    std::map<std::string, Pending> work;
+    {
+        std::lock_guard lock(mutex_);
+        work = pending_; // copied: load() keeps finding these until they are in their pack
+    }
+    bool ok = true;
+    for (const auto& [rel, p] : work) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const PackWrite w = writePack(options_.dir / rel, p);
+        {
+            std::lock_guard lock(mutex_);
+            if (w.error == 0) {
+                counters_.writes += p.files.size();
+                ++counters_.packWrites;
+                counters_.bytesWritten += w.bytes;
+                counters_.writeMs += msSince(t0);
+                warnedPacks_.erase(rel);
+            } else if ((counters_.writeFailures += p.files.size()) == p.files.size()) {
+                counters_.writeFailureReason = std::generic_category().message(w.error);
+            }
+            // Written or failed, they leave the buffer: a failed one is baked again when next
+            // needed, as a snapshot that was never saved.
+            Pending& left = pending_[rel];
+            for (const auto& [view, file] : p.files)
+                if (left.files.erase(view)) pendingBytes_ -= file.size();
+            if (left.files.empty()) pending_.erase(rel);
+            if (pending_.empty()) pendingBytes_ = 0;
+        }
+        if (w.error == 0 && w.bytes > w.replacedBytes)
+            keepLimitAfterWrite(w.bytes - w.replacedBytes);
+        ok = ok && w.error == 0;
+    }
+    return ok;
+}
+
+SnapshotStore::PackWrite SnapshotStore::writePack(const std::filesystem::path& path,
+                                                  const Pending& pending) {
+    PackWrite out;
+    std::error_code ec;
+    std::filesystem::create_directories(path.parent_path(), ec);
+    // Writers of packs of this subdirectory take turns from reading the pack to renaming its
+    // replacement, so that none drops another's new views. Without the lock (a filesystem that
+    // has none) it goes on: at worst a view is baked again later.
+    const std::filesystem::path lockPath = path.parent_path() / ".lock";
+    const int lockFd = ::open(lockPath.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+    if (lockFd >= 0)
+        while (::flock(lockFd, LOCK_EX) != 0 && errno == EINTR) {
+        }
+    // The pack's valid snapshots; a pack or a snapshot that fails its checks is left out.
+    std::map<std::array<int, 3>, std::vector<std::uint8_t>> merged;
+    const int fd = openRead(path);
+    if (fd >= 0) {
+        lockShared(fd); // not removed by the evictor while it is read
+        struct stat st {};
+        if (fstat(fd, &st) == 0) {
+            out.replacedBytes = std::uint64_t(st.st_size);
+            std::vector<std::uint8_t> bytes(out.replacedBytes);
+            try {
+                preadExact(fd, bytes.data(), bytes.size(), 0);
+                const DecodedSnapshotPack pack = decodeSnapshotPack(bytes);
+                if (sameFrame(pack.frame, pending.frame))
+                    for (const SnapshotPackEntry& e : pack.entries) {
+                        SnapshotFileKey key = pending.frame;
+                        key.view = e.view;
+                        try {
+                            if (decodeSnapshotFile(e.file).key == key)
+                                merged[viewOrder(e.view)] = e.file;
+                        } catch (const SnapshotFileError&) {
+                        }
+                    }
+            } catch (const SnapshotFileError&) {
+            }
+        }
+        ::close(fd);
+    }
+    for (const auto& [view, file] : pending.files) merged[view] = file;
+    std::vector<SnapshotPackEntry> entries;
+    entries.reserve(merged.size());
+    for (auto& [view, file] : merged)
+        entries.push_back({ViewId{glm::ivec3(view[0], view[1], view[2])}, std::move(file)});
+    const std::vector<std::uint8_t> bytes = encodeSnapshotPack(pending.frame, std::move(entries));
+    out.bytes = bytes.size();
+
+    // A name no other writer uses (pid + a process-wide counter).
     static std::atomic<std::uint64_t> serial{0};
     std::filesystem::path tmp = path;
     tmp += ".tmp" + std::to_string(::getpid()) + "-" + std::to_string(serial++);
-    std::error_code ec;
-    std::filesystem::create_directories(path.parent_path(), ec);
-    int err = 0;
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd < 0) {
+    int& err = out.error;
+    const int tfd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (tfd < 0) {
         err = errno;
     } else {
         // Held until the rename: the stale-temporary sweep never removes a live writer's file.
-        ::flock(fd, LOCK_EX | LOCK_NB);
+        ::flock(tfd, LOCK_EX | LOCK_NB);
         for (std::size_t done = 0; done < bytes.size() && !err;) {
-            const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+            const ssize_t n = ::write(tfd, bytes.data() + done, bytes.size() - done);
             if (n < 0 && errno == EINTR) continue;
             if (n < 0) err = errno;
             if (n == 0) err = ENOSPC; // 0 for a non-empty buffer: nothing more fits
             if (n > 0) done += std::size_t(n);
         }
-        // No fsync: a snapshot lost in a power cut is a checksum mismatch, re-baked on read.
+        // No fsync: a pack lost in a power cut is a checksum mismatch, re-baked on read.
         // close(2) is where NFS reports a failed flush: checked before the file gets its name.
-        if (::close(fd) != 0 && !err && errno != EINTR) err = errno;
+        if (::close(tfd) != 0 && !err && errno != EINTR) err = errno;
         if (!err && ::rename(tmp.c_str(), path.c_str()) != 0) err = errno;
         if (err) ::unlink(tmp.c_str());
     }
-    if (err) {
-        std::lock_guard lock(mutex_);
-        if (counters_.writeFailures++ == 0)
-            counters_.writeFailureReason = std::generic_category().message(err);
-        return false;
-    }
-    {
-        std::lock_guard lock(mutex_);
-        ++counters_.writes;
-        counters_.bytesWritten += bytes.size();
-        counters_.writeMs += msSince(t0);
-    }
-    keepLimitAfterWrite(bytes.size());
-    return true;
+    if (lockFd >= 0) ::close(lockFd);
+    return out;
 }
 
 namespace {
-/// A writer's temporary: "<digest>.snap.tmp<pid>-<serial>".
+/// A writer's temporary: "<digest>.pack.tmp<pid>-<serial>" (or the former "*.snap.tmp*").
 bool isTemporary(const std::filesystem::path& p) {
-    return p.filename().string().find(".snap.tmp") != std::string::npos;
+    const std::string name = p.filename().string();
+    return name.find(".pack.tmp") != std::string::npos ||
+           name.find(".snap.tmp") != std::string::npos;
 }
 } // namespace
 
@@ -503,7 +934,9 @@ std::vector<SnapshotStoreFile> SnapshotStore::list() const {
          !ec && it != std::filesystem::recursive_directory_iterator(); it.increment(ec)) {
         if (it.depth() > 1) continue;
         std::error_code fec;
-        if (!it->is_regular_file(fec) || it->path().extension() != ".snap") continue;
+        if (!it->is_regular_file(fec) ||
+            (it->path().extension() != ".pack" && it->path().extension() != ".snap"))
+            continue;
         const std::uint64_t size = it->file_size(fec);
         const auto time = it->last_write_time(fec);
         if (!fec) files.push_back({it->path(), size, time});

@@ -3,42 +3,68 @@
 // so a render, a bench or a shipped game reads them instead of baking, and a model library can
 // be pre-baked (`voxtier bake --cache-dir`), on a cluster too (`bake --shard I/N`).
 //
-// One file per snapshot, named by a digest of everything that determines its bytes: the model
-// frame's voxels and dimensions, sigma, the view direction (ViewId), whether depth is stored, the
-// lattice rule and the file format version. The palette is not in the key: a snapshot holds
-// palette indices. Files are written to a temporary name and renamed, so a reader never sees half
-// a file and two processes baking the same key both succeed (the last rename wins; both files
-// are the same bytes). A file is untrusted input: every field is bounded before any allocation,
-// and a file that is truncated, corrupted (checksum), foreign (magic), of another format version
-// or lattice rule, or written for another key is never used: one warning line naming the file and
-// the reason, and the caller re-bakes and replaces it.
+// Snapshots are kept in packs: one file per model frame (its voxels and dimensions, sigma,
+// whether depth is stored, the lattice rule and the pack format version, digested into the
+// name) holding every view of it baked so far, each as a snapshot file (the key with the view,
+// the cells, a checksum of its own) behind a checksummed index sorted by view. One file per
+// snapshot took at least a filesystem block each: a pre-bake of the default scene's every frame
+// wrote 19,686 files, 25 MB of data on 92 MB of disk (docs/baking.md).
 //
-// Size limit: readers hold a shared flock while they read and then touch the file's mtime (the
-// least-recently-used order); the evictor removes the oldest files first and only those it can
-// lock exclusively without waiting, so a file another process is reading is never removed.
+// A pack is never changed in place. A writer merges the pack's valid snapshots with its new
+// ones, writes the whole to a temporary name and renames it over the pack, holding an exclusive
+// flock on the subdirectory's ".lock" file from the read to the rename, so that writers in
+// other processes (or on other machines, where flock reaches) add their views instead of losing
+// them; a reader sees the old pack or the new one, never half of one, and a failed write leaves
+// the old one. The pack's bytes depend only on the set of snapshots (index sorted by view), so
+// the shards of a bake, in any order, give the unsharded bake's files. Where flock does not reach
+// across machines, two writers of one pack at the same moment may drop one's new views (the last
+// rename wins): those are baked again when next needed, never read wrong.
 //
-// Write failures (a full disk, a read-only directory) are counted with the first one's OS reason,
-// not warned per file: the caller says so once (render: one warning line; bake: a failed run).
+// Writes are buffered per pack (save()) and written by flush(): when the buffer holds
+// flushBytes, when its oldest snapshot waited flushAfter (both checked at the next save), on
+// flush() (bake: after each model frame; render: before its summary) and in the destructor.
+// Rewriting a pack per snapshot would copy it once per view.
+//
+// A pack is untrusted input: every field is bounded before any allocation, and a pack that is
+// truncated, corrupted (checksum), foreign (magic), of another format version or lattice rule,
+// or written for another model frame is never used (one warning line naming the file and the
+// reason, once per pack; its snapshots are re-baked and the pack replaced); a snapshot in it
+// that fails its own checks is re-baked alone. Files of the former layout (one
+// "ab/<hex>.snap" file per snapshot, format 1) are still read, checked the same way, and
+// evicted by the size limit; new snapshots go to packs.
+//
+// Size limit: readers hold a shared flock on a pack while they read it and then touch its mtime
+// (the least-recently-used order); the evictor removes the least recently used packs first
+// (a model frame's views together) and only those it can lock exclusively without waiting, so a
+// pack another process is reading is never removed.
+//
+// Write failures (a full disk, a read-only directory) are counted per snapshot with the first
+// one's OS reason, not warned per file: the caller says so once (render: one warning line; bake:
+// a failed run).
 //
 // Temporaries of writers that died (a killed bake) are removed when a store is opened and by the
-// size limit's sweep: a "*.snap.tmp*" file whose mtime is older than staleTempAge (an hour) and
-// that no process holds (a writer keeps an exclusive flock on its temporary until it is renamed;
-// the sweeper removes only what it can lock without waiting). Why that is safe with concurrent
-// writers on shared storage: a write takes milliseconds, so an hour-old temporary is a dead
-// writer's; where flock does not reach across machines, the age alone decides, and even removing
-// a live (hour-stalled) writer's temporary only makes its rename fail, which is a counted write
-// failure, never a partial file under a final name.
+// size limit's sweep: a "*.pack.tmp*" (or former "*.snap.tmp*") file whose mtime is older than
+// staleTempAge (an hour) and that no process holds (a writer keeps an exclusive flock on its
+// temporary until it is renamed; the sweeper removes only what it can lock without waiting). Why
+// that is safe with concurrent writers on shared storage: a write takes milliseconds, so an
+// hour-old temporary is a dead writer's; where flock does not reach across machines, the age
+// alone decides, and even removing a live (hour-stalled) writer's temporary only makes its rename
+// fail, which is a counted write failure, never a partial file under a final name.
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"
 #include "impostor_cache/view_set.hpp"
 
+#include <array>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -46,8 +72,10 @@
 
 namespace voxtier {
 
-/// Bumped whenever the file layout changes.
+/// Bumped whenever the snapshot file layout (also a pack's entry) changes.
 inline constexpr std::uint32_t kSnapshotFileVersion = 1;
+/// Bumped whenever the pack layout changes.
+inline constexpr std::uint32_t kSnapshotPackVersion = 1;
 /// Bumped whenever snapshotLattice, snapshotRayFrame or the bake's cell rule change what a
 /// snapshot holds for the same voxels: files baked by the old rule are then never found.
 inline constexpr std::uint32_t kSnapshotLatticeRule = 1;
@@ -76,6 +104,10 @@ struct SnapshotFileKey {
 /// digits as a subdirectory so that no directory holds more than 1/256 of a large library.
 std::filesystem::path snapshotFileName(const SnapshotFileKey& key);
 
+/// The pack holding every view of the key's model frame (the key's view is not in its name),
+/// relative to the cache directory: "ab/<32 hex digits>.pack".
+std::filesystem::path snapshotPackName(const SnapshotFileKey& key);
+
 /// Why a file cannot be used (one line; what the warning says).
 class SnapshotFileError : public std::runtime_error {
   public:
@@ -86,6 +118,10 @@ class SnapshotFileError : public std::runtime_error {
 /// `view` at `sigma`: the snapshot lattice fixes the cell count before anything is traced, so
 /// `bake` can say what it will write before it writes it.
 std::uint64_t snapshotFileBytes(glm::ivec3 dims, ViewId view, double sigma);
+
+/// The bytes a pack of `views` snapshots takes beyond their snapshot files (header, index,
+/// checksum): a pack's size is this plus the snapshotFileBytes of each view.
+std::uint64_t snapshotPackOverhead(std::size_t views);
 
 /// The file bytes of a snapshot baked for `key`.
 std::vector<std::uint8_t> encodeSnapshotFile(const SnapshotFileKey& key, const Snapshot& snap);
@@ -98,6 +134,24 @@ struct DecodedSnapshotFile {
 /// allocation, and the checksum before the payload is used.
 DecodedSnapshotFile decodeSnapshotFile(std::span<const std::uint8_t> bytes);
 
+/// One view of a pack: the snapshot file's bytes (encodeSnapshotFile) for it.
+struct SnapshotPackEntry {
+    ViewId view;
+    std::vector<std::uint8_t> file;
+};
+/// A pack of the model frame of `frame` (its view ignored): `entries` in any order, one per view.
+/// The bytes depend only on the set of entries.
+std::vector<std::uint8_t> encodeSnapshotPack(const SnapshotFileKey& frame,
+                                             std::vector<SnapshotPackEntry> entries);
+struct DecodedSnapshotPack {
+    SnapshotFileKey frame; ///< view: the first entry's (or the default)
+    std::vector<SnapshotPackEntry> entries;
+};
+/// Parses an untrusted pack: the header and the index are checked (sizes before allocation,
+/// the checksum before use); the entries' snapshot files are not (decodeSnapshotFile does that
+/// where one is used). Throws SnapshotFileError naming what is wrong.
+DecodedSnapshotPack decodeSnapshotPack(std::span<const std::uint8_t> bytes);
+
 struct SnapshotStoreOptions {
     std::filesystem::path dir;
     /// Bytes of snapshot files kept in the directory (0: no limit); least recently used beyond.
@@ -106,23 +160,29 @@ struct SnapshotStoreOptions {
     std::function<void(const std::string&)> warn;
     /// A temporary file older than this that no process holds is a dead writer's (see above).
     std::chrono::seconds staleTempAge{3600};
+    /// Buffered snapshots are written when they reach this many bytes, or when the oldest has
+    /// waited flushAfter (checked at the next save), besides flush() and the destructor.
+    std::uint64_t flushBytes = std::uint64_t(32) << 20;
+    std::chrono::milliseconds flushAfter{5000};
 };
 
 struct SnapshotStoreCounters {
     std::uint64_t reads = 0;  ///< snapshots read from valid files
-    std::uint64_t misses = 0; ///< keys with no file
-    std::uint64_t rejected =
-        0;                    ///< files not used (truncated, corrupted, foreign, stale, wrong key)
-    std::uint64_t writes = 0; ///< files written
-    std::uint64_t bytesRead = 0, bytesWritten = 0;
-    std::uint64_t evicted = 0, bytesEvicted = 0; ///< files removed for the size limit
-    std::uint64_t writeFailures = 0;             ///< files that could not be written
+    std::uint64_t misses = 0; ///< keys with no snapshot in the directory
+    /// Snapshots not used (their pack or file truncated, corrupted, foreign, stale, wrong key).
+    std::uint64_t rejected = 0;
+    std::uint64_t writes = 0;       ///< snapshots written (into packs)
+    std::uint64_t packWrites = 0;   ///< packs written (each a whole file)
+    std::uint64_t bytesRead = 0;    ///< snapshot file bytes read (a pack's index not counted)
+    std::uint64_t bytesWritten = 0; ///< bytes of the packs written
+    std::uint64_t evicted = 0, bytesEvicted = 0; ///< files (packs) removed for the size limit
+    std::uint64_t writeFailures = 0;             ///< snapshots that could not be written
     std::string writeFailureReason;              ///< the first failure's OS reason
     std::uint64_t staleTempsRemoved = 0;         ///< dead writers' temporaries removed
     double readMs = 0.0, writeMs = 0.0;
 };
 
-/// One file in the directory, as the evictor sees it.
+/// One file (a pack, or a former single snapshot file) in the directory, as the evictor sees it.
 struct SnapshotStoreFile {
     std::filesystem::path path;
     std::uint64_t bytes = 0;
@@ -133,31 +193,56 @@ class SnapshotStore {
   public:
     /// Creates the directory if needed; throws InputError(dir, "--cache-dir") if it cannot.
     explicit SnapshotStore(SnapshotStoreOptions options);
+    /// Writes what is still buffered (flush()).
+    ~SnapshotStore();
+    SnapshotStore(const SnapshotStore&) = delete;
+    SnapshotStore& operator=(const SnapshotStore&) = delete;
 
-    /// The snapshot stored for `key`, or nullopt when there is no file or it is not usable (then
-    /// one warning line; the caller bakes and save() replaces the file). Marks the file used.
+    /// The snapshot stored for `key` (buffered, in its pack, or in a former single file), or
+    /// nullopt when there is none or it is not usable (then one warning line, once per pack; the
+    /// caller bakes and save() replaces it). Marks the pack used.
     std::optional<Snapshot> load(const SnapshotFileKey& key);
-    /// Whether a file for `key` exists (not read, not validated, not marked used): enough for
-    /// planning what a frame can have without baking, since load() still checks the file and
-    /// the caller re-bakes a bad one.
+    /// Whether the directory has `key` (its pack's index is read, the snapshot is not validated,
+    /// nothing is marked used): enough for planning what a frame can have without baking, since
+    /// load() still checks the snapshot and the caller re-bakes a bad one.
     bool contains(const SnapshotFileKey& key) const;
-    /// Writes the file (temporary name, then rename), then keeps the size limit. Returns false
-    /// when it could not be written (counted, with the reason; no warning, no file left): the
-    /// cache is an optimisation, the caller decides whether that fails its run.
+    /// Buffers the snapshot for its pack; writes the buffer when it is due (see above). Returns
+    /// false when a write it did failed (counted, with the reason; no warning, no file left):
+    /// the cache is an optimisation, the caller decides whether that fails its run.
     bool save(const SnapshotFileKey& key, const Snapshot& snap);
+    /// Writes every buffered snapshot into its pack (merged with the pack's valid snapshots,
+    /// temporary name, then rename), then keeps the size limit. Returns false when any could
+    /// not be written (counted per snapshot, as above).
+    bool flush();
     /// Removes the temporaries of writers that died (the rule above). Returns how many.
     std::size_t removeStaleTemporaries();
     /// Removes least recently used files until the directory is at most `targetBytes`, skipping
     /// files another process is reading. Returns the bytes left.
     std::uint64_t evictDownTo(std::uint64_t targetBytes);
-    /// Every snapshot file of the directory, oldest use first.
+    /// Every pack (and former single snapshot file) of the directory, oldest use first.
     std::vector<SnapshotStoreFile> list() const;
 
+    /// The pack of `key`.
     std::filesystem::path pathOf(const SnapshotFileKey& key) const;
     const SnapshotStoreOptions& options() const { return options_; }
     SnapshotStoreCounters counters() const;
 
   private:
+    /// What is buffered for one pack: its model frame and the snapshot files by view.
+    struct Pending {
+        SnapshotFileKey frame;
+        std::map<std::array<int, 3>, std::vector<std::uint8_t>> files;
+    };
+    struct PackWrite {
+        int error = 0; ///< errno of the failure, 0: written
+        std::uint64_t bytes = 0, replacedBytes = 0;
+    };
+    struct CachedIndex;
+    std::shared_ptr<const CachedIndex> readPackIndex(int fd, const std::string& pack) const;
+    bool flushLocked();
+    PackWrite writePack(const std::filesystem::path& pack, const Pending& pending);
+    std::optional<Snapshot> loadFormerFile(const SnapshotFileKey& key,
+                                           std::chrono::steady_clock::time_point t0);
     void warn(const std::filesystem::path& file, const std::string& reason);
     void keepLimitAfterWrite(std::uint64_t fileBytes);
 
@@ -168,6 +253,16 @@ class SnapshotStore {
     /// The directory's bytes as this process last scanned them plus what it wrote since (other
     /// processes write too: a scan corrects it before anything is removed).
     std::optional<std::uint64_t> approxBytes_;
+    // The write buffer, under mutex_: by pack path relative to the directory.
+    std::map<std::string, Pending> pending_;
+    std::uint64_t pendingBytes_ = 0;
+    std::chrono::steady_clock::time_point pendingSince_;
+    std::mutex flushMutex_; ///< one flush at a time
+    /// The packs' indexes parsed so far (under mutex_), reused while a pack is the same file.
+    mutable std::map<std::string, std::shared_ptr<const CachedIndex>> indexes_;
+    static constexpr std::size_t kMaxCachedIndexes = 4096;
+    /// Packs warned about as a whole (one line each), under mutex_; forgotten when rewritten.
+    std::set<std::string> warnedPacks_;
 };
 
 } // namespace voxtier

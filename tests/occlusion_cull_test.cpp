@@ -274,6 +274,35 @@ TEST(Culling, EntitiesBehindAWallAreDroppedBeforeAnyBake) {
 
 // The command line's switch: render --cull and the default (--no-cull) write the same colours
 // in every CPU mode (the library-level cases above compare depth and id too).
+// The CPU reference counts its sprite rows for a progress line (issue 27): every row it adds to
+// the total is counted done by the end of the frame, with culling (runs, sprites skipped whole)
+// or without, and counting changes no pixel.
+TEST(Culling, ReferenceRowProgressEndsAtItsTotalAndChangesNothing) {
+    for (const bool cull : {false, true}) {
+        Scene scene = test::hardCaseWorld(glm::dvec3(0.0));
+        Scene copy = scene;
+        FrameOptions counted = test::cpuNear(), plain = test::cpuNear();
+        counted.occlusionCull = plain.occlusionCull = cull;
+        WorkProgress rows;
+        counted.nearProgress = &rows;
+        FrameRenderer a(copy, counted);
+        FrameRenderer b(scene, plain);
+        const FrameResult ra = a.render(0.0, RenderMode::Reference);
+        const FrameResult rb = b.render(0.0, RenderMode::Reference);
+        // Four sprites of the hard-case world, each some tens of rows tall on its 200 rows.
+        EXPECT_GT(rows.total.load(), 40u) << cull;
+        EXPECT_EQ(rows.done.load(), rows.total.load()) << cull;
+        EXPECT_TRUE(diffImages(ra.image, rb.image).identical())
+            << test::describeDifference(ra.image, rb.image, "counted", "plain");
+        // A second frame counts anew from a reset.
+        const std::uint64_t first = rows.total.load();
+        rows.reset();
+        a.render(0.0, RenderMode::Reference);
+        EXPECT_EQ(rows.total.load(), first);
+        EXPECT_EQ(rows.done.load(), first);
+    }
+}
+
 TEST(Culling, RenderCullAndNoCullWriteTheSameImage) {
     const auto dir = test::scratchDir("cull_cli", true);
     for (const char* mode : {"reference", "far", "hybrid"}) {

@@ -271,7 +271,8 @@ TEST(WriteFailure, BakeOnAFullDiskFailsWithTheCountsAndTheReason) {
                                         " snapshots could not be written (No space left on "
                                         "device); 0 written"))
             << r.err;
-        for (const std::string& f : disk.leftovers()) EXPECT_FALSE(contains(f, ".snap")) << f;
+        for (const std::string& f : disk.leftovers())
+            EXPECT_FALSE(contains(f, ".pack") || contains(f, ".snap")) << f;
     }
 }
 
@@ -290,10 +291,11 @@ TEST(WriteFailure, RenderWithACacheDirOnAFullDiskWarnsOnceAndSucceeds) {
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(test::lineCount(test::withoutFarWarning(r.err)), 1u) << r.err;
     EXPECT_TRUE(contains(r.err, "warning: cache dir " + (d / "cache").string() + ": ")) << r.err;
-    EXPECT_TRUE(contains(r.err, " snapshot files could not be written (No space left on device)"))
+    EXPECT_TRUE(contains(r.err, " snapshots could not be written (No space left on device)"))
         << r.err;
     EXPECT_EQ(readColorImage(plain).color, readColorImage(cached).color);
-    for (const std::string& f : disk.leftovers()) EXPECT_FALSE(contains(f, ".snap")) << f;
+    for (const std::string& f : disk.leftovers())
+        EXPECT_FALSE(contains(f, ".pack") || contains(f, ".snap")) << f;
 }
 
 // Outputs that are one file (or the input) are refused before anything is rendered.
@@ -339,6 +341,14 @@ std::vector<fs::path> filesWith(const fs::path& dir, const std::string& part) {
     return out;
 }
 
+/// The packs of a directory (not the temporaries they are written as).
+std::vector<fs::path> packs(const fs::path& dir) {
+    std::vector<fs::path> out;
+    for (const fs::path& f : filesWith(dir, ".pack"))
+        if (f.extension() == ".pack") out.push_back(f);
+    return out;
+}
+
 void makeOld(const fs::path& p) {
     fs::last_write_time(p, fs::file_time_type::clock::now() - std::chrono::hours(2));
 }
@@ -355,16 +365,18 @@ TEST(WriteFailure, AKilledBakeLeavesADirectoryALaterRenderReadsExactly) {
     const pid_t child = fork();
     ASSERT_GE(child, 0);
     if (child == 0) {
-        // Level 4 (386 views per model): long enough to be killed part-way.
+        // Level 16 (6,146 views per model, a pack per model): long enough to be killed while it
+        // bakes the second model.
         const std::string cli = VOXTIER_CLI;
-        ::execl(cli.c_str(), cli.c_str(), "bake", s.c_str(), "--level", "4", "--cache-dir",
+        ::execl(cli.c_str(), cli.c_str(), "bake", s.c_str(), "--level", "16", "--cache-dir",
                 cache.c_str(), "--threads", "1", static_cast<char*>(nullptr));
         ::_exit(127);
     }
-    // Killed once some snapshots are written (or after a minute: then it is killed anyway).
+    // Killed once the first model's pack is written (or after a minute: then it is killed
+    // anyway), while it bakes the second.
     for (int k = 0; k < 6000; ++k) {
         std::error_code ec;
-        if (fs::exists(cache, ec) && filesWith(cache, ".snap").size() >= 200) break;
+        if (fs::exists(cache, ec) && !packs(cache).empty()) break;
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     ASSERT_EQ(::kill(child, SIGKILL), 0);
@@ -373,13 +385,14 @@ TEST(WriteFailure, AKilledBakeLeavesADirectoryALaterRenderReadsExactly) {
     ASSERT_TRUE(WIFSIGNALED(status)) << "the bake ended before it was killed";
 
     // What a dead writer leaves, whether or not the kill hit a write: temporaries an hour old.
-    const fs::path sub = filesWith(cache, ".snap").front().parent_path();
-    test::writeText(sub, "0123.snap.tmp999999-0", "half a snapshot");
-    for (const fs::path& t : filesWith(cache, ".snap.tmp")) makeOld(t);
-    const std::size_t dead = filesWith(cache, ".snap.tmp").size();
+    const fs::path sub = packs(cache).front().parent_path();
+    test::writeText(sub, "0123.pack.tmp999999-0", "half a pack");
+    test::writeText(sub, "cdef.snap.tmp999999-0", "half a snapshot (the former layout)");
+    for (const fs::path& t : filesWith(cache, ".tmp")) makeOld(t);
+    const std::size_t dead = filesWith(cache, ".tmp").size();
     // A live writer's: fresh, or old but locked.
-    const std::string fresh = test::writeText(sub, "4567.snap.tmp999998-0", "being written");
-    const std::string held = test::writeText(sub, "89ab.snap.tmp999997-0", "being written");
+    const std::string fresh = test::writeText(sub, "4567.pack.tmp999998-0", "being written");
+    const std::string held = test::writeText(sub, "89ab.pack.tmp999997-0", "being written");
     makeOld(held);
     const int fd = ::open(held.c_str(), O_RDONLY);
     ASSERT_EQ(::flock(fd, LOCK_EX), 0);
@@ -395,8 +408,8 @@ TEST(WriteFailure, AKilledBakeLeavesADirectoryALaterRenderReadsExactly) {
     const std::size_t from = r.out.rfind(' ', at - 1) + 1;
     EXPECT_GT(std::stoul(r.out.substr(from, at - from)), 0u) << r.out;
     EXPECT_EQ(readColorImage(cold).color, readColorImage(warm).color);
-    EXPECT_GE(dead, 1u);
-    std::vector<fs::path> left = filesWith(cache, ".snap.tmp");
+    EXPECT_GE(dead, 2u);
+    std::vector<fs::path> left = filesWith(cache, ".tmp");
     std::sort(left.begin(), left.end());
     EXPECT_EQ(left, (std::vector<fs::path>{fresh, held})) << "only the live writers' stay";
 }
@@ -405,9 +418,9 @@ TEST(WriteFailure, AKilledBakeLeavesADirectoryALaterRenderReadsExactly) {
 TEST(WriteFailure, StaleTemporariesAreRemovedOnlyWhenOldAndUnheld) {
     const fs::path dir = scratch() / "store";
     fs::create_directories(dir / "ab");
-    const std::string old = test::writeText(dir / "ab", "x.snap.tmp1-0", "x");
-    const std::string young = test::writeText(dir / "ab", "y.snap.tmp1-1", "y");
-    const std::string notTemp = test::writeText(dir / "ab", "z.snap", "z");
+    const std::string old = test::writeText(dir / "ab", "x.pack.tmp1-0", "x");
+    const std::string young = test::writeText(dir / "ab", "y.pack.tmp1-1", "y");
+    const std::string notTemp = test::writeText(dir / "ab", "z.pack", "z");
     makeOld(old);
     makeOld(notTemp);
     SnapshotStore store({.dir = dir});

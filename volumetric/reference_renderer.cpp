@@ -164,15 +164,24 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                 return std::pair<int, int>{run[i]->screenRect.y,
                                            std::min(run[i]->screenRect.w, target.height)};
             });
+            if (options.progress) {
+                std::uint64_t rows = 0;
+                for (const SpriteSetup* sp : run)
+                    rows += std::uint64_t(std::max(0, std::min(sp->screenRect.w, target.height) -
+                                                          std::max(sp->screenRect.y, 0)));
+                options.progress->total.fetch_add(rows, std::memory_order_relaxed);
+            }
             tbb::parallel_for(0, bands, [&](int b) {
                 RowCounters& rc = counters.local();
                 const int y0 = b * bandRows, y1 = std::min(target.height, y0 + bandRows);
+                std::uint64_t rowsDone = 0;
                 for (std::uint32_t k = byBand.start[std::size_t(b)];
                      k < byBand.start[std::size_t(b) + 1]; ++k) {
                     const std::uint32_t i = byBand.list[k];
                     const SpriteSetup& sp = *run[i];
                     const int r0 = std::max(sp.screenRect.y, y0),
                               r1 = std::min(sp.screenRect.w, y1);
+                    rowsDone += std::uint64_t(std::max(0, r1 - r0));
                     if (!tiles) {
                         drawSpriteRows(
                             models, sp, plan.cellBase[i], cells, r0, r1, sp.screenRect.x,
@@ -197,6 +206,8 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                         options.earlyDepthTest, target, rc);
                     tiles->drawn(b, x0, x1, r1 - r0);
                 }
+                if (options.progress)
+                    options.progress->done.fetch_add(rowsDone, std::memory_order_relaxed);
             });
         });
     if (stats) {

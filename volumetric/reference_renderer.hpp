@@ -6,6 +6,7 @@
 #include "core/image.hpp"
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
+#include "core/work_progress.hpp"
 #include "volumetric/near_rate.hpp"
 
 #include <cstdint>
@@ -39,6 +40,11 @@ struct ReferenceOptions {
     /// sprite (its one depth is known before any tracing). Same image, fewer traces; off only to
     /// count the voxel reads of the Vulkan fragment shader, which traces every covered pixel.
     bool earlyDepthTest = true;
+    /// Where to count sprite rows (null: not counted): each run of sprites adds its rows (the
+    /// screen rows of each sprite's rectangle) to total before it draws them, each band of rows
+    /// what it finished. Cell-rate cells are traced inside the rows, so
+    /// they are counted with them.
+    WorkProgress* progress = nullptr;
 };
 
 /// Draws `sprites` (visible ones; culled entries are skipped) into `target`, which keeps what
