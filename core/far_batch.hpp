@@ -21,11 +21,15 @@ inline constexpr std::uint32_t kEmpty = 0, kSolid0 = 1, kOutline = 7;
 }
 
 /// One snapshot: row-major cells over the inclusive lattice range cellRange (i0, i1, j0, j1), two
-/// bytes per cell (palette index, code). `owner` keeps the cells alive for the frame; a device
-/// copy keyed by it is dropped once nobody holds the snapshot any more (the snapshot cache evicted
-/// it or replaced it after an edit), which is how device residency follows the cache's budget.
+/// bytes per cell (palette index, code). `owner` keeps the cells alive; a device copy keyed by it
+/// is dropped once nobody else holds the snapshot (the snapshot cache evicted it or replaced it
+/// after an edit), which is how device residency follows the cache's budget.
 struct FarSnapshotCells {
     std::shared_ptr<const void> owner;
+    /// The same for every version of one (model, frame, view, sigma), 0 for none: a hint that
+    /// lets a refreshed snapshot take over its predecessor's device copy and upload only the
+    /// rows that changed (correct whatever it says: the rows are compared).
+    std::uint64_t lineage = 0;
     const std::uint8_t* cells = nullptr;
     glm::ivec4 cellRange{0};
     int width() const { return cellRange.y - cellRange.x + 1; }

@@ -135,9 +135,16 @@ FarBatch prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,
     });
     FarBatch batch;
     batch.snapshots.reserve(snaps.size());
-    for (const auto& snap : snaps)
-        batch.snapshots.push_back({snap, reinterpret_cast<const std::uint8_t*>(snap->cells.data()),
-                                   snap->lattice.cellRange});
+    for (std::size_t i = 0; i < snaps.size(); ++i) {
+        const auto [m, f, x, y, z, sigma] = needs[i];
+        // Every version of this view of this model frame shares a lineage: the need with the
+        // model's uid in place of its index (a collision only costs a row comparison).
+        const std::uint64_t uid = models.at(std::size_t(m))->uid();
+        const std::uint64_t lineage = NeedHash{}(Need{int(uid ^ (uid >> 32)), f, x, y, z, sigma});
+        batch.snapshots.push_back({snaps[i], lineage | 1u,
+                                   reinterpret_cast<const std::uint8_t*>(snaps[i]->cells.data()),
+                                   snaps[i]->lattice.cellRange});
+    }
     batch.instances.reserve(drawn.size());
     for (std::size_t k = 0; k < drawn.size(); ++k) {
         const SpriteSetup& sp = *drawn[k];

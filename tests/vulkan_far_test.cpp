@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <memory>
+#include <set>
 #include <string>
 
 namespace voxtier {
@@ -237,13 +238,14 @@ TEST_F(VulkanFar, PartlyOffScreenEqualDepthPairsAndFarFromTheOrigin) {
 }
 
 TEST_F(VulkanFar, SnapshotsAreUploadedOnceAndFreedWhenTheCacheDropsThem) {
-    const Scene s = test::hardCaseWorld(glm::dvec3(0.0));
+    Scene s = test::hardCaseWorld(glm::dvec3(0.0));
     const CameraFrame cam = makeCameraFrame(s.camera);
     const auto sprites = setupSprites(s, cam, 0.0);
     std::vector<FarRequest> requests;
     for (const auto& sp : sprites) requests.push_back({&sp, std::nullopt});
     SnapshotCache cache;
     NearStats first, second;
+    std::set<const void*> firstOwners;
     {
         const FarBatch batch = prepareFarBatch(s.models, requests, cache, ViewSet::Cube26);
         NearOptions no;
@@ -254,7 +256,35 @@ TEST_F(VulkanFar, SnapshotsAreUploadedOnceAndFreedWhenTheCacheDropsThem) {
         EXPECT_GT(first.farBytesUploaded, 0u);
         EXPECT_EQ(second.farSnapshotsUploaded, 0u); // resident since the first frame
         EXPECT_EQ(second.farBytesUploaded, 0u);
+        for (const FarSnapshotCells& c : batch.snapshots) firstOwners.insert(c.owner.get());
         // Earlier tests' snapshots (their caches are gone) were freed by the first update.
+        EXPECT_EQ(nearRenderer().farResidentSnapshots(), batch.snapshots.size());
+    }
+    // An edit of model 0 (a corner voxel, seen from most views): its snapshots are refreshed
+    // (new ones) and only those are uploaded, each into its predecessor's range and only the rows
+    // that changed; the image still equals the CPU blit's.
+    {
+        s.models[0]->setVoxel(0, {0, 0, 0}, 0);
+        FarFrameStats fs;
+        const FarBatch batch = prepareFarBatch(s.models, requests, cache, ViewSet::Cube26, &fs);
+        NearOptions no;
+        no.far = &batch;
+        NearStats edited;
+        const Image gpu =
+            nearRenderer().render(cam, s.models, std::vector<SpriteSetup>{}, 0, no, &edited);
+        Image cpu(cam.width, cam.height, 0);
+        drawFarSprites(s.models, requests, cache, ViewSet::Cube26, cpu);
+        EXPECT_EQ(describeDifference(gpu, cpu, "vulkan far", "cpu far"), "") << "after an edit";
+        EXPECT_GT(fs.refreshes, 0u);
+        EXPECT_EQ(edited.farSnapshotsUploaded, fs.refreshes);
+        EXPECT_LT(edited.farSnapshotsUploaded, batch.snapshots.size());
+        std::uint64_t refreshedBytes = 0; // what uploading the refreshed snapshots whole costs
+        for (const FarSnapshotCells& c : batch.snapshots)
+            if (!firstOwners.count(c.owner.get()))
+                refreshedBytes += std::uint64_t(c.width()) * std::uint64_t(c.height()) * 2;
+        EXPECT_GT(edited.farBytesUploaded, 0u);
+        EXPECT_LT(edited.farBytesUploaded, refreshedBytes);
+        // The predecessors' ranges were taken over or freed: as many resident as in use.
         EXPECT_EQ(nearRenderer().farResidentSnapshots(), batch.snapshots.size());
     }
     // The cache evicts everything (budget 0) and the frame's batch is gone: the next far pass

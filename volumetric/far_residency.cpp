@@ -7,6 +7,7 @@
 #include <iterator>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace voxtier {
 
@@ -82,32 +83,82 @@ void FarResidency::release(std::uint32_t offset, std::uint32_t words) {
     free_.emplace(offset, words);
 }
 
+void FarResidency::sweep(const std::unordered_set<const void*>& keep, FarResidencyStats& st) {
+    for (auto it = entries_.begin(); it != entries_.end();) {
+        if (it->second.cells.owner.use_count() > 1 || keep.count(it->first)) {
+            ++it;
+            continue;
+        }
+        release(it->second.offset, it->second.words);
+        usedWords_ -= it->second.words;
+        ++st.snapshotsFreed;
+        if (const auto l = byLineage_.find(it->second.cells.lineage);
+            l != byLineage_.end() && l->second == it->first)
+            byLineage_.erase(l);
+        it = entries_.erase(it);
+    }
+}
+
+void FarResidency::stage(const std::uint8_t* from, std::size_t bytes, VkDeviceSize deviceByte) {
+    copies_.push_back({VkDeviceSize(staged_.size()), deviceByte, VkDeviceSize(bytes)});
+    staged_.insert(staged_.end(), from, from + bytes);
+}
+
 std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarResidencyStats* stats) {
     FarResidencyStats st;
-    // Snapshots nobody holds any more (evicted or replaced): their ranges are free again.
-    for (auto it = entries_.begin(); it != entries_.end();) {
-        if (it->second.owner.expired()) {
-            release(it->second.offset, it->second.words);
-            usedWords_ -= it->second.words;
-            ++st.snapshotsFreed;
-            it = entries_.erase(it);
-        } else {
-            ++it;
-        }
+    copies_.clear();
+    staged_.clear();
+    // A snapshot new to the device whose predecessor (same lineage) nobody else holds any more
+    // may take over its range: the predecessor is kept through the sweep for that.
+    std::unordered_set<const void*> predecessors;
+    for (const FarSnapshotCells& s : batch.snapshots) {
+        if (!s.lineage || entries_.count(s.owner.get())) continue;
+        if (const auto l = byLineage_.find(s.lineage); l != byLineage_.end())
+            predecessors.insert(l->second);
     }
+    sweep(predecessors, st);
+
     std::vector<std::uint32_t> offsets(batch.snapshots.size());
-    struct Pending {
-        std::size_t snapshot;
-        std::uint32_t offset, words;
-    };
-    std::vector<Pending> pending;
-    std::uint64_t stagedWords = 0;
     for (std::size_t k = 0; k < batch.snapshots.size(); ++k) {
         const FarSnapshotCells& s = batch.snapshots[k];
         const void* key = s.owner.get();
         if (auto it = entries_.find(key); it != entries_.end()) {
             offsets[k] = it->second.offset;
             continue;
+        }
+        const std::size_t rowBytes = std::size_t(s.width()) * 2, rows = std::size_t(s.height());
+        // A refresh: the rows that differ from what the device holds, into the same range.
+        if (const auto l = s.lineage ? byLineage_.find(s.lineage) : byLineage_.end();
+            l != byLineage_.end()) {
+            const auto old = entries_.find(l->second);
+            if (old != entries_.end() && old->second.cells.owner.use_count() == 1 &&
+                old->second.cells.cellRange == s.cellRange) {
+                Entry e = std::move(old->second);
+                entries_.erase(old);
+                const VkDeviceSize base = VkDeviceSize(e.offset) * 4;
+                for (std::size_t r = 0; r < rows;) {
+                    const auto differs = [&](std::size_t row) {
+                        return std::memcmp(s.cells + row * rowBytes, e.cells.cells + row * rowBytes,
+                                           rowBytes) != 0;
+                    };
+                    if (!differs(r)) {
+                        ++r;
+                        continue;
+                    }
+                    std::size_t end = r + 1;
+                    while (end < rows && differs(end)) ++end;
+                    stage(s.cells + r * rowBytes, (end - r) * rowBytes, base + r * rowBytes);
+                    st.bytesUploaded += (end - r) * rowBytes;
+                    r = end;
+                }
+                e.cells = s;
+                offsets[k] = e.offset;
+                entries_.emplace(key, std::move(e));
+                byLineage_[s.lineage] = key;
+                ++st.snapshotsUploaded;
+                ++st.refreshesInPlace;
+                continue;
+            }
         }
         const std::uint32_t words = std::max<std::uint32_t>(wordsOf(s), 1);
         std::uint32_t offset = 0;
@@ -116,39 +167,31 @@ std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarReside
             if (!allocate(words, offset))
                 throw VulkanError("far pass: no room for a snapshot after growing");
         }
-        entries_.emplace(key, Entry{s.owner, offset, words});
+        entries_.emplace(key, Entry{s, offset, words});
+        if (s.lineage) byLineage_[s.lineage] = key;
         offsets[k] = offset;
-        pending.push_back({k, offset, words});
-        stagedWords += words;
+        stage(s.cells, rowBytes * rows, VkDeviceSize(offset) * 4);
+        st.bytesUploaded += rowBytes * rows;
+        ++st.snapshotsUploaded;
     }
-    copies_.clear();
-    if (stagedWords) {
-        if (!staging_ || staging_.size() < stagedWords * 4) {
+    // Predecessors no refresh took over (another cell range) go now.
+    sweep({}, st);
+    if (!staged_.empty()) {
+        if (!staging_ || staging_.size() < staged_.size()) {
             VkDeviceSize size = staging_ ? staging_.size() : 1u << 16;
-            while (size < stagedWords * 4) size *= 2;
+            while (size < staged_.size()) size *= 2;
             staging_ = VulkanBuffer(device_, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
         }
-        auto* dst = static_cast<std::uint8_t*>(staging_.mapped());
-        VkDeviceSize at = 0;
-        for (const Pending& p : pending) {
-            const FarSnapshotCells& s = batch.snapshots[p.snapshot];
-            const std::size_t bytes =
-                std::size_t(s.width()) * std::size_t(s.height()) * 2; // two bytes a cell
-            if (bytes) std::memcpy(dst + at, s.cells, bytes);
-            if (bytes < std::size_t(p.words) * 4)
-                std::memset(dst + at + bytes, 0, p.words * 4 - bytes);
-            copies_.push_back({at, VkDeviceSize(p.offset) * 4, VkDeviceSize(p.words) * 4});
-            at += VkDeviceSize(p.words) * 4;
-            st.bytesUploaded += bytes;
-        }
-        st.snapshotsUploaded = pending.size();
+        std::memcpy(staging_.mapped(), staged_.data(), staged_.size());
     }
     totals_.snapshotsUploaded += st.snapshotsUploaded;
     totals_.bytesUploaded += st.bytesUploaded;
+    totals_.refreshesInPlace += st.refreshesInPlace;
     totals_.snapshotsFreed += st.snapshotsFreed;
     if (stats) {
         stats->snapshotsUploaded += st.snapshotsUploaded;
         stats->bytesUploaded += st.bytesUploaded;
+        stats->refreshesInPlace += st.refreshesInPlace;
         stats->snapshotsFreed += st.snapshotsFreed;
     }
     return offsets;
