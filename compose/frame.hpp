@@ -1,6 +1,7 @@
 #pragma once
 // The frame recipe of DESIGN.md §6: select tiers -> draw near sprites (Vulkan) -> ensure the
-// snapshots far sprites need (lazy, parallel) -> blit far sprites -> compose by min-z. A
+// snapshots far sprites need (lazy, parallel) -> blit far sprites -> compose by min-z (with
+// FarBackend::Vulkan, one Vulkan frame draws the near sprites and then the far ones). A
 // FrameRenderer keeps what persists between frames of one scene: the selector's per-entity
 // state, the snapshot cache and the Vulkan device with its voxel atlas.
 #include "compose/error_budget.hpp"
