@@ -155,6 +155,7 @@ std::vector<Column> columns() {
         {"in_motion_all_near_reference_ms", field(&Measurement::motionReferenceMs)},
         {"in_motion_speedup_vs_all_near_reference", field(&Measurement::motionSpeedupVsReference)},
         {"near_backend", field(&Measurement::nearBackend)},
+        {"far_backend", field(&Measurement::farBackend)},
         {"in_motion_bakes_per_frame", field(&Measurement::motionBakes)},
         {"in_motion_bake_ms_per_frame", field(&Measurement::motionBakeMs)},
         {"in_motion_near_ms", field(&Measurement::motionNearMs)},
@@ -277,6 +278,7 @@ json planJson(const Plan& p) {
     if (p.entityCap) plan["entity_cap"] = *p.entityCap;
     if (p.budgetVpx) plan["budget_vpx"] = *p.budgetVpx;
     plan["far_blit"] = p.farBlit == FarBlitKernel::Simd ? "simd" : "scalar";
+    plan["far_backend"] = toString(p.farBackend);
     plan["occlusion_cull"] = p.occlusionCull;
     return plan;
 }

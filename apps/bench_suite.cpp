@@ -294,6 +294,8 @@ FrameOptions frameOptions(const Config& c, const Plan& plan,
     FrameOptions o;
     o.sharedNear = near;
     o.nearBackend = info(c.mode).nearBackend;
+    o.farBackend =
+        info(c.mode).farBackend == FarBackend::Auto ? plan.farBackend : info(c.mode).farBackend;
     o.cacheDir = plan.cacheDir;
     o.cacheDirBytes = plan.cacheDirBytes;
     o.nearRate = info(c.mode).perPixel ? NearRate::Fragment : plan.nearRate;
@@ -588,6 +590,8 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
     m.nearBackend = renderMode == RenderMode::Reference ? "reference"
                     : renderMode == RenderMode::Near    ? "vulkan"
                                                         : toString(c.renderer->nearBackend());
+    if (renderMode == RenderMode::Hybrid || renderMode == RenderMode::Far)
+        m.farBackend = toString(c.renderer->farBackend());
     m.coldMs = c.coldFirstMs;
     m.coldBakeMs = c.cold.bakeMs;
     m.coldBakes = c.cold.farBakes;
@@ -745,6 +749,30 @@ Set scalingSet(const SceneSource& src, const json& doc, const Plan& plan, const 
     return set;
 }
 
+/// The Vulkan frame's fixed cost (no sprite: clear, one submission, readback) at the scene's
+/// image size, with the three planes read back (colour, depth, ids: every frame before the far
+/// pass moved to the GPU) and with colour alone (what a PNG frame drawn wholly on Vulkan reads
+/// back). Interleaved, median of 21 each.
+std::string fixedFrameCost(NearRenderer& near, const Scene& scene) {
+    const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+    const std::vector<std::shared_ptr<VoxelModel>> none;
+    std::vector<double> three, one;
+    for (int k = 0; k < 22; ++k)
+        for (const bool all : {true, false}) {
+            NearOptions no;
+            no.readDepthAndIds = all;
+            const auto t0 = Clock::now();
+            (void)near.render(cam, none, std::span<const SpriteSetup* const>{}, 0, no);
+            if (k > 0) (all ? three : one).push_back(msSince(t0)); // the first warms up
+        }
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "Vulkan frame with no sprite, %dx%d: %.2f ms reading back colour, depth and "
+                  "ids; %.2f ms reading back colour alone (median of 21 each)",
+                  cam.width, cam.height, median(three), median(one));
+    return buf;
+}
+
 std::string cpuName() {
     std::ifstream in("/proc/cpuinfo");
     std::string line;
@@ -778,6 +806,7 @@ Plan makePlan(const SuiteOptions& o) {
         throw InputError("", "--budget", "must be in [0.01, 64] virtual pixels");
     p.budgetVpx = o.budgetVpx;
     p.farBlit = o.farBlit;
+    p.farBackend = o.farBackend;
     p.occlusionCull = o.occlusionCull;
     if (o.smoke) {
         p.preset = "smoke";
@@ -940,6 +969,7 @@ SuiteResults runSuite(const SuiteOptions& options) {
         set.configs.clear(); // frees the caches and images of this set
     }
     progress.finish();
+    res.notes.push_back(fixedFrameCost(*near, sources.front().scene));
     constexpr std::size_t kBig = std::size_t(64) << 20;
     res.memcpyGBps = double(kBig) / (memcpyMs(kBig) * 1e-3) / 1e9;
     res.wallSeconds = secondsSince(t0);

@@ -25,13 +25,16 @@ namespace voxtier::bench {
 
 /// The ways the bench draws a scene. Adding one is a line in kBenchModes (and what it sets in
 /// FrameOptions, apps/bench_suite.cpp runSet).
-enum class BenchMode { NearVulkan, NearVulkanFragment, NearReference, Far, Hybrid };
+enum class BenchMode { NearVulkan, NearVulkanFragment, NearReference, Far, Hybrid, HybridGpuFar };
 
 struct BenchModeInfo {
     BenchMode mode;
     const char* name; ///< in results.csv, results.json and the report
     RenderMode renderMode;
     NearBackend nearBackend; ///< who draws the near tier (where the render mode leaves it open)
+    /// Who draws the far tier: Auto = the suite's --far-backend (cpu by default); hybrid_gpu_far
+    /// is the Vulkan far pass beside the hybrid, with the same near backend.
+    FarBackend farBackend;
     /// Per-pixel tracing everywhere (the seed's single fragment pass, the baseline of cell-rate
     /// sprites); otherwise the suite's --near-rate (auto by default).
     bool perPixel;
@@ -44,12 +47,13 @@ struct BenchModeInfo {
 
 // clang-format off
 inline constexpr BenchModeInfo kBenchModes[] = {
-    // mode                         name                    render mode            near backend            per pixel truth  counts steps apart
-    {BenchMode::NearVulkan,         "near_vulkan",          RenderMode::Near,      NearBackend::Vulkan,    false,    true,  true},
-    {BenchMode::NearVulkanFragment, "near_vulkan_fragment", RenderMode::Near,      NearBackend::Vulkan,    true,     false, false},
-    {BenchMode::NearReference,      "near_reference",       RenderMode::Reference, NearBackend::Reference, false,    false, false},
-    {BenchMode::Far,                "far",                  RenderMode::Far,       NearBackend::Reference, false,    false, false},
-    {BenchMode::Hybrid,             "hybrid",               RenderMode::Hybrid,    NearBackend::Auto,      false,    false, false},
+    // mode                         name                    render mode            near backend            far backend          per pixel truth  counts steps apart
+    {BenchMode::NearVulkan,         "near_vulkan",          RenderMode::Near,      NearBackend::Vulkan,    FarBackend::Cpu,     false,    true,  true},
+    {BenchMode::NearVulkanFragment, "near_vulkan_fragment", RenderMode::Near,      NearBackend::Vulkan,    FarBackend::Cpu,     true,     false, false},
+    {BenchMode::NearReference,      "near_reference",       RenderMode::Reference, NearBackend::Reference, FarBackend::Cpu,     false,    false, false},
+    {BenchMode::Far,                "far",                  RenderMode::Far,       NearBackend::Reference, FarBackend::Auto,    false,    false, false},
+    {BenchMode::Hybrid,             "hybrid",               RenderMode::Hybrid,    NearBackend::Auto,      FarBackend::Auto,    false,    false, false},
+    {BenchMode::HybridGpuFar,       "hybrid_gpu_far",       RenderMode::Hybrid,    NearBackend::Auto,      FarBackend::Vulkan,  false,    false, false},
 };
 // clang-format on
 const BenchModeInfo& info(BenchMode mode);
@@ -72,7 +76,11 @@ struct SuiteOptions {
     std::uint64_t cacheDirBytes = 0; ///< its size limit (0 = none)
     NearRate nearRate = NearRate::Auto;          ///< of every mode but near_vulkan_fragment
     FarBlitKernel farBlit = FarBlitKernel::Simd; ///< of every mode
-    bool occlusionCull = false;                  ///< of every mode (--cull: true)
+    /// Who draws the far tier of the rows whose table entry says Auto (hybrid, far and the
+    /// sweeps); hybrid_gpu_far is always the Vulkan far pass. Cpu by default, so the CPU-blit
+    /// hybrid stands beside hybrid_gpu_far on every machine.
+    FarBackend farBackend = FarBackend::Cpu;
+    bool occlusionCull = false; ///< of every mode (--cull: true)
     /// Every scene's selector becomes the error budget at this many virtual pixels (its view set,
     /// view hysteresis and cross-fade kept); unset: each scene's own selector.
     std::optional<double> budgetVpx;
@@ -101,6 +109,7 @@ struct Plan {
     NearRate nearRate = NearRate::Auto;          ///< SuiteOptions::nearRate
     std::optional<double> budgetVpx;             ///< SuiteOptions::budgetVpx
     FarBlitKernel farBlit = FarBlitKernel::Simd; ///< SuiteOptions::farBlit
+    FarBackend farBackend = FarBackend::Cpu;     ///< SuiteOptions::farBackend
     bool occlusionCull = false;                  ///< SuiteOptions::occlusionCull
 };
 
@@ -158,6 +167,8 @@ struct Measurement {
     /// Who drew the near tier: "vulkan" or "reference" (what --near-backend auto chose, for the
     /// hybrid).
     std::string nearBackend;
+    /// Who drew the far tier: "cpu" or "vulkan" ("" where the mode draws no far sprite).
+    std::string farBackend;
     double motionBakes = 0, motionBakeMs = 0; ///< per frame after the cold start (mean)
     /// The near tier's ms and the entities each tier drew, per frame after the cold start
     /// (means): what the entities drawn near cost even if far sprites were free.

@@ -65,8 +65,11 @@ void runBench(bench::SuiteOptions options) {
                 "  mismatch mean %.2f%% worst %.2f%%, far displacement %.1f px (%.2f virtual px)",
                 100 * m.mismatchMean, 100 * m.mismatchWorst, m.displacementWorstPx,
                 m.displacementWorstCells);
+        if (m.motionMs > 0) std::printf("  in motion %.2f ms", m.motionMs);
+        if (!m.farBackend.empty()) std::printf(" (far tier: %s)", m.farBackend.c_str());
         std::printf("\n");
     }
+    for (const std::string& n : results.notes) std::printf("  note: %s\n", n.c_str());
     for (const std::string& f : files) std::printf("-> %s\n", f.c_str());
 }
 
@@ -119,6 +122,10 @@ void addBenchCommand(CLI::App& app) {
     bench->add_flag("!--no-scaling", o->scaling, "Skip the scaling curves");
     addNearRateOption(*bench, o->nearRate);
     addFarBlitOption(*bench, o->farBlit);
+    addChoiceOption(*bench, "--far-backend", o->farBackend, kFarBackendNames, "far backend",
+                    "Who draws the far tier of the hybrid and far rows and the sweeps: cpu "
+                    "(default: the CPU blit, beside the hybrid_gpu_far row's Vulkan far pass), "
+                    "vulkan, or auto (Vulkan on a GPU, the CPU blit on a CPU device); same image");
     addCullFlag(*bench, o->occlusionCull);
     bench
         ->add_option("--budget", o->budgetVpx,

@@ -17,6 +17,7 @@
 #include "impostor_cache/snapshot_cache.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -35,6 +36,7 @@ struct RenderArgs {
     RenderMode mode = RenderMode::Hybrid;
     bool modeGiven = false; ///< --mode on the command line (else a .vox preview is exact)
     NearBackend nearBackend = NearBackend::Auto;
+    FarBackend farBackend = FarBackend::Auto;
     NearRate nearRate = NearRate::Auto;
     FarBlitKernel farBlit = FarBlitKernel::Simd;
     bool occlusionCull = false;
@@ -274,7 +276,7 @@ void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, c
             ++(r.plan[i].tier == Tier::Near ? nearOnly : farOnly);
     }
     std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, "
-                "%d fading%s), "
+                "%d fading%s%s), "
                 "%d switches, %d bakes, worst predicted far displacement %.2f vpx, %.1f ms -> "
                 "%s%s\n",
                 a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height,
@@ -282,6 +284,9 @@ void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, c
                 st.nearDrawn == 0 ? ""
                 : st.nearOnVulkan ? "; near tier on Vulkan"
                                   : "; near tier on the CPU reference",
+                st.farDrawn == 0 ? ""
+                : st.farOnVulkan ? "; far tier on Vulkan"
+                                 : "; far tier on the CPU blit",
                 st.switchesToFar + st.switchesToNear, st.farBakes, st.farPredictedWorstVpx, wallMs,
                 file.c_str(), progressText.c_str());
     std::fflush(stdout);
@@ -320,6 +325,7 @@ void run(const RenderArgs& a) {
     const FramePlan plan = planFrames(a, scene);
     FrameOptions opt;
     opt.nearBackend = a.nearBackend;
+    opt.farBackend = a.farBackend;
     opt.nearRate = a.nearRate;
     opt.farBlit.kernel = a.farBlit;
     opt.occlusionCull = a.occlusionCull;
@@ -340,6 +346,10 @@ void run(const RenderArgs& a) {
     // A build without OpenImageIO writes .pam alone: say so before rendering, not after.
     for (const std::string& f : {a.overlay, a.ids})
         if (!f.empty() && !canWriteImageFormat(f)) throw InputError(f, "", imageFormatRefusal(f));
+    // Depth and ids leave the GPU only for output that has them (EXR, --ids) or reads them.
+    std::string ext = std::filesystem::path(out).extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    opt.depthAndIds = ext == ".exr" || !a.ids.empty() || opt.overlay || opt.measurePops;
     FrameRenderer renderer(scene, opt);
     // A .vox render is a preview, where a user judges the model (or the file's scene graph):
     // without --mode it is drawn exactly, by the near tier (Vulkan on a GPU, else the CPU
@@ -362,7 +372,7 @@ void run(const RenderArgs& a) {
     if (plan.sequence && endsWith(out, ".gif"))
         animation.emplace(out, (scene.path ? scene.path->fps : 30.0) / plan.step);
     const auto start = std::chrono::steady_clock::now();
-    bool choiceSaid = false;
+    bool choiceSaid = false, farChoiceSaid = false;
     Approximation approx;
     std::optional<Progress> progressLine(std::in_place,
                                          plan.frames.size() == 1 ? "frame" : "frames",
@@ -413,6 +423,10 @@ void run(const RenderArgs& a) {
             (exactPreview || (mode != RenderMode::Near && mode != RenderMode::Reference))) {
             std::printf("%s\n", renderer.nearBackendChoice().c_str());
             choiceSaid = true;
+        }
+        if (!farChoiceSaid && r.stats.farDrawn > 0 && !renderer.farBackendChoice().empty()) {
+            std::printf("%s\n", renderer.farBackendChoice().c_str());
+            farChoiceSaid = true;
         }
         // The frame's wall time, writing included (a GIF's frames are written at the end).
         progressLine->note("");
@@ -470,6 +484,10 @@ void addRenderCommand(CLI::App& app) {
     addChoiceOption(*cmd, "--near-backend", args->nearBackend, kNearBackendNames, "near backend",
                     "auto (Vulkan on a GPU; the CPU reference where the only Vulkan device is a "
                     "CPU, as lavapipe is, or there is none), vulkan, or reference; same image");
+    addChoiceOption(*cmd, "--far-backend", args->farBackend, kFarBackendNames, "far backend",
+                    "auto (the Vulkan far pass on a GPU with shaderFloat64; the CPU blit where the "
+                    "only Vulkan device is a CPU, as lavapipe is, or there is none), vulkan, or "
+                    "cpu; same image");
     addNearRateOption(*cmd, args->nearRate);
     addFarBlitOption(*cmd, args->farBlit);
     addCullFlag(*cmd, args->occlusionCull);

@@ -58,10 +58,15 @@ Rgba8 groundPixel(const GroundPlane& g, const CameraFrame& cam, Rgba8 background
 void drawBackdrop(const Scene& scene, const CameraFrame& cam, Image& image) {
     const Rgba8 background = scene.render.background;
     if (!scene.ground && channel(background, 3) == 255) return;
+    // A colour-only frame (FrameOptions::depthAndIds false) has no id plane: sprites write
+    // alpha 255, and the frame cleared its targets to a colour that is not opaque where this
+    // fills anything in.
+    const bool byAlpha = image.id.empty();
     tbb::parallel_for(0, image.height, [&](int y) {
         for (int x = 0; x < image.width; ++x) {
             const std::size_t p = image.index(x, y);
-            if (image.id[p] != kernel::VT_NO_ENTITY) continue;
+            if (byAlpha ? channel(image.color[p], 3) == 255 : image.id[p] != kernel::VT_NO_ENTITY)
+                continue;
             image.color[p] =
                 scene.ground ? groundPixel(*scene.ground, cam, background, x, y) : background;
         }

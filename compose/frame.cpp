@@ -6,6 +6,7 @@
 #include "compose/error_metrics.hpp"
 #include "compose/tier_legend.hpp"
 #include "core/error.hpp"
+#include "core/far_batch.hpp"
 #include "core/stopwatch.hpp"
 #include "impostor_cache/far_frame.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
@@ -126,6 +127,14 @@ const char* toString(NearBackend b) {
     return nameOf(kNearBackendNames, b);
 }
 
+FarBackend parseFarBackend(const std::string& name) {
+    return fromName(kFarBackendNames, name, "--far-backend", "far backend");
+}
+
+const char* toString(FarBackend b) {
+    return nameOf(kFarBackendNames, b);
+}
+
 const char* toString(FarBlitKernel k) {
     return nameOf(kFarBlitNames, k);
 }
@@ -184,18 +193,62 @@ std::string FrameRenderer::nearDeviceName() const {
     return near_ ? near_->deviceName() : std::string();
 }
 
-NearBackend FrameRenderer::nearBackend() {
-    if (options_.nearBackend != NearBackend::Auto) return options_.nearBackend;
-    if (!autoChoice_) {
+const VulkanProbe& FrameRenderer::vulkanProbe() {
+    if (!probe_) {
         // A shared device (the bench's) is asked what it is; otherwise the loader is probed.
         VulkanProbe probe;
         if (options_.sharedNear) {
             probe.found = true;
             probe.cpu = options_.sharedNear->deviceIsCpu();
             probe.name = options_.sharedNear->deviceName();
+            probe.float64 = options_.sharedNear->farPassSupported();
         } else {
             probe = probeVulkanDevice();
         }
+        probe_ = probe;
+    }
+    return *probe_;
+}
+
+NearRenderer& FrameRenderer::nearRenderer() {
+    // Created on first use: reference- and CPU-only runs never touch Vulkan.
+    if (!near_)
+        near_ = options_.sharedNear
+                    ? options_.sharedNear
+                    : std::make_shared<NearRenderer>(options_.vulkan, options_.vulkanLog);
+    return *near_;
+}
+
+FarBackend FrameRenderer::farBackend() {
+    if (options_.farBackend != FarBackend::Auto) return options_.farBackend;
+    if (!farAutoChoice_) {
+        const VulkanProbe& probe = vulkanProbe();
+        farAutoChoice_ =
+            probe.found && !probe.cpu && probe.float64 ? FarBackend::Vulkan : FarBackend::Cpu;
+        farAutoReason_ =
+            !probe.found ? "far tier: CPU blit (--far-backend auto: " + probe.whyNone + ")"
+            : probe.cpu
+                ? "far tier: CPU blit (--far-backend auto: the only Vulkan device, " + probe.name +
+                      ", runs on the CPU, where the SIMD blit is faster; --far-backend "
+                      "vulkan uses it)"
+            : !probe.float64 ? "far tier: CPU blit (--far-backend auto: " + probe.name +
+                                   " lacks shaderFloat64, which the far pass needs)"
+                             : "far tier: Vulkan on " + probe.name + " (--far-backend auto)";
+    }
+    return *farAutoChoice_;
+}
+
+const std::string& FrameRenderer::farBackendChoice() {
+    static const std::string none;
+    if (options_.farBackend != FarBackend::Auto) return none;
+    farBackend();
+    return farAutoReason_;
+}
+
+NearBackend FrameRenderer::nearBackend() {
+    if (options_.nearBackend != NearBackend::Auto) return options_.nearBackend;
+    if (!autoChoice_) {
+        const VulkanProbe& probe = vulkanProbe();
         autoChoice_ = probe.found && !probe.cpu ? NearBackend::Vulkan : NearBackend::Reference;
         autoReason_ =
             !probe.found ? "near tier: CPU reference (--near-backend auto: " + probe.whyNone + ")"
@@ -239,6 +292,7 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     // Auto's one-time probe of the Vulkan loader (lavapipe's instance alone takes ~0.1 s) is not
     // part of any frame's time: a hybrid frame decides before the clock starts.
     if (mode == RenderMode::Hybrid) (void)nearBackend();
+    if (mode == RenderMode::Hybrid || mode == RenderMode::Far) (void)farBackend();
     const auto t0 = Clock::now();
     FrameResult out;
     FrameStats& st = out.stats;
@@ -462,8 +516,38 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
     const TierShares shares(sprites, plan, onlyTier);
     st.nearDrawn = int(shares.near.size());
     st.farDrawn = int(shares.far.size());
+    const std::vector<const SpriteSetup*> nearSprites = shares.nearSprites();
+    if (!shares.far.empty() && farBackend() == FarBackend::Vulkan) {
+        // 4 before 3 on Vulkan: make sure every needed snapshot exists (lazy bakes, parallel
+        // over distinct snapshots), then one Vulkan frame draws the near sprites and, after
+        // them, the far ones into the same targets with the min-z/id rule. Near sprites drawn by
+        // the CPU reference are composed with the Vulkan far image by the same rule.
+        const auto t0 = Clock::now();
+        FarFrameStats fs;
+        const FarBatch batch = prepareFarBatch(scene_.models, shares.farRequests(), *cache_,
+                                               viewSetFromSize(scene_.selector.viewSetSize), &fs);
+        st.farBakes += int(fs.bakes);
+        st.farScenesBuilt += int(fs.scenesBuilt);
+        st.farRefreshes += int(fs.refreshes);
+        st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
+        st.farCellsRetraced += fs.cellsRetraced;
+        st.bakeMs += msSince(t0);
+        st.farMs += msSince(t0);
+        st.farOnVulkan = 1;
+        if (nearSprites.empty() || resolved(nearBackend) == NearBackend::Vulkan)
+            return drawNear(NearBackend::Vulkan, cam, nearSprites, st, &batch, colourOnly());
+        Image image = drawNear(nearBackend, cam, nearSprites, st);
+        FrameStats farOnly;
+        const Image far = drawNear(NearBackend::Vulkan, cam, {}, farOnly, &batch);
+        st.blitMs += farOnly.blitMs;
+        st.farMs += farOnly.blitMs;
+        composeMinZ(image, far);
+        return image;
+    }
     // 3. Near tier: one instanced Vulkan draw in ascending entity id (or the CPU reference).
-    Image image = drawNear(nearBackend, cam, shares.nearSprites(), st);
+    // The CPU blit below composes on the near image's depth and ids.
+    Image image =
+        drawNear(nearBackend, cam, nearSprites, st, nullptr, shares.far.empty() && colourOnly());
     // 4-5. Far tier: make sure every needed snapshot exists (lazy bakes, parallel over distinct
     // snapshots), then blit into the same image; the blit writes with the shared min-z/id rule,
     // which is the composition (composeMinZ is the same rule for two finished images).
@@ -472,22 +556,32 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
 }
 
 Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
-                              const std::vector<const SpriteSetup*>& sprites, FrameStats& st) {
+                              const std::vector<const SpriteSetup*>& sprites, FrameStats& st,
+                              const FarBatch* far, bool colourOnly) {
     const auto t0 = Clock::now();
     Image image;
     if (!sprites.empty()) nearBackend = resolved(nearBackend);
-    if (nearBackend == NearBackend::Vulkan && !sprites.empty()) {
-        st.nearOnVulkan = 1;
-        // Created on first use: reference- and far-only runs never touch Vulkan.
-        if (!near_)
-            near_ = options_.sharedNear
-                        ? options_.sharedNear
-                        : std::make_shared<NearRenderer>(options_.vulkan, options_.vulkanLog);
+    double farMs = 0.0;
+    if ((nearBackend == NearBackend::Vulkan && !sprites.empty()) || far) {
+        st.nearOnVulkan = !sprites.empty();
         NearOptions no;
         no.countSteps = options_.nearCountSteps;
         no.rate = options_.nearRate;
+        no.far = far;
+        if (colourOnly) {
+            // One plane read back. The backdrop then finds the pixels no sprite drew by their
+            // alpha (sprites always write 255): the targets are cleared to a transparent
+            // background where it must fill in an opaque one (the ground).
+            no.readDepthAndIds = false;
+            const Rgba8 bg = scene_.render.background;
+            if (scene_.ground && channel(bg, 3) == 255) no.clearColor = bg & 0x00FFFFFFu;
+        }
         NearStats ns;
-        image = near_->render(cam, scene_.models, sprites, scene_.render.background, no, &ns);
+        image =
+            nearRenderer().render(cam, scene_.models, sprites, scene_.render.background, no, &ns);
+        farMs = ns.farMs;
+        st.blitMs += ns.farMs;
+        st.farMs += ns.farMs;
         st.nearPixelsTested += ns.fragmentInvocations;
         st.nearBytesUploaded += ns.bytesUploaded;
         st.voxelFetches += ns.voxelFetches;
@@ -511,7 +605,7 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
         st.voxelFetches += rs.voxelFetches;
         addCellRateCounts(st, rs);
     }
-    st.nearMs = msSince(t0);
+    st.nearMs = std::max(0.0, msSince(t0) - farMs);
     return image;
 }
 

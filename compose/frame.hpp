@@ -1,6 +1,7 @@
 #pragma once
 // The frame recipe of DESIGN.md §6: select tiers -> draw near sprites (Vulkan) -> ensure the
-// snapshots far sprites need (lazy, parallel) -> blit far sprites -> compose by min-z. A
+// snapshots far sprites need (lazy, parallel) -> blit far sprites -> compose by min-z (with
+// FarBackend::Vulkan, one Vulkan frame draws the near sprites and then the far ones). A
 // FrameRenderer keeps what persists between frames of one scene: the selector's per-entity
 // state, the snapshot cache and the Vulkan device with its voxel atlas.
 #include "compose/error_budget.hpp"
@@ -28,6 +29,7 @@ namespace voxtier {
 class NearRenderer;
 class SnapshotCache;
 struct FarRequest;
+struct FarBatch;
 
 enum class RenderMode {
     Reference, ///< every entity through the CPU reference tracer (the executable spec)
@@ -61,6 +63,22 @@ inline constexpr std::array<std::pair<const char*, NearBackend>, 3> kNearBackend
 NearBackend parseNearBackend(const std::string& name);
 const char* toString(NearBackend b);
 
+/// Who draws the far tier. Both produce the same image, bit for bit: the CPU blit into the near
+/// image, or the Vulkan far pass (DESIGN.md §6) in the near tier's frame, into the same targets.
+/// Auto takes Vulkan where the device is a GPU with shaderFloat64 and the CPU blit where the only
+/// Vulkan device is a CPU implementation (lavapipe: the SIMD blit on the same cores is faster),
+/// lacks shaderFloat64, or there is none.
+enum class FarBackend { Auto, Vulkan, Cpu };
+/// The one table of far backend names, like kRenderModeNames.
+inline constexpr std::array<std::pair<const char*, FarBackend>, 3> kFarBackendNames{{
+    {"auto", FarBackend::Auto},
+    {"vulkan", FarBackend::Vulkan},
+    {"cpu", FarBackend::Cpu},
+}};
+/// Throws InputError(field "--far-backend") for a name not in kFarBackendNames.
+FarBackend parseFarBackend(const std::string& name);
+const char* toString(FarBackend b);
+
 /// The one table of far blit kernel names (impostor_cache/far_blit.hpp), like kRenderModeNames.
 inline constexpr std::array<std::pair<const char*, FarBlitKernel>, 2> kFarBlitNames{{
     {"simd", FarBlitKernel::Simd},
@@ -83,6 +101,8 @@ struct FrameOptions {
     NearBackend nearBackend = NearBackend::Auto;
     /// Per-pixel or cell-rate near sprites, on either backend (same image).
     NearRate nearRate = NearRate::Auto;
+    /// Of hybrid and far frames: the CPU blit or the Vulkan far pass (same image).
+    FarBackend farBackend = FarBackend::Auto;
     /// The far blit's kernel: SIMD (default) or the scalar reference (same image, for measuring).
     FarBlitOptions farBlit;
     VulkanDeviceOptions vulkan;                  ///< device options when Vulkan is used
@@ -115,6 +135,11 @@ struct FrameOptions {
     /// null: not counted), for a progress line polled by another thread. A Vulkan near tier is
     /// one submit per frame: it counts nothing.
     WorkProgress* nearProgress = nullptr;
+    /// false: a frame whose near and far sprites are all drawn on Vulkan reads back the colour
+    /// target alone (one plane of three), and FrameResult::image then has empty depth and id
+    /// planes (the backdrop finds the pixels no sprite drew by their alpha). For output that
+    /// reads neither (a PNG without --ids); the CPU tiers and the overlay need both.
+    bool depthAndIds = true;
 };
 
 /// What one entity does this frame: its tier, an optional cross-fade (both tiers draw it, with
@@ -185,6 +210,9 @@ struct FrameStats {
     /// 1 when this frame's near sprites were drawn by the Vulkan near tier, 0 when by the CPU
     /// reference or when there were none (FrameRenderer::nearBackend says which Auto chose).
     int nearOnVulkan = 0;
+    /// 1 when this frame's far sprites were drawn by the Vulkan far pass (blitMs is then its
+    /// host preparation plus GPU time), 0 when by the CPU blit or when there were none.
+    int farOnVulkan = 0;
     std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;
     std::uint64_t farPixelsWritten = 0; ///< blit pixels that read a solid or outline cell
     /// Near sprite pixels that took a solid or outline outcome (the CPU reference counts them;
@@ -243,6 +271,11 @@ class FrameRenderer {
     NearBackend nearBackend();
     /// Auto's choice and its reason in one line ("" when the backend was given, not chosen).
     const std::string& nearBackendChoice();
+    /// Who draws far sprites in hybrid and far frames: options().farBackend, or what Auto chose
+    /// (decided once, like nearBackend()).
+    FarBackend farBackend();
+    /// Auto's choice and its reason in one line ("" when the backend was given, not chosen).
+    const std::string& farBackendChoice();
 
   private:
     std::vector<EntityPlan> planFrame(const std::vector<SpriteSetup>& sprites, RenderMode mode,
@@ -266,8 +299,16 @@ class FrameRenderer {
                    FrameStats& stats, std::optional<Tier> onlyTier = std::nullopt);
     /// `b`, with Auto resolved (nearBackend()).
     NearBackend resolved(NearBackend b) { return b == NearBackend::Auto ? nearBackend() : b; }
+    /// The near sprites by `nearBackend`; with `far`, Vulkan draws them (all near sprites on
+    /// Vulkan, or none) and the far batch in one frame.
     Image drawNear(NearBackend nearBackend, const CameraFrame& camera,
-                   const std::vector<const SpriteSetup*>& sprites, FrameStats& stats);
+                   const std::vector<const SpriteSetup*>& sprites, FrameStats& stats,
+                   const FarBatch* far = nullptr, bool colourOnly = false);
+    /// Whether a frame drawn wholly on Vulkan may read back its colour alone.
+    bool colourOnly() const { return !options_.depthAndIds && !options_.overlay; }
+    /// The Vulkan probe both Auto choices read (the shared device's answer where there is one).
+    const VulkanProbe& vulkanProbe();
+    NearRenderer& nearRenderer();
     void drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& stats);
     std::vector<PopEvent> measurePops(const CameraFrame& camera,
                                       const std::vector<SpriteSetup>& sprites,
@@ -292,6 +333,9 @@ class FrameRenderer {
     } nearFixed_; ///< nearFixedMs(), for the backend and image size it was measured with
     std::optional<NearBackend> autoChoice_; ///< what NearBackend::Auto resolved to
     std::string autoReason_;
+    std::optional<FarBackend> farAutoChoice_; ///< what FarBackend::Auto resolved to
+    std::string farAutoReason_;
+    std::optional<VulkanProbe> probe_;
     std::unique_ptr<SnapshotCache> cache_;
     std::shared_ptr<NearRenderer>
         near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan

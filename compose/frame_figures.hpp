@@ -102,6 +102,7 @@ struct FrameFigureTable {
         {"cache_bytes",               &FrameStats::cacheBytes,              Bytes, Worst},
         {"far_predicted_worst_vpx",   &FrameStats::farPredictedWorstVpx,    Count, Worst},
         {"near_on_vulkan",            &FrameStats::nearOnVulkan,            Count, Mean},
+        {"far_on_vulkan",             &FrameStats::farOnVulkan,             Count, Mean},
         {"near_pixels_written",       &FrameStats::nearPixelsWritten,       Count, Mean},
         {"near_occluded",             &FrameStats::nearOccluded,            Count, Mean},
         {"far_occluded",              &FrameStats::farOccluded,             Count, Mean},

@@ -7,11 +7,33 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstddef>
 #include <optional>
 #include <tuple>
 #include <unordered_map>
 
 namespace voxtier {
+
+namespace {
+
+// Distinct (model, frame, view, sigma) of the drawn sprites; each is looked up (and baked)
+// once, in parallel per run, then shared by every sprite that shows it.
+using Need = std::tuple<int, int, int, int, int, double>; // model, frame, view x y z, sigma
+// Hashed: a crowd of 10^5 sprites shares a few thousand snapshots, and an ordered map's
+// lookups were a visible share of the far tier's per-sprite cost there.
+struct NeedHash {
+    std::size_t operator()(const Need& n) const {
+        const auto [m, f, x, y, z, sigma] = n;
+        const auto mix = [](std::uint64_t v) { return SplitMix64{v}.next(); };
+        std::uint64_t h = mix(std::uint64_t(std::uint32_t(m)) << 32 | std::uint32_t(f));
+        h = mix(h ^ (std::uint64_t(std::uint32_t(x)) << 32 | std::uint32_t(y)));
+        h = mix(h ^ (std::uint64_t(std::uint32_t(z)) << 32 |
+                     std::uint32_t(std::hash<double>{}(sigma))));
+        return std::size_t(h);
+    }
+};
+
+} // namespace
 
 void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
@@ -26,22 +48,6 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
     std::optional<OcclusionTiles> tiles;
     if (cull) tiles.emplace(target);
 
-    // Distinct (model, frame, view, sigma) of the drawn sprites; each is looked up (and baked)
-    // once, in parallel per run, then shared by every sprite that shows it.
-    using Need = std::tuple<int, int, int, int, int, double>; // model, frame, view x y z, sigma
-    // Hashed: a crowd of 10^5 sprites shares a few thousand snapshots, and an ordered map's
-    // lookups were a visible share of the far tier's per-sprite cost there.
-    struct NeedHash {
-        std::size_t operator()(const Need& n) const {
-            const auto [m, f, x, y, z, sigma] = n;
-            const auto mix = [](std::uint64_t v) { return SplitMix64{v}.next(); };
-            std::uint64_t h = mix(std::uint64_t(std::uint32_t(m)) << 32 | std::uint32_t(f));
-            h = mix(h ^ (std::uint64_t(std::uint32_t(x)) << 32 | std::uint32_t(y)));
-            h = mix(h ^ (std::uint64_t(std::uint32_t(z)) << 32 |
-                         std::uint32_t(std::hash<double>{}(sigma))));
-            return std::size_t(h);
-        }
-    };
     std::unordered_map<Need, std::size_t, NeedHash> slot;
     std::vector<Need> needs;
     std::vector<std::shared_ptr<const Snapshot>> snaps;
@@ -97,6 +103,67 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
         stats->blit.partsCulled += blit.partsCulled;
         stats->blit.milliseconds += blit.milliseconds;
     }
+}
+
+FarBatch prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                         std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
+                         FarFrameStats* stats) {
+    static_assert(far_cell::kEmpty == snapshot_code::kEmpty &&
+                  far_cell::kSolid0 == snapshot_code::kSolid0 &&
+                  far_cell::kOutline == snapshot_code::kOutline);
+    static_assert(sizeof(SnapshotCell) == 2 && offsetof(SnapshotCell, code) == 1);
+    const SnapshotCacheCounters before = cache.counters();
+    const auto t0 = std::chrono::steady_clock::now();
+    std::unordered_map<Need, std::size_t, NeedHash> slot;
+    std::vector<Need> needs;
+    std::vector<std::uint32_t> slotOf;
+    std::vector<const SpriteSetup*> drawn;
+    for (const FarRequest& r : requests) {
+        if (!r.sprite || !r.sprite->visible()) continue;
+        const SpriteSetup& sp = *r.sprite;
+        const glm::ivec3 view = r.view.value_or(viewIdOf(set, chooseFarView(sp, set))).lattice;
+        const Need n{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma};
+        auto [it, inserted] = slot.emplace(n, needs.size());
+        if (inserted) needs.push_back(n);
+        slotOf.push_back(std::uint32_t(it->second));
+        drawn.push_back(&sp);
+    }
+    std::vector<std::shared_ptr<const Snapshot>> snaps(needs.size());
+    tbb::parallel_for(std::size_t(0), needs.size(), [&](std::size_t i) {
+        const auto [m, f, x, y, z, sigma] = needs[i];
+        snaps[i] = cache.get(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma);
+    });
+    FarBatch batch;
+    batch.snapshots.reserve(snaps.size());
+    for (std::size_t i = 0; i < snaps.size(); ++i) {
+        const auto [m, f, x, y, z, sigma] = needs[i];
+        // Every version of this view of this model frame shares a lineage: the need with the
+        // model's uid in place of its index (a collision only costs a row comparison).
+        const std::uint64_t uid = models.at(std::size_t(m))->uid();
+        const std::uint64_t lineage = NeedHash{}(Need{int(uid ^ (uid >> 32)), f, x, y, z, sigma});
+        batch.snapshots.push_back({snaps[i], lineage | 1u,
+                                   reinterpret_cast<const std::uint8_t*>(snaps[i]->cells.data()),
+                                   snaps[i]->lattice.cellRange});
+    }
+    batch.instances.reserve(drawn.size());
+    for (std::size_t k = 0; k < drawn.size(); ++k) {
+        const SpriteSetup& sp = *drawn[k];
+        const SnapshotCellMap m = snapshotCellMap(sp.lattice, snaps[slotOf[k]]->lattice);
+        batch.instances.push_back({&sp, slotOf[k], &models.at(std::size_t(sp.model))->palette(),
+                                   m.u0, m.ui, m.uj, m.v0, m.vi, m.vj});
+    }
+    if (stats) {
+        stats->sprites += drawn.size();
+        stats->snapshotsUsed += needs.size();
+        const SnapshotCacheCounters after = cache.counters();
+        stats->bakes += after.bakes - before.bakes;
+        stats->scenesBuilt += after.scenesBuilt - before.scenesBuilt;
+        stats->refreshes += after.refreshes - before.refreshes;
+        stats->incrementalRefreshes += after.incrementalRefreshes - before.incrementalRefreshes;
+        stats->cellsRetraced += after.cellsRetraced - before.cellsRetraced;
+        stats->ensureMs += msSince(t0);
+    }
+    return batch;
 }
 
 } // namespace voxtier

@@ -123,8 +123,8 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     EXPECT_EQ(j["plan"]["motion_frames"], 4);
     EXPECT_EQ(j["plan"]["motion_warmup"], 2);
     EXPECT_EQ(j["plan"]["budget_vpx"], 1.0);
-    const std::vector<std::string> modes = {"near_vulkan", "near_vulkan_fragment", "near_reference",
-                                            "far", "hybrid"};
+    const std::vector<std::string> modes = {
+        "near_vulkan", "near_vulkan_fragment", "near_reference", "far", "hybrid", "hybrid_gpu_far"};
     EXPECT_EQ(j["modes"], json(modes));
     const json& rows = j["rows"];
     for (const std::string scene : {"tank_army", "exact"})
@@ -158,7 +158,16 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
             if (mode == "near_vulkan" || mode == "near_vulkan_fragment")
                 EXPECT_EQ(backend, "vulkan");
             if (mode == "near_reference") EXPECT_EQ(backend, "reference");
-            if (mode == "hybrid") {
+            // Who drew the far tier: the CPU blit (--far-backend cpu, the bench's default) beside
+            // the Vulkan far pass.
+            const std::string farBackend = (*m)["far_backend"].get<std::string>();
+            if (mode == "far" || mode == "hybrid") EXPECT_EQ(farBackend, "cpu") << mode;
+            if (mode == "hybrid_gpu_far") {
+                EXPECT_EQ(farBackend, "vulkan");
+                if ((*m)["far_entities"].get<double>() > 0)
+                    EXPECT_GT((*m)["far_on_vulkan"].get<double>(), 0.0);
+            }
+            if (mode == "hybrid" || mode == "hybrid_gpu_far") {
                 EXPECT_TRUE(backend == "vulkan" || backend == "reference") << backend;
                 if ((*m)["near_entities"].get<double>() > 0)
                     EXPECT_EQ((*m)["near_on_vulkan"].get<double>() > 0, backend == "vulkan");
@@ -192,7 +201,7 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         EXPECT_TRUE(e["psnr_min"].is_null()) << scene; // equal images: infinite PSNR
     }
     // Exact scene: every view is canonical, so far and hybrid equal the truth pixel for pixel.
-    for (const std::string mode : {"far", "hybrid"}) {
+    for (const std::string mode : {"far", "hybrid", "hybrid_gpu_far"}) {
         const json& e = (*row(rows, "modes", "exact", mode))["error"];
         EXPECT_EQ(e["differing_pixels"].get<double>(), 0.0) << mode;
         EXPECT_EQ(e["mismatch_mean"].get<double>(), 0.0) << mode;

@@ -1,6 +1,8 @@
 #include "volumetric/near_renderer.hpp"
 
 #include "core/stopwatch.hpp"
+#include "volumetric/far_residency.hpp"
+#include "volumetric/shaders/far_shared.h"
 #include "volumetric/shaders/near_shared.h"
 #include "volumetric/voxel_residency.hpp"
 #include "volumetric/vulkan_device.hpp"
@@ -9,8 +11,10 @@
 #include <chrono>
 #include <cstdint>
 #include <cstring>
+#include <unordered_map>
 
 // SPIR-V generated at build time by glslangValidator (volumetric/CMakeLists.txt).
+#include "shaders/far_blit_comp.h"
 #include "shaders/near_box_vert.h"
 #include "shaders/near_cell_outline_comp.h"
 #include "shaders/near_cells_comp.h"
@@ -103,6 +107,7 @@ std::vector<glm::dvec4> NearRenderer::proxyHullClipCorners(const CameraFrame& ca
 struct NearRenderer::Impl {
     VulkanDevice device;
     VoxelResidency residency;
+    FarResidency farResidency;
 
     VkSampler sampler = VK_NULL_HANDLE;
     VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
@@ -112,13 +117,14 @@ struct NearRenderer::Impl {
     VkRenderPass renderPass = VK_NULL_HANDLE;
     VkPipeline pipelines[3][2] = {}; ///< [proxy][countSteps], created on first use
     /// The cell-rate compute passes (trace, outline, splat, resolve), created on first use.
-    enum ComputePass { TraceCells, Outline, Splat, Resolve, ComputePassCount };
+    enum ComputePass { TraceCells, Outline, Splat, Resolve, FarBlit, ComputePassCount };
     VkPipeline computePipelines[ComputePassCount] = {};
     VkQueryPool statsPool = VK_NULL_HANDLE;
-    /// Cell-rate compute time: frame start, trace + splat done; resolve start, resolve done.
+    /// GPU times of the frame's one submission: frame start, trace + splat done; resolve start,
+    /// resolve done; far pass start (its uploads), far pass done; readback copy start, done.
+    static constexpr std::uint32_t kTimestamps = 8;
     VkQueryPool timePool = VK_NULL_HANDLE;
     VkCommandBuffer drawCb = VK_NULL_HANDLE;
-    VkCommandBuffer readCb = VK_NULL_HANDLE;
 
     // Render targets, re-created when the image size changes; the readback buffer is also
     // where the resolve pass writes the cell-rate sprites, and pixelWords holds the splat's
@@ -135,9 +141,12 @@ struct NearRenderer::Impl {
     // (device-local, grown up to the budget, reused).
     VulkanBuffer cellBases, cellTiles, splatBlocks, rankSprites, cells;
     std::uint32_t frameCells = 0; ///< cells of this frame's plan (where the outcomes start)
+    // The far pass (far_shared.h): instances, palettes, tiles and tile lists (host-visible,
+    // written per frame); the snapshots live in farResidency.
+    VulkanBuffer farInstances, farPalettes, farTiles, farTileList;
 
     Impl(const VulkanDeviceOptions& options, std::shared_ptr<VulkanMessageLog> log)
-        : device(options, std::move(log)), residency(device) {
+        : device(options, std::move(log)), residency(device), farResidency(device) {
         try {
             create();
         } catch (...) {
@@ -165,6 +174,9 @@ struct NearRenderer::Impl {
                   std::uint32_t first = 0);
     void recordCellPasses(VkCommandBuffer cb, CellWork work);
     void recordResolve(VkCommandBuffer cb, CellWork work);
+    /// Writes the far pass's instances, palettes and tiles for `batch` (uploads its new
+    /// snapshots through farResidency). Returns the tiles to dispatch.
+    std::uint32_t prepareFar(const FarBatch& batch, NearStats& stats);
     void ensureTargets(int w, int h);
     void ensureBuffer(VulkanBuffer& b, VkDeviceSize bytes, VkBufferUsageFlags usage,
                       bool hostVisible = true);
@@ -207,6 +219,11 @@ void NearRenderer::Impl::create() {
         {NEAR_BINDING_RANK_SPRITES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
         {NEAR_BINDING_PIXEL_WORDS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
         {NEAR_BINDING_READBACK, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_FAR_INSTANCES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_FAR_SNAPSHOTS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_FAR_PALETTES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_FAR_TILES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_FAR_TILE_LIST, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
     };
     VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
     dli.bindingCount = std::uint32_t(std::size(bindings));
@@ -221,7 +238,7 @@ void NearRenderer::Impl::create() {
     pli.pPushConstantRanges = &push;
     VK_CHECK(vkCreatePipelineLayout(dev, &pli, nullptr, &pipelineLayout));
 
-    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 12},
+    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 17},
                                           {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1}};
     VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     dpi.maxSets = 1;
@@ -289,12 +306,11 @@ void NearRenderer::Impl::create() {
     if (device.properties().limits.timestampComputeAndGraphics) {
         VkQueryPoolCreateInfo qpi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
         qpi.queryType = VK_QUERY_TYPE_TIMESTAMP;
-        qpi.queryCount = 4;
+        qpi.queryCount = kTimestamps;
         VK_CHECK(vkCreateQueryPool(dev, &qpi, nullptr, &timePool));
     }
 
     drawCb = device.allocateCommandBuffer();
-    readCb = device.allocateCommandBuffer();
     counters =
         VulkanBuffer(device, sizeof(near_gpu::NearCounters),
                      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT, true);
@@ -306,6 +322,11 @@ void NearRenderer::Impl::create() {
     ensureBuffer(splatBlocks, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     ensureBuffer(rankSprites, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
     ensureBuffer(cells, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, false);
+    ensureBuffer(farInstances, sizeof(far_gpu::FarInstanceGpu) * 64,
+                 VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(farPalettes, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(farTiles, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+    ensureBuffer(farTileList, 4096, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
 }
 
 void NearRenderer::Impl::destroy() noexcept {
@@ -337,9 +358,12 @@ void NearRenderer::Impl::destroy() noexcept {
     splatBlocks.reset();
     rankSprites.reset();
     cells.reset();
+    farInstances.reset();
+    farPalettes.reset();
+    farTiles.reset();
+    farTileList.reset();
     device.freeCommandBuffer(drawCb);
-    device.freeCommandBuffer(readCb);
-    drawCb = readCb = VK_NULL_HANDLE;
+    drawCb = VK_NULL_HANDLE;
     if (statsPool) vkDestroyQueryPool(dev, statsPool, nullptr);
     if (timePool) vkDestroyQueryPool(dev, timePool, nullptr);
     timePool = VK_NULL_HANDLE;
@@ -509,7 +533,8 @@ VkPipeline NearRenderer::Impl::computePipeline(ComputePass pass) {
         pass == TraceCells ? std::span<const std::uint32_t>(near_cells_comp)
         : pass == Outline  ? std::span<const std::uint32_t>(near_cell_outline_comp)
         : pass == Splat    ? std::span<const std::uint32_t>(near_splat_comp)
-                           : std::span<const std::uint32_t>(near_resolve_comp);
+        : pass == Resolve  ? std::span<const std::uint32_t>(near_resolve_comp)
+                           : std::span<const std::uint32_t>(far_blit_comp);
     mi.codeSize = code.size_bytes();
     mi.pCode = code.data();
     VkShaderModule module = VK_NULL_HANDLE;
@@ -649,6 +674,82 @@ void NearRenderer::Impl::recordResolve(VkCommandBuffer cb, CellWork work) {
                   VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
 }
 
+std::uint32_t NearRenderer::Impl::prepareFar(const FarBatch& batch, NearStats& stats) {
+    using near_gpu::NEAR_SPLAT_BLOCK;
+    FarResidencyStats rs;
+    const std::vector<std::uint32_t> offsets = farResidency.update(batch, &rs);
+    stats.farSnapshotsUploaded = rs.snapshotsUploaded;
+    stats.farBytesUploaded = rs.bytesUploaded;
+    // The frame's palettes, one copy per model palette.
+    std::unordered_map<const Palette*, std::uint32_t> paletteBase;
+    std::vector<std::uint32_t> palettes;
+    std::vector<far_gpu::FarInstanceGpu> instances;
+    instances.reserve(batch.instances.size());
+    const int block = int(NEAR_SPLAT_BLOCK);
+    const int tilesX = (width + block - 1) / block, tilesY = (height + block - 1) / block;
+    std::vector<std::uint32_t> perTile(std::size_t(tilesX) * std::size_t(tilesY) + 1, 0);
+    const auto tileSpan = [&](const glm::ivec4& r) {
+        return glm::ivec4(r.x / block, r.y / block, (r.z - 1) / block, (r.w - 1) / block);
+    };
+    for (const FarInstance& f : batch.instances) {
+        const SpriteSetup& s = *f.sprite;
+        if (!s.visible()) continue;
+        // The far blit's rectangle: the sprite's screen rectangle within the image.
+        const glm::ivec4 r =
+            glm::clamp(s.screenRect, glm::ivec4(0), glm::ivec4(width, height, width, height));
+        if (r.z <= r.x || r.w <= r.y) continue;
+        const auto [it, added] = paletteBase.emplace(f.palette, std::uint32_t(palettes.size()));
+        if (added)
+            for (const Rgba8 c : f.palette->colors) palettes.push_back(std::uint32_t(c));
+        const FarSnapshotCells& snap = batch.snapshots.at(f.snapshot);
+        far_gpu::FarInstanceGpu g{};
+        g.sprite = s.gpu;
+        g.u0 = f.u0, g.ui = f.ui, g.uj = f.uj, g.v0 = f.v0, g.vi = f.vi, g.vj = f.vj;
+        g.rect = r;
+        g.snap = {offsets[f.snapshot], std::uint32_t(snap.width()), std::uint32_t(snap.height()),
+                  std::uint32_t(snap.cellRange.x)};
+        g.extra = {snap.cellRange.z, int(it->second), 0, 0};
+        instances.push_back(g);
+        const glm::ivec4 t = tileSpan(r);
+        for (int ty = t.y; ty <= t.w; ++ty)
+            for (int tx = t.x; tx <= t.z; ++tx)
+                ++perTile[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)];
+    }
+    // Tiles with far sprites, and each one's sprites (in instance order; the rule makes the
+    // order irrelevant).
+    std::vector<far_gpu::FarTile> tiles;
+    std::vector<std::uint32_t> start(perTile.size(), 0);
+    std::uint32_t total = 0;
+    for (std::size_t k = 0; k + 1 < perTile.size(); ++k) {
+        start[k] = total;
+        if (perTile[k] == 0) continue;
+        const std::uint32_t tx = std::uint32_t(k % std::size_t(tilesX)),
+                            ty = std::uint32_t(k / std::size_t(tilesX));
+        tiles.push_back(
+            {tx * NEAR_SPLAT_BLOCK | (ty * NEAR_SPLAT_BLOCK) << 16, total, perTile[k], 0});
+        total += perTile[k];
+    }
+    std::vector<std::uint32_t> list(total);
+    for (std::uint32_t i = 0; i < instances.size(); ++i) {
+        const glm::ivec4 t = tileSpan(instances[i].rect);
+        for (int ty = t.y; ty <= t.w; ++ty)
+            for (int tx = t.x; tx <= t.z; ++tx)
+                list[start[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)]++] = i;
+    }
+    const auto upload = [&](VulkanBuffer& b, const auto& v) {
+        const std::size_t bytes = v.size() * sizeof(v[0]);
+        ensureBuffer(b, std::max<std::size_t>(bytes, 4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+        if (bytes) std::memcpy(b.mapped(), v.data(), bytes);
+    };
+    upload(farInstances, instances);
+    upload(farPalettes, palettes);
+    upload(farTiles, tiles);
+    upload(farTileList, list);
+    stats.farSprites = instances.size();
+    stats.farTiles = tiles.size();
+    return std::uint32_t(tiles.size());
+}
+
 void NearRenderer::Impl::writeDescriptors() {
     // Rewritten every frame: cheap, and the set is never in use here (every frame is waited for).
     using namespace near_gpu;
@@ -666,18 +767,25 @@ void NearRenderer::Impl::writeDescriptors() {
     const VkDescriptorBufferInfo rankInfo{rankSprites.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorBufferInfo pixelWordInfo{pixelWords.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorBufferInfo readbackInfo{readback.handle(), 0, VK_WHOLE_SIZE};
-    constexpr int kWrites = 13;
+    const VkDescriptorBufferInfo farInstanceInfo{farInstances.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo farSnapshotInfo{farResidency.buffer(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo farPaletteInfo{farPalettes.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo farTileInfo{farTiles.handle(), 0, VK_WHOLE_SIZE};
+    const VkDescriptorBufferInfo farTileListInfo{farTileList.handle(), 0, VK_WHOLE_SIZE};
+    constexpr int kWrites = 18;
     VkWriteDescriptorSet w[kWrites]{};
     const std::uint32_t binding[kWrites] = {
-        NEAR_BINDING_SPRITES,      NEAR_BINDING_ATLAS,        NEAR_BINDING_PALETTES,
-        NEAR_BINDING_COUNTERS,     NEAR_BINDING_BOXES,        NEAR_BINDING_HULLS,
-        NEAR_BINDING_CELL_BASES,   NEAR_BINDING_CELLS,        NEAR_BINDING_CELL_TILES,
-        NEAR_BINDING_SPLAT_BLOCKS, NEAR_BINDING_RANK_SPRITES, NEAR_BINDING_PIXEL_WORDS,
-        NEAR_BINDING_READBACK};
+        NEAR_BINDING_SPRITES,      NEAR_BINDING_ATLAS,         NEAR_BINDING_PALETTES,
+        NEAR_BINDING_COUNTERS,     NEAR_BINDING_BOXES,         NEAR_BINDING_HULLS,
+        NEAR_BINDING_CELL_BASES,   NEAR_BINDING_CELLS,         NEAR_BINDING_CELL_TILES,
+        NEAR_BINDING_SPLAT_BLOCKS, NEAR_BINDING_RANK_SPRITES,  NEAR_BINDING_PIXEL_WORDS,
+        NEAR_BINDING_READBACK,     NEAR_BINDING_FAR_INSTANCES, NEAR_BINDING_FAR_SNAPSHOTS,
+        NEAR_BINDING_FAR_PALETTES, NEAR_BINDING_FAR_TILES,     NEAR_BINDING_FAR_TILE_LIST};
     const VkDescriptorBufferInfo* buffers[kWrites] = {
-        &spriteInfo, nullptr,        &paletteInfo, &counterInfo, &boxInfo,
-        &hullInfo,   &cellBaseInfo,  &cellInfo,    &tileInfo,    &blockInfo,
-        &rankInfo,   &pixelWordInfo, &readbackInfo};
+        &spriteInfo,     nullptr,        &paletteInfo,    &counterInfo,     &boxInfo,
+        &hullInfo,       &cellBaseInfo,  &cellInfo,       &tileInfo,        &blockInfo,
+        &rankInfo,       &pixelWordInfo, &readbackInfo,   &farInstanceInfo, &farSnapshotInfo,
+        &farPaletteInfo, &farTileInfo,   &farTileListInfo};
     for (int i = 0; i < kWrites; ++i) {
         w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
         w[i].dstSet = descriptorSet;
@@ -759,6 +867,16 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     stats.pixelsLookedUp = plan.pixelsLookedUp;
     const CellWork work = prepareCells(plan, visible, opt.cellBudgetBytes);
     frameCells = std::uint32_t(plan.cells);
+    // The far pass composes in the readback buffer like the resolve pass.
+    const bool withFar = opt.far && !opt.far->empty();
+    if (withFar && !device.hasFloat64())
+        throw VulkanError("far pass: " + device.name() +
+                          " lacks shaderFloat64, which the far pass needs (--far-backend cpu)");
+    if (withFar && !resolvable)
+        throw VulkanError("far pass: the image is larger than the device's storage buffer range");
+    const auto tFar = Clock::now();
+    const std::uint32_t farTileCount = withFar ? prepareFar(*opt.far, stats) : 0;
+    const double farHostMs = withFar ? msSince(tFar) : 0.0;
     writeDescriptors();
     const VkPipeline pipe = n ? pipeline(opt.proxy, opt.countSteps) : VK_NULL_HANDLE;
     const bool query = opt.pipelineStatistics && statsPool && n;
@@ -769,15 +887,15 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     VK_CHECK(vkBeginCommandBuffer(cb, &bi));
     if (query) vkCmdResetQueryPool(cb, statsPool, 0, 1);
-    const bool timed = timePool && work.tiles;
-    if (timed) {
-        vkCmdResetQueryPool(cb, timePool, 0, 4);
+    const bool clocked = timePool != VK_NULL_HANDLE;
+    if (clocked) {
+        vkCmdResetQueryPool(cb, timePool, 0, kTimestamps);
         vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, timePool, 0);
     }
     // Cell-rate sprites: every cell traced once, then every pixel of theirs splatted; the draw
     // below skips them, the resolve pass after it shades them.
     if (work.tiles) recordCellPasses(cb, work);
-    if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 1);
+    if (clocked) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 1);
     if (opt.countSteps) {
         vkCmdFillBuffer(cb, counters.handle(), 0, VK_WHOLE_SIZE, 0);
         bufferBarrier(cb, counters.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
@@ -785,7 +903,7 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     }
     VkClearValue clears[3]{};
-    clears[0].color.uint32[0] = background;
+    clears[0].color.uint32[0] = opt.clearColor.value_or(background);
     clears[1].color.uint32[0] = kernel::VT_NO_ENTITY;
     clears[2].depthStencil = {0.0f, 0}; // reversed-Z: 0 = infinitely far, nothing drawn
     VkRenderPassBeginInfo rbi{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
@@ -824,26 +942,15 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
                       VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
                       VK_ACCESS_HOST_READ_BIT);
     }
-    VK_CHECK(vkEndCommandBuffer(cb));
-    device.submitAndWait(cb);
-    stats.drawMs = msSince(tDraw);
-    const double tickMs = double(device.properties().limits.timestampPeriod) * 1e-6;
-    if (timed) {
-        std::uint64_t t[2] = {};
-        VK_CHECK(vkGetQueryPoolResults(device.device(), timePool, 0, 2, sizeof t, t, sizeof t[0],
-                                       VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-        stats.computeMs = double(t[1] - t[0]) * tickMs;
-        stats.drawMs = std::max(0.0, stats.drawMs - stats.computeMs);
-    }
 
-    // Read back: the three targets into one host buffer (colour, id, depth), then unpack.
-    const auto tRead = Clock::now();
+    // Read back, in the same command buffer (one submission a frame): the targets into one
+    // host buffer (colour, id, depth), where the resolve and far passes compose, then unpack.
+    // Colour alone where nobody asked for depth and ids and no pass composes on them.
     const VkDeviceSize plane = VkDeviceSize(width) * VkDeviceSize(height) * 4;
-    cb = readCb;
-    VK_CHECK(vkResetCommandBuffer(cb, 0));
-    VK_CHECK(vkBeginCommandBuffer(cb, &bi));
+    const bool allPlanes = opt.readDepthAndIds || work.blocks || farTileCount;
+    if (clocked) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timePool, 6);
     const VulkanImage* planes[3] = {&color, &id, &depth};
-    for (int i = 0; i < 3; ++i) {
+    for (int i = 0; i < (allPlanes ? 3 : 1); ++i) {
         VkBufferImageCopy region{};
         region.bufferOffset = plane * VkDeviceSize(i);
         region.imageSubresource = {planes[i]->aspect(), 0, 0, 1};
@@ -851,25 +958,53 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
         vkCmdCopyImageToBuffer(cb, planes[i]->handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
                                readback.handle(), 1, &region);
     }
+    if (clocked) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, timePool, 7);
     if (work.blocks) {
-        if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, timePool, 2);
+        if (clocked) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_TRANSFER_BIT, timePool, 2);
         recordResolve(cb, work);
-        if (timed) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 3);
-    } else {
+        if (clocked) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 3);
+    }
+    if (farTileCount) {
+        // Far sprites: their new snapshots uploaded, then drawn over what the near tier left.
+        if (clocked) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, timePool, 4);
+        farResidency.recordUploads(cb);
+        bufferBarrier(cb, readback.handle(),
+                      VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        dispatch(cb, FarBlit, farTileCount);
+        if (clocked) vkCmdWriteTimestamp(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, timePool, 5);
+        bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                      VK_ACCESS_HOST_READ_BIT);
+    } else if (!work.blocks) {
         bufferBarrier(cb, readback.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
                       VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
                       VK_ACCESS_HOST_READ_BIT);
     }
     VK_CHECK(vkEndCommandBuffer(cb));
     device.submitAndWait(cb);
-    double resolveMs = 0.0;
-    if (timed && work.blocks) {
+    const double frameMs = std::max(0.0, msSince(tDraw) - farHostMs);
+    if (farTileCount) farResidency.uploadsDone();
+
+    // The submission's time split by its timestamps (without them, all of it is draw time).
+    const double tickMs = double(device.properties().limits.timestampPeriod) * 1e-6;
+    const auto gpuMs = [&](std::uint32_t from) {
         std::uint64_t t[2] = {};
-        VK_CHECK(vkGetQueryPoolResults(device.device(), timePool, 2, 2, sizeof t, t, sizeof t[0],
+        VK_CHECK(vkGetQueryPoolResults(device.device(), timePool, from, 2, sizeof t, t, sizeof t[0],
                                        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
-        resolveMs = double(t[1] - t[0]) * tickMs;
-        stats.computeMs += resolveMs;
+        return t[1] > t[0] ? double(t[1] - t[0]) * tickMs : 0.0;
+    };
+    double copyMs = 0.0, farGpuMs = 0.0;
+    if (clocked) {
+        stats.computeMs = gpuMs(0) + (work.blocks ? gpuMs(2) : 0.0);
+        copyMs = gpuMs(6);
+        if (farTileCount) farGpuMs = gpuMs(4);
     }
+    stats.drawMs = std::max(0.0, frameMs - stats.computeMs - copyMs - farGpuMs);
+    stats.farMs = farHostMs + farGpuMs;
+    const auto tRead = Clock::now();
     Image img;
     img.width = width;
     img.height = height;
@@ -880,9 +1015,11 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     const auto* ids = reinterpret_cast<const std::uint32_t*>(base + plane);
     const auto* depths = reinterpret_cast<const float*>(base + 2 * plane);
     img.color.assign(colors, colors + count);
-    img.id.assign(ids, ids + count);
-    img.depth.assign(depths, depths + count);
-    stats.readbackMs = std::max(0.0, msSince(tRead) - resolveMs);
+    if (opt.readDepthAndIds) {
+        img.id.assign(ids, ids + count);
+        img.depth.assign(depths, depths + count);
+    }
+    stats.readbackMs = copyMs + msSince(tRead);
 
     if (query) {
         std::uint64_t invocations = 0;
@@ -911,6 +1048,15 @@ const std::string& NearRenderer::deviceName() const {
 }
 bool NearRenderer::deviceIsCpu() const {
     return impl_->device.isCpu();
+}
+bool NearRenderer::farPassSupported() const {
+    return impl_->device.hasFloat64();
+}
+std::uint64_t NearRenderer::farResidentBytes() const {
+    return impl_->farResidency.residentBytes();
+}
+std::size_t NearRenderer::farResidentSnapshots() const {
+    return impl_->farResidency.residentSnapshots();
 }
 bool NearRenderer::validationEnabled() const {
     return impl_->device.validationEnabled();

@@ -9,6 +9,7 @@
 //
 // No Vulkan types here: compose/ and apps/ use this header (DESIGN.md §1).
 #include "core/camera.hpp"
+#include "core/far_batch.hpp"
 #include "core/image.hpp"
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
@@ -18,6 +19,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -60,6 +62,17 @@ struct NearOptions {
     NearRate rate = NearRate::Auto;
     /// The frame's cell store never grows past this; sprites that do not fit trace per pixel.
     std::uint64_t cellBudgetBytes = kDefaultCellBudgetBytes;
+    /// Far sprites to draw in the same frame (DESIGN.md §6, the far pass on Vulkan), or null: a
+    /// compute pass after the near sprites, into the same targets, by the far blit's exact rule
+    /// (the image equals the CPU blit into the near image, bit for bit). Needs
+    /// NearRenderer::farPassSupported().
+    const FarBatch* far = nullptr;
+    /// false: only the colour target is read back (one plane, not three); the image's depth
+    /// and id planes are left empty. For frames whose depth and ids nobody reads (a PNG with
+    /// no far sprite drawn on the CPU, no --ids, no error metrics).
+    bool readDepthAndIds = true;
+    /// The colour the targets are cleared to (the background), or, when set, this one instead.
+    std::optional<Rgba8> clearColor;
 };
 
 struct NearStats : CellRateCounts {
@@ -77,10 +90,17 @@ struct NearStats : CellRateCounts {
     /// GPU time of the cell-rate compute passes: trace, outline, splat and resolve (timestamp
     /// queries; 0 without cell-rate sprites or where the device has no timestamps).
     double computeMs = 0.0;
-    double drawMs =
-        0.0; ///< record + submit + wait of the trace, splat and draw, less their compute
-    /// Copy of the three targets to host memory + unpack into Image, less the resolve pass.
+    /// Record + submit + wait of the frame's one submission, less the compute, copy and far
+    /// pass GPU times (all of it where the device has no timestamps).
+    double drawMs = 0.0;
+    /// GPU time of the copy of the targets to host memory (one plane or three) + unpack into
+    /// Image.
     double readbackMs = 0.0;
+    /// The far pass: sprites drawn, image tiles it walked, snapshots (and their bytes) uploaded
+    /// to the device this frame, and its time (host preparation + GPU time of its uploads and
+    /// compute pass; host preparation alone where the device has no timestamps).
+    std::uint64_t farSprites = 0, farTiles = 0, farSnapshotsUploaded = 0, farBytesUploaded = 0;
+    double farMs = 0.0;
 };
 
 class NearRenderer {
@@ -95,6 +115,11 @@ class NearRenderer {
     /// Name of the Vulkan device in use (e.g. "llvmpipe (LLVM 15.0.6, 256 bits)").
     const std::string& deviceName() const;
     bool deviceIsCpu() const;
+    /// Whether this device can run the far pass (NearOptions::far): it needs shaderFloat64.
+    bool farPassSupported() const;
+    /// Bytes of snapshot cells resident on the device for the far pass, and how many snapshots.
+    std::uint64_t farResidentBytes() const;
+    std::size_t farResidentSnapshots() const;
     bool validationEnabled() const;
     const std::shared_ptr<VulkanMessageLog>& messageLog() const;
 

@@ -234,6 +234,9 @@ VulkanProbe probeVulkanDevice() {
             probe.found = true;
             probe.cpu = props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
             probe.name = props.deviceName;
+            VkPhysicalDeviceFeatures features{};
+            vkGetPhysicalDeviceFeatures(pd, &features);
+            probe.float64 = features.shaderFloat64 == VK_TRUE;
         }
     }
     if (!probe.found) probe.whyNone = kNoVulkanDeviceMessage;
@@ -351,6 +354,9 @@ VulkanDevice::VulkanDevice(const VulkanDeviceOptions& options,
         fragmentAtomics_ = available.fragmentStoresAndAtomics == VK_TRUE;
         enabled.pipelineStatisticsQuery = available.pipelineStatisticsQuery;
         enabled.fragmentStoresAndAtomics = available.fragmentStoresAndAtomics;
+        // The far pass maps near cells to snapshot cells in double, as the CPU blit does.
+        float64_ = available.shaderFloat64 == VK_TRUE;
+        enabled.shaderFloat64 = available.shaderFloat64;
 
         const float priority = 1.0f;
         VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

@@ -32,6 +32,8 @@ class VulkanDevice {
     bool hasPipelineStatistics() const { return pipelineStatistics_; }
     /// Atomics in fragment shaders (the DDA step counter) are available.
     bool hasFragmentAtomics() const { return fragmentAtomics_; }
+    /// shaderFloat64 (enabled when present): what the far pass needs.
+    bool hasFloat64() const { return float64_; }
 
     VkInstance instance() const { return instance_; }
     VkPhysicalDevice physicalDevice() const { return physical_; }
@@ -55,6 +57,7 @@ class VulkanDevice {
     bool echo_ = true;
     bool pipelineStatistics_ = false;
     bool fragmentAtomics_ = false;
+    bool float64_ = false;
     std::string name_;
     VkInstance instance_ = VK_NULL_HANDLE;
     VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;

@@ -24,10 +24,11 @@ struct VulkanDeviceOptions {
 /// What the Vulkan loader offers the near tier, found without creating a device: the device a
 /// NearRenderer would pick (a GPU first, then a CPU implementation such as Mesa's lavapipe).
 struct VulkanProbe {
-    bool found = false;  ///< a Vulkan 1.2 device with a graphics queue exists
-    bool cpu = false;    ///< it is a CPU implementation (VK_PHYSICAL_DEVICE_TYPE_CPU)
-    std::string name;    ///< its name, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)"
-    std::string whyNone; ///< when !found: the loader's answer, one line
+    bool found = false;   ///< a Vulkan 1.2 device with a graphics queue exists
+    bool cpu = false;     ///< it is a CPU implementation (VK_PHYSICAL_DEVICE_TYPE_CPU)
+    std::string name;     ///< its name, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)"
+    bool float64 = false; ///< it has shaderFloat64 (what the far pass needs)
+    std::string whyNone;  ///< when !found: the loader's answer, one line
 };
 /// Creates a Vulkan instance, looks at its devices and destroys it again (a few ms). Never throws.
 VulkanProbe probeVulkanDevice();

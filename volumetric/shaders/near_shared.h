@@ -46,6 +46,14 @@ VT_NEAR_CONST uint NEAR_BINDING_SPLAT_BLOCKS = 9u;
 VT_NEAR_CONST uint NEAR_BINDING_RANK_SPRITES = 10u; // uint[]: sprite index of each depth rank
 VT_NEAR_CONST uint NEAR_BINDING_PIXEL_WORDS = 11u;
 VT_NEAR_CONST uint NEAR_BINDING_READBACK = 12u;
+// The far pass (volumetric/shaders/far_shared.h, far_blit.comp): far sprite instances, the
+// device-resident snapshot cells, the frame's far palettes, the 32x32 image tiles far sprites
+// touch and, per tile, the far sprites that touch it.
+VT_NEAR_CONST uint NEAR_BINDING_FAR_INSTANCES = 13u;
+VT_NEAR_CONST uint NEAR_BINDING_FAR_SNAPSHOTS = 14u;
+VT_NEAR_CONST uint NEAR_BINDING_FAR_PALETTES = 15u;
+VT_NEAR_CONST uint NEAR_BINDING_FAR_TILES = 16u;
+VT_NEAR_CONST uint NEAR_BINDING_FAR_TILE_LIST = 17u;
 VT_NEAR_CONST uint NEAR_NO_RANK = 0xFFFFFFFFu; // a pixel word no cell-rate sprite wrote
 VT_NEAR_CONST uint NEAR_SPLAT_BLOCK = 32u;     // pixels per side of a splat workgroup
 // A pixel word: depth rank << NEAR_RANK_SHIFT | kind | face << 2 | palette index << 5. The

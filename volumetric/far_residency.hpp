@@ -1,0 +1,77 @@
+#pragma once
+// Device residency of the far tier's snapshots (DESIGN.md §6, the far pass on Vulkan): each
+// snapshot a GPU far pass draws is uploaded once, when first drawn, into one device storage
+// buffer (two bytes a cell, two cells a word), at a word offset found first-fit among the free
+// ranges; the buffer doubles when nothing fits. A resident snapshot is held by its owner
+// (FarSnapshotCells::owner), and freed at the next update once nobody else holds it (the
+// snapshot cache evicted it under its byte budget, or an edit's refresh replaced it): the device
+// holds what the cache holds, plus what frames still hold. A refreshed snapshot (the same
+// lineage, the same cell range) takes over its predecessor's range and uploads only the rows of
+// cells that differ from it.
+#include "core/far_batch.hpp"
+#include "volumetric/vulkan_device.hpp"
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+namespace voxtier {
+
+struct FarResidencyStats {
+    /// Snapshots uploaded (whole, or a refresh's changed rows) and the bytes copied.
+    std::uint64_t snapshotsUploaded = 0, bytesUploaded = 0;
+    std::uint64_t refreshesInPlace = 0; ///< of those, refreshes that took over their predecessor
+    std::uint64_t snapshotsFreed = 0;   ///< nobody else held them any more
+    std::uint64_t growths = 0;          ///< the buffer was re-created larger
+};
+
+class FarResidency {
+  public:
+    explicit FarResidency(VulkanDevice& device);
+    FarResidency(const FarResidency&) = delete;
+    FarResidency& operator=(const FarResidency&) = delete;
+
+    /// Frees the ranges of snapshots nobody else holds, makes every snapshot of `batch` resident
+    /// (staging what must be copied) and returns each one's word offset, in batch order. The
+    /// copies are recorded by recordUploads; until then buffer() may be a new, larger buffer.
+    std::vector<std::uint32_t> update(const FarBatch& batch, FarResidencyStats* stats = nullptr);
+    /// Records this update's copies (growth copy, then staged cells) and the barrier that makes
+    /// them visible to compute shaders.
+    void recordUploads(VkCommandBuffer cb);
+    /// To be called once the command buffer of recordUploads has completed.
+    void uploadsDone();
+
+    VkBuffer buffer() const { return buffer_.handle(); }
+    std::uint64_t residentBytes() const { return usedWords_ * 4; }
+    std::size_t residentSnapshots() const { return entries_.size(); }
+    const FarResidencyStats& totals() const { return totals_; }
+
+  private:
+    struct Entry {
+        FarSnapshotCells cells; ///< holds the owner: its cells are what the device range holds
+        std::uint32_t offset = 0, words = 0;
+    };
+    bool allocate(std::uint32_t words, std::uint32_t& offset);
+    void release(std::uint32_t offset, std::uint32_t words);
+    void grow(std::uint64_t minWords);
+    /// Frees every entry only this object holds, except those in `keep`.
+    void sweep(const std::unordered_set<const void*>& keep, FarResidencyStats& stats);
+    /// Stages `bytes` bytes of `from` for a copy to byte `deviceByte` of the buffer.
+    void stage(const std::uint8_t* from, std::size_t bytes, VkDeviceSize deviceByte);
+
+    VulkanDevice& device_;
+    VulkanBuffer buffer_, retired_, staging_;
+    std::uint64_t capacityWords_ = 0, usedWords_ = 0;
+    std::map<std::uint32_t, std::uint32_t> free_; ///< offset -> words, coalesced
+    std::unordered_map<const void*, Entry> entries_;
+    std::unordered_map<std::uint64_t, const void*> byLineage_; ///< the lineage's latest entry
+    std::vector<std::uint8_t> staged_; ///< this update's bytes, copied to staging_ at the end
+    std::vector<VkBufferCopy> copies_; ///< staging -> buffer, this update
+    std::uint64_t retiredWords_ = 0;   ///< words of retired_ to copy into buffer_ first
+    FarResidencyStats totals_;
+};
+
+} // namespace voxtier

@@ -1,0 +1,53 @@
+// The far pass's per-sprite and per-tile records (far_blit.comp and its C++ host,
+// volumetric/far_pass.cpp), in the common subset of GLSL 4.50 and C++ like near_shared.h.
+// Included after core/sprite_kernel.h (it holds a SpriteGpu).
+#ifndef VOXTIER_FAR_SHARED_H
+#define VOXTIER_FAR_SHARED_H
+
+#ifdef __cplusplus
+#include "core/sprite_kernel.h"
+
+#include <cstddef>
+#include <cstdint>
+namespace voxtier::far_gpu {
+using kernel::ivec4;
+using kernel::SpriteGpu;
+using kernel::uvec4;
+#endif
+
+// One far sprite. `sprite` is the near tier's SpriteGpu (vtPixelCell, vtFaceLight, depth, id in
+// dims.w); the snapshot cell of near cell (i, j) is (floor(u0 + ui i + uj j), floor(v0 + vi i +
+// vj j)) in double, the far blit's SnapshotCellMap; the snapshot's cells (two bytes each: palette
+// index, code; two per word) start at word snap.x of the snapshot buffer, snap.y cells a row,
+// snap.z rows, its first cell is lattice cell (snap.w, extra.x); its palette starts at extra.y.
+struct FarInstanceGpu {
+    SpriteGpu sprite;
+    double u0;
+    double ui;
+    double uj;
+    double v0;
+    double vi;
+    double vj;
+    ivec4 rect;  // screen rectangle x0, y0, x1, y1 (half-open), clipped to the image
+    uvec4 snap;  // word offset, width, height, first cell i
+    ivec4 extra; // first cell j, palette base, unused, unused
+};
+
+// One 32x32 tile of the image that far sprites touch: its first pixel (x low 16 bits, y high 16)
+// and its far sprites, entries first .. first + count - 1 of the tile list.
+struct FarTile {
+    uint origin;
+    uint first;
+    uint count;
+    uint pad;
+};
+
+#ifdef __cplusplus
+static_assert(sizeof(FarInstanceGpu) == 368 && offsetof(FarInstanceGpu, u0) == 272 &&
+                  offsetof(FarInstanceGpu, rect) == 320 && offsetof(FarInstanceGpu, extra) == 352,
+              "FarInstanceGpu must match the std430 layout in GLSL");
+static_assert(sizeof(FarTile) == 16);
+} // namespace voxtier::far_gpu
+#endif
+
+#endif // VOXTIER_FAR_SHARED_H
