@@ -63,7 +63,7 @@ mkdir -p "$out/logs"
 out="$(cd "$out" && pwd)"
 
 # The portable folder's C++ runtime, only where the machine has none (tools/portable.sh).
-if [[ -d "$(dirname "$bin")/lib/fallback" ]] && ! ldconfig -p 2>/dev/null | grep -q 'libstdc++\.so\.6 '; then
+if [[ -d "$(dirname "$bin")/lib/fallback" ]] && ! ldconfig -p 2>/dev/null | grep 'libstdc++\.so\.6 ' >/dev/null; then
     LD_LIBRARY_PATH="$(dirname "$bin")/lib/fallback${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
     export LD_LIBRARY_PATH
 fi
@@ -107,7 +107,7 @@ echo "gpu_check: Vulkan device used: $device"
 
 # Vulkan far == CPU far, where the binary has the far pass on Vulkan (issue 26).
 far_rows=""
-if "$bin" render --help 2>/dev/null | grep -q -- '--far-backend'; then
+if "$bin" render --help 2>/dev/null | grep -- '--far-backend' >/dev/null; then
     mkdir -p "$out/far"
     for s in "${golden[@]}"; do
         name=$(basename "$s" .json)

@@ -68,15 +68,15 @@ else
 fi
 
 # What makes the folder portable, checked on the binary itself.
-if ldd "$bin" | grep -qi openimageio; then
+if ldd "$bin" | grep -i openimageio >/dev/null; then
     echo "portable.sh: $bin links OpenImageIO; it must not (VOXTIER_IMAGE_FILES=OFF)" >&2
     exit 1
 fi
-if ! readelf -d "$bin" | grep -q 'RPATH.*\[\$ORIGIN/lib\]$'; then
+if ! readelf -d "$bin" | grep 'RPATH.*\[\$ORIGIN/lib\]$' >/dev/null; then
     echo "portable.sh: $bin has not exactly the DT_RPATH \$ORIGIN/lib" >&2
     exit 1
 fi
-if ldd "$bin" | grep -q 'not found'; then
+if ldd "$bin" | grep 'not found' >/dev/null; then
     ldd "$bin" | grep 'not found' >&2
     exit 1
 fi
