@@ -6,7 +6,7 @@
 // `voxtier bake --bench [MODEL.vox...]`:
 // the Embree bake against the near kernel's scalar DDA over the same rays, side by side in one
 // run (medians over repeats), plus the memory one cached model costs.
-#include "apps/bench_util.hpp"
+#include "apps/bench/harness.hpp"
 #include "apps/cache_dir_options.hpp"
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"

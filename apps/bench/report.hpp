@@ -1,7 +1,7 @@
 #pragma once
 // `voxtier bench` output: results.csv (one row per measured configuration), results.json (the
 // same plus per-frame detail), PNG plots drawn by gnuplot, and report.md, which embeds them.
-#include "apps/bench_suite.hpp"
+#include "apps/bench/suite.hpp"
 
 #include <string>
 #include <vector>

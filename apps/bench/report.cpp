@@ -1,8 +1,8 @@
-// `voxtier bench` output (apps/bench_report.hpp): results.csv and results.json from one list of
+// `voxtier bench` output (apps/bench/report.hpp): results.csv and results.json from one list of
 // columns (the frame figures among them from compose/frame_figures.hpp), the plots drawn by
 // apps/bench/plots.gp from results.csv, report.md filled into apps/bench/report.md.mustache.
 // Both files are embedded in the binary at build time (apps/CMakeLists.txt).
-#include "apps/bench_report.hpp"
+#include "apps/bench/report.hpp"
 
 #include "core/error.hpp"
 #include "embedded/bench_plots_gp.h"

@@ -10,7 +10,7 @@
 //     a fresh cache after the same edit (scene built from scratch, every view baked whole: what
 //     an edit cost before incremental refresh). Cells re-traced / cells of a full bake, ms, and a
 //     byte comparison of the two results.
-#include "apps/bench_util.hpp"
+#include "apps/bench/harness.hpp"
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"

@@ -6,7 +6,7 @@
 // differ from the reference. Besides the default (hull proxy, one instanced draw) it measures
 // the alternatives one change at a time: one draw per entity, the quad proxy, the rasterised
 // proxy box (NearProxy in volumetric/near_renderer.hpp).
-#include "apps/bench_util.hpp"
+#include "apps/bench/harness.hpp"
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "core/error.hpp"

@@ -1,7 +1,7 @@
-// `voxtier bench`: the measurement side (apps/bench_suite.hpp says how it measures).
-#include "apps/bench_suite.hpp"
+// `voxtier bench`: the measurement side (apps/bench/suite.hpp says how it measures).
+#include "apps/bench/suite.hpp"
 
-#include "apps/bench_util.hpp"
+#include "apps/bench/harness.hpp"
 #include "core/error.hpp"
 #include "core/scene_loader.hpp"
 #include "volumetric/near_renderer.hpp"

@@ -24,7 +24,7 @@
 namespace voxtier::bench {
 
 /// The ways the bench draws a scene. Adding one is a line in kBenchModes (and what it sets in
-/// FrameOptions, apps/bench_suite.cpp runSet).
+/// FrameOptions, apps/bench/suite.cpp runSet).
 enum class BenchMode { NearVulkan, NearVulkanFragment, NearReference, Far, Hybrid, HybridGpuFar };
 
 struct BenchModeInfo {

@@ -1,9 +1,9 @@
 // `voxtier bench [SCENES...] [--quick] [--out DIR]`: every render mode side by side on the bench
 // scenes, the selector sweeps and the scaling curves, written as results.csv, results.json, PNG
-// plots and report.md (apps/bench_suite.hpp says how it measures, apps/bench_report.hpp what it
+// plots and report.md (apps/bench/suite.hpp says how it measures, apps/bench/report.hpp what it
 // writes). The bench subcommands (`bench near`, ...) are registered here too, in one list.
-#include "apps/bench_report.hpp"
-#include "apps/bench_suite.hpp"
+#include "apps/bench/report.hpp"
+#include "apps/bench/suite.hpp"
 #include "apps/cache_dir_options.hpp"
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
