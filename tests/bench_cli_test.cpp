@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -439,12 +440,28 @@ TEST(BenchCommand, BadInputIsOneLineNamingTheFileOrFlag) {
     EXPECT_FALSE(fs::exists(dir.path / "out" / "results.csv"));
 }
 
+// `bench near --out`: header and rows come from one column table (apps/bench/harness.hpp
+// CsvWriter), so the header keeps its 15 names in order and every row is as wide as it.
 TEST(BenchCommand, NearSubcommandStillRunsBesideTheSceneBench) {
+    ScratchDir dir;
+    const fs::path csvFile = dir.path / "sub" / "near.csv";
     const CliRun r = runCli("bench near --entities 3 --repeat 1 --warmup 0 --no-alternatives "
-                            "--models procedural --size 160x90");
+                            "--models procedural --size 160x90 --out '" +
+                            csvFile.string() + "'");
     ASSERT_EQ(r.status, 0) << r.out << r.err;
     EXPECT_NE(r.out.find("hull-instanced"), std::string::npos) << r.out;
     EXPECT_EQ(r.out.find("quad-instanced"), std::string::npos) << r.out;
+    std::istringstream csv(slurp(csvFile));
+    std::string header, row, extra;
+    ASSERT_TRUE(std::getline(csv, header));
+    EXPECT_EQ(header, "entities,visible,variant,vk_draw_ms,vk_readback_ms,vk_frame_ms,reference_ms,"
+                      "reference_over_vk,vk_cpu_ms,reference_cpu_ms,fragments_shaded,"
+                      "kernel_fragments,dda_steps_per_fragment,differing_pixels,drawn_pixels");
+    ASSERT_TRUE(std::getline(csv, row));
+    EXPECT_EQ(std::count(row.begin(), row.end(), ','), 14) << row;
+    EXPECT_EQ(row.rfind("3,", 0), 0u) << row;
+    EXPECT_NE(row.find(",hull-instanced,"), std::string::npos) << row;
+    EXPECT_FALSE(std::getline(csv, extra)) << extra;
 }
 
 } // namespace

@@ -67,7 +67,6 @@ CLI::Validator ballEdge() {
         "even, in " + range);
 }
 
-using Clock = std::chrono::steady_clock;
 std::string dimsText(glm::ivec3 d) {
     return std::to_string(d.x) + "x" + std::to_string(d.y) + "x" + std::to_string(d.z);
 }
@@ -254,14 +253,10 @@ void benchEdits(const BenchEditsArgs& a, const NamedModel& nm, ViewSet set) {
         Sample s;
         const SnapshotCacheCounters c0 = incremental.counters();
         std::vector<std::shared_ptr<const Snapshot>> inc, full;
-        auto t0 = Clock::now();
-        askAll(incremental, &inc);
-        s.incMs = msSince(t0);
+        s.incMs = timedMs([&] { askAll(incremental, &inc); });
         const SnapshotCacheCounters c1 = incremental.counters();
         SnapshotCache fresh;
-        t0 = Clock::now();
-        askAll(fresh, &full);
-        s.fullMs = msSince(t0);
+        s.fullMs = timedMs([&] { askAll(fresh, &full); });
         for (int v = 0; v < views; ++v)
             if (inc[std::size_t(v)]->cells != full[std::size_t(v)]->cells) s.identical = false;
         s.retraced = c1.cellsRetraced - c0.cellsRetraced;

@@ -142,6 +142,29 @@ struct Row {
     }
 };
 
+/// The CSV (--out): one line per column, header and rows alike.
+std::vector<CsvColumn<Row>> csvColumns() {
+    // clang-format off
+    return {
+        {"entities",               [](const Row& r) { return r.entities; }},
+        {"visible",                [](const Row& r) { return r.visible; }},
+        {"variant",                [](const Row& r) { return r.variant; }},
+        {"vk_draw_ms",             [](const Row& r) { return r.vkDrawMs; }},
+        {"vk_readback_ms",         [](const Row& r) { return r.vkReadbackMs; }},
+        {"vk_frame_ms",            [](const Row& r) { return r.vkFrameMs(); }},
+        {"reference_ms",           [](const Row& r) { return r.refMs; }},
+        {"reference_over_vk",      [](const Row& r) { return r.ratio(); }},
+        {"vk_cpu_ms",              [](const Row& r) { return r.vkCpuMs; }},
+        {"reference_cpu_ms",       [](const Row& r) { return r.refCpuMs; }},
+        {"fragments_shaded",       [](const Row& r) { return r.fragments; }},
+        {"kernel_fragments",       [](const Row& r) { return r.kernelFragments; }},
+        {"dda_steps_per_fragment", [](const Row& r) { return r.stepsPerFragment(); }},
+        {"differing_pixels",       [](const Row& r) { return r.differing; }},
+        {"drawn_pixels",           [](const Row& r) { return r.drawn; }},
+    };
+    // clang-format on
+}
+
 struct Variant {
     const char* name;
     NearOptions options;
@@ -197,17 +220,8 @@ Row measureVariant(NearRenderer& near, const Scene& scene, const CameraFrame& ca
 void run(const BenchArgs& a) {
     const glm::ivec2 size = *readImageSize(a.size);
     const int width = size.x, height = size.y;
-    std::ofstream csv;
-    if (!a.out.empty()) {
-        const auto parent = std::filesystem::path(a.out).parent_path();
-        if (!parent.empty()) std::filesystem::create_directories(parent);
-        csv.open(a.out);
-        if (!csv) throw InputError(a.out, "--out", "cannot open for writing");
-        csv << "entities,visible,variant,vk_draw_ms,vk_readback_ms,vk_frame_ms,reference_ms,"
-               "reference_over_vk,vk_cpu_ms,reference_cpu_ms,"
-               "fragments_shaded,kernel_fragments,dda_steps_per_fragment,differing_pixels,drawn_"
-               "pixels\n";
-    }
+    CsvWriter<Row> csv(csvColumns());
+    if (!a.out.empty()) csv.open(a.out, "--out");
 
     const BenchModels models = benchModels(a);
     NearRenderer near; // validation follows VOXTIER_VALIDATION (off for honest timings)
@@ -258,12 +272,7 @@ void run(const BenchArgs& a) {
                 (unsigned long long)row.fragments, (unsigned long long)row.kernelFragments,
                 row.stepsPerFragment(), row.differing);
             std::fflush(stdout);
-            if (csv)
-                csv << row.entities << ',' << row.visible << ',' << row.variant << ','
-                    << row.vkDrawMs << ',' << row.vkReadbackMs << ',' << row.vkFrameMs() << ','
-                    << row.refMs << ',' << row.ratio() << ',' << row.vkCpuMs << ',' << row.refCpuMs
-                    << ',' << row.fragments << ',' << row.kernelFragments << ','
-                    << row.stepsPerFragment() << ',' << row.differing << ',' << row.drawn << '\n';
+            csv.write(row);
         }
     }
     std::printf(

@@ -1,7 +1,10 @@
 #pragma once
-// What every `voxtier bench ...` and `bake --bench` command needs to time things honestly on a
-// shared machine: wall ms, medians over repeats, the load average printed next to them, and
-// one parser for comma-separated number lists given on the command line.
+// The one harness of every `voxtier bench ...` command and `bake --bench` (apps/bench/): what
+// they need to time things honestly on a shared machine (wall ms, timed repeats after warm-ups,
+// medians and quantiles over them, the load average printed next to them), one parser for
+// comma-separated number lists given on the command line, and one CSV writer driven by a column
+// table (each column's name and how a row gives its value, so the header and the rows cannot
+// drift apart; the frame figures' table, compose/frame_figures.hpp, is the same idea).
 #include "core/error.hpp"
 #include "core/stopwatch.hpp"
 
@@ -9,10 +12,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <functional>
+#include <ostream>
 #include <sstream>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace voxtier::cli {
@@ -36,6 +43,21 @@ inline double quantile(std::vector<double> v, double q) {
     std::sort(v.begin(), v.end());
     const auto rank = std::size_t(std::ceil(q * double(v.size())));
     return v[std::min(v.size() - 1, rank > 0 ? rank - 1 : 0)];
+}
+
+/// Wall ms of one call of `once`.
+template <class F> double timedMs(F&& once) {
+    const auto t0 = BenchClock::now();
+    once();
+    return msSince(t0);
+}
+
+/// Wall ms of each of `repeats` calls of `once`, after `warmup` untimed calls.
+template <class F> std::vector<double> timedRepeats(int warmup, int repeats, F&& once) {
+    for (int w = 0; w < warmup; ++w) once();
+    std::vector<double> ms;
+    for (int r = 0; r < repeats; ++r) ms.push_back(timedMs(once));
+    return ms;
 }
 
 /// The 1-minute load average ("?" when unknown): printed beside timings taken on a shared machine.
@@ -74,5 +96,53 @@ std::vector<T> parseList(const std::string& text, const char* flag, double lo, d
     if (out.empty()) throw InputError("", flag, "expected at least one value");
     return out;
 }
+
+/// One column of a CSV: its name in the header and how a row gives its value, written with the
+/// stream's default formatting (6 significant digits for a double).
+template <class Row> struct CsvColumn {
+    const char* name;
+    std::function<void(std::ostream&, const Row&)> write;
+
+    template <class Get>
+    CsvColumn(const char* columnName, Get get)
+        : name(columnName), write([get](std::ostream& o, const Row& r) { o << get(r); }) {}
+};
+
+/// A CSV file whose header and rows both come from one column table. Closed (and false) until
+/// open(); rows written to a closed one are dropped, so a command writes its rows whether or not
+/// the user asked for the file.
+template <class Row> class CsvWriter {
+  public:
+    explicit CsvWriter(std::vector<CsvColumn<Row>> columns) : columns_(std::move(columns)) {}
+
+    /// The header line, without the newline.
+    std::string header() const {
+        std::string h;
+        for (const CsvColumn<Row>& c : columns_) h += (h.empty() ? "" : ",") + std::string(c.name);
+        return h;
+    }
+    /// Creates the parent folders, opens `path` and writes the header; InputError naming `flag`
+    /// when the file cannot be opened.
+    void open(const std::string& path, const char* flag) {
+        const auto parent = std::filesystem::path(path).parent_path();
+        if (!parent.empty()) std::filesystem::create_directories(parent);
+        out_.open(path);
+        if (!out_) throw InputError(path, flag, "cannot open for writing");
+        out_ << header() << '\n';
+    }
+    explicit operator bool() const { return out_.is_open() && bool(out_); }
+    void write(const Row& row) {
+        if (!out_.is_open()) return;
+        for (std::size_t i = 0; i < columns_.size(); ++i) {
+            if (i > 0) out_ << ',';
+            columns_[i].write(out_, row);
+        }
+        out_ << '\n';
+    }
+
+  private:
+    std::vector<CsvColumn<Row>> columns_;
+    std::ofstream out_;
+};
 
 } // namespace voxtier::cli

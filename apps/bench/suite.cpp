@@ -27,7 +27,6 @@
 namespace voxtier::bench {
 
 using cli::median;
-using cli::msSince;
 using cli::parseList;
 using cli::quantile;
 
@@ -276,13 +275,7 @@ double memcpyMs(std::size_t bytes) {
             std::memcpy(dst.data() + at, src.data() + at, std::min(kBlock, bytes - at));
         });
     };
-    copy();
-    std::vector<double> ms;
-    for (int r = 0; r < 5; ++r) {
-        const auto t0 = Clock::now();
-        copy();
-        ms.push_back(msSince(t0));
-    }
+    const std::vector<double> ms = cli::timedRepeats(1, 5, copy);
     if (dst[bytes / 2] != 1) std::abort(); // keeps the copies observable
     return median(ms);
 }
@@ -761,9 +754,10 @@ std::string fixedFrameCost(NearRenderer& near, const Scene& scene) {
         for (const bool all : {true, false}) {
             NearOptions no;
             no.readDepthAndIds = all;
-            const auto t0 = Clock::now();
-            (void)near.render(cam, none, std::span<const SpriteSetup* const>{}, 0, no);
-            if (k > 0) (all ? three : one).push_back(msSince(t0)); // the first warms up
+            const double ms = cli::timedMs([&] {
+                (void)near.render(cam, none, std::span<const SpriteSetup* const>{}, 0, no);
+            });
+            if (k > 0) (all ? three : one).push_back(ms); // the first warms up
         }
     char buf[200];
     std::snprintf(buf, sizeof buf,
