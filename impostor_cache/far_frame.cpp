@@ -16,6 +16,17 @@ namespace voxtier {
 
 namespace {
 
+/// What the cache did for a frame's far tier (bakes, refreshes and the rest), from the counters
+/// before and after it.
+void addCacheWork(FarFrameStats& stats, const SnapshotCacheCounters& before,
+                  const SnapshotCacheCounters& after) {
+    stats.bakes += after.bakes - before.bakes;
+    stats.scenesBuilt += after.scenesBuilt - before.scenesBuilt;
+    stats.refreshes += after.refreshes - before.refreshes;
+    stats.incrementalRefreshes += after.incrementalRefreshes - before.incrementalRefreshes;
+    stats.cellsRetraced += after.cellsRetraced - before.cellsRetraced;
+}
+
 // Distinct (model, frame, view, sigma) of the drawn sprites; each is looked up (and baked)
 // once, in parallel per run, then shared by every sprite that shows it.
 using Need = std::tuple<int, int, int, int, int, double>; // model, frame, view x y z, sigma
@@ -90,12 +101,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
         stats->sprites += drawnSprites;
         stats->culled += culled;
         stats->snapshotsUsed += needs.size();
-        const SnapshotCacheCounters after = cache.counters();
-        stats->bakes += after.bakes - before.bakes;
-        stats->scenesBuilt += after.scenesBuilt - before.scenesBuilt;
-        stats->refreshes += after.refreshes - before.refreshes;
-        stats->incrementalRefreshes += after.incrementalRefreshes - before.incrementalRefreshes;
-        stats->cellsRetraced += after.cellsRetraced - before.cellsRetraced;
+        addCacheWork(*stats, before, cache.counters());
         stats->ensureMs += ensureMs;
         stats->blit.sprites += blit.sprites;
         stats->blit.pixelsTested += blit.pixelsTested;
@@ -155,12 +161,7 @@ FarBatch prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,
     if (stats) {
         stats->sprites += drawn.size();
         stats->snapshotsUsed += needs.size();
-        const SnapshotCacheCounters after = cache.counters();
-        stats->bakes += after.bakes - before.bakes;
-        stats->scenesBuilt += after.scenesBuilt - before.scenesBuilt;
-        stats->refreshes += after.refreshes - before.refreshes;
-        stats->incrementalRefreshes += after.incrementalRefreshes - before.incrementalRefreshes;
-        stats->cellsRetraced += after.cellsRetraced - before.cellsRetraced;
+        addCacheWork(*stats, before, cache.counters());
         stats->ensureMs += msSince(t0);
     }
     return batch;

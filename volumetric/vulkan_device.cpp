@@ -215,13 +215,7 @@ VulkanProbe probeVulkanDevice() {
                             : std::string("vkCreateInstance: ") + vkResultName(created);
         return probe;
     }
-    std::uint32_t count = 0;
-    std::vector<VkPhysicalDevice> devices;
-    if (vkEnumeratePhysicalDevices(instance, &count, nullptr) == VK_SUCCESS && count) {
-        devices.resize(count);
-        if (vkEnumeratePhysicalDevices(instance, &count, devices.data()) != VK_SUCCESS)
-            devices.clear();
-    }
+    const std::vector<VkPhysicalDevice> devices = physicalDevicesOf(instance);
     pinLoadedLibrariesForSanitizers(); // drivers and layers are loaded by now
     // The same choice as VulkanDevice's: the best-ranked usable device.
     int bestRank = 1 << 30;
@@ -549,6 +543,17 @@ void VulkanImage::reset() noexcept {
     image_ = VK_NULL_HANDLE;
     memory_ = VK_NULL_HANDLE;
     extent_ = {0, 0, 0};
+}
+
+std::vector<VkPhysicalDevice> physicalDevicesOf(VkInstance instance) {
+    std::uint32_t count = 0;
+    std::vector<VkPhysicalDevice> devices;
+    if (vkEnumeratePhysicalDevices(instance, &count, nullptr) == VK_SUCCESS && count) {
+        devices.resize(count);
+        if (vkEnumeratePhysicalDevices(instance, &count, devices.data()) != VK_SUCCESS)
+            devices.clear();
+    }
+    return devices;
 }
 
 void imageBarrier(VkCommandBuffer cb, VkImage image, VkImageAspectFlags aspect, VkImageLayout from,

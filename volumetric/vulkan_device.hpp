@@ -138,6 +138,9 @@ class VulkanImage {
     VkImageAspectFlags aspect_ = 0;
 };
 
+/// The instance's physical devices; empty when there are none or the loader fails to list them.
+std::vector<VkPhysicalDevice> physicalDevicesOf(VkInstance instance);
+
 /// A pipeline barrier on one whole single-mip, single-layer image.
 void imageBarrier(VkCommandBuffer cb, VkImage image, VkImageAspectFlags aspect, VkImageLayout from,
                   VkImageLayout to, VkPipelineStageFlags srcStage, VkAccessFlags srcAccess,

@@ -1,5 +1,6 @@
 #include "volumetric/vulkan_device_info.hpp"
 
+#include "volumetric/vulkan_device.hpp"
 #include "volumetric/vulkan_options.hpp"
 
 #include <vulkan/vulkan.h>
@@ -55,13 +56,7 @@ VulkanDeviceInfo describeVulkanDevice() {
     ici.pApplicationInfo = &app;
     VkInstance instance = VK_NULL_HANDLE;
     if (vkCreateInstance(&ici, nullptr, &instance) != VK_SUCCESS) return info;
-    std::uint32_t count = 0;
-    std::vector<VkPhysicalDevice> devices;
-    if (vkEnumeratePhysicalDevices(instance, &count, nullptr) == VK_SUCCESS && count) {
-        devices.resize(count);
-        if (vkEnumeratePhysicalDevices(instance, &count, devices.data()) != VK_SUCCESS)
-            devices.clear();
-    }
+    const std::vector<VkPhysicalDevice> devices = physicalDevicesOf(instance);
     for (VkPhysicalDevice pd : devices) {
         VkPhysicalDeviceDriverProperties driver{
             VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
