@@ -27,8 +27,7 @@ void addCacheWork(FarFrameStats& stats, const SnapshotCacheCounters& before,
     stats.cellsRetraced += after.cellsRetraced - before.cellsRetraced;
 }
 
-// Distinct (model, frame, view, sigma) of the drawn sprites; each is looked up (and baked)
-// once, in parallel per run, then shared by every sprite that shows it.
+// A snapshot by (model, frame, view, sigma).
 using Need = std::tuple<int, int, int, int, int, double>; // model, frame, view x y z, sigma
 // Hashed: a crowd of 10^5 sprites shares a few thousand snapshots, and an ordered map's
 // lookups were a visible share of the far tier's per-sprite cost there.
@@ -42,6 +41,39 @@ struct NeedHash {
                      std::uint32_t(std::hash<double>{}(sigma))));
         return std::size_t(h);
     }
+};
+
+/// The distinct snapshots a frame's far sprites show, each looked up (and baked) once, in
+/// parallel, then shared by every sprite that shows it.
+class SnapshotNeeds {
+  public:
+    /// The slot of the snapshot the request's sprite shows (its view, or the nearest of `set`),
+    /// added if new.
+    std::size_t slotOf(const FarRequest& r, ViewSet set) {
+        const SpriteSetup& sp = *r.sprite;
+        const glm::ivec3 view = r.view.value_or(viewIdOf(set, chooseFarView(sp, set))).lattice;
+        const Need n{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma};
+        auto [it, inserted] = slot_.emplace(n, needs_.size());
+        if (inserted) needs_.push_back(n);
+        return it->second;
+    }
+    /// Looks up, baking where missing, every snapshot added since the last call.
+    void fetchNew(const std::vector<std::shared_ptr<VoxelModel>>& models, SnapshotCache& cache) {
+        const std::size_t from = snaps_.size();
+        snaps_.resize(needs_.size());
+        tbb::parallel_for(from, needs_.size(), [&](std::size_t i) {
+            const auto [m, f, x, y, z, sigma] = needs_[i];
+            snaps_[i] = cache.get(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma);
+        });
+    }
+    std::size_t size() const { return needs_.size(); }
+    const Need& need(std::size_t i) const { return needs_[i]; }
+    const std::shared_ptr<const Snapshot>& snapshot(std::size_t i) const { return snaps_[i]; }
+
+  private:
+    std::unordered_map<Need, std::size_t, NeedHash> slot_;
+    std::vector<Need> needs_;
+    std::vector<std::shared_ptr<const Snapshot>> snaps_;
 };
 
 } // namespace
@@ -59,9 +91,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
     std::optional<OcclusionTiles> tiles;
     if (cull) tiles.emplace(target);
 
-    std::unordered_map<Need, std::size_t, NeedHash> slot;
-    std::vector<Need> needs;
-    std::vector<std::shared_ptr<const Snapshot>> snaps;
+    SnapshotNeeds needs;
     std::uint64_t drawnSprites = 0;
     double ensureMs = 0.0;
     FarBlitStats blit;
@@ -72,27 +102,14 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
         [&](std::span<const std::uint32_t> run) {
             const auto t0 = std::chrono::steady_clock::now();
             runSlots.clear();
-            const std::size_t newFrom = needs.size();
-            for (const std::uint32_t r : run) {
-                const SpriteSetup& sp = *sprites[r];
-                const glm::ivec3 view =
-                    requests[r].view.value_or(viewIdOf(set, chooseFarView(sp, set))).lattice;
-                const Need n{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma};
-                auto [it, inserted] = slot.emplace(n, needs.size());
-                if (inserted) needs.push_back(n);
-                runSlots.push_back(it->second);
-            }
-            snaps.resize(needs.size());
-            tbb::parallel_for(newFrom, needs.size(), [&](std::size_t i) {
-                const auto [m, f, x, y, z, sigma] = needs[i];
-                snaps[i] = cache.get(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma);
-            });
+            for (const std::uint32_t r : run) runSlots.push_back(needs.slotOf(requests[r], set));
+            needs.fetchNew(models, cache);
             ensureMs += msSince(t0);
             draws.clear();
             for (std::size_t k = 0; k < run.size(); ++k) {
                 const SpriteSetup* sp = sprites[run[k]];
-                draws.push_back(
-                    {sp, snaps[runSlots[k]].get(), &models.at(std::size_t(sp->model))->palette()});
+                draws.push_back({sp, needs.snapshot(runSlots[k]).get(),
+                                 &models.at(std::size_t(sp->model))->palette()});
             }
             drawnSprites += draws.size();
             blitFar(draws, target, &blit, blitOptions, tiles ? &*tiles : nullptr);
@@ -120,41 +137,32 @@ FarBatch prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,
     static_assert(sizeof(SnapshotCell) == 2 && offsetof(SnapshotCell, code) == 1);
     const SnapshotCacheCounters before = cache.counters();
     const auto t0 = std::chrono::steady_clock::now();
-    std::unordered_map<Need, std::size_t, NeedHash> slot;
-    std::vector<Need> needs;
+    SnapshotNeeds needs;
     std::vector<std::uint32_t> slotOf;
     std::vector<const SpriteSetup*> drawn;
     for (const FarRequest& r : requests) {
         if (!r.sprite || !r.sprite->visible()) continue;
-        const SpriteSetup& sp = *r.sprite;
-        const glm::ivec3 view = r.view.value_or(viewIdOf(set, chooseFarView(sp, set))).lattice;
-        const Need n{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma};
-        auto [it, inserted] = slot.emplace(n, needs.size());
-        if (inserted) needs.push_back(n);
-        slotOf.push_back(std::uint32_t(it->second));
-        drawn.push_back(&sp);
+        slotOf.push_back(std::uint32_t(needs.slotOf(r, set)));
+        drawn.push_back(r.sprite);
     }
-    std::vector<std::shared_ptr<const Snapshot>> snaps(needs.size());
-    tbb::parallel_for(std::size_t(0), needs.size(), [&](std::size_t i) {
-        const auto [m, f, x, y, z, sigma] = needs[i];
-        snaps[i] = cache.get(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma);
-    });
+    needs.fetchNew(models, cache);
     FarBatch batch;
-    batch.snapshots.reserve(snaps.size());
-    for (std::size_t i = 0; i < snaps.size(); ++i) {
-        const auto [m, f, x, y, z, sigma] = needs[i];
+    batch.snapshots.reserve(needs.size());
+    for (std::size_t i = 0; i < needs.size(); ++i) {
+        const auto [m, f, x, y, z, sigma] = needs.need(i);
+        const std::shared_ptr<const Snapshot>& snap = needs.snapshot(i);
         // Every version of this view of this model frame shares a lineage: the need with the
         // model's uid in place of its index (a collision only costs a row comparison).
         const std::uint64_t uid = models.at(std::size_t(m))->uid();
         const std::uint64_t lineage = NeedHash{}(Need{int(uid ^ (uid >> 32)), f, x, y, z, sigma});
-        batch.snapshots.push_back({snaps[i], lineage | 1u,
-                                   reinterpret_cast<const std::uint8_t*>(snaps[i]->cells.data()),
-                                   snaps[i]->lattice.cellRange});
+        batch.snapshots.push_back({snap, lineage | 1u,
+                                   reinterpret_cast<const std::uint8_t*>(snap->cells.data()),
+                                   snap->lattice.cellRange});
     }
     batch.instances.reserve(drawn.size());
     for (std::size_t k = 0; k < drawn.size(); ++k) {
         const SpriteSetup& sp = *drawn[k];
-        const SnapshotCellMap m = snapshotCellMap(sp.lattice, snaps[slotOf[k]]->lattice);
+        const SnapshotCellMap m = snapshotCellMap(sp.lattice, needs.snapshot(slotOf[k])->lattice);
         batch.instances.push_back({&sp, slotOf[k], &models.at(std::size_t(sp.model))->palette(),
                                    m.u0, m.ui, m.uj, m.v0, m.vi, m.vj});
     }
