@@ -203,8 +203,7 @@ CLI::Validator imageFileName() {
     for (const char* e : kImageExtensions) list += (list.empty() ? "" : ", ") + std::string(e);
     return CLI::Validator(
         [list](std::string& text) {
-            std::string ext = std::filesystem::path(text).extension().string();
-            for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+            const std::string ext = lowerExtension(text);
             for (const char* e : kImageExtensions)
                 if (ext == e) return imageFormatRefusal(text);
             return "expected an image file name ending in one of " + list + got(text);

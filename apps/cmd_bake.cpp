@@ -114,9 +114,7 @@ std::vector<ViewId> viewsToBake(ViewSet set, std::optional<int> level) {
 }
 
 bool isVox(const std::string& file) {
-    std::string ext = std::filesystem::path(file).extension().string();
-    for (char& c : ext) c = char(std::tolower(c));
-    return ext == ".vox";
+    return lowerExtension(file) == ".vox";
 }
 
 /// A scene (or any non-.vox file) given where a .vox model is read: say what to do instead of the

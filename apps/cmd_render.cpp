@@ -347,9 +347,8 @@ void run(const RenderArgs& a) {
     for (const std::string& f : {a.overlay, a.ids})
         if (!f.empty() && !canWriteImageFormat(f)) throw InputError(f, "", imageFormatRefusal(f));
     // Depth and ids leave the GPU only for output that has them (EXR, --ids) or reads them.
-    std::string ext = std::filesystem::path(out).extension().string();
-    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    opt.depthAndIds = ext == ".exr" || !a.ids.empty() || opt.overlay || opt.measurePops;
+    opt.depthAndIds =
+        lowerExtension(out) == ".exr" || !a.ids.empty() || opt.overlay || opt.measurePops;
     FrameRenderer renderer(scene, opt);
     // A .vox render is a preview, where a user judges the model (or the file's scene graph):
     // without --mode it is drawn exactly, by the near tier (Vulkan on a GPU, else the CPU

@@ -12,13 +12,13 @@
 
 namespace voxtier {
 
-namespace {
-
 std::string lowerExtension(const std::filesystem::path& file) {
     std::string ext = file.extension().string();
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
     return ext;
 }
+
+namespace {
 
 /// Netpbm PAM (P7): a text header, then the RGBA bytes of each row from the top.
 void writePam(const std::filesystem::path& file, const Image& img) {

@@ -21,6 +21,8 @@ namespace voxtier {
 /// Whether this build writes and reads the formats that need OpenImageIO (the CMake option
 /// VOXTIER_IMAGE_FILES). .pam is written either way.
 bool imageLibraryAvailable();
+/// `file`'s extension in lower case (".png"), by which every format here is chosen.
+std::string lowerExtension(const std::filesystem::path& file);
 /// Whether `file`'s extension (any case) names a format this build writes: .pam always, .png,
 /// .exr, .tif, .jpg and .gif where imageLibraryAvailable().
 bool canWriteImageFormat(const std::filesystem::path& file);

@@ -63,9 +63,7 @@ bool imageLibraryLinked() {
 
 void writeWithImageLibrary(const std::filesystem::path& file, const Image& img, double zNear,
                            bool colorOnly) {
-    std::string ext = file.extension().string();
-    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    if (ext != ".exr" || colorOnly) {
+    if (lowerExtension(file) != ".exr" || colorOnly) {
         writeColor(file, img);
         return;
     }
