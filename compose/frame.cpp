@@ -169,6 +169,16 @@ SnapshotCacheConfig cacheConfig(const FrameOptions& o) {
     return c;
 }
 
+/// What the snapshot cache did for the far tier (bakes, refreshes), into the frame's figures;
+/// the same whichever backend draws the far sprites.
+void addFarCacheWork(FrameStats& st, const FarFrameStats& fs) {
+    st.farBakes += int(fs.bakes);
+    st.farScenesBuilt += int(fs.scenesBuilt);
+    st.farRefreshes += int(fs.refreshes);
+    st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
+    st.farCellsRetraced += fs.cellsRetraced;
+}
+
 /// A near backend's cell-rate counts into the frame's figures (both backends carry them).
 void addCellRateCounts(FrameStats& st, const CellRateCounts& c) {
     st.nearCellsTraced += c.cellsTraced;
@@ -526,11 +536,7 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         FarFrameStats fs;
         const FarBatch batch = prepareFarBatch(scene_.models, shares.farRequests(), *cache_,
                                                viewSetFromSize(scene_.selector.viewSetSize), &fs);
-        st.farBakes += int(fs.bakes);
-        st.farScenesBuilt += int(fs.scenesBuilt);
-        st.farRefreshes += int(fs.refreshes);
-        st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
-        st.farCellsRetraced += fs.cellsRetraced;
+        addFarCacheWork(st, fs);
         st.bakeMs += msSince(t0);
         st.farMs += msSince(t0);
         st.farOnVulkan = 1;
@@ -617,11 +623,7 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
     drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize),
                    image, &fs, blit);
     st.farOccluded += int(fs.culled);
-    st.farBakes += int(fs.bakes);
-    st.farScenesBuilt += int(fs.scenesBuilt);
-    st.farRefreshes += int(fs.refreshes);
-    st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
-    st.farCellsRetraced += fs.cellsRetraced;
+    addFarCacheWork(st, fs);
     st.bakeMs += fs.ensureMs;
     st.blitMs += fs.blit.milliseconds;
     st.farMs += fs.ensureMs + fs.blit.milliseconds;
