@@ -10,8 +10,8 @@
 // prints DBL_MAX in full, and CheckedTransformer lists an enum's integers ("{far->2,...} OR
 // {2,...}"). These keep CLI11's mechanism (and its `{a,b}` / ExistingFile forms) with the
 // project's one-line messages.
+#include "core/view_set.hpp"
 #include "impostor_cache/far_blit.hpp"
-#include "impostor_cache/view_set.hpp"
 #include "volumetric/near_rate.hpp"
 
 #include <CLI/CLI.hpp>

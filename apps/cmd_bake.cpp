@@ -17,12 +17,12 @@
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
 #include "core/stopwatch.hpp"
+#include "core/view_set.hpp"
 #include "core/vox_reader.hpp"
 #include "image_files/image_files.hpp"
 #include "impostor_cache/contact_sheet.hpp"
 #include "impostor_cache/snapshot_baker.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
-#include "impostor_cache/view_set.hpp"
 #include "impostor_cache/voxel_scene.hpp"
 
 #include <sys/statvfs.h>

@@ -7,7 +7,7 @@
 // more than SelectorConfig::maxBakesPerFrame snapshots in one frame.
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
-#include "impostor_cache/view_set.hpp"
+#include "core/view_set.hpp"
 #include "volumetric/near_rate.hpp"
 
 #include <cstddef>

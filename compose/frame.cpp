@@ -8,9 +8,9 @@
 #include "core/error.hpp"
 #include "core/far_batch.hpp"
 #include "core/stopwatch.hpp"
+#include "core/view_set.hpp"
 #include "impostor_cache/far_frame.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
-#include "impostor_cache/view_set.hpp"
 #include "volumetric/near_renderer.hpp"
 #include "volumetric/reference_renderer.hpp"
 

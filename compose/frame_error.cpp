@@ -1,7 +1,7 @@
 #include "compose/frame_error.hpp"
 
+#include "core/view_set.hpp"
 #include "impostor_cache/far_frame.hpp"
-#include "impostor_cache/view_set.hpp"
 #include "volumetric/reference_renderer.hpp"
 
 #include <algorithm>

@@ -3,7 +3,7 @@
 // §3.5 lattice, stored as a relightable payload of two bytes per cell (palette index + code).
 // Colour and light are applied at blit time, so a light change never needs a re-bake.
 #include "core/sprite.hpp"
-#include "impostor_cache/view_set.hpp"
+#include "core/view_set.hpp"
 
 #include <glm/glm.hpp>
 

@@ -2,9 +2,9 @@
 // Baking one snapshot (DESIGN.md §4): orthographic rays through every cell of the view's §3.5
 // lattice, traced against a VoxelScene with Embree's packet or stream API, TBB-parallel over
 // rows. Each cell ends up exactly as the near kernel's vtShadeCell would shade it.
+#include "core/view_set.hpp"
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"
-#include "impostor_cache/view_set.hpp"
 #include "impostor_cache/voxel_scene.hpp"
 
 #include <cstdint>

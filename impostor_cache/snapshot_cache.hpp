@@ -14,12 +14,12 @@
 // when their successor lands, so old versions never sit in the budget. Views nobody asks for stay
 // stale until they are asked for, evicted, or the edit log no longer reaches back to them (then
 // they are baked whole). A model shared by many entities is refreshed once per view.
+#include "core/view_set.hpp"
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"
 #include "impostor_cache/snapshot_baker.hpp"
 #include "impostor_cache/snapshot_store.hpp"
 #include "impostor_cache/versioned_lru.hpp"
-#include "impostor_cache/view_set.hpp"
 #include "impostor_cache/voxel_scene.hpp"
 
 #include <cstddef>

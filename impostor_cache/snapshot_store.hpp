@@ -50,9 +50,9 @@
 // hour-old temporary is a dead writer's; where flock does not reach across machines, the age
 // alone decides, and even removing a live (hour-stalled) writer's temporary only makes its rename
 // fail, which is a counted write failure, never a partial file under a final name.
+#include "core/view_set.hpp"
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"
-#include "impostor_cache/view_set.hpp"
 
 #include <array>
 #include <chrono>

@@ -5,7 +5,7 @@
 #include "compose/frame_figures.hpp"
 #include "core/scene_loader.hpp"
 #include "core/sprite.hpp"
-#include "impostor_cache/view_set.hpp"
+#include "core/view_set.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

@@ -1,6 +1,6 @@
 // The far tier's view sets (DESIGN.md §4): sizes, the documented order, unit directions on the
 // cube lattice, the nearest-view choice and the angular gaps DESIGN.md quotes.
-#include "impostor_cache/view_set.hpp"
+#include "core/view_set.hpp"
 
 #include <gtest/gtest.h>
 

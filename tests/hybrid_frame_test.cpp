@@ -5,9 +5,9 @@
 #include "compose/error_metrics.hpp"
 #include "compose/frame.hpp"
 #include "core/procedural.hpp"
+#include "core/view_set.hpp"
 #include "frame_test_support.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
-#include "impostor_cache/view_set.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>

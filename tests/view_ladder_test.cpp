@@ -3,7 +3,7 @@
 // cases: the lattice points themselves, the midpoints of lattice edges and the centres of lattice
 // squares (where two or four views tie).
 #include "core/splitmix64.hpp"
-#include "impostor_cache/view_set.hpp"
+#include "core/view_set.hpp"
 
 #include <gtest/gtest.h>
 

@@ -3,7 +3,7 @@
 // the Embree bake against the near kernel's scalar DDA over the same rays, side by side in one
 // run (medians over repeats), plus the memory one cached model costs.
 #include "core/sprite.hpp"
-#include "impostor_cache/view_set.hpp"
+#include "core/view_set.hpp"
 
 #include <memory>
 #include <string>

@@ -15,11 +15,11 @@
 #include "apps/commands.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
+#include "core/view_set.hpp"
 #include "core/vox_reader.hpp"
 #include "impostor_cache/snapshot_baker.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 #include "impostor_cache/surface_voxels.hpp"
-#include "impostor_cache/view_set.hpp"
 #include "impostor_cache/voxel_scene.hpp"
 
 #include <tbb/global_control.h>

@@ -1,4 +1,4 @@
-#include "impostor_cache/view_set.hpp"
+#include "core/view_set.hpp"
 
 #include "core/error.hpp"
 

@@ -1,6 +1,8 @@
 #pragma once
 // The far tier's snapshot directions (DESIGN.md §4). A view is the unit vector w from the model
 // centre towards the viewer, in voxel space; its snapshot is the near image seen along d = -w.
+// Pure view math, in core (DESIGN.md §1): impostor_cache bakes and keys snapshots by these views,
+// lod/ predicts the error of drawing from them.
 #include <glm/glm.hpp>
 
 #include <array>
