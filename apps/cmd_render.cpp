@@ -3,7 +3,6 @@
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "apps/progress.hpp"
-#include "compose/error_budget.hpp"
 #include "compose/frame.hpp"
 #include "compose/frame_figures.hpp"
 #include "core/error.hpp"
@@ -15,6 +14,7 @@
 #include "core/vox_reader.hpp"
 #include "image_files/image_files.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
+#include "lod/error_budget.hpp"
 
 #include <algorithm>
 #include <cctype>

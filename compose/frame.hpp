@@ -4,13 +4,13 @@
 // FarBackend::Vulkan, one Vulkan frame draws the near sprites and then the far ones). A
 // FrameRenderer keeps what persists between frames of one scene: the selector's per-entity
 // state, the snapshot cache and the Vulkan device with its voxel atlas.
-#include "compose/error_budget.hpp"
 #include "core/image.hpp"
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
 #include "core/view_set.hpp"
 #include "core/work_progress.hpp"
 #include "impostor_cache/far_blit.hpp"
+#include "lod/error_budget.hpp"
 #include "lod/selector.hpp"
 #include "volumetric/near_rate.hpp"
 #include "volumetric/vulkan_options.hpp"

@@ -42,12 +42,6 @@ struct Accumulator {
 
 } // namespace
 
-double cellSizePx(const SpriteSetup& sprite) {
-    const double radiusCells =
-        glm::length(glm::dvec3(sprite.lattice.dims) * 0.5) * sprite.lattice.sigma;
-    return radiusCells > 0.0 ? sprite.radiusPx / radiusCells : 0.0;
-}
-
 EntityErrorSummary summarizeEntities(const std::vector<EntityError>& errors,
                                      const std::vector<SpriteSetup>& sprites) {
     Accumulator a;

@@ -42,10 +42,6 @@ struct FrameErrorReport {
     std::size_t differingPixels = 0; ///< colour, depth or entity id differs
 };
 
-/// On-screen size (pixels) of one virtual pixel of a visible sprite: its projected
-/// bounding-sphere radius over that radius in lattice cells.
-double cellSizePx(const SpriteSetup& sprite);
-
 /// Mean and worst of `errors`; `sprites` (indexed by entity id) give each entity's cell size.
 EntityErrorSummary summarizeEntities(const std::vector<EntityError>& errors,
                                      const std::vector<SpriteSetup>& sprites);

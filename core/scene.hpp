@@ -41,7 +41,7 @@ enum class SelectorMetric {
     ErrorPx,  ///< predicted view-quantisation error r_px * sin(theta): shrinks with distance
     /// The far tier's predicted silhouette displacement (DESIGN.md §5) from the best view of the
     /// refinement ladder, as a share of budgetVpx: shrinks with distance. The compositor picks
-    /// the coarsest ladder view within the budget (compose/error_budget.hpp).
+    /// the coarsest ladder view within the budget (lod/error_budget.hpp).
     ErrorBudget,
 };
 /// The scene file's name of a metric: "distance", "radius_px", "error_px" or "error_budget".

@@ -252,6 +252,12 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     return S;
 }
 
+double cellSizePx(const SpriteSetup& sprite) {
+    const double radiusCells =
+        glm::length(glm::dvec3(sprite.lattice.dims) * 0.5) * sprite.lattice.sigma;
+    return radiusCells > 0.0 ? sprite.radiusPx / radiusCells : 0.0;
+}
+
 std::vector<SpriteSetup> setupSprites(const Scene& scene, const CameraFrame& camera, double time) {
     std::vector<SpriteSetup> out(scene.entities.size());
     tbb::parallel_for(std::size_t(0), out.size(), [&](std::size_t i) {

@@ -110,6 +110,11 @@ struct SpriteSetup {
     bool visible() const { return cull == CullReason::None; }
 };
 
+/// On-screen size (pixels) of one virtual pixel of a visible sprite: its projected
+/// bounding-sphere radius over that radius in lattice cells. In core because both the error
+/// budget (lod/) and the frame error report (compose/) measure displacement in it.
+double cellSizePx(const SpriteSetup& sprite);
+
 /// §3.7 face light factors (16.16) for the six entered-face codes, given the light in world
 /// space and the entity's rotation. Shared by the near kernel and the far blit.
 std::array<std::uint32_t, 6> faceLightFactors(const Light& light, const EntityPose& pose);

@@ -23,7 +23,7 @@ struct SelectorInput {
     double viewAngleRad =
         0.0; ///< angle from the entity's view direction to the nearest snapshot view
     /// ErrorBudget: the predicted far displacement from the best view allowed, over the budget
-    /// (compose/error_budget.hpp computes it; the selector only compares it).
+    /// (lod/error_budget.hpp computes it; the selector only compares it).
     double budgetShare = 0.0;
 };
 

@@ -19,7 +19,7 @@ const std::map<std::string, std::set<std::string>> kAllowed = {
     {"core", {"core"}},
     {"volumetric", {"core", "volumetric"}},
     {"impostor_cache", {"core", "impostor_cache"}},
-    {"lod", {"core", "lod"}},
+    {"lod", {"core", "volumetric", "lod"}},
     {"compose", {"core", "volumetric", "impostor_cache", "lod", "compose"}},
     {"image_files", {"core", "image_files"}},
     {"apps", {"core", "volumetric", "impostor_cache", "lod", "compose", "image_files", "apps"}},

@@ -2,13 +2,13 @@
 // displacement of real far entities (tanks, .vox models), and the error_budget selector: the
 // budget holds along the bench paths, a wobble below the hysteresis switches nothing, and only
 // the views drawn are baked.
-#include "compose/error_budget.hpp"
 #include "compose/frame.hpp"
 #include "compose/frame_error.hpp"
 #include "core/scene_loader.hpp"
 #include "core/sprite_kernel.h"
 #include "frame_test_support.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
+#include "lod/error_budget.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>

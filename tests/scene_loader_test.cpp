@@ -1,10 +1,10 @@
 // Scene files are untrusted input: every scene we ship must load, and every malformed variant
 // must be a one-line InputError naming the file and the JSON path of the problem.
-#include "compose/error_budget.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
 #include "core/sprite.hpp"
+#include "lod/error_budget.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

@@ -1,6 +1,6 @@
-#include "compose/error_budget.hpp"
+#include "lod/error_budget.hpp"
 
-#include "compose/frame_error.hpp"
+#include "core/sprite.hpp"
 
 #include <algorithm>
 #include <array>
