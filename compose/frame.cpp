@@ -190,7 +190,7 @@ void addCellRateCounts(FrameStats& st, const CellRateCounts& c) {
 } // namespace
 
 FrameRenderer::FrameRenderer(Scene& scene, FrameOptions options)
-    : scene_(scene), options_(options), selector_(scene.selector),
+    : scene_(scene), options_(options), planner_(scene.selector),
       cache_(std::make_unique<SnapshotCache>(cacheConfig(options))) {
     std::stable_sort(
         scene_.edits.begin(), scene_.edits.end(),
@@ -316,7 +316,7 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
 
     // 2. Select each entity's tier (DESIGN.md §5), its cross-fade and its far view.
     const auto t1 = Clock::now();
-    out.plan = planFrame(out.sprites, mode, st);
+    out.plan = planEntities(out.sprites, mode, st);
     st.selectMs = msSince(t1);
 
     // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z.
@@ -331,161 +331,54 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
     if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
-    // What a bake costs must not depend on what the on-disk store holds, or the cost bound
-    // gives up bakes that a render without the directory keeps, and the image depends on which
-    // process baked what (issue 28). So the far lookups' time counts only in the bakes' share
-    // of the work: not the store's reads and writes, and not the Embree scene builds. A scene
-    // is built once per model frame and serves every later bake of it, so which frame pays for
-    // it depends on history: a process that read frame 0's snapshots from the directory built
-    // the scenes for its first 2 bakes alone (46 ms, against 11 ms for a lone render's 142
-    // bakes), learnt a 20x bake cost and gave up bakes the lone render kept.
-    const double bakeWork = cacheAfter.bakeMs - cacheBefore.bakeMs;
-    const double otherWork =
+    // What the frame cost, to the planner's cost model: the bake time with the cache's split of
+    // it (the cost model counts only the bakes' share), and the near tier's fixed cost, measured
+    // here by drawing nothing, should the model ask for it.
+    FrameCostSample sample;
+    sample.bakes = st.farBakes;
+    sample.bakeMs = st.bakeMs;
+    sample.bakeWorkMs = cacheAfter.bakeMs - cacheBefore.bakeMs;
+    sample.sceneAndStoreMs =
         (cacheAfter.sceneMs - cacheBefore.sceneMs) + (cacheAfter.storeMs - cacheBefore.storeMs);
-    const double bakeShare = otherWork > 0.0 ? bakeWork / (bakeWork + otherWork) : 1.0;
-    measureCosts(cam, nearBackendFor(mode, options_.nearBackend), out.sprites, out.plan, st,
-                 mode == RenderMode::Hybrid &&
-                     scene_.selector.metric == SelectorMetric::ErrorBudget,
-                 bakeShare);
+    sample.nearMs = st.nearMs;
+    sample.nearUploadMs = st.nearUploadMs;
+    sample.blitMs = st.blitMs;
+    sample.planMs = st.selectMs;
+    sample.planned =
+        mode == RenderMode::Hybrid && scene_.selector.metric == SelectorMetric::ErrorBudget;
+    planner_.observe(out.sprites, out.plan, sample, options_.nearRate,
+                     [&] { return nearFixedMs(cam, nearBackendFor(mode, options_.nearBackend)); });
     previousPlan_ = out.plan;
     st.cacheBytes = cache_->counters().bytes;
     st.totalMs = msSince(t0);
     return out;
 }
 
-std::vector<EntityPlan> FrameRenderer::planFrame(const std::vector<SpriteSetup>& sprites,
-                                                 RenderMode mode, FrameStats& st) {
-    std::vector<EntityPlan> plan(sprites.size());
-    if (mode == RenderMode::Reference || mode == RenderMode::Near) return plan; // all near
-    const ViewSet set = viewSetFromSize(scene_.selector.viewSetSize);
-    const auto& views = viewDirections(set);
-    auto towardViewer = [](const SpriteSetup& s) { return -s.lattice.dir; };
-    const SelectorConfig& config = scene_.selector;
-    const bool budget = config.metric == SelectorMetric::ErrorBudget && mode == RenderMode::Hybrid;
-    if (selector_.size() == 0) budgetViews_.reset(); // a restarted selector restarts its views
-
-    // The selector sees distance, projected radius and the angle to the nearest snapshot view
-    // (or, under the error budget, the best prediction over the budget).
-    std::vector<SelectorInput> inputs(sprites.size());
-    for (std::size_t i = 0; i < sprites.size(); ++i) {
-        const SpriteSetup& s = sprites[i];
-        inputs[i].distance = s.distance;
-        inputs[i].radiusPx = s.radiusPx;
-        if (!s.visible()) continue;
-        if (budget) { // the error budget's metric; the view angle serves only error_px
-            inputs[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
-            continue;
-        }
-        const glm::dvec3 w = views[std::size_t(nearestView(set, towardViewer(s)))];
-        inputs[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
-    }
-    const SelectorStats ss = selector_.update(inputs);
-    budgetViews_.beginFrame(sprites.size(), config.maxBakesPerFrame);
-    st.switchesToFar = ss.switchesToFar;
-    st.switchesToNear = ss.switchesToNear;
-    for (std::size_t i = 0; i < sprites.size(); ++i) {
-        EntityPlan& p = plan[i];
-        p.tier = mode == RenderMode::Far ? Tier::Far : selector_.tier(i);
-        if (mode == RenderMode::Hybrid) {
-            float share = 0.0f;
-            Tier from = p.tier;
-            if (selector_.fading(i, &share, &from)) p.fade = share, p.fadeFrom = from;
-        }
-        if (budget)
-            planBudgetView(i, sprites[i], p);
-        else if (p.drawsFar() && sprites[i].visible())
-            p.view = viewIdOf(set, selector_.chooseView(i, towardViewer(sprites[i]), views));
-        st.fading += p.fade > 0.0f;
-    }
-    if (budget) st.farBakesGivenUp = keepAffordableBakes(sprites, plan);
-    st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
-    for (std::size_t i = 0; i < sprites.size(); ++i)
-        if (plan[i].drawsFar() && plan[i].view && sprites[i].visible())
-            st.farPredictedWorstVpx =
-                std::max(st.farPredictedWorstVpx, predictedBudgetUnits(sprites[i], *plan[i].view));
-    return plan;
-}
-
-void FrameRenderer::planBudgetView(std::size_t entity, const SpriteSetup& sprite, EntityPlan& p) {
-    if (!p.drawsFar() || !sprite.visible()) {
-        budgetViews_.drop(entity);
-        return;
-    }
-    // In memory: preferred. On disk (--cache-dir): not a bake either, but never preferred, since
-    // what a shared directory holds is up to other processes (ErrorBudgetViews::choose).
-    const auto isCached = [&](const SpriteSetup& s, ViewId v) {
+std::vector<EntityPlan> FrameRenderer::planEntities(const std::vector<SpriteSetup>& sprites,
+                                                    RenderMode mode, FrameStats& st) {
+    PlanSettings settings;
+    settings.mode = mode == RenderMode::Reference || mode == RenderMode::Near ? PlanMode::AllNear
+                    : mode == RenderMode::Far                                 ? PlanMode::AllFar
+                                                                              : PlanMode::Hybrid;
+    settings.costAwareBakes = options_.costAwareBakes;
+    settings.bakeCosts = options_.bakeCosts;
+    settings.inMemory = [&](const SpriteSetup& s, ViewId v) {
         return cache_->inMemory(*scene_.models.at(std::size_t(s.model)), s.frame, v,
                                 s.lattice.sigma);
     };
-    const auto withoutBake = [&](const SpriteSetup& s, ViewId v) {
+    settings.withoutBake = [&](const SpriteSetup& s, ViewId v) {
         return cache_->availableWithoutBake(*scene_.models.at(std::size_t(s.model)), s.frame, v,
                                             s.lattice.sigma);
     };
-    p.view = budgetViews_.choose(entity, sprite, scene_.selector, isCached, withoutBake);
-    // No view within the budget without passing this frame's bake bound: near this frame (the
-    // selector keeps its far state, so the entity goes far as soon as a view can be had).
-    if (!p.view) p = EntityPlan{};
-    // A view switch cross-fades like a tier switch (not on top of one).
-    float share = 0.0f;
-    ViewId from;
-    if (p.view && p.tier == Tier::Far && p.fade <= 0.0f &&
-        budgetViews_.viewFade(entity, sprite, scene_.selector, isCached, &share, &from))
-        p.fade = share, p.fadeFrom = Tier::Far, p.fadeFromView = from;
-}
-
-int FrameRenderer::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
-                                       std::vector<EntityPlan>& plan) {
-    if (!options_.costAwareBakes) return 0;
-    const std::size_t asked = budgetViews_.bakesAsked();
-    std::vector<std::optional<ViewId>> drawnFrom(plan.size());
-    for (std::size_t i = 0; i < plan.size(); ++i)
-        if (plan[i].drawsFar() && sprites[i].visible()) drawnFrom[i] = plan[i].view;
-    const BakeCosts& costs = options_.bakeCosts ? *options_.bakeCosts : measuredCosts_;
-    // Given up: near this frame, as under the bake bound (the selector keeps its far state).
-    for (std::size_t i : budgetViews_.keepAffordableBakes(sprites, drawnFrom, costs))
-        plan[i] = EntityPlan{};
-    return int(asked - budgetViews_.bakesAsked());
-}
-
-void FrameRenderer::measureCosts(const CameraFrame& cam, NearBackend nearBackend,
-                                 const std::vector<SpriteSetup>& sprites,
-                                 const std::vector<EntityPlan>& plan, const FrameStats& st,
-                                 bool planned, double bakeShare) {
-    measuredCosts_.nearRate = options_.nearRate;
-    double nearUnits = 0.0, farPx = 0.0;
-    for (std::size_t i = 0; i < sprites.size() && i < plan.size(); ++i) {
-        if (!sprites[i].visible()) continue;
-        if (plan[i].drawsNear()) nearUnits += nearCostUnits(sprites[i], options_.nearRate);
-        if (plan[i].drawsFar()) farPx += double(rectPixels(sprites[i]));
-    }
-    // Running averages: each frame moves the estimate a third of the way to its own figure, so
-    // one slow frame (another process on the cores) does not swing the next frame's plan.
-    const auto blend = [](double& average, double sample) {
-        average = average > 0.0 ? average + (sample - average) / 3.0 : sample;
-    };
-    if (st.farBakes > 0) blend(measuredCosts_.msPerBake, st.bakeMs * bakeShare / st.farBakes);
-    // Only the error-budget planner reads the near cost, and only its frames pay for measuring
-    // the near tier's fixed cost: other frames (all-near, all-far, other metrics) are no sample.
-    if (planned && nearUnits > 0.0 && st.nearMs > 0.0) {
-        // What a sprite drawn far saves is its share of the near time above the tier's
-        // per-frame cost (targets, clear, submit, readback), which stays while any sprite is
-        // near, and above the voxel uploads, which a model pays once: charged to the sprites,
-        // they made one near sprite look as dear as 4 ms of them. Never below 1 % of the
-        // frame: a near sprite is not free, whatever the noise.
-        const double fixedMs = nearFixedMs(cam, nearBackend);
-        const double spriteMs = std::max(st.nearMs - st.nearUploadMs - fixedMs, 0.01 * st.nearMs);
-        // A ratio of decayed sums, not an average of ratios: a frame with one small sprite near
-        // (most frames of a far-heavy hybrid) measures its sprite time as a small difference
-        // of two noisy times, and must weigh as little as the work it did. The renderer's first
-        // near frame is no sample: lavapipe compiles its pipelines in it.
-        if (nearFramesSeen_++ > 0) {
-            nearCostSums_ = {nearCostSums_.ms * (2.0 / 3.0) + spriteMs,
-                             nearCostSums_.units * (2.0 / 3.0) + nearUnits};
-            measuredCosts_.nearMsPerUnit = nearCostSums_.ms / nearCostSums_.units;
-        }
-    }
-    if (farPx > 0.0 && st.blitMs > 0.0) blend(measuredCosts_.blitMsPerPx, st.blitMs / farPx);
-    if (planned) blend(measuredCosts_.planMs, st.selectMs);
+    PlanStats ps;
+    std::vector<EntityPlan> plan = planner_.plan(sprites, scene_.selector, settings, ps);
+    st.switchesToFar = ps.switchesToFar;
+    st.switchesToNear = ps.switchesToNear;
+    st.viewChanges = ps.viewChanges;
+    st.fading = ps.fading;
+    st.farBakesGivenUp = ps.bakesGivenUp;
+    st.farPredictedWorstVpx = ps.worstVpx;
+    return plan;
 }
 
 double FrameRenderer::nearFixedMs(const CameraFrame& cam, NearBackend nearBackend) {

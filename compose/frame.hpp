@@ -1,16 +1,18 @@
 #pragma once
 // The frame recipe of DESIGN.md §6: select tiers -> draw near sprites (Vulkan) -> ensure the
 // snapshots far sprites need (lazy, parallel) -> blit far sprites -> compose by min-z (with
-// FarBackend::Vulkan, one Vulkan frame draws the near sprites and then the far ones). A
-// FrameRenderer keeps what persists between frames of one scene: the selector's per-entity
-// state, the snapshot cache and the Vulkan device with its voxel atlas.
+// FarBackend::Vulkan, one Vulkan frame draws the near sprites and then the far ones). compose/
+// draws and composes; the selection, its views and the bakes it can afford are lod/'s
+// (lod/frame_planner.hpp). A FrameRenderer keeps what persists between frames of one scene: the
+// planner (the selector's per-entity state, the budget's views, the measured costs), the
+// snapshot cache and the Vulkan device with its voxel atlas.
 #include "core/image.hpp"
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
 #include "core/view_set.hpp"
 #include "core/work_progress.hpp"
 #include "impostor_cache/far_blit.hpp"
-#include "lod/error_budget.hpp"
+#include "lod/frame_planner.hpp"
 #include "lod/selector.hpp"
 #include "volumetric/near_rate.hpp"
 #include "volumetric/vulkan_options.hpp"
@@ -142,21 +144,6 @@ struct FrameOptions {
     bool depthAndIds = true;
 };
 
-/// What one entity does this frame: its tier, an optional cross-fade (both tiers draw it, with
-/// complementary dither masks) and the snapshot view the far tier uses.
-struct EntityPlan {
-    Tier tier = Tier::Near;
-    float fade = 0.0f; ///< share of pixels already showing `tier` (0 = no cross-fade)
-    Tier fadeFrom = Tier::Near;
-    std::optional<ViewId> view; ///< far view (when the far tier draws the entity)
-    /// A view switch's cross-fade (fade > 0, both tiers far): the old view, drawn by the far tier
-    /// on the pixels the new one leaves (the complementary dither half).
-    std::optional<ViewId> fadeFromView;
-    bool drawsNear() const { return tier == Tier::Near || (fade > 0.0f && fadeFrom == Tier::Near); }
-    bool drawsFar() const { return tier == Tier::Far || (fade > 0.0f && fadeFrom == Tier::Far); }
-    bool operator==(const EntityPlan&) const = default;
-};
-
 /// The image change one switch causes on its own (DESIGN.md §8 "pop magnitude"): the entity
 /// rendered alone with its previous plan and with its new one, same camera.
 struct PopEvent {
@@ -258,7 +245,7 @@ class FrameRenderer {
                std::optional<Tier> onlyTier = std::nullopt);
 
     SnapshotCache& snapshotCache() { return *cache_; }
-    TierSelector& selector() { return selector_; }
+    TierSelector& selector() { return planner_.selector(); }
     const FrameOptions& options() const { return options_; }
     /// Changes apply from the next frame (the cache budget only through snapshotCache().setBudget).
     FrameOptions& options() { return options_; }
@@ -278,20 +265,11 @@ class FrameRenderer {
     const std::string& farBackendChoice();
 
   private:
-    std::vector<EntityPlan> planFrame(const std::vector<SpriteSetup>& sprites, RenderMode mode,
-                                      FrameStats& st);
-    /// Metric error_budget: the view within the budget (plan.view), or the entity drawn near.
-    void planBudgetView(std::size_t entity, const SpriteSetup& sprite, EntityPlan& plan);
-    /// Metric error_budget, after every entity's view: the bakes the frame can afford.
-    /// Returns the bakes given up.
-    int keepAffordableBakes(const std::vector<SpriteSetup>& sprites, std::vector<EntityPlan>& plan);
-    /// What this frame's near, blit and bakes cost per unit, and its planning (`planned`: an
-    /// error-budget frame), into measuredCosts_. `bakeShare`: the share of stats.bakeMs the bakes
-    /// themselves took (the rest: Embree scene builds and the on-disk store's reads and writes).
-    void measureCosts(const CameraFrame& camera, NearBackend nearBackend,
-                      const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
-                      const FrameStats& stats, bool planned, double bakeShare);
+    /// Step 2: the planner's plan for this frame (lod/frame_planner.hpp), its figures into `st`.
+    std::vector<EntityPlan> planEntities(const std::vector<SpriteSetup>& sprites, RenderMode mode,
+                                         FrameStats& st);
     /// The near tier's per-frame cost whatever it draws (ms): measured once, drawing nothing.
+    /// The figure the planner's cost model asks for (CostModel::observe); compose only measures.
     double nearFixedMs(const CameraFrame& camera, NearBackend nearBackend);
     /// draw() with the near tier drawn by `nearBackend`.
     Image drawWith(NearBackend nearBackend, const CameraFrame& camera,
@@ -317,15 +295,7 @@ class FrameRenderer {
 
     Scene& scene_;
     FrameOptions options_;
-    TierSelector selector_;
-    ErrorBudgetViews budgetViews_; ///< far views under metric error_budget
-    BakeCosts measuredCosts_;      ///< running averages over the frames drawn so far
-    /// measuredCosts_.nearMsPerUnit as decayed sums of near sprite ms and near cost units.
-    struct {
-        double ms = 0.0, units = 0.0;
-    } nearCostSums_;
-    /// Error-budget frames whose near tier drew a sprite (the first is no sample).
-    int nearFramesSeen_ = 0;
+    FramePlanner planner_; ///< the LOD policy: selector, error budget views, cost model
     struct NearFixed {
         double ms = -1.0; ///< < 0: not measured yet
         bool vulkan = false;

@@ -1,0 +1,148 @@
+#include "lod/frame_planner.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace voxtier {
+
+std::vector<EntityPlan> FramePlanner::plan(const std::vector<SpriteSetup>& sprites,
+                                           const SelectorConfig& config,
+                                           const PlanSettings& settings, PlanStats& st) {
+    std::vector<EntityPlan> plan(sprites.size());
+    if (settings.mode == PlanMode::AllNear) return plan;
+    const ViewSet set = viewSetFromSize(config.viewSetSize);
+    const auto& views = viewDirections(set);
+    auto towardViewer = [](const SpriteSetup& s) { return -s.lattice.dir; };
+    const bool hybrid = settings.mode == PlanMode::Hybrid;
+    const bool budget = config.metric == SelectorMetric::ErrorBudget && hybrid;
+    if (selector_.size() == 0) budgetViews_.reset(); // a restarted selector restarts its views
+
+    // The selector sees distance, projected radius and the angle to the nearest snapshot view
+    // (or, under the error budget, the best prediction over the budget).
+    std::vector<SelectorInput> inputs(sprites.size());
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        const SpriteSetup& s = sprites[i];
+        inputs[i].distance = s.distance;
+        inputs[i].radiusPx = s.radiusPx;
+        if (!s.visible()) continue;
+        if (budget) { // the error budget's metric; the view angle serves only error_px
+            inputs[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
+            continue;
+        }
+        const glm::dvec3 w = views[std::size_t(nearestView(set, towardViewer(s)))];
+        inputs[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
+    }
+    const SelectorStats ss = selector_.update(inputs);
+    budgetViews_.beginFrame(sprites.size(), config.maxBakesPerFrame);
+    st.switchesToFar = ss.switchesToFar;
+    st.switchesToNear = ss.switchesToNear;
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        EntityPlan& p = plan[i];
+        p.tier = settings.mode == PlanMode::AllFar ? Tier::Far : selector_.tier(i);
+        if (hybrid) {
+            float share = 0.0f;
+            Tier from = p.tier;
+            if (selector_.fading(i, &share, &from)) p.fade = share, p.fadeFrom = from;
+        }
+        if (budget)
+            planBudgetView(i, sprites[i], config, settings, p);
+        else if (p.drawsFar() && sprites[i].visible())
+            p.view = viewIdOf(set, selector_.chooseView(i, towardViewer(sprites[i]), views));
+        st.fading += p.fade > 0.0f;
+    }
+    if (budget) st.bakesGivenUp = keepAffordableBakes(sprites, settings, plan);
+    st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
+    for (std::size_t i = 0; i < sprites.size(); ++i)
+        if (plan[i].drawsFar() && plan[i].view && sprites[i].visible())
+            st.worstVpx = std::max(st.worstVpx, predictedBudgetUnits(sprites[i], *plan[i].view));
+    return plan;
+}
+
+void FramePlanner::planBudgetView(std::size_t entity, const SpriteSetup& sprite,
+                                  const SelectorConfig& config, const PlanSettings& settings,
+                                  EntityPlan& p) {
+    if (!p.drawsFar() || !sprite.visible()) {
+        budgetViews_.drop(entity);
+        return;
+    }
+    // In memory: preferred. On disk (--cache-dir): not a bake either, but never preferred, since
+    // what a shared directory holds is up to other processes (ErrorBudgetViews::choose).
+    p.view = budgetViews_.choose(entity, sprite, config, settings.inMemory, settings.withoutBake);
+    // No view within the budget without passing this frame's bake bound: near this frame (the
+    // selector keeps its far state, so the entity goes far as soon as a view can be had).
+    if (!p.view) p = EntityPlan{};
+    // A view switch cross-fades like a tier switch (not on top of one).
+    float share = 0.0f;
+    ViewId from;
+    if (p.view && p.tier == Tier::Far && p.fade <= 0.0f &&
+        budgetViews_.viewFade(entity, sprite, config, settings.inMemory, &share, &from))
+        p.fade = share, p.fadeFrom = Tier::Far, p.fadeFromView = from;
+}
+
+int FramePlanner::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+                                      const PlanSettings& settings, std::vector<EntityPlan>& plan) {
+    if (!settings.costAwareBakes) return 0;
+    const std::size_t asked = budgetViews_.bakesAsked();
+    std::vector<std::optional<ViewId>> drawnFrom(plan.size());
+    for (std::size_t i = 0; i < plan.size(); ++i)
+        if (plan[i].drawsFar() && sprites[i].visible()) drawnFrom[i] = plan[i].view;
+    const BakeCosts& costs = settings.bakeCosts ? *settings.bakeCosts : costs_.costs();
+    // Given up: near this frame, as under the bake bound (the selector keeps its far state).
+    for (std::size_t i : budgetViews_.keepAffordableBakes(sprites, drawnFrom, costs))
+        plan[i] = EntityPlan{};
+    return int(asked - budgetViews_.bakesAsked());
+}
+
+void CostModel::observe(const std::vector<SpriteSetup>& sprites,
+                        const std::vector<EntityPlan>& plan, const FrameCostSample& sample,
+                        NearRate rate, const std::function<double()>& nearFixedMs) {
+    costs_.nearRate = rate;
+    double nearUnits = 0.0, farPx = 0.0;
+    for (std::size_t i = 0; i < sprites.size() && i < plan.size(); ++i) {
+        if (!sprites[i].visible()) continue;
+        if (plan[i].drawsNear()) nearUnits += nearCostUnits(sprites[i], rate);
+        if (plan[i].drawsFar()) farPx += double(rectPixels(sprites[i]));
+    }
+    // Running averages: each frame moves the estimate a third of the way to its own figure, so
+    // one slow frame (another process on the cores) does not swing the next frame's plan.
+    const auto blend = [](double& average, double sample) {
+        average = average > 0.0 ? average + (sample - average) / 3.0 : sample;
+    };
+    // What a bake costs must not depend on what the on-disk store holds, or the cost bound
+    // gives up bakes that a render without the directory keeps, and the image depends on which
+    // process baked what (issue 28). So the far lookups' time counts only in the bakes' share
+    // of the work: not the store's reads and writes, and not the Embree scene builds. A scene
+    // is built once per model frame and serves every later bake of it, so which frame pays for
+    // it depends on history: a process that read frame 0's snapshots from the directory built
+    // the scenes for its first 2 bakes alone (46 ms, against 11 ms for a lone render's 142
+    // bakes), learnt a 20x bake cost and gave up bakes the lone render kept.
+    const double bakeShare = sample.sceneAndStoreMs > 0.0
+                                 ? sample.bakeWorkMs / (sample.bakeWorkMs + sample.sceneAndStoreMs)
+                                 : 1.0;
+    if (sample.bakes > 0) blend(costs_.msPerBake, sample.bakeMs * bakeShare / sample.bakes);
+    // Only the error-budget planner reads the near cost, and only its frames pay for measuring
+    // the near tier's fixed cost: other frames (all-near, all-far, other metrics) are no sample.
+    if (sample.planned && nearUnits > 0.0 && sample.nearMs > 0.0) {
+        // What a sprite drawn far saves is its share of the near time above the tier's
+        // per-frame cost (targets, clear, submit, readback), which stays while any sprite is
+        // near, and above the voxel uploads, which a model pays once: charged to the sprites,
+        // they made one near sprite look as dear as 4 ms of them. Never below 1 % of the
+        // frame: a near sprite is not free, whatever the noise.
+        const double fixedMs = nearFixedMs();
+        const double spriteMs =
+            std::max(sample.nearMs - sample.nearUploadMs - fixedMs, 0.01 * sample.nearMs);
+        // A ratio of decayed sums, not an average of ratios: a frame with one small sprite near
+        // (most frames of a far-heavy hybrid) measures its sprite time as a small difference
+        // of two noisy times, and must weigh as little as the work it did. The renderer's first
+        // near frame is no sample: lavapipe compiles its pipelines in it.
+        if (nearFramesSeen_++ > 0) {
+            nearSums_ = {nearSums_.ms * (2.0 / 3.0) + spriteMs,
+                         nearSums_.units * (2.0 / 3.0) + nearUnits};
+            costs_.nearMsPerUnit = nearSums_.ms / nearSums_.units;
+        }
+    }
+    if (farPx > 0.0 && sample.blitMs > 0.0) blend(costs_.blitMsPerPx, sample.blitMs / farPx);
+    if (sample.planned) blend(costs_.planMs, sample.planMs);
+}
+
+} // namespace voxtier

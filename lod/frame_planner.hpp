@@ -1,0 +1,133 @@
+#pragma once
+// The frame's LOD plan (DESIGN.md §5, step 2 of the recipe in §6): each entity's tier, its
+// cross-fade and the snapshot view the far tier draws it from, with the cost model the error
+// budget's cost bound reads. lod/ plans, compose/ draws: FrameRenderer hands the planner the
+// frame's sprites and what the snapshot cache holds, draws the plan, and hands back what the
+// drawing measured (FramePlanner::observe).
+#include "core/scene.hpp"
+#include "core/sprite.hpp"
+#include "core/view_set.hpp"
+#include "lod/error_budget.hpp"
+#include "lod/selector.hpp"
+#include "volumetric/near_rate.hpp"
+
+#include <cstddef>
+#include <functional>
+#include <optional>
+#include <vector>
+
+namespace voxtier {
+
+/// What one entity does this frame: its tier, an optional cross-fade (both tiers draw it, with
+/// complementary dither masks) and the snapshot view the far tier uses.
+struct EntityPlan {
+    Tier tier = Tier::Near;
+    float fade = 0.0f; ///< share of pixels already showing `tier` (0 = no cross-fade)
+    Tier fadeFrom = Tier::Near;
+    std::optional<ViewId> view; ///< far view (when the far tier draws the entity)
+    /// A view switch's cross-fade (fade > 0, both tiers far): the old view, drawn by the far tier
+    /// on the pixels the new one leaves (the complementary dither half).
+    std::optional<ViewId> fadeFromView;
+    bool drawsNear() const { return tier == Tier::Near || (fade > 0.0f && fadeFrom == Tier::Near); }
+    bool drawsFar() const { return tier == Tier::Far || (fade > 0.0f && fadeFrom == Tier::Far); }
+    bool operator==(const EntityPlan&) const = default;
+};
+
+/// Who a frame's plan may put far: nobody (reference and near frames), everybody (far frames:
+/// the selector still runs, for its views), or the selector (hybrid frames, with cross-fades and,
+/// under metric error_budget, the budget's views and cost bound).
+enum class PlanMode { AllNear, AllFar, Hybrid };
+
+/// The planner's share of a frame's figures (FrameStats has a field for each).
+struct PlanStats {
+    int switchesToFar = 0, switchesToNear = 0, viewChanges = 0;
+    int fading = 0;        ///< entities drawn by both tiers (cross-fade)
+    int bakesGivenUp = 0;  ///< metric error_budget: bakes given up under the cost bound
+    double worstVpx = 0.0; ///< largest predictedBudgetUnits of a far-drawn entity
+};
+
+/// How one frame is planned.
+struct PlanSettings {
+    PlanMode mode = PlanMode::Hybrid;
+    /// Metric error_budget: give up bakes that cost more than the near time the frame's far
+    /// sprites save (ErrorBudgetViews::keepAffordableBakes), by the costs measured on earlier
+    /// frames, or by `bakeCosts` where set. false: only the bake bound limits the bakes.
+    bool costAwareBakes = true;
+    std::optional<BakeCosts> bakeCosts;
+    /// What the snapshot cache can give without a bake: in memory (preferred), and without a
+    /// bake at all (also a file in the on-disk store; may be empty). ErrorBudgetViews::choose.
+    ErrorBudgetViews::IsCached inMemory, withoutBake;
+};
+
+/// What drawing one frame measured, for the cost model (FrameStats' figures of the same names).
+struct FrameCostSample {
+    int bakes = 0;
+    double bakeMs = 0.0; ///< the far tier making sure its snapshots exist
+    /// Of bakeMs, the snapshot cache's own split: the bakes themselves, and the Embree scene
+    /// builds with the on-disk store's reads and writes.
+    double bakeWorkMs = 0.0, sceneAndStoreMs = 0.0;
+    double nearMs = 0.0, nearUploadMs = 0.0, blitMs = 0.0;
+    double planMs = 0.0; ///< the planner's own time (FrameStats::selectMs)
+    /// A hybrid frame under metric error_budget: the only frames whose near cost and planning
+    /// time the cost bound reads.
+    bool planned = false;
+};
+
+/// Running averages of what a bake, a near sprite and a far blit cost, over the frames drawn
+/// so far (DESIGN.md §5, cost bound).
+class CostModel {
+  public:
+    /// The costs measured so far (BakeCosts::known() once a bake and the near tier were).
+    const BakeCosts& costs() const { return costs_; }
+    /// Learns from a drawn frame: `sprites` drawn as `plan` says, near sprites at `rate`.
+    /// `nearFixedMs` measures the near tier's per-frame cost whatever it draws (compose draws an
+    /// empty frame); it is asked only when a planned frame drew near sprites.
+    void observe(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
+                 const FrameCostSample& sample, NearRate rate,
+                 const std::function<double()>& nearFixedMs);
+
+  private:
+    BakeCosts costs_;
+    /// costs_.nearMsPerUnit as decayed sums of near sprite ms and near cost units.
+    struct {
+        double ms = 0.0, units = 0.0;
+    } nearSums_;
+    /// Planned frames whose near tier drew a sprite (the first is no sample).
+    int nearFramesSeen_ = 0;
+};
+
+/// What persists of the LOD policy between frames of one scene: the selector's per-entity
+/// state, the error budget's views and the cost model.
+class FramePlanner {
+  public:
+    explicit FramePlanner(const SelectorConfig& config) : selector_(config) {}
+
+    /// Each entity's plan this frame, by `config` (the scene's selector settings).
+    std::vector<EntityPlan> plan(const std::vector<SpriteSetup>& sprites,
+                                 const SelectorConfig& config, const PlanSettings& settings,
+                                 PlanStats& stats);
+    /// After drawing the plan: what it cost (CostModel::observe).
+    void observe(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
+                 const FrameCostSample& sample, NearRate rate,
+                 const std::function<double()>& nearFixedMs) {
+        costs_.observe(sprites, plan, sample, rate, nearFixedMs);
+    }
+
+    TierSelector& selector() { return selector_; }
+    const CostModel& costModel() const { return costs_; }
+
+  private:
+    /// Metric error_budget: the view within the budget (plan.view), or the entity drawn near.
+    void planBudgetView(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
+                        const PlanSettings& settings, EntityPlan& plan);
+    /// Metric error_budget, after every entity's view: the bakes the frame can afford.
+    /// Returns the bakes given up.
+    int keepAffordableBakes(const std::vector<SpriteSetup>& sprites, const PlanSettings& settings,
+                            std::vector<EntityPlan>& plan);
+
+    TierSelector selector_;
+    ErrorBudgetViews budgetViews_; ///< far views under metric error_budget
+    CostModel costs_;
+};
+
+} // namespace voxtier
