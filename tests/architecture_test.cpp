@@ -1,7 +1,8 @@
 // DESIGN.md §1 as a test: a module includes only modules to its left, Embree appears only in
 // impostor_cache, Vulkan only in volumetric (and the apps that start it), OpenImageIO only in
 // image_files/oiio_files.cpp (no module of the renderer, core to compose, touches an image file
-// format). Reads the sources, so a forbidden include fails here before it becomes a habit.
+// format), and lod/ plans while compose/ draws. Reads the sources, so a forbidden include fails
+// here before it becomes a habit.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -10,6 +11,7 @@
 #include <regex>
 #include <set>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -86,6 +88,55 @@ TEST(Architecture, ThirdPartyLibrariesStayInTheirModules) {
         if (text.find("#include <OpenImageIO/") != std::string::npos) {
             EXPECT_EQ(file.filename().string(), "oiio_files.cpp") << file.string();
         }
+    }
+}
+
+/// A source file's text with its comments blanked out (a comment may name anything).
+std::string codeOf(const fs::path& file) {
+    std::ifstream in(file);
+    const std::string text((std::istreambuf_iterator<char>(in)), {});
+    static const std::regex comment(R"re(//[^\n]*|/\*[\s\S]*?\*/)re");
+    return std::regex_replace(text, comment, " ");
+}
+
+// DESIGN.md §1: lod/ plans, compose/ draws. The selection, the error budget, the planner and its
+// cost model are defined in lod/ alone; compose/ asks FramePlanner for a plan and hands back
+// what drawing it cost, and neither defines nor calls a step of the policy itself.
+TEST(Architecture, LodPlansComposeDraws) {
+    // The policy's steps (and, for compose, the names they had there before issue 29).
+    const std::vector<std::string> steps = {"planBudgetView",       "keepAffordableBakes",
+                                            "predictedBudgetUnits", "bestBudgetUnits",
+                                            "budgetUnitsPerVpx",    "farSavingMs"};
+    const std::vector<std::string> oldComposeSteps = {"planFrame", "measureCosts"};
+    const std::vector<std::string> types = {"BakeCosts", "ErrorBudgetViews", "FramePlanner",
+                                            "CostModel", "EntityPlan"};
+    const auto call = [](const std::string& name) { return std::regex("\\b" + name + "\\s*\\("); };
+    const auto definition = [](const std::string& name) {
+        return std::regex("\\b(struct|class)\\s+" + name + "\\b");
+    };
+    std::string lod;
+    for (const fs::path& file : sourcesOf("lod")) lod += codeOf(file);
+    // The names are real: a rename in lod/ must rename them here too, or the check below
+    // would pass on names nothing uses.
+    for (const std::string& name : steps)
+        EXPECT_TRUE(std::regex_search(lod, call(name))) << "lod/ defines no " << name;
+    for (const std::string& name : types)
+        EXPECT_TRUE(std::regex_search(lod, definition(name))) << "lod/ defines no " << name;
+
+    const std::vector<fs::path> compose = sourcesOf("compose");
+    ASSERT_FALSE(compose.empty());
+    for (const fs::path& file : compose) {
+        const std::string stem = file.stem().string();
+        EXPECT_NE(stem.rfind("error_budget", 0), 0u) << file.string() << ": the budget is lod/'s";
+        EXPECT_NE(stem.rfind("frame_planner", 0), 0u) << file.string() << ": the plan is lod/'s";
+        const std::string code = codeOf(file);
+        for (const auto* names : {&steps, &oldComposeSteps})
+            for (const std::string& name : *names)
+                EXPECT_FALSE(std::regex_search(code, call(name)))
+                    << file.string() << ": " << name << " is a step of the LOD policy (lod/)";
+        for (const std::string& name : types)
+            EXPECT_FALSE(std::regex_search(code, definition(name)))
+                << file.string() << " defines " << name << ", which belongs to lod/";
     }
 }
 
