@@ -160,8 +160,11 @@ const char* toString(PopEvent::Kind k) {
 }
 
 namespace {
-SnapshotCacheConfig cacheConfig(const FrameOptions& o) {
+SnapshotCacheConfig cacheConfig(const FrameOptions& o, const SelectorConfig& selector) {
     SnapshotCacheConfig c;
+    // The depth lookup reads each snapshot's depth along its view; nothing else does.
+    c.bake.withDepth = selector.lookup == FarLookup::Depth;
+    c.bake.outlineStride = selector.snapshotScale;
     c.budgetBytes = o.cacheBudgetBytes;
     if (!o.cacheDir.empty())
         c.store = std::make_shared<SnapshotStore>(
@@ -191,7 +194,7 @@ void addCellRateCounts(FrameStats& st, const CellRateCounts& c) {
 
 FrameRenderer::FrameRenderer(Scene& scene, FrameOptions options)
     : scene_(scene), options_(options), planner_(scene.selector),
-      cache_(std::make_unique<SnapshotCache>(cacheConfig(options))) {
+      cache_(std::make_unique<SnapshotCache>(cacheConfig(options, scene.selector))) {
     std::stable_sort(
         scene_.edits.begin(), scene_.edits.end(),
         [](const ScriptedEdit& a, const ScriptedEdit& b) { return a.atFrame < b.atFrame; });
@@ -364,11 +367,11 @@ std::vector<EntityPlan> FrameRenderer::planEntities(const std::vector<SpriteSetu
     settings.bakeCosts = options_.bakeCosts;
     settings.inMemory = [&](const SpriteSetup& s, ViewId v) {
         return cache_->inMemory(*scene_.models.at(std::size_t(s.model)), s.frame, v,
-                                s.lattice.sigma);
+                                s.lattice.sigma * cache_->snapshotScale());
     };
     settings.withoutBake = [&](const SpriteSetup& s, ViewId v) {
         return cache_->availableWithoutBake(*scene_.models.at(std::size_t(s.model)), s.frame, v,
-                                            s.lattice.sigma);
+                                            s.lattice.sigma * cache_->snapshotScale());
     };
     PlanStats ps;
     std::vector<EntityPlan> plan = planner_.plan(sprites, scene_.selector, settings, ps);
@@ -513,6 +516,7 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
     const std::uint64_t raysBefore = cache_->counters().raysTraced;
     FarBlitOptions blit = options_.farBlit;
     blit.occlusionCull = options_.occlusionCull;
+    blit.lookup = scene_.selector.lookup;
     drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize),
                    image, &fs, blit);
     st.farOccluded += int(fs.culled);

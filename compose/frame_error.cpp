@@ -90,7 +90,9 @@ std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame
             far.push_back({&sprites[id], plan[id].view});
         }
         renderReference(scene.models, near, truth);
-        drawFarSprites(scene.models, far, cache, set, test);
+        FarBlitOptions blit;
+        blit.lookup = scene.selector.lookup;
+        drawFarSprites(scene.models, far, cache, set, test, nullptr, blit);
         for (std::uint32_t id : ids) {
             const glm::ivec4 r = sprites[id].screenRect;
             const auto e = entityErrors(truth, test, {id}, r);

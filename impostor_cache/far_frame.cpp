@@ -49,10 +49,11 @@ class SnapshotNeeds {
   public:
     /// The slot of the snapshot the request's sprite shows (its view, or the nearest of `set`),
     /// added if new.
+    explicit SnapshotNeeds(int snapshotScale) : scale_(snapshotScale) {}
     std::size_t slotOf(const FarRequest& r, ViewSet set) {
         const SpriteSetup& sp = *r.sprite;
         const glm::ivec3 view = r.view.value_or(viewIdOf(set, chooseFarView(sp, set))).lattice;
-        const Need n{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma};
+        const Need n{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma * scale_};
         auto [it, inserted] = slot_.emplace(n, needs_.size());
         if (inserted) needs_.push_back(n);
         return it->second;
@@ -71,6 +72,7 @@ class SnapshotNeeds {
     const std::shared_ptr<const Snapshot>& snapshot(std::size_t i) const { return snaps_[i]; }
 
   private:
+    double scale_ = 1.0;
     std::unordered_map<Need, std::size_t, NeedHash> slot_;
     std::vector<Need> needs_;
     std::vector<std::shared_ptr<const Snapshot>> snaps_;
@@ -91,7 +93,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
     std::optional<OcclusionTiles> tiles;
     if (cull) tiles.emplace(target);
 
-    SnapshotNeeds needs;
+    SnapshotNeeds needs(cache.snapshotScale());
     std::uint64_t drawnSprites = 0;
     double ensureMs = 0.0;
     FarBlitStats blit;
@@ -137,7 +139,7 @@ FarBatch prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,
     static_assert(sizeof(SnapshotCell) == 2 && offsetof(SnapshotCell, code) == 1);
     const SnapshotCacheCounters before = cache.counters();
     const auto t0 = std::chrono::steady_clock::now();
-    SnapshotNeeds needs;
+    SnapshotNeeds needs(cache.snapshotScale());
     std::vector<std::uint32_t> slotOf;
     std::vector<const SpriteSetup*> drawn;
     for (const FarRequest& r : requests) {

@@ -37,7 +37,8 @@ struct FarRequest {
 };
 
 /// Draws `requests` (culled sprites are skipped) through `cache` into `target`. Models are
-/// indexed by SpriteSetup::model; each sprite's snapshot has the sprite's own sigma.
+/// indexed by SpriteSetup::model; each sprite's snapshot has the sprite's sigma times the
+/// cache's snapshotScale().
 void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
                     Image& target, FarFrameStats* stats = nullptr, const FarBlitOptions& blit = {});

@@ -20,10 +20,13 @@ glm::vec3 toKernel(glm::dvec3 v) {
 
 } // namespace
 
-SpriteLattice snapshotLattice(glm::dvec3 w, glm::ivec3 dims, double sigma) {
+SpriteLattice snapshotLattice(glm::dvec3 w, glm::ivec3 dims, double sigma, int outlineStride) {
     w = glm::normalize(w);
     const glm::dvec3 upHint = std::abs(w.z) > 0.99 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 0, 1);
-    return makeSpriteLattice(-w, upHint, glm::dvec3(1, 0, 0), dims, sigma);
+    SpriteLattice L = makeSpriteLattice(-w, upHint, glm::dvec3(1, 0, 0), dims, sigma);
+    const int grow = outlineStride - 1;
+    L.cellRange += glm::ivec4(-grow, grow, -grow, grow);
+    return L;
 }
 
 kernel::SpriteGpu snapshotRayFrame(const SpriteLattice& L) {
@@ -57,7 +60,7 @@ void applyCardinalOutline(Snapshot& s) {
 }
 
 void refreshCardinalOutline(Snapshot& s, glm::ivec4 cells) {
-    const int w = s.width(), h = s.height();
+    const int w = s.width(), h = s.height(), k = s.outlineStride;
     auto solid = [&](int x, int y) {
         return x >= 0 && y >= 0 && x < w && y < h &&
                snapshot_code::isSolid(
@@ -70,7 +73,7 @@ void refreshCardinalOutline(Snapshot& s, glm::ivec4 cells) {
             SnapshotCell& c = s.cells[std::size_t(y) * std::size_t(w) + std::size_t(x)];
             if (snapshot_code::isSolid(c.code)) continue;
             const bool outline =
-                solid(x - 1, y) || solid(x + 1, y) || solid(x, y - 1) || solid(x, y + 1);
+                solid(x - k, y) || solid(x + k, y) || solid(x, y - k) || solid(x, y + k);
             c = {0, outline ? snapshot_code::kOutline : snapshot_code::kEmpty};
         }
 }

@@ -127,7 +127,8 @@ SnapshotFileKey SnapshotCache::fileKey(const VoxelModel& model, int frame, ViewI
         digests_.get({model.uid(), frame}, model.version(), [&](const auto&) {
             return std::make_shared<const Digest128>(digestGrid(model.frame(frame)));
         });
-    return {*grid, model.frame(frame).dims(), view, sigma, config_.bake.withDepth};
+    return {*grid, model.frame(frame).dims(), view,
+            sigma, config_.bake.withDepth,    config_.bake.outlineStride};
 }
 
 std::shared_ptr<const Snapshot> SnapshotCache::find(const SnapshotKey& key) const {

@@ -121,6 +121,9 @@ class SnapshotCache {
 
     SnapshotCacheCounters counters() const;
     const SnapshotCacheConfig& config() const { return config_; }
+    /// Far sprites of sigma s draw from this cache's snapshots at sigma s x this (its bakes'
+    /// outline stride, SelectorConfig::snapshotScale): the far frame asks for that sigma.
+    int snapshotScale() const { return config_.bake.outlineStride; }
     /// Changes the budget and evicts down to it.
     void setBudget(std::size_t bytes);
 

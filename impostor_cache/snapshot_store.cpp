@@ -48,6 +48,20 @@ constexpr char kMagic[8] = {'V', 'X', 'S', 'N', 'A', 'P', '\r', '\n'};
 constexpr std::size_t kHeaderBytes = 8 + 4 + 4 + 16 + 12 + 12 + 8 + 4 + 16 + 8 + 8;
 constexpr std::size_t kChecksumBytes = 16;
 constexpr std::uint32_t kFlagDepth = 1;
+/// Bits 8-15 of the flags: the outline stride less one (0 in files of stride 1, so files written
+/// before the stride existed read as stride 1).
+constexpr int kStrideShift = 8;
+constexpr std::uint32_t kStrideMask = 0xFFu << kStrideShift;
+std::uint32_t flagsOf(const SnapshotFileKey& k) {
+    return (k.withDepth ? kFlagDepth : 0u) | (std::uint32_t(k.outlineStride - 1) << kStrideShift);
+}
+/// The key's flag fields from a file's flags word, checked.
+void readFlags(std::uint32_t flags, SnapshotFileKey& k) {
+    if (flags & ~(kFlagDepth | kStrideMask)) throw SnapshotFileError("unknown flags");
+    k.withDepth = flags & kFlagDepth;
+    k.outlineStride = int((flags & kStrideMask) >> kStrideShift) + 1;
+    if (k.outlineStride > kMaxOutlineStride) throw SnapshotFileError("outline stride out of range");
+}
 /// View lattice components a file may name: far beyond any view set (n = 3 uses 3), small enough
 /// that the normalisation is exact.
 constexpr int kMaxViewComponent = 1 << 12;
@@ -123,7 +137,7 @@ SpriteLattice latticeOf(const SnapshotFileKey& k) {
         throw SnapshotFileError("view is not a primitive lattice vector");
     if (!(k.sigma > 0.0 && k.sigma <= Limits::kMaxSigma)) // also rejects nan
         throw SnapshotFileError("sigma out of range");
-    return snapshotLattice(viewDirection(k.view), k.dims, k.sigma);
+    return snapshotLattice(viewDirection(k.view), k.dims, k.sigma, k.outlineStride);
 }
 
 std::size_t cellCount(const SpriteLattice& L) {
@@ -181,7 +195,7 @@ void writeKey(Writer& w, const SnapshotFileKey& k) {
     for (int c = 0; c < 3; ++c) w.i32(k.dims[c]);
     for (int c = 0; c < 3; ++c) w.i32(k.view.lattice[c]);
     w.f64(k.sigma);
-    w.u32(k.withDepth ? kFlagDepth : 0);
+    w.u32(flagsOf(k));
 }
 
 } // namespace
@@ -250,9 +264,7 @@ SnapshotFileHeader decodeHeader(const std::uint8_t* header) {
     for (int c = 0; c < 3; ++c) k.dims[c] = r.i32();
     for (int c = 0; c < 3; ++c) k.view.lattice[c] = r.i32();
     k.sigma = r.f64();
-    const std::uint32_t flags = r.u32();
-    if (flags & ~kFlagDepth) throw SnapshotFileError("unknown flags");
-    k.withDepth = flags & kFlagDepth;
+    readFlags(r.u32(), k);
     glm::ivec4 range;
     for (int c = 0; c < 4; ++c) range[c] = r.i32();
     const std::uint64_t cells = r.u64(), depths = r.u64();
@@ -318,6 +330,7 @@ DecodedSnapshotFile decodeSnapshotFile(std::span<const std::uint8_t> bytes) {
     s.view = h.key.view;
     s.w = viewDirection(h.key.view);
     s.lattice = h.lattice;
+    s.outlineStride = h.key.outlineStride;
     s.cells.resize(h.cells);
     const std::uint8_t* p = bytes.data() + kHeaderBytes;
     for (SnapshotCell& c : s.cells) {
@@ -356,11 +369,12 @@ void writeFrameKey(Writer& w, const SnapshotFileKey& k) {
     w.u64(k.grid.hi);
     for (int c = 0; c < 3; ++c) w.i32(k.dims[c]);
     w.f64(k.sigma);
-    w.u32(k.withDepth ? kFlagDepth : 0);
+    w.u32(flagsOf(k));
 }
 
 bool sameFrame(const SnapshotFileKey& a, const SnapshotFileKey& b) {
-    return a.grid == b.grid && a.dims == b.dims && a.sigma == b.sigma && a.withDepth == b.withDepth;
+    return a.grid == b.grid && a.dims == b.dims && a.sigma == b.sigma &&
+           a.withDepth == b.withDepth && a.outlineStride == b.outlineStride;
 }
 
 std::array<int, 3> viewOrder(ViewId v) {
@@ -395,9 +409,7 @@ std::size_t decodePackHeader(const std::uint8_t* header, std::uint64_t actualByt
     frame.grid.hi = r.u64();
     for (int c = 0; c < 3; ++c) frame.dims[c] = r.i32();
     frame.sigma = r.f64();
-    const std::uint32_t flags = r.u32();
-    if (flags & ~kFlagDepth) throw SnapshotFileError("unknown flags");
-    frame.withDepth = flags & kFlagDepth;
+    readFlags(r.u32(), frame);
     const std::uint32_t count = r.u32();
     const std::uint64_t total = r.u64();
     for (int c = 0; c < 3; ++c)

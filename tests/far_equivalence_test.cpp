@@ -59,14 +59,15 @@ int canonicalIndex(glm::ivec3 w) {
 /// records failures; the cache is shared across views and rolls (one bake per view).
 void expectFarEqualsNear(const std::shared_ptr<VoxelModel>& model, double sigma,
                          const std::vector<int>& rolls, SnapshotCache& cache,
-                         Views views = Views::All) {
+                         Views views = Views::All, const FarBlitOptions& blit = {}) {
     for (glm::ivec3 w : test::canonicalDirections())
         for (int roll : rolls) {
             if (views == Views::Corners && (w.x == 0 || w.y == 0 || w.z == 0)) continue;
             const auto v = test::viewAlong(model, glm::dvec3(w), sigma, 1, roll);
             std::vector<SpriteSetup> sprites;
             const Image nearImg = test::renderNear(v.scene);
-            const Image farImg = test::renderFar(v.scene, cache, ViewSet::Cube26, &sprites);
+            const Image farImg =
+                test::renderFar(v.scene, cache, ViewSet::Cube26, &sprites, std::nullopt, blit);
             ASSERT_TRUE(sprites[0].visible());
             ASSERT_GT(test::drawnPixels(nearImg), 0u); // a blank comparison would prove nothing
             // The far tier must have picked exactly this direction.
@@ -74,7 +75,8 @@ void expectFarEqualsNear(const std::shared_ptr<VoxelModel>& model, double sigma,
             const std::string diff = test::firstDifference(nearImg, farImg);
             EXPECT_TRUE(diff.empty())
                 << model->name() << " sigma " << sigma << " view (" << w.x << "," << w.y << ","
-                << w.z << ") roll " << roll * 90 << ": " << diff;
+                << w.z << ") roll " << roll * 90 << ", lookup " << toString(blit.lookup) << " x"
+                << cache.snapshotScale() << ": " << diff;
             if (!diff.empty()) return; // one report per model and sigma is enough to debug
         }
 }
@@ -117,6 +119,43 @@ INSTANTIATE_TEST_SUITE_P(
             if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
         return n;
     });
+
+// Issue 29's lookups keep the canonical views exact: snapshots 3x finer than the sprite (an odd
+// scale puts every near cell centre on a snapshot cell centre, and the outline comes from the
+// neighbour near cells' reads), and the depth walk (a ray along a snapshot's own direction stays
+// in one snapshot column and stops where its depth says). Every model of every bundled file; the
+// two 256^3 tree models at their 8 corner views (a near image of one takes ~0.5 s here).
+TEST(FarEqualsNear, FinerSnapshotsAndTheDepthLookupOnEveryBundledModel) {
+    FarBlitOptions flat, depth;
+    depth.lookup = FarLookup::Depth;
+    auto cacheOf = [](int scale, bool withDepth) {
+        SnapshotCacheConfig c;
+        c.bake.outlineStride = scale;
+        c.bake.withDepth = withDepth;
+        return std::make_unique<SnapshotCache>(c);
+    };
+    const auto finer = cacheOf(3, false), depth1 = cacheOf(1, true), depth3 = cacheOf(3, true);
+    for (const char* file :
+         {"mmmm/obj_splatter1.vox", "mmmm/chr_cop1.vox", "mmmm/obj_house7.vox", "mmmm/veh_fire.vox",
+          "mmmm/scene_house2.vox", "dot_vox/axes.vox", "dot_vox/single-voxel-with-material.vox",
+          "opengametools/test_multiple_model_scene.vox", "opengametools/test_meta_chunk.vox",
+          "bevy_vox_scene/test.vox", "blender_magicavoxel/hierarchy.vox",
+          "vox-reader.js/tree.vox"}) {
+        const bool big = std::string(file) == "vox-reader.js/tree.vox";
+        const Views views = big ? Views::Corners : Views::All;
+        const std::vector<int> rolls = big ? std::vector<int>{1} : std::vector<int>{0, 1};
+        for (const auto& model : modelsOf(file)) {
+            expectFarEqualsNear(model, 1.0, rolls, *finer, views, flat);
+            expectFarEqualsNear(model, 1.0, rolls, *depth1, views, depth);
+            expectFarEqualsNear(model, 1.0, rolls, *depth3, views, depth);
+        }
+    }
+    for (const auto& m : {makeArrow(16), makeShell({9, 7, 12}, 1), makeSphere(5)})
+        for (double sigma : {1.0, 2.0}) {
+            expectFarEqualsNear(m, sigma, kAllRolls, *finer, Views::All, flat);
+            expectFarEqualsNear(m, sigma, kAllRolls, *depth3, Views::All, depth);
+        }
+}
 
 // Procedural models with known asymmetry and thin parts, non-cubic sizes, and sigma 3.
 TEST(FarEqualsNear, ProceduralModelsAtSigmaOneTwoThree) {

@@ -215,6 +215,8 @@ void applyOverrides(Scene& s, const Plan& plan, bool capEntities) {
         c.viewSetSize = s.selector.viewSetSize;
         c.viewHysteresisDeg = s.selector.viewHysteresisDeg;
         c.crossfadeFrames = s.selector.crossfadeFrames;
+        c.lookup = s.selector.lookup;
+        c.snapshotScale = s.selector.snapshotScale;
         s.selector = c;
     }
     if (capEntities && plan.entityCap && int(s.entities.size()) > *plan.entityCap)
