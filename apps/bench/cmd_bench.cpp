@@ -127,6 +127,10 @@ void addBenchCommand(CLI::App& app) {
                     "(default: the CPU blit, beside the hybrid_gpu_far row's Vulkan far pass), "
                     "vulkan, or auto (Vulkan on a GPU, the CPU blit on a CPU device); same image");
     addCullFlag(*bench, o->occlusionCull);
+    bench->add_flag("!--no-cost-bound", o->costBound,
+                    "The error budget's planner keeps every entity its budget sends far, whatever "
+                    "its bakes and blit cost (default: it draws near what would not pay): every "
+                    "lookup's error on the same plan");
     bench
         ->add_option("--budget", o->budgetVpx,
                      "Measure every scene with the error_budget selector at this many virtual "

@@ -296,6 +296,7 @@ FrameOptions frameOptions(const Config& c, const Plan& plan,
     o.nearRate = info(c.mode).perPixel ? NearRate::Fragment : plan.nearRate;
     o.farBlit.kernel = plan.farBlit;
     o.occlusionCull = plan.occlusionCull;
+    o.costAwareBakes = plan.costBound;
     return o;
 }
 
@@ -804,6 +805,7 @@ Plan makePlan(const SuiteOptions& o) {
     p.farBlit = o.farBlit;
     p.farBackend = o.farBackend;
     p.occlusionCull = o.occlusionCull;
+    p.costBound = o.costBound;
     if (o.smoke) {
         p.preset = "smoke";
         p.repeats = 1;

@@ -81,6 +81,9 @@ struct SuiteOptions {
     /// hybrid stands beside hybrid_gpu_far on every machine.
     FarBackend farBackend = FarBackend::Cpu;
     bool occlusionCull = false; ///< of every mode (--cull: true)
+    /// The error budget's cost bound on bakes (--no-cost-bound: off, so that every lookup's
+    /// error is measured on the same plan, whatever its blit costs).
+    bool costBound = true;
     /// Every scene's selector becomes the error budget at this many virtual pixels (its view set,
     /// view hysteresis and cross-fade kept); unset: each scene's own selector.
     std::optional<double> budgetVpx;
@@ -111,6 +114,7 @@ struct Plan {
     FarBlitKernel farBlit = FarBlitKernel::Simd; ///< SuiteOptions::farBlit
     FarBackend farBackend = FarBackend::Cpu;     ///< SuiteOptions::farBackend
     bool occlusionCull = false;                  ///< SuiteOptions::occlusionCull
+    bool costBound = true;                       ///< SuiteOptions::costBound
 };
 
 /// One sampled path frame of a measured configuration.
