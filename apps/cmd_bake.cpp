@@ -36,6 +36,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -179,7 +180,11 @@ struct BakeSource {
     std::string file;
     std::vector<NamedModel> models;
     std::vector<ViewId> views; ///< every view of every model frame
-    double sigma = 1.0;
+    double sigma = 1.0;        ///< of the snapshots: the sprites' sigma x outlineStride
+    /// A scene's far lookup: snapshots at snapshot_scale x its sigma with that outline stride,
+    /// and depth for the depth lookup, as its renders ask the cache for them.
+    int outlineStride = 1;
+    bool withDepth = false;
 };
 
 /// A .vox gives the --model model (every model of the file with --frames all: a multi-model
@@ -205,10 +210,13 @@ BakeSource loadSource(const std::string& file, const BakeArgs& a) {
         src.views = scene.selector.metric == SelectorMetric::ErrorBudget
                         ? cubeSurfaceViews(scene.selector.ladderCap)
                         : viewsToBake(viewSetFromSize(scene.selector.viewSetSize), std::nullopt);
+        src.outlineStride = scene.selector.snapshotScale;
+        src.withDepth = scene.selector.lookup == FarLookup::Depth;
         src.sigma = scene.render.sigma;
     }
     if (a.level || a.viewsGiven) src.views = viewsToBake(a.views, a.level);
     if (a.sigmaGiven) src.sigma = a.sigma;
+    src.sigma *= src.outlineStride;
     return src;
 }
 
@@ -305,12 +313,24 @@ void runPrebake(const BakeArgs& a) {
     config.budgetBytes = 0; // every snapshot goes to disk; nothing needs to stay in memory
     config.store = std::make_shared<SnapshotStore>(
         SnapshotStoreOptions{.dir = a.cacheDir.dir, .limitBytes = a.cacheDir.limitBytes()});
-    SnapshotCache cache(config);
+    // One cache per kind of snapshot the sources ask for (outline stride, depth), one store.
+    std::map<std::pair<int, bool>, std::unique_ptr<SnapshotCache>> caches;
+    const auto cacheFor = [&](const BakeSource& src) -> SnapshotCache& {
+        auto& c = caches[{src.outlineStride, src.withDepth}];
+        if (!c) {
+            SnapshotCacheConfig kind = config;
+            kind.bake.outlineStride = src.outlineStride;
+            kind.bake.withDepth = src.withDepth;
+            c = std::make_unique<SnapshotCache>(kind);
+        }
+        return *c;
+    };
     const auto t0 = std::chrono::steady_clock::now();
     std::uint64_t views = 0;
     std::optional<Progress> progress(std::in_place, "model frames", items.size());
     for (std::size_t i = 0; i < items.size(); ++i) {
         const BakeItem& it = items[i];
+        SnapshotCache& cache = cacheFor(*it.source);
         const SnapshotCacheCounters before = cache.counters();
         const auto t1 = std::chrono::steady_clock::now();
         const std::vector<ViewId>& viewList = it.source->views;
@@ -333,7 +353,13 @@ void runPrebake(const BakeArgs& a) {
     }
     progress.reset();
     const double ms = msSince(t0);
-    const SnapshotCacheCounters c = cache.counters();
+    SnapshotCacheCounters c;
+    for (const auto& [kind, cache] : caches) {
+        const SnapshotCacheCounters k = cache->counters();
+        c.bakes += k.bakes;
+        c.diskLoads += k.diskLoads;
+        c.raysTraced += k.raysTraced;
+    }
     const SnapshotStoreCounters sc = config.store->counters();
     // Throughput over the wall time: scene builds, file reads and writes included.
     std::printf("baked %llu of %llu snapshots (%llu already in the directory) for %zu model "

@@ -233,6 +233,11 @@ NearRenderer& FrameRenderer::nearRenderer() {
 }
 
 FarBackend FrameRenderer::farBackend() {
+    // The Vulkan far pass reads snapshots flat; the depth lookup's walk is the CPU blit's.
+    if (scene_.selector.lookup == FarLookup::Depth) {
+        farAutoReason_ = "far tier: CPU blit (the selector's depth lookup runs there only)";
+        return FarBackend::Cpu;
+    }
     if (options_.farBackend != FarBackend::Auto) return options_.farBackend;
     if (!farAutoChoice_) {
         const VulkanProbe& probe = vulkanProbe();
@@ -253,7 +258,8 @@ FarBackend FrameRenderer::farBackend() {
 
 const std::string& FrameRenderer::farBackendChoice() {
     static const std::string none;
-    if (options_.farBackend != FarBackend::Auto) return none;
+    if (options_.farBackend != FarBackend::Auto && scene_.selector.lookup != FarLookup::Depth)
+        return none;
     farBackend();
     return farAutoReason_;
 }

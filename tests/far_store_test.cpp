@@ -11,6 +11,7 @@
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <sys/file.h>
 #include <sys/wait.h>
 
@@ -542,6 +543,29 @@ TEST(BakeCli, PreBakedSceneRendersWithZeroBakesAndTheSameImage) {
     const test::CliRun again =
         test::runCli("bake " + kDefaultScene + " --frames all --cache-dir " + quoted(dir));
     EXPECT_NE(again.out.find("baked 0 of"), std::string::npos) << again.out;
+}
+
+// A scene whose far tier reads finer snapshots with depth (issue 29) is pre-baked as its renders
+// ask for them: at snapshot_scale x its sigma, with that outline stride and with depth.
+TEST(BakeCli, PreBakesTheSnapshotsAFinerDepthLookupAsksFor) {
+    const fs::path dir = freshDir();
+    fs::create_directories(dir);
+    nlohmann::json scene = nlohmann::json::parse(
+        std::ifstream(std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/crowd.json"));
+    scene["selector"]["snapshot_scale"] = 3;
+    scene["selector"]["lookup"] = "depth";
+    const fs::path file = dir / "crowd_x3.json";
+    std::ofstream(file) << scene.dump();
+    const fs::path cache = dir / "cache";
+    const test::CliRun bake =
+        test::runCli("bake " + quoted(file) + " --cache-dir " + quoted(cache));
+    ASSERT_EQ(bake.status, 0) << bake.err;
+    EXPECT_NE(bake.out.find("at sigma 3"), std::string::npos) << bake.out;
+    const test::CliRun warm =
+        test::runCli("render " + quoted(file) + " --mode far --near-backend reference -o " +
+                     quoted(dir / "warm.png") + " --cache-dir " + quoted(cache));
+    ASSERT_EQ(warm.status, 0) << warm.err;
+    EXPECT_NE(warm.out.find(", 0 bakes,"), std::string::npos) << warm.out;
 }
 
 TEST(BakeCli, ShardsTogetherAreTheUnshardedBakeFileForFile) {

@@ -33,6 +33,8 @@ void FarResidency::grow(std::uint64_t minWords) {
     while (words < minWords) words *= 2;
     if (capacityWords_) words = std::max(words, 2 * capacityWords_);
     const VkDeviceSize limit = device_.properties().limits.maxStorageBufferRange;
+    // Doubling may pass the device's range where what is needed does not: take the range then.
+    if (words * 4 > limit && minWords * 4 <= limit) words = limit / 4;
     if (words * 4 > limit)
         throw VulkanError("far pass: the resident snapshots need " + std::to_string(words * 4) +
                           " bytes, past the device's storage buffer range of " +
@@ -86,6 +88,23 @@ void FarResidency::release(std::uint32_t offset, std::uint32_t words) {
 void FarResidency::sweep(const std::unordered_set<const void*>& keep, FarResidencyStats& st) {
     for (auto it = entries_.begin(); it != entries_.end();) {
         if (it->second.cells.owner.use_count() > 1 || keep.count(it->first)) {
+            ++it;
+            continue;
+        }
+        release(it->second.offset, it->second.words);
+        usedWords_ -= it->second.words;
+        ++st.snapshotsFreed;
+        if (const auto l = byLineage_.find(it->second.cells.lineage);
+            l != byLineage_.end() && l->second == it->first)
+            byLineage_.erase(l);
+        it = entries_.erase(it);
+    }
+}
+
+void FarResidency::evictUnneeded(const std::unordered_set<const void*>& needed,
+                                 FarResidencyStats& st) {
+    for (auto it = entries_.begin(); it != entries_.end();) {
+        if (needed.count(it->first)) {
             ++it;
             continue;
         }
@@ -163,9 +182,24 @@ std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarReside
         const std::uint32_t words = std::max<std::uint32_t>(wordsOf(s), 1);
         std::uint32_t offset = 0;
         if (!allocate(words, offset)) {
-            grow(capacityWords_ + words);
-            if (!allocate(words, offset))
-                throw VulkanError("far pass: no room for a snapshot after growing");
+            // Snapshots the cache still holds but this frame does not draw leave the device first
+            // (a later frame uploads them again); the buffer grows only for what a frame needs,
+            // up to the device's storage buffer range (finer snapshots, issue 29, reach it on
+            // lavapipe's 128 MiB).
+            std::unordered_set<const void*> needed;
+            for (const FarSnapshotCells& n : batch.snapshots) needed.insert(n.owner.get());
+            evictUnneeded(needed, st);
+            if (!allocate(words, offset)) {
+                const VkDeviceSize limit = device_.properties().limits.maxStorageBufferRange;
+                if ((capacityWords_ + words) * 4 > limit && capacityWords_ * 4 < limit)
+                    grow(std::min<std::uint64_t>(capacityWords_ + words, limit / 4));
+                else
+                    grow(capacityWords_ + words);
+                if (!allocate(words, offset))
+                    throw VulkanError("far pass: the frame's snapshots do not fit the device's "
+                                      "storage buffer range of " +
+                                      std::to_string(limit) + " bytes");
+            }
         }
         entries_.emplace(key, Entry{s, offset, words});
         if (s.lineage) byLineage_[s.lineage] = key;

@@ -59,6 +59,8 @@ class FarResidency {
     void grow(std::uint64_t minWords);
     /// Frees every entry only this object holds, except those in `keep`.
     void sweep(const std::unordered_set<const void*>& keep, FarResidencyStats& stats);
+    /// Frees every resident snapshot not in `needed`, held elsewhere or not.
+    void evictUnneeded(const std::unordered_set<const void*>& needed, FarResidencyStats& stats);
     /// Stages `bytes` bytes of `from` for a copy to byte `deviceByte` of the buffer.
     void stage(const std::uint8_t* from, std::size_t bytes, VkDeviceSize deviceByte);
 
