@@ -181,10 +181,9 @@ struct BakeSource {
     std::vector<NamedModel> models;
     std::vector<ViewId> views; ///< every view of every model frame
     double sigma = 1.0;        ///< of the snapshots: the sprites' sigma x outlineStride
-    /// A scene's far lookup: snapshots at snapshot_scale x its sigma with that outline stride,
-    /// and depth for the depth lookup, as its renders ask the cache for them.
+    /// A scene's snapshot_scale: its renders ask for snapshots at that multiple of its sigma,
+    /// with that outline stride.
     int outlineStride = 1;
-    bool withDepth = false;
 };
 
 /// A .vox gives the --model model (every model of the file with --frames all: a multi-model
@@ -211,7 +210,6 @@ BakeSource loadSource(const std::string& file, const BakeArgs& a) {
                         ? cubeSurfaceViews(scene.selector.ladderCap)
                         : viewsToBake(viewSetFromSize(scene.selector.viewSetSize), std::nullopt);
         src.outlineStride = scene.selector.snapshotScale;
-        src.withDepth = scene.selector.lookup == FarLookup::Depth;
         src.sigma = scene.render.sigma;
     }
     if (a.level || a.viewsGiven) src.views = viewsToBake(a.views, a.level);
@@ -313,14 +311,13 @@ void runPrebake(const BakeArgs& a) {
     config.budgetBytes = 0; // every snapshot goes to disk; nothing needs to stay in memory
     config.store = std::make_shared<SnapshotStore>(
         SnapshotStoreOptions{.dir = a.cacheDir.dir, .limitBytes = a.cacheDir.limitBytes()});
-    // One cache per kind of snapshot the sources ask for (outline stride, depth), one store.
-    std::map<std::pair<int, bool>, std::unique_ptr<SnapshotCache>> caches;
+    // One cache per outline stride the sources ask for, one store.
+    std::map<int, std::unique_ptr<SnapshotCache>> caches;
     const auto cacheFor = [&](const BakeSource& src) -> SnapshotCache& {
-        auto& c = caches[{src.outlineStride, src.withDepth}];
+        auto& c = caches[src.outlineStride];
         if (!c) {
             SnapshotCacheConfig kind = config;
             kind.bake.outlineStride = src.outlineStride;
-            kind.bake.withDepth = src.withDepth;
             c = std::make_unique<SnapshotCache>(kind);
         }
         return *c;

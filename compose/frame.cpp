@@ -162,8 +162,6 @@ const char* toString(PopEvent::Kind k) {
 namespace {
 SnapshotCacheConfig cacheConfig(const FrameOptions& o, const SelectorConfig& selector) {
     SnapshotCacheConfig c;
-    // The depth lookup reads each snapshot's depth along its view; nothing else does.
-    c.bake.withDepth = selector.lookup == FarLookup::Depth;
     c.bake.outlineStride = selector.snapshotScale;
     c.budgetBytes = o.cacheBudgetBytes;
     if (!o.cacheDir.empty())
@@ -233,11 +231,6 @@ NearRenderer& FrameRenderer::nearRenderer() {
 }
 
 FarBackend FrameRenderer::farBackend() {
-    // The Vulkan far pass reads snapshots flat; the depth lookup's walk is the CPU blit's.
-    if (scene_.selector.lookup == FarLookup::Depth) {
-        farAutoReason_ = "far tier: CPU blit (the selector's depth lookup runs there only)";
-        return FarBackend::Cpu;
-    }
     if (options_.farBackend != FarBackend::Auto) return options_.farBackend;
     if (!farAutoChoice_) {
         const VulkanProbe& probe = vulkanProbe();
@@ -258,8 +251,7 @@ FarBackend FrameRenderer::farBackend() {
 
 const std::string& FrameRenderer::farBackendChoice() {
     static const std::string none;
-    if (options_.farBackend != FarBackend::Auto && scene_.selector.lookup != FarLookup::Depth)
-        return none;
+    if (options_.farBackend != FarBackend::Auto) return none;
     farBackend();
     return farAutoReason_;
 }
@@ -522,7 +514,6 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
     const std::uint64_t raysBefore = cache_->counters().raysTraced;
     FarBlitOptions blit = options_.farBlit;
     blit.occlusionCull = options_.occlusionCull;
-    blit.lookup = scene_.selector.lookup;
     drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize),
                    image, &fs, blit);
     st.farOccluded += int(fs.culled);

@@ -90,9 +90,7 @@ std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame
             far.push_back({&sprites[id], plan[id].view});
         }
         renderReference(scene.models, near, truth);
-        FarBlitOptions blit;
-        blit.lookup = scene.selector.lookup;
-        drawFarSprites(scene.models, far, cache, set, test, nullptr, blit);
+        drawFarSprites(scene.models, far, cache, set, test);
         for (std::uint32_t id : ids) {
             const glm::ivec4 r = sprites[id].screenRect;
             const auto e = entityErrors(truth, test, {id}, r);

@@ -18,10 +18,6 @@ const char* toString(SelectorMetric m) {
     return "?";
 }
 
-const char* toString(FarLookup l) {
-    return l == FarLookup::Depth ? "depth" : "flat";
-}
-
 Camera Scene::cameraAt(double t) const {
     Camera c = camera;
     if (!path || path->keys.empty()) return c;

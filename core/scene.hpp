@@ -47,17 +47,6 @@ enum class SelectorMetric {
 /// The scene file's name of a metric: "distance", "radius_px", "error_px" or "error_budget".
 const char* toString(SelectorMetric m);
 
-/// How the far tier reads a snapshot for a near cell (DESIGN.md §4, issue 29).
-enum class FarLookup {
-    /// At the oblique projection along the snapshot's view of the near cell's centre on the
-    /// sprite plane: right for model points on that plane, z tan(theta) off for the others.
-    Flat,
-    /// Where the near cell's ray meets the snapshot's depth surface: the snapshot cells the ray
-    /// crosses are walked in order and the first whose stored depth the ray has reached is read.
-    Depth,
-};
-/// The scene file's name of a lookup: "flat" or "depth".
-const char* toString(FarLookup l);
 /// Hysteresis (lod/selector.hpp). Distance: near->far when the metric rises past farAt,
 /// far->near when it falls below nearAt < farAt. The pixel metrics shrink with distance, so
 /// their band is mirrored: near->far when the metric falls below farAt, far->near when it rises
@@ -90,7 +79,6 @@ struct SelectorConfig {
     /// grow by k^2. With an odd k a canonical view's near cell centres are snapshot cell centres,
     /// so far == near stays exact there.
     int snapshotScale = 1;
-    FarLookup lookup = FarLookup::Flat;
 };
 /// Defaults per metric: 30/40 m; 24/16 px radius; 1.0/0.5 px predicted error; for the budget,
 /// far below 0.75 of it and near again above all of it (a far entity never exceeds it).

@@ -317,9 +317,6 @@ struct SceneBuilder {
         }
         o.i("max_bakes_per_frame", sel.maxBakesPerFrame, 0, 1'000'000);
         o.i("snapshot_scale", sel.snapshotScale, 1, 4);
-        if (auto l = o.get("lookup"))
-            sel.lookup = FarLookup(choice(c, *l, o.at("lookup"),
-                                          {toString(FarLookup::Flat), toString(FarLookup::Depth)}));
     }
 
     std::string modelName(const Obj& o) {

@@ -18,7 +18,7 @@ const std::vector<SceneObjectKeys>& sceneObjectKeys() {
         {"ground", {"height", "spacing", "line_width", "fade_distance", "color", "line_color"}},
         {"selector",
          {"metric", "near_at", "far_at", "view_hysteresis_deg", "crossfade_frames", "view_set",
-          "budget_vpx", "ladder_cap", "max_bakes_per_frame", "snapshot_scale", "lookup"}},
+          "budget_vpx", "ladder_cap", "max_bakes_per_frame", "snapshot_scale"}},
         {"vox_model", {"name", "vox", "model", "frames"}},
         {"box_model", {"name", "generator", "size", "index", "color"}},
         {"sphere_model", {"name", "generator", "radius", "index", "color"}},

@@ -31,23 +31,6 @@ SnapshotCellMap snapshotCellMap(const SpriteLattice& L, const SpriteLattice& S) 
     return m;
 }
 
-SnapshotRayMap snapshotRayMap(const SpriteLattice& L, const SpriteLattice& S) {
-    SnapshotRayMap r;
-    const double rd = glm::dot(L.right, S.dir), ud = glm::dot(L.up, S.dir);
-    const double a = L.gU + 0.5 / L.sigma, b = L.gV + 0.5 / L.sigma;
-    r.h0 = a * rd + b * ud;
-    r.hi = rd / L.sigma;
-    r.hj = ud / L.sigma;
-    r.du = S.sigma * glm::dot(L.dir, S.right);
-    r.dv = S.sigma * glm::dot(L.dir, S.up);
-    r.dh = glm::dot(L.dir, S.dir);
-    const glm::dvec3 c = glm::dvec3(L.dims) * 0.5;
-    const double e = c.x * std::abs(L.dir.x) + c.y * std::abs(L.dir.y) + c.z * std::abs(L.dir.z);
-    r.tMin = -e - 1.0;
-    r.tMax = e + 1.0;
-    return r;
-}
-
 int chooseFarView(const SpriteSetup& sprite, ViewSet set) {
     return nearestView(set, -sprite.lattice.dir);
 }
@@ -89,64 +72,9 @@ std::pair<int, int> candidateColumns(const kernel::SpriteGpu& g, double py, int 
     return {int(x0), std::max(int(x0), int(x1))};
 }
 
-SnapshotCell primarySnapshotCell(const BlitSprite& s, glm::ivec2 cell) {
-    const Snapshot& snap = *s.snapshot;
-    // Walk the snapshot cells the ray crosses, in order of t, and take the first whose stored
-    // depth the ray has reached by the time it leaves the cell: a 2D DDA over a height field.
-    const SnapshotCellMap& m = s.map;
-    const SnapshotRayMap& r = s.ray;
-    const double u = m.u0 + m.ui * cell.x + m.uj * cell.y;
-    const double v = m.v0 + m.vi * cell.x + m.vj * cell.y;
-    const double h = r.h0 + r.hi * cell.x + r.hj * cell.y;
-    constexpr double kNever = std::numeric_limits<double>::infinity();
-    int a = SnapshotCellMap::floorToInt(u + r.du * r.tMin);
-    int b = SnapshotCellMap::floorToInt(v + r.dv * r.tMin);
-    const int stepA = r.du > 0.0 ? 1 : -1, stepB = r.dv > 0.0 ? 1 : -1;
-    // The t where the ray leaves column a (row b): from the boundary, not accumulated, so every
-    // implementation computes the same sequence.
-    auto exitA = [&](int ca) {
-        return r.du != 0.0 ? (double(ca + (r.du > 0.0)) - u) / r.du : kNever;
-    };
-    auto exitB = [&](int cb) {
-        return r.dv != 0.0 ? (double(cb + (r.dv > 0.0)) - v) / r.dv : kNever;
-    };
-    double ta = exitA(a), tb = exitB(b);
-    for (int step = 0; step < kDepthWalkSteps; ++step) {
-        const double tExit = std::min({ta, tb, r.tMax});
-        if (snap.inRange(a, b)) {
-            const std::size_t k = snap.cellIndex(a, b);
-            const SnapshotCell c = snap.cells[k];
-            if (snapshot_code::isSolid(c.code) && h + r.dh * tExit >= double(snap.depth[k]))
-                return c;
-        }
-        if (tExit >= r.tMax) break;
-        if (ta <= tb) {
-            a += stepA;
-            ta = exitA(a);
-        } else {
-            b += stepB;
-            tb = exitB(b);
-        }
-    }
-    return {};
-}
-
-SnapshotCell snapshotCellFor(const BlitSprite& s, glm::ivec2 cell) {
-    if (s.read == BlitSprite::Read::Codes) {
-        const glm::ivec2 sc = s.map(cell);
-        return s.snapshot->at(sc.x, sc.y);
-    }
-    const SnapshotCell c = primarySnapshotCell(s, cell);
-    if (snapshot_code::isSolid(c.code)) return c;
-    for (const glm::ivec2 n :
-         {glm::ivec2(-1, 0), glm::ivec2(1, 0), glm::ivec2(0, -1), glm::ivec2(0, 1)})
-        if (snapshot_code::isSolid(primarySnapshotCell(s, cell + n).code))
-            return {0, snapshot_code::kOutline};
-    return {};
-}
-
 void blitSpriteScalar(const BlitSprite& s, int y0, int y1, Image& target, BlitCounters& rc) {
     const kernel::SpriteGpu& g = *s.gpu;
+    const Snapshot& snap = *s.snapshot;
     for (int y = y0; y < y1; ++y) {
         const float py = float(y) + 0.5f;
         // What a pixel shows depends only on its near cell, and neighbouring pixels mostly share
@@ -162,7 +90,8 @@ void blitSpriteScalar(const BlitSprite& s, int y0, int y1, Image& target, BlitCo
             if (!kernel::vtPixelCell(g, glm::vec2(float(x) + 0.5f, py), cell)) continue;
             if (cell != lastCell) {
                 lastCell = cell;
-                const SnapshotCell c = snapshotCellFor(s, cell);
+                const glm::ivec2 sc = s.map(cell); // the snapshot cell under the near cell's centre
+                const SnapshotCell c = snap.at(sc.x, sc.y);
                 lastDrawn = c.code != snapshot_code::kEmpty;
                 if (lastDrawn)
                     lastColor =
@@ -206,10 +135,6 @@ void blitFar(std::span<const FarSprite> sprites, Image& target, FarBlitStats* st
         b.snapshot = f.snapshot;
         b.palette = f.palette->colors.data();
         b.map = snapshotCellMap(sp.lattice, f.snapshot->lattice);
-        if (options.lookup == FarLookup::Depth && !f.snapshot->depth.empty()) {
-            b.read = BlitSprite::Read::DepthWalk;
-            b.ray = snapshotRayMap(sp.lattice, f.snapshot->lattice);
-        }
         b.rect = {sp.screenRect.x, sp.screenRect.y, sp.screenRect.z,
                   std::min(sp.screenRect.w, target.height)};
         b.entity = sp.entityId;

@@ -8,7 +8,6 @@
 // boundary, which is why far == near there exactly.
 #include "core/image.hpp"
 #include "core/occlusion.hpp"
-#include "core/scene.hpp"
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
 #include "impostor_cache/snapshot.hpp"
@@ -56,20 +55,6 @@ struct SnapshotCellMap {
 SnapshotCellMap snapshotCellMap(const SpriteLattice& nearLattice,
                                 const SpriteLattice& snapshotLattice);
 
-/// The depth lookup's walk along a near cell's ray (FarLookup::Depth). The ray of near cell
-/// (i, j) is q + t d (q the cell's centre on the sprite plane, relative to the model centre, d
-/// the sprite's ray direction); on the snapshot lattice it runs from (U, V) = the cell map's
-/// unfloored (u, v) with slope (du, dv) per unit t, at depth H + dh t along the snapshot's ray
-/// direction, H affine in (i, j) like U and V. Over the model's box |t| <= sum c_i |d_i| (c its
-/// half extents), widened by a voxel.
-struct SnapshotRayMap {
-    double h0 = 0, hi = 0, hj = 0; ///< H(i, j) = h0 + hi i + hj j: depth of the cell centre
-    double du = 0, dv = 0, dh = 0; ///< per unit t: snapshot cells along u, v; depth
-    double tMin = 0, tMax = 0;
-};
-SnapshotRayMap snapshotRayMap(const SpriteLattice& nearLattice,
-                              const SpriteLattice& snapshotLattice);
-
 /// Which kernel evaluates the blit's pixels. Both write the same image, bit for bit (colour,
 /// depth and id; tests/far_blit_simd_test.cpp); the scalar one is the reference the vectorised
 /// one is tested against, and the way to measure what vectorising buys.
@@ -88,9 +73,6 @@ struct FarBlitOptions {
     /// up or baked. The same image either way; off by default, since on the bench scenes it
     /// costs more than it saves (DESIGN.md §6, Occlusion).
     bool occlusionCull = false;
-    /// How far sprites read their snapshots (SelectorConfig::lookup, DESIGN.md §4); Depth needs
-    /// snapshots with depth (BakeOptions::withDepth) and reads the others flat.
-    FarLookup lookup = FarLookup::Flat;
 };
 
 /// The SIMD target FarBlitKernel::Simd runs on this CPU (Highway's name: "AVX3", "AVX2",

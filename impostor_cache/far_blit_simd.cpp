@@ -486,10 +486,7 @@ void BlitBand(const BlitBand& band, BlitCounters& counters) {
             for (std::size_t b = 0; b < bytes; b += 64) hwy::Prefetch(p + b);
         }
         drawInBand(band, s, counters, [&](const BlitSprite& part, int y0, int y1) {
-            if (part.read == BlitSprite::Read::Codes)
-                BlitSpriteRows(part, y0, y1, *band.target, counters);
-            else
-                blitSpriteScalar(part, y0, y1, *band.target, counters);
+            BlitSpriteRows(part, y0, y1, *band.target, counters);
         });
     }
 }

@@ -545,15 +545,14 @@ TEST(BakeCli, PreBakedSceneRendersWithZeroBakesAndTheSameImage) {
     EXPECT_NE(again.out.find("baked 0 of"), std::string::npos) << again.out;
 }
 
-// A scene whose far tier reads finer snapshots with depth (issue 29) is pre-baked as its renders
-// ask for them: at snapshot_scale x its sigma, with that outline stride and with depth.
-TEST(BakeCli, PreBakesTheSnapshotsAFinerDepthLookupAsksFor) {
+// A scene whose far tier reads finer snapshots (issue 29) is pre-baked as its renders ask for
+// them: at snapshot_scale x its sigma, with that outline stride.
+TEST(BakeCli, PreBakesTheFinerSnapshotsASceneAsksFor) {
     const fs::path dir = freshDir();
     fs::create_directories(dir);
     nlohmann::json scene = nlohmann::json::parse(
         std::ifstream(std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/crowd.json"));
     scene["selector"]["snapshot_scale"] = 3;
-    scene["selector"]["lookup"] = "depth";
     const fs::path file = dir / "crowd_x3.json";
     std::ofstream(file) << scene.dump();
     const fs::path cache = dir / "cache";

@@ -19,14 +19,14 @@ inline Image renderNear(const Scene& s, std::vector<SpriteSetup>* setups = nullp
 
 inline Image renderFar(const Scene& s, SnapshotCache& cache, ViewSet set = ViewSet::Cube26,
                        std::vector<SpriteSetup>* setups = nullptr,
-                       std::optional<int> view = std::nullopt, const FarBlitOptions& blit = {}) {
+                       std::optional<int> view = std::nullopt) {
     const CameraFrame cam = makeCameraFrame(s.camera);
     auto sprites = setupSprites(s, cam, 0.0);
     Image img(cam.width, cam.height, s.render.background);
     std::vector<FarRequest> req;
     for (const auto& sp : sprites)
         req.push_back({&sp, view ? std::optional<ViewId>(viewIdOf(set, *view)) : std::nullopt});
-    drawFarSprites(s.models, req, cache, set, img, nullptr, blit);
+    drawFarSprites(s.models, req, cache, set, img);
     if (setups) *setups = std::move(sprites);
     return img;
 }

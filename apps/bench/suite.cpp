@@ -215,7 +215,6 @@ void applyOverrides(Scene& s, const Plan& plan, bool capEntities) {
         c.viewSetSize = s.selector.viewSetSize;
         c.viewHysteresisDeg = s.selector.viewHysteresisDeg;
         c.crossfadeFrames = s.selector.crossfadeFrames;
-        c.lookup = s.selector.lookup;
         c.snapshotScale = s.selector.snapshotScale;
         s.selector = c;
     }

@@ -29,25 +29,7 @@ struct BlitSprite {
     /// kernel::vtFaceLight by snapshot code: [kSolid0 + f] is face f's factor, the rest 0. A
     /// table lookup by code is what lets the SIMD kernel light 16 pixels without a branch.
     std::array<std::uint32_t, 8> lightByCode{};
-    /// How the sprite reads its snapshot. Codes: the cell under the near cell's centre, outline
-    /// codes included. DepthWalk: a near cell is solid where its ray meets the snapshot's depth
-    /// surface (`ray`), outline where it is not and a cardinal neighbour near cell is (the near
-    /// kernel's rule: the outline moves with the depth, which stored codes cannot).
-    enum class Read : std::uint8_t { Codes, DepthWalk } read = Read::Codes;
-    SnapshotRayMap ray;
 };
-
-/// The most snapshot cells the depth walk visits for one ray: the walk crosses 2e tan(theta)
-/// sigma_s + 2 cells (e the model's half depth along the ray), under 10 for what an error budget
-/// sends far; a longer walk is a view too far off to draw from, and ends as a miss.
-inline constexpr int kDepthWalkSteps = 64;
-
-/// The snapshot cell near cell `cell` shows by its primary ray alone (no outline) under the
-/// depth walk: its solid cell, or an empty one.
-SnapshotCell primarySnapshotCell(const BlitSprite& s, glm::ivec2 cell);
-/// What near cell `cell` shows under the sprite's read mode: a solid cell, the outline
-/// (code kOutline) or empty.
-SnapshotCell snapshotCellFor(const BlitSprite& s, glm::ivec2 cell);
 
 struct BlitCounters {
     std::uint64_t tested = 0, written = 0;
