@@ -113,7 +113,8 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     const fs::path exact = dir.path / "exact.json", out = dir.path / "out";
     writeExactScene(exact);
     const CliRun r =
-        runCli("bench --smoke --motion-frames 4 --motion-warmup 2 --budget 1 --out '" +
+        runCli("bench --smoke --motion-frames 4 --motion-warmup 2 --budget 1 --lookups "
+               "flat:1,flat:2 --out '" +
                out.string() + "' scenes/bench/tank_army.json '" + exact.string() + "'");
     ASSERT_EQ(r.status, 0) << r.out << r.err;
     for (const char* f : {"report.md", "results.csv", "results.json"})
@@ -248,7 +249,35 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         if (m["group"] == "scaling_entities") counts.insert(m["entities"].get<double>());
         if (m["group"] == "scaling_size") sides.insert(m["param"].get<double>());
     }
-    EXPECT_EQ(sweeps, 2); // error_px far_at 1 and error_budget 1 vpx
+    // error_px far_at 1, and error_budget 1 vpx with each of the two far lookups.
+    EXPECT_EQ(sweeps, 3);
+    EXPECT_EQ(j["plan"]["sweeps"]["lookups"], json({"flat x1", "flat x2"}));
+    // Each budget point is its own configuration, drawn with its own lookup (a shared one would
+    // report one snapshot scale twice); its speed-up against the fastest exact path is the
+    // faster of near_reference and near_vulkan in motion over its own in-motion ms.
+    std::map<std::string, int> budgetScales;
+    for (const json& m : rows) {
+        if (m["family"] != "budget (error_budget)") continue;
+        EXPECT_EQ(m["lookup"], "flat");
+        budgetScales[m["setting"].get<std::string>()] = m["snapshot_scale"].get<int>();
+        const double ref = m["in_motion_all_near_reference_ms"].get<double>(),
+                     vk = m["in_motion_all_near_vulkan_ms"].get<double>();
+        EXPECT_DOUBLE_EQ(m["in_motion_fastest_exact_ms"].get<double>(), std::min(ref, vk));
+        EXPECT_NEAR(m["in_motion_speedup_vs_fastest_exact"].get<double>() *
+                        m["in_motion_ms"].get<double>(),
+                    std::min(ref, vk), 1e-6 * std::min(ref, vk));
+        EXPECT_GT(m["in_motion_cache_bytes"].get<double>(), 0.0);
+    }
+    EXPECT_EQ(budgetScales, (std::map<std::string, int>{{"error_budget 1 vpx, flat x1", 1},
+                                                        {"error_budget 1 vpx, flat x2", 2}}));
+    // The modes keep the scene's own lookup under --budget; those with no far tier name none.
+    const Scene army = loadScene("scenes/bench/tank_army.json");
+    EXPECT_EQ((*row(rows, "modes", "tank_army", "hybrid"))["lookup"],
+              toString(army.selector.lookup));
+    EXPECT_EQ((*row(rows, "modes", "tank_army", "hybrid"))["snapshot_scale"],
+              army.selector.snapshotScale);
+    EXPECT_EQ((*row(rows, "modes", "tank_army", "near_vulkan"))["lookup"], "");
+    EXPECT_EQ((*row(rows, "modes", "tank_army", "near_vulkan"))["snapshot_scale"], 0);
     EXPECT_EQ(counts, (std::set<double>{4, 12}));
     EXPECT_EQ(sides, (std::set<double>{16, 32}));
 
@@ -259,11 +288,28 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     const auto header = csvFields(line);
     std::map<std::string, std::size_t> col;
     for (std::size_t i = 0; i < header.size(); ++i) col[header[i]] = i;
-    for (const char* c :
-         {"group", "scene", "mode", "frame_ms", "speedup_vs_all_near_vulkan", "mismatch_mean",
-          "far_displacement_worst_vpx", "rays_per_s", "voxel_steps_per_s", "blit_pixels_per_s",
-          "memcpy_pixels_per_s", "cache_bytes", "near_entities", "far_entities", "cold_bake_ms",
-          "in_motion_near_ms", "in_motion_near_entities", "in_motion_far_entities"})
+    for (const char* c : {"group",
+                          "scene",
+                          "mode",
+                          "frame_ms",
+                          "speedup_vs_all_near_vulkan",
+                          "mismatch_mean",
+                          "far_displacement_worst_vpx",
+                          "rays_per_s",
+                          "voxel_steps_per_s",
+                          "blit_pixels_per_s",
+                          "memcpy_pixels_per_s",
+                          "cache_bytes",
+                          "near_entities",
+                          "far_entities",
+                          "cold_bake_ms",
+                          "in_motion_near_ms",
+                          "in_motion_near_entities",
+                          "in_motion_far_entities",
+                          "lookup",
+                          "snapshot_scale",
+                          "in_motion_speedup_vs_fastest_exact",
+                          "in_motion_cache_bytes"})
         ASSERT_TRUE(col.count(c)) << c;
     for (const FrameFigure& f : kFrameFigures) EXPECT_TRUE(col.count(f.name)) << f.name;
     std::size_t n = 0;
@@ -273,6 +319,8 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         EXPECT_GT(std::stod(f[col["frame_ms"]]), 0.0) << line;
         const json& m = rows[n];
         EXPECT_EQ(f[col["mode"]], m["mode"].get<std::string>());
+        EXPECT_EQ(f[col["lookup"]], m["lookup"].get<std::string>());
+        EXPECT_EQ(std::stoi(f[col["snapshot_scale"]]), m["snapshot_scale"].get<int>());
         EXPECT_NEAR(std::stod(f[col["frame_ms"]]), m["frame_ms"].get<double>(),
                     1e-5 * m["frame_ms"].get<double>());
         ++n;
@@ -356,6 +404,22 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         EXPECT_GT((*budget)["in_motion_psnr_min_differing_pixels"].get<double>(), 0.0);
         EXPECT_NE(verdictLine.find("40 dB asks for a "), std::string::npos) << verdictLine;
     }
+    // The speed–error frontier: a row per far lookup at the one smoke budget, and at least one
+    // point on the Pareto frontier.
+    const auto frontierAt = report.find("## Speed–error frontier");
+    ASSERT_NE(frontierAt, std::string::npos) << report;
+    const std::string frontier =
+        report.substr(frontierAt, report.find("\n## ", frontierAt + 1) - frontierAt);
+    std::size_t frontierRows = 0, onFrontier = 0;
+    for (const char* variant : {"| flat x1 | 1.00 vpx |", "| flat x2 | 1.00 vpx |"}) {
+        const auto at = frontier.find(variant);
+        ASSERT_NE(at, std::string::npos) << variant << "\n" << frontier;
+        const std::string line = frontier.substr(at, frontier.find('\n', at) - at);
+        ++frontierRows;
+        onFrontier += line.ends_with("| P |");
+    }
+    EXPECT_EQ(frontierRows, 2u);
+    EXPECT_GE(onFrontier, 1u) << frontier;
     std::set<std::string> embedded;
     const std::regex image(R"(!\[[^\]]*\]\(([^)]+)\))");
     for (auto it = std::sregex_iterator(report.begin(), report.end(), image);
@@ -366,8 +430,9 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     for (const json& p : j["plots"]) listed.insert(p.get<std::string>());
     EXPECT_EQ(embedded, listed);
     if (std::system("command -v gnuplot >/dev/null 2>&1") == 0) {
-        EXPECT_EQ(listed, (std::set<std::string>{"speed_error.png", "motion_error.png",
-                                                 "scaling_entities.png", "scaling_size.png"}))
+        EXPECT_EQ(listed,
+                  (std::set<std::string>{"speed_error.png", "motion_error.png", "frontier.png",
+                                         "scaling_entities.png", "scaling_size.png"}))
             << j["plot_note"];
     } else {
         EXPECT_NE(report.find("gnuplot"),
@@ -434,6 +499,10 @@ TEST(BenchCommand, BadInputIsOneLineNamingTheFileOrFlag) {
                   "--entity-counts");
     expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --motion-frames 1" + out),
                   "--motion-frames");
+    for (const char* lookups : {"flat:5", "warp:1", "flat", "flat:1,", "depth:0", "flat:1:2"})
+        expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --lookups '" +
+                             std::string(lookups) + "'" + out),
+                      "--lookups");
     // The smoke preset's in-motion run is 3 frames: a cold start of 3 would leave none timed.
     expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --motion-warmup 3" + out),
                   "--motion-warmup");

@@ -143,6 +143,23 @@ void addBenchCommand(CLI::App& app) {
         ->check(intList(1, 100000));
     bench->add_option("--model-sides", o->modelSides, "Tank sides (voxels) of the model-size curve")
         ->check(intList(8, Limits::kMaxModelDim));
+    bench
+        ->add_option("--lookups", o->lookups,
+                     "Far lookups of the error_budget sweep, each run at every budget: "
+                     "LOOKUP:SCALE,... with LOOKUP flat or depth and SCALE the snapshots' "
+                     "multiple of the sprite's sigma, 1..4 (default: flat:1,flat:2,flat:3,flat:4; "
+                     "--quick flat:1,flat:3)")
+        ->type_name("LIST")
+        ->check(CLI::Validator(
+            [](std::string& text) {
+                try {
+                    bench::parseFarVariants(text, "--lookups");
+                    return std::string();
+                } catch (const InputError& e) {
+                    return e.reason();
+                }
+            },
+            "LOOKUP:SCALE,..."));
     // Test-only: tiny images and entity counts, one repeat, one sweep point (tests/bench_cli_test).
     bench->add_flag("--smoke", o->smoke, "")->group("");
     auto cacheDir = std::make_shared<CacheDirArgs>();

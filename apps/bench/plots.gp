@@ -3,9 +3,11 @@
 #   scene     the scene of the sweeps and the scaling curves
 #   modes     the bench's modes, e.g. "near_vulkan near_reference far hybrid"
 #   families  the sweep families measured against the truth, each quoted: "'view set' 'sigma'"
-#   plots     which plots to draw, of "speed_error scaling_entities scaling_size"
+#   variants  the far lookups of the error budget sweep, each quoted: "'flat x1' 'flat x3'"
+#   plots     which plots to draw, of "speed_error motion_error frontier scaling_entities scaling_size"
 # and the Pareto fronts of the speed/error plot (error, frame ms), which the report marks too, in
-# pareto_mismatch.dat and pareto_displacement.dat.
+# pareto_mismatch.dat and pareto_displacement.dat; the speed–error frontier in frontier.dat (a
+# block per variant of "speed-up PSNR budget") and its Pareto points in frontier_pareto.dat.
 
 palette = "#1f77b4 #ff7f0e #2ca02c #d62728 #9467bd #8c564b #e377c2 #7f7f7f #bcbd22 #17becf #000000 #aec7e8"
 mode_palette = "#1f77b4 #9467bd #ff7f0e #2ca02c #d62728 #8c564b"
@@ -115,6 +117,29 @@ if (wants("motion_error")) {
     unset logscale
     unset title
     set terminal pngcairo size 1400,620 font ',10' noenhanced
+    set key default
+}
+
+# The speed–error frontier: the error budget sweep in motion, one curve per far lookup, x the
+# speed-up against the scene's fastest exact path, y the min PSNR; points labelled by budget.
+if (wants("frontier")) {
+    @read_blocks
+    set output 'frontier.png'
+    set title scene.": in motion, speed-up against error per far lookup (labels: error budget in virtual pixels)"
+    set xlabel 'in-motion speed-up against the fastest exact path (near_reference or near_vulkan, median frame ms; log)'
+    set ylabel 'min frame PSNR against all-near in motion (dB, 99 = identical)'
+    set key outside right top
+    # Speed-ups span from below 1 (a budget whose bakes cost more than they save) to tens.
+    set logscale x 2
+    set offsets graph 0.05, graph 0.05, graph 0.08, graph 0.05
+    plot for [k = 1:words(variants)] 'frontier.dat' index (k - 1) using 1:2 with linespoints pt 7 ps 1.4 lw 2 lc rgb color(k) title word(variants, k), \
+         for [k = 1:words(variants)] 'frontier.dat' index (k - 1) using 1:2:3 with labels offset char 0.6,char 0.7 left font ',9' tc rgb color(k) notitle, \
+         'frontier_pareto.dat' using 1:2 with points pt 6 ps 2.6 lw 2 lc rgb '#000000' title 'Pareto frontier'
+    set offsets
+    unset logscale
+    unset title
+    unset xlabel
+    unset ylabel
     set key default
 }
 

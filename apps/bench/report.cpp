@@ -154,10 +154,15 @@ std::vector<Column> columns() {
         {"in_motion_speedup_vs_all_near_vulkan", field(&Measurement::motionSpeedup)},
         {"in_motion_all_near_reference_ms", field(&Measurement::motionReferenceMs)},
         {"in_motion_speedup_vs_all_near_reference", field(&Measurement::motionSpeedupVsReference)},
+        {"in_motion_fastest_exact_ms", field(&Measurement::motionFastestExactMs)},
+        {"in_motion_speedup_vs_fastest_exact", field(&Measurement::motionSpeedupVsFastestExact)},
         {"near_backend", field(&Measurement::nearBackend)},
         {"far_backend", field(&Measurement::farBackend)},
+        {"lookup", field(&Measurement::lookup)},
+        {"snapshot_scale", field(&Measurement::snapshotScale)},
         {"in_motion_bakes_per_frame", field(&Measurement::motionBakes)},
         {"in_motion_bake_ms_per_frame", field(&Measurement::motionBakeMs)},
+        {"in_motion_cache_bytes", field(&Measurement::motionCacheBytes)},
         {"in_motion_near_ms", field(&Measurement::motionNearMs)},
         {"in_motion_near_entities", field(&Measurement::motionNearEntities)},
         {"in_motion_far_entities", field(&Measurement::motionFarEntities)},
@@ -256,6 +261,12 @@ json rowJson(const Measurement& m, const std::vector<Column>& cols) {
     return row;
 }
 
+json lookupNames(const Plan& p) {
+    json names = json::array();
+    for (const FarVariant& v : p.lookups) names.push_back(toString(v));
+    return names;
+}
+
 json planJson(const Plan& p) {
     json plan = {{"preset", p.preset},
                  {"repeats", p.repeats},
@@ -271,6 +282,8 @@ json planJson(const Plan& p) {
                   {{"far_at_distance", p.distanceFarAt},
                    {"far_at_radius_px", p.radiusFarAt},
                    {"far_at_error_px", p.errorFarAt},
+                   {"budgets_vpx", p.budgets},
+                   {"lookups", lookupNames(p)},
                    {"view_sets", p.viewSets},
                    {"sigmas", p.sigmas},
                    {"crossfade_frames", p.crossfades}}}};
@@ -335,6 +348,76 @@ std::string gnuplotDoubleQuote(const std::string& s) {
     return q + "\"";
 }
 
+// ---------------------------------------------------------------------------------------------
+// The speed–error frontier: the error_budget sweep in motion, one curve per far lookup, each
+// point's speed-up against the fastest exact path of its scene against its min PSNR.
+
+/// Identical frames have an infinite PSNR; a plot draws them at 99 dB.
+double plottedPsnr(double psnr) {
+    return std::min(psnr, 99.0);
+}
+
+struct FrontierCurve {
+    std::string variant;                    ///< "flat x3"
+    std::vector<const Measurement*> points; ///< by budget
+};
+
+/// The error_budget sweep points of `scene` measured in motion, one curve per far lookup of the
+/// plan (in its order), each along the budget.
+std::vector<FrontierCurve> frontierCurves(const SuiteResults& r, const std::string& scene) {
+    std::vector<FrontierCurve> curves;
+    for (const FarVariant& v : r.plan.lookups) {
+        FrontierCurve c{toString(v), {}};
+        for (const Measurement& m : r.rows)
+            if (m.scene == scene && m.family == kBudgetFamily &&
+                m.motionSpeedupVsFastestExact > 0 && m.lookup == toString(v.lookup) &&
+                m.snapshotScale == v.snapshotScale)
+                c.points.push_back(&m);
+        std::sort(c.points.begin(), c.points.end(),
+                  [](const Measurement* a, const Measurement* b) { return a->param < b->param; });
+        if (!c.points.empty()) curves.push_back(c);
+    }
+    return curves;
+}
+
+/// The points of `curves` that no other point beats on both speed-up and min PSNR (higher is
+/// better on both).
+std::set<const Measurement*> frontierPareto(const std::vector<FrontierCurve>& curves) {
+    std::vector<const Measurement*> all;
+    for (const FrontierCurve& c : curves) all.insert(all.end(), c.points.begin(), c.points.end());
+    std::set<const Measurement*> front;
+    for (const Measurement* a : all) {
+        const bool dominated = std::any_of(all.begin(), all.end(), [&](const Measurement* b) {
+            const double sa = a->motionSpeedupVsFastestExact, sb = b->motionSpeedupVsFastestExact;
+            const double pa = a->motionPsnrMin, pb = b->motionPsnrMin;
+            return sb >= sa && pb >= pa && (sb > sa || pb > pa);
+        });
+        if (!dominated) front.insert(a);
+    }
+    return front;
+}
+
+/// frontier.dat: one block per curve of "speed-up psnr budget" lines; frontier_pareto.dat: the
+/// Pareto frontier's points along the speed-up.
+void writeFrontierData(const std::vector<FrontierCurve>& curves, const fs::path& dir) {
+    std::string data, pareto;
+    const std::set<const Measurement*> front = frontierPareto(curves);
+    std::vector<const Measurement*> frontPoints(front.begin(), front.end());
+    std::sort(frontPoints.begin(), frontPoints.end(), [](auto* a, auto* b) {
+        return a->motionSpeedupVsFastestExact < b->motionSpeedupVsFastestExact;
+    });
+    const auto line = [](const Measurement& m) {
+        return sig(m.motionSpeedupVsFastestExact) + " " + sig(plottedPsnr(m.motionPsnrMin));
+    };
+    for (const FrontierCurve& c : curves) {
+        for (const Measurement* m : c.points) data += line(*m) + " " + sig(m->param) + "\n";
+        data += "\n\n"; // gnuplot's `index` separator
+    }
+    for (const Measurement* m : frontPoints) pareto += line(*m) + "\n";
+    writeFile(dir / "frontier.dat", data);
+    writeFile(dir / "frontier_pareto.dat", pareto);
+}
+
 struct PlotSet {
     std::vector<std::string> pngs;
     std::string note; ///< why plots are missing, if they are
@@ -364,17 +447,20 @@ std::string paretoData(const std::vector<const Measurement*>& pts,
 /// The settings plots.gp starts from (its header says what each means).
 std::string plotSettings(const SuiteResults& r, const std::string& scene,
                          const std::vector<std::string>& pngs) {
-    std::string modes, families, plots;
+    std::string modes, families, variants, plots;
     for (const BenchModeInfo& mode : kBenchModes)
         modes += std::string(modes.empty() ? "" : " ") + mode.name;
     std::set<std::string> seen;
     for (const Measurement* m : speedErrorPoints(r, scene))
         if (m->group != kModesGroup && seen.insert(m->family).second)
             families += (families.empty() ? "" : " ") + gnuplotQuote(m->family);
+    for (const FrontierCurve& c : frontierCurves(r, scene))
+        variants += (variants.empty() ? "" : " ") + gnuplotQuote(c.variant);
     for (const std::string& png : pngs)
         plots += (plots.empty() ? "" : " ") + fs::path(png).stem().string();
     return "scene = " + gnuplotQuote(scene) + "\nmodes = " + gnuplotQuote(modes) +
-           "\nfamilies = " + gnuplotDoubleQuote(families) + "\nplots = " + gnuplotQuote(plots) +
+           "\nfamilies = " + gnuplotDoubleQuote(families) +
+           "\nvariants = " + gnuplotDoubleQuote(variants) + "\nplots = " + gnuplotQuote(plots) +
            "\n\n";
 }
 
@@ -390,12 +476,15 @@ PlotSet drawPlots(const SuiteResults& r, const fs::path& dir) {
     if (!pts.empty()) out.pngs.push_back("speed_error.png");
     if (std::any_of(pts.begin(), pts.end(), [](const Measurement* m) { return m->motionMs > 0; }))
         out.pngs.push_back("motion_error.png");
+    const std::vector<FrontierCurve> curves = frontierCurves(r, scene);
+    if (!curves.empty()) out.pngs.push_back("frontier.png");
     for (const char* group : {"scaling_entities", "scaling_size"})
         if (std::any_of(r.rows.begin(), r.rows.end(),
                         [&](const Measurement& m) { return m.group == group; }))
             out.pngs.push_back(std::string(group) + ".png");
     writeFile(dir / "pareto_mismatch.dat", paretoData(pts, mismatchOf, 100.0));
     writeFile(dir / "pareto_displacement.dat", paretoData(pts, displacementOf, 1.0));
+    writeFrontierData(curves, dir);
     writeFile(dir / "plots.gp", plotSettings(r, scene, out.pngs) + kBenchPlotsGp);
     const std::string cmd =
         "cd " + shellQuote(dir.string()) + " && gnuplot plots.gp > plots.log 2>&1";
@@ -685,9 +774,13 @@ json budgetTargetContext(const SuiteResults& r) {
     for (const std::string& scene : sceneNames(r)) {
         const Measurement* frag = find(r, kModesGroup, scene, BenchMode::NearVulkanFragment);
         if (!frag || frag->motionMs <= 0) continue;
+        // The budget sweep runs each budget with every far lookup; the target is read on the
+        // plan's first (the frontier section sets them side by side).
+        const FarVariant first = r.plan.lookups.empty() ? FarVariant{} : r.plan.lookups.front();
         std::vector<const Measurement*> budgets;
         for (const Measurement& m : r.rows)
-            if (m.scene == scene && m.family == kBudgetFamily && m.motionMs > 0)
+            if (m.scene == scene && m.family == kBudgetFamily && m.motionMs > 0 &&
+                m.lookup == toString(first.lookup) && m.snapshotScale == first.snapshotScale)
                 budgets.push_back(&m);
         if (budgets.empty()) continue;
         std::sort(budgets.begin(), budgets.end(),
@@ -750,6 +843,40 @@ json budgetTargetContext(const SuiteResults& r) {
             {"budget", num(kBudgetTarget.budgetVpx, 0)},
             {"speedup", num(kBudgetTarget.minSpeedupVsFragment, 0)},
             {"psnr", num(kBudgetTarget.minPsnrDb, 0)}};
+}
+
+/// The speed–error frontier of every scene with budget sweep points in motion (the first scene):
+/// each far lookup's points by budget, the Pareto frontier marked.
+json frontierContext(const SuiteResults& r, bool plotted) {
+    json scenes = json::array();
+    for (const std::string& scene : sceneNames(r)) {
+        const std::vector<FrontierCurve> curves = frontierCurves(r, scene);
+        const Measurement* ref = find(r, kModesGroup, scene, BenchMode::NearReference);
+        const Measurement* vk = find(r, kModesGroup, scene, BenchMode::NearVulkan);
+        if (curves.empty() || !ref || !vk) continue;
+        const std::set<const Measurement*> front = frontierPareto(curves);
+        json rows = json::array();
+        for (const FrontierCurve& c : curves)
+            for (const Measurement* m : c.points)
+                rows.push_back(
+                    {{"variant", c.variant},
+                     {"budget", num(m->param, 2) + " vpx"},
+                     {"motion_ms", num(m->motionMs)},
+                     {"speedup", num(m->motionSpeedupVsFastestExact, 2) + "×"},
+                     {"psnr", num(m->motionPsnrMin, 1)},
+                     {"differing", pct(m->motionDifferingShare)},
+                     {"bakes", num(m->motionBakes, 1)},
+                     {"cache_mb", m->motionCacheBytes > 0 ? num(m->motionCacheBytes / 1048576.0, 2)
+                                                          : std::string("–")},
+                     {"pareto", front.count(m) ? "P" : ""}});
+        const bool referenceFaster = ref->motionMs > 0 && ref->motionMs < vk->motionMs;
+        scenes.push_back({{"scene", scene},
+                          {"fastest", referenceFaster ? "near_reference" : "near_vulkan"},
+                          {"fastest_ms", num(referenceFaster ? ref->motionMs : vk->motionMs)},
+                          {"rows", rows}});
+    }
+    if (scenes.empty()) return false;
+    return {{"scenes", scenes}, {"plot", plotted ? json("frontier.png") : json(false)}};
 }
 
 json throughputContext(const SuiteResults& r) {
@@ -884,6 +1011,8 @@ json reportContext(const SuiteResults& r, const PlotSet& plots) {
             {"time_steps", timeSteps},
             {"time_split", timeSplitContext(r)},
             {"budget_target", budgetTargetContext(r)},
+            {"frontier",
+             frontierContext(r, std::count(plots.pngs.begin(), plots.pngs.end(), "frontier.png"))},
             {"blit_bytes_per_pixel", num(kBlitBytesPerPixel, 0)},
             {"memcpy_gbps", num(r.memcpyGBps, 1)},
             {"throughput", throughputContext(r)},

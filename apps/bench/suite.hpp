@@ -59,6 +59,20 @@ inline constexpr BenchModeInfo kBenchModes[] = {
 const BenchModeInfo& info(BenchMode mode);
 const char* toString(BenchMode mode);
 
+/// One far lookup the error_budget sweep measures: how far sprites read their snapshots
+/// (SelectorConfig::lookup) and at how many times the sprite's sigma they are baked
+/// (SelectorConfig::snapshotScale).
+struct FarVariant {
+    FarLookup lookup = FarLookup::Flat;
+    int snapshotScale = 1;
+    bool operator==(const FarVariant&) const = default;
+};
+/// "flat x3": the variant's name in the sweep settings, the report and the plots.
+std::string toString(const FarVariant& v);
+/// "flat:1,depth:3" -> {{Flat, 1}, {Depth, 3}}: lookups flat or depth, scales 1..4, at least one;
+/// otherwise InputError naming `flag`.
+std::vector<FarVariant> parseFarVariants(const std::string& text, const char* flag);
+
 struct SuiteOptions {
     std::vector<std::string>
         scenes; ///< scene files; the first also gets the sweeps and scaling curves
@@ -72,8 +86,9 @@ struct SuiteOptions {
     std::string size; ///< WxH override of every scene's image size ("" = the scene's)
     bool sweeps = true, scaling = true;
     std::string entityCounts, modelSides; ///< comma-separated overrides of the scaling points
-    std::string cacheDir;            ///< on-disk snapshot cache of every configuration ("" = none)
-    std::uint64_t cacheDirBytes = 0; ///< its size limit (0 = none)
+    std::string lookups;  ///< "flat:1,flat:3,...": override of the error_budget sweep's variants
+    std::string cacheDir; ///< on-disk snapshot cache of every configuration ("" = none)
+    std::uint64_t cacheDirBytes = 0;             ///< its size limit (0 = none)
     NearRate nearRate = NearRate::Auto;          ///< of every mode but near_vulkan_fragment
     FarBlitKernel farBlit = FarBlitKernel::Simd; ///< of every mode
     /// Who draws the far tier of the rows whose table entry says Auto (hybrid, far and the
@@ -102,6 +117,9 @@ struct Plan {
     std::vector<double> distanceFarAt, radiusFarAt, errorFarAt; ///< selector sweeps
     std::vector<int> viewSets, crossfades;
     std::vector<double> budgets; ///< error_budget sweep (virtual pixels)
+    /// The far lookups the error_budget sweep runs each budget with (the speed–error frontier:
+    /// one curve per variant); the first is the one the budget target reads.
+    std::vector<FarVariant> lookups;
     std::vector<int> ladderCaps; ///< error_budget sweep at 1 vpx
     std::vector<double> sigmas;
     std::vector<int> entityCounts, modelSides;
@@ -168,12 +186,20 @@ struct Measurement {
     /// The CPU reference all-near (near_reference) in motion, same frames, same run, and the
     /// ratio: the fastest exact path a machine without a GPU has (issue 24).
     double motionReferenceMs = 0, motionSpeedupVsReference = 0;
+    /// The faster of those two exact paths in motion, and the ratio (the speed–error frontier's
+    /// x axis).
+    double motionFastestExactMs = 0, motionSpeedupVsFastestExact = 0;
     /// Who drew the near tier: "vulkan" or "reference" (what --near-backend auto chose, for the
     /// hybrid).
     std::string nearBackend;
     /// Who drew the far tier: "cpu" or "vulkan" ("" where the mode draws no far sprite).
     std::string farBackend;
+    /// How the far tier read its snapshots: "flat" or "depth", and the snapshots' scale over the
+    /// sprite's sigma ("" and 0 where the mode draws no far sprite).
+    std::string lookup;
+    int snapshotScale = 0;
     double motionBakes = 0, motionBakeMs = 0; ///< per frame after the cold start (mean)
+    double motionCacheBytes = 0; ///< snapshot bytes held, the most over the in-motion frames
     /// The near tier's ms and the entities each tier drew, per frame after the cold start
     /// (means): what the entities drawn near cost even if far sprites were free.
     double motionNearMs = 0, motionNearEntities = 0, motionFarEntities = 0;
