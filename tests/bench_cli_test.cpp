@@ -113,8 +113,8 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
     const fs::path exact = dir.path / "exact.json", out = dir.path / "out";
     writeExactScene(exact);
     const CliRun r =
-        runCli("bench --smoke --motion-frames 4 --motion-warmup 2 --budget 1 --lookups "
-               "flat:1,flat:2 --out '" +
+        runCli("bench --smoke --motion-frames 4 --motion-warmup 2 --budget 1 --snapshot-scales "
+               "1,2 --out '" +
                out.string() + "' scenes/bench/tank_army.json '" + exact.string() + "'");
     ASSERT_EQ(r.status, 0) << r.out << r.err;
     for (const char* f : {"report.md", "results.csv", "results.json"})
@@ -249,16 +249,15 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         if (m["group"] == "scaling_entities") counts.insert(m["entities"].get<double>());
         if (m["group"] == "scaling_size") sides.insert(m["param"].get<double>());
     }
-    // error_px far_at 1, and error_budget 1 vpx with each of the two far lookups.
+    // error_px far_at 1, and error_budget 1 vpx with each of the two snapshot scales.
     EXPECT_EQ(sweeps, 3);
-    EXPECT_EQ(j["plan"]["sweeps"]["lookups"], json({"flat x1", "flat x2"}));
-    // Each budget point is its own configuration, drawn with its own lookup (a shared one would
+    EXPECT_EQ(j["plan"]["sweeps"]["snapshot_scales"], json({"x1", "x2"}));
+    // Each budget point is its own configuration, drawn with its own scale (a shared one would
     // report one snapshot scale twice); its speed-up against the fastest exact path is the
     // faster of near_reference and near_vulkan in motion over its own in-motion ms.
     std::map<std::string, int> budgetScales;
     for (const json& m : rows) {
         if (m["family"] != "budget (error_budget)") continue;
-        EXPECT_EQ(m["lookup"], "flat");
         budgetScales[m["setting"].get<std::string>()] = m["snapshot_scale"].get<int>();
         const double ref = m["in_motion_all_near_reference_ms"].get<double>(),
                      vk = m["in_motion_all_near_vulkan_ms"].get<double>();
@@ -268,15 +267,13 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
                     std::min(ref, vk), 1e-6 * std::min(ref, vk));
         EXPECT_GT(m["in_motion_cache_bytes"].get<double>(), 0.0);
     }
-    EXPECT_EQ(budgetScales, (std::map<std::string, int>{{"error_budget 1 vpx, flat x1", 1},
-                                                        {"error_budget 1 vpx, flat x2", 2}}));
-    // The modes keep the scene's own lookup under --budget; those with no far tier name none.
+    EXPECT_EQ(budgetScales, (std::map<std::string, int>{{"error_budget 1 vpx, x1", 1},
+                                                        {"error_budget 1 vpx, x2", 2}}));
+    // The modes keep the scene's own snapshot scale under --budget; those with no far tier name
+    // none.
     const Scene army = loadScene("scenes/bench/tank_army.json");
-    EXPECT_EQ((*row(rows, "modes", "tank_army", "hybrid"))["lookup"],
-              toString(army.selector.lookup));
     EXPECT_EQ((*row(rows, "modes", "tank_army", "hybrid"))["snapshot_scale"],
               army.selector.snapshotScale);
-    EXPECT_EQ((*row(rows, "modes", "tank_army", "near_vulkan"))["lookup"], "");
     EXPECT_EQ((*row(rows, "modes", "tank_army", "near_vulkan"))["snapshot_scale"], 0);
     EXPECT_EQ(counts, (std::set<double>{4, 12}));
     EXPECT_EQ(sides, (std::set<double>{16, 32}));
@@ -306,7 +303,6 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
                           "in_motion_near_ms",
                           "in_motion_near_entities",
                           "in_motion_far_entities",
-                          "lookup",
                           "snapshot_scale",
                           "in_motion_speedup_vs_fastest_exact",
                           "in_motion_cache_bytes"})
@@ -319,7 +315,6 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         EXPECT_GT(std::stod(f[col["frame_ms"]]), 0.0) << line;
         const json& m = rows[n];
         EXPECT_EQ(f[col["mode"]], m["mode"].get<std::string>());
-        EXPECT_EQ(f[col["lookup"]], m["lookup"].get<std::string>());
         EXPECT_EQ(std::stoi(f[col["snapshot_scale"]]), m["snapshot_scale"].get<int>());
         EXPECT_NEAR(std::stod(f[col["frame_ms"]]), m["frame_ms"].get<double>(),
                     1e-5 * m["frame_ms"].get<double>());
@@ -404,14 +399,14 @@ TEST(BenchCommand, SmokeRunWritesConsistentCsvJsonPlotsAndReport) {
         EXPECT_GT((*budget)["in_motion_psnr_min_differing_pixels"].get<double>(), 0.0);
         EXPECT_NE(verdictLine.find("40 dB asks for a "), std::string::npos) << verdictLine;
     }
-    // The speed–error frontier: a row per far lookup at the one smoke budget, and at least one
+    // The speed–error frontier: a row per snapshot scale at the one smoke budget, and at least one
     // point on the Pareto frontier.
     const auto frontierAt = report.find("## Speed–error frontier");
     ASSERT_NE(frontierAt, std::string::npos) << report;
     const std::string frontier =
         report.substr(frontierAt, report.find("\n## ", frontierAt + 1) - frontierAt);
     std::size_t frontierRows = 0, onFrontier = 0;
-    for (const char* variant : {"| flat x1 | 1.00 vpx |", "| flat x2 | 1.00 vpx |"}) {
+    for (const char* variant : {"| x1 | 1.00 vpx |", "| x2 | 1.00 vpx |"}) {
         const auto at = frontier.find(variant);
         ASSERT_NE(at, std::string::npos) << variant << "\n" << frontier;
         const std::string line = frontier.substr(at, frontier.find('\n', at) - at);
@@ -499,10 +494,10 @@ TEST(BenchCommand, BadInputIsOneLineNamingTheFileOrFlag) {
                   "--entity-counts");
     expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --motion-frames 1" + out),
                   "--motion-frames");
-    for (const char* lookups : {"flat:5", "warp:1", "flat", "flat:1,", "depth:0", "flat:1:2"})
-        expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --lookups '" +
-                             std::string(lookups) + "'" + out),
-                      "--lookups");
+    for (const char* scales : {"5", "0", "x", "1:2"})
+        expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --snapshot-scales '" +
+                             std::string(scales) + "'" + out),
+                      "--snapshot-scales");
     // The smoke preset's in-motion run is 3 frames: a cold start of 3 would leave none timed.
     expectOneLine(runCli("bench --smoke scenes/bench/tank_army.json --motion-warmup 3" + out),
                   "--motion-warmup");

@@ -130,7 +130,7 @@ void addBenchCommand(CLI::App& app) {
     bench->add_flag("!--no-cost-bound", o->costBound,
                     "The error budget's planner keeps every entity its budget sends far, whatever "
                     "its bakes and blit cost (default: it draws near what would not pay): every "
-                    "lookup's error on the same plan");
+                    "snapshot scale's error on the same plan");
     bench
         ->add_option("--budget", o->budgetVpx,
                      "Measure every scene with the error_budget selector at this many virtual "
@@ -144,22 +144,11 @@ void addBenchCommand(CLI::App& app) {
     bench->add_option("--model-sides", o->modelSides, "Tank sides (voxels) of the model-size curve")
         ->check(intList(8, Limits::kMaxModelDim));
     bench
-        ->add_option("--lookups", o->lookups,
-                     "Far lookups of the error_budget sweep, each run at every budget: "
-                     "LOOKUP:SCALE,... with LOOKUP flat or depth and SCALE the snapshots' "
-                     "multiple of the sprite's sigma, 1..4 (default: flat:1,flat:2,flat:3,flat:4; "
-                     "--quick flat:1,flat:3)")
-        ->type_name("LIST")
-        ->check(CLI::Validator(
-            [](std::string& text) {
-                try {
-                    bench::parseFarVariants(text, "--lookups");
-                    return std::string();
-                } catch (const InputError& e) {
-                    return e.reason();
-                }
-            },
-            "LOOKUP:SCALE,..."));
+        ->add_option("--snapshot-scales", o->snapshotScales,
+                     "Snapshot scales of the error_budget sweep, each run at every budget: the far "
+                     "tier's snapshots at that multiple of the sprite's sigma, 1..4 (default: "
+                     "1,2,3,4; --quick 1,3)")
+        ->check(intList(1, 4));
     // Test-only: tiny images and entity counts, one repeat, one sweep point (tests/bench_cli_test).
     bench->add_flag("--smoke", o->smoke, "")->group("");
     auto cacheDir = std::make_shared<CacheDirArgs>();

@@ -3,7 +3,7 @@
 #   scene     the scene of the sweeps and the scaling curves
 #   modes     the bench's modes, e.g. "near_vulkan near_reference far hybrid"
 #   families  the sweep families measured against the truth, each quoted: "'view set' 'sigma'"
-#   variants  the far lookups of the error budget sweep, each quoted: "'flat x1' 'flat x3'"
+#   variants  the snapshot scales of the error budget sweep, each quoted: "'x1' 'x3'"
 #   plots     which plots to draw, of "speed_error motion_error frontier scaling_entities scaling_size"
 # and the Pareto fronts of the speed/error plot (error, frame ms), which the report marks too, in
 # pareto_mismatch.dat and pareto_displacement.dat; the speed–error frontier in frontier.dat (a
@@ -120,12 +120,12 @@ if (wants("motion_error")) {
     set key default
 }
 
-# The speed–error frontier: the error budget sweep in motion, one curve per far lookup, x the
+# The speed–error frontier: the error budget sweep in motion, one curve per snapshot scale, x the
 # speed-up against the scene's fastest exact path, y the min PSNR; points labelled by budget.
 if (wants("frontier")) {
     @read_blocks
     set output 'frontier.png'
-    set title scene.": in motion, speed-up against error per far lookup (labels: error budget in virtual pixels)"
+    set title scene.": in motion, speed-up against error per snapshot scale (labels: error budget in virtual pixels)"
     set xlabel 'in-motion speed-up against the fastest exact path (near_reference or near_vulkan, median frame ms; log)'
     set ylabel 'min frame PSNR against all-near in motion (dB, 99 = identical)'
     set key outside right top

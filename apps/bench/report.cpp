@@ -158,7 +158,6 @@ std::vector<Column> columns() {
         {"in_motion_speedup_vs_fastest_exact", field(&Measurement::motionSpeedupVsFastestExact)},
         {"near_backend", field(&Measurement::nearBackend)},
         {"far_backend", field(&Measurement::farBackend)},
-        {"lookup", field(&Measurement::lookup)},
         {"snapshot_scale", field(&Measurement::snapshotScale)},
         {"in_motion_bakes_per_frame", field(&Measurement::motionBakes)},
         {"in_motion_bake_ms_per_frame", field(&Measurement::motionBakeMs)},
@@ -261,9 +260,9 @@ json rowJson(const Measurement& m, const std::vector<Column>& cols) {
     return row;
 }
 
-json lookupNames(const Plan& p) {
+json scaleNames(const Plan& p) {
     json names = json::array();
-    for (const FarVariant& v : p.lookups) names.push_back(toString(v));
+    for (int k : p.snapshotScales) names.push_back(scaleName(k));
     return names;
 }
 
@@ -283,7 +282,7 @@ json planJson(const Plan& p) {
                    {"far_at_radius_px", p.radiusFarAt},
                    {"far_at_error_px", p.errorFarAt},
                    {"budgets_vpx", p.budgets},
-                   {"lookups", lookupNames(p)},
+                   {"snapshot_scales", scaleNames(p)},
                    {"view_sets", p.viewSets},
                    {"sigmas", p.sigmas},
                    {"crossfade_frames", p.crossfades}}}};
@@ -349,7 +348,7 @@ std::string gnuplotDoubleQuote(const std::string& s) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The speed–error frontier: the error_budget sweep in motion, one curve per far lookup, each
+// The speed–error frontier: the error_budget sweep in motion, one curve per snapshot scale, each
 // point's speed-up against the fastest exact path of its scene against its min PSNR.
 
 /// Identical frames have an infinite PSNR; a plot draws them at 99 dB.
@@ -358,20 +357,19 @@ double plottedPsnr(double psnr) {
 }
 
 struct FrontierCurve {
-    std::string variant;                    ///< "flat x3"
+    std::string variant;                    ///< "x3": the snapshot scale
     std::vector<const Measurement*> points; ///< by budget
 };
 
-/// The error_budget sweep points of `scene` measured in motion, one curve per far lookup of the
+/// The error_budget sweep points of `scene` measured in motion, one curve per snapshot scale of the
 /// plan (in its order), each along the budget.
 std::vector<FrontierCurve> frontierCurves(const SuiteResults& r, const std::string& scene) {
     std::vector<FrontierCurve> curves;
-    for (const FarVariant& v : r.plan.lookups) {
-        FrontierCurve c{toString(v), {}};
+    for (int k : r.plan.snapshotScales) {
+        FrontierCurve c{scaleName(k), {}};
         for (const Measurement& m : r.rows)
             if (m.scene == scene && m.family == kBudgetFamily &&
-                m.motionSpeedupVsFastestExact > 0 && m.lookup == toString(v.lookup) &&
-                m.snapshotScale == v.snapshotScale)
+                m.motionSpeedupVsFastestExact > 0 && m.snapshotScale == k)
                 c.points.push_back(&m);
         std::sort(c.points.begin(), c.points.end(),
                   [](const Measurement* a, const Measurement* b) { return a->param < b->param; });
@@ -774,13 +772,13 @@ json budgetTargetContext(const SuiteResults& r) {
     for (const std::string& scene : sceneNames(r)) {
         const Measurement* frag = find(r, kModesGroup, scene, BenchMode::NearVulkanFragment);
         if (!frag || frag->motionMs <= 0) continue;
-        // The budget sweep runs each budget with every far lookup; the target is read on the
+        // The budget sweep runs each budget with every snapshot scale; the target is read on the
         // plan's first (the frontier section sets them side by side).
-        const FarVariant first = r.plan.lookups.empty() ? FarVariant{} : r.plan.lookups.front();
+        const int first = r.plan.snapshotScales.empty() ? 1 : r.plan.snapshotScales.front();
         std::vector<const Measurement*> budgets;
         for (const Measurement& m : r.rows)
             if (m.scene == scene && m.family == kBudgetFamily && m.motionMs > 0 &&
-                m.lookup == toString(first.lookup) && m.snapshotScale == first.snapshotScale)
+                m.snapshotScale == first)
                 budgets.push_back(&m);
         if (budgets.empty()) continue;
         std::sort(budgets.begin(), budgets.end(),
@@ -846,7 +844,7 @@ json budgetTargetContext(const SuiteResults& r) {
 }
 
 /// The speed–error frontier of every scene with budget sweep points in motion (the first scene):
-/// each far lookup's points by budget, the Pareto frontier marked.
+/// each snapshot scale's points by budget, the Pareto frontier marked.
 json frontierContext(const SuiteResults& r, bool plotted) {
     json scenes = json::array();
     for (const std::string& scene : sceneNames(r)) {

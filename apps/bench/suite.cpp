@@ -593,7 +593,6 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
                                                         : toString(c.renderer->nearBackend());
     if (renderMode == RenderMode::Hybrid || renderMode == RenderMode::Far) {
         m.farBackend = toString(c.renderer->farBackend());
-        m.lookup = toString(c.scene.selector.lookup);
         m.snapshotScale = c.scene.selector.snapshotScale;
     }
     m.coldMs = c.coldFirstMs;
@@ -619,8 +618,7 @@ std::string configKey(const SelectorConfig& c, double sigma) {
     return std::string(toString(c.metric)) + "/" + fmt(c.nearAt) + "/" + fmt(c.farAt) + "/" +
            std::to_string(c.viewSetSize) + "/" + std::to_string(c.crossfadeFrames) + "/" +
            fmt(c.viewHysteresisDeg) + "/" + fmt(sigma) + "/" + fmt(c.budgetVpx) + "/" +
-           std::to_string(c.ladderCap) + "/" + toString(c.lookup) + "/" +
-           std::to_string(c.snapshotScale);
+           std::to_string(c.ladderCap) + "/" + std::to_string(c.snapshotScale);
 }
 
 std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
@@ -645,16 +643,15 @@ std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
     farAt(SelectorMetric::Distance, plan.distanceFarAt, 0.8);
     farAt(SelectorMetric::RadiusPx, plan.radiusFarAt, 1.5);
     farAt(SelectorMetric::ErrorPx, plan.errorFarAt, 2.0);
-    // The error budget (issue 13): each budget with each far lookup (the speed–error frontier),
-    // then the ladder cap at the scene's budget.
-    for (const FarVariant& v : plan.lookups)
+    // The error budget (issue 13): each budget with each snapshot scale (the speed–error
+    // frontier, issue 29), then the ladder cap at the scene's budget.
+    for (int k : plan.snapshotScales)
         for (double b : plan.budgets) {
-            SweepPoint p{kBudgetFamily, "error_budget " + fmt(b) + " vpx, " + toString(v), b, s0,
+            SweepPoint p{kBudgetFamily, "error_budget " + fmt(b) + " vpx, " + scaleName(k), b, s0,
                          sigma0};
             p.selector = defaultSelectorFor(SelectorMetric::ErrorBudget);
             p.selector.budgetVpx = b;
-            p.selector.lookup = v.lookup;
-            p.selector.snapshotScale = v.snapshotScale;
+            p.selector.snapshotScale = k;
             pts.push_back(p);
         }
     for (int cap : plan.ladderCaps) {
@@ -807,31 +804,8 @@ const char* toString(BenchMode mode) {
     return info(mode).name;
 }
 
-std::string toString(const FarVariant& v) {
-    return std::string(toString(v.lookup)) + " x" + std::to_string(v.snapshotScale);
-}
-
-std::vector<FarVariant> parseFarVariants(const std::string& text, const char* flag) {
-    std::vector<FarVariant> out;
-    for (std::size_t at = 0;;) {
-        const std::size_t comma = text.find(',', at);
-        const std::string item = text.substr(at, comma - at);
-        const auto colon = item.find(':');
-        const std::string name = item.substr(0, colon);
-        const std::string scale = colon == std::string::npos ? "" : item.substr(colon + 1);
-        const bool known = name == toString(FarLookup::Flat) || name == toString(FarLookup::Depth);
-        if (!known || scale.size() != 1 || scale[0] < '1' || scale[0] > '4')
-            throw InputError("", flag,
-                             "expected a comma-separated list of LOOKUP:SCALE, LOOKUP flat or "
-                             "depth, SCALE 1..4, got '" +
-                                 text + "'");
-        const FarVariant v{name == toString(FarLookup::Depth) ? FarLookup::Depth : FarLookup::Flat,
-                           scale[0] - '0'};
-        // A variant named twice would be measured once and drawn twice.
-        if (std::find(out.begin(), out.end(), v) == out.end()) out.push_back(v);
-        if (comma == std::string::npos) return out;
-        at = comma + 1;
-    }
+std::string scaleName(int snapshotScale) {
+    return "x" + std::to_string(snapshotScale);
 }
 
 Plan makePlan(const SuiteOptions& o) {
@@ -860,7 +834,7 @@ Plan makePlan(const SuiteOptions& o) {
         p.scalingRepeats = 1;
         p.motionFrames = 3, p.motionWarmup = 1;
         p.budgets = {1};
-        p.lookups = {{FarLookup::Flat, 1}};
+        p.snapshotScales = {1};
     } else if (o.quick) {
         p.preset = "quick";
         p.repeats = 3;
@@ -869,11 +843,7 @@ Plan makePlan(const SuiteOptions& o) {
         p.radiusFarAt = {24, 8};
         p.errorFarAt = {2, 1, 0.5, 0.25};
         p.budgets = {0.25, 0.5, 1, 2, 4};
-        // One line per variant: {FarLookup::Depth, 3} adds the depth-corrected lookup at 3x.
-        p.lookups = {
-            {FarLookup::Flat, 1},
-            {FarLookup::Flat, 3},
-        };
+        p.snapshotScales = {1, 3};
         p.ladderCaps = {4, 16};
         p.motionFrames = 16, p.motionWarmup = 4;
         p.viewSets = {26, 98};
@@ -891,12 +861,7 @@ Plan makePlan(const SuiteOptions& o) {
         p.radiusFarAt = {32, 16, 8, 4};
         p.errorFarAt = {4, 2, 1, 0.5, 0.25};
         p.budgets = {0.25, 0.5, 1, 2, 4};
-        p.lookups = {
-            {FarLookup::Flat, 1},
-            {FarLookup::Flat, 2},
-            {FarLookup::Flat, 3},
-            {FarLookup::Flat, 4},
-        };
+        p.snapshotScales = {1, 2, 3, 4};
         p.ladderCaps = {4, 16, 64};
         p.viewSets = {26, 98, 218};
         p.sigmas = {0.5, 1, 2};
@@ -947,7 +912,14 @@ Plan makePlan(const SuiteOptions& o) {
         p.entityCounts = parseList<int>(o.entityCounts, "--entity-counts", 1, 100000);
     if (!o.modelSides.empty())
         p.modelSides = parseList<int>(o.modelSides, "--model-sides", 8, Limits::kMaxModelDim);
-    if (!o.lookups.empty()) p.lookups = parseFarVariants(o.lookups, "--lookups");
+    if (!o.snapshotScales.empty()) {
+        p.snapshotScales.clear();
+        // A scale named twice would be measured once and drawn twice.
+        for (int k : parseList<int>(o.snapshotScales, "--snapshot-scales", 1, 4))
+            if (std::find(p.snapshotScales.begin(), p.snapshotScales.end(), k) ==
+                p.snapshotScales.end())
+                p.snapshotScales.push_back(k);
+    }
     p.sweeps = o.sweeps;
     p.scaling = o.scaling;
     return p;

@@ -59,19 +59,9 @@ inline constexpr BenchModeInfo kBenchModes[] = {
 const BenchModeInfo& info(BenchMode mode);
 const char* toString(BenchMode mode);
 
-/// One far lookup the error_budget sweep measures: how far sprites read their snapshots
-/// (SelectorConfig::lookup) and at how many times the sprite's sigma they are baked
-/// (SelectorConfig::snapshotScale).
-struct FarVariant {
-    FarLookup lookup = FarLookup::Flat;
-    int snapshotScale = 1;
-    bool operator==(const FarVariant&) const = default;
-};
-/// "flat x3": the variant's name in the sweep settings, the report and the plots.
-std::string toString(const FarVariant& v);
-/// "flat:1,depth:3" -> {{Flat, 1}, {Depth, 3}}: lookups flat or depth, scales 1..4, at least one;
-/// otherwise InputError naming `flag`.
-std::vector<FarVariant> parseFarVariants(const std::string& text, const char* flag);
+/// "x3": a snapshot scale's name in the sweep settings, the report and the plots (the far tier
+/// reads snapshots baked at that multiple of the sprite's sigma, SelectorConfig::snapshotScale).
+std::string scaleName(int snapshotScale);
 
 struct SuiteOptions {
     std::vector<std::string>
@@ -86,8 +76,8 @@ struct SuiteOptions {
     std::string size; ///< WxH override of every scene's image size ("" = the scene's)
     bool sweeps = true, scaling = true;
     std::string entityCounts, modelSides; ///< comma-separated overrides of the scaling points
-    std::string lookups;  ///< "flat:1,flat:3,...": override of the error_budget sweep's variants
-    std::string cacheDir; ///< on-disk snapshot cache of every configuration ("" = none)
+    std::string snapshotScales; ///< "1,3": override of the error_budget sweep's snapshot scales
+    std::string cacheDir;       ///< on-disk snapshot cache of every configuration ("" = none)
     std::uint64_t cacheDirBytes = 0;             ///< its size limit (0 = none)
     NearRate nearRate = NearRate::Auto;          ///< of every mode but near_vulkan_fragment
     FarBlitKernel farBlit = FarBlitKernel::Simd; ///< of every mode
@@ -96,7 +86,7 @@ struct SuiteOptions {
     /// hybrid stands beside hybrid_gpu_far on every machine.
     FarBackend farBackend = FarBackend::Cpu;
     bool occlusionCull = false; ///< of every mode (--cull: true)
-    /// The error budget's cost bound on bakes (--no-cost-bound: off, so that every lookup's
+    /// The error budget's cost bound on bakes (--no-cost-bound: off, so that every scale's
     /// error is measured on the same plan, whatever its blit costs).
     bool costBound = true;
     /// Every scene's selector becomes the error budget at this many virtual pixels (its view set,
@@ -117,9 +107,9 @@ struct Plan {
     std::vector<double> distanceFarAt, radiusFarAt, errorFarAt; ///< selector sweeps
     std::vector<int> viewSets, crossfades;
     std::vector<double> budgets; ///< error_budget sweep (virtual pixels)
-    /// The far lookups the error_budget sweep runs each budget with (the speed–error frontier:
-    /// one curve per variant); the first is the one the budget target reads.
-    std::vector<FarVariant> lookups;
+    /// The snapshot scales the error_budget sweep runs each budget with (the speed–error
+    /// frontier: one curve per scale); the first is the one the budget target reads.
+    std::vector<int> snapshotScales;
     std::vector<int> ladderCaps; ///< error_budget sweep at 1 vpx
     std::vector<double> sigmas;
     std::vector<int> entityCounts, modelSides;
@@ -194,9 +184,8 @@ struct Measurement {
     std::string nearBackend;
     /// Who drew the far tier: "cpu" or "vulkan" ("" where the mode draws no far sprite).
     std::string farBackend;
-    /// How the far tier read its snapshots: "flat" or "depth", and the snapshots' scale over the
-    /// sprite's sigma ("" and 0 where the mode draws no far sprite).
-    std::string lookup;
+    /// The far tier's snapshots' scale over the sprite's sigma (0 where the mode draws no far
+    /// sprite).
     int snapshotScale = 0;
     double motionBakes = 0, motionBakeMs = 0; ///< per frame after the cold start (mean)
     double motionCacheBytes = 0; ///< snapshot bytes held, the most over the in-motion frames
