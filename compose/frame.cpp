@@ -178,6 +178,7 @@ void addFarCacheWork(FrameStats& st, const FarFrameStats& fs) {
     st.farRefreshes += int(fs.refreshes);
     st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
     st.farCellsRetraced += fs.cellsRetraced;
+    st.raysTraced += fs.raysTraced;
 }
 
 /// A near backend's cell-rate counts into the frame's figures (both backends carry them).
@@ -511,7 +512,6 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
 
 void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& st) {
     FarFrameStats fs;
-    const std::uint64_t raysBefore = cache_->counters().raysTraced;
     FarBlitOptions blit = options_.farBlit;
     blit.occlusionCull = options_.occlusionCull;
     drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize),
@@ -523,7 +523,6 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
     st.farMs += fs.ensureMs + fs.blit.milliseconds;
     st.farPixelsTested += fs.blit.pixelsTested;
     st.farPixelsWritten += fs.blit.pixelsWritten;
-    st.raysTraced += cache_->counters().raysTraced - raysBefore;
 }
 
 std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,

@@ -25,6 +25,7 @@ void addCacheWork(FarFrameStats& stats, const SnapshotCacheCounters& before,
     stats.refreshes += after.refreshes - before.refreshes;
     stats.incrementalRefreshes += after.incrementalRefreshes - before.incrementalRefreshes;
     stats.cellsRetraced += after.cellsRetraced - before.cellsRetraced;
+    stats.raysTraced += after.raysTraced - before.raysTraced;
 }
 
 // A snapshot by (model, frame, view, sigma).

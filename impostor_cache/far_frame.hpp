@@ -24,7 +24,8 @@ struct FarFrameStats {
     /// Of the bakes, stale snapshots brought up to date after an edit; of those, the ones
     /// re-traced only where the edit reaches, and the rays they traced (SnapshotCacheCounters).
     std::uint64_t refreshes = 0, incrementalRefreshes = 0, cellsRetraced = 0;
-    double ensureMs = 0.0; ///< lookups + bakes
+    std::uint64_t raysTraced = 0; ///< by those bakes (SnapshotCacheCounters::raysTraced)
+    double ensureMs = 0.0;        ///< lookups + bakes
     FarBlitStats blit;
 };
 

@@ -385,6 +385,9 @@ std::set<const Measurement*> frontierPareto(const std::vector<FrontierCurve>& cu
     for (const FrontierCurve& c : curves) all.insert(all.end(), c.points.begin(), c.points.end());
     std::set<const Measurement*> front;
     for (const Measurement* a : all) {
+        // The fastest exact path is a point of the frontier too, at 1x with no error: nothing
+        // at or below its speed can be on the frontier.
+        if (!(a->motionSpeedupVsFastestExact > 1.0)) continue;
         const bool dominated = std::any_of(all.begin(), all.end(), [&](const Measurement* b) {
             const double sa = a->motionSpeedupVsFastestExact, sb = b->motionSpeedupVsFastestExact;
             const double pa = a->motionPsnrMin, pb = b->motionPsnrMin;
