@@ -85,9 +85,9 @@ void FarResidency::release(std::uint32_t offset, std::uint32_t words) {
     free_.emplace(offset, words);
 }
 
-void FarResidency::sweep(const std::unordered_set<const void*>& keep, FarResidencyStats& st) {
+template <class Keep> void FarResidency::freeUnless(Keep&& keep, FarResidencyStats& st) {
     for (auto it = entries_.begin(); it != entries_.end();) {
-        if (it->second.cells.owner.use_count() > 1 || keep.count(it->first)) {
+        if (keep(*it)) {
             ++it;
             continue;
         }
@@ -101,21 +101,17 @@ void FarResidency::sweep(const std::unordered_set<const void*>& keep, FarResiden
     }
 }
 
+void FarResidency::sweep(const std::unordered_set<const void*>& keep, FarResidencyStats& st) {
+    freeUnless(
+        [&](const auto& e) {
+            return e.second.cells.owner.use_count() > 1 || keep.count(e.first) > 0;
+        },
+        st);
+}
+
 void FarResidency::evictUnneeded(const std::unordered_set<const void*>& needed,
                                  FarResidencyStats& st) {
-    for (auto it = entries_.begin(); it != entries_.end();) {
-        if (needed.count(it->first)) {
-            ++it;
-            continue;
-        }
-        release(it->second.offset, it->second.words);
-        usedWords_ -= it->second.words;
-        ++st.snapshotsFreed;
-        if (const auto l = byLineage_.find(it->second.cells.lineage);
-            l != byLineage_.end() && l->second == it->first)
-            byLineage_.erase(l);
-        it = entries_.erase(it);
-    }
+    freeUnless([&](const auto& e) { return needed.count(e.first) > 0; }, st);
 }
 
 void FarResidency::stage(const std::uint8_t* from, std::size_t bytes, VkDeviceSize deviceByte) {

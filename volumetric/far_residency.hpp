@@ -61,6 +61,8 @@ class FarResidency {
     void sweep(const std::unordered_set<const void*>& keep, FarResidencyStats& stats);
     /// Frees every resident snapshot not in `needed`, held elsewhere or not.
     void evictUnneeded(const std::unordered_set<const void*>& needed, FarResidencyStats& stats);
+    /// Frees every resident snapshot (an entries_ element) for which keep(element) is false.
+    template <class Keep> void freeUnless(Keep&& keep, FarResidencyStats& stats);
     /// Stages `bytes` bytes of `from` for a copy to byte `deviceByte` of the buffer.
     void stage(const std::uint8_t* from, std::size_t bytes, VkDeviceSize deviceByte);
 
