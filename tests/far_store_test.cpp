@@ -469,13 +469,20 @@ TEST(SnapshotStore, TwoProcessesBakingIntoOneDirectoryBothSucceed) {
 TEST(SnapshotStore, WritersInSeveralProcessesAddTheirViewsToOnePack) {
     const fs::path dir = freshDir(), alone = freshDir("_alone");
     const auto m = test::solidBox({6, 5, 4});
-    SnapshotCache cache;
-    std::vector<std::pair<SnapshotFileKey, std::shared_ptr<const Snapshot>>> views;
-    for (int v = 0; v < 26; ++v) {
-        const ViewId view = viewIdOf(ViewSet::Cube26, v);
-        views.push_back({{digestGrid(m->frame(0)), m->frame(0).dims(), view, 1.0, false},
-                         cache.get(*m, 0, view, 1.0)});
-    }
+    // Every process bakes the views itself, and the writers are forked before anything starts a
+    // thread: a child forked while a TBB worker held a lock of the allocator (ASan's, here)
+    // waits on it for ever.
+    using Views = std::vector<std::pair<SnapshotFileKey, std::shared_ptr<const Snapshot>>>;
+    const auto bakeViews = [&] {
+        SnapshotCache cache;
+        Views views;
+        for (int v = 0; v < 26; ++v) {
+            const ViewId view = viewIdOf(ViewSet::Cube26, v);
+            views.push_back({{digestGrid(m->frame(0)), m->frame(0).dims(), view, 1.0, false},
+                             cache.get(*m, 0, view, 1.0)});
+        }
+        return views;
+    };
     constexpr int kWriters = 4;
     std::vector<pid_t> writers;
     for (int p = 0; p < kWriters; ++p) {
@@ -484,6 +491,7 @@ TEST(SnapshotStore, WritersInSeveralProcessesAddTheirViewsToOnePack) {
         if (pid == 0) {
             bool ok = true;
             {
+                const Views views = bakeViews();
                 SnapshotStore store({.dir = dir});
                 for (std::size_t v = std::size_t(p); v < views.size(); v += kWriters)
                     ok = store.save(views[v].first, *views[v].second) && store.flush() && ok;
@@ -497,6 +505,7 @@ TEST(SnapshotStore, WritersInSeveralProcessesAddTheirViewsToOnePack) {
         ASSERT_EQ(::waitpid(w, &status, 0), w);
         EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
     }
+    const Views views = bakeViews();
     {
         SnapshotStore store({.dir = alone});
         for (const auto& [key, snap] : views) ASSERT_TRUE(store.save(key, *snap));
