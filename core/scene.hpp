@@ -80,6 +80,9 @@ struct SelectorConfig {
     /// so far == near stays exact there.
     int snapshotScale = 1;
 };
+/// The finest snapshots a scene may ask for (SelectorConfig::snapshotScale, 1 to this): past 4,
+/// k^2 the bake cost buys little (DESIGN.md §4), and snapshot files bound their stride by it.
+inline constexpr int kMaxSnapshotScale = 4;
 /// Defaults per metric: 30/40 m; 24/16 px radius; 1.0/0.5 px predicted error; for the budget,
 /// far below 0.75 of it and near again above all of it (a far entity never exceeds it).
 inline SelectorConfig defaultSelectorFor(SelectorMetric m) {

@@ -316,7 +316,7 @@ struct SceneBuilder {
             sel.ladderCap = n;
         }
         o.i("max_bakes_per_frame", sel.maxBakesPerFrame, 0, 1'000'000);
-        o.i("snapshot_scale", sel.snapshotScale, 1, 4);
+        o.i("snapshot_scale", sel.snapshotScale, 1, kMaxSnapshotScale);
     }
 
     std::string modelName(const Obj& o) {

@@ -2,6 +2,7 @@
 // One baked view of one model frame (DESIGN.md §4): the near tier's cell image for d = -w on the
 // §3.5 lattice, stored as a relightable payload of two bytes per cell (palette index + code).
 // Colour and light are applied at blit time, so a light change never needs a re-bake.
+#include "core/scene.hpp"
 #include "core/sprite.hpp"
 #include "core/view_set.hpp"
 
@@ -26,10 +27,6 @@ inline unsigned face(std::uint8_t code) {
     return unsigned(code - kSolid0);
 }
 } // namespace snapshot_code
-
-/// The finest snapshot a sprite may ask for, in multiples of its sigma (SelectorConfig's
-/// snapshot_scale): the outline stride a file may name.
-inline constexpr int kMaxOutlineStride = 4;
 
 struct SnapshotCell {
     std::uint8_t index = 0; ///< palette index of the hit voxel (0 unless solid)

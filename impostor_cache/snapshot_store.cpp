@@ -60,7 +60,7 @@ void readFlags(std::uint32_t flags, SnapshotFileKey& k) {
     if (flags & ~(kFlagDepth | kStrideMask)) throw SnapshotFileError("unknown flags");
     k.withDepth = flags & kFlagDepth;
     k.outlineStride = int((flags & kStrideMask) >> kStrideShift) + 1;
-    if (k.outlineStride > kMaxOutlineStride) throw SnapshotFileError("outline stride out of range");
+    if (k.outlineStride > kMaxSnapshotScale) throw SnapshotFileError("outline stride out of range");
 }
 /// View lattice components a file may name: far beyond any view set (n = 3 uses 3), small enough
 /// that the normalisation is exact.

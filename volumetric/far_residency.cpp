@@ -33,8 +33,9 @@ void FarResidency::grow(std::uint64_t minWords) {
     while (words < minWords) words *= 2;
     if (capacityWords_) words = std::max(words, 2 * capacityWords_);
     const VkDeviceSize limit = device_.properties().limits.maxStorageBufferRange;
-    // Doubling may pass the device's range where what is needed does not: take the range then.
-    if (words * 4 > limit && minWords * 4 <= limit) words = limit / 4;
+    // Past the device's range a buffer below it grows to the range (its new free tail may still
+    // hold what is asked; the caller's allocation says); only a buffer at the range cannot grow.
+    if (words * 4 > limit && capacityWords_ * 4 < limit) words = limit / 4;
     if (words * 4 > limit)
         throw VulkanError("far pass: the resident snapshots need " + std::to_string(words * 4) +
                           " bytes, past the device's storage buffer range of " +
@@ -186,15 +187,13 @@ std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarReside
             for (const FarSnapshotCells& n : batch.snapshots) needed.insert(n.owner.get());
             evictUnneeded(needed, st);
             if (!allocate(words, offset)) {
-                const VkDeviceSize limit = device_.properties().limits.maxStorageBufferRange;
-                if ((capacityWords_ + words) * 4 > limit && capacityWords_ * 4 < limit)
-                    grow(std::min<std::uint64_t>(capacityWords_ + words, limit / 4));
-                else
-                    grow(capacityWords_ + words);
+                grow(capacityWords_ + words);
                 if (!allocate(words, offset))
-                    throw VulkanError("far pass: the frame's snapshots do not fit the device's "
-                                      "storage buffer range of " +
-                                      std::to_string(limit) + " bytes");
+                    throw VulkanError(
+                        "far pass: the frame's snapshots do not fit the device's storage buffer "
+                        "range of " +
+                        std::to_string(device_.properties().limits.maxStorageBufferRange) +
+                        " bytes");
             }
         }
         entries_.emplace(key, Entry{s, offset, words});

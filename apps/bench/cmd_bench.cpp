@@ -148,7 +148,7 @@ void addBenchCommand(CLI::App& app) {
                      "Snapshot scales of the error_budget sweep, each run at every budget: the far "
                      "tier's snapshots at that multiple of the sprite's sigma, 1..4 (default: "
                      "1,2,3,4; --quick 1,3)")
-        ->check(intList(1, 4));
+        ->check(intList(1, kMaxSnapshotScale));
     // Test-only: tiny images and entity counts, one repeat, one sweep point (tests/bench_cli_test).
     bench->add_flag("--smoke", o->smoke, "")->group("");
     auto cacheDir = std::make_shared<CacheDirArgs>();

@@ -915,7 +915,7 @@ Plan makePlan(const SuiteOptions& o) {
     if (!o.snapshotScales.empty()) {
         p.snapshotScales.clear();
         // A scale named twice would be measured once and drawn twice.
-        for (int k : parseList<int>(o.snapshotScales, "--snapshot-scales", 1, 4))
+        for (int k : parseList<int>(o.snapshotScales, "--snapshot-scales", 1, kMaxSnapshotScale))
             if (std::find(p.snapshotScales.begin(), p.snapshotScales.end(), k) ==
                 p.snapshotScales.end())
                 p.snapshotScales.push_back(k);
