@@ -243,20 +243,28 @@ struct SnapshotFileHeader {
     std::size_t fileBytes = 0; ///< the exact size of the whole file
 };
 
+/// The opening every snapshot file and pack shares: its magic (`what` names the kind in the
+/// error), its format version, and the lattice rule. Returns a reader past them.
+Reader openHeader(const std::uint8_t* header, const char (&magic)[8], const char* what,
+                  std::uint32_t expectedVersion) {
+    if (std::memcmp(header, magic, sizeof magic) != 0)
+        throw SnapshotFileError(std::string("not a voxtier snapshot ") + what + " (magic)");
+    Reader r(header + sizeof magic);
+    const std::uint32_t version = r.u32(), rule = r.u32();
+    if (version != expectedVersion)
+        throw SnapshotFileError("stale format version " + std::to_string(version) + " (expected " +
+                                std::to_string(expectedVersion) + ")");
+    if (rule != kSnapshotLatticeRule)
+        throw SnapshotFileError("stale lattice rule " + std::to_string(rule) + " (expected " +
+                                std::to_string(kSnapshotLatticeRule) + ")");
+    return r;
+}
+
 /// Parses the first kHeaderBytes of a file (the caller checked there are that many). Every size
 /// is checked against the lattice that the key fields (bounded first) imply, so nothing is
 /// sized from an unchecked field.
 SnapshotFileHeader decodeHeader(const std::uint8_t* header) {
-    if (std::memcmp(header, kMagic, sizeof kMagic) != 0)
-        throw SnapshotFileError("not a voxtier snapshot file (magic)");
-    Reader r(header + sizeof kMagic);
-    const std::uint32_t version = r.u32(), rule = r.u32();
-    if (version != kSnapshotFileVersion)
-        throw SnapshotFileError("stale format version " + std::to_string(version) + " (expected " +
-                                std::to_string(kSnapshotFileVersion) + ")");
-    if (rule != kSnapshotLatticeRule)
-        throw SnapshotFileError("stale lattice rule " + std::to_string(rule) + " (expected " +
-                                std::to_string(kSnapshotLatticeRule) + ")");
+    Reader r = openHeader(header, kMagic, "file", kSnapshotFileVersion);
     SnapshotFileHeader h;
     SnapshotFileKey& k = h.key;
     k.grid.lo = r.u64();
@@ -395,16 +403,7 @@ struct PackIndex {
 /// field bounded, the entry count against the bytes there are. Returns the count.
 std::size_t decodePackHeader(const std::uint8_t* header, std::uint64_t actualBytes,
                              SnapshotFileKey& frame) {
-    if (std::memcmp(header, kPackMagic, sizeof kPackMagic) != 0)
-        throw SnapshotFileError("not a voxtier snapshot pack (magic)");
-    Reader r(header + sizeof kPackMagic);
-    const std::uint32_t version = r.u32(), rule = r.u32();
-    if (version != kSnapshotPackVersion)
-        throw SnapshotFileError("stale format version " + std::to_string(version) + " (expected " +
-                                std::to_string(kSnapshotPackVersion) + ")");
-    if (rule != kSnapshotLatticeRule)
-        throw SnapshotFileError("stale lattice rule " + std::to_string(rule) + " (expected " +
-                                std::to_string(kSnapshotLatticeRule) + ")");
+    Reader r = openHeader(header, kPackMagic, "pack", kSnapshotPackVersion);
     frame.grid.lo = r.u64();
     frame.grid.hi = r.u64();
     for (int c = 0; c < 3; ++c) frame.dims[c] = r.i32();
