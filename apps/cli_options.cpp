@@ -229,12 +229,22 @@ CLI::Option* addFarBlitOption(CLI::App& cmd, FarBlitKernel& kernel) {
                            "image");
 }
 
-CLI::Option* addCullFlag(CLI::App& cmd, bool& occlusionCull) {
-    return cmd.add_flag("--cull,!--no-cull", occlusionCull,
-                        "Exact occlusion culling in the CPU tiers: sprites drawn front to back, "
-                        "skipping what nearer sprites already hide (pays where large sprites hide "
-                        "whole others; the default --no-cull draws every visible sprite); same "
-                        "image");
+void addCullFlags(CLI::App& cmd, CullSwitches& cull) {
+    auto* on = cmd.add_flag_callback(
+        "--cull", [&cull] { cull.occlusionCull = true; },
+        "Exact occlusion culling in the CPU tiers as well: sprites drawn front to back, skipping "
+        "the tiles and whole sprites nearer ones already hide (pays where large sprites hide "
+        "whole others); same image");
+    auto* off = cmd.add_flag_callback(
+        "--no-cull",
+        [&cull] {
+            cull.occlusionCull = false;
+            cull.earlyDepthTest = false;
+        },
+        "No occlusion culling at all, not even the near tier's early depth test (on by "
+        "default: the CPU reference and Vulkan skip pixels a nearer sprite already holds); same "
+        "image, for comparisons");
+    on->excludes(off);
 }
 
 } // namespace voxtier::cli

@@ -110,8 +110,15 @@ inline std::vector<std::pair<std::string, ViewSet>> viewSetNames() {
 CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate);
 /// `--far-blit simd|scalar` (compose/frame.hpp kFarBlitNames) on `cmd`, for `render` and `bench`.
 CLI::Option* addFarBlitOption(CLI::App& cmd, FarBlitKernel& kernel);
-/// --cull / --no-cull (the default): FrameOptions::occlusionCull.
-CLI::Option* addCullFlag(CLI::App& cmd, bool& occlusionCull);
+/// The occlusion switches of `render` and `bench` (DESIGN.md §6, Occlusion): by default the
+/// near tier's early depth test alone; --cull adds the CPU tiers' tiles and whole-sprite drops
+/// (FrameOptions::occlusionCull); --no-cull turns every kind off, the early depth test too
+/// (FrameOptions::earlyDepthTest), for comparisons.
+struct CullSwitches {
+    bool occlusionCull = false;
+    bool earlyDepthTest = true;
+};
+void addCullFlags(CLI::App& cmd, CullSwitches& cull);
 
 /// The name of `value` in a name table (for ->default_str).
 template <class Names, class E> std::string nameOf(const Names& names, E value) {

@@ -39,7 +39,7 @@ struct RenderArgs {
     FarBackend farBackend = FarBackend::Auto;
     NearRate nearRate = NearRate::Auto;
     FarBlitKernel farBlit = FarBlitKernel::Simd;
-    bool occlusionCull = false;
+    cli::CullSwitches cull;
     bool path = false;
     bool alpha = false;    ///< transparent background (alpha 0 where no sprite is drawn)
     bool costBound = true; ///< FrameOptions::costAwareBakes
@@ -328,7 +328,8 @@ void run(const RenderArgs& a) {
     opt.farBackend = a.farBackend;
     opt.nearRate = a.nearRate;
     opt.farBlit.kernel = a.farBlit;
-    opt.occlusionCull = a.occlusionCull;
+    opt.occlusionCull = a.cull.occlusionCull;
+    opt.earlyDepthTest = a.cull.earlyDepthTest;
     // The CPU reference's rows, for the progress line of a lone long frame.
     WorkProgress nearRows;
     opt.nearProgress = &nearRows;
@@ -489,7 +490,7 @@ void addRenderCommand(CLI::App& app) {
                     "cpu; same image");
     addNearRateOption(*cmd, args->nearRate);
     addFarBlitOption(*cmd, args->farBlit);
-    addCullFlag(*cmd, args->occlusionCull);
+    addCullFlags(*cmd, args->cull);
     auto* path =
         cmd->add_flag("--path", args->path,
                       "Render every frame of the camera path (OUT becomes OUT_0000.png ...; "

@@ -469,6 +469,7 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
         no.countSteps = options_.nearCountSteps;
         no.rate = options_.nearRate;
         no.far = far;
+        no.earlyDepthTest = options_.earlyDepthTest;
         if (colourOnly) {
             // One plane read back. The backdrop then finds the pixels no sprite drew by their
             // alpha (sprites always write 255): the targets are cleared to a transparent
@@ -491,6 +492,7 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
         st.nearDrawMs += ns.drawMs;
         st.nearReadbackMs += ns.readbackMs;
         st.nearComputeMs += ns.computeMs;
+        st.nearEarlyDepthSprites += ns.earlyDepthSprites;
         addCellRateCounts(st, ns);
     } else {
         image = Image(cam.width, cam.height, scene_.render.background);
@@ -498,6 +500,7 @@ Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
         ReferenceOptions ro;
         ro.rate = options_.nearRate;
         ro.occlusionCull = options_.occlusionCull;
+        ro.earlyDepthTest = options_.earlyDepthTest;
         ro.progress = options_.nearProgress;
         renderReference(scene_.models, sprites, image, &rs, ro);
         st.nearPixelsTested += rs.pixelsTested;

@@ -133,6 +133,12 @@ struct FrameOptions {
     /// (--cull turns it on): on the bench's crowds it costs more than it saves, and it pays only
     /// where large sprites hide whole others (DESIGN.md §6, Occlusion, with the figures).
     bool occlusionCull = false;
+    /// The near tier's per-pixel early depth test on both backends (exact, and cheaper on every
+    /// bench scene): the CPU reference skips pixels that already hold what beats the sprite
+    /// (ReferenceOptions::earlyDepthTest), Vulkan draws front to back with the rasteriser's
+    /// early depth test (NearOptions::earlyDepthTest). false (--no-cull, with occlusionCull):
+    /// every covered pixel traced, in ascending id, the baseline culling is measured against.
+    bool earlyDepthTest = true;
     /// Near sprites drawn by the CPU reference count their rows here (ReferenceOptions::progress;
     /// null: not counted), for a progress line polled by another thread. A Vulkan near tier is
     /// one submit per frame: it counts nothing.
@@ -208,6 +214,9 @@ struct FrameStats {
     /// Visible sprites occlusion culling dropped whole, before any bake or trace (the CPU tiers;
     /// FrameOptions::occlusionCull), per tier.
     int nearOccluded = 0, farOccluded = 0;
+    /// Near sprites Vulkan rasterised flat at their depth, under the early depth test
+    /// (NearStats::earlyDepthSprites; FrameOptions::earlyDepthTest).
+    std::uint64_t nearEarlyDepthSprites = 0;
     std::uint64_t nearKernelFragments = 0; ///< with nearCountSteps: fragments that ran the kernel
     std::uint64_t raysTraced = 0;          ///< by this frame's bakes
     /// The largest predicted silhouette displacement of a far-drawn entity (DESIGN.md §5,

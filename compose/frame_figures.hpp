@@ -106,6 +106,7 @@ struct FrameFigureTable {
         {"near_pixels_written",       &FrameStats::nearPixelsWritten,       Count, Mean},
         {"near_occluded",             &FrameStats::nearOccluded,            Count, Mean},
         {"far_occluded",              &FrameStats::farOccluded,             Count, Mean},
+        {"near_early_depth_sprites",  &FrameStats::nearEarlyDepthSprites,   Count, Mean},
     };
     // clang-format on
 };

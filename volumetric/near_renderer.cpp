@@ -1,5 +1,6 @@
 #include "volumetric/near_renderer.hpp"
 
+#include "core/occlusion.hpp"
 #include "core/stopwatch.hpp"
 #include "volumetric/far_residency.hpp"
 #include "volumetric/shaders/far_shared.h"
@@ -18,6 +19,8 @@
 #include "shaders/near_box_vert.h"
 #include "shaders/near_cell_outline_comp.h"
 #include "shaders/near_cells_comp.h"
+#include "shaders/near_flat_frag.h"
+#include "shaders/near_flat_steps_frag.h"
 #include "shaders/near_frag.h"
 #include "shaders/near_hull_vert.h"
 #include "shaders/near_quad_vert.h"
@@ -115,7 +118,7 @@ struct NearRenderer::Impl {
     VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
     VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
     VkRenderPass renderPass = VK_NULL_HANDLE;
-    VkPipeline pipelines[3][2] = {}; ///< [proxy][countSteps], created on first use
+    VkPipeline pipelines[3][2][2] = {}; ///< [proxy][countSteps][flatDepth], created on first use
     /// The cell-rate compute passes (trace, outline, splat, resolve), created on first use.
     enum ComputePass { TraceCells, Outline, Splat, Resolve, FarBlit, ComputePassCount };
     VkPipeline computePipelines[ComputePassCount] = {};
@@ -158,7 +161,7 @@ struct NearRenderer::Impl {
 
     void create();
     void destroy() noexcept;
-    VkPipeline pipeline(NearProxy proxy, bool countSteps);
+    VkPipeline pipeline(NearProxy proxy, bool countSteps, bool flatDepth);
     VkPipeline computePipeline(ComputePass pass);
     struct CellWork {
         std::uint32_t tiles = 0;        ///< near_cells.comp workgroups
@@ -334,10 +337,11 @@ void NearRenderer::Impl::destroy() noexcept {
     if (!dev) return;
     vkDeviceWaitIdle(dev);
     for (auto& perProxy : pipelines)
-        for (VkPipeline& p : perProxy) {
-            if (p) vkDestroyPipeline(dev, p, nullptr);
-            p = VK_NULL_HANDLE;
-        }
+        for (auto& perCount : perProxy)
+            for (VkPipeline& p : perCount) {
+                if (p) vkDestroyPipeline(dev, p, nullptr);
+                p = VK_NULL_HANDLE;
+            }
     for (VkPipeline& p : computePipelines) {
         if (p) vkDestroyPipeline(dev, p, nullptr);
         p = VK_NULL_HANDLE;
@@ -380,8 +384,8 @@ void NearRenderer::Impl::destroy() noexcept {
     sampler = VK_NULL_HANDLE;
 }
 
-VkPipeline NearRenderer::Impl::pipeline(NearProxy proxy, bool countSteps) {
-    VkPipeline& slot = pipelines[int(proxy)][countSteps];
+VkPipeline NearRenderer::Impl::pipeline(NearProxy proxy, bool countSteps, bool flatDepth) {
+    VkPipeline& slot = pipelines[int(proxy)][countSteps][flatDepth];
     if (slot) return slot;
     VkDevice dev = device.device();
     auto makeModule = [&](const std::uint32_t* code, std::size_t bytes) {
@@ -398,8 +402,11 @@ VkPipeline NearRenderer::Impl::pipeline(NearProxy proxy, bool countSteps) {
                               : makeModule(near_quad_vert, sizeof(near_quad_vert));
     VkShaderModule frag = VK_NULL_HANDLE;
     try {
-        frag = countSteps ? makeModule(near_steps_frag, sizeof(near_steps_frag))
-                          : makeModule(near_frag, sizeof(near_frag));
+        frag = flatDepth
+                   ? (countSteps ? makeModule(near_flat_steps_frag, sizeof near_flat_steps_frag)
+                                 : makeModule(near_flat_frag, sizeof near_flat_frag))
+               : countSteps ? makeModule(near_steps_frag, sizeof(near_steps_frag))
+                            : makeModule(near_frag, sizeof(near_frag));
 
         VkPipelineShaderStageCreateInfo stages[2]{};
         stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
@@ -807,14 +814,20 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     if (opt.countSteps && !device.hasFragmentAtomics())
         throw VulkanError("near tier: counting DDA steps needs fragmentStoresAndAtomics, which " +
                           device.name() + " lacks");
-    // §6: ascending entity id, so that depth GREATER resolves ties to the lower id.
+    // §6: ascending entity id, so that depth GREATER resolves ties to the lower id. Culled: front
+    // to back with equal depths in ascending id, which keeps every pixel the same (the depth
+    // test alone decides unequal depths, whatever their order).
     std::vector<const SpriteSetup*> visible;
     visible.reserve(all.size());
-    for (const SpriteSetup* s : all)
-        if (s->visible()) visible.push_back(s);
-    std::stable_sort(
-        visible.begin(), visible.end(),
-        [](const SpriteSetup* a, const SpriteSetup* b) { return a->entityId < b->entityId; });
+    if (opt.earlyDepthTest) {
+        for (const std::uint32_t i : frontToBack(all)) visible.push_back(all[i]);
+    } else {
+        for (const SpriteSetup* s : all)
+            if (s->visible()) visible.push_back(s);
+        std::stable_sort(
+            visible.begin(), visible.end(),
+            [](const SpriteSetup* a, const SpriteSetup* b) { return a->entityId < b->entityId; });
+    }
     stats.sprites = visible.size();
 
     const ResidencyStats up = residency.update(models, visible);
@@ -844,6 +857,12 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
             for (int k = 0; k < 8; ++k) box[i].corner[k] = glm::vec4(corners[std::size_t(k)]);
         }
     }
+    // Culled hull sprites are rasterised flat at their own depth where that clips nothing the
+    // perspective proxy keeps: every corner in front of the eye and within the depth range.
+    // Then the corners are divided through on the host (w = 1) and z is the sprite's depth, so
+    // every fragment's depth is that float exactly (a triangle of equal z has zero depth slope).
+    // The rest (sprites through the near plane) keep the perspective proxy and the shader's depth.
+    std::vector<std::uint8_t> flat(n, 0);
     if (opt.proxy == NearProxy::Hull) {
         ensureBuffer(hulls, std::max<std::size_t>(n, 1) * sizeof(near_gpu::NearHull),
                      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
@@ -851,8 +870,16 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
         for (std::size_t i = 0; i < n; ++i) {
             const auto corners = proxyHullClipCorners(cam, *visible[i]);
             hull[i].count = std::uint32_t(corners.size());
+            bool flatten = opt.earlyDepthTest;
+            for (const glm::dvec4& c : corners)
+                flatten = flatten && c.w > 0.0 && c.z >= 0.0 && c.z <= c.w;
+            flat[i] = flatten;
+            stats.earlyDepthSprites += flatten;
             for (std::size_t k = 0; k < corners.size(); ++k)
-                hull[i].corner[k] = glm::vec4(corners[k]);
+                hull[i].corner[k] = flatten ? glm::vec4(float(corners[k].x / corners[k].w),
+                                                        float(corners[k].y / corners[k].w),
+                                                        visible[i]->gpu.depth, 1.0f)
+                                            : glm::vec4(corners[k]);
         }
     }
     // The resolve pass binds the whole readback buffer; past the device's storage-buffer range
@@ -878,7 +905,6 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     const std::uint32_t farTileCount = withFar ? prepareFar(*opt.far, stats) : 0;
     const double farHostMs = withFar ? msSince(tFar) : 0.0;
     writeDescriptors();
-    const VkPipeline pipe = n ? pipeline(opt.proxy, opt.countSteps) : VK_NULL_HANDLE;
     const bool query = opt.pipelineStatistics && statsPool && n;
 
     VkCommandBuffer cb = drawCb;
@@ -914,7 +940,6 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     rbi.pClearValues = clears;
     vkCmdBeginRenderPass(cb, &rbi, VK_SUBPASS_CONTENTS_INLINE);
     if (n) {
-        vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipe);
         vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout, 0, 1,
                                 &descriptorSet, 0, nullptr);
         const VkViewport viewport{0.0f, 0.0f, float(width), float(height), 0.0f, 1.0f};
@@ -926,13 +951,22 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
                                        : opt.proxy == NearProxy::Hull
                                            ? near_gpu::NEAR_HULL_VERTICES
                                            : near_gpu::NEAR_QUAD_VERTICES;
-        if (opt.draws == NearDraws::Instanced) {
-            vkCmdDraw(cb, vertices, std::uint32_t(n), 0, 0);
-            stats.drawCalls = 1;
-        } else {
-            // Same order, one draw each: gl_InstanceIndex = firstInstance selects the sprite.
-            for (std::uint32_t i = 0; i < n; ++i) vkCmdDraw(cb, vertices, 1, 0, i);
-            stats.drawCalls = n;
+        // One instanced draw per stretch of sprites with the same depth source, in order
+        // (gl_InstanceIndex counts from firstInstance, so it still indexes the sprite buffers).
+        for (std::uint32_t first = 0; first < n;) {
+            std::uint32_t end = first + 1;
+            while (end < n && flat[end] == flat[first]) ++end;
+            vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                              pipeline(opt.proxy, opt.countSteps, flat[first] != 0));
+            if (opt.draws == NearDraws::Instanced) {
+                vkCmdDraw(cb, vertices, end - first, 0, first);
+                stats.drawCalls += 1;
+            } else {
+                // Same order, one draw each: gl_InstanceIndex = firstInstance selects it.
+                for (std::uint32_t i = first; i < end; ++i) vkCmdDraw(cb, vertices, 1, 0, i);
+                stats.drawCalls += end - first;
+            }
+            first = end;
         }
         if (query) vkCmdEndQuery(cb, statsPool, 0);
     }

@@ -73,6 +73,16 @@ struct NearOptions {
     bool readDepthAndIds = true;
     /// The colour the targets are cleared to (the background), or, when set, this one instead.
     std::optional<Rgba8> clearColor;
+    /// The early depth test (DESIGN.md §6 Occlusion), like ReferenceOptions::earlyDepthTest:
+    /// the sprites are drawn front to back (nearer depth first, equal depths by ascending id, so
+    /// the depth test keeps what it kept in id order), and each per-pixel hull sprite wholly in
+    /// front of the near plane is rasterised flat at its own depth. The rasteriser's depth is
+    /// then the sprite's depth bit for bit, the fragment shader writes none, and the depth test
+    /// runs before the shader and rejects a fragment a nearer sprite already covers, untraced.
+    /// The image is the same bit for bit. Cell-rate sprites are not culled (their compute passes
+    /// run before the draw); the quad and box proxies are only reordered. false: ascending id,
+    /// every sprite's depth written by its shader (the tests' and --no-cull's baseline).
+    bool earlyDepthTest = true;
 };
 
 struct NearStats : CellRateCounts {
@@ -101,6 +111,8 @@ struct NearStats : CellRateCounts {
     /// compute pass; host preparation alone where the device has no timestamps).
     std::uint64_t farSprites = 0, farTiles = 0, farSnapshotsUploaded = 0, farBytesUploaded = 0;
     double farMs = 0.0;
+    /// Sprites rasterised flat at their depth, with the early depth test (earlyDepthTest).
+    std::uint64_t earlyDepthSprites = 0;
 };
 
 class NearRenderer {

@@ -126,7 +126,8 @@ void addBenchCommand(CLI::App& app) {
                     "Who draws the far tier of the hybrid and far rows and the sweeps: cpu "
                     "(default: the CPU blit, beside the hybrid_gpu_far row's Vulkan far pass), "
                     "vulkan, or auto (Vulkan on a GPU, the CPU blit on a CPU device); same image");
-    addCullFlag(*bench, o->occlusionCull);
+    auto cull = std::make_shared<CullSwitches>();
+    addCullFlags(*bench, *cull);
     bench->add_flag("!--no-cost-bound", o->costBound,
                     "The error budget's planner keeps every entity its budget sends far, whatever "
                     "its bakes and blit cost (default: it draws near what would not pay): every "
@@ -153,7 +154,9 @@ void addBenchCommand(CLI::App& app) {
     bench->add_flag("--smoke", o->smoke, "")->group("");
     auto cacheDir = std::make_shared<CacheDirArgs>();
     addCacheDirOptions(*bench, *cacheDir, "every configuration reads its snapshots from it");
-    bench->callback([bench, o, cacheDir] {
+    bench->callback([bench, o, cacheDir, cull] {
+        o->occlusionCull = cull->occlusionCull;
+        o->earlyDepthTest = cull->earlyDepthTest;
         o->cacheDir = cacheDir->dir;
         o->cacheDirBytes = cacheDir->limitBytes();
         if (bench->get_subcommands().empty()) runBench(*o);

@@ -292,6 +292,7 @@ json planJson(const Plan& p) {
     plan["far_blit"] = p.farBlit == FarBlitKernel::Simd ? "simd" : "scalar";
     plan["far_backend"] = toString(p.farBackend);
     plan["occlusion_cull"] = p.occlusionCull;
+    plan["early_depth_test"] = p.earlyDepthTest;
     return plan;
 }
 

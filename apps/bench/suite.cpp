@@ -295,6 +295,7 @@ FrameOptions frameOptions(const Config& c, const Plan& plan,
     o.nearRate = info(c.mode).perPixel ? NearRate::Fragment : plan.nearRate;
     o.farBlit.kernel = plan.farBlit;
     o.occlusionCull = plan.occlusionCull;
+    o.earlyDepthTest = plan.earlyDepthTest;
     o.costAwareBakes = plan.costBound;
     return o;
 }
@@ -820,6 +821,7 @@ Plan makePlan(const SuiteOptions& o) {
     p.farBlit = o.farBlit;
     p.farBackend = o.farBackend;
     p.occlusionCull = o.occlusionCull;
+    p.earlyDepthTest = o.earlyDepthTest;
     p.costBound = o.costBound;
     if (o.smoke) {
         p.preset = "smoke";

@@ -85,7 +85,9 @@ struct SuiteOptions {
     /// sweeps); hybrid_gpu_far is always the Vulkan far pass. Cpu by default, so the CPU-blit
     /// hybrid stands beside hybrid_gpu_far on every machine.
     FarBackend farBackend = FarBackend::Cpu;
-    bool occlusionCull = false; ///< of every mode (--cull: true)
+    /// Of every mode: FrameOptions::occlusionCull (--cull) and earlyDepthTest (--no-cull: off).
+    bool occlusionCull = false;
+    bool earlyDepthTest = true;
     /// The error budget's cost bound on bakes (--no-cost-bound: off, so that every scale's
     /// error is measured on the same plan, whatever its blit costs).
     bool costBound = true;
@@ -122,6 +124,7 @@ struct Plan {
     FarBlitKernel farBlit = FarBlitKernel::Simd; ///< SuiteOptions::farBlit
     FarBackend farBackend = FarBackend::Cpu;     ///< SuiteOptions::farBackend
     bool occlusionCull = false;                  ///< SuiteOptions::occlusionCull
+    bool earlyDepthTest = true;                  ///< SuiteOptions::earlyDepthTest
     bool costBound = true;                       ///< SuiteOptions::costBound
 };
 
