@@ -207,7 +207,7 @@ struct FrameStats {
     /// host preparation plus GPU time), 0 when by the CPU blit or when there were none.
     int farOnVulkan = 0;
     std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;
-    std::uint64_t farPixelsWritten = 0; ///< blit pixels that read a solid or outline cell
+    std::uint64_t farPixelsWritten = 0; ///< blit pixels a solid or outline cell won
     /// Near sprite pixels that took a solid or outline outcome (the CPU reference counts them;
     /// 0 on Vulkan).
     std::uint64_t nearPixelsWritten = 0;

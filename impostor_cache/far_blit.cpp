@@ -100,7 +100,8 @@ void blitSpriteScalar(const BlitSprite& s, int y0, int y1, Image& target, BlitCo
                                             kernel::vtFaceLight(g, snapshot_code::face(c.code)))
                             : kernel::VT_OUTLINE_RGBA;
             }
-            if (!lastDrawn) continue;
+            if (!lastDrawn || !target.wouldWrite(rowBase + std::size_t(x), g.depth, s.entity))
+                continue;
             ++rc.written;
             target.writeIfNearer(rowBase + std::size_t(x), lastColor, g.depth, s.entity);
         }

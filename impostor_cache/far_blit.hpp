@@ -28,7 +28,7 @@ struct FarBlitStats {
     std::uint64_t sprites = 0; ///< sprites drawn
     std::uint64_t pixelsTested =
         0; ///< pixels evaluated (of each row, the columns that can hold a cell)
-    std::uint64_t pixelsWritten = 0; ///< solid or outline snapshot cells read
+    std::uint64_t pixelsWritten = 0; ///< pixels a solid or outline snapshot cell won
     /// (sprite, 16-row tile row) parts not drawn because occlusion tiles hid them
     std::uint64_t partsCulled = 0;
     double milliseconds = 0.0;
@@ -73,6 +73,11 @@ struct FarBlitOptions {
     /// up or baked. The same image either way; off by default, since on the bench scenes it
     /// costs more than it saves (DESIGN.md §6, Occlusion).
     bool occlusionCull = false;
+    /// Sprites drawn front to back (nearer depth first, equal depths by ascending id) even
+    /// without occlusionCull, so that the depth test each pixel takes first (the SIMD kernel
+    /// loads the target's depth before it maps a pixel to its snapshot cell) rejects what nearer
+    /// sprites already cover. The same image; false: in the order given (--no-cull).
+    bool earlyDepthTest = true;
 };
 
 /// The SIMD target FarBlitKernel::Simd runs on this CPU (Highway's name: "AVX3", "AVX2",

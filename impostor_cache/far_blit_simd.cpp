@@ -405,7 +405,16 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
                 const auto inSpan =
                     hn::AndNot(hn::Lt(xi, hn::Set(di, x)), hn::Lt(xi, hn::Set(di, x1)));
                 const auto px = hn::Add(hn::ConvertTo(df, xi), halfF);
-                auto keep = hn::RebindMask(df, inSpan);
+                // writeIfNearer's test first: nearer (greater reversed-Z depth), or as near and
+                // a lower id. A pixel a nearer sprite already holds is neither mapped nor looked
+                // up (front to back, most of a crowd's pixels).
+                const auto oldDepth = hn::LoadU(df, depthRow + start);
+                const auto oldId = hn::LoadU(du, idRow + start);
+                const auto wins = hn::Or(
+                    hn::RebindMask(du, hn::Gt(depth, oldDepth)),
+                    hn::And(hn::RebindMask(du, hn::Eq(depth, oldDepth)), hn::Lt(entity, oldId)));
+                auto keep = hn::And(hn::RebindMask(df, inSpan), hn::RebindMask(df, wins));
+                if (hn::AllFalse(df, keep)) continue;
                 if (fading) {
                     // vtDitherThreshold: the 4x4 Bayer index from the bits of x ^ y and y.
                     const auto a = hn::Xor(hn::And(xi, hn::Set(di, 3)), rowY);
@@ -446,16 +455,10 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
                 } else {
                     color = shade(ci, cj, keepI);
                 }
-                const auto drawn = hn::Not(hn::Eq(color, hn::Zero(du)));
-                if (hn::AllFalse(du, drawn)) continue;
-                counters.written += hn::CountTrue(du, drawn);
-                // writeIfNearer: nearer (greater reversed-Z depth), or as near and a lower id.
-                const auto oldDepth = hn::LoadU(df, depthRow + start);
-                const auto oldId = hn::LoadU(du, idRow + start);
-                const auto wins = hn::Or(
-                    hn::RebindMask(du, hn::Gt(depth, oldDepth)),
-                    hn::And(hn::RebindMask(du, hn::Eq(depth, oldDepth)), hn::Lt(entity, oldId)));
-                const auto write = hn::And(drawn, wins);
+                // Lanes not kept (outside the span, lost the depth test) have colour 0.
+                const auto write = hn::Not(hn::Eq(color, hn::Zero(du)));
+                if (hn::AllFalse(du, write)) continue;
+                counters.written += hn::CountTrue(du, write);
                 hn::BlendedStore(color, write, du, colorRow + start);
                 hn::BlendedStore(depth, hn::RebindMask(df, write), df, depthRow + start);
                 hn::BlendedStore(entity, write, du, idRow + start);

@@ -90,7 +90,8 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
     // With culling: front to back, in runs, each run's sprites tested whole against what the runs
     // before drew, so a hidden sprite is dropped before its snapshot is looked up or baked.
     const bool cull = blitOptions.occlusionCull;
-    const std::vector<std::uint32_t> order = drawOrder(sprites, cull);
+    const std::vector<std::uint32_t> order =
+        drawOrder(sprites, cull || blitOptions.earlyDepthTest);
     std::optional<OcclusionTiles> tiles;
     if (cull) tiles.emplace(target);
 

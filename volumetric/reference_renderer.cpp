@@ -139,7 +139,8 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
     // With culling the sprites go front to back in runs (core/occlusion.hpp): a run's sprites are
     // tested whole against what the runs before drew, so a hidden sprite traces no cell, and the
     // rest skip the tiles that already hide them. Without, one run in the order given.
-    const std::vector<std::uint32_t> order = drawOrder(sprites, options.occlusionCull);
+    const std::vector<std::uint32_t> order =
+        drawOrder(sprites, options.occlusionCull || options.earlyDepthTest);
     std::optional<OcclusionTiles> tiles;
     if (options.occlusionCull) tiles.emplace(target);
     const int bands = (target.height + bandRows - 1) / bandRows;
