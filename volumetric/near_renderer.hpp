@@ -1,6 +1,7 @@
 #pragma once
-// The near tier on Vulkan (DESIGN.md §3, §6): every visible sprite is one instance of a single
-// instanced draw of its proxy polygon (NearProxy), in ascending entity id, into an R32_UINT colour
+// The near tier on Vulkan (DESIGN.md §3, §6): every visible sprite is one instance of the frame's
+// instanced draw of its proxy polygon (NearProxy), equal depths in ascending entity id (front to
+// back under NearOptions::earlyDepthTest, else all in ascending id), into an R32_UINT colour
 // target (the kernel's packed RGBA8), an R32_UINT entity-id target and a D32_SFLOAT reversed-Z
 // depth target (test GREATER: at equal depth the first, lower-id fragment stays, exactly like
 // Image::writeIfNearer). The fragment shader runs the shared kernel (core/sprite_kernel.h), so the
@@ -137,7 +138,7 @@ class NearRenderer {
 
     /// Draws every visible sprite of `sprites` into a fresh camera-sized image cleared to
     /// `background` (depth 0, no entity). Sprite order does not matter: they are drawn in
-    /// ascending entity id. Models are indexed by SpriteSetup::model.
+    /// ascending entity id at equal depths. Models are indexed by SpriteSetup::model.
     Image render(const CameraFrame& camera, const std::vector<std::shared_ptr<VoxelModel>>& models,
                  std::span<const SpriteSetup* const> sprites, Rgba8 background,
                  const NearOptions& options = {}, NearStats* stats = nullptr);

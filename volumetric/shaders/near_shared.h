@@ -19,7 +19,7 @@ using uint = std::uint32_t;
 
 // Descriptor set 0 of the near pipeline.
 VT_NEAR_CONST uint NEAR_BINDING_SPRITES =
-    0u; // SpriteGpu[]: one per drawn sprite, ascending entity id
+    0u; // SpriteGpu[]: one per drawn sprite, in draw order (near_renderer.hpp)
 VT_NEAR_CONST uint NEAR_BINDING_ATLAS = 1u; // usampler3D: R8_UINT voxel atlas (palette indices)
 VT_NEAR_CONST uint NEAR_BINDING_PALETTES =
     2u; // uint[]: 256 packed RGBA8 colours per resident model
