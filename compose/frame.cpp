@@ -517,7 +517,6 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
     FarFrameStats fs;
     FarBlitOptions blit = options_.farBlit;
     blit.occlusionCull = options_.occlusionCull;
-    blit.earlyDepthTest = options_.earlyDepthTest;
     drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize),
                    image, &fs, blit);
     st.farOccluded += int(fs.culled);

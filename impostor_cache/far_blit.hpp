@@ -73,11 +73,6 @@ struct FarBlitOptions {
     /// up or baked. The same image either way; off by default, since on the bench scenes it
     /// costs more than it saves (DESIGN.md §6, Occlusion).
     bool occlusionCull = false;
-    /// Sprites drawn front to back (nearer depth first, equal depths by ascending id) even
-    /// without occlusionCull, so that the depth test each pixel takes first (the SIMD kernel
-    /// loads the target's depth before it maps a pixel to its snapshot cell) rejects what nearer
-    /// sprites already cover. The same image; false: in the order given (--no-cull).
-    bool earlyDepthTest = true;
 };
 
 /// The SIMD target FarBlitKernel::Simd runs on this CPU (Highway's name: "AVX3", "AVX2",

@@ -90,25 +90,13 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
     // With culling: front to back, in runs, each run's sprites tested whole against what the runs
     // before drew, so a hidden sprite is dropped before its snapshot is looked up or baked.
     const bool cull = blitOptions.occlusionCull;
-    const std::vector<std::uint32_t> order = drawOrder(sprites, cull || blitOptions.earlyDepthTest);
+    const std::vector<std::uint32_t> order = drawOrder(sprites, cull);
     std::optional<OcclusionTiles> tiles;
     if (cull) tiles.emplace(target);
 
     SnapshotNeeds needs(cache.snapshotScale());
     std::uint64_t drawnSprites = 0;
     double ensureMs = 0.0;
-    // Without tiles every visible request is drawn: its snapshot is looked up in request order
-    // (the sprites' memory in sequence; in draw order each lookup was a few cache misses, 16 ms
-    // of a 100,000-entity frame).
-    std::vector<std::size_t> slotOfRequest;
-    if (!cull) {
-        const auto t0 = std::chrono::steady_clock::now();
-        slotOfRequest.assign(requests.size(), 0);
-        for (std::size_t r = 0; r < requests.size(); ++r)
-            if (sprites[r] && sprites[r]->visible())
-                slotOfRequest[r] = needs.slotOf(requests[r], set);
-        ensureMs += msSince(t0);
-    }
     FarBlitStats blit;
     std::vector<std::size_t> runSlots;
     std::vector<FarSprite> draws;
@@ -117,8 +105,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
         [&](std::span<const std::uint32_t> run) {
             const auto t0 = std::chrono::steady_clock::now();
             runSlots.clear();
-            for (const std::uint32_t r : run)
-                runSlots.push_back(cull ? needs.slotOf(requests[r], set) : slotOfRequest[r]);
+            for (const std::uint32_t r : run) runSlots.push_back(needs.slotOf(requests[r], set));
             needs.fetchNew(models, cache);
             ensureMs += msSince(t0);
             draws.clear();
