@@ -22,6 +22,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <vector>
 
 HWY_BEFORE_NAMESPACE();
@@ -37,6 +38,7 @@ using DF = hn::ScalableTag<float>;
 using DI = hn::RebindToSigned<DF>;
 using DU = hn::RebindToUnsigned<DF>;
 using VI = hn::Vec<DI>;
+using VF = hn::Vec<DF>;
 using VU = hn::Vec<DU>;
 using MI = hn::Mask<DI>;
 
@@ -325,6 +327,35 @@ void BuildCellTable(const BlitSprite& s, const CellShader& shade, int j0, int j1
 /// Pixels go N at a time; the last vector of a row that would pass the image's right edge is
 /// moved left to end there, its lanes before the span masked off, so every load and store stays
 /// inside the row. The table is the task's own and small, so it stays in this core's cache.
+/// Whether some pixel of the spans [x0[k], x1[k]) of rows y0 + k (k < rows) may still take a
+/// sprite at `depth` with id `entity` (writeIfNearer's condition), a vector at a time.
+bool AnyPixelOpen(int y0, int rows, const int* x0, const int* x1, const Image& img, VF depth,
+                  VU entity) {
+    const DF df;
+    const DI di;
+    const DU du;
+    const int n = int(hn::Lanes(df));
+    const auto iota = hn::Iota(di, 0);
+    for (int k = 0; k < rows; ++k) {
+        const std::size_t rowBase = img.index(0, y0 + k);
+        const float* depthRow = img.depth.data() + rowBase;
+        const std::uint32_t* idRow = img.id.data() + rowBase;
+        for (int x = x0[k]; x < x1[k]; x += n) {
+            const int start = std::min(x, img.width - n);
+            const auto xi = hn::Add(iota, hn::Set(di, start));
+            const auto inSpan =
+                hn::AndNot(hn::Lt(xi, hn::Set(di, x)), hn::Lt(xi, hn::Set(di, x1[k])));
+            const auto oldDepth = hn::LoadU(df, depthRow + start);
+            const auto oldId = hn::LoadU(du, idRow + start);
+            const auto wins =
+                hn::Or(hn::RebindMask(du, hn::Gt(depth, oldDepth)),
+                       hn::And(hn::RebindMask(du, hn::Eq(depth, oldDepth)), hn::Lt(entity, oldId)));
+            if (!hn::AllFalse(du, hn::And(wins, hn::RebindMask(du, inSpan)))) return true;
+        }
+    }
+    return false;
+}
+
 void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounters& counters) {
     const DF df;
     const DI di;
@@ -335,7 +366,9 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
         return;
     }
     const kernel::SpriteGpu& g = *s.gpu;
-    const CellShader shade(s);
+    // Built on the first chunk with a pixel the sprite may still take: in a crowd most sprites'
+    // rows are covered already, and the shader's per-sprite set-up was most of their cost.
+    std::optional<CellShader> shade;
 
     const auto iota = hn::Iota(di, 0);
     const auto zeroF = hn::Zero(df);
@@ -373,6 +406,10 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
         for (int k = 0; k < rows; ++k) pixels += std::uint64_t(spanLast[k] - spanFirst[k]);
         counters.tested += pixels;
         if (pixels == 0) continue;
+        // The depth test alone first: a chunk whose every span pixel already holds what beats
+        // the sprite (writeIfNearer's rule) needs no cell rows, no table and no shading.
+        if (!AnyPixelOpen(yc, rows, spanFirst, spanLast, img, depth, entity)) continue;
+        if (!shade) shade.emplace(s);
         // A minified sprite (more cells than rectangle pixels) never gains from a table.
         const glm::ivec2 reach =
             minified ? glm::ivec2(0, -1) : CellRowsReached(g, yc, rows, spanFirst, spanLast);
@@ -381,7 +418,7 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
         const bool tabled = cells > 0 && cells * kCellTableCost < pixels;
         if (tabled) {
             if (table.size() < cells + kCellTablePadding) table.resize(cells + kCellTablePadding);
-            BuildCellTable(s, shade, reach.x, reach.y, table.data());
+            BuildCellTable(s, *shade, reach.x, reach.y, table.data());
         }
         const auto tableI0 = hn::Set(di, g.cellRange.x), tableJ0 = hn::Set(di, reach.x);
         const auto tableJ1 = hn::Set(di, reach.y), tableStride = hn::Set(di, tableWidth);
@@ -453,7 +490,7 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
                     color = hn::IfThenElseZero(hn::RebindMask(du, keepI),
                                                hn::GatherIndex(du, table.data(), slot));
                 } else {
-                    color = shade(ci, cj, keepI);
+                    color = (*shade)(ci, cj, keepI);
                 }
                 // Lanes not kept (outside the span, lost the depth test) have colour 0.
                 const auto write = hn::Not(hn::Eq(color, hn::Zero(du)));
