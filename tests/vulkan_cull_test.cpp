@@ -4,14 +4,11 @@
 // on every scene, proxy and rate, in whole hybrid frames with cross-fades, with equal depths,
 // through the near plane and at 100,000 entities.
 #include "compose/frame.hpp"
-#include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
+#include "crowd_scenes.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
-
-#include <fstream>
 
 namespace voxtier {
 namespace {
@@ -88,23 +85,7 @@ INSTANTIATE_TEST_SUITE_P(
 // Equal depths everywhere (three entities in one place: the id rule alone decides), rows at one
 // view depth, and a first row whose sprites cross the near plane.
 TEST_F(VulkanCull, EqualDepthStacksAndSpritesThroughTheNearPlane) {
-    Scene s;
-    s.render.voxelSize = 0.1;
-    s.models = {makeBox({8, 8, 8}), makeSphere(6)};
-    for (int row = 0; row < 6; ++row)
-        for (int col = -6; col <= 6; ++col)
-            for (int copy = 0; copy < 3; ++copy) {
-                Entity e;
-                e.model = (row + col + 6 + copy) % 2;
-                e.position = {0.5 * col, 0.0, -0.4 - 0.8 * row};
-                e.rotation = glm::angleAxis(0.3 * copy, glm::dvec3(0, 1, 0));
-                s.entities.push_back(e);
-            }
-    s.camera.width = 160;
-    s.camera.height = 100;
-    s.camera.position = {0, 0.1, 0.2};
-    s.camera.target = {0, 0, -10};
-    s.camera.zNear = 0.5;
+    const Scene s = test::equalDepthStacks();
     for (NearProxy proxy : {NearProxy::Hull, NearProxy::Quad})
         for (NearRate rate : {NearRate::Fragment, NearRate::Auto})
             expectSameImage(nearRenderer(), s, 0.0, proxy, rate, "equal-depth stacks");
@@ -114,28 +95,7 @@ TEST_F(VulkanCull, EqualDepthStacksAndSpritesThroughTheNearPlane) {
 // one depth in both tiers), near tier on Vulkan, far tier on the CPU and on Vulkan, with
 // FrameOptions::earlyDepthTest on (the default) and off.
 TEST_F(VulkanCull, HybridFramesWithCrossFadesAreUnchanged) {
-    Scene s;
-    s.render.voxelSize = 0.1;
-    s.models = {makeArrow(16), makeBox({6, 8, 10}), makeSphere(5)};
-    for (int i = 0; i < 60; ++i) {
-        Entity e;
-        e.model = i % 3;
-        e.position = {0.3 * (i % 5) - 0.6, 0.0, -1.2 * (i / 5)};
-        e.rotation = glm::angleAxis(0.5 * i, glm::dvec3(0, 1, 0));
-        s.entities.push_back(e);
-    }
-    s.camera.width = 200;
-    s.camera.height = 120;
-    CameraPath path;
-    path.fps = 10;
-    CameraKey a, b;
-    a.time = 0, a.position = {0, 0.5, 4}, a.target = {0, 0, -20};
-    b.time = 2, b.position = {0, 0.5, -4}, b.target = {0, 0, -30};
-    path.keys = {a, b};
-    s.path = path;
-    s.selector.nearAt = 3;
-    s.selector.farAt = 5;
-    s.selector.crossfadeFrames = 6;
+    Scene s = test::crossFadeCorridor();
     for (FarBackend far : {FarBackend::Cpu, FarBackend::Vulkan}) {
         if (far == FarBackend::Vulkan && !nearRenderer().farPassSupported()) continue;
         FrameOptions on, off;
@@ -159,21 +119,7 @@ TEST_F(VulkanCull, HybridFramesWithCrossFadesAreUnchanged) {
 
 // The tank army at 100,000 entities, 320x180, near tier on Vulkan per pixel.
 TEST_F(VulkanCull, OneHundredThousandTanks) {
-    std::ifstream in(sourcePath("scenes/bench/tank_army.json"));
-    nlohmann::json doc = nlohmann::json::parse(in);
-    long long crowd = 0;
-    for (const auto& c : doc["crowds"]) crowd += c.value("count", 0);
-    const int plain = doc.contains("entities") ? int(doc["entities"].size()) : 0;
-    int left = 100000 - plain;
-    for (std::size_t i = 0; i < doc["crowds"].size(); ++i) {
-        const bool last = i + 1 == doc["crowds"].size();
-        const int n =
-            last ? left : int(double(doc["crowds"][i].value("count", 0)) * 100000 / double(crowd));
-        doc["crowds"][i]["count"] = n;
-        left -= n;
-    }
-    doc["camera"]["size"] = {320, 180};
-    const Scene s = loadSceneJson(doc, "tank_army_100k", sourcePath("scenes/bench"));
+    const Scene s = test::tankArmy(100000, 320, 180);
     ASSERT_EQ(s.entities.size(), 100000u);
     const CameraFrame cam = makeCameraFrame(s.cameraAt(0.0));
     const std::vector<SpriteSetup> sprites = setupSprites(s, cam, 0.0);
