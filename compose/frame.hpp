@@ -129,9 +129,9 @@ struct FrameOptions {
     bool costAwareBakes = true;
     std::optional<BakeCosts> bakeCosts;
     /// Exact occlusion culling in the CPU tiers (the far blit and the CPU reference near tier;
-    /// core/occlusion.hpp): the same image, bit for bit, with less drawn. Off by default
-    /// (--cull turns it on): on the bench's crowds it costs more than it saves, and it pays only
-    /// where large sprites hide whole others (DESIGN.md §6, Occlusion, with the figures).
+    /// core/occlusion.hpp): the same image, bit for bit, with whole hidden sprites dropped before
+    /// any bake or trace. Off by default (--cull turns it on): with earlyDepthTest on it costs
+    /// more than it saves on every bench scene (DESIGN.md §6, Occlusion, with the figures).
     bool occlusionCull = false;
     /// The near tier's per-pixel early depth test on both backends (exact, and cheaper on every
     /// bench scene): the CPU reference skips pixels that already hold what beats the sprite

@@ -327,30 +327,38 @@ void BuildCellTable(const BlitSprite& s, const CellShader& shade, int j0, int j1
 /// Pixels go N at a time; the last vector of a row that would pass the image's right edge is
 /// moved left to end there, its lanes before the span masked off, so every load and store stays
 /// inside the row. The table is the task's own and small, so it stays in this core's cache.
-/// Whether some pixel of the spans [x0[k], x1[k]) of rows y0 + k (k < rows) may still take a
-/// sprite at `depth` with id `entity` (writeIfNearer's condition), a vector at a time.
-bool AnyPixelOpen(int y0, int rows, const int* x0, const int* x1, const Image& img, VF depth,
-                  VU entity) {
+/// The lanes of the vector at `start` (pixels start .. start + lanes - 1 of a row) that lie in
+/// the span [x, x1) and that a sprite at `depth` with id `entity` may still write: writeIfNearer's
+/// condition, nearer (greater reversed-Z depth) or as near with a lower id.
+hn::Mask<DU> OpenLanes(VI xi, int x, int x1, const float* depthRow, const std::uint32_t* idRow,
+                       int start, VF depth, VU entity) {
     const DF df;
     const DI di;
     const DU du;
-    const int n = int(hn::Lanes(df));
+    const auto inSpan = hn::AndNot(hn::Lt(xi, hn::Set(di, x)), hn::Lt(xi, hn::Set(di, x1)));
+    const auto oldDepth = hn::LoadU(df, depthRow + start);
+    const auto oldId = hn::LoadU(du, idRow + start);
+    const auto wins =
+        hn::Or(hn::RebindMask(du, hn::Gt(depth, oldDepth)),
+               hn::And(hn::RebindMask(du, hn::Eq(depth, oldDepth)), hn::Lt(entity, oldId)));
+    return hn::And(wins, hn::RebindMask(du, inSpan));
+}
+
+/// Whether some pixel of the spans [x0[k], x1[k]) of rows y0 + k (k < rows) may still take a
+/// sprite at `depth` with id `entity`, a vector at a time.
+bool AnyPixelOpen(int y0, int rows, const int* x0, const int* x1, const Image& img, VF depth,
+                  VU entity) {
+    const DI di;
+    const int n = int(hn::Lanes(di));
     const auto iota = hn::Iota(di, 0);
     for (int k = 0; k < rows; ++k) {
         const std::size_t rowBase = img.index(0, y0 + k);
-        const float* depthRow = img.depth.data() + rowBase;
-        const std::uint32_t* idRow = img.id.data() + rowBase;
         for (int x = x0[k]; x < x1[k]; x += n) {
             const int start = std::min(x, img.width - n);
             const auto xi = hn::Add(iota, hn::Set(di, start));
-            const auto inSpan =
-                hn::AndNot(hn::Lt(xi, hn::Set(di, x)), hn::Lt(xi, hn::Set(di, x1[k])));
-            const auto oldDepth = hn::LoadU(df, depthRow + start);
-            const auto oldId = hn::LoadU(du, idRow + start);
-            const auto wins =
-                hn::Or(hn::RebindMask(du, hn::Gt(depth, oldDepth)),
-                       hn::And(hn::RebindMask(du, hn::Eq(depth, oldDepth)), hn::Lt(entity, oldId)));
-            if (!hn::AllFalse(du, hn::And(wins, hn::RebindMask(du, inSpan)))) return true;
+            if (!hn::AllFalse(DU(), OpenLanes(xi, x, x1[k], img.depth.data() + rowBase,
+                                              img.id.data() + rowBase, start, depth, entity)))
+                return true;
         }
     }
     return false;
@@ -439,18 +447,11 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
             for (int x = x0; x < x1; x += n) {
                 const int start = std::min(x, img.width - n);
                 const auto xi = hn::Add(iota, hn::Set(di, start));
-                const auto inSpan =
-                    hn::AndNot(hn::Lt(xi, hn::Set(di, x)), hn::Lt(xi, hn::Set(di, x1)));
                 const auto px = hn::Add(hn::ConvertTo(df, xi), halfF);
-                // writeIfNearer's test first: nearer (greater reversed-Z depth), or as near and
-                // a lower id. A pixel a nearer sprite already holds is neither mapped nor looked
-                // up (front to back, most of a crowd's pixels).
-                const auto oldDepth = hn::LoadU(df, depthRow + start);
-                const auto oldId = hn::LoadU(du, idRow + start);
-                const auto wins = hn::Or(
-                    hn::RebindMask(du, hn::Gt(depth, oldDepth)),
-                    hn::And(hn::RebindMask(du, hn::Eq(depth, oldDepth)), hn::Lt(entity, oldId)));
-                auto keep = hn::And(hn::RebindMask(df, inSpan), hn::RebindMask(df, wins));
+                // writeIfNearer's test first: a pixel a nearer sprite already holds is neither
+                // mapped nor looked up (most of a crowd's pixels).
+                auto keep =
+                    hn::RebindMask(df, OpenLanes(xi, x, x1, depthRow, idRow, start, depth, entity));
                 if (hn::AllFalse(df, keep)) continue;
                 if (fading) {
                     // vtDitherThreshold: the 4x4 Bayer index from the bits of x ^ y and y.

@@ -819,15 +819,11 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     // test alone decides unequal depths, whatever their order).
     std::vector<const SpriteSetup*> visible;
     visible.reserve(all.size());
-    if (opt.earlyDepthTest) {
-        for (const std::uint32_t i : frontToBack(all)) visible.push_back(all[i]);
-    } else {
-        for (const SpriteSetup* s : all)
-            if (s->visible()) visible.push_back(s);
+    for (const std::uint32_t i : drawOrder(all, opt.earlyDepthTest)) visible.push_back(all[i]);
+    if (!opt.earlyDepthTest)
         std::stable_sort(
             visible.begin(), visible.end(),
             [](const SpriteSetup* a, const SpriteSetup* b) { return a->entityId < b->entityId; });
-    }
     stats.sprites = visible.size();
 
     const ResidencyStats up = residency.update(models, visible);

@@ -138,7 +138,8 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
     const int bandRows = options.occlusionCull ? OcclusionTiles::kTile : 4;
     // With culling the sprites go front to back in runs (core/occlusion.hpp): a run's sprites are
     // tested whole against what the runs before drew, so a hidden sprite traces no cell, and the
-    // rest skip the tiles that already hide them. Without, one run in the order given.
+    // rest skip the tiles that already hide them. Without, one run: front to back under the early
+    // depth test (so it rejects most of a crowd), else in the order given.
     const std::vector<std::uint32_t> order =
         drawOrder(sprites, options.occlusionCull || options.earlyDepthTest);
     std::optional<OcclusionTiles> tiles;

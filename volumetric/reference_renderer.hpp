@@ -32,13 +32,15 @@ struct ReferenceStats : CellRateCounts {
 struct ReferenceOptions {
     NearRate rate = NearRate::Fragment;
     std::uint64_t cellBudgetBytes = kDefaultCellBudgetBytes;
-    /// Exact occlusion culling (core/occlusion.hpp): front to back, skipping what the depth
-    /// already drawn hides, whole sprites before any of their cells is traced. Same image; off by
-    /// default (DESIGN.md §6, Occlusion: it pays only where large sprites hide others).
+    /// Exact occlusion culling (core/occlusion.hpp): front to back, skipping the tiles and whole
+    /// sprites the depth already drawn hides, before any of their cells is traced. Same image;
+    /// off by default (DESIGN.md §6, Occlusion: with the early depth test on, it costs more than
+    /// it saves on every bench scene).
     bool occlusionCull = false;
     /// Skip the kernel where the pixel already holds what the depth/id rule keeps against the
-    /// sprite (its one depth is known before any tracing). Same image, fewer traces; off only to
-    /// count the voxel reads of the Vulkan fragment shader, which traces every covered pixel.
+    /// sprite (its one depth is known before any tracing), the sprites drawn front to back so
+    /// that it rejects most of a crowd. Same image, fewer traces; off to count the voxel reads of
+    /// the Vulkan counting shader, which traces every covered pixel, and under --no-cull.
     bool earlyDepthTest = true;
     /// Where to count sprite rows (null: not counted): each run of sprites adds its rows (the
     /// screen rows of each sprite's rectangle) to total before it draws them, each band of rows

@@ -9,7 +9,8 @@
 // the shader writes none, and the depth test can run before it (early depth test) and reject a
 // hidden fragment untraced. (A shader that writes memory, as the counting one, is tested late on
 // llvmpipe; its image is the same.) Sprites drawn cell-rate (volumetric/near_rate.hpp) never
-// reach this stage: the proxy vertex shaders collapse them, and the compute passes near_cells, near_cell_outline and near_splat draw them.
+// reach this stage: the proxy vertex shaders collapse them, and the compute passes near_cells,
+// near_cell_outline and near_splat draw them.
 #extension GL_GOOGLE_include_directive : require
 #include "volumetric/shaders/near_shared.h"
 
