@@ -12,8 +12,8 @@
 #include "core/sprite_kernel.h"
 #include "volumetric/near_renderer.hpp"
 #include "volumetric/reference_renderer.hpp"
-#include "volumetric/vulkan_device_info.hpp"
-#include "volumetric/vulkan_options.hpp"
+#include "device/vulkan_device_info.hpp"
+#include "device/vulkan_options.hpp"
 
 #include <algorithm>
 #include <cstdio>

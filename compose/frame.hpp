@@ -15,7 +15,7 @@
 #include "lod/frame_planner.hpp"
 #include "lod/selector.hpp"
 #include "volumetric/near_rate.hpp"
-#include "volumetric/vulkan_options.hpp"
+#include "device/vulkan_options.hpp"
 
 #include <array>
 #include <cstddef>

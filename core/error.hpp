@@ -1,6 +1,6 @@
 #pragma once
 // Error channels (docs/STYLE.md): untrusted input -> InputError naming file, field and reason;
-// API misuse -> assert; Vulkan -> VulkanError through VK_CHECK (volumetric/vulkan_check.hpp);
+// API misuse -> assert; Vulkan -> VulkanError through VK_CHECK (device/vulkan_check.hpp);
 // Embree -> EmbreeError through the device's error callback and one check after each build
 // (impostor_cache/embree_error.hpp).
 #include <cstddef>

@@ -4,7 +4,7 @@
 // Vulkan driver the CLI fails with one clear line while --mode reference keeps working.
 #include "cli_support.hpp"
 #include "test_support.hpp"
-#include "volumetric/vulkan_device.hpp"
+#include "device/vulkan_device.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>

@@ -1,6 +1,6 @@
 #include "volumetric/far_residency.hpp"
 
-#include "volumetric/vulkan_check.hpp"
+#include "device/vulkan_check.hpp"
 
 #include <algorithm>
 #include <cstring>

@@ -9,7 +9,7 @@
 // lineage, the same cell range) takes over its predecessor's range and uploads only the rows of
 // cells that differ from it.
 #include "core/far_batch.hpp"
-#include "volumetric/vulkan_device.hpp"
+#include "device/vulkan_device.hpp"
 
 #include <cstdint>
 #include <map>

@@ -6,7 +6,7 @@
 #include "volumetric/shaders/far_shared.h"
 #include "volumetric/shaders/near_shared.h"
 #include "volumetric/voxel_residency.hpp"
-#include "volumetric/vulkan_device.hpp"
+#include "device/vulkan_device.hpp"
 
 #include <algorithm>
 #include <chrono>

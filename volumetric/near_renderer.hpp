@@ -15,7 +15,7 @@
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
 #include "volumetric/near_rate.hpp"
-#include "volumetric/vulkan_options.hpp"
+#include "device/vulkan_options.hpp"
 
 #include <array>
 #include <cstdint>

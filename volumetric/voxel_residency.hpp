@@ -7,7 +7,7 @@
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
 #include "volumetric/atlas_packer.hpp"
-#include "volumetric/vulkan_device.hpp"
+#include "device/vulkan_device.hpp"
 
 #include <cstdint>
 #include <memory>

@@ -15,7 +15,7 @@ struct VulkanDeviceInfo {
     /// "NAME (TYPE; driver DRIVER; Vulkan VERSION)", or whyNone.
     std::string summary() const;
 };
-/// Describes the device probeVulkanDevice() picks (volumetric/vulkan_options.hpp). Never throws.
+/// Describes the device probeVulkanDevice() picks (device/vulkan_options.hpp). Never throws.
 VulkanDeviceInfo describeVulkanDevice();
 
 } // namespace voxtier

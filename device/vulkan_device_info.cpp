@@ -1,7 +1,7 @@
-#include "volumetric/vulkan_device_info.hpp"
+#include "device/vulkan_device_info.hpp"
 
-#include "volumetric/vulkan_device.hpp"
-#include "volumetric/vulkan_options.hpp"
+#include "device/vulkan_device.hpp"
+#include "device/vulkan_options.hpp"
 
 #include <vulkan/vulkan.h>
 

@@ -3,8 +3,8 @@
 // Mesa lavapipe on the CPU), one graphics queue, optional validation with every message
 // recorded, and the few RAII resource wrappers the near renderer needs. No window, no
 // swapchain. Not thread-safe: one thread drives a device.
-#include "volumetric/vulkan_check.hpp"
-#include "volumetric/vulkan_options.hpp"
+#include "device/vulkan_check.hpp"
+#include "device/vulkan_options.hpp"
 
 #include <cstddef>
 #include <cstdint>

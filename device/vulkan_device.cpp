@@ -1,4 +1,4 @@
-#include "volumetric/vulkan_device.hpp"
+#include "device/vulkan_device.hpp"
 
 #include <algorithm>
 #include <cstdio>
