@@ -10,10 +10,10 @@
 #include "core/scene_loader.hpp"
 #include "core/sprite.hpp"
 #include "core/sprite_kernel.h"
-#include "volumetric/near_renderer.hpp"
-#include "volumetric/reference_renderer.hpp"
 #include "device/vulkan_device_info.hpp"
 #include "device/vulkan_options.hpp"
+#include "volumetric/near_renderer.hpp"
+#include "volumetric/reference_renderer.hpp"
 
 #include <algorithm>
 #include <cstdio>

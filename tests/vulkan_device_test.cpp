@@ -3,8 +3,8 @@
 // other suites means something), a full render-and-destroy cycle leaks nothing, and without any
 // Vulkan driver the CLI fails with one clear line while --mode reference keeps working.
 #include "cli_support.hpp"
-#include "test_support.hpp"
 #include "device/vulkan_device.hpp"
+#include "test_support.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>

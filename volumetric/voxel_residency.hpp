@@ -6,8 +6,8 @@
 // Edits re-upload only the dirty box of a frame (VoxelModel::dirtySince).
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
-#include "volumetric/atlas_packer.hpp"
 #include "device/vulkan_device.hpp"
+#include "volumetric/atlas_packer.hpp"
 
 #include <cstdint>
 #include <memory>
