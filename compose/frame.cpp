@@ -52,12 +52,12 @@ struct TierShares {
     std::vector<std::size_t> near;
     std::vector<std::pair<std::size_t, std::optional<ViewId>>> far; ///< sprite, view override
 
-    TierShares(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
-               std::optional<Tier> onlyTier)
+    /// `visible`: the visible sprites' ids, ascending.
+    TierShares(std::span<const SpriteSetup> sprites, std::span<const EntityPlan> plan,
+               std::span<const std::uint32_t> visible, std::optional<Tier> onlyTier)
         : sprites_(sprites) {
-        for (std::size_t i = 0; i < sprites.size(); ++i) {
+        for (const std::uint32_t i : visible) {
             const EntityPlan& p = plan[i];
-            if (!sprites[i].visible()) continue;
             if (p.drawsNear() && onlyTier != Tier::Far)
                 near.push_back(share(i, p, /*keepBelow=*/p.tier == Tier::Near));
             if (p.drawsFar() && onlyTier != Tier::Near)
@@ -78,7 +78,7 @@ struct TierShares {
     }
 
   private:
-    const std::vector<SpriteSetup>& sprites_;
+    std::span<const SpriteSetup> sprites_;
     std::size_t share(std::size_t i, const EntityPlan& p, bool keepBelow) {
         if (p.fade <= 0.0f) return i;
         faded.push_back(fadedCopy(sprites_[i], p.fade, keepBelow));
@@ -309,22 +309,24 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     FrameResult out;
     FrameStats& st = out.stats;
 
-    // 1. Camera and per-entity sprite set-up (DESIGN.md §3: double precision, camera-relative).
+    // 1. Camera and per-entity sprite set-up (DESIGN.md §3: double precision, camera-relative),
+    // kept from the frame before where neither the entity nor the camera changed.
     const CameraFrame cam = makeCameraFrame(scene_.cameraAt(time));
-    out.sprites = setupSprites(scene_, cam, time);
-    st.entities = int(out.sprites.size());
-    for (const auto& s : out.sprites) st.culled += !s.visible();
+    const SpriteStore::Update setup = sprites_.update(scene_, cam, time);
+    out.sprites = sprites_.shareSprites();
+    st.entities = setup.entities;
+    st.culled = setup.culled;
     st.setupMs = msSince(t0);
 
     // 2. Select each entity's tier (DESIGN.md §5), its cross-fade and its far view.
     const auto t1 = Clock::now();
-    out.plan = planEntities(out.sprites, mode, st);
+    out.plan = planEntities(mode, st);
     st.selectMs = msSince(t1);
 
     // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z.
     const SnapshotCacheCounters cacheBefore = cache_->counters();
-    out.image =
-        drawWith(nearBackendFor(mode, options_.nearBackend), cam, out.sprites, out.plan, st);
+    out.image = drawWith(nearBackendFor(mode, options_.nearBackend), cam, out.sprites, out.plan, st,
+                         std::nullopt, sprites_.visibleIds());
     const SnapshotCacheCounters cacheAfter = cache_->counters();
 
     // 6. Where no sprite drew: the ground plane, or a (transparent) background.
@@ -348,16 +350,16 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     sample.planMs = st.selectMs;
     sample.planned =
         mode == RenderMode::Hybrid && scene_.selector.metric == SelectorMetric::ErrorBudget;
-    planner_.observe(out.sprites, out.plan, sample, options_.nearRate,
+    planner_.observe(out.sprites, sprites_.visibleIds(), out.plan, sample, options_.nearRate,
                      [&] { return nearFixedMs(cam, nearBackendFor(mode, options_.nearBackend)); });
-    previousPlan_ = out.plan;
+    // Kept only for the next frame's pops: a share held across frames costs the planner a copy.
+    previousPlan_ = options_.measurePops ? out.plan : SharedVector<EntityPlan>{};
     st.cacheBytes = cache_->counters().bytes;
     st.totalMs = msSince(t0);
     return out;
 }
 
-std::vector<EntityPlan> FrameRenderer::planEntities(const std::vector<SpriteSetup>& sprites,
-                                                    RenderMode mode, FrameStats& st) {
+SharedVector<EntityPlan> FrameRenderer::planEntities(RenderMode mode, FrameStats& st) {
     PlanSettings settings;
     settings.mode = mode == RenderMode::Reference || mode == RenderMode::Near ? PlanMode::AllNear
                     : mode == RenderMode::Far                                 ? PlanMode::AllFar
@@ -373,7 +375,8 @@ std::vector<EntityPlan> FrameRenderer::planEntities(const std::vector<SpriteSetu
                                             s.lattice.sigma * cache_->snapshotScale());
     };
     PlanStats ps;
-    std::vector<EntityPlan> plan = planner_.plan(sprites, scene_.selector, settings, ps);
+    SharedVector<EntityPlan> plan =
+        planner_.plan(sprites_.sprites(), sprites_.visibleIds(), scene_.selector, settings, ps);
     st.switchesToFar = ps.switchesToFar;
     st.switchesToNear = ps.switchesToNear;
     st.viewChanges = ps.viewChanges;
@@ -407,18 +410,25 @@ double FrameRenderer::nearFixedMs(const CameraFrame& cam, NearBackend nearBacken
     return least;
 }
 
-Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,
-                          const std::vector<EntityPlan>& plan, FrameStats* stats,
+Image FrameRenderer::draw(const CameraFrame& cam, std::span<const SpriteSetup> sprites,
+                          std::span<const EntityPlan> plan, FrameStats* stats,
                           std::optional<Tier> onlyTier) {
     FrameStats local;
     return drawWith(options_.nearBackend, cam, sprites, plan, stats ? *stats : local, onlyTier);
 }
 
 Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
-                              const std::vector<SpriteSetup>& sprites,
-                              const std::vector<EntityPlan>& plan, FrameStats& st,
-                              std::optional<Tier> onlyTier) {
-    const TierShares shares(sprites, plan, onlyTier);
+                              std::span<const SpriteSetup> sprites,
+                              std::span<const EntityPlan> plan, FrameStats& st,
+                              std::optional<Tier> onlyTier,
+                              std::span<const std::uint32_t> visible) {
+    std::vector<std::uint32_t> found;
+    if (visible.empty()) {
+        for (std::size_t i = 0; i < sprites.size(); ++i)
+            if (sprites[i].visible()) found.push_back(std::uint32_t(i));
+        visible = found;
+    }
+    const TierShares shares(sprites, plan, visible, onlyTier);
     st.nearDrawn = int(shares.near.size());
     st.farDrawn = int(shares.far.size());
     const std::vector<const SpriteSetup*> nearSprites = shares.nearSprites();
@@ -529,8 +539,8 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
 }
 
 std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
-                                                 const std::vector<SpriteSetup>& sprites,
-                                                 const std::vector<EntityPlan>& plan, int frame) {
+                                                 std::span<const SpriteSetup> sprites,
+                                                 std::span<const EntityPlan> plan, int frame) {
     std::vector<PopEvent> pops;
     if (previousPlan_.size() != plan.size()) return pops;
     // Each entity whose plan changed is drawn alone, once as last frame planned it and once as
@@ -557,8 +567,8 @@ std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
         std::vector<SpriteSetup> alone = one;
         alone[0].entityId = std::uint32_t(i);
         FrameStats unused;
-        const Image a = drawWith(NearBackend::Reference, cam, alone, {oldPlan}, unused);
-        const Image b = drawWith(NearBackend::Reference, cam, alone, {now}, unused);
+        const Image a = drawWith(NearBackend::Reference, cam, alone, {&oldPlan, 1}, unused);
+        const Image b = drawWith(NearBackend::Reference, cam, alone, {&now, 1}, unused);
         const auto err = entityErrors(a, b, {std::uint32_t(i)}, sprites[i].screenRect);
         if (!err.empty()) {
             e.changedPixels = err[0].mismatched;
@@ -570,7 +580,7 @@ std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
     return pops;
 }
 
-Image FrameRenderer::tierOverlay(const Image& image, const std::vector<EntityPlan>& plan) const {
+Image FrameRenderer::tierOverlay(const Image& image, std::span<const EntityPlan> plan) const {
     // Near entities tinted blue, far ones orange, cross-fading ones green (compose/tier_legend.hpp:
     // no tinted near or far pixel can take that colour); outlines stay black.
     Image o = image;

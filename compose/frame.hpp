@@ -7,21 +7,25 @@
 // planner (the selector's per-entity state, the budget's views, the measured costs), the
 // snapshot cache and the Vulkan device with its voxel atlas.
 #include "core/image.hpp"
+#include "core/near_rate.hpp"
 #include "core/scene.hpp"
+#include "core/shared_vector.hpp"
 #include "core/sprite.hpp"
+#include "core/sprite_store.hpp"
 #include "core/view_set.hpp"
 #include "core/work_progress.hpp"
+#include "device/vulkan_options.hpp"
 #include "impostor_cache/far_blit.hpp"
 #include "lod/frame_planner.hpp"
 #include "lod/selector.hpp"
-#include "volumetric/near_rate.hpp"
-#include "device/vulkan_options.hpp"
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <initializer_list>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -88,7 +92,7 @@ inline constexpr std::array<std::pair<const char*, FarBlitKernel>, 2> kFarBlitNa
 }};
 const char* toString(FarBlitKernel k);
 
-/// The one table of near rate names (volumetric/near_rate.hpp), like kRenderModeNames.
+/// The one table of near rate names (core/near_rate.hpp), like kRenderModeNames.
 inline constexpr std::array<std::pair<const char*, NearRate>, 3> kNearRateNames{{
     {"auto", NearRate::Auto},
     {"fragment", NearRate::Fragment},
@@ -192,7 +196,7 @@ struct FrameStats {
     /// The Vulkan near tier's split of nearMs: voxel uploads to the atlas, record + submit + wait
     /// of the draw, copy of the three targets to host memory (0 with the reference backend).
     double nearUploadMs = 0.0, nearDrawMs = 0.0, nearReadbackMs = 0.0;
-    /// Cell-rate near sprites (volumetric/near_rate.hpp): the Vulkan compute pass's GPU time
+    /// Cell-rate near sprites (core/near_rate.hpp): the Vulkan compute pass's GPU time
     /// (nearDrawMs is the rest of the frame's commands), cells traced once, pixels that traced
     /// their cell's rays and pixels that looked it up (Vulkan: the sprites' on-screen rectangle
     /// pixels), sprites drawn cell-rate and sprites that did not fit the cell budget.
@@ -226,10 +230,12 @@ struct FrameStats {
 
 struct FrameResult {
     Image image;
-    std::optional<Image> overlay;     ///< with FrameOptions::overlay
-    std::vector<SpriteSetup> sprites; ///< per entity id
-    std::vector<EntityPlan> plan;     ///< per entity id
-    std::vector<PopEvent> pops;       ///< with FrameOptions::measurePops
+    std::optional<Image> overlay; ///< with FrameOptions::overlay
+    /// Per entity id: shares of the renderer's own arrays (core/shared_vector.hpp), so a frame
+    /// hands them out without copying; they stay this frame's when later frames are drawn.
+    SharedVector<SpriteSetup> sprites;
+    SharedVector<EntityPlan> plan;
+    std::vector<PopEvent> pops; ///< with FrameOptions::measurePops
     FrameStats stats;
 };
 
@@ -249,9 +255,15 @@ class FrameRenderer {
     /// Draws `sprites` as `plan` says, with no selector involved: near sprites (and the near
     /// half of fades) by options().nearBackend, then far ones through the cache, composed by
     /// min-z. `onlyTier` draws just that tier's share (for tests and debugging).
-    Image draw(const CameraFrame& camera, const std::vector<SpriteSetup>& sprites,
-               const std::vector<EntityPlan>& plan, FrameStats* stats = nullptr,
+    Image draw(const CameraFrame& camera, std::span<const SpriteSetup> sprites,
+               std::span<const EntityPlan> plan, FrameStats* stats = nullptr,
                std::optional<Tier> onlyTier = std::nullopt);
+    Image draw(const CameraFrame& camera, std::span<const SpriteSetup> sprites,
+               std::initializer_list<EntityPlan> plan, FrameStats* stats = nullptr,
+               std::optional<Tier> onlyTier = std::nullopt) {
+        return draw(camera, sprites, std::span<const EntityPlan>(plan.begin(), plan.size()), stats,
+                    onlyTier);
+    }
 
     SnapshotCache& snapshotCache() { return *cache_; }
     TierSelector& selector() { return planner_.selector(); }
@@ -275,15 +287,16 @@ class FrameRenderer {
 
   private:
     /// Step 2: the planner's plan for this frame (lod/frame_planner.hpp), its figures into `st`.
-    std::vector<EntityPlan> planEntities(const std::vector<SpriteSetup>& sprites, RenderMode mode,
-                                         FrameStats& st);
+    SharedVector<EntityPlan> planEntities(RenderMode mode, FrameStats& st);
     /// The near tier's per-frame cost whatever it draws (ms): measured once, drawing nothing.
     /// The figure the planner's cost model asks for (CostModel::observe); compose only measures.
     double nearFixedMs(const CameraFrame& camera, NearBackend nearBackend);
     /// draw() with the near tier drawn by `nearBackend`.
+    /// `visible`: the visible sprites' ids, ascending (empty: found from `sprites`).
     Image drawWith(NearBackend nearBackend, const CameraFrame& camera,
-                   const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
-                   FrameStats& stats, std::optional<Tier> onlyTier = std::nullopt);
+                   std::span<const SpriteSetup> sprites, std::span<const EntityPlan> plan,
+                   FrameStats& stats, std::optional<Tier> onlyTier = std::nullopt,
+                   std::span<const std::uint32_t> visible = {});
     /// `b`, with Auto resolved (nearBackend()).
     NearBackend resolved(NearBackend b) { return b == NearBackend::Auto ? nearBackend() : b; }
     /// The near sprites by `nearBackend`; with `far`, Vulkan draws them (all near sprites on
@@ -298,12 +311,13 @@ class FrameRenderer {
     NearRenderer& nearRenderer();
     void drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& stats);
     std::vector<PopEvent> measurePops(const CameraFrame& camera,
-                                      const std::vector<SpriteSetup>& sprites,
-                                      const std::vector<EntityPlan>& plan, int frame);
-    Image tierOverlay(const Image& image, const std::vector<EntityPlan>& plan) const;
+                                      std::span<const SpriteSetup> sprites,
+                                      std::span<const EntityPlan> plan, int frame);
+    Image tierOverlay(const Image& image, std::span<const EntityPlan> plan) const;
 
     Scene& scene_;
     FrameOptions options_;
+    SpriteStore sprites_;  ///< the entities' sprites, kept between frames (set-up, step 1)
     FramePlanner planner_; ///< the LOD policy: selector, error budget views, cost model
     struct NearFixed {
         double ms = -1.0; ///< < 0: not measured yet
@@ -318,8 +332,8 @@ class FrameRenderer {
     std::unique_ptr<SnapshotCache> cache_;
     std::shared_ptr<NearRenderer>
         near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan
-    std::vector<EntityPlan> previousPlan_;
-    int editsApplied_ = 0; ///< scene.edits are applied in order of atFrame
+    SharedVector<EntityPlan> previousPlan_; ///< kept with FrameOptions::measurePops only
+    int editsApplied_ = 0;                  ///< scene.edits are applied in order of atFrame
 };
 
 /// Composes `far` into `near` by the shared depth/id rule (core/sprite.hpp winsDepthTest).

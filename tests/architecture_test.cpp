@@ -22,7 +22,7 @@ const std::map<std::string, std::set<std::string>> kAllowed = {
     {"device", {"core", "device"}},
     {"volumetric", {"core", "device", "volumetric"}},
     {"impostor_cache", {"core", "impostor_cache"}},
-    {"lod", {"core", "volumetric", "lod"}},
+    {"lod", {"core", "lod"}},
     {"compose", {"core", "device", "volumetric", "impostor_cache", "lod", "compose"}},
     {"image_files", {"core", "image_files"}},
     {"apps",

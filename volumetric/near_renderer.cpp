@@ -2,11 +2,11 @@
 
 #include "core/occlusion.hpp"
 #include "core/stopwatch.hpp"
+#include "device/vulkan_device.hpp"
 #include "volumetric/far_residency.hpp"
 #include "volumetric/shaders/far_shared.h"
 #include "volumetric/shaders/near_shared.h"
 #include "volumetric/voxel_residency.hpp"
-#include "device/vulkan_device.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -35,7 +35,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 // The plan's marker and the shaders' marker are one value: near_shared.h is not installed with
-// the public near_rate.hpp, so the two spellings are tied here instead of by an include.
+// the public core/near_rate.hpp, so the two spellings are tied here instead of by an include.
 static_assert(kNoCells == near_gpu::NEAR_NO_CELLS);
 static_assert(kMaxCellSprites == near_gpu::NEAR_MAX_CELL_SPRITES);
 
@@ -139,7 +139,7 @@ struct NearRenderer::Impl {
 
     // Per-frame data (host-visible, coherent) and the step counters.
     VulkanBuffer sprites, boxes, hulls, counters;
-    // Cell-rate (near_rate.hpp): per-sprite cell offsets, the compute tiles, the splat blocks
+    // Cell-rate (core/near_rate.hpp): per-sprite cell offsets, the compute tiles, the splat blocks
     // and the sprite of each depth rank (host-visible, written per frame), and the cell store
     // (device-local, grown up to the budget, reused).
     VulkanBuffer cellBases, cellTiles, splatBlocks, rankSprites, cells;

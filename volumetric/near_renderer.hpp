@@ -12,9 +12,9 @@
 #include "core/camera.hpp"
 #include "core/far_batch.hpp"
 #include "core/image.hpp"
+#include "core/near_rate.hpp"
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
-#include "volumetric/near_rate.hpp"
 #include "device/vulkan_options.hpp"
 
 #include <array>
@@ -58,7 +58,7 @@ struct NearOptions {
     bool countSteps = false;
     /// Count fragment-shader invocations with a pipeline-statistics query (when supported).
     bool pipelineStatistics = true;
-    /// Per-pixel or cell-rate tracing per sprite (near_rate.hpp): cell-rate sprites are traced
+    /// Per-pixel or cell-rate tracing per sprite (core/near_rate.hpp): cell-rate sprites are traced
     /// once per cell and shaded per pixel by compute passes; the draw skips them.
     NearRate rate = NearRate::Auto;
     /// The frame's cell store never grows past this; sprites that do not fit trace per pixel.

@@ -27,7 +27,7 @@ VT_NEAR_CONST uint NEAR_BINDING_COUNTERS =
     3u;                                     // NearCounters (written by the VT_COUNT_STEPS variant)
 VT_NEAR_CONST uint NEAR_BINDING_BOXES = 4u; // NearBox[]: proxy-box corners (box proxy only)
 VT_NEAR_CONST uint NEAR_BINDING_HULLS = 5u; // NearHull[]: silhouette polygons (hull proxy, default)
-// Cell-rate sprites (volumetric/near_rate.hpp): per sprite the offset of its cells in the cell
+// Cell-rate sprites (core/near_rate.hpp): per sprite the offset of its cells in the cell
 // store or NEAR_NO_CELLS; the store (one packed kernel outcome per cell, written by the compute
 // pass near_cells.comp, read by near.frag); the compute pass's tiles (sprite, first cell slot).
 VT_NEAR_CONST uint NEAR_BINDING_CELL_BASES = 6u;
