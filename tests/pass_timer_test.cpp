@@ -4,6 +4,7 @@
 // timestamps nothing is reported at all. No assertion depends on how fast anything runs.
 #include "device/pass_timer.hpp"
 #include "device/vulkan_device.hpp"
+#include "device_test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -28,31 +29,10 @@ TEST(PassTimerTicks, OnlyTheValidBitsCountAndOneWrapIsUndone) {
     EXPECT_DOUBLE_EQ(timestampDeltaMs(~std::uint64_t(0), 0, 64, 1.0), 1e-6);
 }
 
-struct Frame {
-    VulkanDevice& device;
-    VkCommandBuffer cb;
-    explicit Frame(VulkanDevice& d) : device(d), cb(d.allocateCommandBuffer()) {
-        VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-        VK_CHECK(vkBeginCommandBuffer(cb, &bi));
-    }
-    ~Frame() { device.freeCommandBuffer(cb); }
-    void submit() {
-        VK_CHECK(vkEndCommandBuffer(cb));
-        device.submitAndWait(cb);
-    }
-};
-
-VulkanDeviceOptions validated() {
-    VulkanDeviceOptions o;
-    o.validation = true;
-    o.echoMessages = false;
-    return o;
-}
-
 TEST(PassTimer, NamedPassesAreTimedOnTheDevice) {
     auto log = std::make_shared<VulkanMessageLog>();
     {
-        VulkanDevice device(validated(), log);
+        VulkanDevice device(test::validatedDevice(), log);
         ASSERT_GT(device.timestampValidBits(), 0u) << "lavapipe writes timestamps";
         PassTimer timer(device, 8);
         ASSERT_TRUE(timer.available());
@@ -61,7 +41,7 @@ TEST(PassTimer, NamedPassesAreTimedOnTheDevice) {
                          VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                          BufferClass::DeviceOnly);
         VulkanBuffer dst(device, n, VK_BUFFER_USAGE_TRANSFER_DST_BIT, BufferClass::DeviceOnly);
-        Frame f(device);
+        test::CommandRecorder f(device);
         timer.reset(f.cb);
         timer.begin(f.cb, "frame");
         timer.begin(f.cb, "copy");
@@ -95,10 +75,10 @@ TEST(PassTimer, NamedPassesAreTimedOnTheDevice) {
 TEST(PassTimer, PassesBeyondThePoolAreAbsentNotZero) {
     auto log = std::make_shared<VulkanMessageLog>();
     {
-        VulkanDevice device(validated(), log);
+        VulkanDevice device(test::validatedDevice(), log);
         PassTimer timer(device, 2);
         for (int frame = 0; frame < 2; ++frame) { // the pool is reused frame after frame
-            Frame f(device);
+            test::CommandRecorder f(device);
             timer.reset(f.cb);
             for (const char* name : {"a", "b", "c"}) {
                 timer.begin(f.cb, name);
@@ -120,7 +100,7 @@ TEST(PassTimer, WithoutTimestampsNothingIsReported) {
     VulkanDevice device(o);
     PassTimer timer(device, 4, /*forceUnavailable=*/true);
     EXPECT_FALSE(timer.available());
-    Frame f(device);
+    test::CommandRecorder f(device);
     timer.reset(f.cb);
     timer.begin(f.cb, "draw");
     timer.end(f.cb);

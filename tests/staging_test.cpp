@@ -6,6 +6,7 @@
 // Validation (with synchronization validation) runs throughout and must stay silent.
 #include "device/staging_ring.hpp"
 #include "device/vulkan_device.hpp"
+#include "device_test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -20,38 +21,11 @@ namespace {
 constexpr VkBufferUsageFlags kReadAndCopy =
     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
 
-VulkanDeviceOptions validated(bool forceStaging) {
-    VulkanDeviceOptions o;
-    o.validation = true;
-    o.echoMessages = false;
-    o.forceStaging = forceStaging;
-    return o;
-}
-
 std::vector<std::uint8_t> pattern(std::size_t n, std::uint8_t seed) {
     std::vector<std::uint8_t> v(n);
     for (std::size_t i = 0; i < n; ++i) v[i] = std::uint8_t(seed + i * 7 + (i >> 8));
     return v;
 }
-
-/// One command buffer, begun; submit() ends it, waits, and begins it again.
-struct Recorder {
-    VulkanDevice& device;
-    VkCommandBuffer cb;
-    explicit Recorder(VulkanDevice& d) : device(d), cb(d.allocateCommandBuffer()) { begin(); }
-    ~Recorder() { device.freeCommandBuffer(cb); }
-    void begin() {
-        VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-        bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-        VK_CHECK(vkBeginCommandBuffer(cb, &bi));
-    }
-    void submit() {
-        VK_CHECK(vkEndCommandBuffer(cb));
-        device.submitAndWait(cb);
-        VK_CHECK(vkResetCommandBuffer(cb, 0));
-        begin();
-    }
-};
 
 /// Records a copy of `src` into `readback` after whatever wrote `src` (transfer or host).
 void recordCopyToReadback(VkCommandBuffer cb, const VulkanBuffer& src, VulkanBuffer& readback,
@@ -75,7 +49,7 @@ std::vector<std::uint8_t> readBack(VulkanBuffer& readback, VkDeviceSize bytes) {
 TEST(Buffers, ReadbackIsHostCachedAndMapped) {
     auto log = std::make_shared<VulkanMessageLog>();
     {
-        VulkanDevice device(validated(false), log);
+        VulkanDevice device(test::validatedDevice(false), log);
         VulkanBuffer readback(device, 1024, 0, BufferClass::Readback);
         EXPECT_NE(readback.mapped(), nullptr);
         EXPECT_TRUE(readback.placement().flags & VK_MEMORY_PROPERTY_HOST_CACHED_BIT)
@@ -104,7 +78,7 @@ TEST(Buffers, LegacyHostVisibleConstructorKeepsItsPlacement) {
 TEST(Buffers, DirectWriteRoundTripsThroughTheDevice) {
     auto log = std::make_shared<VulkanMessageLog>();
     {
-        VulkanDevice device(validated(false), log);
+        VulkanDevice device(test::validatedDevice(false), log);
         const VkDeviceSize n = 4096 + 13;
         VulkanBuffer shaderData(device, n, kReadAndCopy, BufferClass::ShaderRead);
         ASSERT_EQ(shaderData.placement().hostWrite, HostWrite::Direct)
@@ -112,7 +86,7 @@ TEST(Buffers, DirectWriteRoundTripsThroughTheDevice) {
         ASSERT_NE(shaderData.mapped(), nullptr);
         VulkanBuffer readback(device, n, 0, BufferClass::Readback);
         StagingRing ring(device, 1024);
-        Recorder rec(device);
+        test::CommandRecorder rec(device);
         ring.beginFrame(1);
         const auto data = pattern(std::size_t(n), 3);
         EXPECT_EQ(uploadToBuffer(ring, rec.cb, shaderData, 0, data.data(), n), HostWrite::Direct);
@@ -130,7 +104,7 @@ TEST(Buffers, DirectWriteRoundTripsThroughTheDevice) {
 TEST(Buffers, ForcedStagingUploadsThroughTheRing) {
     auto log = std::make_shared<VulkanMessageLog>();
     {
-        VulkanDevice device(validated(true), log);
+        VulkanDevice device(test::validatedDevice(true), log);
         ASSERT_TRUE(device.forcesStaging());
         const VkDeviceSize n = 3000;
         VulkanBuffer shaderData(device, n, kReadAndCopy, BufferClass::ShaderRead);
@@ -141,7 +115,7 @@ TEST(Buffers, ForcedStagingUploadsThroughTheRing) {
 
         VulkanBuffer readback(device, n, 0, BufferClass::Readback);
         StagingRing ring(device, 8192);
-        Recorder rec(device);
+        test::CommandRecorder rec(device);
         ring.beginFrame(1);
         // In two pieces, the second at an offset, as a partial update would be.
         EXPECT_EQ(uploadToBuffer(ring, rec.cb, shaderData, 0, data.data(), 1000),
@@ -166,14 +140,14 @@ TEST(Buffers, ForcedStagingUploadsThroughTheRing) {
 TEST(Buffers, RingKeepsInFlightFramesApartAndReusesRetiredSpace) {
     auto log = std::make_shared<VulkanMessageLog>();
     {
-        VulkanDevice device(validated(true), log);
+        VulkanDevice device(test::validatedDevice(true), log);
         const VkDeviceSize n = 1000;
         StagingRing ring(device, 2048 + 64);
         VulkanBuffer a(device, n, kReadAndCopy, BufferClass::ShaderRead);
         VulkanBuffer b(device, n, kReadAndCopy, BufferClass::ShaderRead);
         VulkanBuffer readA(device, n, 0, BufferClass::Readback);
         VulkanBuffer readB(device, n, 0, BufferClass::Readback);
-        Recorder frame1(device), frame2(device);
+        test::CommandRecorder frame1(device), frame2(device);
         const auto dataA = pattern(std::size_t(n), 1), dataB = pattern(std::size_t(n), 2);
 
         ring.beginFrame(1);
@@ -210,7 +184,7 @@ TEST(Buffers, RingKeepsInFlightFramesApartAndReusesRetiredSpace) {
 TEST(Buffers, RingGrowsInsteadOfFailingAndKeepsEarlierUploadsValid) {
     auto log = std::make_shared<VulkanMessageLog>();
     {
-        VulkanDevice device(validated(true), log);
+        VulkanDevice device(test::validatedDevice(true), log);
         StagingRing ring(device, 256);
         const VkDeviceSize small = 200, big = 5000;
         VulkanBuffer a(device, small, kReadAndCopy, BufferClass::ShaderRead);
@@ -218,7 +192,7 @@ TEST(Buffers, RingGrowsInsteadOfFailingAndKeepsEarlierUploadsValid) {
         VulkanBuffer readA(device, small, 0, BufferClass::Readback);
         VulkanBuffer readB(device, big, 0, BufferClass::Readback);
         const auto dataA = pattern(std::size_t(small), 5), dataB = pattern(std::size_t(big), 6);
-        Recorder rec(device);
+        test::CommandRecorder rec(device);
         ring.beginFrame(7);
         ring.upload(rec.cb, a.handle(), 0, dataA.data(), small); // in the first buffer
         ring.upload(rec.cb, b.handle(), 0, dataB.data(), big);   // does not fit: grows
