@@ -5,11 +5,13 @@
 #include "compose/backdrop.hpp"
 #include "compose/error_metrics.hpp"
 #include "compose/tier_legend.hpp"
+#include "compose/vulkan_frame.hpp"
 #include "core/error.hpp"
-#include "core/far_batch.hpp"
 #include "core/stopwatch.hpp"
 #include "core/view_set.hpp"
+#include "impostor_cache/far_batch.hpp"
 #include "impostor_cache/far_frame.hpp"
+#include "impostor_cache/far_pass.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 #include "volumetric/near_renderer.hpp"
 #include "volumetric/reference_renderer.hpp"
@@ -189,6 +191,34 @@ void addCellRateCounts(FrameStats& st, const CellRateCounts& c) {
     st.nearCellSprites += int(c.cellSprites);
     st.nearCellOverBudget += int(c.cellOverBudget);
 }
+/// A Vulkan frame's counts and times into the frame's figures: the near passes' counts, the far
+/// pass's, the device's named passes and the host's waits.
+void addVulkanFrame(FrameStats& st, const VulkanFrameResult& r) {
+    const NearStats& ns = r.near;
+    st.nearPixelsTested += ns.fragmentInvocations;
+    st.nearBytesUploaded += ns.bytesUploaded;
+    st.voxelFetches += ns.voxelFetches;
+    st.nearKernelFragments += ns.kernelFragments;
+    st.nearUploadMs += ns.uploadMs;
+    st.nearEarlyDepthSprites += ns.earlyDepthSprites;
+    addCellRateCounts(st, ns);
+    const GpuFrameReport& g = r.report;
+    st.hostRecordMs += g.recordMs;
+    st.hostWaitMs += g.host.waitMs;
+    st.hostReadbackMs += g.host.readbackMs;
+    const auto add = [&](double& field, std::initializer_list<const char*> names) {
+        for (const char* n : names) field += g.ms(n).value_or(0.0);
+    };
+    add(st.gpuFrameMs, {"frame"});
+    add(st.gpuUploadMs, {"near_upload", "far_upload"});
+    add(st.gpuCellsMs, {"near_cells"});
+    add(st.gpuSplatMs, {"near_splat"});
+    add(st.gpuDrawMs, {"near_draw"});
+    add(st.gpuResolveMs, {"near_resolve"});
+    add(st.gpuFarMs, {"far_blit"});
+    add(st.gpuCopyMs, {"copy_planes", "readback_copy"});
+}
+
 } // namespace
 
 FrameRenderer::FrameRenderer(Scene& scene, FrameOptions options)
@@ -213,13 +243,19 @@ const VulkanProbe& FrameRenderer::vulkanProbe() {
             probe.found = true;
             probe.cpu = options_.sharedNear->deviceIsCpu();
             probe.name = options_.sharedNear->deviceName();
-            probe.float64 = options_.sharedNear->farPassSupported();
+            probe.float64 = FarPass::supported(options_.sharedNear->device());
         } else {
             probe = probeVulkanDevice();
         }
         probe_ = probe;
     }
     return *probe_;
+}
+
+FarPass& FrameRenderer::farPass() {
+    // Created on first use, on the near tier's device and frames: one frame draws both tiers.
+    if (!farPass_) farPass_ = std::make_unique<FarPass>(nearRenderer().frames());
+    return *farPass_;
 }
 
 NearRenderer& FrameRenderer::nearRenderer() {
@@ -316,12 +352,12 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     out.sprites = sprites_.shareSprites();
     st.entities = setup.entities;
     st.culled = setup.culled;
-    st.setupMs = msSince(t0);
+    st.hostSetupMs = msSince(t0);
 
     // 2. Select each entity's tier (DESIGN.md §5), its cross-fade and its far view.
     const auto t1 = Clock::now();
     out.plan = planEntities(mode, st);
-    st.selectMs = msSince(t1);
+    st.hostSelectMs = msSince(t1);
 
     // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z.
     const SnapshotCacheCounters cacheBefore = cache_->counters();
@@ -347,7 +383,7 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     sample.nearMs = st.nearMs;
     sample.nearUploadMs = st.nearUploadMs;
     sample.blitMs = st.blitMs;
-    sample.planMs = st.selectMs;
+    sample.planMs = st.hostSelectMs;
     sample.planned =
         mode == RenderMode::Hybrid && scene_.selector.metric == SelectorMetric::ErrorBudget;
     planner_.observe(out.sprites, sprites_.visibleIds(), out.plan, sample, options_.nearRate,
@@ -435,7 +471,7 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
     if (!shares.far.empty() && farBackend() == FarBackend::Vulkan) {
         // 4 before 3 on Vulkan: make sure every needed snapshot exists (lazy bakes, parallel
         // over distinct snapshots), then one Vulkan frame draws the near sprites and, after
-        // them, the far ones into the same targets with the min-z/id rule. Near sprites drawn by
+        // them, the far ones into the same planes with the min-z/id rule. Near sprites drawn by
         // the CPU reference are composed with the Vulkan far image by the same rule.
         const auto t0 = Clock::now();
         FarFrameStats fs;
@@ -446,19 +482,18 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         st.farMs += msSince(t0);
         st.farOnVulkan = 1;
         if (nearSprites.empty() || resolved(nearBackend) == NearBackend::Vulkan)
-            return drawNear(NearBackend::Vulkan, cam, nearSprites, st, &batch, colourOnly());
-        Image image = drawNear(nearBackend, cam, nearSprites, st);
-        FrameStats farOnly;
-        const Image far = drawNear(NearBackend::Vulkan, cam, {}, farOnly, &batch);
-        st.blitMs += farOnly.blitMs;
-        st.farMs += farOnly.blitMs;
+            return drawOnVulkan(cam, nearSprites, &batch, colourOnly(), st);
+        Image image = drawNearCpu(cam, nearSprites, st);
+        const Image far = drawOnVulkan(cam, {}, &batch, false, st);
         composeMinZ(image, far);
         return image;
     }
-    // 3. Near tier: one instanced Vulkan draw in ascending entity id (or the CPU reference).
-    // The CPU blit below composes on the near image's depth and ids.
+    // 3. Near tier: one Vulkan frame (or the CPU reference). The CPU blit below composes on the
+    // near image's depth and ids.
+    const bool onVulkan = !nearSprites.empty() && resolved(nearBackend) == NearBackend::Vulkan;
     Image image =
-        drawNear(nearBackend, cam, nearSprites, st, nullptr, shares.far.empty() && colourOnly());
+        onVulkan ? drawOnVulkan(cam, nearSprites, nullptr, shares.far.empty() && colourOnly(), st)
+                 : drawNearCpu(cam, nearSprites, st);
     // 4-5. Far tier: make sure every needed snapshot exists (lazy bakes, parallel over distinct
     // snapshots), then blit into the same image; the blit writes with the shared min-z/id rule,
     // which is the composition (composeMinZ is the same rule for two finished images).
@@ -466,60 +501,59 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
     return image;
 }
 
-Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
-                              const std::vector<const SpriteSetup*>& sprites, FrameStats& st,
-                              const FarBatch* far, bool colourOnly) {
+Image FrameRenderer::drawOnVulkan(const CameraFrame& cam,
+                                  const std::vector<const SpriteSetup*>& sprites,
+                                  const FarBatch* far, bool colourOnly, FrameStats& st) {
     const auto t0 = Clock::now();
-    Image image;
-    if (!sprites.empty()) nearBackend = resolved(nearBackend);
-    double farMs = 0.0;
-    if ((nearBackend == NearBackend::Vulkan && !sprites.empty()) || far) {
-        st.nearOnVulkan = !sprites.empty();
-        NearOptions no;
-        no.countSteps = options_.nearCountSteps;
-        no.rate = options_.nearRate;
-        no.far = far;
-        no.earlyDepthTest = options_.earlyDepthTest;
-        if (colourOnly) {
-            // One plane read back. The backdrop then finds the pixels no sprite drew by their
-            // alpha (sprites always write 255): the targets are cleared to a transparent
-            // background where it must fill in an opaque one (the ground).
-            no.readDepthAndIds = false;
-            const Rgba8 bg = scene_.render.background;
-            if (scene_.ground && channel(bg, 3) == 255) no.clearColor = bg & 0x00FFFFFFu;
-        }
-        NearStats ns;
-        image =
-            nearRenderer().render(cam, scene_.models, sprites, scene_.render.background, no, &ns);
-        farMs = ns.farMs;
-        st.blitMs += ns.farMs;
-        st.farMs += ns.farMs;
-        st.nearPixelsTested += ns.fragmentInvocations;
-        st.nearBytesUploaded += ns.bytesUploaded;
-        st.voxelFetches += ns.voxelFetches;
-        st.nearKernelFragments += ns.kernelFragments;
-        st.nearUploadMs += ns.uploadMs;
-        st.nearDrawMs += ns.drawMs;
-        st.nearReadbackMs += ns.readbackMs;
-        st.nearComputeMs += ns.computeMs;
-        st.nearEarlyDepthSprites += ns.earlyDepthSprites;
-        addCellRateCounts(st, ns);
-    } else {
-        image = Image(cam.width, cam.height, scene_.render.background);
-        ReferenceStats rs;
-        ReferenceOptions ro;
-        ro.rate = options_.nearRate;
-        ro.occlusionCull = options_.occlusionCull;
-        ro.earlyDepthTest = options_.earlyDepthTest;
-        ro.progress = options_.nearProgress;
-        renderReference(scene_.models, sprites, image, &rs, ro);
-        st.nearPixelsTested += rs.pixelsTested;
-        st.nearPixelsWritten += rs.pixelsWritten;
-        st.nearOccluded += int(rs.culled);
-        st.voxelFetches += rs.voxelFetches;
-        addCellRateCounts(st, rs);
+    VulkanFrameRequest request;
+    request.camera = &cam;
+    request.models = &scene_.models;
+    request.nearSprites = sprites;
+    request.far = far;
+    request.clear = scene_.render.background;
+    request.near.countSteps = options_.nearCountSteps;
+    request.near.rate = options_.nearRate;
+    request.near.earlyDepthTest = options_.earlyDepthTest;
+    request.depthAndIds = !colourOnly;
+    if (colourOnly) {
+        // One plane read back. The backdrop then finds the pixels no sprite drew by their alpha
+        // (sprites always write 255): the planes start as a transparent background where it
+        // must fill in an opaque one (the ground).
+        const Rgba8 bg = scene_.render.background;
+        if (scene_.ground && channel(bg, 3) == 255) request.clear = bg & 0x00FFFFFFu;
     }
-    st.nearMs = std::max(0.0, msSince(t0) - farMs);
+    NearRenderer& near = nearRenderer();
+    const VulkanFrameResult r = drawVulkanFrame(near, far ? &farPass() : nullptr, request);
+    const double wallMs = msSince(t0);
+    // The far pass's share of the frame: its recording and its device time.
+    const double farShare = far ? r.farRecordMs + r.report.ms("far_upload").value_or(0.0) +
+                                      r.report.ms("far_blit").value_or(0.0)
+                                : 0.0;
+    st.blitMs += farShare;
+    st.farMs += farShare;
+    st.nearMs += std::max(0.0, wallMs - farShare);
+    st.nearOnVulkan = st.nearOnVulkan || !sprites.empty();
+    addVulkanFrame(st, r);
+    return r.image;
+}
+
+Image FrameRenderer::drawNearCpu(const CameraFrame& cam,
+                                 const std::vector<const SpriteSetup*>& sprites, FrameStats& st) {
+    const auto t0 = Clock::now();
+    Image image(cam.width, cam.height, scene_.render.background);
+    ReferenceStats rs;
+    ReferenceOptions ro;
+    ro.rate = options_.nearRate;
+    ro.occlusionCull = options_.occlusionCull;
+    ro.earlyDepthTest = options_.earlyDepthTest;
+    ro.progress = options_.nearProgress;
+    renderReference(scene_.models, sprites, image, &rs, ro);
+    st.nearPixelsTested += rs.pixelsTested;
+    st.nearPixelsWritten += rs.pixelsWritten;
+    st.nearOccluded += int(rs.culled);
+    st.voxelFetches += rs.voxelFetches;
+    addCellRateCounts(st, rs);
+    st.nearMs += msSince(t0);
     return image;
 }
 

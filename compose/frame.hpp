@@ -33,6 +33,7 @@
 namespace voxtier {
 
 class NearRenderer;
+class FarPass;
 class SnapshotCache;
 struct FarRequest;
 struct FarBatch;
@@ -170,8 +171,9 @@ const char* toString(PopEvent::Kind k);
 
 /// Where one frame's time went (wall-clock ms) and how much work each tier did. The step times
 /// add up to totalMs except for small glue (image moves, bookkeeping):
-/// totalMs ~ setupMs + selectMs + nearMs + farMs, nearMs ~ nearUploadMs + nearDrawMs +
-/// nearReadbackMs on Vulkan, farMs = bakeMs + blitMs. Every field has a line in kFrameFigures
+/// totalMs ~ hostSetupMs + hostSelectMs + nearMs + farMs, farMs = bakeMs + blitMs; a frame on
+/// Vulkan splits its share into hostRecordMs + hostWaitMs + hostReadbackMs, and the device's
+/// gpu*Ms say where the wait went. Every field has a line in kFrameFigures
 /// (compose/frame_figures.hpp), which names it in every output; the build checks that.
 struct FrameStats {
     int entities = 0, culled = 0;
@@ -191,24 +193,34 @@ struct FrameStats {
     int farRefreshes = 0, farIncrementalRefreshes = 0;
     std::uint64_t farCellsRetraced = 0, nearBytesUploaded = 0;
     std::uint64_t cacheBytes = 0; ///< snapshot bytes held after the frame
-    /// bakeMs: the far tier making sure its snapshots exist (cache lookups + the bakes they start).
-    double setupMs = 0.0, selectMs = 0.0, nearMs = 0.0, farMs = 0.0, bakeMs = 0.0, totalMs = 0.0;
-    /// The Vulkan near tier's split of nearMs: voxel uploads to the atlas, record + submit + wait
-    /// of the draw, copy of the three targets to host memory (0 with the reference backend).
-    double nearUploadMs = 0.0, nearDrawMs = 0.0, nearReadbackMs = 0.0;
-    /// Cell-rate near sprites (core/near_rate.hpp): the Vulkan compute pass's GPU time
-    /// (nearDrawMs is the rest of the frame's commands), cells traced once, pixels that traced
-    /// their cell's rays and pixels that looked it up (Vulkan: the sprites' on-screen rectangle
+    /// The frame's steps on the host (wall-clock ms): set-up (step 1), selection (step 2), the
+    /// near tier, the far tier (bakeMs: making sure its snapshots exist, cache lookups + the
+    /// bakes they start; then blitMs), and the whole frame.
+    double hostSetupMs = 0.0, hostSelectMs = 0.0, nearMs = 0.0, farMs = 0.0, bakeMs = 0.0,
+           totalMs = 0.0;
+    /// The near tier's voxel uploads to the atlas (host: pack + submit + wait; 0 with the CPU
+    /// reference).
+    double nearUploadMs = 0.0;
+    /// A frame drawn on Vulkan, on the host: preparing and recording its passes (uploads
+    /// written), blocked on its fence, and unpacking what was read back.
+    double hostRecordMs = 0.0, hostWaitMs = 0.0, hostReadbackMs = 0.0;
+    /// A frame drawn on Vulkan, on the device (its named timestamps; 0 where the device has none
+    /// or the frame had no such pass): the whole frame, its uploads, the cell-rate cells, splat
+    /// and resolve, the near draw, the far pass, and the copies of the planes (targets into the
+    /// planes, planes into host memory).
+    double gpuFrameMs = 0.0, gpuUploadMs = 0.0, gpuCellsMs = 0.0, gpuSplatMs = 0.0, gpuDrawMs = 0.0,
+           gpuResolveMs = 0.0, gpuFarMs = 0.0, gpuCopyMs = 0.0;
+    /// Cell-rate near sprites (core/near_rate.hpp): cells traced once, pixels that traced their
+    /// cell's rays and pixels that looked it up (Vulkan: the sprites' on-screen rectangle
     /// pixels), sprites drawn cell-rate and sprites that did not fit the cell budget.
-    double nearComputeMs = 0.0;
     std::uint64_t nearCellsTraced = 0, nearPixelsTraced = 0, nearPixelsLookedUp = 0;
     int nearCellSprites = 0, nearCellOverBudget = 0;
     double blitMs = 0.0; ///< the far blit alone
     /// 1 when this frame's near sprites were drawn by the Vulkan near tier, 0 when by the CPU
     /// reference or when there were none (FrameRenderer::nearBackend says which Auto chose).
     int nearOnVulkan = 0;
-    /// 1 when this frame's far sprites were drawn by the Vulkan far pass (blitMs is then its
-    /// host preparation plus GPU time), 0 when by the CPU blit or when there were none.
+    /// 1 when this frame's far sprites were drawn by the Vulkan far pass (blitMs is then its share
+    /// of the Vulkan frame: recording and gpuFarMs), 0 when by the CPU blit or when none.
     int farOnVulkan = 0;
     std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;
     std::uint64_t farPixelsWritten = 0; ///< blit pixels a solid or outline cell won
@@ -299,16 +311,19 @@ class FrameRenderer {
                    std::span<const std::uint32_t> visible = {});
     /// `b`, with Auto resolved (nearBackend()).
     NearBackend resolved(NearBackend b) { return b == NearBackend::Auto ? nearBackend() : b; }
-    /// The near sprites by `nearBackend`; with `far`, Vulkan draws them (all near sprites on
-    /// Vulkan, or none) and the far batch in one frame.
-    Image drawNear(NearBackend nearBackend, const CameraFrame& camera,
-                   const std::vector<const SpriteSetup*>& sprites, FrameStats& stats,
-                   const FarBatch* far = nullptr, bool colourOnly = false);
+    /// One Vulkan frame (compose/vulkan_frame.hpp): `sprites` by the near passes, then `far`
+    /// (may be null) by the far pass; colour alone read back when `colourOnly`.
+    Image drawOnVulkan(const CameraFrame& camera, const std::vector<const SpriteSetup*>& sprites,
+                       const FarBatch* far, bool colourOnly, FrameStats& stats);
+    /// The near sprites by the CPU reference.
+    Image drawNearCpu(const CameraFrame& camera, const std::vector<const SpriteSetup*>& sprites,
+                      FrameStats& stats);
     /// Whether a frame drawn wholly on Vulkan may read back its colour alone.
     bool colourOnly() const { return !options_.depthAndIds && !options_.overlay; }
     /// The Vulkan probe both Auto choices read (the shared device's answer where there is one).
     const VulkanProbe& vulkanProbe();
     NearRenderer& nearRenderer();
+    FarPass& farPass();
     void drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& stats);
     std::vector<PopEvent> measurePops(const CameraFrame& camera,
                                       std::span<const SpriteSetup> sprites,
@@ -332,6 +347,7 @@ class FrameRenderer {
     std::unique_ptr<SnapshotCache> cache_;
     std::shared_ptr<NearRenderer>
         near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan
+    std::unique_ptr<FarPass> farPass_;      ///< on near_'s frames, created by the first far pass
     SharedVector<EntityPlan> previousPlan_; ///< kept with FrameOptions::measurePops only
     int editsApplied_ = 0;                  ///< scene.edits are applied in order of atFrame
 };

@@ -65,9 +65,14 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                 const Entity& e = scene.entities[i];
                 const VoxelModel& model = *scene.models.at(std::size_t(e.model));
                 const int frame = e.frameAt(model, time);
-                const EntityKey key{model.uid(),         e.model,  frame,
-                                    e.position,          e.rotation, e.scale,
-                                    e.anchor.has_value(), e.anchor.value_or(glm::dvec3(0.0))};
+                const EntityKey key{model.uid(),
+                                    e.model,
+                                    frame,
+                                    e.position,
+                                    e.rotation,
+                                    e.scale,
+                                    e.anchor.has_value(),
+                                    e.anchor.value_or(glm::dvec3(0.0))};
                 const bool entityChanged = !constantsKept || !(keys_[i] == key);
                 if (entityChanged) {
                     keys_[i] = key;

@@ -27,8 +27,8 @@ class SpriteStore {
     /// What one update did.
     struct Update {
         int entities = 0;
-        int culled = 0;     ///< sprites that draw nothing this frame (SpriteSetup::cull)
-        int recomputed = 0; ///< sprites set up afresh (the others are last frame's, unchanged)
+        int culled = 0;          ///< sprites that draw nothing this frame (SpriteSetup::cull)
+        int recomputed = 0;      ///< sprites set up afresh (the others are last frame's, unchanged)
         int entitiesChanged = 0; ///< of those, entities whose constants changed (or are new)
     };
 

@@ -82,6 +82,8 @@ void StagingRing::grow(VkDeviceSize atLeast) {
     // The old buffer holds this frame's earlier uploads and those of frames still in flight: it
     // lives until all of them are retired. The new one starts empty.
     outgrown_.push_back(Outgrown{std::move(buffer_), frame});
+    for (PendingFlush& p : pendingFlushes_)
+        if (p.buffer == &buffer_) p.buffer = &outgrown_.back().buffer;
     buffer_ = VulkanBuffer(*device_, capacity, 0, BufferClass::Staging);
     regions_.clear();
     regions_.push_back(Region{frame, 0, 0});
@@ -90,21 +92,39 @@ void StagingRing::grow(VkDeviceSize atLeast) {
     ++growths_;
 }
 
-void StagingRing::upload(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset, const void* data,
-                         VkDeviceSize bytes) {
+VkDeviceSize StagingRing::reserve(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset,
+                                  VkDeviceSize bytes) {
     if (!frameOpen_) throw std::logic_error("StagingRing::upload outside beginFrame/retire");
-    if (bytes == 0) return;
     VkDeviceSize offset = 0;
     if (!allocate(bytes, offset)) {
         grow(bytes);
         if (!allocate(bytes, offset))
             throw std::logic_error("StagingRing: no space after growing"); // cannot happen
     }
-    buffer_.write(offset, data, bytes);
     VkBufferCopy copy{offset, dstOffset, bytes};
     vkCmdCopyBuffer(cb, buffer_.handle(), dst, 1, &copy);
     uploadedThisFrame_ += bytes;
     ++copiesThisFrame_;
+    return offset;
+}
+
+void StagingRing::upload(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset, const void* data,
+                         VkDeviceSize bytes) {
+    if (bytes == 0) return;
+    buffer_.write(reserve(cb, dst, dstOffset, bytes), data, bytes);
+}
+
+void* StagingRing::uploadInPlace(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset,
+                                 VkDeviceSize bytes) {
+    if (bytes == 0) return nullptr;
+    const VkDeviceSize offset = reserve(cb, dst, dstOffset, bytes);
+    if (buffer_.placement().flushAfterWrite) pendingFlushes_.push_back({&buffer_, offset, bytes});
+    return static_cast<std::uint8_t*>(buffer_.mapped()) + offset;
+}
+
+void StagingRing::flushPending() {
+    for (const PendingFlush& p : pendingFlushes_) p.buffer->flush(p.offset, p.bytes);
+    pendingFlushes_.clear();
 }
 
 void StagingRing::recordBarrier(VkCommandBuffer cb, VkPipelineStageFlags dstStage,
@@ -123,9 +143,7 @@ void StagingRing::retire(std::uint64_t frame) {
         regions_.pop_front();
     }
     if (regions_.empty()) frameOpen_ = false;
-    outgrown_.erase(std::remove_if(outgrown_.begin(), outgrown_.end(),
-                                   [&](const Outgrown& o) { return o.lastFrame <= frame; }),
-                    outgrown_.end());
+    outgrown_.remove_if([&](const Outgrown& o) { return o.lastFrame <= frame; });
 }
 
 HostWrite uploadToBuffer(StagingRing& ring, VkCommandBuffer cb, VulkanBuffer& dst,

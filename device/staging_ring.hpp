@@ -19,6 +19,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <list>
 #include <vector>
 
 namespace voxtier {
@@ -38,6 +39,13 @@ class StagingRing {
     /// bytes records nothing.
     void upload(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset, const void* data,
                 VkDeviceSize bytes);
+    /// upload() without a source: returns where to write the `bytes` (filled by the caller before
+    /// the frame is submitted, then flushPending()), so large arrays are written once, straight
+    /// into the ring. The copy to `dst` is recorded into `cb` now.
+    void* uploadInPlace(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset,
+                        VkDeviceSize bytes);
+    /// Flushes what uploadInPlace handed out this frame, where the ring's memory is not coherent.
+    void flushPending();
     /// Records one memory barrier from this frame's copies (transfer writes) to `dstStage` /
     /// `dstAccess`; records nothing when the frame uploaded nothing.
     void recordBarrier(VkCommandBuffer cb, VkPipelineStageFlags dstStage, VkAccessFlags dstAccess);
@@ -67,17 +75,28 @@ class StagingRing {
         VulkanBuffer buffer;
         std::uint64_t lastFrame; ///< released once this frame is retired
     };
+    /// Space for `bytes` in this frame's region (growing the ring if need be), and the copy from
+    /// it to `dst` recorded into `cb`; returns the space's offset in buffer_.
+    VkDeviceSize reserve(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset,
+                         VkDeviceSize bytes);
     /// Offset of `bytes` of free space, or false when it does not fit beside frames in flight.
     bool allocate(VkDeviceSize bytes, VkDeviceSize& offset);
     void grow(VkDeviceSize atLeast);
 
     VulkanDevice* device_;
     VulkanBuffer buffer_;
-    std::vector<Outgrown> outgrown_;
+    std::list<Outgrown> outgrown_;
     std::deque<Region> regions_; ///< oldest first; the back one is the current frame's
     VkDeviceSize head_ = 0;      ///< next free offset
     VkDeviceSize used_ = 0;
     bool frameOpen_ = false;
+    /// What uploadInPlace handed out this frame on non-coherent memory, to flush before submit
+    /// (the buffer may be an outgrown one by then: outgrown_ is a list, so it does not move).
+    struct PendingFlush {
+        VulkanBuffer* buffer;
+        VkDeviceSize offset, bytes;
+    };
+    std::vector<PendingFlush> pendingFlushes_;
     VkDeviceSize uploadedThisFrame_ = 0;
     std::uint32_t copiesThisFrame_ = 0;
     std::uint32_t growths_ = 0;

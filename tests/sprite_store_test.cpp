@@ -18,18 +18,18 @@ using test::sourcePath;
     const auto& la = a.lattice;
     const auto& lb = b.lattice;
     const bool same =
-        a.cull == b.cull && a.entityId == b.entityId && a.model == b.model &&
-        a.frame == b.frame && a.pose.worldFromVoxelRotation == b.pose.worldFromVoxelRotation &&
+        a.cull == b.cull && a.entityId == b.entityId && a.model == b.model && a.frame == b.frame &&
+        a.pose.worldFromVoxelRotation == b.pose.worldFromVoxelRotation &&
         a.pose.position == b.pose.position && a.pose.anchor == b.pose.anchor &&
         a.pose.metresPerVoxel == b.pose.metresPerVoxel && la.dir == lb.dir &&
         la.right == lb.right && la.up == lb.up && la.centre == lb.centre && la.gU == lb.gU &&
         la.gV == lb.gV && la.sigma == lb.sigma && la.maxDim == lb.maxDim && la.dims == lb.dims &&
-        la.cellRange == lb.cellRange && a.centreRel == b.centreRel &&
-        a.viewDepth == b.viewDepth && a.distance == b.distance && a.radiusPx == b.radiusPx &&
-        a.screenRect == b.screenRect && std::memcmp(&a.gpu, &b.gpu, sizeof a.gpu) == 0;
+        la.cellRange == lb.cellRange && a.centreRel == b.centreRel && a.viewDepth == b.viewDepth &&
+        a.distance == b.distance && a.radiusPx == b.radiusPx && a.screenRect == b.screenRect &&
+        std::memcmp(&a.gpu, &b.gpu, sizeof a.gpu) == 0;
     if (same) return ::testing::AssertionSuccess();
-    return ::testing::AssertionFailure() << "entity " << a.entityId << " differs from entity "
-                                         << b.entityId << "'s fresh set-up";
+    return ::testing::AssertionFailure()
+           << "entity " << a.entityId << " differs from entity " << b.entityId << "'s fresh set-up";
 }
 
 /// Every sprite of the store against a fresh set-up of its entity.
@@ -76,8 +76,7 @@ TEST(SpriteStore, AStillCameraSetsUpOnlyTheEntitiesThatChangedFrame) {
     for (const double t : {0.6, 1.3, 2.9}) {
         int stepped = 0;
         std::vector<int> before(s.entities.size());
-        for (std::size_t i = 0; i < s.entities.size(); ++i)
-            before[i] = store.sprites()[i].frame;
+        for (std::size_t i = 0; i < s.entities.size(); ++i) before[i] = store.sprites()[i].frame;
         const SpriteStore::Update u = store.update(s, cam, t);
         for (std::size_t i = 0; i < s.entities.size(); ++i) {
             const Entity& e = s.entities[i];
