@@ -19,16 +19,23 @@ void addCacheDirOptions(CLI::App& cmd, CacheDirArgs& args, const std::string& wh
         ->needs(dir);
 }
 
+std::string mebibytes(double bytes) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.2f MiB", bytes / double(1 << 20));
+    return buf;
+}
+
 std::string cacheDirSummary(const SnapshotStoreOptions& o, const SnapshotStoreCounters& c) {
     char buf[512];
-    std::snprintf(buf, sizeof buf,
-                  "cache dir %s: %llu snapshots read (%.2f MB, %.1f ms), %llu written (%.2f MB, "
-                  "%.1f ms), %llu missing, %llu rejected, %llu evicted",
-                  o.dir.string().c_str(), static_cast<unsigned long long>(c.reads),
-                  c.bytesRead / 1048576.0, c.readMs, static_cast<unsigned long long>(c.writes),
-                  c.bytesWritten / 1048576.0, c.writeMs, static_cast<unsigned long long>(c.misses),
-                  static_cast<unsigned long long>(c.rejected),
-                  static_cast<unsigned long long>(c.evicted));
+    std::snprintf(
+        buf, sizeof buf,
+        "cache dir %s: %llu snapshots read (%s, %.1f ms), %llu written (%s, %.1f ms), "
+        "%llu missing, %llu rejected, %llu evicted",
+        o.dir.string().c_str(), static_cast<unsigned long long>(c.reads),
+        mebibytes(double(c.bytesRead)).c_str(), c.readMs, static_cast<unsigned long long>(c.writes),
+        mebibytes(double(c.bytesWritten)).c_str(), c.writeMs,
+        static_cast<unsigned long long>(c.misses), static_cast<unsigned long long>(c.rejected),
+        static_cast<unsigned long long>(c.evicted));
     return buf;
 }
 

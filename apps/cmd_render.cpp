@@ -5,6 +5,7 @@
 #include "apps/progress.hpp"
 #include "compose/frame.hpp"
 #include "compose/frame_figures.hpp"
+#include "compose/scene_render.hpp"
 #include "core/error.hpp"
 #include "core/file_write.hpp"
 #include "core/model_view.hpp"
@@ -182,10 +183,11 @@ void rejectCollidingOutputs(const RenderArgs& a, const std::string& out) {
 
 /// Which frames one render writes.
 struct FramePlan {
-    std::vector<int> frames;         ///< path frames, in render order
-    std::optional<double> fixedTime; ///< --time: this time instead of the frame's
-    bool sequence = false;           ///< --path / --frames: numbered images, progress
-    int step = 1;                    ///< frames apart
+    std::vector<int> frames;                ///< path frames, in render order
+    std::optional<double> fixedTime;        ///< --time: this time instead of the frame's
+    bool sequence = false;                  ///< --path / --frames: numbered images, progress
+    int step = 1;                           ///< frames apart
+    SceneCamera camera = SceneCamera::Path; ///< Still: a plain render (compose/scene_render.hpp)
 };
 
 /// The last frame of the scene's camera path, or a frame past it is an error naming `option`.
@@ -218,10 +220,9 @@ void checkPathTime(const RenderArgs& a, const Scene& scene, double t) {
     throw InputError(a.input, "--time", msg);
 }
 
-/// The camera rule (docs/scenes.md "Which camera a render uses"): --path, --frames, --frame and
-/// --time follow the camera path; a plain render shows the static camera when the scene file
-/// positions one, else the path at its first frame.
-FramePlan planFrames(const RenderArgs& a, Scene& scene) {
+/// The camera rule (docs/scenes.md "Which camera a render uses"; applyCameraRule): --path,
+/// --frames, --frame and --time follow the camera path; a plain render is a still.
+FramePlan planFrames(const RenderArgs& a, const Scene& scene) {
     FramePlan p;
     if (a.path || a.frames) {
         FrameRange r;
@@ -241,13 +242,9 @@ FramePlan planFrames(const RenderArgs& a, Scene& scene) {
     } else if (a.time) {
         checkPathTime(a, scene, *a.time);
         p.fixedTime = *a.time;
-        const int f = scene.path
-                          ? int(std::floor(
-                                (*a.time - scene.path->keys.front().time) * scene.path->fps + 1e-9))
-                          : 0;
-        p.frames = {std::max(0, f)};
+        p.frames = {frameAtTime(scene, *a.time)};
     } else {
-        if (scene.cameraPositioned) scene.path.reset();
+        p.camera = SceneCamera::Still;
         p.frames = {0};
     }
     return p;
@@ -321,8 +318,8 @@ void rejectAlphaFormat(const RenderArgs& a, const std::string& out) {
 
 void run(const RenderArgs& a) {
     const auto runStart = std::chrono::steady_clock::now();
-    Scene scene = loadInput(a);
-    const FramePlan plan = planFrames(a, scene);
+    Scene input = loadInput(a);
+    const FramePlan plan = planFrames(a, input);
     FrameOptions opt;
     opt.nearBackend = a.nearBackend;
     opt.farBackend = a.farBackend;
@@ -350,7 +347,9 @@ void run(const RenderArgs& a) {
     // Depth and ids leave the GPU only for output that has them (EXR, --ids) or reads them.
     opt.depthAndIds =
         lowerExtension(out) == ".exr" || !a.ids.empty() || opt.overlay || opt.measurePops;
-    FrameRenderer renderer(scene, opt);
+    SceneRenderer sceneRenderer(std::move(input), plan.camera, opt);
+    const Scene& scene = sceneRenderer.scene();
+    FrameRenderer& renderer = sceneRenderer.frames();
     // A .vox render is a preview, where a user judges the model (or the file's scene graph):
     // without --mode it is drawn exactly, by the near tier (Vulkan on a GPU, else the CPU
     // reference: the same pixels, tests/vulkan_identity_test.cpp), never from a far snapshot.
@@ -381,9 +380,9 @@ void run(const RenderArgs& a) {
         const auto frameStart = std::chrono::steady_clock::now();
         const int frame = plan.frames[k];
         const double time = plan.fixedTime ? *plan.fixedTime : scene.timeOfFrame(frame);
-        renderer.applyEditsThrough(frame);
         nearRows.reset();
-        const FrameResult r = renderer.render(time, mode, frame);
+        const FrameResult r =
+            plan.fixedTime ? sceneRenderer.renderAt(time, mode) : sceneRenderer.render(frame, mode);
         approx.add(r);
         const auto name = [&](const std::string& f) {
             return plan.sequence ? numbered(f, frame) : f;
