@@ -3,7 +3,6 @@
 #include "compose/frame.hpp"
 
 #include "compose/backdrop.hpp"
-#include "compose/error_metrics.hpp"
 #include "compose/tier_legend.hpp"
 #include "core/error.hpp"
 #include "core/far_batch.hpp"
@@ -145,18 +144,6 @@ NearRate parseNearRate(const std::string& name) {
 
 const char* toString(NearRate r) {
     return nameOf(kNearRateNames, r);
-}
-
-const char* toString(PopEvent::Kind k) {
-    switch (k) {
-    case PopEvent::Kind::TierSwitch:
-        return "tier";
-    case PopEvent::Kind::ViewSwitch:
-        return "view";
-    case PopEvent::Kind::FadeStep:
-        return "fade";
-    }
-    return "?";
 }
 
 namespace {
@@ -332,7 +319,6 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
 
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
-    if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
     // What the frame cost, to the planner's cost model: the bake time with the cache's split of
     // it (the cost model counts only the bakes' share), and the near tier's fixed cost, measured
     // here by drawing nothing, should the model ask for it.
@@ -350,9 +336,18 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
         mode == RenderMode::Hybrid && scene_.selector.metric == SelectorMetric::ErrorBudget;
     planner_.observe(out.sprites, out.plan, sample, options_.nearRate,
                      [&] { return nearFixedMs(cam, nearBackendFor(mode, options_.nearBackend)); });
-    previousPlan_ = out.plan;
     st.cacheBytes = cache_->counters().bytes;
     st.totalMs = msSince(t0);
+    // Pops are measured outside the frame's time: the CPU reference stands in for Vulkan (the
+    // same image by contract, and a few sprites are cheap).
+    if (options_.measurePops)
+        out.pops =
+            measurePops(scene_, cam, out.sprites, previousPlan_, out.plan, frame,
+                        [&](const auto& sprites, const auto& plan) {
+                            FrameStats unused;
+                            return drawWith(NearBackend::Reference, cam, sprites, plan, unused);
+                        });
+    previousPlan_ = out.plan;
     return out;
 }
 
@@ -526,48 +521,6 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
     st.farMs += fs.ensureMs + fs.blit.milliseconds;
     st.farPixelsTested += fs.blit.pixelsTested;
     st.farPixelsWritten += fs.blit.pixelsWritten;
-}
-
-std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
-                                                 const std::vector<SpriteSetup>& sprites,
-                                                 const std::vector<EntityPlan>& plan, int frame) {
-    std::vector<PopEvent> pops;
-    if (previousPlan_.size() != plan.size()) return pops;
-    // Each entity whose plan changed is drawn alone, once as last frame planned it and once as
-    // this frame does, with this frame's camera: the difference is the switch's own pop. The CPU
-    // reference stands in for Vulkan here (the same image by contract, and one sprite is cheap).
-    for (std::size_t i = 0; i < sprites.size(); ++i) {
-        const EntityPlan& now = plan[i];
-        const EntityPlan& before = previousPlan_[i];
-        if (now == before || !sprites[i].visible()) continue;
-        PopEvent e;
-        e.frame = frame;
-        e.entity = std::uint32_t(i);
-        e.radiusPx = sprites[i].radiusPx;
-        e.kind = now.tier != before.tier ? PopEvent::Kind::TierSwitch
-                 : (now.fade != before.fade || now.fadeFrom != before.fadeFrom)
-                     ? PopEvent::Kind::FadeStep
-                     : PopEvent::Kind::ViewSwitch;
-        const std::vector<SpriteSetup> one = {sprites[i]};
-        EntityPlan oldPlan = before;
-        if (oldPlan.drawsFar() && !oldPlan.view) {
-            const ViewSet set = viewSetFromSize(scene_.selector.viewSetSize);
-            oldPlan.view = viewIdOf(set, nearestView(set, -sprites[i].lattice.dir));
-        }
-        std::vector<SpriteSetup> alone = one;
-        alone[0].entityId = std::uint32_t(i);
-        FrameStats unused;
-        const Image a = drawWith(NearBackend::Reference, cam, alone, {oldPlan}, unused);
-        const Image b = drawWith(NearBackend::Reference, cam, alone, {now}, unused);
-        const auto err = entityErrors(a, b, {std::uint32_t(i)}, sprites[i].screenRect);
-        if (!err.empty()) {
-            e.changedPixels = err[0].mismatched;
-            e.changedFraction = err[0].mismatchFraction();
-            e.displacementPx = err[0].silhouetteDisplacementPx;
-        }
-        pops.push_back(e);
-    }
-    return pops;
 }
 
 Image FrameRenderer::tierOverlay(const Image& image, const std::vector<EntityPlan>& plan) const {

@@ -6,16 +6,17 @@
 // (lod/frame_planner.hpp). A FrameRenderer keeps what persists between frames of one scene: the
 // planner (the selector's per-entity state, the budget's views, the measured costs), the
 // snapshot cache and the Vulkan device with its voxel atlas.
+#include "compose/pop_measure.hpp"
 #include "core/image.hpp"
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
 #include "core/view_set.hpp"
 #include "core/work_progress.hpp"
+#include "device/vulkan_options.hpp"
 #include "impostor_cache/far_blit.hpp"
 #include "lod/frame_planner.hpp"
 #include "lod/selector.hpp"
 #include "volumetric/near_rate.hpp"
-#include "device/vulkan_options.hpp"
 
 #include <array>
 #include <cstddef>
@@ -110,7 +111,9 @@ struct FrameOptions {
     VulkanDeviceOptions vulkan;                  ///< device options when Vulkan is used
     std::shared_ptr<VulkanMessageLog> vulkanLog; ///< validation messages (outlives the device)
     bool overlay = false;                        ///< also produce FrameResult::overlay (tier tint)
-    bool measurePops = false; ///< FrameResult::pops: the change each switch causes alone
+    /// FrameResult::pops: the change each switch causes, alone and seen (compose/pop_measure.hpp),
+    /// measured after the frame's clock stops.
+    bool measurePops = false;
     std::size_t cacheBudgetBytes = std::size_t(256) << 20; ///< far snapshot cache budget
     /// On-disk snapshot cache directory ("" = none): snapshots are read from it before baking and
     /// written to it after; cacheDirBytes limits its size (0 = no limit; LRU files go first).
@@ -149,20 +152,6 @@ struct FrameOptions {
     /// reads neither (a PNG without --ids); the CPU tiers and the overlay need both.
     bool depthAndIds = true;
 };
-
-/// The image change one switch causes on its own (DESIGN.md §8 "pop magnitude"): the entity
-/// rendered alone with its previous plan and with its new one, same camera.
-struct PopEvent {
-    enum class Kind { TierSwitch, ViewSwitch, FadeStep };
-    int frame = 0;
-    std::uint32_t entity = 0;
-    Kind kind = Kind::TierSwitch;
-    std::size_t changedPixels = 0; ///< pixels of the entity's footprint union that changed
-    double changedFraction = 0.0;  ///< changedPixels / footprint union
-    double displacementPx = 0.0;   ///< largest silhouette displacement
-    double radiusPx = 0.0;         ///< projected radius of the entity at the switch
-};
-const char* toString(PopEvent::Kind k);
 
 /// Where one frame's time went (wall-clock ms) and how much work each tier did. The step times
 /// add up to totalMs except for small glue (image moves, bookkeeping):
@@ -292,14 +281,13 @@ class FrameRenderer {
                    const std::vector<const SpriteSetup*>& sprites, FrameStats& stats,
                    const FarBatch* far = nullptr, bool colourOnly = false);
     /// Whether a frame drawn wholly on Vulkan may read back its colour alone.
-    bool colourOnly() const { return !options_.depthAndIds && !options_.overlay; }
+    bool colourOnly() const {
+        return !options_.depthAndIds && !options_.overlay && !options_.measurePops;
+    }
     /// The Vulkan probe both Auto choices read (the shared device's answer where there is one).
     const VulkanProbe& vulkanProbe();
     NearRenderer& nearRenderer();
     void drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& stats);
-    std::vector<PopEvent> measurePops(const CameraFrame& camera,
-                                      const std::vector<SpriteSetup>& sprites,
-                                      const std::vector<EntityPlan>& plan, int frame);
     Image tierOverlay(const Image& image, const std::vector<EntityPlan>& plan) const;
 
     Scene& scene_;
