@@ -448,6 +448,17 @@ void rejectAlphaFormat(const RenderArgs& a, const std::string& out) {
                                                       ".png, .exr or .tif");
 }
 
+/// An id image whose colours are not kept exactly: its key could not name each pixel's entity.
+void rejectLossyIdFormat(const RenderArgs& a) {
+    for (const char* ext : {".gif", ".jpg", ".jpeg"})
+        if (!a.ids.empty() && endsWith(a.ids, ext))
+            throw CLI::ValidationError("--ids", std::string("a ") + ext +
+                                                    " file does not keep every entity's colour "
+                                                    "(GIF holds 256, JPEG is lossy), so its key "
+                                                    "could not name each pixel's entity; write "
+                                                    ".png, .exr, .tif or .pam");
+}
+
 void run(const RenderArgs& a) {
     const auto runStart = std::chrono::steady_clock::now();
     Scene scene = loadInput(a);
@@ -473,6 +484,7 @@ void run(const RenderArgs& a) {
         out = "out/" + std::filesystem::path(a.input).stem().string() + defaultImageExtension();
     rejectCollidingOutputs(a, out, a.ids.empty() ? "" : idKeyFile(a.ids));
     rejectAlphaFormat(a, out);
+    rejectLossyIdFormat(a);
     // A build without OpenImageIO writes .pam alone: say so before rendering, not after.
     for (const std::string& f : {a.overlay, a.ids})
         if (!f.empty() && !canWriteImageFormat(f)) throw InputError(f, "", imageFormatRefusal(f));

@@ -454,6 +454,12 @@ TEST(CliUsability, IdImageHasAKeyFromColourToEntity) {
         ASSERT_EQ(it->second, int(id[p])) << p;
     }
     EXPECT_GT(drawn, 100u);
+    // A format that does not keep the colours exactly would break the key: refused.
+    for (const char* ext : {".gif", ".jpg"})
+        expectOneLine("render " + scene + " --ids " + (d / "ids").string() + ext, 2,
+                      std::string("--ids: a ") + ext +
+                          " file does not keep every entity's colour (GIF holds 256, JPEG is "
+                          "lossy)");
 }
 
 // The pops summary line says what the --pops CSV holds: the switches by kind, how many changed
