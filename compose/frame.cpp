@@ -3,7 +3,6 @@
 #include "compose/frame.hpp"
 
 #include "compose/backdrop.hpp"
-#include "compose/error_metrics.hpp"
 #include "compose/tier_legend.hpp"
 #include "compose/vulkan_frame.hpp"
 #include "core/error.hpp"
@@ -147,18 +146,6 @@ NearRate parseNearRate(const std::string& name) {
 
 const char* toString(NearRate r) {
     return nameOf(kNearRateNames, r);
-}
-
-const char* toString(PopEvent::Kind k) {
-    switch (k) {
-    case PopEvent::Kind::TierSwitch:
-        return "tier";
-    case PopEvent::Kind::ViewSwitch:
-        return "view";
-    case PopEvent::Kind::FadeStep:
-        return "fade";
-    }
-    return "?";
 }
 
 namespace {
@@ -336,13 +323,38 @@ void FrameRenderer::applyEditsThrough(int frame) {
     }
 }
 
+/// What a submitted frame still needs to finish.
+struct FrameRenderer::Pending {
+    FrameResult out;
+    CameraFrame cam{};
+    RenderMode mode = RenderMode::Hybrid;
+    int frame = 0;
+    double hostMs = 0.0; ///< the frame's host time in submit()
+    SnapshotCacheCounters cacheBefore, cacheAfter;
+    /// The Vulkan half in flight, and whether it holds a far pass.
+    std::optional<VulkanFrameInFlight> gpu;
+    bool gpuHasFar = false;
+};
+
+void FrameRenderer::PendingDeleter::operator()(Pending* p) const {
+    if (p && p->gpu) (void)finishVulkanFrame(std::move(*p->gpu)); // never leave a frame in flight
+    delete p;
+}
+
 FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
+    return finish(submit(time, mode, frame));
+}
+
+FrameRenderer::PendingFrame FrameRenderer::submit(double time, RenderMode mode, int frame) {
     // Auto's one-time probe of the Vulkan loader (lavapipe's instance alone takes ~0.1 s) is not
     // part of any frame's time: a hybrid frame decides before the clock starts.
     if (mode == RenderMode::Hybrid) (void)nearBackend();
     if (mode == RenderMode::Hybrid || mode == RenderMode::Far) (void)farBackend();
     const auto t0 = Clock::now();
-    FrameResult out;
+    PendingFrame pending(new Pending);
+    pending->mode = mode;
+    pending->frame = frame;
+    FrameResult& out = pending->out;
     FrameStats& st = out.stats;
 
     // 1. Camera and per-entity sprite set-up (DESIGN.md §3: double precision, camera-relative),
@@ -359,18 +371,36 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     out.plan = planEntities(mode, st);
     st.hostSelectMs = msSince(t1);
 
-    // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z.
-    const SnapshotCacheCounters cacheBefore = cache_->counters();
+    // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z: drawn here, or,
+    // wholly on Vulkan, submitted here and read back by finish().
+    pending->cam = cam;
+    pending->cacheBefore = cache_->counters();
     out.image = drawWith(nearBackendFor(mode, options_.nearBackend), cam, out.sprites, out.plan, st,
-                         std::nullopt, sprites_.visibleIds());
-    const SnapshotCacheCounters cacheAfter = cache_->counters();
+                         std::nullopt, sprites_.visibleIds(), pending.get());
+    pending->cacheAfter = cache_->counters();
+    pending->hostMs = msSince(t0);
+    return pending;
+}
+
+FrameResult FrameRenderer::finish(PendingFrame pending) {
+    const auto t0 = Clock::now();
+    FrameResult& out = pending->out;
+    FrameStats& st = out.stats;
+    const CameraFrame& cam = pending->cam;
+    const RenderMode mode = pending->mode;
+    const int frame = pending->frame;
+    const SnapshotCacheCounters& cacheBefore = pending->cacheBefore;
+    const SnapshotCacheCounters& cacheAfter = pending->cacheAfter;
+    if (pending->gpu) {
+        out.image = finishOnVulkan(std::move(*pending->gpu), pending->gpuHasFar, st);
+        pending->gpu.reset();
+    }
 
     // 6. Where no sprite drew: the ground plane, or a (transparent) background.
     drawBackdrop(scene_, cam, out.image);
 
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
-    if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
     // What the frame cost, to the planner's cost model: the bake time with the cache's split of
     // it (the cost model counts only the bakes' share), and the near tier's fixed cost, measured
     // here by drawing nothing, should the model ask for it.
@@ -388,11 +418,21 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
         mode == RenderMode::Hybrid && scene_.selector.metric == SelectorMetric::ErrorBudget;
     planner_.observe(out.sprites, sprites_.visibleIds(), out.plan, sample, options_.nearRate,
                      [&] { return nearFixedMs(cam, nearBackendFor(mode, options_.nearBackend)); });
+    st.cacheBytes = cache_->counters().bytes;
+    // The frame's own host time: its two halves, not what ran between them.
+    st.totalMs = pending->hostMs + msSince(t0);
+    // Pops are measured outside the frame's time: the CPU reference stands in for Vulkan (the
+    // same image by contract, and a few sprites are cheap).
+    if (options_.measurePops)
+        out.pops =
+            measurePops(scene_, cam, out.sprites, previousPlan_, out.plan, frame,
+                        [&](const auto& sprites, const auto& plan) {
+                            FrameStats unused;
+                            return drawWith(NearBackend::Reference, cam, sprites, plan, unused);
+                        });
     // Kept only for the next frame's pops: a share held across frames costs the planner a copy.
     previousPlan_ = options_.measurePops ? out.plan : SharedVector<EntityPlan>{};
-    st.cacheBytes = cache_->counters().bytes;
-    st.totalMs = msSince(t0);
-    return out;
+    return std::move(out);
 }
 
 SharedVector<EntityPlan> FrameRenderer::planEntities(RenderMode mode, FrameStats& st) {
@@ -456,8 +496,8 @@ Image FrameRenderer::draw(const CameraFrame& cam, std::span<const SpriteSetup> s
 Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
                               std::span<const SpriteSetup> sprites,
                               std::span<const EntityPlan> plan, FrameStats& st,
-                              std::optional<Tier> onlyTier,
-                              std::span<const std::uint32_t> visible) {
+                              std::optional<Tier> onlyTier, std::span<const std::uint32_t> visible,
+                              Pending* pending) {
     std::vector<std::uint32_t> found;
     if (visible.empty()) {
         for (std::size_t i = 0; i < sprites.size(); ++i)
@@ -482,7 +522,7 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         st.farMs += msSince(t0);
         st.farOnVulkan = 1;
         if (nearSprites.empty() || resolved(nearBackend) == NearBackend::Vulkan)
-            return drawOnVulkan(cam, nearSprites, &batch, colourOnly(), st);
+            return drawOnVulkan(cam, nearSprites, &batch, colourOnly(), st, pending);
         Image image = drawNearCpu(cam, nearSprites, st);
         const Image far = drawOnVulkan(cam, {}, &batch, false, st);
         composeMinZ(image, far);
@@ -503,8 +543,8 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
 
 Image FrameRenderer::drawOnVulkan(const CameraFrame& cam,
                                   const std::vector<const SpriteSetup*>& sprites,
-                                  const FarBatch* far, bool colourOnly, FrameStats& st) {
-    const auto t0 = Clock::now();
+                                  const FarBatch* far, bool colourOnly, FrameStats& st,
+                                  Pending* pending) {
     VulkanFrameRequest request;
     request.camera = &cam;
     request.models = &scene_.models;
@@ -515,6 +555,8 @@ Image FrameRenderer::drawOnVulkan(const CameraFrame& cam,
     request.near.rate = options_.nearRate;
     request.near.earlyDepthTest = options_.earlyDepthTest;
     request.depthAndIds = !colourOnly;
+    // Only a frame drawn wholly on Vulkan may skip its readback: a CPU tier composes on it.
+    request.readBack = options_.readBack || !pending;
     if (colourOnly) {
         // One plane read back. The backdrop then finds the pixels no sprite drew by their alpha
         // (sprites always write 255): the planes start as a transparent background where it
@@ -522,19 +564,31 @@ Image FrameRenderer::drawOnVulkan(const CameraFrame& cam,
         const Rgba8 bg = scene_.render.background;
         if (scene_.ground && channel(bg, 3) == 255) request.clear = bg & 0x00FFFFFFu;
     }
-    NearRenderer& near = nearRenderer();
-    const VulkanFrameResult r = drawVulkanFrame(near, far ? &farPass() : nullptr, request);
-    const double wallMs = msSince(t0);
+    st.nearOnVulkan = st.nearOnVulkan || !sprites.empty();
+    VulkanFrameInFlight inFlight =
+        submitVulkanFrame(nearRenderer(), far ? &farPass() : nullptr, request);
+    if (pending) {
+        pending->gpu = std::move(inFlight);
+        pending->gpuHasFar = far != nullptr;
+        return Image();
+    }
+    return finishOnVulkan(std::move(inFlight), far != nullptr, st);
+}
+
+Image FrameRenderer::finishOnVulkan(VulkanFrameInFlight&& inFlight, bool hasFar, FrameStats& st) {
+    const auto tFinish = Clock::now();
+    VulkanFrameResult r = finishVulkanFrame(std::move(inFlight));
+    // The Vulkan frame's host time: recording it and finishing it (not what ran in between).
+    const double wallMs = r.report.recordMs + msSince(tFinish);
     // The far pass's share of the frame: its recording and its device time.
-    const double farShare = far ? r.farRecordMs + r.report.ms("far_upload").value_or(0.0) +
-                                      r.report.ms("far_blit").value_or(0.0)
-                                : 0.0;
+    const double farShare = hasFar ? r.farRecordMs + r.report.ms("far_upload").value_or(0.0) +
+                                         r.report.ms("far_blit").value_or(0.0)
+                                   : 0.0;
     st.blitMs += farShare;
     st.farMs += farShare;
     st.nearMs += std::max(0.0, wallMs - farShare);
-    st.nearOnVulkan = st.nearOnVulkan || !sprites.empty();
     addVulkanFrame(st, r);
-    return r.image;
+    return std::move(r.image);
 }
 
 Image FrameRenderer::drawNearCpu(const CameraFrame& cam,
@@ -570,48 +624,6 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
     st.farMs += fs.ensureMs + fs.blit.milliseconds;
     st.farPixelsTested += fs.blit.pixelsTested;
     st.farPixelsWritten += fs.blit.pixelsWritten;
-}
-
-std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
-                                                 std::span<const SpriteSetup> sprites,
-                                                 std::span<const EntityPlan> plan, int frame) {
-    std::vector<PopEvent> pops;
-    if (previousPlan_.size() != plan.size()) return pops;
-    // Each entity whose plan changed is drawn alone, once as last frame planned it and once as
-    // this frame does, with this frame's camera: the difference is the switch's own pop. The CPU
-    // reference stands in for Vulkan here (the same image by contract, and one sprite is cheap).
-    for (std::size_t i = 0; i < sprites.size(); ++i) {
-        const EntityPlan& now = plan[i];
-        const EntityPlan& before = previousPlan_[i];
-        if (now == before || !sprites[i].visible()) continue;
-        PopEvent e;
-        e.frame = frame;
-        e.entity = std::uint32_t(i);
-        e.radiusPx = sprites[i].radiusPx;
-        e.kind = now.tier != before.tier ? PopEvent::Kind::TierSwitch
-                 : (now.fade != before.fade || now.fadeFrom != before.fadeFrom)
-                     ? PopEvent::Kind::FadeStep
-                     : PopEvent::Kind::ViewSwitch;
-        const std::vector<SpriteSetup> one = {sprites[i]};
-        EntityPlan oldPlan = before;
-        if (oldPlan.drawsFar() && !oldPlan.view) {
-            const ViewSet set = viewSetFromSize(scene_.selector.viewSetSize);
-            oldPlan.view = viewIdOf(set, nearestView(set, -sprites[i].lattice.dir));
-        }
-        std::vector<SpriteSetup> alone = one;
-        alone[0].entityId = std::uint32_t(i);
-        FrameStats unused;
-        const Image a = drawWith(NearBackend::Reference, cam, alone, {&oldPlan, 1}, unused);
-        const Image b = drawWith(NearBackend::Reference, cam, alone, {&now, 1}, unused);
-        const auto err = entityErrors(a, b, {std::uint32_t(i)}, sprites[i].screenRect);
-        if (!err.empty()) {
-            e.changedPixels = err[0].mismatched;
-            e.changedFraction = err[0].mismatchFraction();
-            e.displacementPx = err[0].silhouetteDisplacementPx;
-        }
-        pops.push_back(e);
-    }
-    return pops;
 }
 
 Image FrameRenderer::tierOverlay(const Image& image, std::span<const EntityPlan> plan) const {

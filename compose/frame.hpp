@@ -6,6 +6,7 @@
 // (lod/frame_planner.hpp). A FrameRenderer keeps what persists between frames of one scene: the
 // planner (the selector's per-entity state, the budget's views, the measured costs), the
 // snapshot cache and the Vulkan device with its voxel atlas.
+#include "compose/pop_measure.hpp"
 #include "core/image.hpp"
 #include "core/near_rate.hpp"
 #include "core/scene.hpp"
@@ -34,6 +35,7 @@ namespace voxtier {
 
 class NearRenderer;
 class FarPass;
+struct VulkanFrameInFlight;
 class SnapshotCache;
 struct FarRequest;
 struct FarBatch;
@@ -115,7 +117,9 @@ struct FrameOptions {
     VulkanDeviceOptions vulkan;                  ///< device options when Vulkan is used
     std::shared_ptr<VulkanMessageLog> vulkanLog; ///< validation messages (outlives the device)
     bool overlay = false;                        ///< also produce FrameResult::overlay (tier tint)
-    bool measurePops = false; ///< FrameResult::pops: the change each switch causes alone
+    /// FrameResult::pops: the change each switch causes, alone and seen (compose/pop_measure.hpp),
+    /// measured after the frame's clock stops.
+    bool measurePops = false;
     std::size_t cacheBudgetBytes = std::size_t(256) << 20; ///< far snapshot cache budget
     /// On-disk snapshot cache directory ("" = none): snapshots are read from it before baking and
     /// written to it after; cacheDirBytes limits its size (0 = no limit; LRU files go first).
@@ -153,21 +157,10 @@ struct FrameOptions {
     /// planes (the backdrop finds the pixels no sprite drew by their alpha). For output that
     /// reads neither (a PNG without --ids); the CPU tiers and the overlay need both.
     bool depthAndIds = true;
+    /// false: a frame drawn wholly on Vulkan is drawn and timed but not read back
+    /// (FrameResult::image is empty): the device frame alone, for measuring it.
+    bool readBack = true;
 };
-
-/// The image change one switch causes on its own (DESIGN.md §8 "pop magnitude"): the entity
-/// rendered alone with its previous plan and with its new one, same camera.
-struct PopEvent {
-    enum class Kind { TierSwitch, ViewSwitch, FadeStep };
-    int frame = 0;
-    std::uint32_t entity = 0;
-    Kind kind = Kind::TierSwitch;
-    std::size_t changedPixels = 0; ///< pixels of the entity's footprint union that changed
-    double changedFraction = 0.0;  ///< changedPixels / footprint union
-    double displacementPx = 0.0;   ///< largest silhouette displacement
-    double radiusPx = 0.0;         ///< projected radius of the entity at the switch
-};
-const char* toString(PopEvent::Kind k);
 
 /// Where one frame's time went (wall-clock ms) and how much work each tier did. The step times
 /// add up to totalMs except for small glue (image moves, bookkeeping):
@@ -261,8 +254,23 @@ class FrameRenderer {
     /// Applies the scene's scripted edits due up to path frame `frame` (each once).
     void applyEditsThrough(int frame);
     /// One frame at time t; `frame` only labels pop events. Consecutive calls are consecutive
-    /// frames for the selector (hysteresis, cross-fades).
+    /// frames for the selector (hysteresis, cross-fades). render() is finish(submit(...)).
     FrameResult render(double time, RenderMode mode, int frame = 0);
+
+    /// A frame begun by submit() and not yet finished.
+    struct Pending;
+    struct PendingDeleter {
+        void operator()(Pending* p) const;
+    };
+    using PendingFrame = std::unique_ptr<Pending, PendingDeleter>;
+    /// One frame in two halves, so that the host prepares frame k+1 while the device draws
+    /// frame k (a path render keeps two frames in flight): submit() runs set-up, selection and
+    /// the bakes and, for a frame drawn wholly on Vulkan, records and submits it; finish() waits
+    /// for it, reads it back and completes the frame (backdrop, overlay, pops, cost model). A
+    /// frame with a CPU tier is drawn whole by submit(). Finish frames in the order submitted,
+    /// at most two in flight.
+    PendingFrame submit(double time, RenderMode mode, int frame = 0);
+    FrameResult finish(PendingFrame frame);
 
     /// Draws `sprites` as `plan` says, with no selector involved: near sprites (and the near
     /// half of fades) by options().nearBackend, then far ones through the cache, composed by
@@ -304,30 +312,34 @@ class FrameRenderer {
     /// The figure the planner's cost model asks for (CostModel::observe); compose only measures.
     double nearFixedMs(const CameraFrame& camera, NearBackend nearBackend);
     /// draw() with the near tier drawn by `nearBackend`.
-    /// `visible`: the visible sprites' ids, ascending (empty: found from `sprites`).
+    /// `visible`: the visible sprites' ids, ascending (empty: found from `sprites`). With
+    /// `pending`, a frame drawn wholly on Vulkan is only submitted (into *pending), and the image
+    /// returned is empty until finish().
     Image drawWith(NearBackend nearBackend, const CameraFrame& camera,
                    std::span<const SpriteSetup> sprites, std::span<const EntityPlan> plan,
                    FrameStats& stats, std::optional<Tier> onlyTier = std::nullopt,
-                   std::span<const std::uint32_t> visible = {});
+                   std::span<const std::uint32_t> visible = {}, Pending* pending = nullptr);
     /// `b`, with Auto resolved (nearBackend()).
     NearBackend resolved(NearBackend b) { return b == NearBackend::Auto ? nearBackend() : b; }
     /// One Vulkan frame (compose/vulkan_frame.hpp): `sprites` by the near passes, then `far`
     /// (may be null) by the far pass; colour alone read back when `colourOnly`.
     Image drawOnVulkan(const CameraFrame& camera, const std::vector<const SpriteSetup*>& sprites,
-                       const FarBatch* far, bool colourOnly, FrameStats& stats);
+                       const FarBatch* far, bool colourOnly, FrameStats& stats,
+                       Pending* pending = nullptr);
+    /// finish() of a Vulkan frame: read back, its figures into `stats`.
+    Image finishOnVulkan(VulkanFrameInFlight&& frame, bool hasFar, FrameStats& stats);
     /// The near sprites by the CPU reference.
     Image drawNearCpu(const CameraFrame& camera, const std::vector<const SpriteSetup*>& sprites,
                       FrameStats& stats);
     /// Whether a frame drawn wholly on Vulkan may read back its colour alone.
-    bool colourOnly() const { return !options_.depthAndIds && !options_.overlay; }
+    bool colourOnly() const {
+        return !options_.depthAndIds && !options_.overlay && !options_.measurePops;
+    }
     /// The Vulkan probe both Auto choices read (the shared device's answer where there is one).
     const VulkanProbe& vulkanProbe();
     NearRenderer& nearRenderer();
     FarPass& farPass();
     void drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& stats);
-    std::vector<PopEvent> measurePops(const CameraFrame& camera,
-                                      std::span<const SpriteSetup> sprites,
-                                      std::span<const EntityPlan> plan, int frame);
     Image tierOverlay(const Image& image, std::span<const EntityPlan> plan) const;
 
     Scene& scene_;

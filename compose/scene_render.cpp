@@ -30,14 +30,22 @@ SceneRenderer::SceneRenderer(Scene scene, SceneCamera camera, FrameOptions optio
     : scene_((applyCameraRule(scene, camera), std::move(scene))), frames_(scene_, options) {}
 
 FrameResult SceneRenderer::render(int frame, RenderMode mode) {
-    frames_.applyEditsThrough(frame);
-    return frames_.render(scene_.timeOfFrame(frame), mode, frame);
+    return frames_.finish(submit(frame, mode));
 }
 
 FrameResult SceneRenderer::renderAt(double time, RenderMode mode) {
+    return frames_.finish(submitAt(time, mode));
+}
+
+FrameRenderer::PendingFrame SceneRenderer::submit(int frame, RenderMode mode) {
+    frames_.applyEditsThrough(frame);
+    return frames_.submit(scene_.timeOfFrame(frame), mode, frame);
+}
+
+FrameRenderer::PendingFrame SceneRenderer::submitAt(double time, RenderMode mode) {
     const int frame = frameAtTime(scene_, time);
     frames_.applyEditsThrough(frame);
-    return frames_.render(time, mode, frame);
+    return frames_.submit(time, mode, frame);
 }
 
 FrameResult renderStill(const Scene& scene, const FrameOptions& options) {
@@ -186,7 +194,7 @@ class RenderFollower {
         return settings;
     }
     /// The snapshots the far tier draws `plan` from (TierShares in compose/frame.cpp).
-    void collect(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
+    void collect(const std::vector<SpriteSetup>& sprites, std::span<const EntityPlan> plan,
                  std::vector<std::pair<std::size_t, ViewId>>& drawn) const {
         const ViewSet set = viewSetFromSize(scene_.selector.viewSetSize);
         for (std::size_t i = 0; i < sprites.size(); ++i) {

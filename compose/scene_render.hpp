@@ -48,6 +48,10 @@ class SceneRenderer {
     FrameResult render(int frame = 0, RenderMode mode = RenderMode::Hybrid);
     /// `--time T`: the frame at time `time`, after the edits due by frameAtTime(scene(), time).
     FrameResult renderAt(double time, RenderMode mode = RenderMode::Hybrid);
+    /// render() and renderAt() in two halves (FrameRenderer::submit, finished by
+    /// frames().finish()): a sequence keeps two frames in flight.
+    FrameRenderer::PendingFrame submit(int frame = 0, RenderMode mode = RenderMode::Hybrid);
+    FrameRenderer::PendingFrame submitAt(double time, RenderMode mode = RenderMode::Hybrid);
 
     /// The scene as drawn: the camera rule applied, the edits applied so far.
     const Scene& scene() const { return scene_; }

@@ -39,8 +39,25 @@ struct VulkanFrameResult {
     double farRecordMs = 0.0; ///< host: the far pass's share of report.recordMs
 };
 
-/// Draws one Vulkan frame: the near passes for `request.nearSprites` (none: the planes are only
-/// cleared), then the far pass for `request.far` on `farPass`, then the readback.
+/// A Vulkan frame recorded and submitted, not yet read back: the host may prepare the next frame
+/// while the device draws this one (GpuFrames holds two in flight).
+struct VulkanFrameInFlight {
+    NearRenderer* near = nullptr;
+    GpuFrame* frame = nullptr;
+    NearOptions nearOptions;
+    bool depthAndIds = true;
+    VulkanFrameResult result; ///< the host's counts so far
+    double recordMs = 0.0;
+};
+
+/// Records one Vulkan frame and submits it: the near passes for `request.nearSprites` (none: the
+/// planes are only cleared), then the far pass for `request.far` on `farPass`, then the
+/// readback's copy. Nothing of `request` is needed after it returns.
+VulkanFrameInFlight submitVulkanFrame(NearRenderer& near, FarPass* farPass,
+                                      const VulkanFrameRequest& request);
+/// Waits for the frame and reads it back (frames finish in the order they were submitted).
+VulkanFrameResult finishVulkanFrame(VulkanFrameInFlight&& frame);
+/// Both at once.
 VulkanFrameResult drawVulkanFrame(NearRenderer& near, FarPass* farPass,
                                   const VulkanFrameRequest& request);
 

@@ -93,6 +93,15 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     return plan_.share();
 }
 
+SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites,
+                                            const SelectorConfig& config,
+                                            const PlanSettings& settings, PlanStats& stats) {
+    std::vector<std::uint32_t> visible;
+    for (std::size_t i = 0; i < sprites.size(); ++i)
+        if (sprites[i].visible()) visible.push_back(std::uint32_t(i));
+    return plan(sprites, visible, config, settings, stats);
+}
+
 void FramePlanner::planBudgetView(std::size_t entity, const SpriteSetup& sprite,
                                   const SelectorConfig& config, const PlanSettings& settings,
                                   EntityPlan& p) {

@@ -112,6 +112,10 @@ class FramePlanner {
                                   std::span<const std::uint32_t> visible,
                                   const SelectorConfig& config, const PlanSettings& settings,
                                   PlanStats& stats);
+    /// The same, for sprites without a list of the visible ones (found here).
+    SharedVector<EntityPlan> plan(std::span<const SpriteSetup> sprites,
+                                  const SelectorConfig& config, const PlanSettings& settings,
+                                  PlanStats& stats);
     /// After drawing the plan: what it cost (CostModel::observe).
     void observe(std::span<const SpriteSetup> sprites, std::span<const std::uint32_t> visible,
                  std::span<const EntityPlan> plan, const FrameCostSample& sample, NearRate rate,
