@@ -216,16 +216,17 @@ void GpuFrames::ensureTargets(int w, int h) {
                          VK_IMAGE_ASPECT_COLOR_BIT);
     id_ = VulkanImage(device_, VK_IMAGE_TYPE_2D, GpuFrame::kIdFormat, extent, colorUsage,
                       VK_IMAGE_ASPECT_COLOR_BIT);
-    depth_ = VulkanImage(
-        device_, VK_IMAGE_TYPE_2D, GpuFrame::kDepthFormat, extent,
-        VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-        VK_IMAGE_ASPECT_DEPTH_BIT);
+    depth_ =
+        VulkanImage(device_, VK_IMAGE_TYPE_2D, GpuFrame::kDepthFormat, extent,
+                    VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                    VK_IMAGE_ASPECT_DEPTH_BIT);
     const VkDeviceSize planesBytes = 3 * VkDeviceSize(w) * VkDeviceSize(h) * 4;
     const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
                                      VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                      VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-    planes_ = composeInReadback_ ? VulkanBuffer()
-                                 : VulkanBuffer(device_, planesBytes, usage, BufferClass::DeviceOnly);
+    planes_ = composeInReadback_
+                  ? VulkanBuffer()
+                  : VulkanBuffer(device_, planesBytes, usage, BufferClass::DeviceOnly);
     for (auto& f : frames_)
         f->readback_ = VulkanBuffer(device_, planesBytes, usage, BufferClass::Readback);
     width_ = w;

@@ -432,8 +432,8 @@ VkPipeline NearPasses::Impl::computePipeline(ComputePass pass) {
 
 void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
                                     const std::vector<std::shared_ptr<VoxelModel>>& models,
-                                    std::span<const SpriteSetup* const> all,
-                                    const NearOptions& opt, NearStats& stats) {
+                                    std::span<const SpriteSetup* const> all, const NearOptions& opt,
+                                    NearStats& stats) {
     // §6: front to back with equal depths in ascending id under the early depth test, which
     // keeps every pixel the same (the depth test alone decides unequal depths, whatever their
     // order); else ascending entity id, so that depth GREATER resolves ties to the lower id.
@@ -596,10 +596,10 @@ void NearPasses::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
     // Rewritten every frame: cheap, and the slot's set is idle (its last frame has finished).
     using namespace near_gpu;
     if (!pixelWords || pixelWords.size() < frame.planeBytes())
-        pixelWords = VulkanBuffer(device, frame.planeBytes(),
-                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-                                      VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                  BufferClass::DeviceOnly);
+        pixelWords =
+            VulkanBuffer(device, frame.planeBytes(),
+                         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                         BufferClass::DeviceOnly);
     const VkDescriptorImageInfo atlasInfo{sampler, residency.atlasView(),
                                           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
     struct Binding {
@@ -644,8 +644,8 @@ void NearPasses::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
 // ---------------------------------------------------------------------------------------------
 // The passes
 
-void NearPasses::Impl::dispatch(GpuFrame& frame, Slot& slot, ComputePass pass,
-                                std::uint32_t groups, std::uint32_t first) {
+void NearPasses::Impl::dispatch(GpuFrame& frame, Slot& slot, ComputePass pass, std::uint32_t groups,
+                                std::uint32_t first) {
     // A list of workgroups, as a 2D grid when there are more than one dimension allows.
     const std::uint32_t maxX = device.properties().limits.maxComputeWorkGroupCount[0];
     const std::uint32_t groupsX = std::min(groups, maxX);
@@ -726,8 +726,8 @@ void NearPasses::Impl::recordDraw(GpuFrame& frame, Slot& slot, Rgba8 clear, bool
     rbi.clearValueCount = 3;
     rbi.pClearValues = clears;
     vkCmdBeginRenderPass(cb, &rbi, VK_SUBPASS_CONTENTS_INLINE);
-    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout, 0, 1, &slot.set,
-                            0, nullptr);
+    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout, 0, 1, &slot.set, 0,
+                            nullptr);
     const VkViewport viewport{0.0f, 0.0f, float(frame.width()), float(frame.height()), 0.0f, 1.0f};
     const VkRect2D scissor{{0, 0}, {std::uint32_t(frame.width()), std::uint32_t(frame.height())}};
     vkCmdSetViewport(cb, 0, 1, &viewport);
@@ -775,11 +775,10 @@ void NearPasses::Impl::recordResolve(GpuFrame& frame, Slot& slot, CellWork work)
     frame.timer().begin(cb, "near_resolve");
     dispatch(frame, slot, Resolve, work.resolveTiles, work.blocks);
     frame.timer().end(cb);
-    bufferBarrier(cb, frame.planes(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                  VK_ACCESS_SHADER_WRITE_BIT,
-                  VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
-                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
-                      VK_ACCESS_TRANSFER_READ_BIT);
+    bufferBarrier(
+        cb, frame.planes(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -818,9 +817,10 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
     const Impl::CellWork work = m.writeCells(frame, slot, plan, opt.cellBudgetBytes);
     m.frameCells = std::uint32_t(plan.cells);
     m.writeDescriptors(frame, slot);
-    frame.ring().recordBarrier(cb, VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
-                                       VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
-                                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+    frame.ring().recordBarrier(cb,
+                               VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
+                                   VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
+                                   VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                                VK_ACCESS_SHADER_READ_BIT);
     frame.timer().end(cb);
 
@@ -844,8 +844,8 @@ void NearPasses::collect(GpuFrame& frame, const NearOptions& opt, NearStats& sta
     Impl::Slot& slot = m.slots.at(std::size_t(frame.slot()));
     if (slot.queried) {
         std::uint64_t invocations = 0;
-        VK_CHECK(vkGetQueryPoolResults(m.device.device(), slot.statsPool, 0, 1,
-                                       sizeof invocations, &invocations, sizeof invocations,
+        VK_CHECK(vkGetQueryPoolResults(m.device.device(), slot.statsPool, 0, 1, sizeof invocations,
+                                       &invocations, sizeof invocations,
                                        VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
         stats.fragmentInvocations = invocations;
     }
