@@ -10,7 +10,6 @@
 #include <atomic>
 #include <cerrno>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fcntl.h>
@@ -19,464 +18,6 @@
 
 namespace voxtier {
 
-namespace {
-
-// ---- digest -------------------------------------------------------------------------------
-
-std::uint64_t rotl(std::uint64_t x, int r) {
-    return (x << r) | (x >> (64 - r));
-}
-/// splitmix64's finaliser: every input bit reaches every output bit.
-std::uint64_t finalMix(std::uint64_t z) {
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-}
-std::uint64_t loadWord(const std::uint8_t* p) {
-    std::uint64_t w = 0;
-    for (int i = 0; i < 8; ++i) w |= std::uint64_t(p[i]) << (8 * i); // little-endian everywhere
-    return w;
-}
-
-// ---- file layout ----------------------------------------------------------------------------
-// Little-endian, fixed offsets:
-//   magic[8] "VXSNAP\r\n" | u32 format version | u32 lattice rule | u64 grid digest lo, hi |
-//   i32 dims[3] | i32 view[3] | f64 sigma | u32 flags (bit 0: depth) | i32 cellRange[4] |
-//   u64 cell count | u64 depth count | cells (index, code) x cell count | f32 depth x depth count |
-//   u64 checksum lo, hi (digestBytes of everything before it)
-constexpr char kMagic[8] = {'V', 'X', 'S', 'N', 'A', 'P', '\r', '\n'};
-constexpr std::size_t kHeaderBytes = 8 + 4 + 4 + 16 + 12 + 12 + 8 + 4 + 16 + 8 + 8;
-constexpr std::size_t kChecksumBytes = 16;
-constexpr std::uint32_t kFlagDepth = 1;
-/// Bits 8-15 of the flags: the outline stride less one (0 in files of stride 1, so files written
-/// before the stride existed read as stride 1).
-constexpr int kStrideShift = 8;
-constexpr std::uint32_t kStrideMask = 0xFFu << kStrideShift;
-std::uint32_t flagsOf(const SnapshotFileKey& k) {
-    return (k.withDepth ? kFlagDepth : 0u) | (std::uint32_t(k.outlineStride - 1) << kStrideShift);
-}
-/// The key's flag fields from a file's flags word, checked.
-void readFlags(std::uint32_t flags, SnapshotFileKey& k) {
-    if (flags & ~(kFlagDepth | kStrideMask)) throw SnapshotFileError("unknown flags");
-    k.withDepth = flags & kFlagDepth;
-    k.outlineStride = int((flags & kStrideMask) >> kStrideShift) + 1;
-    if (k.outlineStride > kMaxSnapshotScale) throw SnapshotFileError("outline stride out of range");
-}
-/// View lattice components a file may name: far beyond any view set (n = 3 uses 3), small enough
-/// that the normalisation is exact.
-constexpr int kMaxViewComponent = 1 << 12;
-
-class Writer {
-  public:
-    explicit Writer(std::vector<std::uint8_t>& out) : out_(out) {}
-    void bytes(const void* p, std::size_t n) {
-        const auto* b = static_cast<const std::uint8_t*>(p);
-        for (std::size_t i = 0; i < n; ++i)
-            out_.push_back(b[i]); // (insert: a GCC 12 false warning)
-    }
-    void u32(std::uint32_t v) {
-        for (int i = 0; i < 4; ++i) out_.push_back(std::uint8_t(v >> (8 * i)));
-    }
-    void u64(std::uint64_t v) {
-        for (int i = 0; i < 8; ++i) out_.push_back(std::uint8_t(v >> (8 * i)));
-    }
-    void i32(int v) { u32(std::uint32_t(v)); }
-    void f64(double v) {
-        std::uint64_t bits;
-        std::memcpy(&bits, &v, 8);
-        u64(bits);
-    }
-
-  private:
-    std::vector<std::uint8_t>& out_;
-};
-
-/// Reads the fixed-size header; the caller has checked that it is all there.
-class Reader {
-  public:
-    explicit Reader(const std::uint8_t* p) : p_(p) {}
-    std::uint32_t u32() {
-        std::uint32_t v = 0;
-        for (int i = 0; i < 4; ++i) v |= std::uint32_t(p_[i]) << (8 * i);
-        p_ += 4;
-        return v;
-    }
-    std::uint64_t u64() {
-        const std::uint64_t v = loadWord(p_);
-        p_ += 8;
-        return v;
-    }
-    int i32() { return int(u32()); }
-    double f64() {
-        const std::uint64_t bits = u64();
-        double v;
-        std::memcpy(&v, &bits, 8);
-        return v;
-    }
-
-  private:
-    const std::uint8_t* p_;
-};
-
-std::string hex(std::uint64_t v) {
-    char buf[17];
-    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
-    return buf;
-}
-
-/// The lattice of a key, or SnapshotFileError when the key fields are out of bounds (a file's
-/// key fields are checked here before anything is sized from them).
-SpriteLattice latticeOf(const SnapshotFileKey& k) {
-    for (int c = 0; c < 3; ++c)
-        if (k.dims[c] < 1 || k.dims[c] > Limits::kMaxModelDim)
-            throw SnapshotFileError("dims out of range");
-    for (int c = 0; c < 3; ++c)
-        if (k.view.lattice[c] < -kMaxViewComponent || k.view.lattice[c] > kMaxViewComponent)
-            throw SnapshotFileError("view out of range");
-    if (k.view.lattice == glm::ivec3(0) || !(viewIdOf(k.view.lattice) == k.view))
-        throw SnapshotFileError("view is not a primitive lattice vector");
-    if (!(k.sigma > 0.0 && k.sigma <= Limits::kMaxSigma)) // also rejects nan
-        throw SnapshotFileError("sigma out of range");
-    return snapshotLattice(viewDirection(k.view), k.dims, k.sigma, k.outlineStride);
-}
-
-std::size_t cellCount(const SpriteLattice& L) {
-    return std::size_t(L.width()) * std::size_t(L.height());
-}
-
-std::size_t fileSize(std::size_t cells, std::size_t depths) {
-    return kHeaderBytes + cells * sizeof(SnapshotCell) + depths * sizeof(float) + kChecksumBytes;
-}
-
-} // namespace
-
-std::uint64_t snapshotFileBytes(glm::ivec3 dims, ViewId view, double sigma) {
-    return fileSize(cellCount(snapshotLattice(viewDirection(view), dims, sigma)), 0);
-}
-
-Digest128 digestBytes(std::span<const std::uint8_t> bytes, std::uint64_t seed) {
-    // Two independent multiply-rotate lanes over 16-byte blocks (a grid of 256^3 digests in a
-    // few ms), the length and a finaliser at the end.
-    constexpr std::uint64_t P1 = 0x9e3779b185ebca87ull, P2 = 0xc2b2ae3d27d4eb4full;
-    std::uint64_t a = seed ^ 0x243f6a8885a308d3ull, b = ~seed ^ 0x13198a2e03707344ull;
-    const std::uint8_t* p = bytes.data();
-    const std::size_t n = bytes.size();
-    std::size_t i = 0;
-    for (; i + 16 <= n; i += 16) {
-        a = rotl(a ^ (loadWord(p + i) * P2), 31) * P1;
-        b = rotl(b ^ (loadWord(p + i + 8) * P1), 29) * P2;
-    }
-    std::uint8_t tail[16] = {};
-    std::memcpy(tail, p + i, n - i);
-    a = rotl(a ^ (loadWord(tail) * P2), 31) * P1;
-    b = rotl(b ^ (loadWord(tail + 8) * P1), 29) * P2;
-    a = finalMix(a ^ n);
-    b = finalMix(b ^ rotl(n, 32) ^ a);
-    return {finalMix(a ^ b), b};
-}
-
-Digest128 digestGrid(const VoxelGrid& grid) {
-    const glm::ivec3 d = grid.dims();
-    const std::uint64_t seed =
-        finalMix(std::uint64_t(std::uint32_t(d.x)) | std::uint64_t(std::uint32_t(d.y)) << 21 |
-                 std::uint64_t(std::uint32_t(d.z)) << 42);
-    return digestBytes(grid.data(), seed);
-}
-
-namespace {
-
-/// What determines a snapshot's bytes, in file order: both the file name (its digest) and the
-/// header (checked on read) are made of it.
-void writeKey(Writer& w, const SnapshotFileKey& k) {
-    w.u32(kSnapshotFileVersion);
-    w.u32(kSnapshotLatticeRule);
-    w.u64(k.grid.lo);
-    w.u64(k.grid.hi);
-    for (int c = 0; c < 3; ++c) w.i32(k.dims[c]);
-    for (int c = 0; c < 3; ++c) w.i32(k.view.lattice[c]);
-    w.f64(k.sigma);
-    w.u32(flagsOf(k));
-}
-
-} // namespace
-
-std::filesystem::path snapshotFileName(const SnapshotFileKey& k) {
-    std::vector<std::uint8_t> bytes;
-    Writer w(bytes);
-    writeKey(w, k);
-    const Digest128 d = digestBytes(bytes);
-    const std::string name = hex(d.lo) + hex(d.hi);
-    return std::filesystem::path(name.substr(0, 2)) / (name + ".snap");
-}
-
-std::vector<std::uint8_t> encodeSnapshotFile(const SnapshotFileKey& k, const Snapshot& s) {
-    std::vector<std::uint8_t> out;
-    out.reserve(fileSize(s.cells.size(), s.depth.size()));
-    Writer w(out);
-    w.bytes(kMagic, sizeof kMagic);
-    writeKey(w, k);
-    for (int c = 0; c < 4; ++c) w.i32(s.lattice.cellRange[c]);
-    w.u64(s.cells.size());
-    w.u64(s.depth.size());
-    for (const SnapshotCell& c : s.cells) {
-        out.push_back(c.index);
-        out.push_back(c.code);
-    }
-    for (float f : s.depth) {
-        std::uint32_t bits;
-        std::memcpy(&bits, &f, 4);
-        w.u32(bits);
-    }
-    const Digest128 sum = digestBytes(out);
-    w.u64(sum.lo);
-    w.u64(sum.hi);
-    return out;
-}
-
-namespace {
-
-/// The header's fields, every one bounded: what the rest of the file must be.
-struct SnapshotFileHeader {
-    SnapshotFileKey key;
-    SpriteLattice lattice;
-    std::size_t cells = 0, depths = 0;
-    std::size_t fileBytes = 0; ///< the exact size of the whole file
-};
-
-/// The opening every snapshot file and pack shares: its magic (`what` names the kind in the
-/// error), its format version, and the lattice rule. Returns a reader past them.
-Reader openHeader(const std::uint8_t* header, const char (&magic)[8], const char* what,
-                  std::uint32_t expectedVersion) {
-    if (std::memcmp(header, magic, sizeof magic) != 0)
-        throw SnapshotFileError(std::string("not a voxtier snapshot ") + what + " (magic)");
-    Reader r(header + sizeof magic);
-    const std::uint32_t version = r.u32(), rule = r.u32();
-    if (version != expectedVersion)
-        throw SnapshotFileError("stale format version " + std::to_string(version) + " (expected " +
-                                std::to_string(expectedVersion) + ")");
-    if (rule != kSnapshotLatticeRule)
-        throw SnapshotFileError("stale lattice rule " + std::to_string(rule) + " (expected " +
-                                std::to_string(kSnapshotLatticeRule) + ")");
-    return r;
-}
-
-/// Parses the first kHeaderBytes of a file (the caller checked there are that many). Every size
-/// is checked against the lattice that the key fields (bounded first) imply, so nothing is
-/// sized from an unchecked field.
-SnapshotFileHeader decodeHeader(const std::uint8_t* header) {
-    Reader r = openHeader(header, kMagic, "file", kSnapshotFileVersion);
-    SnapshotFileHeader h;
-    SnapshotFileKey& k = h.key;
-    k.grid.lo = r.u64();
-    k.grid.hi = r.u64();
-    for (int c = 0; c < 3; ++c) k.dims[c] = r.i32();
-    for (int c = 0; c < 3; ++c) k.view.lattice[c] = r.i32();
-    k.sigma = r.f64();
-    readFlags(r.u32(), k);
-    glm::ivec4 range;
-    for (int c = 0; c < 4; ++c) range[c] = r.i32();
-    const std::uint64_t cells = r.u64(), depths = r.u64();
-    h.lattice = latticeOf(k);
-    if (range != h.lattice.cellRange) throw SnapshotFileError("cell range does not match the key");
-    h.cells = cellCount(h.lattice);
-    h.depths = k.withDepth ? h.cells : 0;
-    if (cells != h.cells || depths != h.depths)
-        throw SnapshotFileError("cell count does not match the key");
-    h.fileBytes = fileSize(h.cells, h.depths);
-    return h;
-}
-
-void checkSize(std::uint64_t actual, std::uint64_t expected) {
-    if (actual != expected)
-        throw SnapshotFileError(std::string(actual < expected ? "truncated" : "wrong size") + " (" +
-                                std::to_string(actual) + " bytes, expected " +
-                                std::to_string(expected) + ")");
-}
-
-/// Reads a whole file: the header first, then exactly the size it implies (a file is never read
-/// or allocated for by a size it claims before that size has been checked).
-std::vector<std::uint8_t> readFile(int fd) {
-    struct stat st {};
-    if (fstat(fd, &st) != 0) throw SnapshotFileError("cannot stat");
-    const std::uint64_t size = std::uint64_t(st.st_size);
-    auto readInto = [fd](std::uint8_t* dst, std::size_t n) {
-        for (std::size_t done = 0; done < n;) {
-            const ssize_t got = ::read(fd, dst + done, n - done);
-            if (got < 0 && errno == EINTR) continue;
-            if (got <= 0) throw SnapshotFileError("truncated while reading");
-            done += std::size_t(got);
-        }
-    };
-    if (size < kHeaderBytes + kChecksumBytes)
-        throw SnapshotFileError("truncated (" + std::to_string(size) +
-                                " bytes, shorter than the header)");
-    std::vector<std::uint8_t> bytes(kHeaderBytes);
-    readInto(bytes.data(), kHeaderBytes);
-    const SnapshotFileHeader h = decodeHeader(bytes.data());
-    checkSize(size, h.fileBytes);
-    bytes.resize(h.fileBytes);
-    readInto(bytes.data() + kHeaderBytes, h.fileBytes - kHeaderBytes);
-    return bytes;
-}
-
-} // namespace
-
-DecodedSnapshotFile decodeSnapshotFile(std::span<const std::uint8_t> bytes) {
-    if (bytes.size() < kHeaderBytes + kChecksumBytes)
-        throw SnapshotFileError("truncated (" + std::to_string(bytes.size()) +
-                                " bytes, shorter than the header)");
-    const SnapshotFileHeader h = decodeHeader(bytes.data());
-    checkSize(bytes.size(), h.fileBytes);
-    const std::size_t summed = h.fileBytes - kChecksumBytes;
-    const Digest128 sum = digestBytes(bytes.first(summed));
-    Reader tail(bytes.data() + summed);
-    if (tail.u64() != sum.lo || tail.u64() != sum.hi)
-        throw SnapshotFileError("checksum mismatch (corrupted)");
-
-    DecodedSnapshotFile out{h.key, {}};
-    Snapshot& s = out.snapshot;
-    s.view = h.key.view;
-    s.w = viewDirection(h.key.view);
-    s.lattice = h.lattice;
-    s.outlineStride = h.key.outlineStride;
-    s.cells.resize(h.cells);
-    const std::uint8_t* p = bytes.data() + kHeaderBytes;
-    for (SnapshotCell& c : s.cells) {
-        c = {p[0], p[1]};
-        p += 2;
-        if (c.code > snapshot_code::kOutline) throw SnapshotFileError("bad cell code");
-    }
-    s.depth.resize(h.depths);
-    for (float& f : s.depth) {
-        std::uint32_t bits = 0;
-        for (int i = 0; i < 4; ++i) bits |= std::uint32_t(p[i]) << (8 * i);
-        std::memcpy(&f, &bits, 4);
-        p += 4;
-    }
-    return out;
-}
-
-namespace {
-
-// ---- pack layout ----------------------------------------------------------------------------
-// Little-endian, fixed offsets:
-//   magic[8] "VXPACK\r\n" | u32 pack version | u32 lattice rule | u64 grid digest lo, hi |
-//   i32 dims[3] | f64 sigma | u32 flags (bit 0: depth) | u32 entry count | u64 pack bytes |
-//   index: (i32 view[3] | u64 offset | u64 bytes) x entry count, views ascending (x, y, z) |
-//   u64 checksum lo, hi (digestBytes of the header and the index) |
-//   the entries' snapshot files, contiguous, in index order
-constexpr char kPackMagic[8] = {'V', 'X', 'P', 'A', 'C', 'K', '\r', '\n'};
-constexpr std::size_t kPackHeaderBytes = 8 + 4 + 4 + 16 + 12 + 8 + 4 + 4 + 8;
-constexpr std::size_t kPackIndexEntryBytes = 12 + 8 + 8;
-
-/// The model frame part of a key, as a pack's header and name hold it.
-void writeFrameKey(Writer& w, const SnapshotFileKey& k) {
-    w.u32(kSnapshotPackVersion);
-    w.u32(kSnapshotLatticeRule);
-    w.u64(k.grid.lo);
-    w.u64(k.grid.hi);
-    for (int c = 0; c < 3; ++c) w.i32(k.dims[c]);
-    w.f64(k.sigma);
-    w.u32(flagsOf(k));
-}
-
-bool sameFrame(const SnapshotFileKey& a, const SnapshotFileKey& b) {
-    return a.grid == b.grid && a.dims == b.dims && a.sigma == b.sigma &&
-           a.withDepth == b.withDepth && a.outlineStride == b.outlineStride;
-}
-
-std::array<int, 3> viewOrder(ViewId v) {
-    return {v.lattice.x, v.lattice.y, v.lattice.z};
-}
-
-struct PackIndexEntry {
-    ViewId view;
-    std::uint64_t offset = 0, bytes = 0;
-};
-struct PackIndex {
-    SnapshotFileKey frame;
-    std::vector<PackIndexEntry> entries;
-    std::uint64_t indexEnd = 0; ///< where the first entry starts
-};
-
-/// Parses the header (the caller has kPackHeaderBytes of it) of a pack of `actualBytes`: every
-/// field bounded, the entry count against the bytes there are. Returns the count.
-std::size_t decodePackHeader(const std::uint8_t* header, std::uint64_t actualBytes,
-                             SnapshotFileKey& frame) {
-    Reader r = openHeader(header, kPackMagic, "pack", kSnapshotPackVersion);
-    frame.grid.lo = r.u64();
-    frame.grid.hi = r.u64();
-    for (int c = 0; c < 3; ++c) frame.dims[c] = r.i32();
-    frame.sigma = r.f64();
-    readFlags(r.u32(), frame);
-    const std::uint32_t count = r.u32();
-    const std::uint64_t total = r.u64();
-    for (int c = 0; c < 3; ++c)
-        if (frame.dims[c] < 1 || frame.dims[c] > Limits::kMaxModelDim)
-            throw SnapshotFileError("dims out of range");
-    if (!(frame.sigma > 0.0 && frame.sigma <= Limits::kMaxSigma))
-        throw SnapshotFileError("sigma out of range");
-    checkSize(actualBytes, total);
-    const std::uint64_t minEntry = kPackIndexEntryBytes + kHeaderBytes + kChecksumBytes;
-    if (count > (total - kPackHeaderBytes - kChecksumBytes) / minEntry)
-        throw SnapshotFileError("entry count does not fit the pack");
-    return count;
-}
-
-/// Parses the index (`bytes`: the header's count of entries, then the checksum) and checks it
-/// against `header` and the pack's size: views primitive and ascending, entries contiguous to
-/// the end.
-PackIndex decodePackIndex(const std::uint8_t* header, std::span<const std::uint8_t> index,
-                          std::size_t count, const SnapshotFileKey& frame, std::uint64_t total) {
-    std::vector<std::uint8_t> summed(header, header + kPackHeaderBytes);
-    summed.insert(summed.end(), index.begin(), index.end() - kChecksumBytes);
-    const Digest128 sum = digestBytes(summed);
-    Reader tail(index.data() + index.size() - kChecksumBytes);
-    if (tail.u64() != sum.lo || tail.u64() != sum.hi)
-        throw SnapshotFileError("index checksum mismatch (corrupted)");
-    PackIndex out{frame, {}, kPackHeaderBytes + count * kPackIndexEntryBytes + kChecksumBytes};
-    out.entries.resize(count);
-    Reader r(index.data());
-    std::uint64_t at = out.indexEnd;
-    for (std::size_t i = 0; i < count; ++i) {
-        PackIndexEntry& e = out.entries[i];
-        for (int c = 0; c < 3; ++c) e.view.lattice[c] = r.i32();
-        e.offset = r.u64();
-        e.bytes = r.u64();
-        for (int c = 0; c < 3; ++c)
-            if (e.view.lattice[c] < -kMaxViewComponent || e.view.lattice[c] > kMaxViewComponent)
-                throw SnapshotFileError("index: view out of range");
-        if (e.view.lattice == glm::ivec3(0) || !(viewIdOf(e.view.lattice) == e.view))
-            throw SnapshotFileError("index: view is not a primitive lattice vector");
-        if (i > 0 && !(viewOrder(out.entries[i - 1].view) < viewOrder(e.view)))
-            throw SnapshotFileError("index: views not ascending");
-        if (e.offset != at || e.bytes < kHeaderBytes + kChecksumBytes || e.bytes > total - at)
-            throw SnapshotFileError("index: entry outside the pack");
-        at += e.bytes;
-    }
-    if (at != total) throw SnapshotFileError("index: entries do not end the pack");
-    return out;
-}
-
-/// Reads exactly `n` bytes at `offset`, or throws SnapshotFileError.
-void preadExact(int fd, std::uint8_t* dst, std::size_t n, std::uint64_t offset) {
-    for (std::size_t done = 0; done < n;) {
-        const ssize_t got = ::pread(fd, dst + done, n - done, off_t(offset + done));
-        if (got < 0 && errno == EINTR) continue;
-        if (got <= 0) throw SnapshotFileError("truncated while reading");
-        done += std::size_t(got);
-    }
-}
-
-const PackIndexEntry* findView(const PackIndex& index, ViewId view) {
-    const auto it = std::lower_bound(
-        index.entries.begin(), index.entries.end(), viewOrder(view),
-        [](const PackIndexEntry& e, const std::array<int, 3>& v) { return viewOrder(e.view) < v; });
-    return it != index.entries.end() && it->view == view ? &*it : nullptr;
-}
-
-} // namespace
-
 /// A parsed index and what identifies the pack it came from: a pack is never changed in place
 /// (a writer renames a new file over it), so the same file, size, header and index checksum is
 /// the same index. (Were it damaged in place meanwhile, each snapshot still has its own key and
@@ -484,8 +25,7 @@ const PackIndexEntry* findView(const PackIndex& index, ViewId view) {
 struct SnapshotStore::CachedIndex {
     dev_t dev = 0;
     ino_t ino = 0;
-    std::uint64_t size = 0;
-    std::array<std::uint8_t, kPackHeaderBytes + kChecksumBytes> headerAndSum{};
+    PackHead head;
     PackIndex index;
 };
 
@@ -495,98 +35,24 @@ std::shared_ptr<const SnapshotStore::CachedIndex>
 SnapshotStore::readPackIndex(int fd, const std::string& rel) const {
     struct stat st {};
     if (fstat(fd, &st) != 0) throw SnapshotFileError("cannot stat");
-    const std::uint64_t size = std::uint64_t(st.st_size);
-    if (size < kPackHeaderBytes + kChecksumBytes)
-        throw SnapshotFileError("truncated (" + std::to_string(size) +
-                                " bytes, shorter than the header)");
     auto fresh = std::make_shared<CachedIndex>();
     fresh->dev = st.st_dev;
     fresh->ino = st.st_ino;
-    fresh->size = size;
-    std::uint8_t* header = fresh->headerAndSum.data();
-    preadExact(fd, header, kPackHeaderBytes, 0);
-    SnapshotFileKey frame;
-    const std::size_t count = decodePackHeader(header, size, frame);
-    const std::uint64_t indexBytes = count * kPackIndexEntryBytes;
-    preadExact(fd, header + kPackHeaderBytes, kChecksumBytes, kPackHeaderBytes + indexBytes);
+    fresh->head = voxtier::readPackHead(fd, std::uint64_t(st.st_size));
     {
         std::lock_guard lock(mutex_);
         const auto known = indexes_.find(rel);
         if (known != indexes_.end() && known->second->dev == fresh->dev &&
-            known->second->ino == fresh->ino && known->second->size == size &&
-            known->second->headerAndSum == fresh->headerAndSum)
+            known->second->ino == fresh->ino && known->second->head.size == fresh->head.size &&
+            known->second->head.bytes == fresh->head.bytes)
             return known->second;
     }
-    std::vector<std::uint8_t> index(indexBytes + kChecksumBytes);
-    preadExact(fd, index.data(), index.size(), kPackHeaderBytes);
-    fresh->index = decodePackIndex(header, index, count, frame, size);
+    fresh->index = voxtier::readPackIndex(fd, fresh->head);
     std::lock_guard lock(mutex_);
     if (indexes_.size() >= kMaxCachedIndexes) indexes_.clear();
     indexes_[rel] = fresh;
     return fresh;
 }
-
-std::filesystem::path snapshotPackName(const SnapshotFileKey& k) {
-    std::vector<std::uint8_t> bytes;
-    Writer w(bytes);
-    writeFrameKey(w, k);
-    const Digest128 d = digestBytes(bytes);
-    const std::string name = hex(d.lo) + hex(d.hi);
-    return std::filesystem::path(name.substr(0, 2)) / (name + ".pack");
-}
-
-std::uint64_t snapshotPackOverhead(std::size_t views) {
-    return kPackHeaderBytes + views * kPackIndexEntryBytes + kChecksumBytes;
-}
-
-std::vector<std::uint8_t> encodeSnapshotPack(const SnapshotFileKey& frame,
-                                             std::vector<SnapshotPackEntry> entries) {
-    std::sort(entries.begin(), entries.end(),
-              [](const SnapshotPackEntry& a, const SnapshotPackEntry& b) {
-                  return viewOrder(a.view) < viewOrder(b.view);
-              });
-    std::uint64_t total = snapshotPackOverhead(entries.size());
-    for (const SnapshotPackEntry& e : entries) total += e.file.size();
-    std::vector<std::uint8_t> out;
-    out.reserve(total);
-    Writer w(out);
-    w.bytes(kPackMagic, sizeof kPackMagic);
-    writeFrameKey(w, frame);
-    w.u32(std::uint32_t(entries.size()));
-    w.u64(total);
-    std::uint64_t at = snapshotPackOverhead(entries.size());
-    for (const SnapshotPackEntry& e : entries) {
-        for (int c = 0; c < 3; ++c) w.i32(e.view.lattice[c]);
-        w.u64(at);
-        w.u64(e.file.size());
-        at += e.file.size();
-    }
-    const Digest128 sum = digestBytes(out);
-    w.u64(sum.lo);
-    w.u64(sum.hi);
-    for (const SnapshotPackEntry& e : entries) out.insert(out.end(), e.file.begin(), e.file.end());
-    return out;
-}
-
-DecodedSnapshotPack decodeSnapshotPack(std::span<const std::uint8_t> bytes) {
-    if (bytes.size() < kPackHeaderBytes + kChecksumBytes)
-        throw SnapshotFileError("truncated (" + std::to_string(bytes.size()) +
-                                " bytes, shorter than the header)");
-    DecodedSnapshotPack out;
-    const std::size_t count = decodePackHeader(bytes.data(), bytes.size(), out.frame);
-    const PackIndex index = decodePackIndex(
-        bytes.data(),
-        bytes.subspan(kPackHeaderBytes, count * kPackIndexEntryBytes + kChecksumBytes), count,
-        out.frame, bytes.size());
-    for (const PackIndexEntry& e : index.entries) {
-        const auto file = bytes.subspan(std::size_t(e.offset), std::size_t(e.bytes));
-        out.entries.push_back({e.view, {file.begin(), file.end()}});
-    }
-    if (!out.entries.empty()) out.frame.view = out.entries.front().view;
-    return out;
-}
-
-// ---- the store ------------------------------------------------------------------------------
 
 SnapshotStore::SnapshotStore(SnapshotStoreOptions options) : options_(std::move(options)) {
     std::error_code ec;
@@ -637,8 +103,7 @@ bool SnapshotStore::contains(const SnapshotFileKey& key) const {
         bool found = false;
         try {
             const auto cached = readPackIndex(fd, rel);
-            found =
-                sameFrame(cached->index.frame, key) && findView(cached->index, key.view) != nullptr;
+            found = sameFrame(cached->index.frame, key) && cached->index.find(key.view) != nullptr;
         } catch (const SnapshotFileError&) {
             // load() says what is wrong with it
         }
@@ -672,7 +137,7 @@ std::optional<Snapshot> SnapshotStore::load(const SnapshotFileKey& key) {
             const auto cached = readPackIndex(fd, rel.string());
             if (!sameFrame(cached->index.frame, key))
                 throw SnapshotFileError("written for another key");
-            const PackIndexEntry* e = findView(cached->index, key.view);
+            const PackIndexEntry* e = cached->index.find(key.view);
             if (e) {
                 file.resize(std::size_t(e->bytes));
                 preadExact(fd, file.data(), file.size(), e->offset);
@@ -724,7 +189,7 @@ std::optional<Snapshot> SnapshotStore::loadFormerFile(const SnapshotFileKey& key
     std::optional<Snapshot> snap;
     std::size_t bytes = 0;
     try {
-        const std::vector<std::uint8_t> data = readFile(fd);
+        const std::vector<std::uint8_t> data = readSnapshotFile(fd);
         bytes = data.size();
         DecodedSnapshotFile f = decodeSnapshotFile(data);
         if (!(f.key == key)) throw SnapshotFileError("written for another key");

@@ -50,9 +50,7 @@
 // hour-old temporary is a dead writer's; where flock does not reach across machines, the age
 // alone decides, and even removing a live (hour-stalled) writer's temporary only makes its rename
 // fail, which is a counted write failure, never a partial file under a final name.
-#include "core/view_set.hpp"
-#include "core/voxel_model.hpp"
-#include "impostor_cache/snapshot.hpp"
+#include "impostor_cache/snapshot_format.hpp"
 
 #include <array>
 #include <chrono>
@@ -65,93 +63,10 @@
 #include <mutex>
 #include <optional>
 #include <set>
-#include <span>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace voxtier {
-
-/// Bumped whenever the snapshot file layout (also a pack's entry) changes.
-inline constexpr std::uint32_t kSnapshotFileVersion = 1;
-/// Bumped whenever the pack layout changes.
-inline constexpr std::uint32_t kSnapshotPackVersion = 1;
-/// Bumped whenever snapshotLattice, snapshotRayFrame or the bake's cell rule change what a
-/// snapshot holds for the same voxels: files baked by the old rule are then never found.
-inline constexpr std::uint32_t kSnapshotLatticeRule = 1;
-
-/// A 128-bit digest (two 64-bit lanes); not cryptographic, it tells different content apart.
-struct Digest128 {
-    std::uint64_t lo = 0, hi = 0;
-    bool operator==(const Digest128&) const = default;
-    /// For VersionedLru, which memoises the digest of each model frame version.
-    std::size_t bytes() const { return sizeof(Digest128); }
-};
-Digest128 digestBytes(std::span<const std::uint8_t> bytes, std::uint64_t seed = 0);
-/// The voxels and dimensions of a grid.
-Digest128 digestGrid(const VoxelGrid& grid);
-
-/// What determines a snapshot's bytes (with the format version and lattice rule constants).
-struct SnapshotFileKey {
-    Digest128 grid;         ///< digestGrid of the model frame
-    glm::ivec3 dims{0};     ///< the grid's dimensions
-    ViewId view;            ///< the direction baked
-    double sigma = 1.0;     ///< virtual pixels per voxel
-    bool withDepth = false; ///< Snapshot::depth stored
-    int outlineStride = 1;  ///< Snapshot::outlineStride
-    bool operator==(const SnapshotFileKey&) const = default;
-};
-/// The key's file, relative to the cache directory: "ab/<32 hex digits>.snap", the first two
-/// digits as a subdirectory so that no directory holds more than 1/256 of a large library.
-std::filesystem::path snapshotFileName(const SnapshotFileKey& key);
-
-/// The pack holding every view of the key's model frame (the key's view is not in its name),
-/// relative to the cache directory: "ab/<32 hex digits>.pack".
-std::filesystem::path snapshotPackName(const SnapshotFileKey& key);
-
-/// Why a file cannot be used (one line; what the warning says).
-class SnapshotFileError : public std::runtime_error {
-  public:
-    using std::runtime_error::runtime_error;
-};
-
-/// The bytes of the file a snapshot without depth takes, for a model frame of `dims` seen along
-/// `view` at `sigma`: the snapshot lattice fixes the cell count before anything is traced, so
-/// `bake` can say what it will write before it writes it.
-std::uint64_t snapshotFileBytes(glm::ivec3 dims, ViewId view, double sigma);
-
-/// The bytes a pack of `views` snapshots takes beyond their snapshot files (header, index,
-/// checksum): a pack's size is this plus the snapshotFileBytes of each view.
-std::uint64_t snapshotPackOverhead(std::size_t views);
-
-/// The file bytes of a snapshot baked for `key`.
-std::vector<std::uint8_t> encodeSnapshotFile(const SnapshotFileKey& key, const Snapshot& snap);
-struct DecodedSnapshotFile {
-    SnapshotFileKey key;
-    Snapshot snapshot;
-};
-/// Parses untrusted bytes; throws SnapshotFileError naming what is wrong. Every size field is
-/// checked against the lattice its key fields imply (which are bounded first) before any
-/// allocation, and the checksum before the payload is used.
-DecodedSnapshotFile decodeSnapshotFile(std::span<const std::uint8_t> bytes);
-
-/// One view of a pack: the snapshot file's bytes (encodeSnapshotFile) for it.
-struct SnapshotPackEntry {
-    ViewId view;
-    std::vector<std::uint8_t> file;
-};
-/// A pack of the model frame of `frame` (its view ignored): `entries` in any order, one per view.
-/// The bytes depend only on the set of entries.
-std::vector<std::uint8_t> encodeSnapshotPack(const SnapshotFileKey& frame,
-                                             std::vector<SnapshotPackEntry> entries);
-struct DecodedSnapshotPack {
-    SnapshotFileKey frame; ///< view: the first entry's (or the default)
-    std::vector<SnapshotPackEntry> entries;
-};
-/// Parses an untrusted pack: the header and the index are checked (sizes before allocation,
-/// the checksum before use); the entries' snapshot files are not (decodeSnapshotFile does that
-/// where one is used). Throws SnapshotFileError naming what is wrong.
-DecodedSnapshotPack decodeSnapshotPack(std::span<const std::uint8_t> bytes);
 
 struct SnapshotStoreOptions {
     std::filesystem::path dir;
