@@ -23,13 +23,34 @@ std::string cacheDirSummary(const SnapshotStoreOptions& o, const SnapshotStoreCo
     char buf[512];
     std::snprintf(buf, sizeof buf,
                   "cache dir %s: %llu snapshots read (%.2f MB, %.1f ms), %llu written (%.2f MB, "
-                  "%.1f ms), %llu missing, %llu rejected, %llu evicted",
+                  "%.1f ms), %llu missing, %llu rejected, %llu evicted (%.2f MB)",
                   o.dir.string().c_str(), static_cast<unsigned long long>(c.reads),
                   c.bytesRead / 1048576.0, c.readMs, static_cast<unsigned long long>(c.writes),
                   c.bytesWritten / 1048576.0, c.writeMs, static_cast<unsigned long long>(c.misses),
                   static_cast<unsigned long long>(c.rejected),
-                  static_cast<unsigned long long>(c.evicted));
-    return buf;
+                  static_cast<unsigned long long>(c.evicted), c.bytesEvicted / 1048576.0);
+    std::string line = buf;
+    if (c.staleTempsRemoved > 0) {
+        std::snprintf(buf, sizeof buf, ", %llu dead writers' temporar%s removed (%.2f MB)",
+                      static_cast<unsigned long long>(c.staleTempsRemoved),
+                      c.staleTempsRemoved == 1 ? "y" : "ies", c.staleTempBytes / 1048576.0);
+        line += buf;
+    }
+    // What the size limit counted, temporaries included: why a directory of small packs can
+    // still be over its limit (other writers' temporaries, removed only once stale).
+    if (o.limitBytes > 0 && c.limitScans > 0) {
+        std::snprintf(buf, sizeof buf, "; limit %.2f MB: %.2f MB counted", o.limitBytes / 1048576.0,
+                      c.countedBytes / 1048576.0);
+        line += buf;
+        if (c.countedTemps > 0) {
+            std::snprintf(buf, sizeof buf, ", %.2f MB of it in %llu temporar%s",
+                          c.countedTempBytes / 1048576.0,
+                          static_cast<unsigned long long>(c.countedTemps),
+                          c.countedTemps == 1 ? "y" : "ies");
+            line += buf;
+        }
+    }
+    return line;
 }
 
 std::string cacheDirWriteWarning(const SnapshotStoreOptions& o, const SnapshotStoreCounters& c) {

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <system_error>
 #include <unistd.h>
 
 namespace voxtier {
@@ -143,32 +144,65 @@ std::uint64_t snapshotFileBytes(glm::ivec3 dims, ViewId view, double sigma) {
     return fileSize(cellCount(snapshotLattice(viewDirection(view), dims, sigma)), 0);
 }
 
-Digest128 digestBytes(std::span<const std::uint8_t> bytes, std::uint64_t seed) {
-    // Two independent multiply-rotate lanes over 16-byte blocks (a grid of 256^3 digests in a
-    // few ms), the length and a finaliser at the end.
-    constexpr std::uint64_t P1 = 0x9e3779b185ebca87ull, P2 = 0xc2b2ae3d27d4eb4full;
-    std::uint64_t a = seed ^ 0x243f6a8885a308d3ull, b = ~seed ^ 0x13198a2e03707344ull;
+std::uint64_t snapshotFileBytes(const SnapshotFileKey& key) {
+    const std::size_t cells = cellCount(latticeOf(key));
+    return fileSize(cells, key.withDepth ? cells : 0);
+}
+
+// Two independent multiply-rotate lanes over 16-byte blocks (a grid of 256^3 digests in a few
+// ms), then the last partial block zero-padded (a whole zero block when the length is a
+// multiple of 16), the length and splitmix64's finaliser.
+namespace {
+constexpr std::uint64_t kP1 = 0x9e3779b185ebca87ull, kP2 = 0xc2b2ae3d27d4eb4full;
+} // namespace
+
+DigestStream::DigestStream(std::uint64_t seed)
+    : a_(seed ^ 0x243f6a8885a308d3ull), b_(~seed ^ 0x13198a2e03707344ull) {}
+
+void DigestStream::block(const std::uint8_t* p) {
+    a_ = rotl(a_ ^ (loadWord(p) * kP2), 31) * kP1;
+    b_ = rotl(b_ ^ (loadWord(p + 8) * kP1), 29) * kP2;
+}
+
+void DigestStream::add(std::span<const std::uint8_t> bytes) {
     const std::uint8_t* p = bytes.data();
-    const std::size_t n = bytes.size();
-    std::size_t i = 0;
-    for (; i + 16 <= n; i += 16) {
-        a = rotl(a ^ (loadWord(p + i) * P2), 31) * P1;
-        b = rotl(b ^ (loadWord(p + i + 8) * P1), 29) * P2;
+    std::size_t n = bytes.size();
+    std::size_t held = std::size_t(n_ % 16);
+    n_ += n;
+    if (held > 0) { // complete the block a previous piece began
+        const std::size_t take = std::min(n, 16 - held);
+        std::memcpy(tail_.data() + held, p, take);
+        p += take;
+        n -= take;
+        held += take;
+        if (held < 16) return;
+        block(tail_.data());
     }
-    std::uint8_t tail[16] = {};
-    std::memcpy(tail, p + i, n - i);
-    a = rotl(a ^ (loadWord(tail) * P2), 31) * P1;
-    b = rotl(b ^ (loadWord(tail + 8) * P1), 29) * P2;
-    a = splitmix64Mix(a ^ n);
-    b = splitmix64Mix(b ^ rotl(n, 32) ^ a);
+    for (; n >= 16; p += 16, n -= 16) block(p);
+    std::memcpy(tail_.data(), p, n);
+}
+
+Digest128 DigestStream::finish() const {
+    DigestStream s = *this;
+    std::array<std::uint8_t, 16> last{};
+    std::memcpy(last.data(), tail_.data(), std::size_t(n_ % 16));
+    s.block(last.data());
+    const std::uint64_t a = splitmix64Mix(s.a_ ^ n_);
+    const std::uint64_t b = splitmix64Mix(s.b_ ^ rotl(n_, 32) ^ a);
     return {splitmix64Mix(a ^ b), b};
+}
+
+Digest128 digestBytes(std::span<const std::uint8_t> bytes, std::uint64_t seed) {
+    DigestStream d(seed);
+    d.add(bytes);
+    return d.finish();
 }
 
 Digest128 digestGrid(const VoxelGrid& grid) {
     const glm::ivec3 d = grid.dims();
     const std::uint64_t seed =
         splitmix64Mix(std::uint64_t(std::uint32_t(d.x)) | std::uint64_t(std::uint32_t(d.y)) << 21 |
-                 std::uint64_t(std::uint32_t(d.z)) << 42);
+                      std::uint64_t(std::uint32_t(d.z)) << 42);
     return digestBytes(grid.data(), seed);
 }
 
@@ -285,7 +319,7 @@ void checkSize(std::uint64_t actual, std::uint64_t expected) {
 } // namespace
 
 /// A file is never read or allocated for by a size it claims before that size has been checked.
-std::vector<std::uint8_t> readSnapshotFile(int fd) {
+std::vector<std::uint8_t> readSnapshotFile(int fd, const SnapshotFileKey& key) {
     struct stat st {};
     if (fstat(fd, &st) != 0) throw SnapshotFileError("cannot stat");
     const std::uint64_t size = std::uint64_t(st.st_size);
@@ -293,7 +327,9 @@ std::vector<std::uint8_t> readSnapshotFile(int fd) {
         for (std::size_t done = 0; done < n;) {
             const ssize_t got = ::read(fd, dst + done, n - done);
             if (got < 0 && errno == EINTR) continue;
-            if (got <= 0) throw SnapshotFileError("truncated while reading");
+            if (got < 0)
+                throw SnapshotFileError(std::string("cannot read: ") + std::strerror(errno));
+            if (got == 0) throw SnapshotFileError("truncated while reading");
             done += std::size_t(got);
         }
     };
@@ -303,6 +339,7 @@ std::vector<std::uint8_t> readSnapshotFile(int fd) {
     std::vector<std::uint8_t> bytes(kHeaderBytes);
     readInto(bytes.data(), kHeaderBytes);
     const SnapshotFileHeader h = decodeHeader(bytes.data());
+    if (!(h.key == key)) throw SnapshotFileError("written for another key");
     checkSize(size, h.fileBytes);
     bytes.resize(h.fileBytes);
     readInto(bytes.data() + kHeaderBytes, h.fileBytes - kHeaderBytes);
@@ -402,6 +439,9 @@ std::size_t decodePackHeader(const std::uint8_t* header, std::uint64_t actualByt
     const std::uint64_t minEntry = kPackIndexEntryBytes + kHeaderBytes + kChecksumBytes;
     if (count > (total - kPackHeaderBytes - kChecksumBytes) / minEntry)
         throw SnapshotFileError("entry count does not fit the pack");
+    if (count > kMaxPackViews)
+        throw SnapshotFileError("entry count " + std::to_string(count) + " over " +
+                                std::to_string(kMaxPackViews));
     return count;
 }
 
@@ -446,7 +486,8 @@ void preadExact(int fd, std::uint8_t* dst, std::size_t n, std::uint64_t offset) 
     for (std::size_t done = 0; done < n;) {
         const ssize_t got = ::pread(fd, dst + done, n - done, off_t(offset + done));
         if (got < 0 && errno == EINTR) continue;
-        if (got <= 0) throw SnapshotFileError("truncated while reading");
+        if (got < 0) throw SnapshotFileError(std::string("cannot read: ") + std::strerror(errno));
+        if (got == 0) throw SnapshotFileError("truncated while reading");
         done += std::size_t(got);
     }
 }
@@ -498,31 +539,48 @@ std::uint64_t snapshotPackOverhead(std::size_t views) {
     return kPackHeaderBytes + views * kPackIndexEntryBytes + kChecksumBytes;
 }
 
-std::vector<std::uint8_t> encodeSnapshotPack(const SnapshotFileKey& frame,
-                                             std::vector<SnapshotPackEntry> entries) {
-    std::sort(entries.begin(), entries.end(),
-              [](const SnapshotPackEntry& a, const SnapshotPackEntry& b) {
-                  return viewOrder(a.view) < viewOrder(b.view);
-              });
-    std::uint64_t total = snapshotPackOverhead(entries.size());
-    for (const SnapshotPackEntry& e : entries) total += e.file.size();
+namespace {
+
+/// A pack's header, index and index checksum, for views ascending with the sizes of their
+/// snapshot files; `reserve`: bytes to reserve beyond them.
+std::vector<std::uint8_t> packOpening(const SnapshotFileKey& frame,
+                                      std::span<const std::pair<ViewId, std::uint64_t>> views,
+                                      bool reserveAll) {
+    std::uint64_t total = snapshotPackOverhead(views.size());
+    for (const auto& [view, bytes] : views) total += bytes;
     std::vector<std::uint8_t> out;
-    out.reserve(total);
+    out.reserve(reserveAll ? total : snapshotPackOverhead(views.size()));
     Writer w(out);
     w.bytes(kPackMagic, sizeof kPackMagic);
     writeFrameKey(w, frame);
-    w.u32(std::uint32_t(entries.size()));
+    w.u32(std::uint32_t(views.size()));
     w.u64(total);
-    std::uint64_t at = snapshotPackOverhead(entries.size());
-    for (const SnapshotPackEntry& e : entries) {
-        for (int c = 0; c < 3; ++c) w.i32(e.view.lattice[c]);
+    std::uint64_t at = snapshotPackOverhead(views.size());
+    for (const auto& [view, bytes] : views) {
+        for (int c = 0; c < 3; ++c) w.i32(view.lattice[c]);
         w.u64(at);
-        w.u64(e.file.size());
-        at += e.file.size();
+        w.u64(bytes);
+        at += bytes;
     }
     const Digest128 sum = digestBytes(out);
     w.u64(sum.lo);
     w.u64(sum.hi);
+    return out;
+}
+
+template <class T> void sortByView(std::vector<T>& v) {
+    std::sort(v.begin(), v.end(),
+              [](const T& a, const T& b) { return viewOrder(a.view) < viewOrder(b.view); });
+}
+
+} // namespace
+
+std::vector<std::uint8_t> encodeSnapshotPack(const SnapshotFileKey& frame,
+                                             std::vector<SnapshotPackEntry> entries) {
+    sortByView(entries);
+    std::vector<std::pair<ViewId, std::uint64_t>> views;
+    for (const SnapshotPackEntry& e : entries) views.emplace_back(e.view, e.file.size());
+    std::vector<std::uint8_t> out = packOpening(frame, views, true);
     for (const SnapshotPackEntry& e : entries) out.insert(out.end(), e.file.begin(), e.file.end());
     return out;
 }
@@ -543,6 +601,122 @@ DecodedSnapshotPack decodeSnapshotPack(std::span<const std::uint8_t> bytes) {
     }
     if (!out.entries.empty()) out.frame.view = out.entries.front().view;
     return out;
+}
+
+// ---- one view of a pack on a descriptor ------------------------------------------------------
+
+namespace {
+
+/// The pieces a pack's snapshots are checked and copied in: a snapshot of the largest model at
+/// the largest sigma takes hundreds of MB, and a pack many of them.
+constexpr std::size_t kPieceBytes = std::size_t(1) << 20;
+
+std::string viewText(ViewId v) {
+    return "view (" + std::to_string(v.lattice.x) + " " + std::to_string(v.lattice.y) + " " +
+           std::to_string(v.lattice.z) + ")";
+}
+
+/// The snapshot file size `key` implies, checked against the entry's before anything is read.
+std::uint64_t checkedEntrySize(const PackIndexEntry& entry, const SnapshotFileKey& key) {
+    if (!(entry.view == key.view)) throw SnapshotFileError(viewText(entry.view) + ": wrong view");
+    const std::uint64_t expected = snapshotFileBytes(key);
+    if (entry.bytes != expected)
+        throw SnapshotFileError(viewText(key.view) + ": wrong size (" +
+                                std::to_string(entry.bytes) + " bytes, expected " +
+                                std::to_string(expected) + ")");
+    return expected;
+}
+
+} // namespace
+
+DecodedSnapshotFile readPackEntry(int fd, const PackIndexEntry& entry, const SnapshotFileKey& key) {
+    std::vector<std::uint8_t> file(std::size_t(checkedEntrySize(entry, key)));
+    try {
+        preadExact(fd, file.data(), file.size(), entry.offset);
+        DecodedSnapshotFile f = decodeSnapshotFile(file);
+        if (!(f.key == key)) throw SnapshotFileError("written for another key");
+        return f;
+    } catch (const SnapshotFileError& e) {
+        throw SnapshotFileError(viewText(key.view) + ": " + e.what());
+    }
+}
+
+void checkPackEntry(int fd, const PackIndexEntry& entry, const SnapshotFileKey& key) {
+    const std::uint64_t size = checkedEntrySize(entry, key);
+    try {
+        std::vector<std::uint8_t> piece(kHeaderBytes);
+        preadExact(fd, piece.data(), kHeaderBytes, entry.offset);
+        const SnapshotFileHeader h = decodeHeader(piece.data());
+        if (!(h.key == key)) throw SnapshotFileError("written for another key");
+        checkSize(size, h.fileBytes);
+        DigestStream sum;
+        sum.add(piece);
+        // The cells (two bytes each, codes checked), then the depths: pieces of an even size
+        // from an even offset (kHeaderBytes), so no cell is cut in two.
+        const std::uint64_t cellsEnd = kHeaderBytes + std::uint64_t(h.cells) * sizeof(SnapshotCell);
+        const std::uint64_t summed = size - kChecksumBytes;
+        for (std::uint64_t at = kHeaderBytes; at < summed;) {
+            const std::uint64_t end = at < cellsEnd ? cellsEnd : summed;
+            const std::size_t n = std::size_t(std::min<std::uint64_t>(kPieceBytes, end - at));
+            piece.resize(n);
+            preadExact(fd, piece.data(), n, entry.offset + at);
+            if (at < cellsEnd)
+                for (std::size_t i = 1; i < n; i += 2)
+                    if (piece[i] > snapshot_code::kOutline)
+                        throw SnapshotFileError("bad cell code");
+            sum.add(piece);
+            at += n;
+        }
+        std::uint8_t stored[kChecksumBytes];
+        preadExact(fd, stored, kChecksumBytes, entry.offset + summed);
+        const Digest128 d = sum.finish();
+        Reader r(stored);
+        if (r.u64() != d.lo || r.u64() != d.hi)
+            throw SnapshotFileError("checksum mismatch (corrupted)");
+    } catch (const SnapshotFileError& e) {
+        throw SnapshotFileError(viewText(key.view) + ": " + e.what());
+    }
+}
+
+namespace {
+void writeAll(int fd, const std::uint8_t* p, std::size_t n) {
+    while (n > 0) {
+        const ssize_t w = ::write(fd, p, n);
+        if (w < 0 && errno == EINTR) continue;
+        if (w < 0) throw std::system_error(errno, std::generic_category(), "write");
+        if (w == 0) throw std::system_error(ENOSPC, std::generic_category(), "write");
+        p += w;
+        n -= std::size_t(w);
+    }
+}
+} // namespace
+
+std::uint64_t writePackTo(int out, const SnapshotFileKey& frame, std::vector<PackSource> sources) {
+    sortByView(sources);
+    std::vector<std::pair<ViewId, std::uint64_t>> views;
+    for (const PackSource& src : sources)
+        views.emplace_back(src.view, src.fd >= 0 ? src.size : src.bytes.size());
+    const std::vector<std::uint8_t> opening = packOpening(frame, views, false);
+    writeAll(out, opening.data(), opening.size());
+    std::uint64_t written = opening.size();
+    std::vector<std::uint8_t> piece;
+    for (const PackSource& src : sources) {
+        if (src.fd < 0) {
+            writeAll(out, src.bytes.data(), src.bytes.size());
+            written += src.bytes.size();
+            continue;
+        }
+        for (std::uint64_t done = 0; done < src.size;) {
+            const std::size_t n =
+                std::size_t(std::min<std::uint64_t>(kPieceBytes, src.size - done));
+            piece.resize(n);
+            preadExact(src.fd, piece.data(), n, src.offset + done);
+            writeAll(out, piece.data(), n);
+            done += n;
+        }
+        written += src.size;
+    }
+    return written;
 }
 
 } // namespace voxtier

@@ -23,7 +23,6 @@
 
 namespace voxtier {
 
-
 /// Bumped whenever the snapshot file layout (also a pack's entry) changes.
 inline constexpr std::uint32_t kSnapshotFileVersion = 1;
 /// Bumped whenever the pack layout changes.
@@ -40,6 +39,19 @@ struct Digest128 {
     std::size_t bytes() const { return sizeof(Digest128); }
 };
 Digest128 digestBytes(std::span<const std::uint8_t> bytes, std::uint64_t seed = 0);
+/// digestBytes of bytes given in pieces: the same digest as of their concatenation, however
+/// they are cut (a pack's snapshots are checked in pieces, never read whole).
+class DigestStream {
+  public:
+    explicit DigestStream(std::uint64_t seed = 0);
+    void add(std::span<const std::uint8_t> bytes);
+    Digest128 finish() const;
+
+  private:
+    void block(const std::uint8_t* p);
+    std::uint64_t a_, b_, n_ = 0;
+    std::array<std::uint8_t, 16> tail_{};
+};
 /// The voxels and dimensions of a grid.
 Digest128 digestGrid(const VoxelGrid& grid);
 
@@ -71,6 +83,9 @@ class SnapshotFileError : public std::runtime_error {
 /// `view` at `sigma`: the snapshot lattice fixes the cell count before anything is traced, so
 /// `bake` can say what it will write before it writes it.
 std::uint64_t snapshotFileBytes(glm::ivec3 dims, ViewId view, double sigma);
+/// The exact bytes of the snapshot file of `key`; SnapshotFileError when a key field is out of
+/// bounds (a key read from a file).
+std::uint64_t snapshotFileBytes(const SnapshotFileKey& key);
 
 /// The bytes a pack of `views` snapshots takes beyond their snapshot files (header, index,
 /// checksum): a pack's size is this plus the snapshotFileBytes of each view.
@@ -105,6 +120,12 @@ struct DecodedSnapshotPack {
 /// where one is used). Throws SnapshotFileError naming what is wrong.
 DecodedSnapshotPack decodeSnapshotPack(std::span<const std::uint8_t> bytes);
 
+// ---- packs on a descriptor: read in pieces, each bounded before anything is allocated -------
+
+/// The most views a pack may index: above the 98,306 of the largest view set (`--level 64`), so
+/// a pack's parsed index takes at most a few MB whatever its header claims.
+inline constexpr std::size_t kMaxPackViews = std::size_t(1) << 17;
+
 /// Where one view's snapshot file lies in a pack.
 struct PackIndexEntry {
     ViewId view;
@@ -123,19 +144,40 @@ inline constexpr std::size_t kPackHeadBytes = 68 + 16;
 struct PackHead {
     std::array<std::uint8_t, kPackHeadBytes> bytes{}; ///< the header, then the index checksum
     SnapshotFileKey frame;
-    std::size_t count = 0;   ///< index entries
+    std::size_t count = 0;  ///< index entries (at most kMaxPackViews)
     std::uint64_t size = 0; ///< the pack's bytes (the file's, as the header says too)
 };
-/// Reads and checks the head of the pack open at `fd`, a file of `size` bytes (its fstat).
-/// Throws SnapshotFileError.
+/// Reads and checks the head of the pack open at `fd`, a regular file of `size` bytes (its
+/// fstat): nothing is read beyond what the header allows. Throws SnapshotFileError.
 PackHead readPackHead(int fd, std::uint64_t size);
-/// Reads exactly the index `head` implies and checks it (checksum, views, offsets).
+/// Reads exactly the index `head` implies and checks it (checksum, views primitive and
+/// ascending, entries contiguous to the end of the pack).
 PackIndex readPackIndex(int fd, const PackHead& head);
-/// Reads exactly `n` bytes at `offset`, or throws SnapshotFileError.
+/// The snapshot of `entry` in the pack open at `fd`, checked as the snapshot of `key` (its size
+/// against the one the key implies before it is read, then decodeSnapshotFile, then its key).
+DecodedSnapshotFile readPackEntry(int fd, const PackIndexEntry& entry, const SnapshotFileKey& key);
+/// Checks the snapshot of `entry` as decodeSnapshotFile would, for `key`, reading it in pieces
+/// of at most a MiB: what a writer keeps of the pack it replaces. Throws SnapshotFileError.
+void checkPackEntry(int fd, const PackIndexEntry& entry, const SnapshotFileKey& key);
+/// Reads exactly `n` bytes at `offset`, or throws SnapshotFileError (with the OS reason).
 void preadExact(int fd, std::uint8_t* dst, std::size_t n, std::uint64_t offset);
-/// Reads a whole snapshot file open at `fd` (the former one-file-per-snapshot layout): the
-/// header first, then exactly the size it implies.
-std::vector<std::uint8_t> readSnapshotFile(int fd);
+/// Reads the snapshot file open at `fd` (the former one-file-per-snapshot layout), checked as
+/// the file of `key`: the header first (key and size), then exactly the size it implies.
+std::vector<std::uint8_t> readSnapshotFile(int fd, const SnapshotFileKey& key);
+
+/// One view written into a pack: its snapshot file in memory, or `size` bytes at `offset` of
+/// the pack open at `fd` (an entry checkPackEntry passed), copied in pieces.
+struct PackSource {
+    ViewId view;
+    std::span<const std::uint8_t> bytes;
+    int fd = -1;
+    std::uint64_t offset = 0, size = 0;
+};
+/// Writes the pack of `frame` holding `sources` (one per view, any order) to `out` from its
+/// current position, the same bytes as encodeSnapshotPack of them, without holding more than
+/// the index and a MiB of them at once. Returns the bytes written. Throws std::system_error
+/// with the OS reason where a write fails, SnapshotFileError where a source cannot be read.
+std::uint64_t writePackTo(int out, const SnapshotFileKey& frame, std::vector<PackSource> sources);
 
 /// Whether two keys name the same model frame (all but the view).
 bool sameFrame(const SnapshotFileKey& a, const SnapshotFileKey& b);
