@@ -36,6 +36,11 @@ std::string cacheDirSummary(const SnapshotStoreOptions& o, const SnapshotStoreCo
                       c.staleTempsRemoved == 1 ? "y" : "ies", c.staleTempBytes / 1048576.0);
         line += buf;
     }
+    if (c.lockWaitMs >= 1.0) {
+        std::snprintf(buf, sizeof buf, ", %.0f ms waiting for other processes' locks",
+                      c.lockWaitMs);
+        line += buf;
+    }
     // What the size limit counted, temporaries included: why a directory of small packs can
     // still be over its limit (other writers' temporaries, removed only once stale).
     if (o.limitBytes > 0 && c.limitScans > 0) {

@@ -209,16 +209,26 @@ Digest128 digestGrid(const VoxelGrid& grid) {
 namespace {
 
 /// What determines a snapshot's bytes, in file order: both the file name (its digest) and the
-/// header (checked on read) are made of it.
-void writeKey(Writer& w, const SnapshotFileKey& k) {
-    w.u32(kSnapshotFileVersion);
+/// header (checked on read) are made of it. A pack's name and header hold the same but the view
+/// (`withView` false), after the pack's version.
+void writeKey(Writer& w, const SnapshotFileKey& k, std::uint32_t version = kSnapshotFileVersion,
+              bool withView = true) {
+    w.u32(version);
     w.u32(kSnapshotLatticeRule);
     w.u64(k.grid.lo);
     w.u64(k.grid.hi);
     for (int c = 0; c < 3; ++c) w.i32(k.dims[c]);
-    for (int c = 0; c < 3; ++c) w.i32(k.view.lattice[c]);
+    if (withView)
+        for (int c = 0; c < 3; ++c) w.i32(k.view.lattice[c]);
     w.f64(k.sigma);
     w.u32(flagsOf(k));
+}
+
+/// "ab/<32 hex digits><extension>": the digest of `key`, its first two digits a subdirectory.
+std::filesystem::path digestName(std::span<const std::uint8_t> key, const char* extension) {
+    const Digest128 d = digestBytes(key);
+    const std::string name = hex(d.lo) + hex(d.hi);
+    return std::filesystem::path(name.substr(0, 2)) / (name + extension);
 }
 
 } // namespace
@@ -227,9 +237,7 @@ std::filesystem::path snapshotFileName(const SnapshotFileKey& k) {
     std::vector<std::uint8_t> bytes;
     Writer w(bytes);
     writeKey(w, k);
-    const Digest128 d = digestBytes(bytes);
-    const std::string name = hex(d.lo) + hex(d.hi);
-    return std::filesystem::path(name.substr(0, 2)) / (name + ".snap");
+    return digestName(bytes, ".snap");
 }
 
 std::vector<std::uint8_t> encodeSnapshotFile(const SnapshotFileKey& k, const Snapshot& s) {
@@ -396,13 +404,7 @@ constexpr std::size_t kPackIndexEntryBytes = 12 + 8 + 8;
 
 /// The model frame part of a key, as a pack's header and name hold it.
 void writeFrameKey(Writer& w, const SnapshotFileKey& k) {
-    w.u32(kSnapshotPackVersion);
-    w.u32(kSnapshotLatticeRule);
-    w.u64(k.grid.lo);
-    w.u64(k.grid.hi);
-    for (int c = 0; c < 3; ++c) w.i32(k.dims[c]);
-    w.f64(k.sigma);
-    w.u32(flagsOf(k));
+    writeKey(w, k, kSnapshotPackVersion, false);
 }
 
 } // namespace
@@ -521,18 +523,11 @@ PackIndex readPackIndex(int fd, const PackHead& head) {
     return decodePackIndex(head.bytes.data(), index, head.count, head.frame, head.size);
 }
 
-/// A parsed index and what identifies the pack it came from: a pack is never changed in place
-/// (a writer renames a new file over it), so the same file, size, header and index checksum is
-/// the same index. (Were it damaged in place meanwhile, each snapshot still has its own key and
-/// checksum: a wrong offset is a rejected snapshot, never a wrong one.)
-
 std::filesystem::path snapshotPackName(const SnapshotFileKey& k) {
     std::vector<std::uint8_t> bytes;
     Writer w(bytes);
     writeFrameKey(w, k);
-    const Digest128 d = digestBytes(bytes);
-    const std::string name = hex(d.lo) + hex(d.hi);
-    return std::filesystem::path(name.substr(0, 2)) / (name + ".pack");
+    return digestName(bytes, ".pack");
 }
 
 std::uint64_t snapshotPackOverhead(std::size_t views) {

@@ -518,10 +518,17 @@ bool SnapshotStore::flushLocked() {
     // Held by another process: retried, with back-off, until the flush's deadline.
     const auto deadline = Clock::now() + options_.lockWait;
     auto pause = std::chrono::milliseconds(1);
+    double sleptMs = 0.0;
     while (!waiting.empty() && Clock::now() < deadline) {
-        std::this_thread::sleep_for(std::min<Clock::duration>(pause, deadline - Clock::now()));
+        const auto t0 = Clock::now();
+        std::this_thread::sleep_for(std::min<Clock::duration>(pause, deadline - t0));
+        sleptMs += msSince(t0);
         pause = std::min(pause * 2, std::chrono::milliseconds(50));
         std::erase_if(waiting, tryFolder);
+    }
+    if (sleptMs > 0.0) {
+        std::lock_guard lock(mutex_);
+        counters_.lockWaitMs += sleptMs;
     }
     char waited[32];
     std::snprintf(waited, sizeof waited, "%.1f s", options_.lockWait.count() / 1000.0);

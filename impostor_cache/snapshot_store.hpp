@@ -125,6 +125,7 @@ struct SnapshotStoreCounters {
     /// temporaries took countedTempBytes.
     std::uint64_t limitScans = 0, countedBytes = 0, countedTempBytes = 0, countedTemps = 0;
     double readMs = 0.0, writeMs = 0.0;
+    double lockWaitMs = 0.0; ///< flushes' time waiting for folder locks other processes held
 };
 
 /// One file (a pack, or a former single snapshot file) in the directory, as the evictor sees it.

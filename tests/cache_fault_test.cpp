@@ -80,7 +80,7 @@ struct ChildRun {
     bool timedOut = false; ///< killed at the time limit
     long maxRssKb = 0;     ///< ru_maxrss of the child
     double ms = 0.0;       ///< wall time
-    std::string err;
+    std::string out, err;
 };
 
 std::string slurp(const fs::path& p) {
@@ -88,10 +88,10 @@ std::string slurp(const fs::path& p) {
     return {std::istreambuf_iterator<char>(in), {}};
 }
 
-/// Runs `voxtier args...` (with `env` added to the environment) in a process group of its own;
-/// past kTimeLimit the group is killed and the run says so.
-ChildRun runCli(std::vector<std::string> args, const fs::path& errFile,
-                const std::vector<std::string>& env = {}) {
+/// Starts `voxtier args...` with `env` added to the environment, stdout and stderr to files
+/// ("" for /dev/null), in a process group of its own when `group`. Returns the pid.
+pid_t spawnCli(std::vector<std::string> args, const std::vector<std::string>& env,
+               const std::string& outFile, const std::string& errFile, bool group) {
     args.insert(args.begin(), VOXTIER_CLI);
     std::vector<char*> argv;
     for (std::string& a : args) argv.push_back(a.data());
@@ -103,20 +103,32 @@ ChildRun runCli(std::vector<std::string> args, const fs::path& errFile,
     envp.push_back(nullptr);
     posix_spawn_file_actions_t io;
     posix_spawn_file_actions_init(&io);
-    posix_spawn_file_actions_addopen(&io, 1, "/dev/null", O_WRONLY, 0);
-    posix_spawn_file_actions_addopen(&io, 2, errFile.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const auto to = [](const std::string& f) { return f.empty() ? "/dev/null" : f.c_str(); };
+    posix_spawn_file_actions_addopen(&io, 1, to(outFile), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&io, 2, to(errFile), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawnattr_t attr;
     posix_spawnattr_init(&attr);
-    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
-    posix_spawnattr_setpgroup(&attr, 0);
-    ChildRun r;
-    const auto t0 = Clock::now();
+    if (group) {
+        posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETPGROUP);
+        posix_spawnattr_setpgroup(&attr, 0);
+    }
     pid_t pid = -1;
     const int spawned = posix_spawn(&pid, VOXTIER_CLI, &io, &attr, argv.data(), envp.data());
     posix_spawn_file_actions_destroy(&io);
     posix_spawnattr_destroy(&attr);
     EXPECT_EQ(spawned, 0);
-    if (spawned != 0) return r;
+    return spawned == 0 ? pid : -1;
+}
+
+/// Runs `voxtier args...` (with `env` added to the environment) in a process group of its own;
+/// past kTimeLimit the group is killed and the run says so.
+ChildRun runCli(const std::vector<std::string>& args, const fs::path& errFile,
+                const std::vector<std::string>& env = {}) {
+    const std::string outFile = errFile.string() + ".out";
+    ChildRun r;
+    const auto t0 = Clock::now();
+    const pid_t pid = spawnCli(args, env, outFile, errFile.string(), true);
+    if (pid < 0) return r;
     int status = 0;
     rusage ru{};
     for (auto pause = std::chrono::milliseconds(1);;) {
@@ -135,6 +147,7 @@ ChildRun runCli(std::vector<std::string> args, const fs::path& errFile,
     r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     r.maxRssKb = ru.ru_maxrss;
     r.err = slurp(errFile);
+    r.out = slurp(outFile);
     return r;
 }
 
@@ -382,23 +395,10 @@ TEST(CacheFaults, AStoppedWriterCostsARenderAtMostTheLockWait) {
     const fs::path d = scratch();
     const fs::path dir = d / "cache";
     Reaped bake;
-    {
-        std::vector<std::string> args = {VOXTIER_CLI, "bake",        scene(),     "--level",
-                                         "1",         "--cache-dir", dir.string()};
-        std::vector<char*> argv;
-        for (std::string& a : args) argv.push_back(a.data());
-        argv.push_back(nullptr);
-        std::vector<std::string> envStrings = {"VOXTIER_STORE_FAULT=stop@locked"};
-        for (char** e = environ; *e; ++e) envStrings.emplace_back(*e);
-        std::vector<char*> envp;
-        for (std::string& e : envStrings) envp.push_back(e.data());
-        envp.push_back(nullptr);
-        posix_spawn_file_actions_t io;
-        posix_spawn_file_actions_init(&io);
-        posix_spawn_file_actions_addopen(&io, 1, "/dev/null", O_WRONLY, 0);
-        ASSERT_EQ(posix_spawn(&bake.pid, VOXTIER_CLI, &io, nullptr, argv.data(), envp.data()), 0);
-        posix_spawn_file_actions_destroy(&io);
-    }
+    bake.pid =
+        spawnCli({"bake", scene(), "--level", "1", "--cache-dir", dir.string()},
+                 {"VOXTIER_STORE_FAULT=stop@locked"}, "", (d / "bake_err.txt").string(), false);
+    ASSERT_GT(bake.pid, 0);
     // Until it stops (holding the lock of its first pack's folder), within the time limit.
     int status = 0;
     const auto t0 = Clock::now();
@@ -417,6 +417,7 @@ TEST(CacheFaults, AStoppedWriterCostsARenderAtMostTheLockWait) {
               std::string::npos)
         << r.err;
     std::printf("render beside a stopped writer: %.0f ms (lock wait 2000 ms)\n", r.ms);
+    EXPECT_NE(r.out.find(" ms waiting for other processes' locks"), std::string::npos) << r.out;
 
     ASSERT_EQ(::kill(bake.pid, SIGCONT), 0);
     while (::waitpid(bake.pid, &status, WNOHANG) == 0 && Clock::now() - t0 < kTimeLimit)
