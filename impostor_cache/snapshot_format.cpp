@@ -537,7 +537,7 @@ std::uint64_t snapshotPackOverhead(std::size_t views) {
 namespace {
 
 /// A pack's header, index and index checksum, for views ascending with the sizes of their
-/// snapshot files; `reserve`: bytes to reserve beyond them.
+/// snapshot files; `reserveAll`: room for the snapshot files too (an encoder appends them).
 std::vector<std::uint8_t> packOpening(const SnapshotFileKey& frame,
                                       std::span<const std::pair<ViewId, std::uint64_t>> views,
                                       bool reserveAll) {

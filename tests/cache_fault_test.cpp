@@ -412,6 +412,7 @@ TEST(CacheFaults, AStoppedWriterCostsARenderAtMostTheLockWait) {
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_FALSE(r.timedOut);
     EXPECT_EQ(readColorImage(d / "a.png").color, lone().image.color);
+    EXPECT_LE(double(r.maxRssKb), 1.5 * double(lone().maxRssKb));
     EXPECT_EQ(warnings(test::withoutFarWarning(r.err)), 1u) << r.err;
     EXPECT_NE(r.err.find("(" + held[0].string() + ": locked by another process for over 2.0 s)"),
               std::string::npos)
