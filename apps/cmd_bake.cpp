@@ -218,10 +218,9 @@ struct BakeSource {
     std::string file;
     std::vector<NamedModel> models;
     std::vector<ViewId> views; ///< every view of every model frame (the set or the ladder)
-    double sigma = 1.0;        ///< of the snapshots: the sprites' sigma x outlineStride
-    /// A scene's snapshot_scale: its renders ask for snapshots at that multiple of its sigma,
-    /// with that outline stride.
-    int outlineStride = 1;
+    double sigma = 1.0;        ///< of the snapshots: the sprites' sigma x snapshotScale
+    /// A scene's snapshot_scale: its renders ask for snapshots at that multiple of its sigma.
+    int snapshotScale = 1;
     /// A scene baked as its renders ask (BakeArgs::followsRenders): the scene (its models are
     /// `models`), what its renders ask for, and, where it has scripted edits, a renderer that
     /// applies them (the bake bakes an edited model frame's snapshots after its edits).
@@ -267,7 +266,7 @@ BakeSource loadSource(const std::string& file, const BakeArgs& a) {
         if (a.sigmaGiven) scene.render.sigma = a.sigma;
         for (const auto& m : scene.models) src.models.push_back({m->name(), m});
         src.views = ladderViews(scene);
-        src.outlineStride = scene.selector.snapshotScale;
+        src.snapshotScale = scene.selector.snapshotScale;
         src.sigma = scene.render.sigma;
         if (a.followsRenders(file)) {
             src.needs = snapshotsRendersAskFor(scene, {.mode = a.mode, .marginDeg = a.marginDeg});
@@ -276,7 +275,7 @@ BakeSource loadSource(const std::string& file, const BakeArgs& a) {
     }
     if (a.level || a.viewsGiven) src.views = viewsToBake(a.views, a.level);
     if (a.sigmaGiven) src.sigma = a.sigma;
-    src.sigma *= src.outlineStride;
+    src.sigma *= src.snapshotScale;
     return src;
 }
 
@@ -317,7 +316,7 @@ std::vector<BakeItem> workList(const std::vector<BakeSource>& sources, const Bak
         }
         for (const SnapshotNeed& n : src.needs.needs)
             items.push_back({&src, &src.models[std::size_t(n.model)], n.frame, &n.views,
-                             n.sigma * src.outlineStride, n.editedAt});
+                             n.sigma * src.snapshotScale, n.editedAt});
     }
     return items;
 }
@@ -451,13 +450,13 @@ void runPrebake(const BakeArgs& a) {
                                                              .limitBytes = a.cacheDir.limitBytes(),
                                                              .writeOnlyOnFlush = true,
                                                              .lockWait = std::chrono::seconds(60)});
-    // One cache per outline stride the sources ask for, one store.
+    // One cache per snapshot scale the sources ask for, one store.
     std::map<int, std::unique_ptr<SnapshotCache>> caches;
     const auto cacheFor = [&](const BakeSource& src) -> SnapshotCache& {
-        auto& c = caches[src.outlineStride];
+        auto& c = caches[src.snapshotScale];
         if (!c) {
             SnapshotCacheConfig kind = config;
-            kind.bake.outlineStride = src.outlineStride;
+            kind.bake.snapshotScale = src.snapshotScale;
             c = std::make_unique<SnapshotCache>(kind);
         }
         return *c;

@@ -151,7 +151,7 @@ const char* toString(NearRate r) {
 namespace {
 SnapshotCacheConfig cacheConfig(const FrameOptions& o, const SelectorConfig& selector) {
     SnapshotCacheConfig c;
-    c.bake.outlineStride = selector.snapshotScale;
+    c.bake.snapshotScale = selector.snapshotScale;
     c.budgetBytes = o.cacheBudgetBytes;
     if (!o.cacheDir.empty())
         c.store = std::make_shared<SnapshotStore>(

@@ -20,11 +20,11 @@ glm::vec3 toKernel(glm::dvec3 v) {
 
 } // namespace
 
-SpriteLattice snapshotLattice(glm::dvec3 w, glm::ivec3 dims, double sigma, int outlineStride) {
+SpriteLattice snapshotLattice(glm::dvec3 w, glm::ivec3 dims, double sigma, int snapshotScale) {
     w = glm::normalize(w);
     const glm::dvec3 upHint = std::abs(w.z) > 0.99 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 0, 1);
     SpriteLattice L = makeSpriteLattice(-w, upHint, glm::dvec3(1, 0, 0), dims, sigma);
-    const int grow = outlineStride - 1;
+    const int grow = snapshotScale - 1;
     L.cellRange += glm::ivec4(-grow, grow, -grow, grow);
     return L;
 }
@@ -60,7 +60,7 @@ void applyCardinalOutline(Snapshot& s) {
 }
 
 void refreshCardinalOutline(Snapshot& s, glm::ivec4 cells) {
-    const int w = s.width(), h = s.height(), k = s.outlineStride;
+    const int w = s.width(), h = s.height(), k = s.snapshotScale;
     auto solid = [&](int x, int y) {
         return x >= 0 && y >= 0 && x < w && y < h &&
                snapshot_code::isSolid(

@@ -37,9 +37,9 @@ static_assert(sizeof(SnapshotCell) == 2);
 
 /// The snapshot lattice of view w (DESIGN.md §4): exactly makeSpriteLattice with dir = -w,
 /// up from the model's +Z, or +X when |w.Z| > 0.99 (a ±Z view has no usable +Z projection).
-/// Its cell range is grown by outlineStride - 1 cells on every side: the outline ring of a
-/// snapshot of that stride (Snapshot::outlineStride) is that much wider.
-SpriteLattice snapshotLattice(glm::dvec3 w, glm::ivec3 dims, double sigma, int outlineStride = 1);
+/// Its cell range is grown by snapshotScale - 1 cells on every side: the outline ring of a
+/// snapshot of that scale (Snapshot::snapshotScale) is that much wider.
+SpriteLattice snapshotLattice(glm::dvec3 w, glm::ivec3 dims, double sigma, int snapshotScale = 1);
 
 /// The kernel inputs that describe the snapshot's rays (rayBase, cellRight, cellUp, dir, invDir,
 /// dims, cellRange), rounded to float exactly as core/sprite.cpp rounds a near sprite's, so
@@ -59,11 +59,12 @@ struct Snapshot {
     /// voxel face of solid cells (voxels; + is away from the viewer), for reprojection. Empty
     /// when not baked.
     std::vector<float> depth;
-    /// The outline's reach in cells (BakeOptions::outlineStride): an empty cell is outline when
-    /// the cell this many steps away along a lattice axis is solid. A snapshot baked at k times a
-    /// sprite's sigma has stride k, since the sprite's neighbour cells lie k snapshot cells away:
-    /// at a canonical view with an odd k the codes are then the near kernel's outline exactly.
-    int outlineStride = 1;
+    /// The scene's snapshot_scale k this was baked for (BakeOptions::snapshotScale), which is also
+    /// the outline's reach in cells: an empty cell is outline when the cell k steps away along a
+    /// lattice axis is solid. A snapshot baked at k times a sprite's sigma reaches k cells, since
+    /// the sprite's neighbour cells lie k snapshot cells away: at a canonical view with an odd k
+    /// the codes are then the near kernel's outline exactly.
+    int snapshotScale = 1;
 
     int width() const { return lattice.width(); }
     int height() const { return lattice.height(); }
@@ -84,7 +85,7 @@ struct Snapshot {
     std::size_t solidCount() const;
 };
 
-/// Marks every empty cell with a solid cell s.outlineStride cells away along a lattice axis as
+/// Marks every empty cell with a solid cell s.snapshotScale cells away along a lattice axis as
 /// outline (DESIGN.md §4: a cardinal 2D dilation of the coverage mask, which equals the near
 /// kernel's neighbour-ray rule because the neighbour rays are the neighbour cells' own primary
 /// rays, k snapshot cells away on a snapshot k times finer).

@@ -40,12 +40,12 @@ GridVoxels voxelsOf(const VoxelGrid& g) {
             std::size_t(g.dims().x) * std::size_t(g.dims().y)};
 }
 
-Snapshot emptySnapshot(const VoxelGrid& grid, ViewId view, double sigma, int outlineStride = 1) {
+Snapshot emptySnapshot(const VoxelGrid& grid, ViewId view, double sigma, int snapshotScale = 1) {
     Snapshot s;
     s.view = view;
     s.w = viewDirection(view);
-    s.lattice = snapshotLattice(s.w, grid.dims(), sigma, outlineStride);
-    s.outlineStride = outlineStride;
+    s.lattice = snapshotLattice(s.w, grid.dims(), sigma, snapshotScale);
+    s.snapshotScale = snapshotScale;
     s.cells.assign(std::size_t(s.width()) * std::size_t(s.height()), SnapshotCell{});
     return s;
 }
@@ -294,7 +294,7 @@ void traceRect(const VoxelScene& scene, Snapshot& snap, glm::ivec4 rect, const B
 Snapshot bakeSnapshot(const VoxelScene& scene, ViewId view, double sigma,
                       const BakeOptions& options, BakeStats* stats) {
     const auto t0 = std::chrono::steady_clock::now();
-    Snapshot snap = emptySnapshot(scene.grid(), view, sigma, options.outlineStride);
+    Snapshot snap = emptySnapshot(scene.grid(), view, sigma, options.snapshotScale);
     if (options.withDepth) snap.depth.assign(snap.cells.size(), 0.0f);
     traceRect(scene, snap, {0, snap.width() - 1, 0, snap.height() - 1}, options, stats);
     applyCardinalOutline(snap);
@@ -348,7 +348,7 @@ Snapshot rebakeSnapshot(const VoxelScene& scene, const Snapshot& previous, Box3i
     const bool fits = L.dims == scene.grid().dims() &&
                       previous.cells.size() == std::size_t(L.width()) * std::size_t(L.height()) &&
                       (!options.withDepth || previous.depth.size() == previous.cells.size()) &&
-                      previous.outlineStride == options.outlineStride;
+                      previous.snapshotScale == options.snapshotScale;
     const glm::ivec4 reach = cellsReachingBox(L, dirty);
     const bool none = reach.x > reach.y;
     const std::uint64_t area =
@@ -373,9 +373,9 @@ Snapshot rebakeSnapshot(const VoxelScene& scene, const Snapshot& previous, Box3i
                           snap.depth.begin() + std::ptrdiff_t(row + std::size_t(rect.y) + 1), 0.0f);
         }
         traceRect(scene, snap, rect, options, stats);
-        // A cell within the outline's stride of the rectangle may gain or lose its outline with
-        // the cells inside it.
-        const int k = snap.outlineStride;
+        // A cell within the outline's reach (snapshotScale cells) of the rectangle may gain or lose
+        // its outline with the cells inside it.
+        const int k = snap.snapshotScale;
         refreshCardinalOutline(snap, {rect.x - k, rect.y + k, rect.z - k, rect.w + k});
     }
     if (stats) {

@@ -27,7 +27,7 @@ inline constexpr TraceApi kDefaultTraceApi = TraceApi::Packet8;
 struct BakeOptions {
     TraceApi api = kDefaultTraceApi;
     bool withDepth = false; ///< also store Snapshot::depth
-    int outlineStride = 1;  ///< Snapshot::outlineStride (1..kMaxSnapshotScale)
+    int snapshotScale = 1;  ///< Snapshot::snapshotScale (1..kMaxSnapshotScale)
     /// Voxels the kernel-order traversal reads on its own before a ray is handed to Embree
     /// (0 = every ray that enters the box and starts in an empty voxel goes to Embree). On
     /// compact models most rays hit within ~16 voxels and one Embree query costs more than

@@ -128,7 +128,7 @@ SnapshotFileKey SnapshotCache::fileKey(const VoxelModel& model, int frame, ViewI
             return std::make_shared<const Digest128>(digestGrid(model.frame(frame)));
         });
     return {*grid, model.frame(frame).dims(), view,
-            sigma, config_.bake.withDepth,    config_.bake.outlineStride};
+            sigma, config_.bake.withDepth,    config_.bake.snapshotScale};
 }
 
 std::shared_ptr<const Snapshot> SnapshotCache::find(const SnapshotKey& key) const {

@@ -122,8 +122,8 @@ class SnapshotCache {
     SnapshotCacheCounters counters() const;
     const SnapshotCacheConfig& config() const { return config_; }
     /// Far sprites of sigma s draw from this cache's snapshots at sigma s x this (its bakes'
-    /// outline stride, SelectorConfig::snapshotScale): the far frame asks for that sigma.
-    int snapshotScale() const { return config_.bake.outlineStride; }
+    /// snapshot scale, SelectorConfig::snapshotScale): the far frame asks for that sigma.
+    int snapshotScale() const { return config_.bake.snapshotScale; }
     /// Changes the budget and evicts down to it.
     void setBudget(std::size_t bytes);
 

@@ -38,19 +38,19 @@ constexpr char kMagic[8] = {'V', 'X', 'S', 'N', 'A', 'P', '\r', '\n'};
 constexpr std::size_t kHeaderBytes = 8 + 4 + 4 + 16 + 12 + 12 + 8 + 4 + 16 + 8 + 8;
 constexpr std::size_t kChecksumBytes = 16;
 constexpr std::uint32_t kFlagDepth = 1;
-/// Bits 8-15 of the flags: the outline stride less one (0 in files of stride 1, so files written
-/// before the stride existed read as stride 1).
-constexpr int kStrideShift = 8;
-constexpr std::uint32_t kStrideMask = 0xFFu << kStrideShift;
+/// Bits 8-15 of the flags: the snapshot scale less one (0 in files of scale 1, so files written
+/// before the scale existed read as scale 1).
+constexpr int kScaleShift = 8;
+constexpr std::uint32_t kScaleMask = 0xFFu << kScaleShift;
 std::uint32_t flagsOf(const SnapshotFileKey& k) {
-    return (k.withDepth ? kFlagDepth : 0u) | (std::uint32_t(k.outlineStride - 1) << kStrideShift);
+    return (k.withDepth ? kFlagDepth : 0u) | (std::uint32_t(k.snapshotScale - 1) << kScaleShift);
 }
 /// The key's flag fields from a file's flags word, checked.
 void readFlags(std::uint32_t flags, SnapshotFileKey& k) {
-    if (flags & ~(kFlagDepth | kStrideMask)) throw SnapshotFileError("unknown flags");
+    if (flags & ~(kFlagDepth | kScaleMask)) throw SnapshotFileError("unknown flags");
     k.withDepth = flags & kFlagDepth;
-    k.outlineStride = int((flags & kStrideMask) >> kStrideShift) + 1;
-    if (k.outlineStride > kMaxSnapshotScale) throw SnapshotFileError("outline stride out of range");
+    k.snapshotScale = int((flags & kScaleMask) >> kScaleShift) + 1;
+    if (k.snapshotScale > kMaxSnapshotScale) throw SnapshotFileError("snapshot scale out of range");
 }
 /// View lattice components a file may name: far beyond any view set (n = 3 uses 3), small enough
 /// that the normalisation is exact.
@@ -127,7 +127,7 @@ SpriteLattice latticeOf(const SnapshotFileKey& k) {
         throw SnapshotFileError("view is not a primitive lattice vector");
     if (!(k.sigma > 0.0 && k.sigma <= Limits::kMaxSigma)) // also rejects nan
         throw SnapshotFileError("sigma out of range");
-    return snapshotLattice(viewDirection(k.view), k.dims, k.sigma, k.outlineStride);
+    return snapshotLattice(viewDirection(k.view), k.dims, k.sigma, k.snapshotScale);
 }
 
 std::size_t cellCount(const SpriteLattice& L) {
@@ -371,7 +371,7 @@ DecodedSnapshotFile decodeSnapshotFile(std::span<const std::uint8_t> bytes) {
     s.view = h.key.view;
     s.w = viewDirection(h.key.view);
     s.lattice = h.lattice;
-    s.outlineStride = h.key.outlineStride;
+    s.snapshotScale = h.key.snapshotScale;
     s.cells.resize(h.cells);
     const std::uint8_t* p = bytes.data() + kHeaderBytes;
     for (SnapshotCell& c : s.cells) {
@@ -411,7 +411,7 @@ void writeFrameKey(Writer& w, const SnapshotFileKey& k) {
 
 bool sameFrame(const SnapshotFileKey& a, const SnapshotFileKey& b) {
     return a.grid == b.grid && a.dims == b.dims && a.sigma == b.sigma &&
-           a.withDepth == b.withDepth && a.outlineStride == b.outlineStride;
+           a.withDepth == b.withDepth && a.snapshotScale == b.snapshotScale;
 }
 
 std::array<int, 3> viewOrder(ViewId v) {

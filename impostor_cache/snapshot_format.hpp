@@ -62,7 +62,7 @@ struct SnapshotFileKey {
     ViewId view;            ///< the direction baked
     double sigma = 1.0;     ///< virtual pixels per voxel
     bool withDepth = false; ///< Snapshot::depth stored
-    int outlineStride = 1;  ///< Snapshot::outlineStride
+    int snapshotScale = 1;  ///< Snapshot::snapshotScale
     bool operator==(const SnapshotFileKey&) const = default;
 };
 /// The key's file, relative to the cache directory: "ab/<32 hex digits>.snap", the first two

@@ -117,7 +117,7 @@ TEST(DisplacementBound, MeasuredWithinPredictedOnTanksAndVoxModels) {
 TEST(DisplacementBound, HoldsForFinerSnapshots) {
     const Scene s = benchScene("scenes/bench/tank_army.json", 40);
     SnapshotCacheConfig cc;
-    cc.bake.outlineStride = 3;
+    cc.bake.snapshotScale = 3;
     SnapshotCache cache(cc);
     for (double t : {0.0, 3.0})
         for (int n : {2, 8}) {

@@ -124,7 +124,7 @@ INSTANTIATE_TEST_SUITE_P(
 // their 8 corner views (a near image of one takes ~0.5 s here).
 TEST(FarEqualsNear, FinerSnapshotsOnEveryBundledModel) {
     SnapshotCacheConfig c;
-    c.bake.outlineStride = 3;
+    c.bake.snapshotScale = 3;
     SnapshotCache finer(c);
     for (const char* file :
          {"mmmm/obj_splatter1.vox", "mmmm/chr_cop1.vox", "mmmm/obj_house7.vox", "mmmm/veh_fire.vox",

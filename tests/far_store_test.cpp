@@ -556,7 +556,7 @@ TEST(BakeCli, PreBakedSceneRendersWithZeroBakesAndTheSameImage) {
 }
 
 // A scene whose far tier reads finer snapshots (issue 29) is pre-baked as its renders ask for
-// them: at snapshot_scale x its sigma, with that outline stride.
+// them: at snapshot_scale x its sigma, its outline reaching that far.
 TEST(BakeCli, PreBakesTheFinerSnapshotsASceneAsksFor) {
     const fs::path dir = freshDir();
     fs::create_directories(dir);
