@@ -184,6 +184,28 @@ int usableQueueFamily(VkPhysicalDevice pd) {
     return -1;
 }
 
+/// The device VulkanDevice and probeVulkanDevice both pick: the best-ranked usable one (a GPU if
+/// present, lavapipe otherwise), with its queue family; null when none is usable.
+struct ChosenDevice {
+    VkPhysicalDevice device = VK_NULL_HANDLE;
+    std::uint32_t queueFamily = 0;
+};
+ChosenDevice chooseDevice(const std::vector<VkPhysicalDevice>& devices) {
+    ChosenDevice chosen;
+    int bestRank = 1 << 30;
+    for (VkPhysicalDevice pd : devices) {
+        const int family = usableQueueFamily(pd);
+        if (family < 0) continue;
+        VkPhysicalDeviceProperties props{};
+        vkGetPhysicalDeviceProperties(pd, &props);
+        if (deviceRank(props.deviceType) < bestRank) {
+            bestRank = deviceRank(props.deviceType);
+            chosen = {pd, std::uint32_t(family)};
+        }
+    }
+    return chosen;
+}
+
 } // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -224,21 +246,15 @@ VulkanProbe probeVulkanDevice() {
     }
     const std::vector<VkPhysicalDevice> devices = physicalDevicesOf(instance);
     pinLoadedLibrariesForSanitizers(); // drivers and layers are loaded by now
-    // The same choice as VulkanDevice's: the best-ranked usable device.
-    int bestRank = 1 << 30;
-    for (VkPhysicalDevice pd : devices) {
-        if (usableQueueFamily(pd) < 0) continue;
+    if (const VkPhysicalDevice pd = chooseDevice(devices).device) {
         VkPhysicalDeviceProperties props{};
         vkGetPhysicalDeviceProperties(pd, &props);
-        if (deviceRank(props.deviceType) < bestRank) {
-            bestRank = deviceRank(props.deviceType);
-            probe.found = true;
-            probe.cpu = props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
-            probe.name = props.deviceName;
-            VkPhysicalDeviceFeatures features{};
-            vkGetPhysicalDeviceFeatures(pd, &features);
-            probe.float64 = features.shaderFloat64 == VK_TRUE;
-        }
+        probe.found = true;
+        probe.cpu = props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+        probe.name = props.deviceName;
+        VkPhysicalDeviceFeatures features{};
+        vkGetPhysicalDeviceFeatures(pd, &features);
+        probe.float64 = features.shaderFloat64 == VK_TRUE;
     }
     if (!probe.found) probe.whyNone = noVulkanDeviceMessage();
     vkDestroyInstance(instance, nullptr);
@@ -253,142 +269,134 @@ VulkanDevice::VulkanDevice(const VulkanDeviceOptions& options,
     placementOptions_.forceStaging = options.forceStaging || forcedStagingRequestedByEnvironment();
     try {
         sink_ = std::make_unique<MessageSink>(MessageSink{log_.get(), echo_});
-        const bool debugUtils = hasInstanceExtension(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
-        if (validation_ && !hasLayer(kValidationLayer))
-            throw VulkanError(std::string("validation requested but ") + kValidationLayer +
-                              " is not installed (Debian: vulkan-validationlayers)");
-        if (validation_ && !debugUtils)
-            throw VulkanError("validation requested but the loader lacks VK_EXT_debug_utils");
-
-        VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
-        app.pApplicationName = "voxtier";
-        app.pEngineName = "voxtier";
-        app.apiVersion = VK_API_VERSION_1_2;
-
-        std::vector<const char*> extensions;
-        std::vector<const char*> layers;
-        if (debugUtils) extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
-        if (validation_) layers.push_back(kValidationLayer);
-
-        // Warnings and errors only: the loader's and the layer's info output is not a finding.
-        VkDebugUtilsMessengerCreateInfoEXT messengerInfo{
-            VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
-        messengerInfo.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
-                                        VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
-        messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
-                                    VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
-                                    VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
-        messengerInfo.pfnUserCallback = onMessage;
-        messengerInfo.pUserData = sink_.get();
-
-        VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
-        ici.pApplicationInfo = &app;
-        ici.enabledExtensionCount = std::uint32_t(extensions.size());
-        ici.ppEnabledExtensionNames = extensions.data();
-        ici.enabledLayerCount = std::uint32_t(layers.size());
-        ici.ppEnabledLayerNames = layers.data();
-        // Chained messenger: also catches what the loader says during vkCreateInstance and what
-        // the layer reports during vkDestroyInstance (leaked objects), and keeps the loader from
-        // printing to stderr itself.
-        const void* chain = nullptr;
-        if (debugUtils) {
-            messengerInfo.pNext = chain;
-            chain = &messengerInfo;
-        }
-        const VkValidationFeatureEnableEXT syncValidation =
-            VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
-        VkValidationFeaturesEXT features{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
-        if (validation_ && options.synchronizationValidation &&
-            hasInstanceExtension(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME, kValidationLayer)) {
-            features.enabledValidationFeatureCount = 1;
-            features.pEnabledValidationFeatures = &syncValidation;
-            features.pNext = chain;
-            chain = &features;
-            extensions.push_back(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME);
-            ici.enabledExtensionCount = std::uint32_t(extensions.size());
-            ici.ppEnabledExtensionNames = extensions.data();
-        }
-        ici.pNext = chain;
-
-        const VkResult created = vkCreateInstance(&ici, nullptr, &instance_);
-        if (created == VK_ERROR_INCOMPATIBLE_DRIVER)
-            throw VulkanError(noVulkanDeviceMessage(), created);
-        VK_CHECK(created);
-
-        if (debugUtils) {
-            auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
-                vkGetInstanceProcAddr(instance_, "vkCreateDebugUtilsMessengerEXT"));
-            if (create) {
-                messengerInfo.pNext = nullptr;
-                VK_CHECK(create(instance_, &messengerInfo, nullptr, &messenger_));
-            }
-        }
-
-        // Pick the best usable device: a GPU if present, lavapipe otherwise.
-        std::uint32_t count = 0;
-        VK_CHECK(vkEnumeratePhysicalDevices(instance_, &count, nullptr));
-        std::vector<VkPhysicalDevice> devices(count);
-        if (count) VK_CHECK(vkEnumeratePhysicalDevices(instance_, &count, devices.data()));
-        pinLoadedLibrariesForSanitizers(); // drivers and layers are loaded by now
-        int bestRank = 1 << 30;
-        int bestFamily = -1;
-        for (VkPhysicalDevice pd : devices) {
-            const int family = usableQueueFamily(pd);
-            if (family < 0) continue;
-            VkPhysicalDeviceProperties props{};
-            vkGetPhysicalDeviceProperties(pd, &props);
-            if (deviceRank(props.deviceType) < bestRank) {
-                bestRank = deviceRank(props.deviceType);
-                bestFamily = family;
-                physical_ = pd;
-            }
-        }
-        if (!physical_) throw VulkanError(noVulkanDeviceMessage(), VK_ERROR_INCOMPATIBLE_DRIVER);
-        queueFamily_ = std::uint32_t(bestFamily);
-        vkGetPhysicalDeviceProperties(physical_, &properties_);
-        {
-            std::uint32_t n = 0;
-            vkGetPhysicalDeviceQueueFamilyProperties(physical_, &n, nullptr);
-            std::vector<VkQueueFamilyProperties> families(n);
-            vkGetPhysicalDeviceQueueFamilyProperties(physical_, &n, families.data());
-            timestampValidBits_ = families[queueFamily_].timestampValidBits;
-        }
-        vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
-        name_ = properties_.deviceName;
-
-        VkPhysicalDeviceFeatures available{};
-        vkGetPhysicalDeviceFeatures(physical_, &available);
-        VkPhysicalDeviceFeatures enabled{};
-        pipelineStatistics_ = available.pipelineStatisticsQuery == VK_TRUE;
-        fragmentAtomics_ = available.fragmentStoresAndAtomics == VK_TRUE;
-        enabled.pipelineStatisticsQuery = available.pipelineStatisticsQuery;
-        enabled.fragmentStoresAndAtomics = available.fragmentStoresAndAtomics;
-        // The far pass maps near cells to snapshot cells in double, as the CPU blit does.
-        float64_ = available.shaderFloat64 == VK_TRUE;
-        enabled.shaderFloat64 = available.shaderFloat64;
-
-        const float priority = 1.0f;
-        VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
-        qci.queueFamilyIndex = queueFamily_;
-        qci.queueCount = 1;
-        qci.pQueuePriorities = &priority;
-        VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
-        dci.queueCreateInfoCount = 1;
-        dci.pQueueCreateInfos = &qci;
-        dci.pEnabledFeatures = &enabled;
-        VK_CHECK(vkCreateDevice(physical_, &dci, nullptr, &device_));
-        vkGetDeviceQueue(device_, queueFamily_, 0, &queue_);
-
-        VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-        pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-        pci.queueFamilyIndex = queueFamily_;
-        VK_CHECK(vkCreateCommandPool(device_, &pci, nullptr, &pool_));
-        VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-        VK_CHECK(vkCreateFence(device_, &fci, nullptr, &fence_));
+        createInstance(options);
+        pickPhysicalDevice();
+        createLogicalDevice();
     } catch (...) {
         destroy();
         throw;
     }
+}
+
+void VulkanDevice::createInstance(const VulkanDeviceOptions& options) {
+    const bool debugUtils = hasInstanceExtension(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+    if (validation_ && !hasLayer(kValidationLayer))
+        throw VulkanError(std::string("validation requested but ") + kValidationLayer +
+                          " is not installed (Debian: vulkan-validationlayers)");
+    if (validation_ && !debugUtils)
+        throw VulkanError("validation requested but the loader lacks VK_EXT_debug_utils");
+
+    VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
+    app.pApplicationName = "voxtier";
+    app.pEngineName = "voxtier";
+    app.apiVersion = VK_API_VERSION_1_2;
+
+    std::vector<const char*> extensions;
+    std::vector<const char*> layers;
+    if (debugUtils) extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
+    if (validation_) layers.push_back(kValidationLayer);
+
+    // Warnings and errors only: the loader's and the layer's info output is not a finding.
+    VkDebugUtilsMessengerCreateInfoEXT messengerInfo{
+        VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+    messengerInfo.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
+                                    VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+    messengerInfo.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
+                                VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
+                                VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
+    messengerInfo.pfnUserCallback = onMessage;
+    messengerInfo.pUserData = sink_.get();
+
+    VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
+    ici.pApplicationInfo = &app;
+    ici.enabledExtensionCount = std::uint32_t(extensions.size());
+    ici.ppEnabledExtensionNames = extensions.data();
+    ici.enabledLayerCount = std::uint32_t(layers.size());
+    ici.ppEnabledLayerNames = layers.data();
+    // Chained messenger: also catches what the loader says during vkCreateInstance and what
+    // the layer reports during vkDestroyInstance (leaked objects), and keeps the loader from
+    // printing to stderr itself.
+    const void* chain = nullptr;
+    if (debugUtils) {
+        messengerInfo.pNext = chain;
+        chain = &messengerInfo;
+    }
+    const VkValidationFeatureEnableEXT syncValidation =
+        VK_VALIDATION_FEATURE_ENABLE_SYNCHRONIZATION_VALIDATION_EXT;
+    VkValidationFeaturesEXT features{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+    if (validation_ && options.synchronizationValidation &&
+        hasInstanceExtension(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME, kValidationLayer)) {
+        features.enabledValidationFeatureCount = 1;
+        features.pEnabledValidationFeatures = &syncValidation;
+        features.pNext = chain;
+        chain = &features;
+        extensions.push_back(VK_EXT_VALIDATION_FEATURES_EXTENSION_NAME);
+        ici.enabledExtensionCount = std::uint32_t(extensions.size());
+        ici.ppEnabledExtensionNames = extensions.data();
+    }
+    ici.pNext = chain;
+
+    const VkResult created = vkCreateInstance(&ici, nullptr, &instance_);
+    if (created == VK_ERROR_INCOMPATIBLE_DRIVER)
+        throw VulkanError(noVulkanDeviceMessage(), created);
+    VK_CHECK(created);
+
+    if (debugUtils) {
+        auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
+            vkGetInstanceProcAddr(instance_, "vkCreateDebugUtilsMessengerEXT"));
+        if (create) {
+            messengerInfo.pNext = nullptr;
+            VK_CHECK(create(instance_, &messengerInfo, nullptr, &messenger_));
+        }
+    }
+}
+
+void VulkanDevice::pickPhysicalDevice() {
+    const std::vector<VkPhysicalDevice> devices = physicalDevicesOf(instance_);
+    pinLoadedLibrariesForSanitizers(); // drivers and layers are loaded by now
+    const ChosenDevice chosen = chooseDevice(devices);
+    if (!chosen.device) throw VulkanError(noVulkanDeviceMessage(), VK_ERROR_INCOMPATIBLE_DRIVER);
+    physical_ = chosen.device;
+    queueFamily_ = chosen.queueFamily;
+    vkGetPhysicalDeviceProperties(physical_, &properties_);
+    std::uint32_t n = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(physical_, &n, nullptr);
+    std::vector<VkQueueFamilyProperties> families(n);
+    vkGetPhysicalDeviceQueueFamilyProperties(physical_, &n, families.data());
+    timestampValidBits_ = families[queueFamily_].timestampValidBits;
+    vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
+    name_ = properties_.deviceName;
+}
+
+void VulkanDevice::createLogicalDevice() {
+    VkPhysicalDeviceFeatures available{};
+    vkGetPhysicalDeviceFeatures(physical_, &available);
+    VkPhysicalDeviceFeatures enabled{};
+    pipelineStatistics_ = available.pipelineStatisticsQuery == VK_TRUE;
+    fragmentAtomics_ = available.fragmentStoresAndAtomics == VK_TRUE;
+    enabled.pipelineStatisticsQuery = available.pipelineStatisticsQuery;
+    enabled.fragmentStoresAndAtomics = available.fragmentStoresAndAtomics;
+    // The far pass maps near cells to snapshot cells in double, as the CPU blit does.
+    float64_ = available.shaderFloat64 == VK_TRUE;
+    enabled.shaderFloat64 = available.shaderFloat64;
+    const float priority = 1.0f;
+    VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
+    qci.queueFamilyIndex = queueFamily_;
+    qci.queueCount = 1;
+    qci.pQueuePriorities = &priority;
+    VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+    dci.queueCreateInfoCount = 1;
+    dci.pQueueCreateInfos = &qci;
+    dci.pEnabledFeatures = &enabled;
+    VK_CHECK(vkCreateDevice(physical_, &dci, nullptr, &device_));
+    vkGetDeviceQueue(device_, queueFamily_, 0, &queue_);
+
+    VkCommandPoolCreateInfo pci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    pci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    pci.queueFamilyIndex = queueFamily_;
+    VK_CHECK(vkCreateCommandPool(device_, &pci, nullptr, &pool_));
+    VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    VK_CHECK(vkCreateFence(device_, &fci, nullptr, &fence_));
 }
 
 VulkanDevice::~VulkanDevice() {

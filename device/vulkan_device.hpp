@@ -103,6 +103,11 @@ class VulkanDevice {
     static VKAPI_ATTR VkBool32 VKAPI_CALL
     onMessage(VkDebugUtilsMessageSeverityFlagBitsEXT severity, VkDebugUtilsMessageTypeFlagsEXT type,
               const VkDebugUtilsMessengerCallbackDataEXT* data, void* user);
+    // The constructor's steps, in order; each throws VulkanError, and the constructor destroys
+    // what the earlier ones made.
+    void createInstance(const VulkanDeviceOptions& options);
+    void pickPhysicalDevice();
+    void createLogicalDevice();
     void destroy() noexcept;
 };
 
