@@ -79,7 +79,7 @@ struct EntityPose {
                glm::transpose(worldFromVoxelRotation) * (world - position) / metresPerVoxel;
     }
 };
-/// Voxel -> world direction swizzle of seed 000 §2: world = (v.x, v.z, -v.y).
+/// Voxel -> world direction swizzle (CONTRACT.md §2): world = (v.x, v.z, -v.y).
 glm::dmat3 worldFromVoxelSwizzle();
 EntityPose makeEntityPose(const Entity& e, glm::ivec3 dims, double voxelSize);
 

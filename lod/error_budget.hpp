@@ -64,7 +64,7 @@ class ErrorBudgetViews {
     /// empty): a view that can be had without a bake although not cached (a file in the on-disk
     /// store). It spares the bake bound but is never preferred: which files a shared directory
     /// holds depends on other processes and earlier runs, and the views a frame picks must not
-    /// (a render is the same whoever baked its snapshots, issue 28).
+    /// (a render is the same whoever baked its snapshots; CONTRACT.md §5).
     std::optional<ViewId> choose(std::size_t entity, const SpriteSetup& sprite,
                                  const SelectorConfig& config, const IsCached& isCached,
                                  const IsCached& withoutBake = {});
