@@ -1,0 +1,210 @@
+// The documents the repository cites are the documents it holds: every `NAME.md` a source,
+// script or document names exists, no file cites the seed notes the project started from (they
+// live outside the repository), every "CONTRACT.md §N" names a section CONTRACT.md has,
+// docs/decisions/README.md lists every decision file, nothing cites the retired design notes, and
+// docs/ARCHITECTURE.md stays a page a newcomer reads in one sitting that names every module and
+// only tests that exist. Reads the files, so a citation of a retired or renamed
+// document fails here, not in a reader's hands.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <regex>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kRoot = VOXTIER_SOURCE_DIR;
+
+std::string slurp(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), {}};
+}
+
+/// The repository's own text files: sources, shaders, scripts, build files, documents and scene
+/// files. Build trees, outputs and the bundled third-party models are not the project's text.
+std::vector<fs::path> projectTextFiles() {
+    static const std::set<std::string> kExtensions = {
+        ".cpp",  ".hpp", ".h",     ".comp", ".frag",     ".vert", ".md",   ".sh",    ".py",
+        ".json", ".txt", ".cmake", ".in",   ".mustache", ".gp",   ".yaml", ".sbatch"};
+    std::vector<fs::path> out;
+    for (auto it = fs::recursive_directory_iterator(kRoot);
+         it != fs::recursive_directory_iterator(); ++it) {
+        const fs::path rel = fs::relative(it->path(), kRoot);
+        const std::string first = rel.begin()->string();
+        if (it->is_directory()) {
+            const std::string name = it->path().filename().string();
+            if (name.rfind('.', 0) == 0 || first.rfind("build", 0) == 0 || first == "out" ||
+                first == "voxtier-portable" || first == "fuzz-out" || first == "gpu-check" ||
+                rel == fs::path("scenes/vox") || rel == fs::path("tests/data"))
+                it.disable_recursion_pending();
+            continue;
+        }
+        if (kExtensions.count(it->path().extension().string()) ||
+            it->path().filename() == "CMakeLists.txt")
+            out.push_back(it->path());
+    }
+    return out;
+}
+
+std::string lineAt(const std::string& text, std::size_t pos) {
+    return std::to_string(1 + std::count(text.begin(), text.begin() + long(pos), '\n'));
+}
+
+TEST(Docs, EveryCitedDocumentExists) {
+    // The Markdown documents the repository holds, by file name.
+    const std::vector<fs::path> files = projectTextFiles();
+    ASSERT_GT(files.size(), 100u);
+    std::set<std::string> names;
+    for (const fs::path& file : files)
+        if (file.extension() == ".md") names.insert(file.filename().string());
+    // A document name, possibly with a folder before it; not part of a web address.
+    const std::regex cited(R"re(([A-Za-z0-9_./-]*/)?([A-Za-z0-9_-]+\.md)\b)re");
+    int citations = 0;
+    for (const fs::path& file : files) {
+        const std::string text = slurp(file);
+        for (auto m = std::sregex_iterator(text.begin(), text.end(), cited);
+             m != std::sregex_iterator(); ++m) {
+            const std::size_t pos = std::size_t(m->position(0));
+            // The word the name ends: a web address names another site's document.
+            const std::size_t word = text.find_last_of(" \t\n(<[`\"'", pos) + 1;
+            if (text.substr(word, pos - word + 3).find("://") != std::string::npos) continue;
+            ++citations;
+            const std::string folder = (*m)[1], name = (*m)[2];
+            const std::string where = fs::relative(file, kRoot).string() + ":" + lineAt(text, pos);
+            if (folder.empty()) {
+                EXPECT_TRUE(names.count(name)) << where << " cites " << name;
+                continue;
+            }
+            const fs::path path = fs::path(folder) / name;
+            const bool exists = fs::exists(kRoot / path) || fs::exists(file.parent_path() / path) ||
+                                fs::exists(kRoot / "docs" / path);
+            EXPECT_TRUE(exists) << where << " cites " << path.string();
+        }
+    }
+    EXPECT_GT(citations, 50) << "the pattern found too few citations to mean anything";
+}
+
+TEST(Docs, NoFileCitesTheSeedNotes) {
+    const std::regex seed(R"re(\bseeds/|\bseed 0[0-9][0-9]\b)re");
+    for (const fs::path& file : projectTextFiles()) {
+        const std::string text = slurp(file);
+        std::smatch m;
+        if (std::regex_search(text, m, seed))
+            ADD_FAILURE() << fs::relative(file, kRoot).string() << ":"
+                          << lineAt(text, std::size_t(m.position(0)))
+                          << " cites the seed notes, which the repository does not hold";
+    }
+}
+
+TEST(Docs, ContractCitationsNameItsSections) {
+    const std::string contract = slurp(kRoot / "docs" / "CONTRACT.md");
+    ASSERT_FALSE(contract.empty());
+    // Its sections ("## N. Title") and the numbered items of §3 ("N. **...").
+    std::set<int> sections, items3;
+    const std::regex heading(R"re(\n## ([0-9]+)\. )re");
+    for (auto m = std::sregex_iterator(contract.begin(), contract.end(), heading);
+         m != std::sregex_iterator(); ++m)
+        sections.insert(std::stoi((*m)[1]));
+    const std::size_t s3 = contract.find("\n## 3. "), s4 = contract.find("\n## 4. ");
+    ASSERT_NE(s3, std::string::npos);
+    ASSERT_NE(s4, std::string::npos);
+    const std::string section3 = contract.substr(s3, s4 - s3);
+    const std::regex item(R"re(\n([0-9]+)\. )re");
+    for (auto m = std::sregex_iterator(section3.begin(), section3.end(), item);
+         m != std::sregex_iterator(); ++m)
+        items3.insert(std::stoi((*m)[1]));
+    for (int n = 2; n <= 8; ++n) EXPECT_TRUE(sections.count(n)) << "CONTRACT.md has no §" << n;
+    for (int n = 1; n <= 11; ++n) EXPECT_TRUE(items3.count(n)) << "CONTRACT.md has no §3." << n;
+
+    const std::regex cited(R"re(CONTRACT\.md`? §([0-9]+)(\.([0-9]+))?)re");
+    for (const fs::path& file : projectTextFiles()) {
+        const std::string text = slurp(file);
+        for (auto m = std::sregex_iterator(text.begin(), text.end(), cited);
+             m != std::sregex_iterator(); ++m) {
+            const std::string where = fs::relative(file, kRoot).string() + ":" +
+                                      lineAt(text, std::size_t(m->position(0)));
+            const int n = std::stoi((*m)[1]);
+            EXPECT_TRUE(sections.count(n)) << where << " cites CONTRACT.md §" << n;
+            if ((*m)[3].matched)
+                EXPECT_TRUE(n == 3 && items3.count(std::stoi((*m)[3])))
+                    << where << " cites CONTRACT.md §" << n << "." << (*m)[3];
+        }
+    }
+}
+
+TEST(Docs, DecisionIndexListsEveryDecision) {
+    const std::string index = slurp(kRoot / "docs" / "decisions" / "README.md");
+    ASSERT_FALSE(index.empty());
+    int decisions = 0;
+    for (const auto& e : fs::directory_iterator(kRoot / "docs" / "decisions")) {
+        const std::string name = e.path().filename().string();
+        if (e.path().extension() != ".md" || name == "README.md") continue;
+        ++decisions;
+        EXPECT_NE(index.find("(" + name + ")"), std::string::npos)
+            << "docs/decisions/README.md does not list " << name;
+    }
+    EXPECT_GT(decisions, 0);
+}
+
+TEST(Docs, NoFileCitesTheRetiredDesignNotes) {
+    // The notebook's rules are CONTRACT.md, its map ARCHITECTURE.md, its figures decisions/; a
+    // citation by section ("DESIGN §3") escapes the file-name check above.
+    const std::regex design(R"re(\bDESIGN(\.md| §))re");
+    for (const fs::path& file : projectTextFiles()) {
+        const std::string text = slurp(file);
+        std::smatch m;
+        if (std::regex_search(text, m, design))
+            ADD_FAILURE() << fs::relative(file, kRoot).string() << ":"
+                          << lineAt(text, std::size_t(m.position(0))) << " cites " << m.str(0)
+                          << ", retired: cite CONTRACT.md, ARCHITECTURE.md or docs/decisions/";
+    }
+}
+
+TEST(Docs, ArchitectureNamesEveryModuleFolder) {
+    const std::string text = slurp(kRoot / "docs" / "ARCHITECTURE.md");
+    ASSERT_FALSE(text.empty());
+    int modules = 0;
+    for (const auto& e : fs::directory_iterator(kRoot)) {
+        if (!e.is_directory() || !fs::exists(e.path() / "CMakeLists.txt")) continue;
+        const std::string name = e.path().filename().string();
+        if (name.rfind("build", 0) == 0) continue;
+        ++modules;
+        EXPECT_NE(text.find("`" + name + "/`"), std::string::npos)
+            << "docs/ARCHITECTURE.md does not describe the folder " << name << "/";
+    }
+    EXPECT_GE(modules, 8);
+}
+
+TEST(Docs, ArchitectureNamesOnlyTestsAndFuzzersThatExist) {
+    // "Where to change what" sends a reader to tests by name; a renamed test must not leave a
+    // dead name there.
+    const std::string text = slurp(kRoot / "docs" / "ARCHITECTURE.md");
+    ASSERT_FALSE(text.empty());
+    const std::regex named(R"re(\b(fuzz/)?([a-z0-9_]+_(test|fuzz))\b)re");
+    int names = 0;
+    for (auto m = std::sregex_iterator(text.begin(), text.end(), named);
+         m != std::sregex_iterator(); ++m) {
+        ++names;
+        const std::string name = (*m)[2];
+        const fs::path file = kRoot / ((*m)[3] == "fuzz" ? "fuzz" : "tests") / (name + ".cpp");
+        EXPECT_TRUE(fs::exists(file))
+            << "docs/ARCHITECTURE.md:" << lineAt(text, std::size_t(m->position(0))) << " names "
+            << name << ", which has no " << file.filename();
+    }
+    EXPECT_GT(names, 20);
+}
+
+TEST(Docs, ArchitectureIsAPageOfAtMost250Lines) {
+    const std::string text = slurp(kRoot / "docs" / "ARCHITECTURE.md");
+    ASSERT_FALSE(text.empty());
+    EXPECT_LE(std::count(text.begin(), text.end(), '\n'), 250);
+}
+
+} // namespace
