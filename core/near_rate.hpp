@@ -1,5 +1,5 @@
 #pragma once
-// Cell-rate near sprites (DESIGN.md §3.11). A sprite's image is a function of its lattice cells
+// Cell-rate near sprites (CONTRACT.md §3.11). A sprite's image is a function of its lattice cells
 // (§3.5): every pixel of a magnified sprite that lands in one cell traces that cell's very rays.
 // A cell-rate sprite traces each cell of its cellRange once (the kernel's vtTraceCellPrimary),
 // adds the outline from the neighbours' primaries (vtOutcomeFromPrimaries: they are exactly
@@ -25,7 +25,7 @@ enum class NearRate {
 /// Auto draws a sprite cell-rate when kCellRateCost * C < P (C: cells of its cellRange, P: the
 /// pixels of its on-screen rectangle). Cell-rate costs a primary ray per cell plus a cheap
 /// lookup per rectangle pixel (compute passes); per-pixel costs a fragment, and its rays, per
-/// covered pixel. Both near backends use this rule (DESIGN.md §3.11); why k = 1:
+/// covered pixel. Both near backends use this rule (CONTRACT.md §3.11); why k = 1:
 /// docs/decisions/near-cell-rate.md.
 inline constexpr double kCellRateCost = 1.0;
 
@@ -74,7 +74,7 @@ std::uint64_t rectPixels(const SpriteSetup& sprite);
 bool wantsCellRate(const SpriteSetup& sprite, NearRate rate);
 /// What drawing the sprite near costs in the unit kCellRateCost is measured in (one pixel's
 /// fragment): kCellRateCost * cells where `rate` draws it cell-rate, else its rectangle pixels.
-/// The far tier's cost bound (DESIGN.md §5) weighs each sprite by it: since cell-rate, a
+/// The far tier's cost bound (CONTRACT.md §5) weighs each sprite by it: since cell-rate, a
 /// magnified sprite costs its cells, not its pixels.
 double nearCostUnits(const SpriteSetup& sprite, NearRate rate);
 

@@ -7,7 +7,7 @@
 // and whose name is the generator's name ("box", "sphere", "arrow", "shell", "voxel"). The tank
 // (the bench's "tank army") is animated, seeded and has its own palette. Sizes outside
 // 1..Limits::kMaxModelDim per axis throw InputError (from VoxelGrid), like a bad .vox would.
-// Voxel coordinates are voxel space (DESIGN.md §2: Z-up, x fastest in memory).
+// Voxel coordinates are voxel space (CONTRACT.md §2: Z-up, x fastest in memory).
 #include "core/voxel_model.hpp"
 
 #include <glm/glm.hpp>

@@ -14,7 +14,7 @@
 
 namespace voxtier {
 
-/// Which way each sprite's parallel rays point (DESIGN.md §3.2).
+/// Which way each sprite's parallel rays point (CONTRACT.md §3.2).
 enum class ViewMode {
     PerEntity, ///< normalize(model centre - eye): each sprite faces the viewer (default)
     Parallel,  ///< the camera forward for every sprite
@@ -34,12 +34,12 @@ struct Light {
     double diffuse = 0.55;
 };
 
-/// Entity tier selector settings (DESIGN.md §5).
+/// Entity tier selector settings (CONTRACT.md §5).
 enum class SelectorMetric {
     Distance, ///< metres from the eye to the model centre: grows with distance
     RadiusPx, ///< projected bounding-sphere radius in pixels: shrinks with distance
     ErrorPx,  ///< predicted view-quantisation error r_px * sin(theta): shrinks with distance
-    /// The far tier's predicted silhouette displacement (DESIGN.md §5) from the best view of the
+    /// The far tier's predicted silhouette displacement (CONTRACT.md §5) from the best view of the
     /// refinement ladder, as a share of budgetVpx: shrinks with distance. The compositor picks
     /// the coarsest ladder view within the budget (lod/error_budget.hpp).
     ErrorBudget,
@@ -66,7 +66,7 @@ struct SelectorConfig {
     /// every few frames of a moving camera, and a bake costs more than drawing it near.
     int ladderCap = 16;
     /// ErrorBudget: snapshots a frame may bake; past it, an entity is drawn near this frame. Once
-    /// bakes and near frames are measured the cost bound (DESIGN.md §5) decides which bakes pay;
+    /// bakes and near frames are measured the cost bound (CONTRACT.md §5) decides which bakes pay;
     /// this bound is what is left before that, and a cap on a burst. Why 512:
     /// docs/decisions/bake-cap-and-scene-budget.md.
     int maxBakesPerFrame = 512;
@@ -77,7 +77,7 @@ struct SelectorConfig {
     int snapshotScale = 1;
 };
 /// The finest snapshots a scene may ask for (SelectorConfig::snapshotScale, 1 to this): past 4,
-/// k^2 the bake cost buys little (DESIGN.md §4), and snapshot files bound their stride by it.
+/// k^2 the bake cost buys little (CONTRACT.md §4), and snapshot files bound their stride by it.
 inline constexpr int kMaxSnapshotScale = 4;
 /// Defaults per metric: 30/40 m; 24/16 px radius; 1.0/0.5 px predicted error; for the budget,
 /// far below 0.75 of it and near again above all of it (a far entity never exceeds it).

@@ -155,7 +155,7 @@ TEST(Docs, DecisionIndexListsEveryDecision) {
 
 TEST(Docs, NoFileCitesTheRetiredDesignNotes) {
     // The notebook's rules are CONTRACT.md, its map ARCHITECTURE.md, its figures decisions/; a
-    // citation by section ("DESIGN §3") escapes the file-name check above.
+    // citation by section alone escapes the file-name check above.
     const std::regex design(R"re(\bDESIGN(\.md| §))re");
     for (const fs::path& file : projectTextFiles()) {
         const std::string text = slurp(file);

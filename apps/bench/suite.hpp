@@ -1,5 +1,5 @@
 #pragma once
-// `voxtier bench`: speed against error (DESIGN.md §8). Every measurement is a *configuration*
+// `voxtier bench`: speed against error (CONTRACT.md §8). Every measurement is a *configuration*
 // (a scene copy, a render mode, selector settings) drawn by its own FrameRenderer; the
 // configurations of one *set* run interleaved frame by frame in one process (one shared Vulkan
 // device), so the ratios between them see the same machine load:
