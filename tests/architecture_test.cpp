@@ -1,5 +1,5 @@
 // ARCHITECTURE.md's module rules as a test: a module includes only modules to its left, Embree
-// appears only in impostor_cache, Vulkan only in volumetric (and the apps that start it),
+// appears only in impostor_cache, Vulkan headers only in device and volumetric,
 // OpenImageIO only in image_files/oiio_files.cpp (no module of the renderer, core to compose,
 // touches an image file format), and lod/ plans while compose/ draws. Reads the sources, so a
 // forbidden include fails here before it becomes a habit.

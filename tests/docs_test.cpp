@@ -1,9 +1,9 @@
 // The documents the repository cites are the documents it holds: every `NAME.md` a source,
 // script or document names exists, no file cites the seed notes the project started from (they
 // live outside the repository), every "CONTRACT.md §N" names a section CONTRACT.md has,
-// docs/decisions/README.md lists every decision file, nothing cites the retired design notes, and
-// docs/ARCHITECTURE.md stays a page a newcomer reads in one sitting that names every module and
-// only tests that exist. Reads the files, so a citation of a retired or renamed
+// docs/decisions/README.md and ARCHITECTURE.md list every decision file, nothing cites the retired
+// design notes, and docs/ARCHITECTURE.md stays a page a newcomer reads in one sitting that names
+// every module and only tests that exist. Reads the files, so a citation of a retired or renamed
 // document fails here, not in a reader's hands.
 #include <gtest/gtest.h>
 
@@ -139,9 +139,11 @@ TEST(Docs, ContractCitationsNameItsSections) {
     }
 }
 
-TEST(Docs, DecisionIndexListsEveryDecision) {
+TEST(Docs, DecisionIndexAndArchitectureListEveryDecision) {
     const std::string index = slurp(kRoot / "docs" / "decisions" / "README.md");
+    const std::string architecture = slurp(kRoot / "docs" / "ARCHITECTURE.md");
     ASSERT_FALSE(index.empty());
+    ASSERT_FALSE(architecture.empty());
     int decisions = 0;
     for (const auto& e : fs::directory_iterator(kRoot / "docs" / "decisions")) {
         const std::string name = e.path().filename().string();
@@ -149,6 +151,8 @@ TEST(Docs, DecisionIndexListsEveryDecision) {
         ++decisions;
         EXPECT_NE(index.find("(" + name + ")"), std::string::npos)
             << "docs/decisions/README.md does not list " << name;
+        EXPECT_NE(architecture.find("(decisions/" + name + ")"), std::string::npos)
+            << "docs/ARCHITECTURE.md does not link " << name;
     }
     EXPECT_GT(decisions, 0);
 }
