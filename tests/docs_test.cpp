@@ -159,9 +159,10 @@ TEST(Docs, ContractCitationsNameItsSections) {
                                       lineAt(text, std::size_t(m->position(0)));
             const int n = std::stoi((*m)[1]);
             EXPECT_TRUE(sections.count(n)) << where << " cites CONTRACT.md §" << n;
-            if ((*m)[3].matched)
+            if ((*m)[3].matched) {
                 EXPECT_TRUE(n == 3 && items3.count(std::stoi((*m)[3])))
                     << where << " cites CONTRACT.md §" << n << "." << (*m)[3];
+            }
         }
     }
 }
