@@ -50,8 +50,8 @@ std::string cacheDirSummary(const SnapshotStoreOptions& o, const SnapshotStoreCo
     // What the size limit counted, temporaries included: why a directory of small packs can
     // still be over its limit (other writers' temporaries, removed only once stale).
     if (o.limitBytes > 0 && c.limitScans > 0) {
-        std::snprintf(buf, sizeof buf, "; limit %.2f MiB: %.2f MiB counted", o.limitBytes / 1048576.0,
-                      c.countedBytes / 1048576.0);
+        std::snprintf(buf, sizeof buf, "; limit %.2f MiB: %.2f MiB counted",
+                      o.limitBytes / 1048576.0, c.countedBytes / 1048576.0);
         line += buf;
         if (c.countedTemps > 0) {
             std::snprintf(buf, sizeof buf, ", %.2f MiB of it in %llu temporar%s",
