@@ -28,8 +28,9 @@ std::string slurp(const fs::path& file) {
 }
 
 /// The repository's own text files: sources, shaders, scripts, build files, documents and scene
-/// files. Build trees, outputs and the bundled third-party models are not the project's text;
-/// `withBundledModels` walks scenes/vox/ too (its MANIFEST.md is a document others cite).
+/// files, and CI's scripts (.ci/). Build trees, outputs and the bundled third-party models are
+/// not the project's text; `withBundledModels` walks scenes/vox/ too (its MANIFEST.md is a
+/// document others cite).
 std::vector<fs::path> projectTextFiles(bool withBundledModels = false) {
     static const std::set<std::string> kExtensions = {
         ".cpp",  ".hpp", ".h",     ".comp", ".frag",     ".vert", ".md",   ".sh",    ".py",
@@ -41,15 +42,15 @@ std::vector<fs::path> projectTextFiles(bool withBundledModels = false) {
         const std::string first = rel.begin()->string();
         if (it->is_directory()) {
             const std::string name = it->path().filename().string();
-            if (name.rfind('.', 0) == 0 || first.rfind("build", 0) == 0 || first == "out" ||
-                first == "voxtier-portable" || first == "fuzz-out" || first == "gpu-check" ||
-                (rel == fs::path("scenes/vox") && !withBundledModels) ||
+            if ((name.rfind('.', 0) == 0 && name != ".ci") || first.rfind("build", 0) == 0 ||
+                first == "out" || first == "voxtier-portable" || first == "fuzz-out" ||
+                first == "gpu-check" || (rel == fs::path("scenes/vox") && !withBundledModels) ||
                 rel == fs::path("tests/data"))
                 it.disable_recursion_pending();
             continue;
         }
         if (kExtensions.count(it->path().extension().string()) ||
-            it->path().filename() == "CMakeLists.txt")
+            it->path().filename() == "CMakeLists.txt" || first == ".ci")
             out.push_back(it->path());
     }
     return out;
