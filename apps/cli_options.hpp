@@ -110,7 +110,7 @@ inline std::vector<std::pair<std::string, ViewSet>> viewSetNames() {
 CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate);
 /// `--far-blit simd|scalar` (compose/frame.hpp kFarBlitNames) on `cmd`, for `render` and `bench`.
 CLI::Option* addFarBlitOption(CLI::App& cmd, FarBlitKernel& kernel);
-/// The occlusion switches of `render` and `bench` (DESIGN.md §6, Occlusion): by default the
+/// The occlusion switches of `render` and `bench` (CONTRACT.md §6, Occlusion): by default the
 /// near tier's early depth test alone; --cull adds the CPU tiers' tiles and whole-sprite drops
 /// (FrameOptions::occlusionCull); --no-cull turns every kind off, the early depth test too
 /// (FrameOptions::earlyDepthTest), for comparisons.

@@ -1,4 +1,4 @@
-// `voxtier check SCENE...`: the identity the near tier promises (DESIGN.md §3), checked by the
+// `voxtier check SCENE...`: the identity the near tier promises (CONTRACT.md §3), checked by the
 // shipped binary itself on the machine it runs on: each scene drawn by the Vulkan near tier and by
 // the CPU reference tracer, compared in memory plane by plane (colour, depth bits, entity id).
 // It first prints the memory type each buffer class gets on this device (type, flags, heap), and

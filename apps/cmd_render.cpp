@@ -318,7 +318,7 @@ void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, c
     std::fflush(stdout);
 }
 
-/// Far sprites drawn from a snapshot whose predicted silhouette displacement (DESIGN.md §5) is
+/// Far sprites drawn from a snapshot whose predicted silhouette displacement (CONTRACT.md §5) is
 /// over 1 virtual pixel: where the image is visibly approximate.
 struct Approximation {
     std::size_t sprites = 0; ///< far sprite draws over 1 vpx, all frames together

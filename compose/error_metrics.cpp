@@ -1,4 +1,4 @@
-// Error metrics of DESIGN.md §8. The distance transform follows Felzenszwalb & Huttenlocher,
+// Error metrics of CONTRACT.md §8. The distance transform follows Felzenszwalb & Huttenlocher,
 // "Distance Transforms of Sampled Functions" (Theory of Computing 8, 2012): a 1D lower
 // envelope of parabolas per row, then per column, exact and linear in the pixel count.
 #include "compose/error_metrics.hpp"

@@ -1,5 +1,5 @@
 #pragma once
-// How far an approximate frame is from the ground truth (DESIGN.md §8): per-entity footprint
+// How far an approximate frame is from the ground truth (CONTRACT.md §8): per-entity footprint
 // mismatch, maximum silhouette displacement, and whole-image RMSE / PSNR. The ground truth is
 // the all-near render of the same frame.
 #include "core/image.hpp"

@@ -1,4 +1,4 @@
-// The frame recipe (DESIGN.md §6). FrameRenderer::render reads top to bottom as the recipe;
+// The frame recipe (CONTRACT.md §6). FrameRenderer::render reads top to bottom as the recipe;
 // everything else in this file is a step it calls.
 #include "compose/frame.hpp"
 
@@ -357,7 +357,7 @@ FrameRenderer::PendingFrame FrameRenderer::submit(double time, RenderMode mode, 
     FrameResult& out = pending->out;
     FrameStats& st = out.stats;
 
-    // 1. Camera and per-entity sprite set-up (DESIGN.md §3: double precision, camera-relative),
+    // 1. Camera and per-entity sprite set-up (CONTRACT.md §3: double precision, camera-relative),
     // kept from the frame before where neither the entity nor the camera changed.
     const CameraFrame cam = makeCameraFrame(scene_.cameraAt(time));
     const SpriteStore::Update setup = sprites_.update(scene_, cam, time);
@@ -366,7 +366,7 @@ FrameRenderer::PendingFrame FrameRenderer::submit(double time, RenderMode mode, 
     st.culled = setup.culled;
     st.hostSetupMs = msSince(t0);
 
-    // 2. Select each entity's tier (DESIGN.md §5), its cross-fade and its far view.
+    // 2. Select each entity's tier (CONTRACT.md §5), its cross-fade and its far view.
     const auto t1 = Clock::now();
     out.plan = planEntities(mode, st);
     st.hostSelectMs = msSince(t1);

@@ -1,5 +1,5 @@
 #pragma once
-// The frame recipe of DESIGN.md §6: select tiers -> draw near sprites (Vulkan) -> ensure the
+// The frame recipe of CONTRACT.md §6: select tiers -> draw near sprites (Vulkan) -> ensure the
 // snapshots far sprites need (lazy, parallel) -> blit far sprites -> compose by min-z (with
 // FarBackend::Vulkan, one Vulkan frame draws the near sprites and then the far ones). compose/
 // draws and composes; the selection, its views and the bakes it can afford are lod/'s
@@ -43,8 +43,8 @@ struct FarBatch;
 enum class RenderMode {
     Reference, ///< every entity through the CPU reference tracer (the executable spec)
     Near,      ///< every entity through the Vulkan near tier (volumetric/near_renderer.hpp)
-    Far,       ///< every entity through the far tier's snapshot cache (DESIGN.md §4)
-    Hybrid,    ///< the selector decides per entity (DESIGN.md §5): the product's main job
+    Far,       ///< every entity through the far tier's snapshot cache (CONTRACT.md §4)
+    Hybrid,    ///< the selector decides per entity (CONTRACT.md §5): the product's main job
 };
 /// The one table of render mode names (command line, console, reports), in the order `--help`
 /// lists them: parseRenderMode, toString and the CLI's --mode all read it.
@@ -73,7 +73,7 @@ NearBackend parseNearBackend(const std::string& name);
 const char* toString(NearBackend b);
 
 /// Who draws the far tier. Both produce the same image, bit for bit: the CPU blit into the near
-/// image, or the Vulkan far pass (DESIGN.md §6) in the near tier's frame, into the same targets.
+/// image, or the Vulkan far pass (CONTRACT.md §6) in the near tier's frame, into the same targets.
 /// Auto takes Vulkan where the device is a GPU with shaderFloat64 and the CPU blit where the only
 /// Vulkan device is a CPU implementation (lavapipe: the SIMD blit on the same cores is faster),
 /// lacks shaderFloat64, or there is none.
@@ -132,7 +132,7 @@ struct FrameOptions {
     /// configurations, views of one world) can share one Vulkan device. Null: created on first use.
     std::shared_ptr<NearRenderer> sharedNear;
     /// Metric error_budget: bakes that cost more than the near time the frame's far sprites save
-    /// are given up (ErrorBudgetViews::keepAffordableBakes, DESIGN.md §5), by the costs measured
+    /// are given up (ErrorBudgetViews::keepAffordableBakes, CONTRACT.md §5), by the costs measured
     /// on earlier frames, or by `bakeCosts` where set (a test must not depend on timing). false:
     /// only SelectorConfig::maxBakesPerFrame bounds the bakes.
     bool costAwareBakes = true;
@@ -140,7 +140,7 @@ struct FrameOptions {
     /// Exact occlusion culling in the CPU tiers (the far blit and the CPU reference near tier;
     /// core/occlusion.hpp): the same image, bit for bit, with whole hidden sprites dropped before
     /// any bake or trace. Off by default (--cull turns it on): with earlyDepthTest on it costs
-    /// more than it saves on every bench scene (DESIGN.md §6, Occlusion, with the figures).
+    /// more than it saves on every bench scene (docs/decisions/occlusion-and-early-depth.md).
     bool occlusionCull = false;
     /// The near tier's per-pixel early depth test on both backends (exact, and cheaper on every
     /// bench scene): the CPU reference skips pixels that already hold what beats the sprite
@@ -178,9 +178,9 @@ struct FrameStats {
     /// entities drawn near this frame; ErrorBudgetViews::keepAffordableBakes).
     int farBakesGivenUp = 0;
     /// Embree scenes the frame's bakes had to build first (a (model, animation frame, version)
-    /// not in the cache's scene budget): each costs several bakes (DESIGN.md §4, Budget).
+    /// not in the cache's scene budget): each costs several bakes (CONTRACT.md §4, Budget).
     int farScenesBuilt = 0;
-    /// Edits (DESIGN.md §4): of the bakes, stale snapshots refreshed after an edit, how many of
+    /// Edits (CONTRACT.md §4): of the bakes, stale snapshots refreshed after an edit, how many of
     /// those only where the edit reaches, and the cells they re-traced; the voxel bytes the near
     /// tier copied to the GPU (whole frames when new, only dirty boxes after edits).
     int farRefreshes = 0, farIncrementalRefreshes = 0;
@@ -228,7 +228,7 @@ struct FrameStats {
     std::uint64_t nearEarlyDepthSprites = 0;
     std::uint64_t nearKernelFragments = 0; ///< with nearCountSteps: fragments that ran the kernel
     std::uint64_t raysTraced = 0;          ///< by this frame's bakes
-    /// The largest predicted silhouette displacement of a far-drawn entity (DESIGN.md §5,
+    /// The largest predicted silhouette displacement of a far-drawn entity (CONTRACT.md §5,
     /// predictedBudgetUnits: virtual pixels, screen pixels where a cell is smaller).
     double farPredictedWorstVpx = 0.0;
 };

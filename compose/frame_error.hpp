@@ -1,6 +1,6 @@
 #pragma once
 // The error of an approximate frame (far, hybrid) against the all-near render of the same frame
-// (DESIGN.md §8), per entity and summarised over the entities the far tier drew: footprint
+// (CONTRACT.md §8), per entity and summarised over the entities the far tier drew: footprint
 // mismatch, silhouette displacement in screen pixels and in virtual pixels, RMSE / PSNR.
 #include "compose/error_metrics.hpp"
 #include "compose/frame.hpp"

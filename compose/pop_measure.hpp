@@ -1,5 +1,5 @@
 #pragma once
-// Pops (DESIGN.md §8, pop magnitude): what one entity's switch (of tier, of far view, or a step
+// Pops (CONTRACT.md §8, pop magnitude): what one entity's switch (of tier, of far view, or a step
 // of a cross-fade) changes in the image, at the frame it happens and with that frame's camera, so
 // that the camera's own motion is not counted. Two measures of each switch:
 // - alone: the entity drawn by itself with its previous plan and with its new one. What the

@@ -1,8 +1,8 @@
 #pragma once
-// Camera conventions (DESIGN.md §2): world is right-handed, Y-up, metres; the camera looks
+// Camera conventions (CONTRACT.md §2): world is right-handed, Y-up, metres; the camera looks
 // along -Z of its view space; framebuffer row 0 is the top row; pixel centres sit at k + 0.5.
 // Depth is reversed-Z with an infinite far plane: clip depth = zNear / viewDepth, 1 at the
-// near plane, 0 at infinity, so "nearest wins" means "largest depth wins" (docs/DESIGN.md §3.8).
+// near plane, 0 at infinity, so "nearest wins" means "largest depth wins" (docs/CONTRACT.md §3.8).
 #include <glm/glm.hpp>
 
 namespace voxtier {

@@ -1,5 +1,5 @@
 #pragma once
-// The colour error between two frames, in memory, with no image library (DESIGN.md §1: image
+// The colour error between two frames, in memory, with no image library (ARCHITECTURE.md: image
 // file formats live in image_files/, which the renderer's modules do not use).
 #include "core/image.hpp"
 

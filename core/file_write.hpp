@@ -1,5 +1,5 @@
 #pragma once
-// Output files that are whole or absent (issue 28). A file is written under a temporary name
+// Output files that are whole or absent (CONTRACT.md §1). A file is written under a temporary name
 // in its own folder (so the rename cannot cross a filesystem), every write, the fsync and the
 // close are checked, and only then is it renamed over the final name: a full disk, a
 // permission, a quota or a kill part-way leaves the previous file (or none) under the final

@@ -1,5 +1,5 @@
 #pragma once
-// Cell-rate near sprites (DESIGN.md §3.11). A sprite's image is a function of its lattice cells
+// Cell-rate near sprites (CONTRACT.md §3.11). A sprite's image is a function of its lattice cells
 // (§3.5): every pixel of a magnified sprite that lands in one cell traces that cell's very rays.
 // A cell-rate sprite traces each cell of its cellRange once (the kernel's vtTraceCellPrimary),
 // adds the outline from the neighbours' primaries (vtOutcomeFromPrimaries: they are exactly
@@ -18,23 +18,15 @@ namespace voxtier {
 /// Who traces a near sprite's rays.
 enum class NearRate {
     Auto,     ///< cell-rate where kCellRateCost * cells < covered pixels (default)
-    Fragment, ///< every pixel traces its cell's rays (seed 000's single fragment pass)
+    Fragment, ///< every pixel traces its cell's rays itself (no cell store)
     Cell,     ///< every sprite cell-rate (while the cell budget lasts): for tests
 };
 
 /// Auto draws a sprite cell-rate when kCellRateCost * C < P (C: cells of its cellRange, P: the
 /// pixels of its on-screen rectangle). Cell-rate costs a primary ray per cell plus a cheap
-/// lookup per rectangle pixel (compute passes); per-pixel costs a fragment per covered pixel,
-/// which on lavapipe is ~50 ns even for a trivial shader. Measured on Mesa lavapipe (llvmpipe
-/// 15, 2-core machine shared with other builds), near tier, median of 11 consecutive path frames
-/// per setting, with `voxtier render scenes/bench/<scene>.json --mode near --frames 0:12 --csv`
-/// and k swept over 0.25, 0.5, 1, 2, 4 (ms; per-pixel = --near-rate fragment):
-///   street       per-pixel 66.7 | k 0.25: 38.0  0.5: 36.4  1: 35.2  2: 35.6  4: 39.5
-///   tank_army    per-pixel 294  | k 0.25: 244   0.5: 196   1: 198   2: 216   4: 250
-///   vox_crowd    per-pixel 102  | k 0.25: 64.7  0.5: 68.2  1: 63.5  2: 77.1  4: 87.6
-///   rts_topdown  per-pixel 95.5 | k 0.25: 68.0  0.5: 65.4  1: 63.9  2: 81.8  4: 112
-/// k = 1 is the fastest or within 1 % of it on every scene (DESIGN.md §3.11). The CPU reference
-/// uses the same rule.
+/// lookup per rectangle pixel (compute passes); per-pixel costs a fragment, and its rays, per
+/// covered pixel. Both near backends use this rule (CONTRACT.md §3.11); why k = 1:
+/// docs/decisions/near-cell-rate.md.
 inline constexpr double kCellRateCost = 1.0;
 
 /// Bytes of cell store per cell: the primary outcome and the full outcome, one uint each (the
@@ -82,7 +74,7 @@ std::uint64_t rectPixels(const SpriteSetup& sprite);
 bool wantsCellRate(const SpriteSetup& sprite, NearRate rate);
 /// What drawing the sprite near costs in the unit kCellRateCost is measured in (one pixel's
 /// fragment): kCellRateCost * cells where `rate` draws it cell-rate, else its rectangle pixels.
-/// The far tier's cost bound (DESIGN.md §5) weighs each sprite by it: since cell-rate, a
+/// The far tier's cost bound (CONTRACT.md §5) weighs each sprite by it: since cell-rate, a
 /// magnified sprite costs its cells, not its pixels.
 double nearCostUnits(const SpriteSetup& sprite, NearRate rate);
 

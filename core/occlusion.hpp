@@ -1,5 +1,5 @@
 #pragma once
-// Exact occlusion culling for the CPU tiers (DESIGN.md §6, "Occlusion"). Every sprite writes one
+// Exact occlusion culling for the CPU tiers (CONTRACT.md §6, "Occlusion"). Every sprite writes one
 // depth, its centre's reversed-Z billboard depth, to every pixel it draws, and a pixel only ever
 // moves nearer. So where every pixel of a screen tile already holds a depth strictly nearer than a
 // sprite's, nothing the sprite could draw there wins the depth/id rule, whatever its dither,

@@ -5,9 +5,9 @@
 //
 // All generators but the tank return a single-frame model whose palette is `proceduralPalette()`
 // and whose name is the generator's name ("box", "sphere", "arrow", "shell", "voxel"). The tank
-// (the bench's "tank army", seed 002 §7) is animated, seeded and has its own palette. Sizes outside
+// (the bench's "tank army") is animated, seeded and has its own palette. Sizes outside
 // 1..Limits::kMaxModelDim per axis throw InputError (from VoxelGrid), like a bad .vox would.
-// Voxel coordinates are voxel space (DESIGN.md §2: Z-up, x fastest in memory).
+// Voxel coordinates are voxel space (CONTRACT.md §2: Z-up, x fastest in memory).
 #include "core/voxel_model.hpp"
 
 #include <glm/glm.hpp>
@@ -71,7 +71,7 @@ std::shared_ptr<VoxelModel> makeShell(glm::ivec3 size, int thickness = 1,
 /// A 1x1x1 model holding one voxel of `index`.
 std::shared_ptr<VoxelModel> makeSingleVoxel(std::uint8_t index = proc_index::kRed);
 
-/// The tank of seed 002 §7: an animated model of `frames` (1..Limits::kMaxFramesPerModel)
+/// The bench's tank: an animated model of `frames` (1..Limits::kMaxFramesPerModel)
 /// frames, dims `size` (default 32x32x16, each axis 8..256), front towards +X, up +Z. Parts:
 /// two tracks along X at the low and high Y sides, a hull on and between them with a sloped
 /// front, a round turret, a barrel, a hatch and an antenna (at the high-Y rear, so no mirror

@@ -14,10 +14,10 @@
 
 namespace voxtier {
 
-/// Which way each sprite's parallel rays point (DESIGN.md §3.2).
+/// Which way each sprite's parallel rays point (CONTRACT.md §3.2).
 enum class ViewMode {
     PerEntity, ///< normalize(model centre - eye): each sprite faces the viewer (default)
-    Parallel,  ///< the camera forward for every sprite (seed 000 §6.1)
+    Parallel,  ///< the camera forward for every sprite
 };
 
 struct RenderParams {
@@ -34,12 +34,12 @@ struct Light {
     double diffuse = 0.55;
 };
 
-/// Entity tier selector settings (DESIGN.md §5).
+/// Entity tier selector settings (CONTRACT.md §5).
 enum class SelectorMetric {
     Distance, ///< metres from the eye to the model centre: grows with distance
     RadiusPx, ///< projected bounding-sphere radius in pixels: shrinks with distance
     ErrorPx,  ///< predicted view-quantisation error r_px * sin(theta): shrinks with distance
-    /// The far tier's predicted silhouette displacement (DESIGN.md §5) from the best view of the
+    /// The far tier's predicted silhouette displacement (CONTRACT.md §5) from the best view of the
     /// refinement ladder, as a share of budgetVpx: shrinks with distance. The compositor picks
     /// the coarsest ladder view within the budget (lod/error_budget.hpp).
     ErrorBudget,
@@ -65,14 +65,10 @@ struct SelectorConfig {
     /// to 2.5 degrees): a sprite that needs a finer view is large on screen, its view changes
     /// every few frames of a moving camera, and a bake costs more than drawing it near.
     int ladderCap = 16;
-    /// ErrorBudget: snapshots a frame may bake; past it, an entity stays near. Small sprites bake
-    /// in well under a millisecond: on the tank army, 16 kept 1,215 of 1,638 entities near and
-    /// the frame at 0.68x all-near's time; unbounded, all went far at 0.07-0.11x (100 bakes a
-    /// frame on average, 65-79 ms of them). Once bakes and near frames are measured the cost
-    /// bound (DESIGN.md §5) decides which bakes pay; this bound is what is left before that and
-    /// a cap on a burst. It was 128 until bakes got 4x cheaper (the Embree scene budget): at 1
-    /// vpx it then kept ~350 tanks near that the cost bound would have sent far (in motion, a
-    /// median frame of 50.0 ms against 16.8 at 512).
+    /// ErrorBudget: snapshots a frame may bake; past it, an entity is drawn near this frame. Once
+    /// bakes and near frames are measured the cost bound (CONTRACT.md §5) decides which bakes pay;
+    /// this bound is what is left before that, and a cap on a burst. Why 512:
+    /// docs/decisions/bake-cap-and-scene-budget.md.
     int maxBakesPerFrame = 512;
     /// Far tier: snapshots are baked at snapshotScale x the sprite's sigma (1-4), so a read lands
     /// within half a snapshot cell, 1/(2k) of a near cell, of where it aims; bake time and bytes
@@ -81,7 +77,7 @@ struct SelectorConfig {
     int snapshotScale = 1;
 };
 /// The finest snapshots a scene may ask for (SelectorConfig::snapshotScale, 1 to this): past 4,
-/// k^2 the bake cost buys little (DESIGN.md §4), and snapshot files bound their stride by it.
+/// k^2 the bake cost buys little (CONTRACT.md §4), and snapshot files bound their stride by it.
 inline constexpr int kMaxSnapshotScale = 4;
 /// Defaults per metric: 30/40 m; 24/16 px radius; 1.0/0.5 px predicted error; for the budget,
 /// far below 0.75 of it and near again above all of it (a far entity never exceeds it).

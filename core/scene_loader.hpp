@@ -52,7 +52,7 @@ struct FlattenedVoxScene {
 /// Flattens the instances of `file` (VoxInstance: signed-permutation rotation R, pivot
 /// translation t in voxel units) into entities such that the entity maps every voxel exactly
 /// where the instance does: vox-world point = R (p - floor(size/2)) + t, world = position +
-/// S (vox-world) * voxelSize * scale, S the voxel->world swizzle (DESIGN.md §2). So:
+/// S (vox-world) * voxelSize * scale, S the voxel->world swizzle (CONTRACT.md §2). So:
 /// - anchor = floor(size/2), position = `position` + S t voxelSize scale, Entity::scale = scale;
 /// - a proper R becomes the entity quaternion of S R S^-1;
 /// - a reflection (det R = -1) is not a rotation: the instance gets a copy of the grid mirrored

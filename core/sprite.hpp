@@ -1,5 +1,5 @@
 #pragma once
-// The sprite contract of DESIGN.md §3, per entity and frame, in double precision and
+// The sprite contract of CONTRACT.md §3, per entity and frame, in double precision and
 // camera-relative coordinates (the eye is subtracted before anything else, so an entity 10^6 m
 // from the origin renders exactly like one at the origin). Both tiers and the tests call these
 // functions; the per-pixel half lives in core/sprite_kernel.h.
@@ -15,7 +15,7 @@
 namespace voxtier {
 
 /// Direction components smaller than this are set to exactly 0 (and the vector renormalised),
-/// so canonical views have exactly zero components in both tiers (DESIGN.md §7). Over a
+/// so canonical views have exactly zero components in both tiers (CONTRACT.md §7). Over a
 /// 256-voxel traversal this moves a ray by < 3e-4 voxel.
 inline constexpr double kDirectionSnap = 1e-6;
 glm::dvec3 snapDirection(glm::dvec3 d);
@@ -55,7 +55,7 @@ struct SpriteLattice {
 SpriteLattice makeSpriteLattice(glm::dvec3 dir, glm::dvec3 upHint, glm::dvec3 fallbackUp,
                                 glm::ivec3 dims, double sigma);
 
-/// World <-> voxel for one entity (DESIGN.md §2):
+/// World <-> voxel for one entity (CONTRACT.md §2):
 /// worldFromVoxel(p) = position + rotation * swizzle * metresPerVoxel * (p - anchor).
 struct EntityPose {
     glm::dmat3 worldFromVoxelRotation{1.0}; ///< orthonormal: entity rotation * swizzle
@@ -79,7 +79,7 @@ struct EntityPose {
                glm::transpose(worldFromVoxelRotation) * (world - position) / metresPerVoxel;
     }
 };
-/// Voxel -> world direction swizzle of seed 000 §2: world = (v.x, v.z, -v.y).
+/// Voxel -> world direction swizzle (CONTRACT.md §2): world = (v.x, v.z, -v.y).
 glm::dmat3 worldFromVoxelSwizzle();
 EntityPose makeEntityPose(const Entity& e, glm::ivec3 dims, double voxelSize);
 

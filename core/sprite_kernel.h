@@ -1,4 +1,4 @@
-// The per-pixel sprite kernel of DESIGN.md §3.4-§3.7, written ONCE in the common subset of
+// The per-pixel sprite kernel of CONTRACT.md §3.4-§3.7, written ONCE in the common subset of
 // GLSL 4.50 and C++20 (GLM mirrors GLSL). The Vulkan fragment shader includes this file, and
 // so do the CPU reference tracer and the far-tier blit, so every tier evaluates the same IEEE
 // float operations in the same order. That is what makes "Vulkan image == reference image,
@@ -84,7 +84,7 @@ struct SpriteGpu {
     vec4 quad[4];     // clip-space corners of the proxy quad on the sprite plane (triangle strip)
 };
 
-// DESIGN.md §5 transition: ordered-dither threshold of a pixel (4x4 Bayer matrix, built from
+// CONTRACT.md §5 cross-fade: ordered-dither threshold of a pixel (4x4 Bayer matrix, built from
 // the bits of x^y and y), in (0, 1). A cross-fade at share f draws the new tier where the
 // threshold is below f and the old tier elsewhere: complementary, stable from frame to frame.
 VT_FN float vtDitherThreshold(ivec2 p) {
@@ -146,7 +146,7 @@ VT_FN uint vtFaceLight(VT_IN(SpriteGpu) s, uint face) {
     return face < 4u ? s.faceLight0[int(face)] : s.faceLight1[int(face - 4u)];
 }
 
-// Cell-rate sprites (DESIGN.md §3.11): what a pixel shows is a function of its lattice cell
+// Cell-rate sprites (CONTRACT.md §3.11): what a pixel shows is a function of its lattice cell
 // (§3.5) plus the per-pixel dither, depth and id, so a magnified sprite may trace each cell of
 // its cellRange once and shade every pixel from that cell's outcome. The outcome is the far
 // snapshot's payload packed in one uint: kind in bits 0-1, entered face in bits 2-4, palette

@@ -1,8 +1,8 @@
 #pragma once
-// The far tier's snapshot directions (DESIGN.md §4). A view is the unit vector w from the model
+// The far tier's snapshot directions (CONTRACT.md §4). A view is the unit vector w from the model
 // centre towards the viewer, in voxel space; its snapshot is the near image seen along d = -w.
-// Pure view math, in core (DESIGN.md §1): impostor_cache bakes and keys snapshots by these views,
-// lod/ predicts the error of drawing from them.
+// Pure view math, in core (ARCHITECTURE.md): impostor_cache bakes and keys snapshots by these
+// views, lod/ predicts the error of drawing from them.
 #include <glm/glm.hpp>
 
 #include <array>
@@ -51,12 +51,12 @@ ViewId viewIdOf(ViewSet set, int index);
 /// The unit vector w of a view: normalize(lattice) in double; face views are exact axis vectors.
 glm::dvec3 viewDirection(ViewId view);
 
-/// The view w* maximising w . towardViewer (DESIGN.md §4: towardViewer = -d, d the entity's
+/// The view w* maximising w . towardViewer (CONTRACT.md §4: towardViewer = -d, d the entity's
 /// per-entity ray direction in voxel space). Ties go to the lower index, so the choice is a
 /// deterministic function of the direction.
 int nearestView(ViewSet set, glm::dvec3 towardViewer);
 
-/// The refinement ladder (DESIGN.md §4): the cube-surface lattices {-n..n}^3 with max |component|
+/// The refinement ladder (CONTRACT.md §4): the cube-surface lattices {-n..n}^3 with max |component|
 /// = n for these n, 26 ... 98,306 directions. n doubles from level to level, so every level holds
 /// the coarser ones' directions (scaled), and a snapshot keyed by ViewId serves all of them.
 inline constexpr std::array<int, 7> kViewLadder{1, 2, 4, 8, 16, 32, 64};
@@ -74,7 +74,7 @@ std::vector<ViewId> cubeSurfaceViews(int n);
 /// lattice point, so the result equals a brute-force scan in that order. towardViewer need not be
 /// normalised but must not be zero.
 glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer);
-/// DESIGN.md §5: how far (virtual pixels, before quantisation) the far tier moves a silhouette
+/// CONTRACT.md §5: how far (virtual pixels, before quantisation) the far tier moves a silhouette
 /// when it draws a model with half extents `halfExtent` (voxels) from the snapshot of `view` while
 /// the near tier would look along d = -towardViewer. The blit reads the snapshot at the oblique
 /// projection (along w) of each sprite-plane point, so a point X of the model (voxels from its

@@ -19,7 +19,7 @@
 namespace voxtier {
 
 /// One shape instance reached by walking the scene graph from the root transform (a node
-/// with several parents yields one instance per path, DESIGN of ogt_vox / MANIFEST.md).
+/// with several parents yields one instance per path, as ogt_vox does; scenes/vox/MANIFEST.md).
 struct VoxInstance {
     int model = 0;                   ///< index into VoxFile::models
     glm::mat<3, 3, int> rotation{1}; ///< voxel-space signed permutation (det may be -1: mirror)

@@ -51,7 +51,7 @@ struct Palette {
 const Palette& magicaVoxelDefaultPalette();
 
 /// One dense grid: dims up to Limits::kMaxModelDim per axis, x fastest, then y, then z
-/// (voxel space is Z-up, DESIGN.md §2). Value 0 = empty, 1..255 = palette index.
+/// (voxel space is Z-up, CONTRACT.md §2). Value 0 = empty, 1..255 = palette index.
 class VoxelGrid {
   public:
     VoxelGrid() = default;
@@ -113,7 +113,7 @@ class VoxelModel {
     /// Monotonic; starts at 1 and increases by one per edit call that changed anything.
     std::uint64_t version() const { return version_; }
 
-    // Edits (DESIGN.md §4 invalidation). Coordinates are clipped to the grid; an edit that
+    // Edits (CONTRACT.md §4 invalidation). Coordinates are clipped to the grid; an edit that
     // changes no voxel does not bump the version. Returns true when something changed.
     bool setVoxel(int frame, glm::ivec3 p, std::uint8_t index);
     bool fillBox(int frame, Box3i box, std::uint8_t index);

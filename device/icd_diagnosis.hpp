@@ -1,6 +1,6 @@
 #pragma once
-// Why there is no Vulkan device, when the answer is a driver that is installed but does not load
-// (issue 35, Deliver 6). On the H100 machine NVIDIA's driver manifest was present but its library
+// Why there is no Vulkan device, when the answer is a driver that is installed but does not load.
+// On the H100 machine NVIDIA's driver manifest was present but its library
 // needed glvnd's libGLdispatch, the loader skipped it in silence, and the message said to install
 // lavapipe. Here the manifests the loader would read are read again and each driver library is
 // dlopen'ed the way the loader does, so the message can name the one that failed and why.

@@ -1,7 +1,7 @@
 #pragma once
-// Where each kind of buffer lives, decided in one place (issue 35, docs/decisions/
-// gpu-memory-placement.md). A pure function of the device's memory-type table, so it is
-// unit-tested against the tables of real devices (tests/data/vulkan_memory/) without them.
+// Where each kind of buffer lives, decided in one place (docs/decisions/gpu-memory-placement.md). A
+// pure function of the device's memory-type table, so it is unit-tested against the tables of real
+// devices (tests/data/vulkan_memory/) without them.
 //
 // The contract, per buffer class:
 // - ShaderRead (host-written, read by shaders every frame or on change): device-local memory.

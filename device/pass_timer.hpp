@@ -1,5 +1,5 @@
 #pragma once
-// Device time of named passes (issue 35, Deliver 1): a timestamp at the start and one at the end
+// Device time of named passes: a timestamp at the start and one at the end
 // of each pass, written into the frame's command buffer, read back after the frame's fence.
 // Host time (set-up, recording, waiting on the fence) is the caller's to measure with a clock;
 // these are the device's own times, so the two can be told apart.

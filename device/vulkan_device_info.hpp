@@ -1,6 +1,6 @@
 #pragma once
 // What a report says about the Vulkan device the near tier would use (tools/gpu_check.sh,
-// `voxtier check`), without Vulkan types (DESIGN.md §1).
+// `voxtier check`), without Vulkan types (ARCHITECTURE.md).
 #include <string>
 #include <vector>
 

@@ -1,6 +1,6 @@
 #pragma once
 // What a caller outside device/ needs to configure and inspect the Vulkan device, without
-// including Vulkan headers (DESIGN.md §1: Vulkan stays inside device/ and the tiers' GPU passes).
+// including Vulkan headers (ARCHITECTURE.md: Vulkan stays in device/ and the tiers' GPU passes).
 #include <cstddef>
 #include <mutex>
 #include <string>

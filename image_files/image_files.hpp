@@ -1,5 +1,5 @@
 #pragma once
-// Image files (DESIGN.md §1): the one module that writes and reads them. The renderer's modules
+// Image files (ARCHITECTURE.md): the one module that writes and reads them. The renderer's modules
 // (core to compose) never touch a file format; apps and tests call this module.
 //
 // Two kinds of format:
@@ -40,7 +40,7 @@ std::string imageFormatRefusal(const std::filesystem::path& file);
 /// nearest of 256 (gif_encoder.hpp; AnimationWriter says which).
 /// .exr is float: R, G, B linear (decoded from the 8-bit sRGB colour; tagged oiio:ColorSpace
 /// "Linear"; premultiplied by A, as EXR expects), A, then "Z", the view depth in metres of the
-/// sprite's model centre (DESIGN.md §3.8: every pixel of a sprite has its centre's depth; +inf
+/// sprite's model centre (CONTRACT.md §3.8: every pixel of a sprite has its centre's depth; +inf
 /// where empty; needs the camera's zNear), and "id", the entity id as float (-1 where empty).
 /// The file is whole or absent (core/file_write.hpp): encoded in memory, written under a
 /// temporary name, renamed. Throws InputError naming the file and the OS reason on failure, or

@@ -1,5 +1,5 @@
 // The formats that need an image library, through OpenImageIO: the only file of voxtier that
-// includes it (DESIGN.md §1). Linked where VOXTIER_IMAGE_FILES=ON.
+// includes it (ARCHITECTURE.md). Linked where VOXTIER_IMAGE_FILES=ON.
 #include "core/error.hpp"
 #include "core/file_write.hpp"
 #include "core/sprite_kernel.h"

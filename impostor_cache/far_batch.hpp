@@ -1,9 +1,9 @@
 #pragma once
-// What a GPU far pass needs of the far tier's frame (DESIGN.md §6, the far pass on Vulkan), as
-// plain data: volumetric draws far sprites from this without knowing impostor_cache (DESIGN.md
-// §1). impostor_cache fills it (prepareFarBatch: the frame's snapshots, looked up or baked, and
-// each sprite's snapshot cell map); compose hands it to the near renderer, which draws the far
-// sprites in the same frame, into the same targets, with the far blit's exact rule.
+// What a GPU far pass needs of the far tier's frame (CONTRACT.md §6, the far pass on Vulkan), as
+// plain data: volumetric draws far sprites from this without knowing impostor_cache
+// (ARCHITECTURE.md). impostor_cache fills it (prepareFarBatch: the frame's snapshots, looked up or
+// baked, and each sprite's snapshot cell map); compose hands it to the near renderer, which draws
+// the far sprites in the same frame, into the same targets, with the far blit's exact rule.
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
 

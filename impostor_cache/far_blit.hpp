@@ -1,5 +1,5 @@
 #pragma once
-// The far tier's blit (DESIGN.md §4 with its [voxtier] refinement): every screen pixel of a
+// The far tier's blit (CONTRACT.md §4, Blit): every screen pixel of a
 // sprite's rectangle takes the near lattice cell the near kernel computes for it
 // (kernel::vtPixelCell, the same code), moves to that cell's centre on the sprite plane, and
 // reads the snapshot cell under it. So the far sprite keeps the near tier's screen-aligned
@@ -71,7 +71,7 @@ struct FarBlitOptions {
     /// Exact occlusion culling (core/occlusion.hpp): sprites drawn front to back, and whatever
     /// the depth already drawn hides is skipped, whole sprites before their snapshots are looked
     /// up or baked. The same image either way; off by default, since on the bench scenes it
-    /// costs more than it saves (DESIGN.md §6, Occlusion).
+    /// costs more than it saves (CONTRACT.md §6, Occlusion).
     bool occlusionCull = false;
 };
 

@@ -1,4 +1,4 @@
-// The far blit's vectorised band kernel (DESIGN.md §4, Blit): the scalar reference of
+// The far blit's vectorised band kernel (CONTRACT.md §4, Blit): the scalar reference of
 // far_blit.cpp, N pixels of a row at once (N = 4 on SSE4, 8 on AVX2, 16 on AVX-512), compiled
 // for every SIMD target Highway knows and dispatched to the best one the CPU has at run time.
 //
@@ -49,7 +49,7 @@ constexpr int kChunkRows = 16;
 /// row (the widest Highway target has 64 lanes of 32 bits).
 constexpr std::size_t kCellTablePadding = 64;
 /// A chunk gets a cell table when the cells of the rows it reaches, times this, are fewer than
-/// its pixels (measured in DESIGN.md §4, Blit).
+/// its pixels (measured in docs/decisions/simd-far-blit.md).
 constexpr std::uint64_t kCellTableCost = 1;
 
 /// Near cell -> what the sprite shows there, N cells at once: SnapshotCellMap in double
@@ -516,7 +516,7 @@ void BlitSpriteRows(const BlitSprite& s, int y0, int y1, Image& img, BlitCounter
 void BlitBand(const BlitBand& band, BlitCounters& counters) {
     // A sprite reads its snapshot at scattered cells (per pixel, or per cell into a table), and
     // waits for each vector's gather; the snapshot of the sprite two places ahead is fetched
-    // while this one is drawn (measured in DESIGN.md §4, Blit).
+    // while this one is drawn (measured in docs/decisions/simd-far-blit.md).
     constexpr std::size_t kAhead = 2;
     for (std::size_t k = 0; k < band.count; ++k) {
         const BlitSprite& s = band.sprites[band.list[k]];

@@ -1,5 +1,5 @@
 #pragma once
-// The far half of a frame (DESIGN.md §6): choose each far sprite's view, make sure the
+// The far half of a frame (CONTRACT.md §6): choose each far sprite's view, make sure the
 // snapshots it needs exist (lazy, parallel over distinct snapshots), then blit them.
 #include "core/image.hpp"
 #include "core/sprite.hpp"

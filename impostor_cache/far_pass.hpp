@@ -1,5 +1,5 @@
 #pragma once
-// The far tier on Vulkan (DESIGN.md §6, the far pass): the far blit of far_blit.hpp as a compute
+// The far tier on Vulkan (CONTRACT.md §6, the far pass): the far blit of far_blit.hpp as a compute
 // pass over a GpuFrame's planes (device/gpu_frame.hpp), after the near tier's passes, by the
 // same exact rule (Image::writeIfNearer: nearer, or as near with the lower entity id), so the
 // image equals the CPU blit into the near image bit for bit. Its snapshots stay on the device

@@ -1,5 +1,5 @@
 #pragma once
-// Device residency of the far tier's snapshots (DESIGN.md §6, the far pass on Vulkan): each
+// Device residency of the far tier's snapshots (CONTRACT.md §6, the far pass on Vulkan): each
 // snapshot a GPU far pass draws is uploaded once, when first drawn, into one device storage
 // buffer (two bytes a cell, two cells a word), at a word offset found first-fit among the free
 // ranges; the buffer doubles when nothing fits. A resident snapshot is held by its owner

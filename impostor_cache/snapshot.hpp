@@ -1,5 +1,5 @@
 #pragma once
-// One baked view of one model frame (DESIGN.md §4): the near tier's cell image for d = -w on the
+// One baked view of one model frame (CONTRACT.md §4): the near tier's cell image for d = -w on the
 // §3.5 lattice, stored as a relightable payload of two bytes per cell (palette index + code).
 // Colour and light are applied at blit time, so a light change never needs a re-bake.
 #include "core/scene.hpp"
@@ -35,7 +35,7 @@ struct SnapshotCell {
 };
 static_assert(sizeof(SnapshotCell) == 2);
 
-/// The snapshot lattice of view w (DESIGN.md §4): exactly makeSpriteLattice with dir = -w,
+/// The snapshot lattice of view w (CONTRACT.md §4): exactly makeSpriteLattice with dir = -w,
 /// up from the model's +Z, or +X when |w.Z| > 0.99 (a ±Z view has no usable +Z projection).
 /// Its cell range is grown by snapshotScale - 1 cells on every side: the outline ring of a
 /// snapshot of that scale (Snapshot::snapshotScale) is that much wider.
@@ -86,7 +86,7 @@ struct Snapshot {
 };
 
 /// Marks every empty cell with a solid cell s.snapshotScale cells away along a lattice axis as
-/// outline (DESIGN.md §4: a cardinal 2D dilation of the coverage mask, which equals the near
+/// outline (CONTRACT.md §4: a cardinal 2D dilation of the coverage mask, which equals the near
 /// kernel's neighbour-ray rule because the neighbour rays are the neighbour cells' own primary
 /// rays, k snapshot cells away on a snapshot k times finer).
 void applyCardinalOutline(Snapshot& s);

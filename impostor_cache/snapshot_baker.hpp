@@ -1,5 +1,5 @@
 #pragma once
-// Baking one snapshot (DESIGN.md §4): orthographic rays through every cell of the view's §3.5
+// Baking one snapshot (CONTRACT.md §4): orthographic rays through every cell of the view's §3.5
 // lattice, traced against a VoxelScene with Embree's packet or stream API, TBB-parallel over
 // rows. Each cell ends up exactly as the near kernel's vtShadeCell would shade it.
 #include "core/view_set.hpp"
@@ -29,11 +29,10 @@ struct BakeOptions {
     bool withDepth = false; ///< also store Snapshot::depth
     int snapshotScale = 1;  ///< Snapshot::snapshotScale (1..kMaxSnapshotScale)
     /// Voxels the kernel-order traversal reads on its own before a ray is handed to Embree
-    /// (0 = every ray that enters the box and starts in an empty voxel goes to Embree). On
-    /// compact models most rays hit within ~16 voxels and one Embree query costs more than
-    /// that many reads (32^3 ball: 1.7x faster bake at 16); on sparse ones the reads are
-    /// wasted before Embree runs anyway (126x126x64 house: 1.6x slower at 16). `voxtier bake
-    /// --bench` prints both; the default leaves the empty-space skipping to Embree.
+    /// (0 = every ray that enters the box and starts in an empty voxel goes to Embree). Reads
+    /// before Embree pay on compact models and are wasted on sparse ones; `voxtier bake --bench`
+    /// prints both, and the default leaves the empty-space skipping to Embree
+    /// (docs/decisions/embree-bake-geometry.md).
     int traverseFirst = 0;
     /// rebakeSnapshot: when the cells to re-trace cover more than this share of the snapshot,
     /// it bakes the snapshot whole instead (copying the rest would save little).

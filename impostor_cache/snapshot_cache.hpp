@@ -1,11 +1,11 @@
 #pragma once
-// The lazy snapshot cache of DESIGN.md §4. A snapshot is keyed by (model uid, frame, model
+// The lazy snapshot cache of CONTRACT.md §4. A snapshot is keyed by (model uid, frame, model
 // version, view direction (ViewId), sigma), baked the first time someone asks for it, shared by
 // every entity of the model, baked once however many threads ask at the same time, and evicted
 // least-recently-used over a byte budget. The Embree scene of a (model, frame, version) is kept
 // apart from the per-view snapshots. Both are a VersionedLru (impostor_cache/versioned_lru.hpp).
 //
-// Invalidation (DESIGN.md §4): an edit bumps the model version, so every key of the model goes
+// Invalidation (CONTRACT.md §4): an edit bumps the model version, so every key of the model goes
 // stale at once and nothing stale is ever returned. Nothing is re-baked at edit time: the first
 // request for a view at the new version finds that view's snapshot of the previous version, asks
 // the model what changed since (VoxelModel::dirtySince) and re-traces only the cells whose rays
@@ -44,8 +44,7 @@ struct SnapshotCacheConfig {
     std::size_t budgetBytes = std::size_t(256) << 20; ///< snapshot bytes kept (LRU beyond)
     /// Embree scenes kept (LRU beyond): a byte budget, because a frame needs the scene of
     /// every (model, animation frame) it bakes a view of, and a scene rebuilt per bake costs
-    /// several times the bake (the RTS pan's 82 tank and unit frames under a limit of 8 scenes:
-    /// 0.43 ms a bake instead of 0.11). The pan's 82 scenes take 5.9 MB.
+    /// several times the bake (docs/decisions/bake-cap-and-scene-budget.md).
     std::size_t sceneBudgetBytes = std::size_t(64) << 20;
     std::size_t maxScenes = std::numeric_limits<std::size_t>::max(); ///< and at most this many
     VoxelSceneOptions scene;

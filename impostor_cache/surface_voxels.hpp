@@ -1,5 +1,5 @@
 #pragma once
-// The voxels a primary ray can hit first (DESIGN.md §4, HARD_CASES 19): a solid voxel with at
+// The voxels a primary ray can hit first (CONTRACT.md §4, HARD_CASES 19): a solid voxel with at
 // least one empty or out-of-bounds 6-neighbour. A ray's traversal is 6-connected and starts on
 // the model box, so the first solid voxel it visits is either on the box boundary or entered
 // from an empty 6-neighbour: interior voxels are never the first hit, and the face it is

@@ -1,6 +1,6 @@
 #pragma once
 // A least-recently-used cache of immutable values that come in versions: the shape the snapshot
-// cache needs twice (snapshots per view, Embree scenes per model frame; DESIGN.md §4).
+// cache needs twice (snapshots per view, Embree scenes per model frame; CONTRACT.md §4).
 //
 // An entry is keyed by (stable key, version). A lookup of a missing entry produces its value
 // once however many threads ask meanwhile: the callers that arrive during production join it

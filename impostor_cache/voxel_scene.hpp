@@ -24,10 +24,8 @@ enum class BakeGeometry {
 };
 const char* toString(BakeGeometry g);
 BakeGeometry parseBakeGeometry(const std::string& name); ///< "boxes" | "quads", else InputError
-/// Measured with voxtier bake --bench: boxes are as fast as quads or faster on the models where
-/// Embree pays (tree.vox 256^3: 9.7x vs 4.6x the scalar DDA; 128^3 ball 1.85x vs 1.64x), quads
-/// win slightly on small models and flat-walled ones (house 126x126x64: 3.7x vs 3.5x). Boxes
-/// also build 4x faster and take 4.5x less memory on noisy models (tree: 47 MB vs 214 MB).
+/// Boxes by default: as fast as quads or faster where Embree pays, and faster to build and
+/// smaller on noisy models (`voxtier bake --bench`; docs/decisions/embree-bake-geometry.md).
 inline constexpr BakeGeometry kDefaultBakeGeometry = BakeGeometry::Boxes;
 
 /// How many times an Embree callback of this module ran in a thread without FTZ/DAZ set
@@ -35,15 +33,10 @@ inline constexpr BakeGeometry kDefaultBakeGeometry = BakeGeometry::Boxes;
 std::uint64_t embreeCallsWithoutFlushDenormals();
 
 /// Edge (voxels) of the bricks a scene is split into once its model is edited; see
-/// VoxelSceneOptions. Measured with `voxtier bench edits` (2 cores shared with other builds,
-/// Embree 3.13, medians of 5-7): after a single-voxel edit the scene update takes 0.12-0.16 ms
-/// with 16^3 bricks against 6-8 ms to rebuild the flat scene (64^3 ball), 0.33-0.39 ms against
-/// 29-36 ms (128^3 ball) and 2.0 ms against 310-390 ms (tree.vox, 256^3; ~0.9 ms of it is the
-/// copy of the 16 MiB grid); 32^3 bricks update 2-6x slower. The price is trace speed: a full bake
-/// through bricks ran at 0.91-0.99x the flat scene's speed (0.86-1.02x on a loaded machine).
-/// Built from scratch, bricks cost the same as the flat scene on a loaded machine and up to 2x
-/// less on an idle one (they build in parallel). Most models are never edited, so a scene built
-/// from scratch stays flat (flatUntilEdited) and the first edit pays one bricked build.
+/// VoxelSceneOptions. An edit rebuilds only the bricks it reaches, at a small price in trace
+/// speed (figures: docs/decisions/incremental-refresh.md). Most models are never edited, so a
+/// scene built from scratch stays flat (flatUntilEdited) and the first edit pays one bricked
+/// build.
 inline constexpr int kDefaultBrickSize = 16;
 inline constexpr bool kDefaultFlatUntilEdited = true;
 
@@ -57,7 +50,7 @@ struct VoxelSceneOptions {
     bool mergePrimitives = true;
     /// > 0: the grid is cut into bricks of this edge, each its own Embree scene, instanced
     /// (identity transform) into a top-level scene, so the scene of an edited model rebuilds only
-    /// the bricks the edit reaches (DESIGN.md §4 invalidation). 0: one flat scene, rebuilt whole
+    /// the bricks the edit reaches (CONTRACT.md §4 invalidation). 0: one flat scene, rebuilt whole
     /// after every edit. Same snapshots either way (the exact hit never comes from Embree).
     int brickSize = kDefaultBrickSize;
     /// With bricks: a scene built from scratch is still one flat BVH (it traces faster), and the

@@ -1,5 +1,5 @@
 #pragma once
-// The far tier under an error budget (DESIGN.md §5, selector metric "error_budget"): an entity
+// The far tier under an error budget (CONTRACT.md §5, selector metric "error_budget"): an entity
 // is drawn far only from a view whose predicted silhouette displacement (predictedDisplacementVpx)
 // is within the budget, and of the views that are, the coarsest ladder level's, so entities share
 // snapshots. The selector (lod/selector.hpp) decides the tier from budgetShare with its
@@ -64,7 +64,7 @@ class ErrorBudgetViews {
     /// empty): a view that can be had without a bake although not cached (a file in the on-disk
     /// store). It spares the bake bound but is never preferred: which files a shared directory
     /// holds depends on other processes and earlier runs, and the views a frame picks must not
-    /// (a render is the same whoever baked its snapshots, issue 28).
+    /// (a render is the same whoever baked its snapshots; CONTRACT.md §5).
     std::optional<ViewId> choose(std::size_t entity, const SpriteSetup& sprite,
                                  const SelectorConfig& config, const IsCached& isCached,
                                  const IsCached& withoutBake = {});
@@ -76,7 +76,7 @@ class ErrorBudgetViews {
     /// is instant (a cross-fade never shows a view past the budget, nor bakes one).
     bool viewFade(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                   const IsCached& isCached, float* share, ViewId* from);
-    /// Ends the frame's choices under the cost bound (DESIGN.md §5): while the frame's bakes and
+    /// Ends the frame's choices under the cost bound (CONTRACT.md §5): while the frame's bakes and
     /// planning cost more than the near time all its far sprites save, the bake that saves least
     /// (its users' farSavingMs, summed) is given up if it saves less than it costs, and its users
     /// are drawn near this frame. `drawnFrom[i]` is the view entity i is drawn far from (nullopt:

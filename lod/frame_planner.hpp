@@ -1,5 +1,5 @@
 #pragma once
-// The frame's LOD plan (DESIGN.md §5, step 2 of the recipe in §6): each entity's tier, its
+// The frame's LOD plan (CONTRACT.md §5, step 2 of the recipe in §6): each entity's tier, its
 // cross-fade and the snapshot view the far tier draws it from, with the cost model the error
 // budget's cost bound reads. lod/ plans, compose/ draws: FrameRenderer hands the planner the
 // frame's sprites and what the snapshot cache holds, draws the plan, and hands back what the
@@ -76,7 +76,7 @@ struct FrameCostSample {
 };
 
 /// Running averages of what a bake, a near sprite and a far blit cost, over the frames drawn
-/// so far (DESIGN.md §5, cost bound).
+/// so far (CONTRACT.md §5, cost bound).
 class CostModel {
   public:
     /// The costs measured so far (BakeCosts::known() once a bake and the near tier were).

@@ -1,5 +1,5 @@
 #pragma once
-// The tier selector of DESIGN.md §5: per-entity state with distance hysteresis, three
+// The tier selector of CONTRACT.md §5: per-entity state with distance hysteresis, three
 // metrics, optional angular hysteresis on the far tier's view choice, and an optional
 // time-based cross-fade. Pure logic over per-entity inputs; it knows nothing of Vulkan or
 // snapshots (the compositor passes in the numbers and the view directions it needs).
@@ -29,7 +29,7 @@ struct SelectorInput {
 };
 
 /// The value compared against near_at / far_at for `metric`.
-/// ErrorPx is the predicted view-quantisation error r_px * sin(theta) (DESIGN.md §5).
+/// ErrorPx is the predicted view-quantisation error r_px * sin(theta) (CONTRACT.md §5).
 double selectorMetric(SelectorMetric metric, const SelectorInput& in);
 
 struct SelectorStats {

@@ -1,8 +1,8 @@
-// DESIGN.md §1 as a test: a module includes only modules to its left, Embree appears only in
-// impostor_cache, Vulkan only in volumetric (and the apps that start it), OpenImageIO only in
-// image_files/oiio_files.cpp (no module of the renderer, core to compose, touches an image file
-// format), and lod/ plans while compose/ draws. Reads the sources, so a forbidden include fails
-// here before it becomes a habit.
+// ARCHITECTURE.md's module rules as a test: a module includes only modules to its left, Embree
+// appears only in impostor_cache, Vulkan headers only in device and volumetric,
+// OpenImageIO only in image_files/oiio_files.cpp (no module of the renderer, core to compose,
+// touches an image file format), and lod/ plans while compose/ draws. Reads the sources, so a
+// forbidden include fails here before it becomes a habit.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -135,7 +135,7 @@ std::string codeOf(const fs::path& file) {
     return std::regex_replace(text, comment, " ");
 }
 
-// DESIGN.md §1: lod/ plans, compose/ draws. The selection, the error budget, the planner and its
+// ARCHITECTURE.md: lod/ plans, compose/ draws. The selection, the error budget, the planner and its
 // cost model are defined in lod/ alone; compose/ asks FramePlanner for a plan and hands back
 // what drawing it cost, and neither defines nor calls a step of the policy itself.
 TEST(Architecture, LodPlansComposeDraws) {

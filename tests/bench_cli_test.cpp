@@ -50,7 +50,7 @@ std::string slurp(const fs::path& p) {
     return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
-/// A scene where the far tier must equal the near tier exactly (DESIGN.md §4): parallel view
+/// A scene where the far tier must equal the near tier exactly (CONTRACT.md §4): parallel view
 /// rays straight down, entities turned by multiples of 90 degrees, so every sprite's view is the
 /// canonical +Z snapshot with a quarter-turn roll.
 void writeExactScene(const fs::path& file) {

@@ -1,4 +1,4 @@
-// The far tier under an error budget (DESIGN.md §5): the displacement bound against the measured
+// The far tier under an error budget (CONTRACT.md §5): the displacement bound against the measured
 // displacement of real far entities (tanks, .vox models), and the error_budget selector: the
 // budget holds along the bench paths, a wobble below the hysteresis switches nothing, and only
 // the views drawn are baked.
@@ -42,7 +42,7 @@ struct Checked {
     int entities = 0, overPrediction = 0, vanished = 0;
     double worstExcess = -1e9, worstMeasured = 0.0;
 };
-/// What point sampling adds to the continuous displacement (DESIGN.md §5), in budget units:
+/// What point sampling adds to the continuous displacement (CONTRACT.md §5), in budget units:
 /// the far tier reads the snapshot cell that holds each projected near-cell centre, so a
 /// silhouette cell can flip to its diagonal neighbour (one cell diagonal), and footprints are
 /// sets of whole screen pixels (one pixel diagonal).
@@ -52,7 +52,7 @@ double quantisationAllowance(const SpriteSetup& sp) {
 }
 
 /// An entity drawn by one tier only: with cells below a pixel, a model one or two pixels across
-/// can fall between the pixel centres in one tier (point sampling; DESIGN.md §8). The test
+/// can fall between the pixel centres in one tier (point sampling; CONTRACT.md §8). The test
 /// allows that for footprints of at most kVanishingPixels and counts it.
 constexpr std::size_t kVanishingPixels = 2;
 
@@ -321,7 +321,7 @@ TEST(ErrorBudget, SnapshotsOnDiskCountAsCachedNotAsBakes) {
     std::filesystem::remove_all(dir);
 }
 
-// The cost bound (DESIGN.md §5): a bake is given up when the frame's bakes cost more than the
+// The cost bound (CONTRACT.md §5): a bake is given up when the frame's bakes cost more than the
 // near time its far sprites save and that bake's own users save less than it costs.
 TEST(ErrorBudget, ABakeIsGivenUpWhenItsUsersSaveLessThanItCosts) {
     const SelectorConfig c = budgetSelector(1.0);

@@ -1,4 +1,4 @@
-// The error metrics of DESIGN.md §8 on images whose answer is known by construction.
+// The error metrics of CONTRACT.md §8 on images whose answer is known by construction.
 #include "compose/error_metrics.hpp"
 
 #include <gtest/gtest.h>

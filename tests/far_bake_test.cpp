@@ -1,4 +1,4 @@
-// The far tier's baker (DESIGN.md §4, HARD_CASES 16-21): every snapshot cell equals the near
+// The far tier's baker (CONTRACT.md §4, HARD_CASES 16-21): every snapshot cell equals the near
 // kernel's vtShadeCell for the same lattice cell, whatever Embree geometry, trace API, thread
 // count or primitive set produced it; solid boxes match an independent closed form.
 #include "core/procedural.hpp"
@@ -215,7 +215,7 @@ TEST(EmbreeBake, EqualParameterTiesAreDeterministicAndFollowTheKernel) {
     }
 }
 
-// DESIGN.md §7 / HARD_CASES 16, 20: views of solid boxes and slabs match the closed form: no
+// CONTRACT.md §7 / HARD_CASES 16, 20: views of solid boxes and slabs match the closed form: no
 // holes, no extra cells, the right entered faces. At sigma 1.5 only the face views are
 // compared: there some face-view rays run exactly on voxel faces (the half-open rule decides,
 // in float and in double alike), while edge and corner views get rays exactly through box

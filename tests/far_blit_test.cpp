@@ -1,4 +1,4 @@
-// The far blit (DESIGN.md §4): upright, unmirrored snapshots read through the near tier's
+// The far blit (CONTRACT.md §4): upright, unmirrored snapshots read through the near tier's
 // virtual-pixel grid; nothing drawn for culled, empty, sub-pixel or behind-camera entities;
 // lighting applied at blit time; the frame's Far mode.
 #include "compose/frame.hpp"
@@ -175,10 +175,10 @@ TEST(FarBlit, ImageIndependentOfThreadCount) {
 }
 
 // `voxtier render --mode far`: every entity through the renderer's cache, which persists.
-/// The blit rule of DESIGN.md §4 written out per pixel over each sprite's whole rectangle, with no
-/// shortcut: the near cell of the pixel, its centre, the snapshot cell under it, lit at blit time.
-/// (snapshotCellMap is that read point in closed form; the cell-centre form is checked against it
-/// below.)
+/// The blit rule of CONTRACT.md §4 written out per pixel over each sprite's whole rectangle, with
+/// no shortcut: the near cell of the pixel, its centre, the snapshot cell under it, lit at blit
+/// time. (snapshotCellMap is that read point in closed form; the cell-centre form is checked
+/// against it below.)
 Image perPixelBlit(std::span<const FarSprite> sprites, Image target) {
     for (const FarSprite& f : sprites) {
         const SpriteSetup& sp = *f.sprite;
@@ -256,7 +256,7 @@ TEST(FarBlit, ShortcutsDrawExactlyThePerPixelRule) {
         const Image slow = perPixelBlit(far, Image(cam.width, cam.height, s.render.background));
         EXPECT_EQ(test::firstDifference(slow, fast), "");
         EXPECT_GT(st.pixelsWritten, 1000u);
-        // The closed form reads the cell under the near cell's centre, as DESIGN.md §4 words it,
+        // The closed form reads the cell under the near cell's centre, as CONTRACT.md §4 words it,
         // except where that centre lies within rounding of a snapshot cell boundary.
         int boundary = 0, cells = 0;
         for (const FarSprite& f : far) {

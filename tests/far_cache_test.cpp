@@ -1,4 +1,4 @@
-// The snapshot cache (DESIGN.md §4): lazy, shared by every entity of a model, one bake under
+// The snapshot cache (CONTRACT.md §4): lazy, shared by every entity of a model, one bake under
 // concurrent requests, LRU eviction within a byte budget, a model edit (version bump) misses.
 #include "core/procedural.hpp"
 #include "far_test_support.hpp"

@@ -1,4 +1,4 @@
-// Cache invalidation checks after voxel edits (issue 6, DESIGN.md §4 Invalidation). Every
+// Cache invalidation checks after voxel edits (CONTRACT.md §4, Invalidation). Every
 // expectation here is computed apart from the code under test: a freshly constructed cache, a
 // fresh full bake, the scalar bake (the near kernel's vtTrace, no Embree) or the CPU near
 // reference render.

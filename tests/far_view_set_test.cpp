@@ -1,5 +1,5 @@
-// The far tier's view sets (DESIGN.md §4): sizes, the documented order, unit directions on the
-// cube lattice, the nearest-view choice and the angular gaps DESIGN.md quotes.
+// The far tier's view sets (CONTRACT.md §4): sizes, the documented order, unit directions on the
+// cube lattice, the nearest-view choice and the angular gaps CONTRACT.md §4 quotes.
 #include "core/view_set.hpp"
 
 #include <gtest/gtest.h>
@@ -62,7 +62,7 @@ TEST(ViewSets, NearestViewOfAViewIsItselfAndOfANeighbourhoodToo) {
     }
 }
 
-// DESIGN.md §4: worst gap to the nearest of the 26 is about 27.5 degrees, mean about 15.5; the
+// CONTRACT.md §4: worst gap to the nearest of the 26 is about 27.5 degrees, mean about 15.5; the
 // denser sets shrink it.
 TEST(ViewSets, AngularGapToTheNearestViewMatchesTheDesignFigures) {
     auto gaps = [](ViewSet set) {

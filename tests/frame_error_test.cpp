@@ -55,7 +55,7 @@ TEST(FrameError, CellSizeIsOneVoxelOnScreenOverSigma) {
 
 TEST(FrameError, AllFarFrameOfCanonicalViewsHasNoError) {
     // Parallel rays straight down on entities turned by quarter turns: every sprite's view is
-    // the +Z snapshot, where the far tier equals the near tier exactly (DESIGN.md §4).
+    // the +Z snapshot, where the far tier equals the near tier exactly (CONTRACT.md §4).
     Scene s;
     s.render.viewMode = ViewMode::Parallel;
     s.models = {makeTank(4, 1), makeArrow(16)};

@@ -1,5 +1,5 @@
 // The hybrid frame (issue 5): tiers handed over without double draws, hysteresis on real camera
-// paths, far sprites within the error DESIGN.md §5 predicts, and popping with / without the
+// paths, far sprites within the error CONTRACT.md §5 predicts, and popping with / without the
 // cross-fade. The near tier is drawn by the CPU reference here (identical to Vulkan by the
 // near tier's own suite) so that paths of dozens of frames stay fast.
 #include "compose/error_metrics.hpp"
@@ -149,7 +149,7 @@ int countSwitches(Scene& s) {
     return switches;
 }
 
-// DESIGN.md §5 on a real camera path: oscillating around far_at with an amplitude below
+// CONTRACT.md §5 on a real camera path: oscillating around far_at with an amplitude below
 // (far_at - near_at)/2 switches once; a path crossing the band back and forth switches once per
 // crossing.
 TEST(HybridFrame, CameraPathHysteresis) {
@@ -171,7 +171,7 @@ TEST(HybridFrame, CameraPathHysteresis) {
     }
 }
 
-/// The far tier's error at a switch, predicted by DESIGN.md §5: viewing from the snapshot's
+/// The far tier's error at a switch, predicted by CONTRACT.md §5: viewing from the snapshot's
 /// direction w* instead of the entity's own direction d moves a model point at radius r by at
 /// most 2 r sin(theta/2) = r sin(theta) / cos(theta/2) on the sprite plane (theta = angle(d, w*)).
 /// Both tiers quantise to the same lattice, which may add one cell diagonal on each side, and

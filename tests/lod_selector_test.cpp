@@ -1,4 +1,4 @@
-// The tier selector's hysteresis contract (DESIGN.md §5), on synthetic metric sequences.
+// The tier selector's hysteresis contract (CONTRACT.md §5), on synthetic metric sequences.
 #include "lod/selector.hpp"
 
 #include <gtest/gtest.h>

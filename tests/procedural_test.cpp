@@ -207,8 +207,8 @@ TEST(Procedural, OutOfRangeParametersAreInputErrors) {
     EXPECT_THROW(makeBox({4, 257, 4}), InputError);
 }
 
-// The tank (seed 002 §7). Its layout is drawn from a seed, so these tests pin the properties the
-// bench relies on, each computed here from the voxels alone.
+// The tank (the bench's tank army). Its layout is drawn from a seed, so these tests pin the
+// properties the bench relies on, each computed here from the voxels alone.
 
 /// Voxel p of `g` mapped by flipping the axes whose bit is set in `flips`.
 bool equalUnderFlips(const VoxelGrid& g, int flips) {

@@ -1,4 +1,4 @@
-// Cell-rate sprites in the CPU reference (core/near_rate.hpp, DESIGN.md §3.11): tracing
+// Cell-rate sprites in the CPU reference (core/near_rate.hpp, CONTRACT.md §3.11): tracing
 // each lattice cell once and shading pixels by lookup gives the per-pixel image exactly (colour,
 // depth bits, entity id) on the golden scenes, every bundled .vox model from 46 directions at
 // sigma 0.5 to 3, rolled and straight-down cameras, cross-fades, sprites partly off-screen or
@@ -140,7 +140,7 @@ TEST(ReferenceCellRate, EveryVoxModelEveryDirectionEverySigma) {
     EXPECT_GT(cellFrames, frames / 2) << "most frames compare forced cell-rate too";
 }
 
-// The rule cell-rate rests on, cell by cell (DESIGN.md §3.11): the outline folded in from the
+// The rule cell-rate rests on, cell by cell (CONTRACT.md §3.11): the outline folded in from the
 // neighbours' stored primaries (vtOutcomeFromPrimaries, EMPTY outside cellRange) is vtShadeCell's
 // outcome for every cell of the range, because cells just outside the range never hit (checked
 // here on a two-cell ring around it). Every bundled model, 46 directions, sigma 0.5 to 3, where

@@ -1,6 +1,6 @@
 // Golden tests of the CPU reference tracer with closed-form answers: the expected image of a
 // solid box seen along each of the 26 canonical directions is computed here, in double
-// precision, from the definitions of DESIGN.md §3 (lattice anchored at floor(c), parallel rays,
+// precision, from the definitions of CONTRACT.md §3 (lattice anchored at floor(c), parallel rays,
 // cardinal outline, billboard depth, face lighting) — never recorded from the renderer.
 #include "test_support.hpp"
 #include "volumetric/reference_renderer.hpp"

@@ -1,4 +1,4 @@
-// The numerically hard cases of DESIGN.md §7 / HARD_CASES.md that the CPU reference must meet:
+// The numerically hard cases of CONTRACT.md §7 / HARD_CASES.md that the CPU reference must meet:
 // 10^5-10^6 m from the origin, camera straight down, behind / inside / touching, sub-pixel,
 // equal depths, non-integer sigma, thread-count independence.
 #include "test_support.hpp"

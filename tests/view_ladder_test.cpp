@@ -1,4 +1,4 @@
-// The refinement ladder of view sets (DESIGN.md §4): nesting, sizes, and the O(1) nearest-view
+// The refinement ladder of view sets (CONTRACT.md §4): nesting, sizes, and the O(1) nearest-view
 // lookup against a brute-force scan of the whole level, on random directions and on the hard
 // cases: the lattice points themselves, the midpoints of lattice edges and the centres of lattice
 // squares (where two or four views tie).
@@ -113,7 +113,7 @@ TEST(ViewLadder, NearestViewEqualsBruteForceAtLatticePointsEdgeMidpointsAndSquar
 TEST(ViewLadder, LookupAgreesWithTheClassicSetsAndGapsShrinkWithTheLevel) {
     // n = 1 and 2 are the 26 and 98 sets: the same direction wins (index order and lexicographic
     // order differ only on exact ties, which a Fibonacci sphere does not hit).
-    // The largest gaps (degrees) DESIGN.md §5 quotes, measured by a finer search: 20,000 sphere
+    // The largest gaps (degrees) CONTRACT.md §5 quotes, measured by a finer search: 20,000 sphere
     // points come within 0.3 degree of them and never exceed them.
     const std::map<int, double> quotedWorst{
         {1, 27.55}, {2, 17.64}, {4, 9.72}, {8, 5.00}, {16, 2.51}};

@@ -1,4 +1,4 @@
-// The far tier on Vulkan (DESIGN.md §6, the far pass): far sprites drawn by a compute pass in the
+// The far tier on Vulkan (CONTRACT.md §6, the far pass): far sprites drawn by a compute pass in the
 // near tier's frame, into the same targets, equal the CPU far blit into the near image pixel for
 // pixel (colour, depth bits, id), and the validation layer (synchronization validation included)
 // stays silent. Over the golden scenes (all far and hybrid, through the frame recipe), every

@@ -1,4 +1,4 @@
-// The numerically hard cases of DESIGN.md §7 / HARD_CASES.md on the Vulkan near tier: each image
+// The numerically hard cases of CONTRACT.md §7 / HARD_CASES.md on the Vulkan near tier: each image
 // must equal the CPU reference exactly, and where a closed form exists (solid boxes along the 26
 // canonical directions), equal that too, independently of the kernel code.
 #include "core/procedural.hpp"

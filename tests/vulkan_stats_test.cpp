@@ -113,7 +113,7 @@ BoxLoss classifyBoxDifferences(const Image& box, const Image& reference) {
     return l;
 }
 
-// DESIGN.md §3.10: the rasterised box covers what its own perspective projection covers, while
+// CONTRACT.md §3.10: the rasterised box covers what its own perspective projection covers, while
 // the sprite's rays are parallel; close to the camera the two differ and outline pixels at the
 // silhouette are lost. Far away (or with the quad) nothing is lost.
 TEST_F(NearMeasurements, BoxProxyOnlyLosesPixelsAndOnlyAtCloseRange) {

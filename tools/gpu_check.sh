@@ -13,7 +13,7 @@
 # Runs from the portable folder (tools/portable.sh: ./gpu_check.sh there), from a source tree
 # with a build (tools/gpu_check.sh uses build/voxtier), or with VOXTIER=/path/to/voxtier.
 # Under 6 minutes on a GPU; on lavapipe (2 CPU cores) the full run takes much longer
-# (DESIGN.md §8). Exit status 1 when an identity check fails or a command fails.
+# (CONTRACT.md §8). Exit status 1 when an identity check fails or a command fails.
 #
 # Usage: gpu_check.sh [--short] [--profile] [OUTDIR]      (OUTDIR default: gpu-check)
 #   --short   one golden scene and one small bench (what CI runs, tests/CMakeLists.txt)

@@ -1,5 +1,5 @@
 #pragma once
-// The near tier's passes on Vulkan (DESIGN.md §3, §6), recorded into a GpuFrame
+// The near tier's passes on Vulkan (CONTRACT.md §3, §6), recorded into a GpuFrame
 // (device/gpu_frame.hpp) in this order:
 //   near_upload   the frame's sprite data into device-local buffers (and new voxels into the
 //                 atlas, volumetric/voxel_residency.hpp);
@@ -56,7 +56,7 @@ struct NearOptions {
     bool readDepthAndIds = true;
     /// The colour the targets are cleared to (the background), or, when set, this one instead.
     std::optional<Rgba8> clearColor;
-    /// The early depth test (DESIGN.md §6 Occlusion), like ReferenceOptions::earlyDepthTest:
+    /// The early depth test (CONTRACT.md §6 Occlusion), like ReferenceOptions::earlyDepthTest:
     /// the sprites are drawn front to back (nearer depth first, equal depths by ascending id, so
     /// the depth test keeps what it kept in id order), and each per-pixel hull sprite wholly in
     /// front of the near plane is rasterised flat at its own depth. The rasteriser's depth is

@@ -24,7 +24,8 @@ int proxyHullClipCorners(const CameraFrame& cam, const SpriteSetup& s,
     // cardinal neighbour's centre, sends a parallel ray into the model box [0, N]^3, i.e. within
     // 1.5 cells (per axis) of the box's parallel projection H. Two pixels more (measured at the
     // centre's depth, an over-estimate of a pixel on the plane near the sprite) keep the
-    // rasteriser's rounding away from every pixel that matters, as with the quad (DESIGN §3.10).
+    // rasteriser's rounding away from every pixel that matters, as with the quad (CONTRACT.md
+    // §3.10).
     const double m = 1.5 / L.sigma + 2.0 * cam.pixelScale() * s.viewDepth / k;
     std::array<glm::dvec2, 32> pts;
     for (int c = 0; c < 8; ++c) {

@@ -1,5 +1,5 @@
 #pragma once
-// What the rasteriser covers per near sprite (DESIGN.md §3.10): the corners of its proxy in clip
+// What the rasteriser covers per near sprite (CONTRACT.md §3.10): the corners of its proxy in clip
 // space, computed on the host in double, camera-relative. Quad and Hull cover every pixel whose
 // kernel outcome can be non-empty, with margin, so the image is exact with either; they differ
 // only in how many fragments run the kernel to find out it is empty.

@@ -1,5 +1,5 @@
 #pragma once
-// The CPU reference tracer: the executable form of DESIGN.md §3. It runs the shared sprite
+// The CPU reference tracer: the executable form of CONTRACT.md §3. It runs the shared sprite
 // kernel (core/sprite_kernel.h) for every pixel of every sprite's screen rectangle, TBB-
 // parallel over bands of rows, and writes with the shared depth/id rule. The Vulkan renderer must
 // produce exactly this image.
@@ -34,7 +34,7 @@ struct ReferenceOptions {
     std::uint64_t cellBudgetBytes = kDefaultCellBudgetBytes;
     /// Exact occlusion culling (core/occlusion.hpp): front to back, skipping the tiles and whole
     /// sprites the depth already drawn hides, before any of their cells is traced. Same image;
-    /// off by default (DESIGN.md §6, Occlusion: with the early depth test on, it costs more than
+    /// off by default (CONTRACT.md §6, Occlusion: with the early depth test on, it costs more than
     /// it saves on every bench scene).
     bool occlusionCull = false;
     /// Skip the kernel where the pixel already holds what the depth/id rule keeps against the

@@ -2,7 +2,7 @@
 // GPU residency of voxel data for the near tier: one R8_UINT 3D atlas holding every (model,
 // frame) that a sprite has needed so far, once, shared by all entities (lavapipe has no
 // descriptor indexing, and one atlas keeps the whole near tier a single instanced draw,
-// DESIGN.md §6), plus one storage buffer with 256 packed colours per resident model.
+// CONTRACT.md §6), plus one storage buffer with 256 packed colours per resident model.
 // Edits re-upload only the dirty box of a frame (VoxelModel::dirtySince).
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"

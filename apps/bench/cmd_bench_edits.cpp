@@ -1,4 +1,4 @@
-// `voxtier bench edits`: what a voxel edit costs the far tier (DESIGN.md §4 invalidation), side
+// `voxtier bench edits`: what a voxel edit costs the far tier (CONTRACT.md §4 invalidation), side
 // by side in one run, medians over repeats.
 //  1. Scenes: the Embree scene as one flat BVH against bricks instanced into a top-level scene,
 //     for each brick size: full build, the update after a single-voxel edit (flat: a rebuild),

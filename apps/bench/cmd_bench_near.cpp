@@ -1,5 +1,5 @@
 // `voxtier bench near`: the Vulkan near tier against the CPU reference on the same frames, side
-// by side in one run (DESIGN.md §8: speed next to the error it costs). For each entity count it
+// by side in one run (CONTRACT.md §8: speed next to the error it costs). For each entity count it
 // builds a crowd of near entities (characters, props, a few vehicles), warms up, and reports
 // medians over the repeats of: Vulkan draw (record + submit + wait) and readback ms, the CPU
 // reference ms (TBB), their ratio, fragments shaded, DDA steps per fragment, and how many pixels

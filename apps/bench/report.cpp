@@ -730,7 +730,7 @@ constexpr BudgetTarget kBudgetTarget;
 /// The displacement measured on the sampled frames beside the prediction, and why it can be
 /// larger: the budget bounds the continuous footprints, and both tiers point-sample whole cells,
 /// so a silhouette moved by less than a cell still flips cells, a diagonal flip measuring √2
-/// (DESIGN.md §5; tests/error_budget_test.cpp checks measured ≤ predicted + that allowance).
+/// (CONTRACT.md §5; tests/error_budget_test.cpp checks measured ≤ predicted + that allowance).
 std::string measuredDisplacement(const Measurement& m) {
     if (!m.hasError || m.farAloneEntities <= 0) return "";
     std::string s =
@@ -746,7 +746,7 @@ std::string measuredDisplacement(const Measurement& m) {
 /// share times the mean squared error of a differing pixel, so at the same error per differing
 /// pixel the target allows only share / 10^((target - PSNR) / 10) of the pixels to differ. Far
 /// sprites differ from near ones wherever their outline cells move, which any view but an exact
-/// one does (DESIGN.md §5), so the allowance per far sprite says whether the target is in reach.
+/// one does (CONTRACT.md §5), so the allowance per far sprite says whether the target is in reach.
 std::string psnrBound(const Measurement& m) {
     const double psnr = m.motionPsnrMin;
     if (!std::isfinite(psnr) || psnr >= kBudgetTarget.minPsnrDb || m.motionPsnrMinPixels <= 0)

@@ -1,5 +1,5 @@
 #pragma once
-// `voxtier bench`: speed against error (DESIGN.md §8). Every measurement is a *configuration*
+// `voxtier bench`: speed against error (CONTRACT.md §8). Every measurement is a *configuration*
 // (a scene copy, a render mode, selector settings) drawn by its own FrameRenderer; the
 // configurations of one *set* run interleaved frame by frame in one process (one shared Vulkan
 // device), so the ratios between them see the same machine load:
@@ -169,7 +169,7 @@ struct Measurement {
     double voxelStepsPerS = 0;   ///< near voxel reads over the near time (draw time on Vulkan)
     double blitPixelsPerS = 0;   ///< footprint pixels the blit evaluated over the blit time
     double memcpyPixelsPerS = 0; ///< memcpy of the same bytes
-    // In motion (issue 13): consecutive path frames from an empty cache, each timed once.
+    // In motion: consecutive path frames from an empty cache, each timed once.
     double motionMs = 0; ///< median frame ms after the cold start
     /// The same frames' mean, 90th percentile and worst: bakes come in bursts (an animation
     /// step asks for new snapshots at once), so the median alone can hide or exaggerate them.
@@ -177,7 +177,7 @@ struct Measurement {
     double motionColdMs = 0;                        ///< mean frame ms of the cold-start frames
     double motionBaselineMs = 0, motionSpeedup = 0; ///< all-near (Vulkan) in motion, its ratio
     /// The CPU reference all-near (near_reference) in motion, same frames, same run, and the
-    /// ratio: the fastest exact path a machine without a GPU has (issue 24).
+    /// ratio: the fastest exact path a machine without a GPU has.
     double motionReferenceMs = 0, motionSpeedupVsReference = 0;
     /// The faster of those two exact paths in motion, and the ratio (the speed–error frontier's
     /// x axis).
@@ -219,7 +219,7 @@ struct Measurement {
     std::size_t missing = 0;    ///< entities drawn in only one image, summed over frames
 };
 
-/// The sweep family of the error budget (issue 13); the report's budget section reads it.
+/// The sweep family of the error budget; the report's budget section reads it.
 inline constexpr const char* kBudgetFamily = "budget (error_budget)";
 
 struct SuiteResults {

@@ -1,5 +1,5 @@
 #version 450
-// The far pass (DESIGN.md §6, the far tier on Vulkan): the far blit of
+// The far pass (CONTRACT.md §6, the far tier on Vulkan): the far blit of
 // impostor_cache/far_blit.cpp on the GPU, pixel for pixel. It runs after the near tier's
 // targets are copied into the frame's planes (and after the cell-rate resolve), so it composes
 // by the same rule as the CPU blit writing into the near image: Image::writeIfNearer (nearer, or

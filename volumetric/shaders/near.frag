@@ -2,7 +2,7 @@
 // Near tier fragment shader: one pixel of one voxel sprite, evaluated by the shared kernel
 // (core/sprite_kernel.h, the very code the CPU reference runs), so the Vulkan image equals the
 // reference image bit for bit. Outputs: packed RGBA8 colour and entity id as R32_UINT (exact
-// integers, no unorm conversion) and the sprite's billboard depth (reversed-Z, DESIGN.md §3.8).
+// integers, no unorm conversion) and the sprite's billboard depth (reversed-Z, CONTRACT.md §3.8).
 // Compiled four times: as is, with -DVT_COUNT_STEPS, which also counts voxel reads, and each
 // with -DVT_FLAT_DEPTH for sprites whose proxy the host flattened to the sprite's own depth
 // (NearOptions::earlyDepthTest): the rasterised depth then is the billboard depth bit for bit, so

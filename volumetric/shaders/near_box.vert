@@ -1,5 +1,5 @@
 #version 450
-// Near tier, box proxy (measured alternative, DESIGN.md §3.10): instance i draws the 12
+// Near tier, box proxy (measured alternative, CONTRACT.md §3.10): instance i draws the 12
 // triangles of sprite i's proxy box. Only front faces survive culling, so each covered pixel
 // runs the kernel once. The box's perspective projection can miss outline pixels that the
 // sprite's parallel rays reach (eye rays diverge at close range), hence not the default.

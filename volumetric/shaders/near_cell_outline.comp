@@ -1,5 +1,5 @@
 #version 450
-// The outline pass of cell-rate sprites (DESIGN.md §3.11), between near_cells.comp and
+// The outline pass of cell-rate sprites (CONTRACT.md §3.11), between near_cells.comp and
 // near_splat.comp: every cell's full outcome (vtShadeCell's, packed) from its own primary outcome
 // and its four cardinal neighbours' (core/sprite_kernel.h vtOutcomeFromPrimaries). The store
 // holds the primaries at [cell base + slot] and the outcomes vtPush.cells further on. One

@@ -1,5 +1,5 @@
 #version 450
-// The compute pass of cell-rate sprites (volumetric/near_rate.hpp, DESIGN.md §3.11): every
+// The compute pass of cell-rate sprites (core/near_rate.hpp, CONTRACT.md §3.11): every
 // lattice cell of every cell-rate sprite of the frame traced once by the shared kernel
 // (core/sprite_kernel.h vtTraceCellPrimary: the primary ray only; near_cell_outline.comp adds
 // the outline from the neighbours' primaries, which are exactly vtShadeCell's neighbour rays). One invocation per cell; a workgroup is one tile of NEAR_CELL_TILE consecutive cells of

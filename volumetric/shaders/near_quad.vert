@@ -1,5 +1,5 @@
 #version 450
-// Near tier, quad proxy (DESIGN.md §3.10; NearProxy::Quad, the hull is the default): instance i draws the camera-facing quad of sprite i,
+// Near tier, quad proxy (CONTRACT.md §3.10; NearProxy::Quad, the hull is the default): instance i draws the camera-facing quad of sprite i,
 // whose clip-space corners core/sprite.cpp computed in double. The fragment shader decides
 // every pixel; the quad only has to cover them.
 #extension GL_GOOGLE_include_directive : require

@@ -1,5 +1,5 @@
 #version 450
-// The resolve pass of cell-rate sprites (DESIGN.md §3.11), after the draw's targets are copied
+// The resolve pass of cell-rate sprites (CONTRACT.md §3.11), after the draw's targets are copied
 // into the frame's planes (device/gpu_frame.hpp): every pixel whose word (near_splat.comp) names a
 // cell-rate sprite gets that sprite's colour, entity id and depth where it beats what the draw
 // left, by Image::writeIfNearer's rule (nearer, or as near with the lower entity id). It reads

@@ -36,7 +36,7 @@ VT_NEAR_CONST uint NEAR_BINDING_CELL_TILES = 8u;
 VT_NEAR_CONST uint NEAR_NO_CELLS = 0xFFFFFFFFu;
 // Cells per compute workgroup (one invocation per cell; a tile never spans two sprites).
 VT_NEAR_CONST uint NEAR_CELL_TILE = 64u;
-// Cell-rate sprites are shaded without the rasteriser (DESIGN.md §3.11): near_splat.comp takes
+// Cell-rate sprites are shaded without the rasteriser (CONTRACT.md §3.11): near_splat.comp takes
 // 32x32 pixel blocks of their screen rectangles (NearSplatBlock) and leaves in every pixel one
 // word, the least over the cell-rate sprites that cover it of (depth rank, the pixel's cell
 // outcome): nearPixelWord. The rank is in the high bits, so the least word is the nearest
@@ -75,7 +75,7 @@ struct NearCounters {
     uint fragmentsHi;
 };
 
-// The rasterised proxy box of DESIGN.md §3.10 (measured alternative to the quad): the clip-space
+// The rasterised proxy box of CONTRACT.md §3.10 (measured alternative to the quad): the clip-space
 // corners of the model bounds grown by one virtual pixel, corner k = (k & 1, k >> 1 & 1, k >> 2)
 // of [-1/sigma, dims + 1/sigma] in voxel space, computed on the CPU in double.
 struct NearBox {

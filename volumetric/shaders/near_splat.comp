@@ -1,5 +1,5 @@
 #version 450
-// The splat pass of cell-rate sprites (DESIGN.md §3.11). It walks every pixel of every cell-rate
+// The splat pass of cell-rate sprites (CONTRACT.md §3.11). It walks every pixel of every cell-rate
 // sprite's screen rectangle, maps it to its lattice cell (the kernel's vtPixelCell, dither
 // included) and looks the cell's outcome up; pixels whose cell is empty are skipped. Every other
 // pixel gets atomicMin of its pixel word (near_shared.h): the sprite's depth rank above the
