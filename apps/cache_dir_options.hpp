@@ -23,7 +23,9 @@ struct CacheDirArgs {
 void addCacheDirOptions(CLI::App& cmd, CacheDirArgs& args, const std::string& what);
 /// "24.64 MiB": bytes in binary megabytes, the one unit every size the CLI prints is in.
 std::string mebibytes(double bytes);
-/// "cache dir DIR: 98 snapshots read (0.12 MiB, 1.5 ms), 0 written (0.00 MiB, 0.0 ms), ...".
+/// "cache dir DIR: 98 snapshots read (0.09 MiB, 12.3 ms), 0 written (0.00 MiB, 0.0 ms), 0 missing,
+/// 0 rejected, 0 evicted (0.00 MiB)", then the dead writers' temporaries removed, if any, and,
+/// with a size limit, what it counted at its last scan and how much of that was temporaries.
 std::string cacheDirSummary(const SnapshotStoreOptions& options,
                             const SnapshotStoreCounters& counters);
 /// "warning: cache dir DIR: 126 snapshots could not be written (No space left on device)"

@@ -444,8 +444,13 @@ void runPrebake(const BakeArgs& a) {
 
     SnapshotCacheConfig config;
     config.budgetBytes = 0; // every snapshot goes to disk; nothing needs to stay in memory
-    config.store = std::make_shared<SnapshotStore>(
-        SnapshotStoreOptions{.dir = a.cacheDir.dir, .limitBytes = a.cacheDir.limitBytes()});
+    // Each pack written once, after its model frame (the bytes written are the packs'); a lock
+    // another bake holds is waited for longer than a render would, since failing is the cost.
+    config.store =
+        std::make_shared<SnapshotStore>(SnapshotStoreOptions{.dir = a.cacheDir.dir,
+                                                             .limitBytes = a.cacheDir.limitBytes(),
+                                                             .writeOnlyOnFlush = true,
+                                                             .lockWait = std::chrono::seconds(60)});
     // One cache per outline stride the sources ask for, one store.
     std::map<int, std::unique_ptr<SnapshotCache>> caches;
     const auto cacheFor = [&](const BakeSource& src) -> SnapshotCache& {
