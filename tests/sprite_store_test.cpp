@@ -6,6 +6,8 @@
 #include "core/sprite_store.hpp"
 #include "source_tree.hpp"
 
+#include <gtest/gtest.h>
+
 #include <cstring>
 
 namespace voxtier {
