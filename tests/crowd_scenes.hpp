@@ -3,7 +3,7 @@
 // tests/vulkan_cull_test.cpp for the Vulkan near tier) both draw with and without culling.
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
-#include "test_support.hpp"
+#include "source_tree.hpp"
 
 #include <nlohmann/json.hpp>
 

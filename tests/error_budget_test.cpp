@@ -7,9 +7,9 @@
 #include "core/scene_loader.hpp"
 #include "core/sprite_kernel.h"
 #include "frame_test_support.hpp"
+#include "image_checks.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 #include "lod/error_budget.hpp"
-#include "test_support.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,7 @@
 // The far tier's baker (CONTRACT.md §4, HARD_CASES 16-21): every snapshot cell equals the near
 // kernel's vtShadeCell for the same lattice cell, whatever Embree geometry, trace API, thread
 // count or primitive set produced it; solid boxes match an independent closed form.
+#include "closed_form.hpp"
 #include "core/procedural.hpp"
 #include "far_test_support.hpp"
 #include "impostor_cache/detail/embree_device.hpp"

@@ -5,6 +5,9 @@
 // off-screen, snapshots from other views than the nearest, sigma 0.5-3, 10^6 m from the origin,
 // and a target already holding pixels at exactly the sprites' depths (the id rule).
 #include "far_test_support.hpp"
+#include "image_checks.hpp"
+#include "source_tree.hpp"
+#include "view_sweeps.hpp"
 
 #include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>

@@ -4,6 +4,8 @@
 #include "compose/frame.hpp"
 #include "core/procedural.hpp"
 #include "far_test_support.hpp"
+#include "image_checks.hpp"
+#include "view_sweeps.hpp"
 
 #include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>

@@ -12,9 +12,11 @@
 #include "compose/frame.hpp"
 #include "core/procedural.hpp"
 #include "far_test_support.hpp"
+#include "image_checks.hpp"
 #include "impostor_cache/snapshot_baker.hpp"
 #include "impostor_cache/surface_voxels.hpp"
 #include "impostor_cache/voxel_scene.hpp"
+#include "view_sweeps.hpp"
 
 #include <gtest/gtest.h>
 #include <tbb/parallel_for.h>

@@ -12,6 +12,8 @@
 #include "core/procedural.hpp"
 #include "core/vox_reader.hpp"
 #include "far_test_support.hpp"
+#include "image_checks.hpp"
+#include "view_sweeps.hpp"
 
 #include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>

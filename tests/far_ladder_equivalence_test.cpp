@@ -7,6 +7,8 @@
 // fire truck and house at sigma 1 (~1 ms per direction and model on the 2 shared cores).
 #include "core/vox_reader.hpp"
 #include "far_test_support.hpp"
+#include "image_checks.hpp"
+#include "view_sweeps.hpp"
 
 #include <gtest/gtest.h>
 

@@ -6,9 +6,11 @@
 #include "cli_support.hpp"
 #include "compose/frame.hpp"
 #include "frame_test_support.hpp"
+#include "hard_case_scenes.hpp"
+#include "image_checks.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 #include "impostor_cache/snapshot_store.hpp"
-#include "test_support.hpp"
+#include "test_models.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

@@ -2,9 +2,9 @@
 // Helpers shared by the far-tier suites (tests/far_*_test.cpp): render one scene through the
 // near reference and through the far tier, and compare images with a readable first mismatch.
 #include "core/procedural.hpp"
+#include "image_checks.hpp"
 #include "impostor_cache/far_frame.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
-#include "test_support.hpp"
 #include "volumetric/reference_renderer.hpp"
 
 #include <cstdio>

@@ -8,7 +8,6 @@
 #include "core/view_set.hpp"
 #include "frame_test_support.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
-#include "test_support.hpp"
 
 #include <gtest/gtest.h>
 

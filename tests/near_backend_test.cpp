@@ -4,8 +4,10 @@
 // Vulkan near tier draws, pixel for pixel.
 #include "compose/frame.hpp"
 #include "core/scene_loader.hpp"
-#include "test_support.hpp"
+#include "image_checks.hpp"
+#include "source_tree.hpp"
 #include "volumetric/near_renderer.hpp"
+#include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
 

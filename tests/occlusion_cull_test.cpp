@@ -9,8 +9,10 @@
 #include "core/scene_loader.hpp"
 #include "crowd_scenes.hpp"
 #include "frame_test_support.hpp"
+#include "hard_case_scenes.hpp"
+#include "image_checks.hpp"
 #include "image_files/image_files.hpp"
-#include "test_support.hpp"
+#include "source_tree.hpp"
 
 #include <gtest/gtest.h>
 

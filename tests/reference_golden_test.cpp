@@ -2,7 +2,10 @@
 // solid box seen along each of the 26 canonical directions is computed here, in double
 // precision, from the definitions of CONTRACT.md §3 (lattice anchored at floor(c), parallel rays,
 // cardinal outline, billboard depth, face lighting) — never recorded from the renderer.
-#include "test_support.hpp"
+#include "closed_form.hpp"
+#include "image_checks.hpp"
+#include "test_models.hpp"
+#include "view_sweeps.hpp"
 #include "volumetric/reference_renderer.hpp"
 
 #include <gtest/gtest.h>

@@ -1,7 +1,9 @@
 // The numerically hard cases of CONTRACT.md §7 / HARD_CASES.md that the CPU reference must meet:
 // 10^5-10^6 m from the origin, camera straight down, behind / inside / touching, sub-pixel,
 // equal depths, non-integer sigma, thread-count independence.
-#include "test_support.hpp"
+#include "hard_case_scenes.hpp"
+#include "image_checks.hpp"
+#include "test_models.hpp"
 #include "volumetric/reference_renderer.hpp"
 
 #include <gtest/gtest.h>

@@ -10,11 +10,13 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
+#include <ostream>
 #include <set>
 #include <string>
 #include <vector>
@@ -136,45 +138,84 @@ TEST(SceneLoader, GoldenScenesAreSmallAndSelfContained) {
     EXPECT_GE(count, 3);
 }
 
-TEST(SceneLoader, DefaultSceneSpansBothTiersFromTheCameraAndAlongThePath) {
-    const Scene s = loadScene(kScenes / "default.json");
+// ---------------------------------------------------------------------------------------------
+// The default scene, loaded once for the tests that read it.
+
+const Scene& defaultScene() {
+    static const Scene s = loadScene(kScenes / "default.json");
+    return s;
+}
+
+TEST(DefaultScene, Is960By540AtVoxelSizeOneTenthAndSigmaOne) {
+    const Scene& s = defaultScene();
     EXPECT_EQ(s.camera.width, 960);
     EXPECT_EQ(s.camera.height, 540);
     EXPECT_DOUBLE_EQ(s.render.voxelSize, 0.1);
     EXPECT_DOUBLE_EQ(s.render.sigma, 1.0);
+}
+
+TEST(DefaultScene, SelectsByAnErrorBudgetOfOneVirtualPixel) {
+    const Scene& s = defaultScene();
     EXPECT_EQ(s.selector.metric, SelectorMetric::ErrorBudget);
     EXPECT_DOUBLE_EQ(s.selector.budgetVpx, 1.0);
     EXPECT_GT(s.selector.nearAt, s.selector.farAt);
+}
+
+TEST(DefaultScene, HoldsOneToFourHundredEntities) {
+    const Scene& s = defaultScene();
     EXPECT_LE(s.entities.size(), 400u);
     EXPECT_GE(s.entities.size(), 100u);
+}
+
+TEST(DefaultScene, HasAPathOfAboutFiveSeconds) {
+    const Scene& s = defaultScene();
     ASSERT_TRUE(s.path.has_value());
     EXPECT_NEAR(s.path->duration(), 5.0, 1.0);
+}
 
-    // Both at the static camera and at both ends of the path, some visible entities are near
-    // (their best view's predicted displacement past near_at of the budget) and some far (below
-    // far_at), and the far ones reach hundreds of metres.
-    for (double t : {-1.0, 0.0, s.path->keys.back().time}) {
-        SCOPED_TRACE(t);
-        const Camera cam = t < 0 ? s.camera : s.cameraAt(t);
-        const CameraFrame frame = makeCameraFrame(cam);
-        Scene probe = s;
-        probe.path.reset();
-        probe.camera = cam;
-        const auto sprites = setupSprites(probe, frame, 0.0);
-        int nearCount = 0, farCount = 0;
-        double maxDistance = 0.0;
-        for (const auto& sp : sprites) {
-            if (!sp.visible()) continue;
-            const double share = bestBudgetUnits(sp, s.selector) / s.selector.budgetVpx;
-            nearCount += share > s.selector.nearAt;
-            farCount += share < s.selector.farAt;
-            maxDistance = std::max(maxDistance, sp.distance);
-        }
-        EXPECT_GE(nearCount, 3);
-        EXPECT_GE(farCount, 50);
-        EXPECT_GT(maxDistance, 200.0);
+/// From `cam`, some visible entities of the default scene are near (their best view's predicted
+/// displacement past near_at of the budget) and some far (below far_at), and the far ones reach
+/// hundreds of metres.
+void expectBothTiersFrom(const Scene& s, const Camera& cam) {
+    const CameraFrame frame = makeCameraFrame(cam);
+    Scene probe = s;
+    probe.path.reset();
+    probe.camera = cam;
+    const auto sprites = setupSprites(probe, frame, 0.0);
+    int nearCount = 0, farCount = 0;
+    double maxDistance = 0.0;
+    for (const auto& sp : sprites) {
+        if (!sp.visible()) continue;
+        const double share = bestBudgetUnits(sp, s.selector) / s.selector.budgetVpx;
+        nearCount += share > s.selector.nearAt;
+        farCount += share < s.selector.farAt;
+        maxDistance = std::max(maxDistance, sp.distance);
     }
-    // The path flies from far to near: the eye ends much closer to the field than it starts.
+    EXPECT_GE(nearCount, 3);
+    EXPECT_GE(farCount, 50);
+    EXPECT_GT(maxDistance, 200.0);
+}
+
+TEST(DefaultScene, SpansBothTiersFromTheStaticCamera) {
+    expectBothTiersFrom(defaultScene(), defaultScene().camera);
+}
+
+TEST(DefaultScene, SpansBothTiersAtThePathStart) {
+    const Scene& s = defaultScene();
+    ASSERT_TRUE(s.path.has_value());
+    expectBothTiersFrom(s, s.cameraAt(0.0));
+}
+
+TEST(DefaultScene, SpansBothTiersAtThePathEnd) {
+    const Scene& s = defaultScene();
+    ASSERT_TRUE(s.path.has_value());
+    expectBothTiersFrom(s, s.cameraAt(s.path->keys.back().time));
+}
+
+TEST(DefaultScene, PathFliesFromFarToNear) {
+    // The eye ends much closer to the field than it starts.
+    const Scene& s = defaultScene();
+    ASSERT_TRUE(s.path.has_value());
     const glm::dvec3 start = s.path->keys.front().position, end = s.path->keys.back().position;
     EXPECT_GT(glm::length(start - end), 30.0);
 }
@@ -189,279 +230,341 @@ struct BadCase {
     std::string reason; ///< expected substring of the reason
 };
 
-TEST(SceneLoader, MalformedScenesNameFileJsonPathAndExpectation) {
-    const std::vector<BadCase> cases = {
-        {"typo key",
-         [](json& j) {
-             j["entities"][0]["positon"] = {1, 2, 3};
-         },
-         "entities[0].positon", "unknown key 'positon' (did you mean 'position'?)"},
-        {"top-level typo", [](json& j) { j["voxelsize"] = 0.1; }, "voxelsize", "unknown key"},
-        {"missing model", [](json& j) { j["entities"][1]["model"] = "tank"; }, "entities[1].model",
-         "unknown model 'tank'"},
-        {"position too short",
-         [](json& j) {
-             j["entities"][1]["position"] = {1, 2};
-         },
-         "entities[1].position", "expected an array of 3 finite numbers"},
-        {"position not numbers",
-         [](json& j) {
-             j["entities"][0]["position"] = {1, "2", 3};
-         },
-         "entities[0].position", "expected an array of 3 finite numbers"},
-        {"zero quaternion",
-         [](json& j) {
-             j["entities"][0]["quaternion"] = {0, 0, 0, 0};
-         },
-         "entities[0].quaternion", "non-zero quaternion"},
-        {"quaternion of 3",
-         [](json& j) {
-             j["entities"][0]["quaternion"] = {1, 0, 0};
-         },
-         "entities[0].quaternion", "array of 4"},
-        {"rotation and quaternion",
-         [](json& j) {
-             j["entities"][1]["quaternion"] = {1, 0, 0, 0};
-         },
-         "entities[1].quaternion", "either rotation_deg or quaternion"},
-        {"far_at equal to near_at",
-         [](json& j) {
-             j["selector"] = {{"near_at", 30}, {"far_at", 30}};
-         },
-         "selector.far_at", "far_at must be greater than near_at"},
-        {"far_at below near_at",
-         [](json& j) {
-             j["selector"] = {{"near_at", 50}};
-         },
-         "selector.near_at", "far_at must be greater than near_at"},
-        {"bad view set",
-         [](json& j) {
-             j["selector"] = {{"view_set", 27}};
-         },
-         "selector.view_set", "26, 98 or 218"},
-        {"zero error budget",
-         [](json& j) {
-             j["selector"] = {{"metric", "error_budget"}, {"budget_vpx", 0}};
-         },
-         "selector.budget_vpx", "positive"},
-        {"ladder cap off the ladder",
-         [](json& j) {
-             j["selector"] = {{"metric", "error_budget"}, {"ladder_cap", 3}};
-         },
-         "selector.ladder_cap", "1, 2, 4, 8, 16, 32 or 64"},
-        {"bad metric",
-         [](json& j) {
-             j["selector"] = {{"metric", "distanse"}};
-         },
-         "selector.metric", "did you mean 'distance'"},
-        {"path times not increasing",
-         [](json& j) {
-             j["camera_path"] = {{"keys",
-                                  {{{"time", 0}, {"position", {0, 2, 10}}, {"target", {0, 0, 0}}},
-                                   {{"time", 0}, {"position", {0, 2, 8}}, {"target", {0, 0, 0}}}}}};
-         },
-         "camera_path.keys[1].time", "strictly increasing"},
-        {"path without keys",
-         [](json& j) {
-             j["camera_path"] = {{"keys", json::array()}};
-         },
-         "camera_path.keys", "at least one key"},
-        {"path key missing target",
-         [](json& j) {
-             j["camera_path"] = {{"keys", {{{"time", 0}, {"position", {0, 2, 10}}}}}};
-         },
-         "camera_path.keys[0]", "missing required key 'target'"},
-        {"path key degenerate",
-         [](json& j) {
-             j["camera_path"] = {
-                 {"keys", {{{"time", 0}, {"position", {1, 1, 1}}, {"target", {1, 1, 1}}}}}};
-         },
-         "camera_path.keys[0].target", "target equals position"},
-        {"unknown generator",
-         [](json& j) {
-             j["models"][0] = {{"name", "b"}, {"generator", "cube"}};
-         },
-         "models[0].generator", "unknown value 'cube'"},
-        {"generator key of another generator",
-         [](json& j) {
-             j["models"][0] = {{"name", "b"}, {"generator", "box"}, {"radius", 3}};
-         },
-         "models[0].radius", "unknown key 'radius'"},
-        {"model without source",
-         [](json& j) {
-             j["models"][0] = {{"name", "b"}};
-         },
-         "models[0]", "missing 'vox'"},
-        {"duplicate model name", [](json& j) { j["models"][1]["name"] = "b"; }, "models[1].name",
-         "duplicate model name 'b'"},
-        {"no models", [](json& j) { j["models"] = json::array(); }, "models", "at least one model"},
-        {"models missing", [](json& j) { j.erase("models"); }, "", "missing required key 'models'"},
-        {"vox file not found",
-         [](json& j) {
-             j["models"][0] = {{"name", "b"}, {"vox", "vox/nope/missing.vox"}};
-         },
-         "models[0].vox", "file not found"},
-        {"box too big",
-         [](json& j) {
-             j["models"][0]["size"] = {4, 300, 4};
-         },
-         "models[0].size[1]", "expected an integer in [1, 256]"},
-        {"sphere radius zero",
-         [](json& j) {
-             j["models"][0] = {{"name", "b"}, {"generator", "sphere"}, {"radius", 0}};
-         },
-         "models[0].radius", "[1, 128]"},
-        {"negative voxel size", [](json& j) { j["voxel_size"] = -0.1; }, "voxel_size",
-         "expected a positive number"},
-        {"zero sigma", [](json& j) { j["sigma"] = 0; }, "sigma", "expected a positive number"},
-        {"sigma over the limit", [](json& j) { j["sigma"] = 17; }, "sigma", "at most 16"},
-        {"zero scale", [](json& j) { j["entities"][0]["scale"] = 0; }, "entities[0].scale",
-         "positive"},
-        {"image too wide",
-         [](json& j) {
-             j["camera"]["size"] = {16385, 10};
-         },
-         "camera.size[0]", "[1, 16384]"},
-        {"image empty",
-         [](json& j) {
-             j["camera"]["size"] = {0, 10};
-         },
-         "camera.size[0]", "[1, 16384]"},
-        {"camera target equals position",
-         [](json& j) { j["camera"]["target"] = j["camera"]["position"]; }, "camera.target",
-         "target equals position"},
-        {"camera up parallel to view",
-         [](json& j) {
-             j["camera"]["target"] = {0, -5, 0};
-             j["camera"]["position"] = {0, 5, 0};
-         },
-         "camera.up", "parallel"},
-        {"camera fov", [](json& j) { j["camera"]["fov_y"] = 180; }, "camera.fov_y", "(0, 179)"},
-        {"camera near", [](json& j) { j["camera"]["near"] = 0; }, "camera.near", "positive"},
-        {"background out of range",
-         [](json& j) {
-             j["background"] = {0, 256, 0};
-         },
-         "background[1]", "[0, 255]"},
-        {"view mode", [](json& j) { j["view_mode"] = "ortho"; }, "view_mode", "unknown value"},
-        {"zero light",
-         [](json& j) {
-             j["light"] = {{"direction", {0, 0, 0}}};
-         },
-         "light.direction", "non-zero"},
-        {"frame out of range", [](json& j) { j["entities"][0]["frame"] = 1; }, "entities[0].frame",
-         "[0, 0]"},
-        {"fractional frame", [](json& j) { j["entities"][0]["frame"] = 0.5; }, "entities[0].frame",
-         "integer"},
-        {"entity not an object", [](json& j) { j["entities"][1] = 3; }, "entities[1]",
-         "expected an object"},
-        {"too many entities",
-         [](json& j) {
-             j["crowds"] = {{{"models", {"b"}}, {"count", Limits::kMaxEntities - 1}}};
-         },
-         "crowds[0].count", "limit is 1000000"},
-        {"crowd count over the limit",
-         [](json& j) {
-             j["crowds"] = {{{"models", {"b"}}, {"count", Limits::kMaxEntities + 1}}};
-         },
-         "crowds[0].count", "[0, 1000000]"},
-        {"crowd unknown model",
-         [](json& j) {
-             j["crowds"] = {{{"models", {"b", "c"}}, {"count", 3}}};
-         },
-         "crowds[0].models[1]", "unknown model 'c'"},
-        {"grid crowd with random keys",
-         [](json& j) {
-             j["crowds"] = {{{"models", {"b"}}, {"count", 3}, {"y", 1}}};
-         },
-         "crowds[0].y", "unknown key 'y'"},
-        {"random crowd area inverted",
-         [](json& j) {
-             j["crowds"] = {{{"models", {"b"}},
-                             {"layout", "random"},
-                             {"count", 3},
-                             {"area", {{"min", {0, 0}}, {"max", {-1, 5}}}}}};
-         },
-         "crowds[0].area.max", "max >= min"},
-        {"random crowd without area",
-         [](json& j) {
-             j["crowds"] = {{{"models", {"b"}}, {"layout", "random"}, {"count", 3}}};
-         },
-         "crowds[0]", "missing required key 'area'"},
-        {"negative seed",
-         [](json& j) {
-             j["crowds"] = {{{"models", {"b"}}, {"count", 3}, {"seed", -1}}};
-         },
-         "crowds[0].seed", "unsigned"},
-        {"edit outside the model",
-         [](json& j) {
-             j["edits"] = {{{"frame", 0}, {"model", "b"}, {"op", "set"}, {"at", {4, 0, 0}}}};
-         },
-         "edits[0].at", "outside the 4x4x4 model"},
-        {"edit box beyond the model",
-         [](json& j) {
-             j["edits"] = {{{"frame", 0},
-                            {"model", "b"},
-                            {"op", "fill"},
-                            {"min", {0, 0, 0}},
-                            {"max", {2, 2, 5}}}};
-         },
-         "edits[0].max", "outside the 4x4x4 model"},
-        {"edit box empty",
-         [](json& j) {
-             j["edits"] = {{{"frame", 0},
-                            {"model", "b"},
-                            {"op", "clear"},
-                            {"min", {1, 1, 1}},
-                            {"max", {1, 2, 2}}}};
-         },
-         "edits[0].max", "max > min"},
-        {"edit model frame out of range",
-         [](json& j) {
-             j["edits"] = {{{"frame", 0},
-                            {"model", "b"},
-                            {"model_frame", 2},
-                            {"op", "set"},
-                            {"at", {0, 0, 0}}}};
-         },
-         "edits[0].model_frame", "[0, 0]"},
-        {"clear with an index",
-         [](json& j) {
-             j["edits"] = {{{"frame", 0},
-                            {"model", "b"},
-                            {"op", "clear"},
-                            {"min", {0, 0, 0}},
-                            {"max", {1, 1, 1}},
-                            {"index", 3}}};
-         },
-         "edits[0].index", "unknown key 'index'"},
-        {"edit op typo",
-         [](json& j) {
-             j["edits"] = {{{"frame", 0}, {"model", "b"}, {"opp", "set"}}};
-         },
-         "edits[0].opp", "did you mean 'op'"},
-        {"vox scene not found",
-         [](json& j) {
-             j["vox_scenes"] = {{{"vox", "nothing.vox"}}};
-         },
-         "vox_scenes[0].vox", "file not found"},
-        {"comment must be a string", [](json& j) { j["entities"][0]["comment"] = 3; },
-         "entities[0].comment", "expected a string"},
-    };
-    for (const BadCase& c : cases) {
-        SCOPED_TRACE(c.what);
-        json j = baseScene();
-        c.mutate(j);
-        // Through a file, so the whole path (read, parse, validate) is exercised.
-        const InputError e = errorFromText(j.dump(2));
-        expectWellFormed(e, (scratchDir() / "scene.json").string());
-        EXPECT_EQ(e.field(), c.path) << e.what();
-        EXPECT_NE(std::string(e.what()).find(": " + c.path + (c.path.empty() ? "" : ": ")),
-                  std::string::npos)
-            << e.what();
-        EXPECT_NE(e.reason().find(c.reason), std::string::npos) << e.what();
-    }
+void PrintTo(const BadCase& c, std::ostream* os) {
+    *os << c.what;
 }
+
+/// The case's `what` as a test name: "far_at below near_at" -> FarAtBelowNearAt.
+std::string caseName(const testing::TestParamInfo<BadCase>& info) {
+    std::string name;
+    bool wordStart = true;
+    for (char ch : info.param.what) {
+        if (!std::isalnum(static_cast<unsigned char>(ch))) {
+            wordStart = true;
+            continue;
+        }
+        name += wordStart ? char(std::toupper(static_cast<unsigned char>(ch))) : ch;
+        wordStart = false;
+    }
+    return name;
+}
+
+/// One malformed variant of baseScene() per test, the cases grouped by the part of the scene
+/// they break.
+class MalformedScene : public testing::TestWithParam<BadCase> {};
+
+TEST_P(MalformedScene, IsOneLineNamingTheFileJsonPathAndReason) {
+    const BadCase& c = GetParam();
+    json j = baseScene();
+    c.mutate(j);
+    // Through a file, so the whole path (read, parse, validate) is exercised.
+    const InputError e = errorFromText(j.dump(2));
+    expectWellFormed(e, (scratchDir() / "scene.json").string());
+    EXPECT_EQ(e.field(), c.path) << e.what();
+    EXPECT_NE(std::string(e.what()).find(": " + c.path + (c.path.empty() ? "" : ": ")),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(e.reason().find(c.reason), std::string::npos) << e.what();
+}
+
+// Entities: their keys, model, placement, rotation, scale and frame.
+const std::vector<BadCase> kEntityCases = {
+    {"typo key",
+     [](json& j) {
+         j["entities"][0]["positon"] = {1, 2, 3};
+     },
+     "entities[0].positon", "unknown key 'positon' (did you mean 'position'?)"},
+    {"missing model", [](json& j) { j["entities"][1]["model"] = "tank"; }, "entities[1].model",
+     "unknown model 'tank'"},
+    {"position too short",
+     [](json& j) {
+         j["entities"][1]["position"] = {1, 2};
+     },
+     "entities[1].position", "expected an array of 3 finite numbers"},
+    {"position not numbers",
+     [](json& j) {
+         j["entities"][0]["position"] = {1, "2", 3};
+     },
+     "entities[0].position", "expected an array of 3 finite numbers"},
+    {"zero quaternion",
+     [](json& j) {
+         j["entities"][0]["quaternion"] = {0, 0, 0, 0};
+     },
+     "entities[0].quaternion", "non-zero quaternion"},
+    {"quaternion of 3",
+     [](json& j) {
+         j["entities"][0]["quaternion"] = {1, 0, 0};
+     },
+     "entities[0].quaternion", "array of 4"},
+    {"rotation and quaternion",
+     [](json& j) {
+         j["entities"][1]["quaternion"] = {1, 0, 0, 0};
+     },
+     "entities[1].quaternion", "either rotation_deg or quaternion"},
+    {"zero scale", [](json& j) { j["entities"][0]["scale"] = 0; }, "entities[0].scale", "positive"},
+    {"frame out of range", [](json& j) { j["entities"][0]["frame"] = 1; }, "entities[0].frame",
+     "[0, 0]"},
+    {"fractional frame", [](json& j) { j["entities"][0]["frame"] = 0.5; }, "entities[0].frame",
+     "integer"},
+    {"entity not an object", [](json& j) { j["entities"][1] = 3; }, "entities[1]",
+     "expected an object"},
+    {"comment must be a string", [](json& j) { j["entities"][0]["comment"] = 3; },
+     "entities[0].comment", "expected a string"},
+};
+INSTANTIATE_TEST_SUITE_P(Entities, MalformedScene, ::testing::ValuesIn(kEntityCases), caseName);
+
+// The selector: its thresholds, view set, metric and budget.
+const std::vector<BadCase> kSelectorCases = {
+    {"far_at equal to near_at",
+     [](json& j) {
+         j["selector"] = {{"near_at", 30}, {"far_at", 30}};
+     },
+     "selector.far_at", "far_at must be greater than near_at"},
+    {"far_at below near_at",
+     [](json& j) {
+         j["selector"] = {{"near_at", 50}};
+     },
+     "selector.near_at", "far_at must be greater than near_at"},
+    {"bad view set",
+     [](json& j) {
+         j["selector"] = {{"view_set", 27}};
+     },
+     "selector.view_set", "26, 98 or 218"},
+    {"zero error budget",
+     [](json& j) {
+         j["selector"] = {{"metric", "error_budget"}, {"budget_vpx", 0}};
+     },
+     "selector.budget_vpx", "positive"},
+    {"ladder cap off the ladder",
+     [](json& j) {
+         j["selector"] = {{"metric", "error_budget"}, {"ladder_cap", 3}};
+     },
+     "selector.ladder_cap", "1, 2, 4, 8, 16, 32 or 64"},
+    {"bad metric",
+     [](json& j) {
+         j["selector"] = {{"metric", "distanse"}};
+     },
+     "selector.metric", "did you mean 'distance'"},
+};
+INSTANTIATE_TEST_SUITE_P(Selector, MalformedScene, ::testing::ValuesIn(kSelectorCases), caseName);
+
+// The camera path and its keys.
+const std::vector<BadCase> kCameraPathCases = {
+    {"path times not increasing",
+     [](json& j) {
+         j["camera_path"] = {{"keys",
+                              {{{"time", 0}, {"position", {0, 2, 10}}, {"target", {0, 0, 0}}},
+                               {{"time", 0}, {"position", {0, 2, 8}}, {"target", {0, 0, 0}}}}}};
+     },
+     "camera_path.keys[1].time", "strictly increasing"},
+    {"path without keys",
+     [](json& j) {
+         j["camera_path"] = {{"keys", json::array()}};
+     },
+     "camera_path.keys", "at least one key"},
+    {"path key missing target",
+     [](json& j) {
+         j["camera_path"] = {{"keys", {{{"time", 0}, {"position", {0, 2, 10}}}}}};
+     },
+     "camera_path.keys[0]", "missing required key 'target'"},
+    {"path key degenerate",
+     [](json& j) {
+         j["camera_path"] = {
+             {"keys", {{{"time", 0}, {"position", {1, 1, 1}}, {"target", {1, 1, 1}}}}}};
+     },
+     "camera_path.keys[0].target", "target equals position"},
+};
+INSTANTIATE_TEST_SUITE_P(CameraPath, MalformedScene, ::testing::ValuesIn(kCameraPathCases),
+                         caseName);
+
+// Models: their list, names, sources and generator parameters.
+const std::vector<BadCase> kModelCases = {
+    {"unknown generator",
+     [](json& j) {
+         j["models"][0] = {{"name", "b"}, {"generator", "cube"}};
+     },
+     "models[0].generator", "unknown value 'cube'"},
+    {"generator key of another generator",
+     [](json& j) {
+         j["models"][0] = {{"name", "b"}, {"generator", "box"}, {"radius", 3}};
+     },
+     "models[0].radius", "unknown key 'radius'"},
+    {"model without source",
+     [](json& j) {
+         j["models"][0] = {{"name", "b"}};
+     },
+     "models[0]", "missing 'vox'"},
+    {"duplicate model name", [](json& j) { j["models"][1]["name"] = "b"; }, "models[1].name",
+     "duplicate model name 'b'"},
+    {"no models", [](json& j) { j["models"] = json::array(); }, "models", "at least one model"},
+    {"models missing", [](json& j) { j.erase("models"); }, "", "missing required key 'models'"},
+    {"vox file not found",
+     [](json& j) {
+         j["models"][0] = {{"name", "b"}, {"vox", "vox/nope/missing.vox"}};
+     },
+     "models[0].vox", "file not found"},
+    {"box too big",
+     [](json& j) {
+         j["models"][0]["size"] = {4, 300, 4};
+     },
+     "models[0].size[1]", "expected an integer in [1, 256]"},
+    {"sphere radius zero",
+     [](json& j) {
+         j["models"][0] = {{"name", "b"}, {"generator", "sphere"}, {"radius", 0}};
+     },
+     "models[0].radius", "[1, 128]"},
+};
+INSTANTIATE_TEST_SUITE_P(Models, MalformedScene, ::testing::ValuesIn(kModelCases), caseName);
+
+// Top-level render settings: keys, voxel size, sigma, background, view mode, light.
+const std::vector<BadCase> kRenderCases = {
+    {"top-level typo", [](json& j) { j["voxelsize"] = 0.1; }, "voxelsize", "unknown key"},
+    {"negative voxel size", [](json& j) { j["voxel_size"] = -0.1; }, "voxel_size",
+     "expected a positive number"},
+    {"zero sigma", [](json& j) { j["sigma"] = 0; }, "sigma", "expected a positive number"},
+    {"sigma over the limit", [](json& j) { j["sigma"] = 17; }, "sigma", "at most 16"},
+    {"background out of range",
+     [](json& j) {
+         j["background"] = {0, 256, 0};
+     },
+     "background[1]", "[0, 255]"},
+    {"view mode", [](json& j) { j["view_mode"] = "ortho"; }, "view_mode", "unknown value"},
+    {"zero light",
+     [](json& j) {
+         j["light"] = {{"direction", {0, 0, 0}}};
+     },
+     "light.direction", "non-zero"},
+};
+INSTANTIATE_TEST_SUITE_P(RenderSettings, MalformedScene, ::testing::ValuesIn(kRenderCases),
+                         caseName);
+
+// The camera: image size, orientation, field of view and near plane.
+const std::vector<BadCase> kCameraCases = {
+    {"image too wide",
+     [](json& j) {
+         j["camera"]["size"] = {16385, 10};
+     },
+     "camera.size[0]", "[1, 16384]"},
+    {"image empty",
+     [](json& j) {
+         j["camera"]["size"] = {0, 10};
+     },
+     "camera.size[0]", "[1, 16384]"},
+    {"camera target equals position",
+     [](json& j) { j["camera"]["target"] = j["camera"]["position"]; }, "camera.target",
+     "target equals position"},
+    {"camera up parallel to view",
+     [](json& j) {
+         j["camera"]["target"] = {0, -5, 0};
+         j["camera"]["position"] = {0, 5, 0};
+     },
+     "camera.up", "parallel"},
+    {"camera fov", [](json& j) { j["camera"]["fov_y"] = 180; }, "camera.fov_y", "(0, 179)"},
+    {"camera near", [](json& j) { j["camera"]["near"] = 0; }, "camera.near", "positive"},
+};
+INSTANTIATE_TEST_SUITE_P(Camera, MalformedScene, ::testing::ValuesIn(kCameraCases), caseName);
+
+// Crowds: their count, models, layout keys, area and seed.
+const std::vector<BadCase> kCrowdCases = {
+    {"too many entities",
+     [](json& j) {
+         j["crowds"] = {{{"models", {"b"}}, {"count", Limits::kMaxEntities - 1}}};
+     },
+     "crowds[0].count", "limit is 1000000"},
+    {"crowd count over the limit",
+     [](json& j) {
+         j["crowds"] = {{{"models", {"b"}}, {"count", Limits::kMaxEntities + 1}}};
+     },
+     "crowds[0].count", "[0, 1000000]"},
+    {"crowd unknown model",
+     [](json& j) {
+         j["crowds"] = {{{"models", {"b", "c"}}, {"count", 3}}};
+     },
+     "crowds[0].models[1]", "unknown model 'c'"},
+    {"grid crowd with random keys",
+     [](json& j) {
+         j["crowds"] = {{{"models", {"b"}}, {"count", 3}, {"y", 1}}};
+     },
+     "crowds[0].y", "unknown key 'y'"},
+    {"random crowd area inverted",
+     [](json& j) {
+         j["crowds"] = {{{"models", {"b"}},
+                         {"layout", "random"},
+                         {"count", 3},
+                         {"area", {{"min", {0, 0}}, {"max", {-1, 5}}}}}};
+     },
+     "crowds[0].area.max", "max >= min"},
+    {"random crowd without area",
+     [](json& j) {
+         j["crowds"] = {{{"models", {"b"}}, {"layout", "random"}, {"count", 3}}};
+     },
+     "crowds[0]", "missing required key 'area'"},
+    {"negative seed",
+     [](json& j) {
+         j["crowds"] = {{{"models", {"b"}}, {"count", 3}, {"seed", -1}}};
+     },
+     "crowds[0].seed", "unsigned"},
+};
+INSTANTIATE_TEST_SUITE_P(Crowds, MalformedScene, ::testing::ValuesIn(kCrowdCases), caseName);
+
+// Scripted edits: their voxel or box, model frame, keys and op.
+const std::vector<BadCase> kEditCases = {
+    {"edit outside the model",
+     [](json& j) {
+         j["edits"] = {{{"frame", 0}, {"model", "b"}, {"op", "set"}, {"at", {4, 0, 0}}}};
+     },
+     "edits[0].at", "outside the 4x4x4 model"},
+    {"edit box beyond the model",
+     [](json& j) {
+         j["edits"] = {{{"frame", 0},
+                        {"model", "b"},
+                        {"op", "fill"},
+                        {"min", {0, 0, 0}},
+                        {"max", {2, 2, 5}}}};
+     },
+     "edits[0].max", "outside the 4x4x4 model"},
+    {"edit box empty",
+     [](json& j) {
+         j["edits"] = {{{"frame", 0},
+                        {"model", "b"},
+                        {"op", "clear"},
+                        {"min", {1, 1, 1}},
+                        {"max", {1, 2, 2}}}};
+     },
+     "edits[0].max", "max > min"},
+    {"edit model frame out of range",
+     [](json& j) {
+         j["edits"] = {
+             {{"frame", 0}, {"model", "b"}, {"model_frame", 2}, {"op", "set"}, {"at", {0, 0, 0}}}};
+     },
+     "edits[0].model_frame", "[0, 0]"},
+    {"clear with an index",
+     [](json& j) {
+         j["edits"] = {{{"frame", 0},
+                        {"model", "b"},
+                        {"op", "clear"},
+                        {"min", {0, 0, 0}},
+                        {"max", {1, 1, 1}},
+                        {"index", 3}}};
+     },
+     "edits[0].index", "unknown key 'index'"},
+    {"edit op typo",
+     [](json& j) {
+         j["edits"] = {{{"frame", 0}, {"model", "b"}, {"opp", "set"}}};
+     },
+     "edits[0].opp", "did you mean 'op'"},
+};
+INSTANTIATE_TEST_SUITE_P(Edits, MalformedScene, ::testing::ValuesIn(kEditCases), caseName);
+
+// .vox scenes.
+const std::vector<BadCase> kVoxSceneCases = {
+    {"vox scene not found",
+     [](json& j) {
+         j["vox_scenes"] = {{{"vox", "nothing.vox"}}};
+     },
+     "vox_scenes[0].vox", "file not found"},
+};
+INSTANTIATE_TEST_SUITE_P(VoxScenes, MalformedScene, ::testing::ValuesIn(kVoxSceneCases), caseName);
 
 TEST(SceneLoader, NumberOverflowIsReportedWithItsJsonPath) {
     std::string text = baseScene().dump(2);
@@ -675,31 +778,53 @@ TEST(SceneLoader, EntityFieldsAreLoaded) {
     EXPECT_FALSE(s.entities[1].anchor.has_value()); // default: bottom centre, resolved later
 }
 
-TEST(SceneLoader, CameraPathInterpolatesBetweenKeys) {
-    json j = baseScene();
-    j["camera"]["fov_y"] = 50;
-    j["camera_path"] = json::parse(R"({"fps": 10, "keys": [
-        {"time": 1, "position": [0, 2, 10], "target": [0, 0, 0]},
-        {"time": 3, "position": [0, 2, 30], "target": [0, 0, 20], "fov_y": 30},
-        {"time": 4, "position": [10, 2, 30], "target": [10, 0, 20], "up": [1, 1, 0]}]})");
-    const Scene s = loadJson(j);
+/// baseScene() with a camera fov of 50 and a path of three keys from t = 1 s to 4 s at 10 fps
+/// (the second key sets fov 30, the third an up vector), loaded once for the tests that read it.
+const Scene& keyedPathScene() {
+    static const Scene s = [] {
+        json j = baseScene();
+        j["camera"]["fov_y"] = 50;
+        j["camera_path"] = json::parse(R"({"fps": 10, "keys": [
+            {"time": 1, "position": [0, 2, 10], "target": [0, 0, 0]},
+            {"time": 3, "position": [0, 2, 30], "target": [0, 0, 20], "fov_y": 30},
+            {"time": 4, "position": [10, 2, 30], "target": [10, 0, 20], "up": [1, 1, 0]}]})");
+        return loadJson(j);
+    }();
+    return s;
+}
+
+TEST(CameraPath, FramesRunFromTheFirstKeyToTheLastAtItsFps) {
+    const Scene& s = keyedPathScene();
     ASSERT_TRUE(s.path.has_value());
     EXPECT_EQ(s.path->fps, 10.0);
     EXPECT_EQ(s.path->duration(), 3.0);
     EXPECT_EQ(s.path->frameCount(), 31);
     EXPECT_EQ(s.timeOfFrame(0), 1.0);
     EXPECT_EQ(s.timeOfFrame(30), 4.0);
+}
 
-    // Before the first key and after the last: clamped.
+TEST(CameraPath, IsClampedBeforeTheFirstKeyAndAfterTheLast) {
+    const Scene& s = keyedPathScene();
+    ASSERT_TRUE(s.path.has_value());
     EXPECT_EQ(s.cameraAt(0.0).position, glm::dvec3(0, 2, 10));
     EXPECT_EQ(s.cameraAt(9.0).position, glm::dvec3(10, 2, 30));
-    // Halfway between keys 0 and 1: position, target and fov (key 0 has the camera's 50).
+}
+
+TEST(CameraPath, InterpolatesPositionTargetAndFovBetweenKeys) {
+    // Halfway between keys 0 and 1 (key 0 has the camera's fov, 50).
+    const Scene& s = keyedPathScene();
+    ASSERT_TRUE(s.path.has_value());
     const Camera mid = s.cameraAt(2.0);
     expectNear(mid.position, {0, 2, 20});
     expectNear(mid.target, {0, 0, 10});
     EXPECT_NEAR(mid.fovYDeg, 40.0, 1e-12);
     EXPECT_EQ(mid.width, 64); // image size always from "camera"
+}
+
+TEST(CameraPath, MixesUpFromTheCamerasToTheKeys) {
     // A quarter into the last segment; up mixes from the camera's up to the key's.
+    const Scene& s = keyedPathScene();
+    ASSERT_TRUE(s.path.has_value());
     const Camera q = s.cameraAt(3.25);
     expectNear(q.position, {2.5, 2, 30});
     expectNear(q.up, {0.25, 1, 0});

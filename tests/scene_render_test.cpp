@@ -2,7 +2,8 @@
 // `voxtier render` (the CLI's images are compared byte for byte in tests/example_test.sh).
 #include "compose/scene_render.hpp"
 #include "core/scene_loader.hpp"
-#include "test_support.hpp"
+#include "image_checks.hpp"
+#include "source_tree.hpp"
 
 #include <gtest/gtest.h>
 

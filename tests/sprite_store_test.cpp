@@ -4,7 +4,9 @@
 // the camera or the light moves. A frame's share of the sprites stays as it was.
 #include "core/scene_loader.hpp"
 #include "core/sprite_store.hpp"
-#include "test_support.hpp"
+#include "source_tree.hpp"
+
+#include <gtest/gtest.h>
 
 #include <cstring>
 

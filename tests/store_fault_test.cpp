@@ -6,7 +6,7 @@
 // the same however its input is cut.
 #include "impostor_cache/snapshot_cache.hpp"
 #include "impostor_cache/snapshot_store.hpp"
-#include "test_support.hpp"
+#include "test_models.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/file.h>

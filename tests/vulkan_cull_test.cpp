@@ -6,8 +6,10 @@
 #include "compose/frame.hpp"
 #include "core/scene_loader.hpp"
 #include "crowd_scenes.hpp"
+#include "image_checks.hpp"
 #include "impostor_cache/far_pass.hpp"
-#include "test_support.hpp"
+#include "source_tree.hpp"
+#include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
 

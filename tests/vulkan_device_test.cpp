@@ -5,7 +5,10 @@
 #include "cli_support.hpp"
 #include "device/vulkan_device.hpp"
 #include "device/vulkan_device_info.hpp"
-#include "test_support.hpp"
+#include "image_checks.hpp"
+#include "test_models.hpp"
+#include "view_sweeps.hpp"
+#include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>

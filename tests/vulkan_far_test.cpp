@@ -9,9 +9,14 @@
 #include "compose/vulkan_frame.hpp"
 #include "core/scene_loader.hpp"
 #include "core/splitmix64.hpp"
+#include "hard_case_scenes.hpp"
+#include "image_checks.hpp"
 #include "impostor_cache/far_frame.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
-#include "test_support.hpp"
+#include "source_tree.hpp"
+#include "test_models.hpp"
+#include "view_sweeps.hpp"
+#include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
 

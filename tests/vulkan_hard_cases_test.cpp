@@ -1,9 +1,14 @@
 // The numerically hard cases of CONTRACT.md §7 / HARD_CASES.md on the Vulkan near tier: each image
 // must equal the CPU reference exactly, and where a closed form exists (solid boxes along the 26
 // canonical directions), equal that too, independently of the kernel code.
+#include "closed_form.hpp"
 #include "core/procedural.hpp"
+#include "hard_case_scenes.hpp"
+#include "image_checks.hpp"
 #include "image_files/image_files.hpp"
-#include "test_support.hpp"
+#include "test_models.hpp"
+#include "view_sweeps.hpp"
+#include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>

@@ -6,7 +6,10 @@
 #include "core/model_view.hpp"
 #include "core/scene_loader.hpp"
 #include "core/vox_reader.hpp"
-#include "test_support.hpp"
+#include "image_checks.hpp"
+#include "source_tree.hpp"
+#include "view_sweeps.hpp"
+#include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
 

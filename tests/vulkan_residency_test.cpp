@@ -1,8 +1,11 @@
 // Voxel residency of the near tier: the atlas packer's placement, upload-once sharing, and partial
 // re-upload after edits (only the dirty box goes to the GPU, and the image is exact afterwards).
 #include "core/procedural.hpp"
-#include "test_support.hpp"
+#include "image_checks.hpp"
+#include "test_models.hpp"
+#include "view_sweeps.hpp"
 #include "volumetric/atlas_packer.hpp"
+#include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
 

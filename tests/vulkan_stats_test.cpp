@@ -4,7 +4,9 @@
 // outline pixels its perspective projection misses at close range), never changes one.
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
-#include "test_support.hpp"
+#include "image_checks.hpp"
+#include "source_tree.hpp"
+#include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
 
