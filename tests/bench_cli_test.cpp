@@ -116,6 +116,14 @@ std::vector<std::string> csvFields(const std::string& line) {
     return out;
 }
 
+/// The first `n` lines of `text` ("" for those it lacks).
+std::vector<std::string> linesOf(const std::string& text, std::size_t n) {
+    std::vector<std::string> lines(n);
+    std::istringstream in(text);
+    for (std::string& line : lines) std::getline(in, line);
+    return lines;
+}
+
 /// The cells of a markdown table row, trimmed.
 std::vector<std::string> tableCells(const std::string& line) {
     std::vector<std::string> cells;
@@ -632,12 +640,9 @@ std::string expectedLead(const json& h, const std::string& scene, bool markdown)
 }
 
 TEST_F(BenchSmoke, ReportLeadsWithTheHybridAgainstTheFastestExactPath) {
-    std::istringstream report(run().report);
-    std::string title, blank, first;
-    std::getline(report, title);
-    std::getline(report, blank);
-    std::getline(report, first);
-    EXPECT_EQ(title, "# voxtier bench (smoke)");
+    const std::vector<std::string> report = linesOf(run().report, 3);
+    EXPECT_EQ(report[0], "# voxtier bench (smoke)");
+    const std::string& first = report[2];
     const json& h = modeRow("tank_army", "hybrid");
     EXPECT_EQ(first.rfind("- " + expectedLead(h, "tank_army", true), 0), 0u) << first;
     // Its error: min frame PSNR and differing share in motion, worst far displacement.
@@ -670,11 +675,8 @@ TEST_F(BenchSmoke, LeadOfASceneWithoutPathIsTheWarmFrameWithEqualImages) {
 }
 
 TEST_F(BenchSmoke, StdoutLeadsWithTheSameLines) {
-    std::istringstream out(run().out);
-    std::string header, first, second;
-    std::getline(out, header);
-    std::getline(out, first);
-    std::getline(out, second);
+    const std::vector<std::string> out = linesOf(run().out, 3);
+    const std::string &first = out[1], &second = out[2];
     EXPECT_EQ(
         first.rfind("  " + expectedLead(modeRow("tank_army", "hybrid"), "tank_army", false), 0), 0u)
         << first;

@@ -98,6 +98,15 @@ std::vector<T> parseList(const std::string& text, const char* flag, double lo, d
     return out;
 }
 
+/// A number to six significant digits, as the bench's CSV and data files write it ("inf" for
+/// an infinite one).
+inline std::string sig(double v) {
+    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
+}
+
 /// One column of a CSV: its name in the header and how a row gives its value, written with the
 /// stream's default formatting (6 significant digits for a double).
 template <class Row> struct CsvColumn {

@@ -1,6 +1,7 @@
 // The plots of `voxtier bench` (apps/bench/plots.hpp).
 #include "apps/bench/plots.hpp"
 
+#include "apps/bench/harness.hpp"
 #include "core/file_write.hpp"
 #include "embedded/bench_plots_gp.h"
 
@@ -14,16 +15,9 @@ namespace voxtier::bench {
 namespace {
 
 namespace fs = std::filesystem;
+using cli::sig;
 
 const char* kModesGroup = "modes";
-
-/// Significant digits, for gnuplot's data files.
-std::string sig(double v) {
-    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.6g", v);
-    return buf;
-}
 
 // ---------------------------------------------------------------------------------------------
 // Plots: apps/bench/plots.gp reads results.csv; the bench writes it into the output folder after

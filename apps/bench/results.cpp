@@ -1,6 +1,7 @@
 // results.csv and results.json of `voxtier bench` (apps/bench/results.hpp).
 #include "apps/bench/results.hpp"
 
+#include "apps/bench/harness.hpp"
 #include "core/file_write.hpp"
 
 #include <nlohmann/json.hpp>
@@ -13,6 +14,7 @@ namespace voxtier::bench {
 
 namespace {
 
+using cli::sig;
 using nlohmann::json;
 
 /// One column: its name in both files, how a row gives its value, and where a JSON row holds
@@ -127,14 +129,6 @@ std::vector<Column> columns() {
     };
     c.insert(c.end(), bench.begin(), bench.end());
     return c;
-}
-
-/// Significant digits, for the CSV.
-std::string sig(double v) {
-    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.6g", v);
-    return buf;
 }
 
 std::string csvField(const std::string& s) {
