@@ -99,13 +99,21 @@ void VoxelResidency::ensurePaletteCapacity(std::size_t entries) {
     if (palettes_ && palettes_.size() >= need) return;
     VkDeviceSize size = palettes_ ? palettes_.size() : 64 * 256 * sizeof(std::uint32_t);
     while (size < need) size *= 2;
-    palettes_ = VulkanBuffer(device_, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
-    std::memset(palettes_.mapped(), 0, std::size_t(size));
-    // memcpy from an empty vector's data() (null) is undefined even for 0 bytes.
-    if (!paletteMirror_.empty())
-        std::memcpy(palettes_.mapped(), paletteMirror_.data(),
-                    paletteMirror_.size() * sizeof(std::uint32_t));
+    palettes_ =
+        VulkanBuffer(device_, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::ShaderRead);
+    // The whole mirror goes into the new buffer (directly, or staged with the next upload); the
+    // tail past it is never read (no sprite's palette base points there).
+    writePalettes(0, paletteMirror_.size());
     ++generation_;
+}
+
+void VoxelResidency::writePalettes(std::size_t first, std::size_t count) {
+    if (count == 0) return;
+    if (palettes_.placement().hostWrite == HostWrite::Direct)
+        palettes_.write(first * sizeof(std::uint32_t), paletteMirror_.data() + first,
+                        count * sizeof(std::uint32_t));
+    else
+        paletteStaged_ = true; // the whole mirror, with the update's copies
 }
 
 glm::uvec4 VoxelResidency::entry(const VoxelModel& model, int frame) const {
@@ -138,9 +146,10 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                 r.present.assign(std::size_t(model.frameCount()), false);
                 paletteMirror_.insert(paletteMirror_.end(), model.palette().colors.begin(),
                                       model.palette().colors.end());
-                ensurePaletteCapacity(paletteMirror_.size());
-                std::memcpy(static_cast<std::uint32_t*>(palettes_.mapped()) + r.paletteBase,
-                            model.palette().colors.data(), 256 * sizeof(std::uint32_t));
+                if (palettes_.size() < paletteMirror_.size() * sizeof(std::uint32_t))
+                    ensurePaletteCapacity(paletteMirror_.size()); // writes the whole mirror
+                else
+                    writePalettes(r.paletteBase, 256);
             } else if (r.version != model.version()) {
                 // Edited since the last upload: each resident frame re-sends only its dirty box.
                 synced.emplace_back(&r, r.version);
@@ -172,15 +181,20 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
         throw VulkanError(std::string("near tier: ") + e.what());
     }
     const bool grow = std::uint32_t(packer_.usedDepth()) > atlas_.extent().depth;
-    if (uploads.empty() && !grow) return stats;
+    if (uploads.empty() && !grow && !paletteStaged_) return stats;
 
-    // Pack every region tightly into one staging buffer (rows of the box, x fastest).
+    // Pack every region tightly into one staging buffer (rows of the box, x fastest), then the
+    // palettes where the device's palette buffer is staged.
     VkDeviceSize total = 0;
     for (const Upload& u : uploads) total = roundUp4(total + VkDeviceSize(u.box.volume()));
+    const VkDeviceSize paletteOffset = total;
+    const VkDeviceSize paletteBytes =
+        paletteStaged_ ? paletteMirror_.size() * sizeof(std::uint32_t) : 0;
+    total += paletteBytes;
     if (!staging_ || staging_.size() < total) {
         VkDeviceSize size = 1 << 16;
         while (size < total) size *= 2;
-        staging_ = VulkanBuffer(device_, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+        staging_ = VulkanBuffer(device_, size, 0, BufferClass::Staging);
     }
     std::vector<VkBufferImageCopy> regions;
     regions.reserve(uploads.size());
@@ -227,6 +241,15 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
         vkCmdCopyBufferToImage(cb_, staging_.handle(), atlas_.handle(),
                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, std::uint32_t(regions.size()),
                                regions.data());
+    if (paletteBytes) {
+        std::memcpy(dst + paletteOffset, paletteMirror_.data(), std::size_t(paletteBytes));
+        const VkBufferCopy copy{paletteOffset, 0, paletteBytes};
+        vkCmdCopyBuffer(cb_, staging_.handle(), palettes_.handle(), 1, &copy);
+        bufferBarrier(cb_, palettes_.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
+                      VK_ACCESS_TRANSFER_WRITE_BIT, kAtlasReaders, VK_ACCESS_SHADER_READ_BIT);
+        paletteStaged_ = false;
+    }
+    staging_.flush(0, total);
     imageBarrier(cb_, atlas_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
                  VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kAtlasReaders,

@@ -6,8 +6,8 @@
 // Edits re-upload only the dirty box of a frame (VoxelModel::dirtySince).
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
-#include "volumetric/atlas_packer.hpp"
 #include "device/vulkan_device.hpp"
+#include "volumetric/atlas_packer.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -65,6 +65,9 @@ class VoxelResidency {
 
     void createAtlas(std::uint32_t depth, VkCommandBuffer cb, bool copyOld);
     void ensurePaletteCapacity(std::size_t entries);
+    /// Palette entries [first, first + count) of the mirror onto the device: written directly,
+    /// or marked for the next update's staged copy (then the whole mirror goes).
+    void writePalettes(std::size_t first, std::size_t count);
 
     VulkanDevice& device_;
     AtlasPacker packer_;
@@ -73,6 +76,7 @@ class VoxelResidency {
     VulkanBuffer palettes_;
     VulkanBuffer staging_;
     std::vector<std::uint32_t> paletteMirror_;
+    bool paletteStaged_ = false; ///< the device's palettes wait for a staged copy of the mirror
     std::unordered_map<std::uint64_t, Resident> residents_; ///< by VoxelModel::uid()
     std::uint32_t nextPaletteSlot_ = 0;
     std::uint64_t generation_ = 0;
