@@ -146,6 +146,14 @@ std::string lineWith(const std::string& text, const std::string& needle) {
     return text.substr(start, text.find('\n', at) - start);
 }
 
+/// The first line of `text` that starts with `prefix` ("" when none does).
+std::string lineStarting(const std::string& text, const std::string& prefix) {
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);)
+        if (line.starts_with(prefix)) return line;
+    return "";
+}
+
 const std::vector<std::string> kModes = {
     "near_vulkan", "near_vulkan_fragment", "near_reference", "far", "hybrid", "hybrid_gpu_far"};
 const std::vector<std::string> kScenes = {"tank_army", "exact"};
@@ -353,6 +361,71 @@ TEST_F(BenchSmoke, FarBackendIsTheCpuBlitBesideTheVulkanFarPass) {
     }
 }
 
+TEST_F(BenchSmoke, DeviceFrameIsTimedWhereTheWholeFrameIsOnVulkan) {
+    for (const std::string& scene : kScenes) {
+        // All-near on Vulkan draws the whole frame there (on lavapipe too); the CPU reference
+        // and the all-far CPU blit draw it on the host.
+        for (const char* mode : {"near_vulkan", "near_vulkan_fragment"})
+            EXPECT_GT(num(modeRow(scene, mode), "device_frame_ms"), 0.0) << scene << " " << mode;
+        for (const char* mode : {"near_reference", "far"})
+            EXPECT_EQ(num(modeRow(scene, mode), "device_frame_ms"), 0.0) << scene << " " << mode;
+        // The hybrids: wholly on Vulkan where no tier of theirs drew a sprite on the CPU.
+        const auto nearOnCpu = [&](const json& m) {
+            return m["near_backend"] != "vulkan" && num(m, "near_entities") > 0;
+        };
+        const json& gpu = modeRow(scene, "hybrid_gpu_far");
+        EXPECT_EQ(num(gpu, "device_frame_ms") > 0.0, !nearOnCpu(gpu)) << scene;
+        const json& cpu = modeRow(scene, "hybrid");
+        EXPECT_EQ(num(cpu, "device_frame_ms") > 0.0,
+                  !nearOnCpu(cpu) && num(cpu, "far_entities") == 0.0)
+            << scene;
+    }
+}
+
+TEST_F(BenchSmoke, ModesTableShowsTheDeviceFrameBesideTheWarmFrame) {
+    const auto headings = tableCells(lineWith(run().report, "| mode | near / far entities |"));
+    const auto warm = std::find(headings.begin(), headings.end(), "warm re-render: frame ms");
+    ASSERT_NE(warm, headings.end());
+    ASSERT_NE(warm + 1, headings.end());
+    EXPECT_EQ(*(warm + 1), "device frame ms (no readback)");
+    const std::size_t at = std::size_t(warm + 1 - headings.begin());
+    // The first scene's table comes first in the report.
+    for (const std::string& mode : kModes) {
+        const auto cells = tableCells(lineStarting(run().report, "| " + mode + " | "));
+        ASSERT_GT(cells.size(), at) << mode;
+        const double ms = num(modeRow(kScenes[0], mode), "device_frame_ms");
+        EXPECT_EQ(cells[at], ms > 0 ? fixed(ms, 2) : "– (a CPU tier)") << mode;
+    }
+}
+
+TEST_F(BenchSmoke, DeviceSplitHasTheHostPartAndEveryGpuPassOfEachModeOnVulkan) {
+    std::vector<std::string> names;
+    std::string header = "| scene | mode |";
+    for (const FrameFigure& f : kFrameFigures) {
+        const std::string name = f.name;
+        if ((name.starts_with("host_") && !f.timeStep) || name.starts_with("gpu_"))
+            names.push_back(name), header += " " + name + " |";
+    }
+    EXPECT_EQ(names.size(), 11u); // record, wait, readback; the frame and seven passes
+    const auto at = run().report.find(header + "\n");
+    ASSERT_NE(at, std::string::npos) << header;
+    const std::string table = run().report.substr(at, run().report.find("\n\n", at) - at);
+    for (const std::string& scene : kScenes)
+        for (const std::string& mode : kModes) {
+            const json& m = modeRow(scene, mode);
+            const std::string line = lineStarting(table, "| " + scene + " | " + mode + " | ");
+            EXPECT_EQ(!line.empty(), num(m, "near_on_vulkan") > 0 || num(m, "far_on_vulkan") > 0)
+                << scene << " " << mode;
+            if (line.empty()) continue;
+            const auto cells = tableCells(line);
+            ASSERT_EQ(cells.size(), names.size() + 2) << line;
+            for (std::size_t i = 0; i < names.size(); ++i)
+                EXPECT_EQ(cells[i + 2], fixed(num(m, names[i].c_str()), 2)) << line;
+        }
+    // All-near on Vulkan waits for the device to draw its frame.
+    EXPECT_GT(num(modeRow(kScenes[0], "near_vulkan"), "host_wait_ms"), 0.0);
+}
+
 TEST_F(BenchSmoke, TruthHasNoErrorAndEveryOtherModeHasOne) {
     for (const std::string& scene : kScenes)
         for (const std::string& mode : kModes) {
@@ -516,6 +589,7 @@ TEST_F(BenchSmoke, CsvKeepsEveryColumnItHad) {
                           "frames",
                           "visible",
                           "worst_frame_ms",
+                          "device_frame_ms",
                           "all_near_vulkan_ms",
                           "speedup_vs_all_near_vulkan",
                           "near_vulkan_fragment_ms",
@@ -689,8 +763,8 @@ TEST_F(BenchSmoke, TimeSplitHasEveryTierAndItsPartsFromTheFigureTable) {
     // time followed by the time steps named after it.
     std::string steps, near, far;
     for (const FrameFigure& f : kFrameFigures) {
-        if (!f.timeStep) continue;
         const std::string name = f.name;
+        if (!f.timeStep || name == "near_ms" || name == "far_ms") continue; // the tiers
         (name.starts_with("near_")  ? near
          : name.starts_with("far_") ? far
                                     : steps) += " " + f.words() + " |";

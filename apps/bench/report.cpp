@@ -4,6 +4,8 @@
 #include "apps/bench/report.hpp"
 
 #include "apps/bench/plots.hpp"
+#include "apps/bench/report_cells.hpp"
+#include "apps/bench/time_split.hpp"
 #include "core/file_write.hpp"
 #include "embedded/bench_report_template.h"
 #include "impostor_cache/far_blit.hpp"
@@ -25,34 +27,11 @@ namespace voxtier::bench {
 namespace {
 
 using nlohmann::json;
-
-std::string num(double v, int decimals = 2) {
-    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-    if (std::isnan(v)) return "nan";
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
-    return buf;
-}
-std::string pct(double fraction, int decimals = 2) {
-    return num(100.0 * fraction, decimals) + " %";
-}
-std::string mega(double v) {
-    return num(v / 1e6, 1);
-}
-/// A count per frame: whole where it is whole, else to two figures ("3", "0.25", "12.5").
-std::string count(double v) {
-    return num(v, v == std::floor(v) ? 0 : v < 1 ? 2 : 1);
-}
-/// A PSNR in dB; equal frames have an infinite one.
-std::string psnrText(double db) {
-    return std::isinf(db) ? "∞ dB (equal frames)" : num(db, 1) + " dB";
-}
+using namespace cells;
 
 bool isErrorSelector(const Measurement& m) {
     return m.selector.rfind("error_px", 0) == 0;
 }
-
-const char* kModesGroup = "modes";
 
 // ---------------------------------------------------------------------------------------------
 // The goal of the hybrid frame (10x the fastest exact path within the error budget): the goal
@@ -81,25 +60,6 @@ std::string verdict(bool met) {
 }
 // ---------------------------------------------------------------------------------------------
 // report.md: the template's context, every number formatted here.
-
-const Measurement* find(const SuiteResults& r, const std::string& group, const std::string& scene,
-                        BenchMode mode) {
-    for (const Measurement& m : r.rows)
-        if (m.group == group && m.scene == scene && m.mode == mode) return &m;
-    return nullptr;
-}
-
-std::vector<std::string> sceneNames(const SuiteResults& r) {
-    std::vector<std::string> out;
-    for (const Measurement& m : r.rows)
-        if (m.group == kModesGroup && std::find(out.begin(), out.end(), m.scene) == out.end())
-            out.push_back(m.scene);
-    return out;
-}
-
-double perFrame(const Measurement& m, FrameMember member) {
-    return m.figures.of(member);
-}
 
 std::string entitiesCell(const Measurement& m) {
     std::string s = num(perFrame(m, &FrameStats::nearDrawn), 0) + " / " +
@@ -336,6 +296,9 @@ json modesContext(const SuiteResults& r) {
                     {{"mode", mode.name},
                      {"entities", entitiesCell(*m)},
                      {"frame_ms", num(m->frameMs())},
+                     // Only a frame drawn wholly on Vulkan can skip its readback.
+                     {"device_frame_ms",
+                      m->deviceFrameMs > 0 ? num(m->deviceFrameMs) : "– (a CPU tier)"},
                      {"worst_frame_ms", num(m->worstFrameMs)},
                      {"speedup", speedupCell(*m)},
                      {"speedup_vs_fragment", m->speedupVsNearVulkanFragment > 0
@@ -351,73 +314,6 @@ json modesContext(const SuiteResults& r) {
                            ref ? json(num(ref->error.differingPixels, 0)) : json(false)}});
     }
     return scenes;
-}
-
-/// A column of the time split: a figure of kFrameFigures, and whether it is a part of the
-/// tier column before it.
-struct TimeColumn {
-    std::size_t figure;
-    bool part;
-};
-
-/// The time split's columns, from the figure table: the frame's time steps (its timeStep
-/// lines), with each tier's whole time (near_ms, far_ms: either backend) before the steps named
-/// after it ("near_…", "far_…"), which are parts of it. What no column holds is "other".
-std::vector<TimeColumn> timeColumns() {
-    const std::size_t tiers[] = {frameFigureIndex(&FrameStats::nearMs),
-                                 frameFigureIndex(&FrameStats::farMs)};
-    const auto tierPrefix = [](std::size_t tier) {
-        const std::string name = kFrameFigures[tier].name; // "near_ms" -> "near_"
-        return name.substr(0, name.size() - 2);
-    };
-    const auto partOf = [&](std::size_t i, std::size_t tier) {
-        return std::string(kFrameFigures[i].name).starts_with(tierPrefix(tier));
-    };
-    std::vector<TimeColumn> cols;
-    for (std::size_t i = 0; i < kFrameFigureCount; ++i)
-        if (kFrameFigures[i].timeStep && std::none_of(std::begin(tiers), std::end(tiers),
-                                                      [&](std::size_t t) { return partOf(i, t); }))
-            cols.push_back({i, false});
-    for (std::size_t tier : tiers) {
-        cols.push_back({tier, false});
-        for (std::size_t i = 0; i < kFrameFigureCount; ++i)
-            if (kFrameFigures[i].timeStep && partOf(i, tier)) cols.push_back({i, true});
-    }
-    return cols;
-}
-
-json timeSplitHeadings() {
-    json headings = json::array();
-    for (const TimeColumn& c : timeColumns()) {
-        const FrameFigure& f = kFrameFigures[c.figure];
-        headings.push_back(f.words() + (f.timeStep ? "" : " tier")); // a tier's whole time
-    }
-    return headings;
-}
-
-/// Every mode's frame per scene, split by the time columns; "other" is the rest of frame_ms. Each
-/// figure is its own median over the passes, so the columns can add up to a little more than the
-/// total: "other" is then 0.
-json timeSplitContext(const SuiteResults& r) {
-    const std::vector<TimeColumn> cols = timeColumns();
-    json rows = json::array();
-    for (const std::string& scene : sceneNames(r))
-        for (const BenchModeInfo& mode : kBenchModes) {
-            const Measurement* m = find(r, kModesGroup, scene, mode.mode);
-            if (!m) continue;
-            json steps = json::array();
-            double other = m->frameMs();
-            for (const TimeColumn& c : cols) {
-                steps.push_back(num(m->figures.values[c.figure]));
-                if (!c.part) other -= m->figures.values[c.figure];
-            }
-            rows.push_back({{"scene", scene},
-                            {"mode", mode.name},
-                            {"steps", steps},
-                            {"other", num(std::max(0.0, other))},
-                            {"total", num(m->frameMs())}});
-        }
-    return rows;
 }
 
 /// Issue 13's target for the error budget, in motion: at 1 virtual pixel, at least 3x the
@@ -695,38 +591,38 @@ json reportContext(const SuiteResults& r, const PlotSet& plots) {
     const bool speedErrorPlot = std::count(plots.pngs.begin(), plots.pngs.end(), "speed_error.png");
     const bool motionErrorPlot =
         std::count(plots.pngs.begin(), plots.pngs.end(), "motion_error.png");
-    return {{"preset", p.name},
-            {"lead", leadLines(r, /*markdown=*/true)},
-            {"date", date},
-            {"wall_s", num(r.wallSeconds, 0)},
-            {"cpu", r.cpu},
-            {"threads", std::to_string(r.threads)},
-            {"vulkan_device", r.vulkanDevice},
-            {"warmup", std::to_string(p.warmup)},
-            {"repeats", std::to_string(p.repeats)},
-            {"path_frames", std::to_string(p.pathFrames)},
-            {"motion_frames", std::to_string(p.motionFrames)},
-            {"motion_warmup", std::to_string(p.motionWarmup)},
-            {"scaling_repeats", std::to_string(p.scalingRepeats)},
-            {"headline", headlineContext(r, first)},
-            {"baselines", baselinesContext(r)},
-            {"far_blit", r.plan.frame.farBlit.kernel == FarBlitKernel::Simd
-                             ? std::string("SIMD, ") + farBlitSimdTarget()
-                             : std::string("scalar")},
-            {"scenes", modesContext(r)},
-            {"time_steps", timeSplitHeadings()},
-            {"time_split", timeSplitContext(r)},
-            {"budget_target", budgetTargetContext(r)},
-            {"frontier",
-             frontierContext(r, std::count(plots.pngs.begin(), plots.pngs.end(), "frontier.png"))},
-            {"blit_bytes_per_pixel", num(kBlitBytesPerPixel, 0)},
-            {"memcpy_gbps", num(r.memcpyGBps, 1)},
-            {"throughput", throughputContext(r)},
-            {"sweeps", sweepsContext(r, first, speedErrorPlot, motionErrorPlot)},
-            {"scaling", scalingContext(r, plots.pngs)},
-            {"plot_note", plots.note.empty() ? json(false) : json(plots.note)},
-            {"notes", r.notes},
-            {"plots", plots.pngs}};
+    json context = {{"preset", p.name},
+                    {"lead", leadLines(r, /*markdown=*/true)},
+                    {"date", date},
+                    {"wall_s", num(r.wallSeconds, 0)},
+                    {"cpu", r.cpu},
+                    {"threads", std::to_string(r.threads)},
+                    {"vulkan_device", r.vulkanDevice},
+                    {"warmup", std::to_string(p.warmup)},
+                    {"repeats", std::to_string(p.repeats)},
+                    {"path_frames", std::to_string(p.pathFrames)},
+                    {"motion_frames", std::to_string(p.motionFrames)},
+                    {"motion_warmup", std::to_string(p.motionWarmup)},
+                    {"scaling_repeats", std::to_string(p.scalingRepeats)},
+                    {"headline", headlineContext(r, first)},
+                    {"baselines", baselinesContext(r)},
+                    {"far_blit", r.plan.frame.farBlit.kernel == FarBlitKernel::Simd
+                                     ? std::string("SIMD, ") + farBlitSimdTarget()
+                                     : std::string("scalar")},
+                    {"scenes", modesContext(r)},
+                    {"budget_target", budgetTargetContext(r)},
+                    {"frontier", frontierContext(r, std::count(plots.pngs.begin(), plots.pngs.end(),
+                                                               "frontier.png"))},
+                    {"blit_bytes_per_pixel", num(kBlitBytesPerPixel, 0)},
+                    {"memcpy_gbps", num(r.memcpyGBps, 1)},
+                    {"throughput", throughputContext(r)},
+                    {"sweeps", sweepsContext(r, first, speedErrorPlot, motionErrorPlot)},
+                    {"scaling", scalingContext(r, plots.pngs)},
+                    {"plot_note", plots.note.empty() ? json(false) : json(plots.note)},
+                    {"notes", r.notes},
+                    {"plots", plots.pngs}};
+    context.update(timeSplitContext(r));
+    return context;
 }
 
 kainjow::mustache::data mustacheData(const json& j) {

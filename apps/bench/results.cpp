@@ -58,6 +58,7 @@ std::vector<Column> columns() {
     const std::vector<Column> bench = {
         {"visible", field(&M::visible)},
         {"worst_frame_ms", field(&M::worstFrameMs)},
+        {"device_frame_ms", field(&M::deviceFrameMs)},
         {"all_near_vulkan_ms", field(&M::allNearVulkanMs)},
         {"speedup_vs_all_near_vulkan", field(&M::speedupVsAllNearVulkan)},
         {"near_vulkan_fragment_ms", field(&M::nearVulkanFragmentMs)},

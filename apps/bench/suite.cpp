@@ -5,6 +5,7 @@
 #include "apps/bench/machine.hpp"
 #include "apps/bench/presets.hpp"
 #include "apps/bench/scene_edits.hpp"
+#include "apps/bench/sets.hpp"
 #include "core/error.hpp"
 #include "core/scene_loader.hpp"
 #include "volumetric/near_renderer.hpp"
@@ -39,12 +40,6 @@ double secondsSince(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-std::string fmt(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%g", v);
-    return buf;
-}
-
 // ---------------------------------------------------------------------------------------------
 // Progress: one line on stderr, rewritten in place on a terminal, a line every few seconds
 // otherwise (logs and tests).
@@ -63,6 +58,8 @@ class Progress {
                      t, what.c_str(), tty_ ? "" : "\n");
         std::fflush(stderr);
     }
+    /// Counts `n` steps as done without a line: work planned but not needed.
+    void skip(std::size_t n) { done_ += n; }
     void finish() {
         if (tty_) std::fprintf(stderr, "\n");
     }
@@ -73,134 +70,6 @@ class Progress {
     bool tty_;
     double lastPrint_ = -1e9;
 };
-
-// ---------------------------------------------------------------------------------------------
-// Configurations and sets.
-
-struct Config {
-    std::string name; ///< for the progress line and the "truth" column
-    BenchMode mode = BenchMode::NearVulkan;
-    bool isTruth = false;
-    int truth = -1; ///< index (in the set) of the all-near image the errors are measured against
-    Scene scene;    ///< this configuration's copy (the FrameRenderer keeps a reference to it)
-    std::unique_ptr<FrameRenderer> renderer;
-    std::vector<std::vector<FrameStats>> samples; ///< [frame][timed pass]
-    FrameStats cold;
-    double coldFirstMs = 0.0;
-    std::vector<FrameErrorReport> errors;
-    std::vector<char> hasError;
-    std::vector<std::uint64_t> countedSteps, countedFragments;
-    struct MotionFrame {
-        FrameStats stats;
-        double psnr = 0.0, differingShare = 0.0;
-        std::size_t differingPixels = 0;
-    };
-    std::vector<MotionFrame> motion; ///< the in-motion run, frame by frame
-};
-
-struct Row {
-    int config = 0;
-    Measurement meta; ///< labels; the numbers are filled in from the configuration
-};
-
-struct Set {
-    std::string label;
-    std::vector<int> frames;
-    std::vector<double> times;
-    int repeats = 1;
-    std::vector<std::unique_ptr<Config>> configs; ///< truths first; stable addresses
-    std::vector<Row> rows;
-    bool inMotion = false; ///< also the in-motion run (runMotion): the scenes' own sets
-};
-
-std::string sceneName(const std::string& file) {
-    return fs::path(file).stem().string();
-}
-
-std::string selectorSummary(const Scene& s) {
-    const SelectorConfig& c = s.selector;
-    return std::string(toString(c.metric)) + " near_at " + fmt(c.nearAt) + " far_at " +
-           fmt(c.farAt) + ", " + std::to_string(c.viewSetSize) + " views, sigma " +
-           fmt(s.render.sigma) + ", fade " + std::to_string(c.crossfadeFrames) +
-           (c.viewHysteresisDeg > 0 ? ", view hysteresis " + fmt(c.viewHysteresisDeg) : "");
-}
-
-/// Adds a configuration; the truth of a truth configuration is itself.
-int addConfig(Set& set, const Scene& scene, BenchMode mode, const std::string& name) {
-    auto c = std::make_unique<Config>();
-    c->name = name;
-    c->mode = mode;
-    c->scene = scene;
-    c->isTruth = info(mode).isTruth;
-    set.configs.push_back(std::move(c));
-    return int(set.configs.size()) - 1;
-}
-
-Measurement label(const std::string& group, const std::string& scene, BenchMode mode,
-                  const std::string& family = "", const std::string& setting = "",
-                  double param = 0.0) {
-    Measurement m;
-    m.group = group;
-    m.scene = scene;
-    m.mode = mode;
-    m.family = family;
-    m.setting = setting;
-    m.param = param;
-    return m;
-}
-
-void linkTruths(Set& set) {
-    // Each approximate configuration is compared with the near_vulkan configuration of the same
-    // sigma (the sprites' lattice depends on it; nothing else in a scene copy differs).
-    for (auto& c : set.configs) {
-        if (c->isTruth) continue;
-        for (std::size_t t = 0; t < set.configs.size(); ++t)
-            if (set.configs[t]->isTruth &&
-                set.configs[t]->scene.render.sigma == c->scene.render.sigma) {
-                c->truth = int(t);
-                break;
-            }
-    }
-    // Truths render first in every frame, so their images exist when the others are compared.
-    for (std::size_t i = 0; i < set.configs.size(); ++i)
-        if (!set.configs[i]->isTruth)
-            for (std::size_t j = i + 1; j < set.configs.size(); ++j)
-                if (set.configs[j]->isTruth)
-                    throw std::logic_error("bench: truth configurations must come first");
-}
-
-std::pair<std::vector<int>, std::vector<double>> pathSamples(const Scene& s, int count) {
-    std::vector<int> frames;
-    if (s.path && count > 1) {
-        const int n = s.path->frameCount();
-        const int k = std::min(count, n);
-        for (int i = 0; i < k; ++i)
-            frames.push_back(k == 1 ? 0 : int(std::lround(double(i) * (n - 1) / (k - 1))));
-    } else {
-        frames.push_back(0);
-    }
-    std::vector<double> times;
-    for (int f : frames) times.push_back(s.path ? s.timeOfFrame(f) : 0.0);
-    return {frames, times};
-}
-
-// ---------------------------------------------------------------------------------------------
-// Scenes.
-
-void applyOverrides(Scene& s, const Plan& plan, bool capEntities) {
-    if (plan.width) s.camera.width = *plan.width, s.camera.height = *plan.height;
-    if (plan.budgetVpx) {
-        SelectorConfig c = defaultSelectorFor(SelectorMetric::ErrorBudget);
-        c.budgetVpx = *plan.budgetVpx;
-        c.viewSetSize = s.selector.viewSetSize;
-        c.viewHysteresisDeg = s.selector.viewHysteresisDeg;
-        c.crossfadeFrames = s.selector.crossfadeFrames;
-        c.snapshotScale = s.selector.snapshotScale;
-        s.selector = c;
-    }
-    if (capEntities && plan.entityCap && int(s.entities.size()) > *plan.entityCap)
-        s.entities.resize(std::size_t(*plan.entityCap));
-}
 
 // ---------------------------------------------------------------------------------------------
 // Measuring.
@@ -216,6 +85,40 @@ FrameOptions frameOptions(const Config& c, const Plan& plan,
     if (info(c.mode).farBackend != FarBackend::Auto) o.farBackend = info(c.mode).farBackend;
     if (info(c.mode).perPixel) o.nearRate = NearRate::Fragment;
     return o;
+}
+
+/// The device frame (issue 35): the set's frames drawn again, `set.repeats` passes, each timed
+/// without reading the image back (FrameOptions::readBack): set-up, selection, recording and
+/// the device's work, what a frame shown on the GPU costs (FrameStats::totalMs). Only a frame
+/// drawn wholly on Vulkan can skip its readback; whether one was is seen in its result (an
+/// empty image), since which tier draws what depends on the frame. Left empty where a frame
+/// came back read (a CPU tier drew part of it): the first such frame ends the measurement.
+void timeDeviceFrames(Config& c, const Set& set, Progress& progress) {
+    const std::size_t frames = set.frames.size(), steps = frames * std::size_t(set.repeats);
+    c.deviceMs.clear();
+    if (info(c.mode).renderMode == RenderMode::Reference) {
+        progress.skip(steps);
+        return;
+    }
+    std::vector<std::vector<double>> ms(frames);
+    c.renderer->options().readBack = false;
+    bool readBack = false;
+    std::size_t done = 0;
+    for (int pass = 0; pass < set.repeats && !readBack; ++pass) {
+        c.renderer->selector().reset(); // a pass is the path from its start
+        for (std::size_t fi = 0; fi < frames && !readBack; ++fi) {
+            progress.step(set.label + ": " + c.name + ", device frame " +
+                          std::to_string(set.frames[fi]) + ", pass " + std::to_string(pass + 1));
+            const FrameResult r =
+                c.renderer->render(set.times[fi], info(c.mode).renderMode, set.frames[fi]);
+            readBack = r.image.pixelCount() > 0;
+            ms[fi].push_back(r.stats.totalMs);
+            ++done;
+        }
+    }
+    progress.skip(steps - done);
+    c.renderer->options().readBack = true;
+    if (!readBack) c.deviceMs = std::move(ms);
 }
 
 void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& near,
@@ -292,6 +195,9 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
         }
         c->renderer->options().nearCountSteps = false;
     }
+    // The scenes' own sets: the device frame beside the file frame.
+    if (set.inMotion)
+        for (auto& c : set.configs) timeDeviceFrames(*c, set, progress);
 }
 
 /// In motion (issue 13): the path's first plan.motionFrames frames, consecutive and in order,
@@ -520,6 +426,10 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
             m.fastestExact = toString(BenchMode::NearReference), m.fastestExactMs = referenceMs;
     }
     m.speedupVsFastestExact = ratio(m.fastestExactMs, m.frameMs());
+    if (!c.deviceMs.empty()) {
+        for (const std::vector<double>& passes : c.deviceMs) m.deviceFrameMs += median(passes);
+        m.deviceFrameMs /= double(c.deviceMs.size());
+    }
     addThroughput(m);
     addErrors(m);
     addMotion(m, c, truth, reference, plan);
@@ -547,158 +457,6 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
     if (c.cold.bakeMs > 0 && c.cold.raysTraced)
         m.cold.raysPerS = double(c.cold.raysTraced) / c.cold.bakeMs * 1e3;
     return m;
-}
-
-// ---------------------------------------------------------------------------------------------
-// The sets.
-
-struct SweepPoint {
-    std::string family, setting;
-    double param = 0.0;
-    SelectorConfig selector;
-    double sigma = 1.0;
-};
-
-std::string configKey(const SelectorConfig& c, double sigma) {
-    return std::string(toString(c.metric)) + "/" + fmt(c.nearAt) + "/" + fmt(c.farAt) + "/" +
-           std::to_string(c.viewSetSize) + "/" + std::to_string(c.crossfadeFrames) + "/" +
-           fmt(c.viewHysteresisDeg) + "/" + fmt(sigma) + "/" + fmt(c.budgetVpx) + "/" +
-           std::to_string(c.ladderCap) + "/" + std::to_string(c.snapshotScale);
-}
-
-std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
-    std::vector<SweepPoint> pts;
-    const SelectorConfig s0 = base.selector;
-    const double sigma0 = base.render.sigma;
-    auto farAt = [&](SelectorMetric metric, const std::vector<double>& values, double nearFactor) {
-        for (double v : values) {
-            SweepPoint p;
-            p.family = std::string("far_at (") + toString(metric) + ")";
-            p.selector = s0;
-            p.selector.metric = metric;
-            p.selector.farAt = v;
-            p.selector.nearAt = v * nearFactor;
-            p.sigma = sigma0;
-            p.param = v;
-            p.setting = std::string(toString(metric)) + " far_at=" + fmt(v) +
-                        " near_at=" + fmt(v * nearFactor);
-            pts.push_back(p);
-        }
-    };
-    farAt(SelectorMetric::Distance, plan.distanceFarAt, 0.8);
-    farAt(SelectorMetric::RadiusPx, plan.radiusFarAt, 1.5);
-    farAt(SelectorMetric::ErrorPx, plan.errorFarAt, 2.0);
-    // The error budget (issue 13): each budget with each snapshot scale (the speed–error
-    // frontier, issue 29), then the ladder cap at the scene's budget.
-    for (int k : plan.snapshotScales)
-        for (double b : plan.budgets) {
-            SweepPoint p{kBudgetFamily, "error_budget " + fmt(b) + " vpx, " + scaleName(k), b, s0,
-                         sigma0};
-            p.selector = defaultSelectorFor(SelectorMetric::ErrorBudget);
-            p.selector.budgetVpx = b;
-            p.selector.snapshotScale = k;
-            pts.push_back(p);
-        }
-    for (int cap : plan.ladderCaps) {
-        SweepPoint p{"ladder cap (error_budget)",
-                     "error_budget 1 vpx, ladder cap " + std::to_string(cap), double(cap), s0,
-                     sigma0};
-        p.selector = defaultSelectorFor(SelectorMetric::ErrorBudget);
-        p.selector.ladderCap = cap;
-        pts.push_back(p);
-    }
-    for (int v : plan.viewSets) {
-        SweepPoint p{"view set", std::to_string(v) + " views", double(v), s0, sigma0};
-        p.selector.viewSetSize = v;
-        pts.push_back(p);
-    }
-    for (double s : plan.sigmas) pts.push_back({"sigma", "sigma=" + fmt(s), s, s0, s});
-    for (int n : plan.crossfades) {
-        SweepPoint p{"cross-fade",
-                     n ? "cross-fade " + std::to_string(n) + " frames" : "no cross-fade", double(n),
-                     s0, sigma0};
-        p.selector.crossfadeFrames = n;
-        pts.push_back(p);
-    }
-    return pts;
-}
-
-/// A scene's set: every mode and, for the first scene, every sweep point (hybrid). The
-/// truths (all near on Vulkan, one per sigma in use) come first and are shared.
-Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps,
-             std::vector<std::string>& notes) {
-    Set set;
-    const std::string name = sceneName(src.file);
-    set.label = name;
-    set.inMotion = true;
-    Scene base = src.scene;
-    applyOverrides(base, plan, /*capEntities=*/true);
-    std::tie(set.frames, set.times) = pathSamples(base, plan.pathFrames);
-    set.repeats = plan.repeats;
-    if (!base.edits.empty())
-        notes.push_back(name +
-                        ": its scripted edits are not applied (`bench edits` measures edits).");
-    const std::vector<SweepPoint> pts =
-        withSweeps ? sweepPoints(plan, base) : std::vector<SweepPoint>{};
-
-    std::map<BenchMode, int> byMode;
-    auto addModes = [&](bool truths) {
-        for (const BenchModeInfo& mode : kBenchModes)
-            if (mode.isTruth == truths) {
-                byMode[mode.mode] = addConfig(set, base, mode.mode, mode.name);
-                set.rows.push_back({byMode[mode.mode], label("modes", name, mode.mode)});
-            }
-    };
-    addModes(/*truths=*/true);
-    // The sweeps change sigma: the truths of the other sigmas, all near on Vulkan too.
-    std::map<double, int> truthBySigma{{base.render.sigma, byMode.at(BenchMode::NearVulkan)}};
-    for (const SweepPoint& p : pts) {
-        if (truthBySigma.count(p.sigma)) continue;
-        Scene sc = base;
-        sc.render.sigma = p.sigma;
-        const int t =
-            addConfig(set, sc, BenchMode::NearVulkan, "near_vulkan sigma=" + fmt(p.sigma));
-        truthBySigma[p.sigma] = t;
-        set.rows.push_back({t, label("sweep", name, BenchMode::NearVulkan, "sigma (all near)",
-                                     "all near, sigma=" + fmt(p.sigma), p.sigma)});
-    }
-    addModes(/*truths=*/false);
-
-    std::map<std::string, int> byKey{
-        {configKey(base.selector, base.render.sigma), byMode.at(BenchMode::Hybrid)}};
-    for (const SweepPoint& p : pts) {
-        const std::string key = configKey(p.selector, p.sigma);
-        if (!byKey.count(key)) {
-            Scene sc = base;
-            sc.selector = p.selector;
-            sc.render.sigma = p.sigma;
-            byKey[key] = addConfig(set, sc, BenchMode::Hybrid, "hybrid " + p.setting);
-        }
-        set.rows.push_back(
-            {byKey[key], label("sweep", name, BenchMode::Hybrid, p.family, p.setting, p.param)});
-    }
-    linkTruths(set);
-    return set;
-}
-
-/// One point of a scaling curve: every mode on one frame (the camera at t = 0).
-Set scalingSet(const SceneSource& src, const json& doc, const Plan& plan, const std::string& group,
-               double param, const std::string& what) {
-    Set set;
-    const std::string name = sceneName(src.file);
-    set.label = name + " " + what;
-    Scene s = sceneFromJson(src, doc);
-    applyOverrides(s, plan, /*capEntities=*/false);
-    set.frames = {0};
-    set.times = {0.0};
-    set.repeats = plan.scalingRepeats;
-    for (const bool truths : {true, false})
-        for (const BenchModeInfo& mode : kBenchModes)
-            if (mode.isTruth == truths)
-                set.rows.push_back({addConfig(set, s, mode.mode, mode.name),
-                                    label(group, name, mode.mode, group, what, param)});
-    linkTruths(set);
-    return set;
 }
 
 } // namespace
@@ -770,7 +528,9 @@ SuiteResults runSuite(const SuiteOptions& options) {
         for (const auto& c : s.configs) counting += info(c->mode).countsStepsApart;
         total +=
             s.frames.size() * (std::size_t(plan.warmup + s.repeats) * s.configs.size() + counting);
-        if (s.inMotion) total += std::size_t(plan.motionFrames) * s.configs.size();
+        if (s.inMotion) // the in-motion run and the device frames (or their skip)
+            total += (std::size_t(plan.motionFrames) + s.frames.size() * std::size_t(s.repeats)) *
+                     s.configs.size();
     }
     // One Vulkan device for the whole run; validation (VOXTIER_VALIDATION=1) inflates timings.
     auto near = std::make_shared<NearRenderer>();

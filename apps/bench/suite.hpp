@@ -203,6 +203,10 @@ struct Measurement {
     double frameMs() const { return figures.of(&FrameStats::totalMs); }
     double visible = 0;      ///< entities - culled, per frame
     double worstFrameMs = 0; ///< the slowest path frame's median
+    /// The same frames drawn on the Vulkan device alone and not read back (FrameOptions::
+    /// readBack): frame ms as frameMs() takes it (medians over the passes, mean over the path
+    /// frames), what a frame shown on the GPU costs. 0 where a CPU tier draws part of the frame.
+    double deviceFrameMs = 0;
     /// The exact paths of the same frames in the same run, at the same sigma (0 where not
     /// measured), and the speed-ups against them: all-near on Vulkan (the truth), per-pixel near
     /// sprites on Vulkan (what cell-rate sprites buy), and the fastest exact path (the faster of
