@@ -2,9 +2,10 @@
 // scaling points give (apps/bench/sets.hpp).
 #include "apps/bench/sets.hpp"
 
+#include "apps/bench/harness.hpp"
+
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <stdexcept>
@@ -14,10 +15,9 @@ namespace voxtier::bench {
 
 namespace {
 
+/// Settings in words and configuration keys: six significant digits, as in the results.
 std::string fmt(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%g", v);
-    return buf;
+    return cli::sig(v);
 }
 
 
