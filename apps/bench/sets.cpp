@@ -20,7 +20,6 @@ std::string fmt(double v) {
     return cli::sig(v);
 }
 
-
 /// Adds a configuration; the truth of a truth configuration is itself.
 int addConfig(Set& set, const Scene& scene, BenchMode mode, const std::string& name) {
     auto c = std::make_unique<Config>();
@@ -227,8 +226,8 @@ Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps,
     return set;
 }
 
-Set scalingSet(const SceneSource& src, const nlohmann::json& doc, const Plan& plan, const std::string& group,
-               double param, const std::string& what) {
+Set scalingSet(const SceneSource& src, const nlohmann::json& doc, const Plan& plan,
+               const std::string& group, double param, const std::string& what) {
     Set set;
     const std::string name = sceneName(src.file);
     set.label = name + " " + what;

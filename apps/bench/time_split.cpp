@@ -91,8 +91,7 @@ std::vector<std::size_t> deviceColumns() {
     std::vector<std::size_t> cols;
     for (std::size_t i = 0; i < kFrameFigureCount; ++i) {
         const std::string name = kFrameFigures[i].name;
-        if ((name.starts_with("host_") && !kFrameFigures[i].timeStep) ||
-            name.starts_with("gpu_"))
+        if ((name.starts_with("host_") && !kFrameFigures[i].timeStep) || name.starts_with("gpu_"))
             cols.push_back(i);
     }
     return cols;
