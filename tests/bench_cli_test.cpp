@@ -646,6 +646,15 @@ TEST_F(BenchSmoke, CsvKeepsEveryColumnItHad) {
         EXPECT_TRUE(has.count(c)) << c;
 }
 
+TEST_F(BenchSmoke, CsvNamesEachColumnOnce) {
+    // One name per figure: a frame figure's column is its kFrameFigures name, a bench figure's
+    // its line in results.cpp, and no two share one.
+    const std::vector<std::string> header = csvFields(run().csv.substr(0, run().csv.find('\n')));
+    std::set<std::string> seen;
+    for (const std::string& name : header) EXPECT_TRUE(seen.insert(name).second) << name;
+    EXPECT_GT(header.size(), kFrameFigureCount);
+}
+
 TEST_F(BenchSmoke, CsvHasAColumnPerFrameFigure) {
     const std::vector<std::string> header = csvFields(run().csv.substr(0, run().csv.find('\n')));
     for (const FrameFigure& f : kFrameFigures)
