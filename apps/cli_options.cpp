@@ -1,6 +1,5 @@
 #include "apps/cli_options.hpp"
 
-#include "compose/frame.hpp"
 #include "core/error.hpp"
 #include "image_files/image_files.hpp"
 
@@ -215,36 +214,33 @@ const char* defaultImageExtension() {
     return imageLibraryAvailable() ? ".png" : ".pam";
 }
 
-CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate) {
-    return addChoiceOption(
-        cmd, "--near-rate", rate, kNearRateNames, "near rate",
+void addFrameFlags(CLI::App& cmd, FrameOptions& options, const FrameFlagHelp& help) {
+    addChoiceOption(cmd, "--far-backend", options.farBackend, kFarBackendNames, "far backend",
+                    help.farBackend);
+    addChoiceOption(
+        cmd, "--near-rate", options.nearRate, kNearRateNames, "near rate",
         "Near sprites traced per pixel (fragment), once per lattice cell and looked up per pixel "
         "(cell), or cell-rate where it is cheaper (auto); same image");
-}
-
-CLI::Option* addFarBlitOption(CLI::App& cmd, FarBlitKernel& kernel) {
-    return addChoiceOption(cmd, "--far-blit", kernel, kFarBlitNames, "far blit",
-                           "The far blit's kernel: simd (spans of pixels on the widest SIMD unit "
-                           "of this CPU) or scalar (one pixel at a time, the reference); same "
-                           "image");
-}
-
-void addCullFlags(CLI::App& cmd, CullSwitches& cull) {
+    addChoiceOption(cmd, "--far-blit", options.farBlit.kernel, kFarBlitNames, "far blit",
+                    "The far blit's kernel: simd (spans of pixels on the widest SIMD unit "
+                    "of this CPU) or scalar (one pixel at a time, the reference); same "
+                    "image");
     auto* on = cmd.add_flag_callback(
-        "--cull", [&cull] { cull.occlusionCull = true; },
+        "--cull", [&options] { options.occlusionCull = true; },
         "Exact occlusion culling in the CPU tiers as well: sprites drawn front to back, skipping "
         "the tiles and whole sprites nearer ones already hide (pays where large sprites hide "
         "whole others); same image");
     auto* off = cmd.add_flag_callback(
         "--no-cull",
-        [&cull] {
-            cull.occlusionCull = false;
-            cull.earlyDepthTest = false;
+        [&options] {
+            options.occlusionCull = false;
+            options.earlyDepthTest = false;
         },
         "No occlusion culling at all, not even the near tier's early depth test (on by "
         "default: the CPU reference and Vulkan skip pixels a nearer sprite already holds); same "
         "image, for comparisons");
     on->excludes(off);
+    cmd.add_flag("!--no-cost-bound", options.costAwareBakes, help.costBound);
 }
 
 } // namespace voxtier::cli

@@ -10,9 +10,8 @@
 // prints DBL_MAX in full, and CheckedTransformer lists an enum's integers ("{far->2,...} OR
 // {2,...}"). These keep CLI11's mechanism (and its `{a,b}` / ExistingFile forms) with the
 // project's one-line messages.
-#include "core/near_rate.hpp"
+#include "compose/frame.hpp"
 #include "core/view_set.hpp"
-#include "impostor_cache/far_blit.hpp"
 
 #include <CLI/CLI.hpp>
 #include <glm/glm.hpp>
@@ -105,20 +104,25 @@ inline std::vector<std::pair<std::string, ViewSet>> viewSetNames() {
     return names;
 }
 
-/// `--near-rate auto|fragment|cell` (compose/frame.hpp kNearRateNames) on `cmd`, for `render`
-/// and `bench` alike.
-CLI::Option* addNearRateOption(CLI::App& cmd, NearRate& rate);
-/// `--far-blit simd|scalar` (compose/frame.hpp kFarBlitNames) on `cmd`, for `render` and `bench`.
-CLI::Option* addFarBlitOption(CLI::App& cmd, FarBlitKernel& kernel);
-/// The occlusion switches of `render` and `bench` (CONTRACT.md §6, Occlusion): by default the
-/// near tier's early depth test alone; --cull adds the CPU tiers' tiles and whole-sprite drops
-/// (FrameOptions::occlusionCull); --no-cull turns every kind off, the early depth test too
-/// (FrameOptions::earlyDepthTest), for comparisons.
-struct CullSwitches {
-    bool occlusionCull = false;
-    bool earlyDepthTest = true;
+/// What the shared frame flags say in one command's `--help` where they mean something of their
+/// own there.
+struct FrameFlagHelp {
+    std::string farBackend; ///< --far-backend
+    std::string costBound;  ///< --no-cost-bound
 };
-void addCullFlags(CLI::App& cmd, CullSwitches& cull);
+
+/// The flags `render` and `bench` share, bound straight into the FrameOptions the command draws
+/// with (one place, so the two commands cannot drift apart):
+/// - `--far-backend auto|vulkan|cpu` (FrameOptions::farBackend);
+/// - `--near-rate auto|fragment|cell` (nearRate, compose/frame.hpp kNearRateNames);
+/// - `--far-blit simd|scalar` (farBlit.kernel, kFarBlitNames);
+/// - the occlusion switches (CONTRACT.md §6, Occlusion): by default the near tier's early depth
+///   test alone; `--cull` adds the CPU tiers' tiles and whole-sprite drops (occlusionCull);
+///   `--no-cull` turns every kind off, the early depth test too (earlyDepthTest), for comparisons;
+/// - `--no-cost-bound` (costAwareBakes off).
+/// Each option's default is the value `options` holds when bound; `options` must outlive the
+/// parse.
+void addFrameFlags(CLI::App& cmd, FrameOptions& options, const FrameFlagHelp& help);
 
 /// The name of `value` in a name table (for ->default_str).
 template <class Names, class E> std::string nameOf(const Names& names, E value) {

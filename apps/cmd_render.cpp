@@ -38,14 +38,11 @@ struct RenderArgs {
     std::string out;
     RenderMode mode = RenderMode::Hybrid;
     bool modeGiven = false; ///< --mode on the command line (else a .vox preview is exact)
-    NearBackend nearBackend = NearBackend::Auto;
-    FarBackend farBackend = FarBackend::Auto;
-    NearRate nearRate = NearRate::Auto;
-    FarBlitKernel farBlit = FarBlitKernel::Simd;
-    cli::CullSwitches cull;
+    /// How the frames are drawn: what the command line sets of it (--near-backend and the flags
+    /// render shares with bench, addFrameFlags); run() adds the rest.
+    FrameOptions drawing;
     bool path = false;
-    bool alpha = false;    ///< transparent background (alpha 0 where no sprite is drawn)
-    bool costBound = true; ///< FrameOptions::costAwareBakes
+    bool alpha = false; ///< transparent background (alpha 0 where no sprite is drawn)
     std::string overlay, csv, pops;
     std::optional<int> popThreshold; ///< pixels of what is seen (PopSummary); measures pops
     std::optional<double> time;
@@ -461,19 +458,12 @@ void run(const RenderArgs& a) {
     const auto runStart = std::chrono::steady_clock::now();
     Scene input = loadInput(a);
     const FramePlan plan = planFrames(a, input);
-    FrameOptions opt;
-    opt.nearBackend = a.nearBackend;
-    opt.farBackend = a.farBackend;
-    opt.nearRate = a.nearRate;
-    opt.farBlit.kernel = a.farBlit;
-    opt.occlusionCull = a.cull.occlusionCull;
-    opt.earlyDepthTest = a.cull.earlyDepthTest;
+    FrameOptions opt = a.drawing;
     // The CPU reference's rows, for the progress line of a lone long frame.
     WorkProgress nearRows;
     opt.nearProgress = &nearRows;
     opt.overlay = !a.overlay.empty();
     opt.measurePops = !a.pops.empty() || a.popThreshold;
-    opt.costAwareBakes = a.costBound;
     if (a.cacheMb) opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
     opt.cacheDir = a.cacheDir.dir;
     opt.cacheDirBytes = a.cacheDir.limitBytes();
@@ -682,26 +672,23 @@ void addRenderCommand(CLI::App& app) {
         "every entity; VOXTIER_VALIDATION=1 enables validation), far (every entity through the "
         "snapshot cache) or reference (CPU reference tracer). Default: hybrid for a scene; a "
         ".vox preview is drawn exactly, by the near tier (near on a GPU, else reference)");
-    addChoiceOption(*cmd, "--near-backend", args->nearBackend, kNearBackendNames, "near backend",
+    addChoiceOption(*cmd, "--near-backend", args->drawing.nearBackend, kNearBackendNames,
+                    "near backend",
                     "auto (Vulkan on a GPU; the CPU reference where the only Vulkan device is a "
                     "CPU, as lavapipe is, or there is none), vulkan, or reference; same image");
-    addChoiceOption(*cmd, "--far-backend", args->farBackend, kFarBackendNames, "far backend",
-                    "auto (the Vulkan far pass on a GPU with shaderFloat64; the CPU blit where the "
-                    "only Vulkan device is a CPU, as lavapipe is, or there is none), vulkan, or "
-                    "cpu; same image");
-    addNearRateOption(*cmd, args->nearRate);
-    addFarBlitOption(*cmd, args->farBlit);
-    addCullFlags(*cmd, args->cull);
+    // The cost bound learns a bake's cost from measured times, so under another load a run may
+    // draw an entity near where another drew it far: a comparison of images needs it off.
+    addFrameFlags(*cmd, args->drawing,
+                  {.farBackend = "auto (the Vulkan far pass on a GPU with shaderFloat64; the CPU "
+                                 "blit where the only Vulkan device is a CPU, as lavapipe is, or "
+                                 "there is none), vulkan, or cpu; same image",
+                   .costBound = "Error-budget scenes: bound bakes only by max_bakes_per_frame, not "
+                                "by the costs measured on earlier frames, so that the image does "
+                                "not depend on the machine's load (for comparing images)"});
     auto* path =
         cmd->add_flag("--path", args->path,
                       "Render every frame of the camera path (OUT becomes OUT_0000.png ...; "
                       "OUT.gif: one animated GIF at the path's frame rate)");
-    // The cost bound learns a bake's cost from measured times, so under another load a run may
-    // draw an entity near where another drew it far: a comparison of images needs it off.
-    cmd->add_flag("!--no-cost-bound", args->costBound,
-                  "Error-budget scenes: bound bakes only by max_bakes_per_frame, not by the costs "
-                  "measured on earlier frames, so that the image does not depend on the machine's "
-                  "load (for comparing images)");
     cmd->add_flag("--alpha", args->alpha,
                   "Transparent background: alpha 0 where no sprite is drawn (PNG, EXR, TIFF; "
                   "like a scene background [r, g, b, 0]); an error with .gif and .jpg");

@@ -529,11 +529,15 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         return image;
     }
     // 3. Near tier: one Vulkan frame (or the CPU reference). The CPU blit below composes on the
-    // near image's depth and ids.
+    // near image's depth and ids. Without far sprites the Vulkan frame is the whole frame: with
+    // readBack off it is only submitted here, so that finish() times it unread. (Not kept in
+    // flight otherwise: two all-near frames in flight crash a path render, "corrupted
+    // double-linked list", which the far pass's frames do not.)
     const bool onVulkan = !nearSprites.empty() && resolved(nearBackend) == NearBackend::Vulkan;
-    Image image =
-        onVulkan ? drawOnVulkan(cam, nearSprites, nullptr, shares.far.empty() && colourOnly(), st)
-                 : drawNearCpu(cam, nearSprites, st);
+    Pending* const unread = shares.far.empty() && !options_.readBack ? pending : nullptr;
+    Image image = onVulkan ? drawOnVulkan(cam, nearSprites, nullptr,
+                                          shares.far.empty() && colourOnly(), st, unread)
+                           : drawNearCpu(cam, nearSprites, st);
     // 4-5. Far tier: make sure every needed snapshot exists (lazy bakes, parallel over distinct
     // snapshots), then blit into the same image; the blit writes with the shared min-z/id rule,
     // which is the composition (composeMinZ is the same rule for two finished images).

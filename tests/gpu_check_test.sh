@@ -24,6 +24,9 @@ grep -q "^identity_near,golden/equal_depth.json,t=0.000 id_diffs,0,pixels" "$wor
     fail "results.csv lacks the identity rows"
 grep -q "^bench,street,hybrid.*in_motion_ms,[0-9.]\+,ms" "$work/out/results.csv" ||
     fail "results.csv lacks the hybrid's in-motion ms"
+# The all-near Vulkan frame timed on the device without its readback, beside the warm frame.
+grep -q "^bench,street,near_vulkan device_frame_ms,[0-9.]*[1-9][0-9.]*,ms" "$work/out/results.csv" ||
+    fail "results.csv lacks near_vulkan's device frame"
 grep -q "^## Where the time goes, pass by pass" "$work/out/report.md" || fail "report.md has no profile"
 # The device timed the near tier's draw of the tank army (lavapipe has timestamps): a positive
 # gpu_draw_ms in the profile rows of near_vulkan.

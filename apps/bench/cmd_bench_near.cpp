@@ -41,7 +41,7 @@ const std::pair<const char*, ModelSource> kModelSourceNames[] = {
 
 struct BenchArgs {
     std::vector<int> entities = {10, 100, 1000};
-    int repeat = 5;
+    int repeats = 5;
     int warmup = 2;
     std::string out;
     ModelSource models = ModelSource::Vox;
@@ -190,7 +190,7 @@ Row measureVariant(NearRenderer& near, const Scene& scene, const CameraFrame& ca
         near.render(cam, scene.models, sprites, scene.render.background, v.options);
     std::vector<double> draw, readback, ref, vkCpu, refCpu;
     Image img;
-    for (int r = 0; r < a.repeat; ++r) {
+    for (int r = 0; r < a.repeats; ++r) {
         NearStats ns;
         GpuFrameReport report;
         const double c0 = processCpuMs();
@@ -225,14 +225,14 @@ void run(const BenchArgs& a) {
     const glm::ivec2 size = *readImageSize(a.size);
     const int width = size.x, height = size.y;
     CsvWriter<Row> csv(csvColumns());
-    if (!a.out.empty()) csv.open(a.out, "--out");
+    if (!a.out.empty()) csv.open(a.out);
 
     const BenchModels models = benchModels(a);
     NearRenderer near; // validation follows VOXTIER_VALIDATION (off for honest timings)
     std::printf("Vulkan device: %s%s; CPU reference: TBB; %dx%d, %d repeats (median), %d warm-up\n",
                 near.deviceName().c_str(),
                 near.validationEnabled() ? " (validation ON: timings inflated)" : "", width, height,
-                a.repeat, a.warmup);
+                a.repeats, a.warmup);
     std::printf("%8s %7s %-16s %8s %7s %8s %8s %6s %8s %8s %6s %10s %10s %7s %8s\n", "entities",
                 "visible", "variant", "vk_draw", "vk_read", "vk_frame", "ref_ms", "ref/vk",
                 "vk_cpu", "ref_cpu", "cpu_r", "fragments", "kernel_frg", "steps/f", "mismatch");
@@ -289,7 +289,10 @@ void run(const BenchArgs& a) {
         "kernel_frg: fragments that ran the kernel; steps/f: voxel reads (DDA steps incl. outline "
         "rays) per\n"
         "kernel fragment; mismatch: pixels differing from the reference (colour, depth or id).\n");
-    if (csv) std::printf("-> %s\n", a.out.c_str());
+    if (csv) {
+        csv.save();
+        std::printf("-> %s\n", a.out.c_str());
+    }
 }
 
 } // namespace
@@ -302,7 +305,7 @@ void addBenchNearCommand(CLI::App& bench) {
         ->delimiter(',')
         ->check(intIn(1, Limits::kMaxEntities))
         ->capture_default_str();
-    cmd->add_option("--repeat", args->repeat,
+    cmd->add_option("--repeats", args->repeats,
                     "Timed frames per count and variant (median reported)")
         ->check(atLeast(1))
         ->capture_default_str();

@@ -3,16 +3,17 @@
 // they need to time things honestly on a shared machine (wall ms, timed repeats after warm-ups,
 // medians and quantiles over them, the load average printed next to them), one parser for
 // comma-separated number lists given on the command line, and one CSV writer driven by a column
-// table (each column's name and how a row gives its value, so the header and the rows cannot
-// drift apart; the frame figures' table, compose/frame_figures.hpp, is the same idea).
+// table, writing its file whole (each column's name and how a row gives its value, so the header
+// and the rows cannot drift apart; the frame figures' table, compose/frame_figures.hpp, is the same
+// idea).
 #include "core/error.hpp"
+#include "core/file_write.hpp"
 #include "core/stopwatch.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <ostream>
@@ -97,6 +98,15 @@ std::vector<T> parseList(const std::string& text, const char* flag, double lo, d
     return out;
 }
 
+/// A number to six significant digits, as the bench's CSV and data files write it ("inf" for
+/// an infinite one).
+inline std::string sig(double v) {
+    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.6g", v);
+    return buf;
+}
+
 /// One column of a CSV: its name in the header and how a row gives its value, written with the
 /// stream's default formatting (6 significant digits for a double).
 template <class Row> struct CsvColumn {
@@ -108,9 +118,9 @@ template <class Row> struct CsvColumn {
         : name(columnName), write([get](std::ostream& o, const Row& r) { o << get(r); }) {}
 };
 
-/// A CSV file whose header and rows both come from one column table. Closed (and false) until
-/// open(); rows written to a closed one are dropped, so a command writes its rows whether or not
-/// the user asked for the file.
+/// A CSV file whose header and rows both come from one column table, kept in memory and written
+/// whole by save() (core/file_write.hpp). Rows written before open() are dropped, so a command
+/// writes its rows whether or not the user asked for the file.
 template <class Row> class CsvWriter {
   public:
     explicit CsvWriter(std::vector<CsvColumn<Row>> columns) : columns_(std::move(columns)) {}
@@ -121,28 +131,29 @@ template <class Row> class CsvWriter {
         for (const CsvColumn<Row>& c : columns_) h += (h.empty() ? "" : ",") + std::string(c.name);
         return h;
     }
-    /// Creates the parent folders, opens `path` and writes the header; InputError naming `flag`
-    /// when the file cannot be opened.
-    void open(const std::string& path, const char* flag) {
-        const auto parent = std::filesystem::path(path).parent_path();
-        if (!parent.empty()) std::filesystem::create_directories(parent);
-        out_.open(path);
-        if (!out_) throw InputError(path, flag, "cannot open for writing");
-        out_ << header() << '\n';
+    /// The file save() writes, its folders created then.
+    void open(const std::string& path) {
+        path_ = path;
+        text_ = header() + '\n';
     }
-    explicit operator bool() const { return out_.is_open() && bool(out_); }
+    explicit operator bool() const { return !path_.empty(); }
     void write(const Row& row) {
-        if (!out_.is_open()) return;
+        if (path_.empty()) return;
+        std::ostringstream line;
         for (std::size_t i = 0; i < columns_.size(); ++i) {
-            if (i > 0) out_ << ',';
-            columns_[i].write(out_, row);
+            if (i > 0) line << ',';
+            columns_[i].write(line, row);
         }
-        out_ << '\n';
+        text_ += line.str() + '\n';
+    }
+    /// Writes the file, whole or not at all (InputError naming it, with the OS reason).
+    void save() const {
+        if (!path_.empty()) writeFileWhole(path_, text_);
     }
 
   private:
     std::vector<CsvColumn<Row>> columns_;
-    std::ofstream out_;
+    std::string path_, text_;
 };
 
 } // namespace voxtier::cli

@@ -1,20 +1,24 @@
 #pragma once
-// `voxtier bench` output: results.csv (one row per measured configuration), results.json (the
-// same plus per-frame detail), PNG plots drawn by gnuplot, and report.md, which embeds them.
+// `voxtier bench`'s report: report.md, which leads with each scene's hybrid against the fastest
+// exact path on the machine, and the PNG plots it embeds (apps/bench/plots.hpp). It reads the
+// folder's results.csv (apps/bench/results.hpp), written first.
 #include "apps/bench/suite.hpp"
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
 namespace voxtier::bench {
 
-/// Writes everything into `dir` (which must exist). Plots are skipped, with the reason in the
-/// report, when gnuplot is missing or fails. Returns the files written.
-std::vector<std::string> writeReport(SuiteResults results, const std::string& dir);
+/// One line per scene: the hybrid against the fastest exact path on this machine, in motion
+/// where the scene has a camera path, with the error it costs (min frame PSNR against all-near,
+/// the share of pixels differing, the worst far displacement in virtual pixels). The first is
+/// the report's first line, and `voxtier bench`'s; `markdown` bolds the scene and the ratio.
+std::vector<std::string> leadLines(const SuiteResults& results, bool markdown);
 
-/// Indices of the rows (into `rows`) that no other row beats on both frame time and `error`
-/// (lower is better on both), in order of increasing frame time.
-std::vector<std::size_t> paretoFront(const std::vector<const Measurement*>& rows,
-                                     double (*error)(const Measurement&));
+/// Draws the plots and writes report.md into `dir`, which holds results.csv already. Plots are
+/// skipped, with the reason in the report, when gnuplot is missing or fails. Returns the files
+/// written.
+std::vector<std::string> writeReport(const SuiteResults& results, const std::filesystem::path& dir);
 
 } // namespace voxtier::bench

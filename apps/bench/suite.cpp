@@ -2,25 +2,25 @@
 #include "apps/bench/suite.hpp"
 
 #include "apps/bench/harness.hpp"
+#include "apps/bench/machine.hpp"
+#include "apps/bench/presets.hpp"
+#include "apps/bench/scene_edits.hpp"
+#include "apps/bench/sets.hpp"
 #include "core/error.hpp"
 #include "core/scene_loader.hpp"
 #include "volumetric/near_renderer.hpp"
 
 #include <nlohmann/json.hpp>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <map>
 #include <memory>
 #include <numeric>
-#include <sstream>
 #include <thread>
 #include <unistd.h>
 
@@ -38,12 +38,6 @@ using nlohmann::json;
 
 double secondsSince(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-std::string fmt(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%g", v);
-    return buf;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -64,6 +58,8 @@ class Progress {
                      t, what.c_str(), tty_ ? "" : "\n");
         std::fflush(stderr);
     }
+    /// Counts `n` steps as done without a line: work planned but not needed.
+    void skip(std::size_t n) { done_ += n; }
     void finish() {
         if (tty_) std::fprintf(stderr, "\n");
     }
@@ -76,228 +72,53 @@ class Progress {
 };
 
 // ---------------------------------------------------------------------------------------------
-// Configurations and sets.
-
-struct Config {
-    std::string name; ///< for the progress line and the "truth" column
-    BenchMode mode = BenchMode::NearVulkan;
-    bool isTruth = false;
-    int truth = -1; ///< index (in the set) of the all-near image the errors are measured against
-    Scene scene;    ///< this configuration's copy (the FrameRenderer keeps a reference to it)
-    std::unique_ptr<FrameRenderer> renderer;
-    std::vector<std::vector<FrameStats>> samples; ///< [frame][timed pass]
-    FrameStats cold;
-    double coldFirstMs = 0.0;
-    std::vector<FrameErrorReport> errors;
-    std::vector<char> hasError;
-    std::vector<std::uint64_t> countedSteps, countedFragments;
-    struct MotionFrame {
-        FrameStats stats;
-        double psnr = 0.0, differingShare = 0.0;
-        std::size_t differingPixels = 0;
-    };
-    std::vector<MotionFrame> motion; ///< the in-motion run, frame by frame
-};
-
-struct Row {
-    int config = 0;
-    Measurement meta; ///< labels; the numbers are filled in from the configuration
-};
-
-struct Set {
-    std::string label;
-    std::vector<int> frames;
-    std::vector<double> times;
-    int repeats = 1;
-    std::vector<std::unique_ptr<Config>> configs; ///< truths first; stable addresses
-    std::vector<Row> rows;
-    bool inMotion = false; ///< also the in-motion run (runMotion): the scenes' own sets
-};
-
-std::string sceneName(const std::string& file) {
-    return fs::path(file).stem().string();
-}
-
-std::string selectorSummary(const Scene& s) {
-    const SelectorConfig& c = s.selector;
-    return std::string(toString(c.metric)) + " near_at " + fmt(c.nearAt) + " far_at " +
-           fmt(c.farAt) + ", " + std::to_string(c.viewSetSize) + " views, sigma " +
-           fmt(s.render.sigma) + ", fade " + std::to_string(c.crossfadeFrames) +
-           (c.viewHysteresisDeg > 0 ? ", view hysteresis " + fmt(c.viewHysteresisDeg) : "");
-}
-
-/// Adds a configuration; the truth of a truth configuration is itself.
-int addConfig(Set& set, const Scene& scene, BenchMode mode, const std::string& name) {
-    auto c = std::make_unique<Config>();
-    c->name = name;
-    c->mode = mode;
-    c->scene = scene;
-    c->isTruth = info(mode).isTruth;
-    set.configs.push_back(std::move(c));
-    return int(set.configs.size()) - 1;
-}
-
-Measurement label(const std::string& group, const std::string& scene, BenchMode mode,
-                  const std::string& family = "", const std::string& setting = "",
-                  double param = 0.0) {
-    Measurement m;
-    m.group = group;
-    m.scene = scene;
-    m.mode = mode;
-    m.family = family;
-    m.setting = setting;
-    m.param = param;
-    return m;
-}
-
-void linkTruths(Set& set) {
-    // Each approximate configuration is compared with the near_vulkan configuration of the same
-    // sigma (the sprites' lattice depends on it; nothing else in a scene copy differs).
-    for (auto& c : set.configs) {
-        if (c->isTruth) continue;
-        for (std::size_t t = 0; t < set.configs.size(); ++t)
-            if (set.configs[t]->isTruth &&
-                set.configs[t]->scene.render.sigma == c->scene.render.sigma) {
-                c->truth = int(t);
-                break;
-            }
-    }
-    // Truths render first in every frame, so their images exist when the others are compared.
-    for (std::size_t i = 0; i < set.configs.size(); ++i)
-        if (!set.configs[i]->isTruth)
-            for (std::size_t j = i + 1; j < set.configs.size(); ++j)
-                if (set.configs[j]->isTruth)
-                    throw std::logic_error("bench: truth configurations must come first");
-}
-
-std::pair<std::vector<int>, std::vector<double>> pathSamples(const Scene& s, int count) {
-    std::vector<int> frames;
-    if (s.path && count > 1) {
-        const int n = s.path->frameCount();
-        const int k = std::min(count, n);
-        for (int i = 0; i < k; ++i)
-            frames.push_back(k == 1 ? 0 : int(std::lround(double(i) * (n - 1) / (k - 1))));
-    } else {
-        frames.push_back(0);
-    }
-    std::vector<double> times;
-    for (int f : frames) times.push_back(s.path ? s.timeOfFrame(f) : 0.0);
-    return {frames, times};
-}
-
-// ---------------------------------------------------------------------------------------------
-// Scenes: loading, overrides, and the JSON edits behind the scaling curves.
-
-struct SceneSource {
-    std::string file;
-    json doc; ///< the file's JSON (already validated by loadScene)
-    Scene scene;
-};
-
-SceneSource loadSource(const std::string& file) {
-    SceneSource s;
-    s.file = file;
-    s.scene = loadScene(file); // validates, with the loader's one-line errors
-    std::ifstream in(file);
-    s.doc = json::parse(in);
-    return s;
-}
-
-Scene fromJson(const SceneSource& src, const json& doc) {
-    return loadSceneJson(doc, src.file, fs::path(src.file).parent_path());
-}
-
-void applyOverrides(Scene& s, const Plan& plan, bool capEntities) {
-    if (plan.width) s.camera.width = *plan.width, s.camera.height = *plan.height;
-    if (plan.budgetVpx) {
-        SelectorConfig c = defaultSelectorFor(SelectorMetric::ErrorBudget);
-        c.budgetVpx = *plan.budgetVpx;
-        c.viewSetSize = s.selector.viewSetSize;
-        c.viewHysteresisDeg = s.selector.viewHysteresisDeg;
-        c.crossfadeFrames = s.selector.crossfadeFrames;
-        c.snapshotScale = s.selector.snapshotScale;
-        s.selector = c;
-    }
-    if (capEntities && plan.entityCap && int(s.entities.size()) > *plan.entityCap)
-        s.entities.resize(std::size_t(*plan.entityCap));
-}
-
-/// The document with its crowds resized so that the scene has `total` entities (plain entities
-/// kept, crowds scaled in proportion). nullopt when the scene has no crowd to resize.
-std::optional<json> withEntityCount(json doc, int total) {
-    if (!doc.contains("crowds") || doc["crowds"].empty()) return std::nullopt;
-    const int plain = doc.contains("entities") ? int(doc["entities"].size()) : 0;
-    long long crowd = 0;
-    for (const json& c : doc["crowds"]) crowd += c.value("count", 0);
-    if (crowd <= 0) return std::nullopt;
-    const int want = std::max(0, total - plain);
-    int assigned = 0;
-    for (std::size_t i = 0; i < doc["crowds"].size(); ++i) {
-        json& c = doc["crowds"][i];
-        const bool last = i + 1 == doc["crowds"].size();
-        const int n = last ? want - assigned
-                           : int(std::lround(double(c.value("count", 0)) * want / double(crowd)));
-        c["count"] = std::max(0, n);
-        assigned += std::max(0, n);
-    }
-    return doc;
-}
-
-/// The document with every tank generator at `side` x `side` x `side/2` voxels, one animation
-/// frame (static: the curve is about the voxel count, not about animation) and the voxel size
-/// scaled so the tanks keep their size in metres. nullopt when the scene has no tank.
-std::optional<json> withTankSide(json doc, int side) {
-    double baseSide = 0.0;
-    for (json& m : doc["models"]) {
-        if (m.value("generator", "") != "tank") continue;
-        if (baseSide == 0.0) baseSide = m.contains("size") ? m["size"][0].get<double>() : 32.0;
-        m["size"] = {side, side, std::max(8, side / 2)};
-        m["frames"] = 1;
-    }
-    if (baseSide == 0.0) return std::nullopt;
-    doc["voxel_size"] = doc.value("voxel_size", 0.1) * baseSide / side;
-    for (json& c : doc["crowds"]) c.erase("fps");
-    return doc;
-}
-
-// ---------------------------------------------------------------------------------------------
 // Measuring.
 
-/// Time of a memcpy of `bytes`, split over the TBB workers like the blit (median of 5 after one
-/// untimed copy): the bandwidth limit a blit of that many bytes cannot beat.
-double memcpyMs(std::size_t bytes) {
-    if (bytes == 0) return 0.0;
-    std::vector<unsigned char> src(bytes, 1), dst(bytes, 0);
-    constexpr std::size_t kBlock = 256 << 10;
-    const std::size_t blocks = (bytes + kBlock - 1) / kBlock;
-    auto copy = [&] {
-        tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
-            const std::size_t at = b * kBlock;
-            std::memcpy(dst.data() + at, src.data() + at, std::min(kBlock, bytes - at));
-        });
-    };
-    const std::vector<double> ms = cli::timedRepeats(1, 5, copy);
-    if (dst[bytes / 2] != 1) std::abort(); // keeps the copies observable
-    return median(ms);
-}
-
-/// How every configuration renders, warm re-render and in motion alike: its near backend, the
-/// per-pixel rate for the per-pixel rows, the plan's rate otherwise, the plan's cache directory.
+/// How a configuration renders, warm re-render and in motion alike: the plan's base options with
+/// what its mode's line in kBenchModes sets (its near backend, its far backend unless Auto, the
+/// per-pixel rate for the per-pixel rows), on the run's one Vulkan device.
 FrameOptions frameOptions(const Config& c, const Plan& plan,
                           const std::shared_ptr<NearRenderer>& near) {
-    FrameOptions o;
+    FrameOptions o = plan.frame;
     o.sharedNear = near;
     o.nearBackend = info(c.mode).nearBackend;
-    o.farBackend =
-        info(c.mode).farBackend == FarBackend::Auto ? plan.farBackend : info(c.mode).farBackend;
-    o.cacheDir = plan.cacheDir;
-    o.cacheDirBytes = plan.cacheDirBytes;
-    o.nearRate = info(c.mode).perPixel ? NearRate::Fragment : plan.nearRate;
-    o.farBlit.kernel = plan.farBlit;
-    o.occlusionCull = plan.occlusionCull;
-    o.earlyDepthTest = plan.earlyDepthTest;
-    o.costAwareBakes = plan.costBound;
+    if (info(c.mode).farBackend != FarBackend::Auto) o.farBackend = info(c.mode).farBackend;
+    if (info(c.mode).perPixel) o.nearRate = NearRate::Fragment;
     return o;
+}
+
+/// The device frame (issue 35): the set's frames drawn again, `set.repeats` passes, each timed
+/// without reading the image back (FrameOptions::readBack): set-up, selection, recording and
+/// the device's work, what a frame shown on the GPU costs (FrameStats::totalMs). Only a frame
+/// drawn wholly on Vulkan can skip its readback; whether one was is seen in its result (an
+/// empty image), since which tier draws what depends on the frame. Left empty where a frame
+/// came back read (a CPU tier drew part of it): the first such frame ends the measurement.
+void timeDeviceFrames(Config& c, const Set& set, Progress& progress) {
+    const std::size_t frames = set.frames.size(), steps = frames * std::size_t(set.repeats);
+    c.deviceMs.clear();
+    if (info(c.mode).renderMode == RenderMode::Reference) {
+        progress.skip(steps);
+        return;
+    }
+    std::vector<std::vector<double>> ms(frames);
+    c.renderer->options().readBack = false;
+    bool readBack = false;
+    std::size_t done = 0;
+    for (int pass = 0; pass < set.repeats && !readBack; ++pass) {
+        c.renderer->selector().reset(); // a pass is the path from its start
+        for (std::size_t fi = 0; fi < frames && !readBack; ++fi) {
+            progress.step(set.label + ": " + c.name + ", device frame " +
+                          std::to_string(set.frames[fi]) + ", pass " + std::to_string(pass + 1));
+            const FrameResult r =
+                c.renderer->render(set.times[fi], info(c.mode).renderMode, set.frames[fi]);
+            readBack = r.image.pixelCount() > 0;
+            ms[fi].push_back(r.stats.totalMs);
+            ++done;
+        }
+    }
+    progress.skip(steps - done);
+    c.renderer->options().readBack = true;
+    if (!readBack) c.deviceMs = std::move(ms);
 }
 
 void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& near,
@@ -374,6 +195,9 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
         }
         c->renderer->options().nearCountSteps = false;
     }
+    // The scenes' own sets: the device frame beside the file frame.
+    if (set.inMotion)
+        for (auto& c : set.configs) timeDeviceFrames(*c, set, progress);
 }
 
 /// In motion (issue 13): the path's first plan.motionFrames frames, consecutive and in order,
@@ -426,49 +250,50 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Confi
     };
     if (c.motion.size() <= std::size_t(plan.motionWarmup)) return;
     const std::vector<double> ms = timedMs(c);
-    m.motionMs = median(ms);
-    m.motionMeanMs = std::accumulate(ms.begin(), ms.end(), 0.0) / double(ms.size());
-    m.motionP90Ms = quantile(ms, 0.9);
-    m.motionWorstMs = quantile(ms, 1.0);
-    if (truth) m.motionBaselineMs = median(timedMs(*truth));
-    if (m.motionMs > 0 && m.motionBaselineMs > 0) m.motionSpeedup = m.motionBaselineMs / m.motionMs;
+    m.motion.ms = median(ms);
+    m.motion.meanMs = std::accumulate(ms.begin(), ms.end(), 0.0) / double(ms.size());
+    m.motion.p90Ms = quantile(ms, 0.9);
+    m.motion.worstMs = quantile(ms, 1.0);
+    if (truth) m.motion.allNearVulkanMs = median(timedMs(*truth));
+    if (m.motion.ms > 0 && m.motion.allNearVulkanMs > 0)
+        m.motion.speedupVsAllNearVulkan = m.motion.allNearVulkanMs / m.motion.ms;
     if (reference && reference->motion.size() > std::size_t(plan.motionWarmup))
-        m.motionReferenceMs = median(timedMs(*reference));
-    if (m.motionMs > 0 && m.motionReferenceMs > 0)
-        m.motionSpeedupVsReference = m.motionReferenceMs / m.motionMs;
-    m.motionFastestExactMs = m.motionReferenceMs > 0 && m.motionBaselineMs > 0
-                                 ? std::min(m.motionReferenceMs, m.motionBaselineMs)
-                                 : std::max(m.motionReferenceMs, m.motionBaselineMs);
-    if (m.motionMs > 0 && m.motionFastestExactMs > 0)
-        m.motionSpeedupVsFastestExact = m.motionFastestExactMs / m.motionMs;
-    m.motionPsnrMin = std::numeric_limits<double>::infinity();
+        m.motion.allNearReferenceMs = median(timedMs(*reference));
+    if (m.motion.ms > 0 && m.motion.allNearReferenceMs > 0)
+        m.motion.speedupVsAllNearReference = m.motion.allNearReferenceMs / m.motion.ms;
+    m.motion.fastestExactMs = m.motion.allNearReferenceMs > 0 && m.motion.allNearVulkanMs > 0
+                                  ? std::min(m.motion.allNearReferenceMs, m.motion.allNearVulkanMs)
+                                  : std::max(m.motion.allNearReferenceMs, m.motion.allNearVulkanMs);
+    if (m.motion.ms > 0 && m.motion.fastestExactMs > 0)
+        m.motion.speedupVsFastestExact = m.motion.fastestExactMs / m.motion.ms;
+    m.motion.psnrMin = std::numeric_limits<double>::infinity();
     double timed = 0;
     for (std::size_t f = 0; f < c.motion.size(); ++f) {
         const Config::MotionFrame& mf = c.motion[f];
-        m.motionPredictedWorstVpx =
-            std::max(m.motionPredictedWorstVpx, mf.stats.farPredictedWorstVpx);
-        m.motionCacheBytes = std::max(m.motionCacheBytes, double(mf.stats.cacheBytes));
-        if (mf.psnr < m.motionPsnrMin) {
-            m.motionPsnrMin = mf.psnr;
-            m.motionPsnrMinShare = mf.differingShare;
-            m.motionPsnrMinPixels = double(mf.differingPixels);
-            m.motionPsnrMinFar = double(mf.stats.farDrawn);
+        m.motion.predictedWorstVpx =
+            std::max(m.motion.predictedWorstVpx, mf.stats.farPredictedWorstVpx);
+        m.motion.cacheBytes = std::max(m.motion.cacheBytes, double(mf.stats.cacheBytes));
+        if (mf.psnr < m.motion.psnrMin) {
+            m.motion.psnrMin = mf.psnr;
+            m.motion.psnrMinShare = mf.differingShare;
+            m.motion.psnrMinDifferingPixels = double(mf.differingPixels);
+            m.motion.psnrMinFarEntities = double(mf.stats.farDrawn);
         }
         if (f < std::size_t(plan.motionWarmup)) {
-            m.motionColdMs += mf.stats.totalMs / plan.motionWarmup;
+            m.motion.coldMs += mf.stats.totalMs / plan.motionWarmup;
             continue;
         }
         ++timed;
-        m.motionBakes += mf.stats.farBakes;
-        m.motionBakeMs += mf.stats.bakeMs;
-        m.motionNearMs += mf.stats.nearMs;
-        m.motionNearEntities += mf.stats.nearDrawn;
-        m.motionFarEntities += mf.stats.farDrawn;
-        m.motionDifferingShare += mf.differingShare;
+        m.motion.bakes += mf.stats.farBakes;
+        m.motion.bakeMs += mf.stats.bakeMs;
+        m.motion.nearMs += mf.stats.nearMs;
+        m.motion.nearEntities += mf.stats.nearDrawn;
+        m.motion.farEntities += mf.stats.farDrawn;
+        m.motion.differingShare += mf.differingShare;
     }
-    m.motionBakes /= timed, m.motionBakeMs /= timed, m.motionDifferingShare /= timed;
-    m.motionNearMs /= timed, m.motionNearEntities /= timed, m.motionFarEntities /= timed;
-    if (c.isTruth) m.motionPsnrMin = 0;
+    m.motion.bakes /= timed, m.motion.bakeMs /= timed, m.motion.differingShare /= timed;
+    m.motion.nearMs /= timed, m.motion.nearEntities /= timed, m.motion.farEntities /= timed;
+    if (c.isTruth) m.motion.psnrMin = 0;
 }
 
 /// Each sampled frame's figures: the medians over the timed passes, with the voxel reads of
@@ -512,36 +337,37 @@ void addErrors(Measurement& m) {
         if (!fr.hasError) continue;
         const FrameErrorReport& e = fr.error;
         ++errorFrames;
-        m.mismatchMean += e.all.meanMismatch;
-        m.coverageMismatchMean += e.all.meanCoverageMismatch;
-        m.farAloneEntities += double(e.farIsolated.entities);
-        m.farOverOneCell += double(e.farIsolated.overOneCell);
-        m.mismatchWorst = std::max(m.mismatchWorst, e.all.worstMismatch);
+        m.error.mismatchMean += e.all.meanMismatch;
+        m.error.coverageMismatchMean += e.all.meanCoverageMismatch;
+        m.error.farAloneEntities += double(e.farIsolated.entities);
+        m.error.farDisplacedOver1Vpx += double(e.farIsolated.overOneCell);
+        m.error.mismatchWorst = std::max(m.error.mismatchWorst, e.all.worstMismatch);
         if (e.far.entities) {
             ++farFrames;
-            m.farMismatchMean += e.far.meanMismatch;
-            m.farIsolatedMismatchMean += e.farIsolated.meanMismatch;
+            m.error.farMismatchMean += e.far.meanMismatch;
+            m.error.farAloneMismatchMean += e.farIsolated.meanMismatch;
         }
-        m.farVisibleDisplacementWorstPx =
-            std::max(m.farVisibleDisplacementWorstPx, e.far.worstDisplacementPx);
-        m.displacementWorstPx = std::max(m.displacementWorstPx, e.farIsolated.worstDisplacementPx);
-        m.displacementWorstCells =
-            std::max(m.displacementWorstCells, e.farIsolated.worstDisplacementCells);
-        m.rmseMean += e.rmse;
+        m.error.farVisibleDisplacementWorstPx =
+            std::max(m.error.farVisibleDisplacementWorstPx, e.far.worstDisplacementPx);
+        m.error.farDisplacementWorstPx =
+            std::max(m.error.farDisplacementWorstPx, e.farIsolated.worstDisplacementPx);
+        m.error.farDisplacementWorstVpx =
+            std::max(m.error.farDisplacementWorstVpx, e.farIsolated.worstDisplacementCells);
+        m.error.rmseMean += e.rmse;
         psnrMin = std::min(psnrMin, e.psnr);
-        m.differingPixels += double(e.differingPixels);
-        m.missing += e.all.missing;
+        m.error.differingPixels += double(e.differingPixels);
+        m.error.missingEntities += e.all.missing;
     }
     if (!errorFrames) return;
     m.hasError = true;
-    m.mismatchMean /= errorFrames;
-    m.coverageMismatchMean /= errorFrames;
-    m.farAloneEntities /= errorFrames;
-    m.farOverOneCell /= errorFrames;
-    m.rmseMean /= errorFrames;
-    m.differingPixels /= errorFrames;
-    m.psnrMin = psnrMin;
-    if (farFrames) m.farMismatchMean /= farFrames, m.farIsolatedMismatchMean /= farFrames;
+    m.error.mismatchMean /= errorFrames;
+    m.error.coverageMismatchMean /= errorFrames;
+    m.error.farAloneEntities /= errorFrames;
+    m.error.farDisplacedOver1Vpx /= errorFrames;
+    m.error.rmseMean /= errorFrames;
+    m.error.differingPixels /= errorFrames;
+    m.error.psnrMin = psnrMin;
+    if (farFrames) m.error.farMismatchMean /= farFrames, m.error.farAloneMismatchMean /= farFrames;
 }
 
 /// The configuration of `mode` in `set` at `c`'s sigma (the baselines a measurement is set
@@ -577,17 +403,33 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
     }
     m.figures = acrossFrames(medians);
     m.visible = m.figures.of(&FrameStats::entities) - m.figures.of(&FrameStats::culled);
+    const auto pathOf = [](const Config& of) { return acrossFrames(frameMedians(of)); };
+    const auto ratio = [](double baseline, double ms) { return ms > 0 ? baseline / ms : 0.0; };
     if (truth) {
-        const PathFigures t = acrossFrames(frameMedians(*truth));
-        m.baselineMs = t.of(&FrameStats::totalMs);
-        m.baselineFragments = t.of(&FrameStats::nearPixelsTested);
+        const PathFigures t = pathOf(*truth);
+        m.allNearVulkanMs = t.of(&FrameStats::totalMs);
+        m.allNearVulkanFragments = t.of(&FrameStats::nearPixelsTested);
     }
-    if (m.frameMs() > 0 && m.baselineMs > 0) m.speedup = m.baselineMs / m.frameMs();
-    if (const Config* fragment = sameSigma(set, c, BenchMode::NearVulkanFragment)) {
-        m.fragmentMs = acrossFrames(frameMedians(*fragment)).of(&FrameStats::totalMs);
-        if (m.frameMs() > 0 && m.fragmentMs > 0) m.speedupVsFragment = m.fragmentMs / m.frameMs();
-    }
+    m.speedupVsAllNearVulkan = ratio(m.allNearVulkanMs, m.frameMs());
+    if (const Config* fragment = sameSigma(set, c, BenchMode::NearVulkanFragment))
+        m.nearVulkanFragmentMs = pathOf(*fragment).of(&FrameStats::totalMs);
+    m.speedupVsNearVulkanFragment = ratio(m.nearVulkanFragmentMs, m.frameMs());
+    // The fastest exact path: the faster of all-near on Vulkan and on the CPU reference, where
+    // both were measured at this sigma (the sigma sweep's truths are on Vulkan alone), as in
+    // motion (addMotion).
     const Config* reference = sameSigma(set, c, BenchMode::NearReference);
+    m.fastestExact = truth ? toString(BenchMode::NearVulkan) : "";
+    m.fastestExactMs = m.allNearVulkanMs;
+    if (reference) {
+        const double referenceMs = pathOf(*reference).of(&FrameStats::totalMs);
+        if (m.fastestExactMs <= 0 || referenceMs < m.fastestExactMs)
+            m.fastestExact = toString(BenchMode::NearReference), m.fastestExactMs = referenceMs;
+    }
+    m.speedupVsFastestExact = ratio(m.fastestExactMs, m.frameMs());
+    if (!c.deviceMs.empty()) {
+        for (const std::vector<double>& passes : c.deviceMs) m.deviceFrameMs += median(passes);
+        m.deviceFrameMs /= double(c.deviceMs.size());
+    }
     addThroughput(m);
     addErrors(m);
     addMotion(m, c, truth, reference, plan);
@@ -599,201 +441,22 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
         m.farBackend = toString(c.renderer->farBackend());
         m.snapshotScale = c.scene.selector.snapshotScale;
     }
-    m.coldMs = c.coldFirstMs;
-    m.coldBakeMs = c.cold.bakeMs;
-    m.coldBakes = c.cold.farBakes;
-    m.coldRays = double(c.cold.raysTraced);
+    // The all-near frames drawn the way this configuration draws its near tier: near fragments
+    // count different things on each backend and rate (Vulkan: fragment shader invocations,
+    // the CPU reference: pixels traced), so only those share a unit.
+    const BenchMode sameWay = m.nearBackend == "reference" ? BenchMode::NearReference
+                              : info(c.mode).perPixel      ? BenchMode::NearVulkanFragment
+                                                           : BenchMode::NearVulkan;
+    if (const Config* same = sameSigma(set, c, sameWay))
+        m.allNearSameBackendFragments = pathOf(*same).of(&FrameStats::nearPixelsTested);
+    m.imagePixels = double(c.scene.camera.width) * double(c.scene.camera.height);
+    m.cold.firstFrameMs = c.coldFirstMs;
+    m.cold.bakeMs = c.cold.bakeMs;
+    m.cold.bakes = c.cold.farBakes;
+    m.cold.rays = double(c.cold.raysTraced);
     if (c.cold.bakeMs > 0 && c.cold.raysTraced)
-        m.raysPerS = double(c.cold.raysTraced) / c.cold.bakeMs * 1e3;
+        m.cold.raysPerS = double(c.cold.raysTraced) / c.cold.bakeMs * 1e3;
     return m;
-}
-
-// ---------------------------------------------------------------------------------------------
-// The sets.
-
-struct SweepPoint {
-    std::string family, setting;
-    double param = 0.0;
-    SelectorConfig selector;
-    double sigma = 1.0;
-};
-
-std::string configKey(const SelectorConfig& c, double sigma) {
-    return std::string(toString(c.metric)) + "/" + fmt(c.nearAt) + "/" + fmt(c.farAt) + "/" +
-           std::to_string(c.viewSetSize) + "/" + std::to_string(c.crossfadeFrames) + "/" +
-           fmt(c.viewHysteresisDeg) + "/" + fmt(sigma) + "/" + fmt(c.budgetVpx) + "/" +
-           std::to_string(c.ladderCap) + "/" + std::to_string(c.snapshotScale);
-}
-
-std::vector<SweepPoint> sweepPoints(const Plan& plan, const Scene& base) {
-    std::vector<SweepPoint> pts;
-    const SelectorConfig s0 = base.selector;
-    const double sigma0 = base.render.sigma;
-    auto farAt = [&](SelectorMetric metric, const std::vector<double>& values, double nearFactor) {
-        for (double v : values) {
-            SweepPoint p;
-            p.family = std::string("far_at (") + toString(metric) + ")";
-            p.selector = s0;
-            p.selector.metric = metric;
-            p.selector.farAt = v;
-            p.selector.nearAt = v * nearFactor;
-            p.sigma = sigma0;
-            p.param = v;
-            p.setting = std::string(toString(metric)) + " far_at=" + fmt(v) +
-                        " near_at=" + fmt(v * nearFactor);
-            pts.push_back(p);
-        }
-    };
-    farAt(SelectorMetric::Distance, plan.distanceFarAt, 0.8);
-    farAt(SelectorMetric::RadiusPx, plan.radiusFarAt, 1.5);
-    farAt(SelectorMetric::ErrorPx, plan.errorFarAt, 2.0);
-    // The error budget (issue 13): each budget with each snapshot scale (the speed–error
-    // frontier, issue 29), then the ladder cap at the scene's budget.
-    for (int k : plan.snapshotScales)
-        for (double b : plan.budgets) {
-            SweepPoint p{kBudgetFamily, "error_budget " + fmt(b) + " vpx, " + scaleName(k), b, s0,
-                         sigma0};
-            p.selector = defaultSelectorFor(SelectorMetric::ErrorBudget);
-            p.selector.budgetVpx = b;
-            p.selector.snapshotScale = k;
-            pts.push_back(p);
-        }
-    for (int cap : plan.ladderCaps) {
-        SweepPoint p{"ladder cap (error_budget)",
-                     "error_budget 1 vpx, ladder cap " + std::to_string(cap), double(cap), s0,
-                     sigma0};
-        p.selector = defaultSelectorFor(SelectorMetric::ErrorBudget);
-        p.selector.ladderCap = cap;
-        pts.push_back(p);
-    }
-    for (int v : plan.viewSets) {
-        SweepPoint p{"view set", std::to_string(v) + " views", double(v), s0, sigma0};
-        p.selector.viewSetSize = v;
-        pts.push_back(p);
-    }
-    for (double s : plan.sigmas) pts.push_back({"sigma", "sigma=" + fmt(s), s, s0, s});
-    for (int n : plan.crossfades) {
-        SweepPoint p{"cross-fade",
-                     n ? "cross-fade " + std::to_string(n) + " frames" : "no cross-fade", double(n),
-                     s0, sigma0};
-        p.selector.crossfadeFrames = n;
-        pts.push_back(p);
-    }
-    return pts;
-}
-
-/// A scene's set: every mode and, for the first scene, every sweep point (hybrid). The
-/// truths (all near on Vulkan, one per sigma in use) come first and are shared.
-Set modesSet(const SceneSource& src, const Plan& plan, bool withSweeps,
-             std::vector<std::string>& notes) {
-    Set set;
-    const std::string name = sceneName(src.file);
-    set.label = name;
-    set.inMotion = true;
-    Scene base = src.scene;
-    applyOverrides(base, plan, /*capEntities=*/true);
-    std::tie(set.frames, set.times) = pathSamples(base, plan.pathFrames);
-    set.repeats = plan.repeats;
-    if (!base.edits.empty())
-        notes.push_back(name +
-                        ": its scripted edits are not applied (`bench edits` measures edits).");
-    const std::vector<SweepPoint> pts =
-        withSweeps ? sweepPoints(plan, base) : std::vector<SweepPoint>{};
-
-    std::map<BenchMode, int> byMode;
-    auto addModes = [&](bool truths) {
-        for (const BenchModeInfo& mode : kBenchModes)
-            if (mode.isTruth == truths) {
-                byMode[mode.mode] = addConfig(set, base, mode.mode, mode.name);
-                set.rows.push_back({byMode[mode.mode], label("modes", name, mode.mode)});
-            }
-    };
-    addModes(/*truths=*/true);
-    // The sweeps change sigma: the truths of the other sigmas, all near on Vulkan too.
-    std::map<double, int> truthBySigma{{base.render.sigma, byMode.at(BenchMode::NearVulkan)}};
-    for (const SweepPoint& p : pts) {
-        if (truthBySigma.count(p.sigma)) continue;
-        Scene sc = base;
-        sc.render.sigma = p.sigma;
-        const int t =
-            addConfig(set, sc, BenchMode::NearVulkan, "near_vulkan sigma=" + fmt(p.sigma));
-        truthBySigma[p.sigma] = t;
-        set.rows.push_back({t, label("sweep", name, BenchMode::NearVulkan, "sigma (all near)",
-                                     "all near, sigma=" + fmt(p.sigma), p.sigma)});
-    }
-    addModes(/*truths=*/false);
-
-    std::map<std::string, int> byKey{
-        {configKey(base.selector, base.render.sigma), byMode.at(BenchMode::Hybrid)}};
-    for (const SweepPoint& p : pts) {
-        const std::string key = configKey(p.selector, p.sigma);
-        if (!byKey.count(key)) {
-            Scene sc = base;
-            sc.selector = p.selector;
-            sc.render.sigma = p.sigma;
-            byKey[key] = addConfig(set, sc, BenchMode::Hybrid, "hybrid " + p.setting);
-        }
-        set.rows.push_back(
-            {byKey[key], label("sweep", name, BenchMode::Hybrid, p.family, p.setting, p.param)});
-    }
-    linkTruths(set);
-    return set;
-}
-
-/// One point of a scaling curve: every mode on one frame (the camera at t = 0).
-Set scalingSet(const SceneSource& src, const json& doc, const Plan& plan, const std::string& group,
-               double param, const std::string& what) {
-    Set set;
-    const std::string name = sceneName(src.file);
-    set.label = name + " " + what;
-    Scene s = fromJson(src, doc);
-    applyOverrides(s, plan, /*capEntities=*/false);
-    set.frames = {0};
-    set.times = {0.0};
-    set.repeats = plan.scalingRepeats;
-    for (const bool truths : {true, false})
-        for (const BenchModeInfo& mode : kBenchModes)
-            if (mode.isTruth == truths)
-                set.rows.push_back({addConfig(set, s, mode.mode, mode.name),
-                                    label(group, name, mode.mode, group, what, param)});
-    linkTruths(set);
-    return set;
-}
-
-/// The Vulkan frame's fixed cost (no sprite: clear, one submission, readback) at the scene's
-/// image size, with the three planes read back (colour, depth, ids: every frame before the far
-/// pass moved to the GPU) and with colour alone (what a PNG frame drawn wholly on Vulkan reads
-/// back). Interleaved, median of 21 each.
-std::string fixedFrameCost(NearRenderer& near, const Scene& scene) {
-    const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
-    const std::vector<std::shared_ptr<VoxelModel>> none;
-    std::vector<double> three, one;
-    for (int k = 0; k < 22; ++k)
-        for (const bool all : {true, false}) {
-            NearOptions no;
-            no.readDepthAndIds = all;
-            const double ms = cli::timedMs([&] {
-                (void)near.render(cam, none, std::span<const SpriteSetup* const>{}, 0, no);
-            });
-            if (k > 0) (all ? three : one).push_back(ms); // the first warms up
-        }
-    char buf[200];
-    std::snprintf(buf, sizeof buf,
-                  "Vulkan frame with no sprite, %dx%d: %.2f ms reading back colour, depth and "
-                  "ids; %.2f ms reading back colour alone (median of 21 each)",
-                  cam.width, cam.height, median(three), median(one));
-    return buf;
-}
-
-std::string cpuName() {
-    std::ifstream in("/proc/cpuinfo");
-    std::string line;
-    while (std::getline(in, line))
-        if (line.rfind("model name", 0) == 0) {
-            const auto colon = line.find(':');
-            return colon == std::string::npos ? line : line.substr(colon + 2);
-        }
-    return "unknown CPU";
 }
 
 } // namespace
@@ -810,124 +473,6 @@ const char* toString(BenchMode mode) {
 
 std::string scaleName(int snapshotScale) {
     return "x" + std::to_string(snapshotScale);
-}
-
-Plan makePlan(const SuiteOptions& o) {
-    Plan p;
-    p.cacheDir = o.cacheDir;
-    p.cacheDirBytes = o.cacheDirBytes;
-    p.nearRate = o.nearRate;
-    // The same bounds as the command line's (cmd_bench.cpp), for other callers.
-    if (o.budgetVpx && !(*o.budgetVpx >= 0.01 && *o.budgetVpx <= 64.0))
-        throw InputError("", "--budget", "must be in [0.01, 64] virtual pixels");
-    p.budgetVpx = o.budgetVpx;
-    p.farBlit = o.farBlit;
-    p.farBackend = o.farBackend;
-    p.occlusionCull = o.occlusionCull;
-    p.earlyDepthTest = o.earlyDepthTest;
-    p.costBound = o.costBound;
-    if (o.smoke) {
-        p.preset = "smoke";
-        p.repeats = 1;
-        p.pathFrames = 1;
-        p.width = 240, p.height = 136;
-        p.entityCap = 24;
-        p.errorFarAt = {1.0};
-        p.entityCounts = {4, 12};
-        p.modelSides = {16, 32};
-        p.sizeEntities = 6;
-        p.scalingRepeats = 1;
-        p.motionFrames = 3, p.motionWarmup = 1;
-        p.budgets = {1};
-        p.snapshotScales = {1};
-    } else if (o.quick) {
-        p.preset = "quick";
-        p.repeats = 3;
-        p.pathFrames = 2;
-        p.distanceFarAt = {15, 40};
-        p.radiusFarAt = {24, 8};
-        p.errorFarAt = {2, 1, 0.5, 0.25};
-        p.budgets = {0.25, 0.5, 1, 2, 4};
-        p.snapshotScales = {1, 3};
-        p.ladderCaps = {4, 16};
-        p.motionFrames = 16, p.motionWarmup = 4;
-        p.viewSets = {26, 98};
-        p.sigmas = {1, 2};
-        p.crossfades = {0, 8};
-        p.entityCounts = {10, 100, 1000, 10000};
-        p.modelSides = {16, 32, 64, 128};
-        p.sizeEntities = 300;
-        p.scalingRepeats = 1;
-    } else {
-        p.preset = "full";
-        p.repeats = 7;
-        p.pathFrames = 6;
-        p.distanceFarAt = {10, 20, 40, 80};
-        p.radiusFarAt = {32, 16, 8, 4};
-        p.errorFarAt = {4, 2, 1, 0.5, 0.25};
-        p.budgets = {0.25, 0.5, 1, 2, 4};
-        p.snapshotScales = {1, 2, 3, 4};
-        p.ladderCaps = {4, 16, 64};
-        p.viewSets = {26, 98, 218};
-        p.sigmas = {0.5, 1, 2};
-        p.crossfades = {0, 4, 8};
-        p.entityCounts = {10, 100, 300, 1000, 3000, 10000, 30000, 100000};
-        p.modelSides = {16, 32, 64, 128};
-        p.sizeEntities = 500;
-        p.scalingRepeats = 5;
-    }
-    if (o.repeats != -1) {
-        if (o.repeats < 1) throw InputError("", "--repeats", "must be >= 1");
-        p.repeats = o.repeats;
-    }
-    if (o.warmup != -1) {
-        if (o.warmup < 1)
-            throw InputError(
-                "", "--warmup",
-                "must be >= 1 (the cold bakes are measured in the first warm-up pass)");
-        p.warmup = o.warmup;
-    }
-    if (o.pathFrames != -1) {
-        if (o.pathFrames < 1) throw InputError("", "--frames", "must be >= 1");
-        p.pathFrames = o.pathFrames;
-    }
-    if (o.motionFrames != -1) {
-        if (o.motionFrames < 2) throw InputError("", "--motion-frames", "must be >= 2");
-        p.motionFrames = o.motionFrames;
-    }
-    if (o.motionWarmup != -1) {
-        if (o.motionWarmup < 1) throw InputError("", "--motion-warmup", "must be >= 1");
-        p.motionWarmup = o.motionWarmup;
-    }
-    if (p.motionWarmup >= p.motionFrames)
-        throw InputError("", "--motion-warmup",
-                         "must be less than --motion-frames (" + std::to_string(p.motionFrames) +
-                             "): no frame would be timed in motion");
-    if (!o.size.empty()) {
-        int w = 0, h = 0;
-        char tail = 0;
-        if (std::sscanf(o.size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 1 || h < 1 ||
-            w > Limits::kMaxImageDim || h > Limits::kMaxImageDim)
-            throw InputError("", "--size",
-                             "expected WxH with integers 1.." +
-                                 std::to_string(Limits::kMaxImageDim) + ", got '" + o.size + "'");
-        p.width = w, p.height = h;
-    }
-    if (!o.entityCounts.empty())
-        p.entityCounts = parseList<int>(o.entityCounts, "--entity-counts", 1, 100000);
-    if (!o.modelSides.empty())
-        p.modelSides = parseList<int>(o.modelSides, "--model-sides", 8, Limits::kMaxModelDim);
-    if (!o.snapshotScales.empty()) {
-        p.snapshotScales.clear();
-        // A scale named twice would be measured once and drawn twice.
-        for (int k : parseList<int>(o.snapshotScales, "--snapshot-scales", 1, kMaxSnapshotScale))
-            if (std::find(p.snapshotScales.begin(), p.snapshotScales.end(), k) ==
-                p.snapshotScales.end())
-                p.snapshotScales.push_back(k);
-    }
-    p.sweeps = o.sweeps;
-    p.scaling = o.scaling;
-    return p;
 }
 
 SuiteResults runSuite(const SuiteOptions& options) {
@@ -983,7 +528,9 @@ SuiteResults runSuite(const SuiteOptions& options) {
         for (const auto& c : s.configs) counting += info(c->mode).countsStepsApart;
         total +=
             s.frames.size() * (std::size_t(plan.warmup + s.repeats) * s.configs.size() + counting);
-        if (s.inMotion) total += std::size_t(plan.motionFrames) * s.configs.size();
+        if (s.inMotion) // the in-motion run and the device frames (or their skip)
+            total += (std::size_t(plan.motionFrames) + s.frames.size() * std::size_t(s.repeats)) *
+                     s.configs.size();
     }
     // One Vulkan device for the whole run; validation (VOXTIER_VALIDATION=1) inflates timings.
     auto near = std::make_shared<NearRenderer>();

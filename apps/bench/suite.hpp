@@ -63,48 +63,19 @@ const char* toString(BenchMode mode);
 /// reads snapshots baked at that multiple of the sprite's sigma, SelectorConfig::snapshotScale).
 std::string scaleName(int snapshotScale);
 
-struct SuiteOptions {
-    std::vector<std::string>
-        scenes; ///< scene files; the first also gets the sweeps and scaling curves
-    std::string out = "out/bench";
-    bool quick = false;
-    bool smoke = false;  ///< test-only: tiny scenes, one repeat, one sweep point
-    int repeats = -1;    ///< -1: the preset's
-    int warmup = -1;     ///< -1: the preset's (at least 1: the cold bakes are measured there)
-    int pathFrames = -1; ///< -1: the preset's
-    int motionFrames = -1, motionWarmup = -1; ///< -1: the preset's
-    std::string size; ///< WxH override of every scene's image size ("" = the scene's)
-    bool sweeps = true, scaling = true;
-    std::string entityCounts, modelSides; ///< comma-separated overrides of the scaling points
-    std::string snapshotScales; ///< "1,3": override of the error_budget sweep's snapshot scales
-    std::string cacheDir;       ///< on-disk snapshot cache of every configuration ("" = none)
-    std::uint64_t cacheDirBytes = 0;             ///< its size limit (0 = none)
-    NearRate nearRate = NearRate::Auto;          ///< of every mode but near_vulkan_fragment
-    FarBlitKernel farBlit = FarBlitKernel::Simd; ///< of every mode
-    /// Who draws the far tier of the rows whose table entry says Auto (hybrid, far and the
-    /// sweeps); hybrid_gpu_far is always the Vulkan far pass. Cpu by default, so the CPU-blit
-    /// hybrid stands beside hybrid_gpu_far on every machine.
-    FarBackend farBackend = FarBackend::Cpu;
-    /// Of every mode: FrameOptions::occlusionCull (--cull) and earlyDepthTest (--no-cull: off).
-    bool occlusionCull = false;
-    bool earlyDepthTest = true;
-    /// The error budget's cost bound on bakes (--no-cost-bound: off, so that every scale's
-    /// error is measured on the same plan, whatever its blit costs).
-    bool costBound = true;
-    /// Every scene's selector becomes the error budget at this many virtual pixels (its view set,
-    /// view hysteresis and cross-fade kept); unset: each scene's own selector.
-    std::optional<double> budgetVpx;
-};
-
-/// The resolved plan (preset + overrides).
-struct Plan {
-    std::string preset; ///< "full", "quick" or "smoke"
-    int repeats = 7, warmup = 1, pathFrames = 6;
+/// How much a run measures: a row of the preset table (apps/bench/presets.cpp), and, with the
+/// command line's overrides applied, the most of a Plan.
+struct Preset {
+    std::string name;      ///< "full", "quick" or "smoke"
+    bool testOnly = false; ///< not offered in --help (smoke)
+    int repeats = 7;       ///< timed passes per sampled path frame
+    int warmup = 1;        ///< untimed passes first (the cold bakes are measured in the first)
+    int pathFrames = 6;    ///< path frames sampled per scene
     /// In motion: the path's first motionFrames frames in order, each timed once with its bakes;
-    /// the first motionWarmup of them are the cold start (0 frames: no in-motion run).
+    /// the first motionWarmup of them are the cold start.
     int motionFrames = 48, motionWarmup = 6;
-    std::optional<int> width, height;
-    std::optional<int> entityCap; ///< scenes are cut to their first N entities (smoke)
+    std::optional<int> width, height; ///< every scene's image size (unset: each scene's)
+    std::optional<int> entityCap;     ///< scenes are cut to their first N entities
     bool sweeps = true, scaling = true;
     std::vector<double> distanceFarAt, radiusFarAt, errorFarAt; ///< selector sweeps
     std::vector<int> viewSets, crossfades;
@@ -114,18 +85,40 @@ struct Plan {
     std::vector<int> snapshotScales;
     std::vector<int> ladderCaps; ///< error_budget sweep at 1 vpx
     std::vector<double> sigmas;
-    std::vector<int> entityCounts, modelSides;
-    int sizeEntities = 500; ///< entities of the model-size curve
-    int scalingRepeats = 5;
-    std::string cacheDir; ///< SuiteOptions::cacheDir
-    std::uint64_t cacheDirBytes = 0;
-    NearRate nearRate = NearRate::Auto;          ///< SuiteOptions::nearRate
-    std::optional<double> budgetVpx;             ///< SuiteOptions::budgetVpx
-    FarBlitKernel farBlit = FarBlitKernel::Simd; ///< SuiteOptions::farBlit
-    FarBackend farBackend = FarBackend::Cpu;     ///< SuiteOptions::farBackend
-    bool occlusionCull = false;                  ///< SuiteOptions::occlusionCull
-    bool earlyDepthTest = true;                  ///< SuiteOptions::earlyDepthTest
-    bool costBound = true;                       ///< SuiteOptions::costBound
+    std::vector<int> entityCounts, modelSides; ///< the scaling curves' points
+    int sizeEntities = 500;                    ///< entities of the model-size curve
+    int scalingRepeats = 5;                    ///< timed passes per scaling point
+};
+
+/// The base every configuration draws from: the flags `bench` shares with `render`
+/// (apps/cli_options.hpp addFrameFlags) and --cache-dir. Each mode then sets its own backends
+/// and near rate (kBenchModes, apps/bench/suite.cpp frameOptions). The far tier is the CPU blit
+/// unless --far-backend says otherwise, so the CPU-blit hybrid stands beside hybrid_gpu_far on
+/// every machine.
+FrameOptions benchFrameOptions();
+
+struct SuiteOptions {
+    /// Scene files; the first also gets the sweeps and scaling curves.
+    std::vector<std::string> scenes;
+    std::string out = "out/bench";
+    std::string preset = "full"; ///< a name in the preset table (--quick, --smoke)
+    /// Overrides of the preset's figures, unset or empty where the preset's stand (the table
+    /// in apps/bench/presets.hpp names their flags and bounds).
+    std::optional<int> repeats, warmup, pathFrames, motionFrames, motionWarmup;
+    std::string size;                                     ///< WxH: every scene's image size
+    std::string entityCounts, modelSides, snapshotScales; ///< "a,b,c"
+    bool sweeps = true, scaling = true;
+    FrameOptions frame = benchFrameOptions();
+    /// Every scene's selector becomes the error budget at this many virtual pixels (its view set,
+    /// view hysteresis, cross-fade and snapshot scale kept); unset: each scene's own selector.
+    std::optional<double> budgetVpx;
+};
+
+/// The resolved plan: the preset with the overrides (makePlan, apps/bench/presets.hpp), and
+/// how every configuration draws.
+struct Plan : Preset {
+    FrameOptions frame;              ///< SuiteOptions::frame
+    std::optional<double> budgetVpx; ///< SuiteOptions::budgetVpx
 };
 
 /// One sampled path frame of a measured configuration.
@@ -141,6 +134,57 @@ struct FrameRow {
     FrameErrorReport error; ///< against the all-near (Vulkan) image of the frame (last pass)
 };
 
+/// In motion (issue 13): consecutive path frames from an empty cache, each timed once. Figures
+/// are over the frames after the cold start (medians, or means where said) unless said.
+struct InMotion {
+    double ms = 0; ///< median frame ms
+    /// The same frames' mean, 90th percentile and worst: bakes come in bursts (an animation
+    /// step asks for new snapshots at once), so the median alone can hide or exaggerate them.
+    double meanMs = 0, p90Ms = 0, worstMs = 0;
+    double coldMs = 0; ///< mean frame ms of the cold-start frames
+    /// The exact all-near paths of the same frames in the same run, and the speed-ups against
+    /// them: the Vulkan near tier (the truth), the CPU reference (the fastest exact path a
+    /// machine without a GPU has, issue 24), and the faster of the two.
+    double allNearVulkanMs = 0, speedupVsAllNearVulkan = 0;
+    double allNearReferenceMs = 0, speedupVsAllNearReference = 0;
+    double fastestExactMs = 0, speedupVsFastestExact = 0;
+    double bakes = 0, bakeMs = 0; ///< per frame (means)
+    double cacheBytes = 0;        ///< snapshot bytes held, the most over all the frames
+    /// The near tier's ms and the entities each tier drew, per frame (means): what the entities
+    /// drawn near cost even if far sprites were free.
+    double nearMs = 0, nearEntities = 0, farEntities = 0;
+    /// The lowest frame PSNR against the all-near frame of the same motion frame (cold start
+    /// included), and that frame's differing share, differing pixels and far sprites: how far
+    /// its error is from a PSNR target follows from them (bench report, "target and bound").
+    double psnrMin = 0, psnrMinShare = 0, psnrMinDifferingPixels = 0, psnrMinFarEntities = 0;
+    double differingShare = 0;    ///< of the frame's pixels, mean (colour, depth or id)
+    double predictedWorstVpx = 0; ///< FrameStats::farPredictedWorstVpx, worst frame
+};
+
+/// Cold: the warm-up pass, the first use of every snapshot.
+struct Cold {
+    double firstFrameMs = 0;
+    double bakeMs = 0, bakes = 0, rays = 0; ///< over the pass
+    double raysPerS = 0;                    ///< Embree rays of its bakes over their wall time
+};
+
+/// The error against the truth on the sampled frames: means (per frame) or worsts.
+struct PathError {
+    double mismatchMean = 0, mismatchWorst = 0; ///< visible footprints in the frame, every entity
+    double coverageMismatchMean = 0; ///< like mismatchMean, counting only pixels owned in one image
+    double farMismatchMean = 0;      ///< the same over the far-drawn entities
+    /// Far-drawn entities drawn alone by both tiers (no occlusion): how many, mean mismatch,
+    /// worst silhouette displacement in screen and virtual pixels, and how many are displaced by
+    /// more than one virtual pixel.
+    double farAloneEntities = 0, farAloneMismatchMean = 0;
+    double farDisplacementWorstPx = 0, farDisplacementWorstVpx = 0;
+    double farDisplacedOver1Vpx = 0;
+    double farVisibleDisplacementWorstPx = 0; ///< in the frame (occluders' changes included)
+    double rmseMean = 0, psnrMin = 0;
+    double differingPixels = 0;      ///< colour, depth or id
+    std::size_t missingEntities = 0; ///< drawn in only one image, summed over the frames
+};
+
 /// One measured configuration, aggregated over the sampled path frames.
 struct Measurement {
     std::string group; ///< "modes", "sweep", "scaling_entities", "scaling_size"
@@ -152,36 +196,35 @@ struct Measurement {
     std::string selector; ///< selector summary, e.g. "error_px 1/0.5, 26 views, sigma 1, fade 0"
     std::string truth;    ///< configuration the errors are measured against
     std::vector<FrameRow> frames;
+    double imagePixels = 0; ///< of one frame
 
     /// The frames' figures (FrameRow::median) combined over the path as kFrameFigures says.
     PathFigures figures;
     double frameMs() const { return figures.of(&FrameStats::totalMs); }
     double visible = 0;      ///< entities - culled, per frame
     double worstFrameMs = 0; ///< the slowest path frame's median
-    double baselineMs = 0;   ///< all-near (Vulkan) of the same frames, same run
-    double speedup = 0;      ///< baselineMs / frameMs()
-    /// near_vulkan_fragment (per-pixel everywhere) of the same frames, same run, and the speed-up
-    /// against it: what cell-rate sprites buy.
-    double fragmentMs = 0, speedupVsFragment = 0;
-    /// Near fragments of the all-near (Vulkan) frames: near_fragments / this = the near share.
-    double baselineFragments = 0;
+    /// The same frames drawn on the Vulkan device alone and not read back (FrameOptions::
+    /// readBack): frame ms as frameMs() takes it (medians over the passes, mean over the path
+    /// frames), what a frame shown on the GPU costs. 0 where a CPU tier draws part of the frame.
+    double deviceFrameMs = 0;
+    /// The exact paths of the same frames in the same run, at the same sigma (0 where not
+    /// measured), and the speed-ups against them: all-near on Vulkan (the truth), per-pixel near
+    /// sprites on Vulkan (what cell-rate sprites buy), and the fastest exact path (the faster of
+    /// all-near on Vulkan and on the CPU reference).
+    double allNearVulkanMs = 0, speedupVsAllNearVulkan = 0;
+    double nearVulkanFragmentMs = 0, speedupVsNearVulkanFragment = 0;
+    double fastestExactMs = 0, speedupVsFastestExact = 0;
+    std::string fastestExact; ///< which mode that was ("" where not measured)
+    /// Near fragments of the all-near (Vulkan) frames.
+    double allNearVulkanFragments = 0;
+    /// Near fragments of the all-near frames drawn by the same near backend at the same rate and
+    /// sigma (0 where not measured): near_fragments over this is the share of the near work the
+    /// configuration still does.
+    double allNearSameBackendFragments = 0;
     // Throughput.
     double voxelStepsPerS = 0;   ///< near voxel reads over the near time (draw time on Vulkan)
     double blitPixelsPerS = 0;   ///< footprint pixels the blit evaluated over the blit time
     double memcpyPixelsPerS = 0; ///< memcpy of the same bytes
-    // In motion: consecutive path frames from an empty cache, each timed once.
-    double motionMs = 0; ///< median frame ms after the cold start
-    /// The same frames' mean, 90th percentile and worst: bakes come in bursts (an animation
-    /// step asks for new snapshots at once), so the median alone can hide or exaggerate them.
-    double motionMeanMs = 0, motionP90Ms = 0, motionWorstMs = 0;
-    double motionColdMs = 0;                        ///< mean frame ms of the cold-start frames
-    double motionBaselineMs = 0, motionSpeedup = 0; ///< all-near (Vulkan) in motion, its ratio
-    /// The CPU reference all-near (near_reference) in motion, same frames, same run, and the
-    /// ratio: the fastest exact path a machine without a GPU has.
-    double motionReferenceMs = 0, motionSpeedupVsReference = 0;
-    /// The faster of those two exact paths in motion, and the ratio (the speed–error frontier's
-    /// x axis).
-    double motionFastestExactMs = 0, motionSpeedupVsFastestExact = 0;
     /// Who drew the near tier: "vulkan" or "reference" (what --near-backend auto chose, for the
     /// hybrid).
     std::string nearBackend;
@@ -190,33 +233,10 @@ struct Measurement {
     /// The far tier's snapshots' scale over the sprite's sigma (0 where the mode draws no far
     /// sprite).
     int snapshotScale = 0;
-    double motionBakes = 0, motionBakeMs = 0; ///< per frame after the cold start (mean)
-    double motionCacheBytes = 0; ///< snapshot bytes held, the most over the in-motion frames
-    /// The near tier's ms and the entities each tier drew, per frame after the cold start
-    /// (means): what the entities drawn near cost even if far sprites were free.
-    double motionNearMs = 0, motionNearEntities = 0, motionFarEntities = 0;
-    double motionPsnrMin = 0; ///< against the all-near frame of the same motion frame
-    /// That worst frame's differing share, differing pixels and far sprites: how far its error
-    /// is from a PSNR target follows from them (bench report, "target and bound").
-    double motionPsnrMinShare = 0, motionPsnrMinPixels = 0, motionPsnrMinFar = 0;
-    double motionDifferingShare = 0;    ///< of the frame's pixels, mean (colour, depth or id)
-    double motionPredictedWorstVpx = 0; ///< FrameStats::farPredictedWorstVpx, worst frame
-    // Cold (the warm-up pass, first use of every snapshot).
-    double coldMs = 0, coldBakeMs = 0, coldBakes = 0, coldRays = 0, raysPerS = 0;
-    // Error against the truth (means / worst over the frames).
-    bool hasError = false;
-    double mismatchMean = 0, mismatchWorst = 0; ///< visible footprints in the frame, every entity
-    double farMismatchMean = 0;                 ///< the same over the far-drawn entities
-    /// Far-drawn entities drawn alone by both tiers (no occlusion): mean mismatch, worst
-    /// silhouette displacement in screen and virtual pixels.
-    double farIsolatedMismatchMean = 0, displacementWorstPx = 0, displacementWorstCells = 0;
-    double farVisibleDisplacementWorstPx = 0; ///< in the frame (occluders' changes included)
-    double coverageMismatchMean = 0; ///< like mismatchMean, counting only pixels owned in one image
-    double farAloneEntities = 0,
-           farOverOneCell = 0; ///< per frame (mean): far entities, those displaced > 1 virtual px
-    double rmseMean = 0, psnrMin = 0;
-    double differingPixels = 0; ///< mean per frame (colour, depth or id)
-    std::size_t missing = 0;    ///< entities drawn in only one image, summed over frames
+    InMotion motion;
+    Cold cold;
+    bool hasError = false; ///< false for the truth
+    PathError error;
 };
 
 /// The sweep family of the error budget; the report's budget section reads it.
@@ -236,7 +256,7 @@ struct SuiteResults {
 /// Bytes per blitted pixel the memcpy reference copies: the target's colour, depth and id.
 constexpr double kBlitBytesPerPixel = 12.0;
 
-Plan makePlan(const SuiteOptions& options);
+/// Measures everything `options` asks for (makePlan's errors first, before any work).
 SuiteResults runSuite(const SuiteOptions& options);
 
 } // namespace voxtier::bench
