@@ -529,12 +529,10 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         return image;
     }
     // 3. Near tier: one Vulkan frame (or the CPU reference). The CPU blit below composes on the
-    // near image's depth and ids. Without far sprites the Vulkan frame is the whole frame: with
-    // readBack off it is only submitted here, so that finish() times it unread. (Not kept in
-    // flight otherwise: two all-near frames in flight crash a path render, "corrupted
-    // double-linked list", which the far pass's frames do not.)
+    // near image's depth and ids. Without far sprites the Vulkan frame is the whole frame: it is
+    // only submitted here, and finish() reads it back (or, with readBack off, times it unread).
     const bool onVulkan = !nearSprites.empty() && resolved(nearBackend) == NearBackend::Vulkan;
-    Pending* const unread = shares.far.empty() && !options_.readBack ? pending : nullptr;
+    Pending* const unread = shares.far.empty() ? pending : nullptr;
     Image image = onVulkan ? drawOnVulkan(cam, nearSprites, nullptr,
                                           shares.far.empty() && colourOnly(), st, unread)
                            : drawNearCpu(cam, nearSprites, st);

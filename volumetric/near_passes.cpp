@@ -94,7 +94,8 @@ struct NearPasses::Impl {
         std::uint32_t resolveTiles = 0; ///< near_resolve.comp workgroups, after the blocks
     };
 
-    explicit Impl(GpuFrames& f) : frames(f), device(f.device()), residency(f.device()) {
+    explicit Impl(GpuFrames& f)
+        : frames(f), device(f.device()), residency(f.device(), [&f] { f.waitAll(); }) {
         try {
             create();
         } catch (...) {
@@ -534,10 +535,15 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
     // The store is kept for the next frames and grows by doubling, never past the budget (the
     // plan never needs more than the budget).
     const VkDeviceSize need = plan.cells * kCellStoreBytesPerCell;
-    if (cells.size() < need)
-        cells = VulkanBuffer(device,
-                             std::max(need, std::min<VkDeviceSize>(2 * cells.size(), budgetBytes)),
-                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::DeviceOnly);
+    if (cells.size() < need) {
+        // The store is shared by the frames in flight: the old one lives until this frame is
+        // done, which the queue finishes after every earlier frame.
+        const VkDeviceSize size =
+            std::max(need, std::min<VkDeviceSize>(2 * cells.size(), budgetBytes));
+        if (cells) frame.keepUntilDone(std::move(cells));
+        cells =
+            VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::DeviceOnly);
+    }
     if (!cells) ensure(cells, 4096, BufferClass::DeviceOnly);
     tiles.clear();
     blocks.clear();
@@ -595,11 +601,13 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
 void NearPasses::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
     // Rewritten every frame: cheap, and the slot's set is idle (its last frame has finished).
     using namespace near_gpu;
-    if (!pixelWords || pixelWords.size() < frame.planeBytes())
+    if (!pixelWords || pixelWords.size() < frame.planeBytes()) {
+        if (pixelWords) frame.keepUntilDone(std::move(pixelWords)); // as the cell store
         pixelWords =
             VulkanBuffer(device, frame.planeBytes(),
                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                          BufferClass::DeviceOnly);
+    }
     const VkDescriptorImageInfo atlasInfo{sampler, residency.atlasView(),
                                           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
     struct Binding {

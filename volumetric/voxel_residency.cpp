@@ -33,8 +33,8 @@ ResidencyStats& ResidencyStats::operator+=(const ResidencyStats& o) {
     return *this;
 }
 
-VoxelResidency::VoxelResidency(VulkanDevice& device)
-    : device_(device),
+VoxelResidency::VoxelResidency(VulkanDevice& device, std::function<void()> waitForReaders)
+    : device_(device), waitForReaders_(std::move(waitForReaders)),
       packer_(std::min<int>(kAtlasSide, int(device.properties().limits.maxImageDimension3D)),
               std::min<int>(kAtlasSide, int(device.properties().limits.maxImageDimension3D)),
               int(device.properties().limits.maxImageDimension3D)) {
@@ -99,6 +99,7 @@ void VoxelResidency::ensurePaletteCapacity(std::size_t entries) {
     if (palettes_ && palettes_.size() >= need) return;
     VkDeviceSize size = palettes_ ? palettes_.size() : 64 * 256 * sizeof(std::uint32_t);
     while (size < need) size *= 2;
+    if (palettes_ && waitForReaders_) waitForReaders_(); // frames in flight read the old buffer
     palettes_ =
         VulkanBuffer(device_, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::ShaderRead);
     // The whole mirror goes into the new buffer (directly, or staged with the next upload); the
@@ -226,6 +227,8 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
     VK_CHECK(vkResetCommandBuffer(cb_, 0));
     VK_CHECK(vkBeginCommandBuffer(cb_, &bi));
     if (grow) {
+        // The old atlas is destroyed once the copy is done: frames in flight read it.
+        if (waitForReaders_) waitForReaders_();
         std::uint32_t depth = atlas_.extent().depth;
         while (depth < std::uint32_t(packer_.usedDepth())) depth *= 2;
         depth = std::min(depth, std::uint32_t(packer_.maxDepth()));

@@ -10,6 +10,7 @@
 #include "volumetric/atlas_packer.hpp"
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <unordered_map>
@@ -28,7 +29,10 @@ struct ResidencyStats {
 
 class VoxelResidency {
   public:
-    explicit VoxelResidency(VulkanDevice& device);
+    /// `waitForReaders` waits until no frame in flight reads the atlas or the palettes: called
+    /// before either is replaced by a larger one (rare: both grow by doubling), since frames
+    /// recorded earlier still read the old ones.
+    explicit VoxelResidency(VulkanDevice& device, std::function<void()> waitForReaders = {});
     ~VoxelResidency();
     VoxelResidency(const VoxelResidency&) = delete;
     VoxelResidency& operator=(const VoxelResidency&) = delete;
@@ -70,6 +74,7 @@ class VoxelResidency {
     void writePalettes(std::size_t first, std::size_t count);
 
     VulkanDevice& device_;
+    std::function<void()> waitForReaders_;
     AtlasPacker packer_;
     VulkanImage atlas_;
     VulkanImage retired_; ///< the previous atlas while a growth copy is in flight
