@@ -329,7 +329,8 @@ struct FrameRenderer::Pending {
     CameraFrame cam{};
     RenderMode mode = RenderMode::Hybrid;
     int frame = 0;
-    double hostMs = 0.0; ///< the frame's host time in submit()
+    SharedVector<std::uint32_t> visible; ///< the entities visible in this frame
+    double hostMs = 0.0;                 ///< the frame's host time in submit()
     SnapshotCacheCounters cacheBefore, cacheAfter;
     /// The Vulkan half in flight, and whether it holds a far pass.
     std::optional<VulkanFrameInFlight> gpu;
@@ -362,6 +363,7 @@ FrameRenderer::PendingFrame FrameRenderer::submit(double time, RenderMode mode, 
     const CameraFrame cam = makeCameraFrame(scene_.cameraAt(time));
     const SpriteStore::Update setup = sprites_.update(scene_, cam, time);
     out.sprites = sprites_.shareSprites();
+    pending->visible = sprites_.shareVisibleIds();
     st.entities = setup.entities;
     st.culled = setup.culled;
     st.hostSetupMs = msSince(t0);
@@ -416,7 +418,8 @@ FrameResult FrameRenderer::finish(PendingFrame pending) {
     sample.planMs = st.hostSelectMs;
     sample.planned =
         mode == RenderMode::Hybrid && scene_.selector.metric == SelectorMetric::ErrorBudget;
-    planner_.observe(out.sprites, sprites_.visibleIds(), out.plan, sample, options_.nearRate,
+    // This frame's visible entities: with frames in flight the store already holds a later one.
+    planner_.observe(out.sprites, pending->visible, out.plan, sample, options_.nearRate,
                      [&] { return nearFixedMs(cam, nearBackendFor(mode, options_.nearBackend)); });
     st.cacheBytes = cache_->counters().bytes;
     // The frame's own host time: its two halves, not what ran between them.

@@ -29,7 +29,7 @@ void SpriteStore::clear() {
     sprites_.writable().clear();
     changed_.clear();
     visible_.clear();
-    visibleIds_.clear();
+    visibleIds_.writable().clear();
     valid_ = false;
 }
 
@@ -97,9 +97,10 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
             a.entitiesChanged += b.entitiesChanged;
             return a;
         });
-    visibleIds_.clear();
+    std::vector<std::uint32_t>& visibleIds = visibleIds_.writable();
+    visibleIds.clear();
     for (std::size_t i = 0; i < n; ++i)
-        if (visible_[i]) visibleIds_.push_back(std::uint32_t(i));
+        if (visible_[i]) visibleIds.push_back(std::uint32_t(i));
     valid_ = true;
     camera_ = camera;
     params_ = scene.render;

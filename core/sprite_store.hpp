@@ -42,7 +42,9 @@ class SpriteStore {
     /// The same, shared: it stays as it is when later updates change the store's sprites.
     SharedVector<SpriteSetup> shareSprites() const { return sprites_.share(); }
     /// The ids of the visible sprites (SpriteSetup::visible), ascending.
-    std::span<const std::uint32_t> visibleIds() const { return visibleIds_; }
+    std::span<const std::uint32_t> visibleIds() const { return visibleIds_.read(); }
+    /// The same, shared with a frame still in flight (copied by the next update only then).
+    SharedVector<std::uint32_t> shareVisibleIds() const { return visibleIds_.share(); }
     /// Per entity id: 1 where the last update set the sprite up afresh, 0 where it is the one
     /// before (what a consumer that mirrors the sprites elsewhere has to refresh).
     std::span<const std::uint8_t> changed() const { return changed_; }
@@ -65,7 +67,7 @@ class SpriteStore {
     std::vector<SpriteConstants> constants_;
     SharedVectorOwner<SpriteSetup> sprites_;
     std::vector<std::uint8_t> changed_, visible_;
-    std::vector<std::uint32_t> visibleIds_;
+    SharedVectorOwner<std::uint32_t> visibleIds_;
     /// What every sprite of the last update was set up with.
     bool valid_ = false;
     CameraFrame camera_{};

@@ -147,6 +147,7 @@ void GpuFrame::submit() {
     VK_CHECK(vkResetFences(device_->device(), 1, &fence_));
     VK_CHECK(vkQueueSubmit(device_->queue(), 1, &si, fence_));
     submitted_ = true;
+    unread_ = readBack_; // its slot is not handed out again until read() has copied it out
 }
 
 void GpuFrame::wait() {
@@ -181,6 +182,7 @@ Image GpuFrame::read(bool depthAndIds) {
         img.depth.assign(depths, depths + count);
     }
     host_.readbackMs = msSince(t0);
+    unread_ = false;
     return img;
 }
 
@@ -227,14 +229,24 @@ void GpuFrames::ensureTargets(int w, int h) {
     planes_ = composeInReadback_
                   ? VulkanBuffer()
                   : VulkanBuffer(device_, planesBytes, usage, BufferClass::DeviceOnly);
-    for (auto& f : frames_)
-        f->readback_ = VulkanBuffer(device_, planesBytes, usage, BufferClass::Readback);
     width_ = w;
     height_ = h;
 }
 
 GpuFrame& GpuFrames::begin(int width, int height) {
-    GpuFrame& f = *frames_[std::size_t(serial_ % frames_.size())];
+    // The next slot in turn whose frame has been read back: a frame submitted and not yet read
+    // keeps its readback memory (where, on some devices, its passes composed) until read() copies
+    // it out, whatever frames are begun meanwhile.
+    GpuFrame* next = nullptr;
+    for (std::size_t k = 0; k < frames_.size() && !next; ++k) {
+        GpuFrame& c = *frames_[(nextSlot_ + k) % frames_.size()];
+        if (!c.unread_) next = &c;
+    }
+    if (!next)
+        throw std::logic_error("GpuFrames::begin: all " + std::to_string(frames_.size()) +
+                               " frames are in flight and unread; read one back first");
+    GpuFrame& f = *next;
+    nextSlot_ = (std::size_t(f.slot_) + 1) % frames_.size();
     if (f.recording_) {
         // Begun and never submitted (an exception while recording): drop it, and its staging
         // space once nothing earlier is in flight either.
@@ -245,6 +257,15 @@ GpuFrame& GpuFrames::begin(int width, int height) {
     f.wait(); // the slot's previous frame
     f.keptAlive_.clear();
     ensureTargets(width, height);
+    // The slot's readback memory, sized for the largest frame it has held (per slot: another
+    // slot's may still hold a frame not yet read).
+    const VkDeviceSize planesBytes = 3 * VkDeviceSize(width) * VkDeviceSize(height) * 4;
+    if (f.readback_.size() < planesBytes)
+        f.readback_ =
+            VulkanBuffer(device_, planesBytes,
+                         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                             VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                         BufferClass::Readback);
     f.serial_ = ++serial_;
     f.width_ = width;
     f.height_ = height;

@@ -118,6 +118,7 @@ class GpuFrame {
     /// Host-cached memory the planes are copied into (or, where device-local, composed in).
     VulkanBuffer readback_;
     bool recording_ = false, submitted_ = false, readBack_ = false, readBackAll_ = false;
+    bool unread_ = false; ///< submitted with a readback that read() has not copied out yet
     std::vector<VulkanBuffer*> directFlushes_; ///< direct writes to flush before submit
     std::vector<VulkanBuffer> keptAlive_;      ///< released once the frame has executed
     GpuFrameHostTimes host_;
@@ -130,7 +131,9 @@ class GpuFrames {
     GpuFrames(const GpuFrames&) = delete;
     GpuFrames& operator=(const GpuFrames&) = delete;
 
-    /// Starts the next frame at width x height: waits for the frame that last used its slot,
+    /// Starts the next frame at width x height in the next slot whose frame has been read back
+    /// (throws std::logic_error when every slot holds an unread frame): waits for the frame that
+    /// last used its slot,
     /// (re)creates the targets at this size, and begins recording with the frame-start barrier
     /// and the timer's reset.
     GpuFrame& begin(int width, int height);
@@ -149,6 +152,7 @@ class GpuFrames {
     StagingRing ring_;
     std::vector<std::unique_ptr<GpuFrame>> frames_;
     std::uint64_t serial_ = 0;
+    std::size_t nextSlot_ = 0; ///< where begin() looks first (slots are handed out in turn)
     bool composeInReadback_ = false;
     int width_ = 0, height_ = 0;
     VulkanImage color_, id_, depth_;

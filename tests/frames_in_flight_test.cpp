@@ -47,8 +47,12 @@ class FramesInFlight : public test::VulkanTest {
         Scene one = scene(), two = scene();
         FrameRenderer sequential(one, options(far));
         std::vector<Image> expected;
-        for (std::size_t k = 0; k < times().size(); ++k)
-            expected.push_back(sequential.render(times()[k], mode, int(k)).image);
+        std::vector<std::vector<EntityPlan>> plansA, plansB;
+        for (std::size_t k = 0; k < times().size(); ++k) {
+            FrameResult r = sequential.render(times()[k], mode, int(k));
+            plansA.emplace_back(r.plan.begin(), r.plan.end());
+            expected.push_back(std::move(r.image));
+        }
 
         FrameRenderer pipelined(two, options(far));
         std::vector<FrameRenderer::PendingFrame> inFlight;
@@ -56,12 +60,20 @@ class FramesInFlight : public test::VulkanTest {
         for (std::size_t k = 0; k < times().size(); ++k) {
             inFlight.push_back(pipelined.submit(times()[k], mode, int(k)));
             if (inFlight.size() == 2) {
-                got.push_back(pipelined.finish(std::move(inFlight.front())).image);
+                FrameResult r = pipelined.finish(std::move(inFlight.front()));
+                plansB.emplace_back(r.plan.begin(), r.plan.end());
+                got.push_back(std::move(r.image));
                 inFlight.erase(inFlight.begin());
             }
         }
-        got.push_back(pipelined.finish(std::move(inFlight.front())).image);
-
+        {
+            FrameResult r = pipelined.finish(std::move(inFlight.front()));
+            plansB.emplace_back(r.plan.begin(), r.plan.end());
+            got.push_back(std::move(r.image));
+        }
+        // The same plans: the images differ, if at all, on the device's side.
+        for (std::size_t k = 0; k < plansA.size(); ++k)
+            EXPECT_TRUE(plansA[k] == plansB[k]) << "frame " << k << ": the plans differ";
         ASSERT_EQ(got.size(), expected.size());
         std::size_t drawn = 0;
         for (std::size_t k = 0; k < got.size(); ++k) {
