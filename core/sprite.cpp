@@ -198,6 +198,7 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     g.cellRange = L.cellRange;
     g.dims = glm::uvec4(glm::uvec3(dims), entityId);
     g.atlas = glm::uvec4(0u);
+    g.skipEmpty = model.bricks(frame).worthSkipping() ? 1u : 0u;
     const auto light6 = faceLightFactors(light, pose);
     g.faceLight0 = {light6[0], light6[1], light6[2], light6[3]};
     g.faceLight1 = {light6[4], light6[5], 0u, 0u};

@@ -227,6 +227,7 @@ void NearRenderer::Impl::create() {
         {NEAR_BINDING_FAR_PALETTES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
         {NEAR_BINDING_FAR_TILES, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
         {NEAR_BINDING_FAR_TILE_LIST, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, c, nullptr},
+        {NEAR_BINDING_BRICKS, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, fc, nullptr},
     };
     VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
     dli.bindingCount = std::uint32_t(std::size(bindings));
@@ -241,7 +242,7 @@ void NearRenderer::Impl::create() {
     pli.pPushConstantRanges = &push;
     VK_CHECK(vkCreatePipelineLayout(dev, &pli, nullptr, &pipelineLayout));
 
-    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 17},
+    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 18},
                                           {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1}};
     VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     dpi.maxSets = 1;
@@ -779,7 +780,8 @@ void NearRenderer::Impl::writeDescriptors() {
     const VkDescriptorBufferInfo farPaletteInfo{farPalettes.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorBufferInfo farTileInfo{farTiles.handle(), 0, VK_WHOLE_SIZE};
     const VkDescriptorBufferInfo farTileListInfo{farTileList.handle(), 0, VK_WHOLE_SIZE};
-    constexpr int kWrites = 18;
+    const VkDescriptorBufferInfo brickInfo{residency.brickBuffer(), 0, VK_WHOLE_SIZE};
+    constexpr int kWrites = 19;
     VkWriteDescriptorSet w[kWrites]{};
     const std::uint32_t binding[kWrites] = {
         NEAR_BINDING_SPRITES,      NEAR_BINDING_ATLAS,         NEAR_BINDING_PALETTES,
@@ -787,12 +789,13 @@ void NearRenderer::Impl::writeDescriptors() {
         NEAR_BINDING_CELL_BASES,   NEAR_BINDING_CELLS,         NEAR_BINDING_CELL_TILES,
         NEAR_BINDING_SPLAT_BLOCKS, NEAR_BINDING_RANK_SPRITES,  NEAR_BINDING_PIXEL_WORDS,
         NEAR_BINDING_READBACK,     NEAR_BINDING_FAR_INSTANCES, NEAR_BINDING_FAR_SNAPSHOTS,
-        NEAR_BINDING_FAR_PALETTES, NEAR_BINDING_FAR_TILES,     NEAR_BINDING_FAR_TILE_LIST};
+        NEAR_BINDING_FAR_PALETTES, NEAR_BINDING_FAR_TILES,     NEAR_BINDING_FAR_TILE_LIST,
+        NEAR_BINDING_BRICKS};
     const VkDescriptorBufferInfo* buffers[kWrites] = {
-        &spriteInfo,     nullptr,        &paletteInfo,    &counterInfo,     &boxInfo,
-        &hullInfo,       &cellBaseInfo,  &cellInfo,       &tileInfo,        &blockInfo,
-        &rankInfo,       &pixelWordInfo, &readbackInfo,   &farInstanceInfo, &farSnapshotInfo,
-        &farPaletteInfo, &farTileInfo,   &farTileListInfo};
+        &spriteInfo,     nullptr,        &paletteInfo,     &counterInfo,     &boxInfo,
+        &hullInfo,       &cellBaseInfo,  &cellInfo,        &tileInfo,        &blockInfo,
+        &rankInfo,       &pixelWordInfo, &readbackInfo,    &farInstanceInfo, &farSnapshotInfo,
+        &farPaletteInfo, &farTileInfo,   &farTileListInfo, &brickInfo};
     for (int i = 0; i < kWrites; ++i) {
         w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
         w[i].dstSet = descriptorSet;
@@ -841,8 +844,11 @@ Image NearRenderer::Impl::render(const CameraFrame& cam,
     for (std::size_t i = 0; i < n; ++i) {
         const SpriteSetup& s = *visible[i];
         gpu[i] = s.gpu;
-        // The only field the near tier adds to what core computed: where the voxels are.
-        gpu[i].atlas = residency.entry(*models.at(std::size_t(s.model)), s.frame);
+        // The only fields the near tier adds to what core computed: where the voxels and their
+        // brick occupancy are.
+        const VoxelModel& model = *models.at(std::size_t(s.model));
+        gpu[i].atlas = residency.entry(model, s.frame);
+        gpu[i].brickBase = residency.brickBase(model, s.frame);
     }
     if (opt.proxy == NearProxy::Box) {
         ensureBuffer(boxes, std::max<std::size_t>(n, 1) * sizeof(near_gpu::NearBox),

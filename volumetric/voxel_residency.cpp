@@ -53,6 +53,7 @@ VoxelResidency::VoxelResidency(VulkanDevice& device)
         VK_CHECK(vkEndCommandBuffer(cb_));
         device_.submitAndWait(cb_);
         ensurePaletteCapacity(256);
+        ensureBrickCapacity(1);
     } catch (...) {
         device_.freeCommandBuffer(cb_);
         throw;
@@ -108,6 +109,33 @@ void VoxelResidency::ensurePaletteCapacity(std::size_t entries) {
     ++generation_;
 }
 
+void VoxelResidency::ensureBrickCapacity(std::size_t words) {
+    const VkDeviceSize need = VkDeviceSize(std::max<std::size_t>(words, 1)) * sizeof(std::uint32_t);
+    if (bricks_ && bricks_.size() >= need) return;
+    VkDeviceSize size = bricks_ ? bricks_.size() : 1 << 16;
+    while (size < need) size *= 2;
+    bricks_ = VulkanBuffer(device_, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
+    if (!brickMirror_.empty())
+        std::memcpy(bricks_.mapped(), brickMirror_.data(),
+                    brickMirror_.size() * sizeof(std::uint32_t));
+    ++generation_;
+}
+
+void VoxelResidency::writeBricks(const BrickOccupancy& occupancy, std::uint32_t base) {
+    const std::size_t bytes = occupancy.words().size() * sizeof(std::uint32_t);
+    std::memcpy(brickMirror_.data() + base, occupancy.words().data(), bytes);
+    std::memcpy(static_cast<std::uint32_t*>(bricks_.mapped()) + base, occupancy.words().data(),
+                bytes);
+}
+
+std::uint32_t VoxelResidency::brickBase(const VoxelModel& model, int frame) const {
+    const auto it = residents_.find(model.uid());
+    if (it == residents_.end() || frame < 0 || std::size_t(frame) >= it->second.present.size() ||
+        !it->second.present[std::size_t(frame)])
+        throw std::logic_error("VoxelResidency::brickBase: frame not resident (call update first)");
+    return it->second.brickBase[std::size_t(frame)];
+}
+
 glm::uvec4 VoxelResidency::entry(const VoxelModel& model, int frame) const {
     const auto it = residents_.find(model.uid());
     if (it == residents_.end() || frame < 0 || std::size_t(frame) >= it->second.present.size() ||
@@ -135,6 +163,7 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                 r.version = model.version();
                 r.paletteBase = nextPaletteSlot_++ * 256u;
                 r.origin.assign(std::size_t(model.frameCount()), glm::ivec3(0));
+                r.brickBase.assign(std::size_t(model.frameCount()), 0u);
                 r.present.assign(std::size_t(model.frameCount()), false);
                 paletteMirror_.insert(paletteMirror_.end(), model.palette().colors.begin(),
                                       model.palette().colors.end());
@@ -152,6 +181,9 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                     const Box3i box = dirty ? dirty->intersected(whole) : whole;
                     if (box.empty()) continue;
                     uploads.push_back({&grid, box, r.origin[std::size_t(f)]});
+                    // Its occupancy, whole: a few KiB at most (a region bit may change with
+                    // any brick of the region).
+                    writeBricks(model.bricks(f), r.brickBase[std::size_t(f)]);
                     stats.fullFrames += box == whole;
                 }
                 r.version = model.version();
@@ -161,6 +193,13 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                 const VoxelGrid& grid = model.frame(sp->frame);
                 r.origin[f] = packer_.allocate(grid.dims());
                 r.present[f] = true;
+                // Its brick occupancy, whole, after the mirror's words (left there, unused, when
+                // a later placement fails).
+                const BrickOccupancy& occupancy = model.bricks(sp->frame);
+                r.brickBase[f] = std::uint32_t(brickMirror_.size());
+                brickMirror_.resize(brickMirror_.size() + occupancy.words().size());
+                ensureBrickCapacity(brickMirror_.size());
+                writeBricks(occupancy, r.brickBase[f]);
                 placed.emplace_back(&r, sp->frame);
                 uploads.push_back({&grid, {glm::ivec3(0), grid.dims()}, r.origin[f]});
                 ++stats.fullFrames;

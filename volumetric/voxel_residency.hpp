@@ -2,8 +2,10 @@
 // GPU residency of voxel data for the near tier: one R8_UINT 3D atlas holding every (model,
 // frame) that a sprite has needed so far, once, shared by all entities (lavapipe has no
 // descriptor indexing, and one atlas keeps the whole near tier a single instanced draw,
-// DESIGN.md §6), plus one storage buffer with 256 packed colours per resident model.
-// Edits re-upload only the dirty box of a frame (VoxelModel::dirtySince).
+// DESIGN.md §6), plus one storage buffer with 256 packed colours per resident model and one
+// with every resident frame's brick occupancy words (VoxelModel::bricks, the kernel's empty-space
+// skipping). Edits re-upload only the dirty box of a frame (VoxelModel::dirtySince) and the
+// frame's occupancy words.
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
 #include "volumetric/atlas_packer.hpp"
@@ -39,12 +41,16 @@ class VoxelResidency {
                           std::span<const SpriteSetup* const> sprites);
     /// SpriteGpu::atlas for a resident frame: xyz = atlas origin, w = palette base index.
     glm::uvec4 entry(const VoxelModel& model, int frame) const;
+    /// SpriteGpu::brickBase for a resident frame: its first word in brickBuffer().
+    std::uint32_t brickBase(const VoxelModel& model, int frame) const;
 
     VkImageView atlasView() const { return atlas_.view(); }
     VkBuffer paletteBuffer() const { return palettes_.handle(); }
     VkDeviceSize paletteBytes() const { return palettes_.size(); }
+    VkBuffer brickBuffer() const { return bricks_.handle(); }
     VkExtent3D atlasExtent() const { return atlas_.extent(); }
-    /// Changes whenever the atlas image or the palette buffer is re-created (descriptors go stale).
+    /// Changes whenever the atlas image, the palette or the brick buffer is re-created
+    /// (descriptors go stale).
     std::uint64_t generation() const { return generation_; }
     const AtlasPacker& packer() const { return packer_; }
     /// Totals since construction.
@@ -54,8 +60,9 @@ class VoxelResidency {
     struct Resident {
         std::uint64_t version = 0; ///< model version the atlas holds
         std::uint32_t paletteBase = 0;
-        std::vector<glm::ivec3> origin; ///< per frame
-        std::vector<bool> present;      ///< per frame
+        std::vector<glm::ivec3> origin;       ///< per frame
+        std::vector<std::uint32_t> brickBase; ///< per frame
+        std::vector<bool> present;            ///< per frame
     };
     struct Upload {
         const VoxelGrid* grid;
@@ -65,6 +72,9 @@ class VoxelResidency {
 
     void createAtlas(std::uint32_t depth, VkCommandBuffer cb, bool copyOld);
     void ensurePaletteCapacity(std::size_t entries);
+    void ensureBrickCapacity(std::size_t words);
+    /// Copies a frame's occupancy words to the buffer (and its mirror) from word `base` on.
+    void writeBricks(const BrickOccupancy& occupancy, std::uint32_t base);
 
     VulkanDevice& device_;
     AtlasPacker packer_;
@@ -73,6 +83,8 @@ class VoxelResidency {
     VulkanBuffer palettes_;
     VulkanBuffer staging_;
     std::vector<std::uint32_t> paletteMirror_;
+    VulkanBuffer bricks_;
+    std::vector<std::uint32_t> brickMirror_;
     std::unordered_map<std::uint64_t, Resident> residents_; ///< by VoxelModel::uid()
     std::uint32_t nextPaletteSlot_ = 0;
     std::uint64_t generation_ = 0;

@@ -10,9 +10,16 @@
 layout(local_size_x = 64) in; // NEAR_CELL_TILE
 
 layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
+layout(std430, set = 0, binding = NEAR_BINDING_BRICKS) readonly buffer Bricks {
+    uint vtBricks[];
+};
 ivec3 vtAtlasBase;
+uint vtBrickBase;
 uint vtFetchVoxel(ivec3 cell) {
     return texelFetch(vtAtlas, vtAtlasBase + cell, 0).r;
+}
+uint vtFetchBrickWord(uint word) {
+    return vtBricks[vtBrickBase + word];
 }
 #include "core/sprite_kernel.h"
 
@@ -41,5 +48,6 @@ void main() {
     uint rows = uint(s.cellRange.w - s.cellRange.z + 1);
     if (slot >= rows * vtCellRowLength(s)) return;
     vtAtlasBase = ivec3(s.atlas.xyz);
+    vtBrickBase = s.brickBase;
     vtCells[vtCellBases[t.x] + slot] = vtTraceCellPrimary(s, vtSlotCell(s, slot));
 }

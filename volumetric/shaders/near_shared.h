@@ -54,6 +54,9 @@ VT_NEAR_CONST uint NEAR_BINDING_FAR_SNAPSHOTS = 14u;
 VT_NEAR_CONST uint NEAR_BINDING_FAR_PALETTES = 15u;
 VT_NEAR_CONST uint NEAR_BINDING_FAR_TILES = 16u;
 VT_NEAR_CONST uint NEAR_BINDING_FAR_TILE_LIST = 17u;
+// uint[]: the brick occupancy words (core/sprite_kernel.h vtBrickIndex) of every resident model
+// frame, each frame's from its SpriteGpu::brickBase (volumetric/voxel_residency.hpp).
+VT_NEAR_CONST uint NEAR_BINDING_BRICKS = 18u;
 VT_NEAR_CONST uint NEAR_NO_RANK = 0xFFFFFFFFu; // a pixel word no cell-rate sprite wrote
 VT_NEAR_CONST uint NEAR_SPLAT_BLOCK = 32u;     // pixels per side of a splat workgroup
 // A pixel word: depth rank << NEAR_RANK_SHIFT | kind | face << 2 | palette index << 5. The
