@@ -21,7 +21,11 @@ struct CacheDirArgs {
 
 /// Adds --cache-dir (and --cache-dir-mb, which needs it) to `cmd`; `what` says what reads it.
 void addCacheDirOptions(CLI::App& cmd, CacheDirArgs& args, const std::string& what);
-/// "cache dir DIR: 98 read, 0 written (0.0 MB), 0 rejected, 0 evicted, read 12.3 ms".
+/// "24.64 MiB": bytes in binary megabytes, the one unit every size the CLI prints is in.
+std::string mebibytes(double bytes);
+/// "cache dir DIR: 98 snapshots read (0.09 MiB, 12.3 ms), 0 written (0.00 MiB, 0.0 ms), 0 missing,
+/// 0 rejected, 0 evicted (0.00 MiB)", then the dead writers' temporaries removed, if any, and,
+/// with a size limit, what it counted at its last scan and how much of that was temporaries.
 std::string cacheDirSummary(const SnapshotStoreOptions& options,
                             const SnapshotStoreCounters& counters);
 /// "warning: cache dir DIR: 126 snapshots could not be written (No space left on device)"

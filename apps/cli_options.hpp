@@ -10,9 +10,9 @@
 // prints DBL_MAX in full, and CheckedTransformer lists an enum's integers ("{far->2,...} OR
 // {2,...}"). These keep CLI11's mechanism (and its `{a,b}` / ExistingFile forms) with the
 // project's one-line messages.
+#include "core/near_rate.hpp"
 #include "core/view_set.hpp"
 #include "impostor_cache/far_blit.hpp"
-#include "volumetric/near_rate.hpp"
 
 #include <CLI/CLI.hpp>
 #include <glm/glm.hpp>

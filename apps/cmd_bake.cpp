@@ -1,8 +1,10 @@
 // `voxtier bake MODEL.vox`: bake every far-tier snapshot of one model with Embree, print the
 // cost, optionally write a contact sheet of the views. `voxtier bake MODEL.vox|SCENE.json ...
-// --cache-dir DIR`: pre-bake every view of every model frame named into the on-disk snapshot
-// cache (impostor_cache/snapshot_store.hpp), optionally one deterministic share of the work
-// (`--shard I/N`, for N independent jobs of a cluster scheduler; docs/baking.md).
+// --cache-dir DIR`: pre-bake into the on-disk snapshot cache (impostor_cache/snapshot_store.hpp)
+// a scene's snapshots its renders ask for (its still and camera path, with a margin;
+// compose/scene_render.hpp), or with --ladder (or --level, --views, a .vox) every view of every
+// model frame named; optionally one deterministic share of the work (`--shard I/N`, for N
+// independent jobs of a cluster scheduler; docs/baking.md).
 // `voxtier bake --bench [MODEL.vox...]`:
 // the Embree bake against the near kernel's scalar DDA over the same rays, side by side in one
 // run (medians over repeats), plus the memory one cached model costs (measured in
@@ -13,6 +15,8 @@
 #include "apps/cli_options.hpp"
 #include "apps/commands.hpp"
 #include "apps/progress.hpp"
+#include "compose/frame.hpp"
+#include "compose/scene_render.hpp"
 #include "core/error.hpp"
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
@@ -47,6 +51,22 @@ namespace voxtier::cli {
 
 namespace {
 
+/// The margin a scene's bake adds to what its renders ask for (SnapshotNeedOptions::marginDeg):
+/// the views a fresh selector picks at every frame (lone `--frame N` renders); docs/baking.md
+/// and docs/decisions/path-sized-bakes.md give what wider margins cost.
+constexpr double kDefaultMarginDeg = 0.0;
+/// A camera further off its path than this is another path (bake it as one).
+constexpr double kMaxMarginDeg = 45.0;
+
+/// "DEG" in [0, kMaxMarginDeg] -> DEG; nullopt for anything else ("none" included).
+std::optional<double> readMargin(const std::string& text) {
+    char* end = nullptr;
+    const double deg = std::strtod(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size() || !(deg >= 0.0 && deg <= kMaxMarginDeg))
+        return std::nullopt;
+    return deg;
+}
+
 struct BakeArgs {
     std::vector<std::string> inputs;
     int model = 0;
@@ -64,8 +84,22 @@ struct BakeArgs {
     bool viewsGiven = false, sigmaGiven = false; ///< else a scene's own
     std::optional<int> level; ///< cube lattice n (1: 26, 2: 98, 3: 218 views ...)
     bool allFrames = false;   ///< --frames all
+    bool frameGiven = false;  ///< --frame on the command line
     std::string shard;        ///< "I/N" (readShard), "" = all the work
     bool yes = false;         ///< go ahead past kConfirmDiskBytes
+    /// Every view of the view set or ladder (else a scene's bake follows its renders).
+    bool ladder = false;
+    // A scene's bake that follows its renders (compose/scene_render.hpp, SnapshotNeedOptions).
+    RenderMode mode = RenderMode::Hybrid;
+    std::string margin;                                  ///< --margin: DEG or "none"
+    std::optional<double> marginDeg = kDefaultMarginDeg; ///< nullopt: --margin none
+    std::optional<std::string> size;                     ///< WxH, as render's --size
+    /// --mode, --margin or --size, which only a scene following its renders reads.
+    std::vector<std::string> renderOptionsGiven;
+    /// Whether a scene is baked as its renders ask (else every view of the set or ladder).
+    bool followsRenders(const std::string& file) const {
+        return !ladder && !level && !viewsGiven && lowerExtension(file) != ".vox";
+    }
 };
 
 /// A pre-bake that would take more than this on disk is refused unless the user says --yes or
@@ -137,6 +171,9 @@ void runBake(const BakeArgs& a) {
                              " frames");
     if (a.allFrames) throw CLI::ValidationError("--frames", "applies with --cache-dir only");
     if (!a.shard.empty()) throw CLI::ValidationError("--shard", "applies with --cache-dir only");
+    if (a.ladder) throw CLI::ValidationError("--ladder", "applies with --cache-dir only");
+    if (!a.renderOptionsGiven.empty())
+        throw CLI::ValidationError(a.renderOptionsGiven.front(), "applies with --cache-dir only");
     const std::vector<ViewId> views = viewsToBake(a.views, a.level);
     VoxelSceneOptions so;
     so.geometry = a.geometry;
@@ -145,10 +182,10 @@ void runBake(const BakeArgs& a) {
 
     const VoxelGrid& grid = model->frame(a.frame);
     const VoxelScene scene(grid, so);
-    std::printf("%s: %s, %zu voxels, %s scene: %zu primitives, built in %.1f ms, %.2f MB\n",
+    std::printf("%s: %s, %zu voxels, %s scene: %zu primitives, built in %.1f ms, %s\n",
                 name.c_str(), dimsText(grid.dims()).c_str(), grid.solidCount(),
                 toString(so.geometry), scene.primitiveCount(), scene.buildMs(),
-                scene.bytes() / 1048576.0);
+                mebibytes(scene.bytes()).c_str());
     std::vector<std::shared_ptr<const Snapshot>> snaps;
     BakeStats stats;
     std::size_t bytes = 0;
@@ -165,7 +202,7 @@ void runBake(const BakeArgs& a) {
     const double ms = msSince(t0);
     std::printf("baked %d views at sigma %g with %s: %.1f ms, %llu rays, %.2f Mrays/s, %zu bytes "
                 "of snapshots "
-                "(%.1f KB per view)\n",
+                "(%.1f KiB per view)\n",
                 int(views.size()), a.sigma, toString(bo.api), ms,
                 static_cast<unsigned long long>(stats.rays), stats.rays / ms / 1e3, bytes,
                 bytes / 1024.0 / double(views.size()));
@@ -175,21 +212,36 @@ void runBake(const BakeArgs& a) {
     }
 }
 
-/// What one input asks to be baked: its models with the view set and sigma to bake them at.
+/// What one input asks to be baked: its models with the view set and sigma to bake them at, or
+/// (a scene following its renders) the snapshots its renders ask for.
 struct BakeSource {
     std::string file;
     std::vector<NamedModel> models;
-    std::vector<ViewId> views; ///< every view of every model frame
+    std::vector<ViewId> views; ///< every view of every model frame (the set or the ladder)
     double sigma = 1.0;        ///< of the snapshots: the sprites' sigma x outlineStride
     /// A scene's snapshot_scale: its renders ask for snapshots at that multiple of its sigma,
     /// with that outline stride.
     int outlineStride = 1;
+    /// A scene baked as its renders ask (BakeArgs::followsRenders): the scene (its models are
+    /// `models`), what its renders ask for, and, where it has scripted edits, a renderer that
+    /// applies them (the bake bakes an edited model frame's snapshots after its edits).
+    std::unique_ptr<Scene> scene;
+    SnapshotNeeds needs;
+    std::unique_ptr<FrameRenderer> editor;
 };
 
+/// The views of a scene's view set, or under the error-budget selector of its ladder_cap level
+/// (which holds every coarser level's views): every view its renders may ask for.
+std::vector<ViewId> ladderViews(const Scene& scene) {
+    return scene.selector.metric == SelectorMetric::ErrorBudget
+               ? cubeSurfaceViews(scene.selector.ladderCap)
+               : viewsToBake(viewSetFromSize(scene.selector.viewSetSize), std::nullopt);
+}
+
 /// A .vox gives the --model model (every model of the file with --frames all: a multi-model
-/// file is often an animation); a scene gives its models at its own view set and sigma (with the
-/// error-budget selector: every view of its ladder_cap level, which holds every coarser level's
-/// views). The command line's --views / --level / --sigma override both.
+/// file is often an animation); a scene gives its models at its own sigma, and either the
+/// snapshots its renders ask for or (--ladder) every view of its view set or ladder. The
+/// command line's --views / --level / --sigma override both.
 BakeSource loadSource(const std::string& file, const BakeArgs& a) {
     BakeSource src{file, {}, viewsToBake(ViewSet::Cube26, std::nullopt), 1.0};
     if (isVox(file)) {
@@ -204,13 +256,23 @@ BakeSource loadSource(const std::string& file, const BakeArgs& a) {
             src.models.back().name = name;
         }
     } else {
-        const Scene scene = loadScene(file);
+        src.scene = std::make_unique<Scene>(loadScene(file));
+        Scene& scene = *src.scene;
+        // A render's --size and --sigma change its sprites, so its views: the bake takes them too.
+        if (a.size) {
+            const glm::ivec2 wh = *readImageSize(*a.size);
+            scene.camera.width = wh.x;
+            scene.camera.height = wh.y;
+        }
+        if (a.sigmaGiven) scene.render.sigma = a.sigma;
         for (const auto& m : scene.models) src.models.push_back({m->name(), m});
-        src.views = scene.selector.metric == SelectorMetric::ErrorBudget
-                        ? cubeSurfaceViews(scene.selector.ladderCap)
-                        : viewsToBake(viewSetFromSize(scene.selector.viewSetSize), std::nullopt);
+        src.views = ladderViews(scene);
         src.outlineStride = scene.selector.snapshotScale;
         src.sigma = scene.render.sigma;
+        if (a.followsRenders(file)) {
+            src.needs = snapshotsRendersAskFor(scene, {.mode = a.mode, .marginDeg = a.marginDeg});
+            if (!scene.edits.empty()) src.editor = std::make_unique<FrameRenderer>(scene);
+        }
     }
     if (a.level || a.viewsGiven) src.views = viewsToBake(a.views, a.level);
     if (a.sigmaGiven) src.sigma = a.sigma;
@@ -218,26 +280,45 @@ BakeSource loadSource(const std::string& file, const BakeArgs& a) {
     return src;
 }
 
-/// One unit of work: every view of one frame of one model.
+/// One unit of work, one pack: views of one frame of one model.
 struct BakeItem {
     const BakeSource* source;
     const NamedModel* model;
     int frame;
+    const std::vector<ViewId>* views;
+    double sigma; ///< of the snapshots
+    /// Of a scene following its renders: the path frame whose scripted edits are applied before
+    /// baking (-1: none; SnapshotNeed::editedAt).
+    int editedAt = -1;
 };
 
-/// The work list in a fixed order (inputs as given, models in file order, frames ascending), so
-/// that shard I of N is the same items in every job.
+/// Every view (source.views) of model frames: --frame's, or with `allFrames` every one.
+void addLadderItems(const BakeSource& src, const BakeArgs& a, bool allFrames,
+                    std::vector<BakeItem>& items) {
+    for (const NamedModel& m : src.models) {
+        const int frames = m.model->frameCount();
+        if (!allFrames && a.frame >= frames)
+            throw InputError(src.file, "--frame",
+                             m.name + " has " + std::to_string(frames) + " frames");
+        for (int f = allFrames ? 0 : a.frame; f < (allFrames ? frames : a.frame + 1); ++f)
+            items.push_back({&src, &m, f, &src.views, src.sigma});
+    }
+}
+
+/// The work list in a fixed order (inputs as given; a scene following its renders in
+/// SnapshotNeeds' order, else models in file order, frames ascending), so that shard I of N is
+/// the same items in every job.
 std::vector<BakeItem> workList(const std::vector<BakeSource>& sources, const BakeArgs& a) {
     std::vector<BakeItem> items;
-    for (const BakeSource& src : sources)
-        for (const NamedModel& m : src.models) {
-            const int frames = m.model->frameCount();
-            if (!a.allFrames && a.frame >= frames)
-                throw InputError(src.file, "--frame",
-                                 m.name + " has " + std::to_string(frames) + " frames");
-            for (int f = a.allFrames ? 0 : a.frame; f < (a.allFrames ? frames : a.frame + 1); ++f)
-                items.push_back({&src, &m, f});
+    for (const BakeSource& src : sources) {
+        if (!a.followsRenders(src.file)) {
+            addLadderItems(src, a, a.allFrames, items);
+            continue;
         }
+        for (const SnapshotNeed& n : src.needs.needs)
+            items.push_back({&src, &src.models[std::size_t(n.model)], n.frame, &n.views,
+                             n.sigma * src.outlineStride, n.editedAt});
+    }
     return items;
 }
 
@@ -247,6 +328,12 @@ std::vector<BakeItem> workList(const std::vector<BakeSource>& sources, const Bak
 /// pack names spread over counted as a block each (their empty ".lock" files take none).
 struct BakeEstimate {
     std::uint64_t snapshots = 0, files = 0, bytes = 0, diskBytes = 0, blockBytes = 4096;
+    /// "19686 snapshots in 51 pack files, 24.64 MiB, 24.85 MiB on disk"
+    std::string text() const {
+        return std::to_string(snapshots) + " snapshots in " + std::to_string(files) + " pack file" +
+               (files == 1 ? "" : "s") + ", " + mebibytes(bytes) + ", " + mebibytes(diskBytes) +
+               " on disk";
+    }
 };
 
 BakeEstimate estimateBake(const std::vector<BakeItem>& items, const std::string& dir) {
@@ -261,9 +348,9 @@ BakeEstimate estimateBake(const std::vector<BakeItem>& items, const std::string&
     };
     for (const BakeItem& it : items) {
         const glm::ivec3 dims = it.model->model->frame(it.frame).dims();
-        std::uint64_t pack = snapshotPackOverhead(it.source->views.size());
-        for (ViewId v : it.source->views) pack += snapshotFileBytes(dims, v, it.source->sigma);
-        e.snapshots += it.source->views.size();
+        std::uint64_t pack = snapshotPackOverhead(it.views->size());
+        for (ViewId v : *it.views) pack += snapshotFileBytes(dims, v, it.sigma);
+        e.snapshots += it.views->size();
         ++e.files;
         e.bytes += pack;
         e.diskBytes += rounded(pack);
@@ -274,11 +361,54 @@ BakeEstimate estimateBake(const std::vector<BakeItem>& items, const std::string&
     return e;
 }
 
+/// "the still camera and the camera path's 73 frames, with a margin of 0.5 degrees" (what a
+/// scene's bake follows).
+std::string followedText(const BakeSource& src, const BakeArgs& a) {
+    std::string text = src.needs.still ? "the still camera" : "";
+    if (src.needs.frames > 0) {
+        if (!text.empty()) text += " and ";
+        text += src.scene->path
+                    ? "the camera path's " + std::to_string(src.needs.frames) + " frames"
+                    : "the static camera over " + std::to_string(src.needs.frames) +
+                          " frames of animation";
+    }
+    char margin[96];
+    if (!a.marginDeg)
+        std::snprintf(margin, sizeof margin, ", in order only (--margin none)");
+    else
+        std::snprintf(margin, sizeof margin, ", with a margin of %g degree%s", *a.marginDeg,
+                      *a.marginDeg == 1.0 ? "" : "s");
+    return text + (a.mode == RenderMode::Far ? " in far mode" : "") + margin;
+}
+
 void runPrebake(const BakeArgs& a) {
     if (a.inputs.empty()) throw CLI::ValidationError("model", "name at least one .vox or scene");
+    // A scene's bake follows its renders, which decide the views and model frames themselves;
+    // the renders' options mean nothing to any other bake.
+    const bool anyFollows = std::any_of(a.inputs.begin(), a.inputs.end(),
+                                        [&](const std::string& f) { return a.followsRenders(f); });
+    if (!anyFollows && !a.renderOptionsGiven.empty())
+        throw CLI::ValidationError(a.renderOptionsGiven.front(),
+                                   "applies to a scene's bake that follows its renders (not with "
+                                   "--ladder, --level, --views or a .vox)");
+    if (a.mode != RenderMode::Hybrid && a.mode != RenderMode::Far)
+        throw CLI::ValidationError("--mode", std::string(toString(a.mode)) +
+                                                 " renders draw no snapshot: hybrid or far");
+    for (const std::string& f : a.inputs)
+        if (a.followsRenders(f)) {
+            const char* why = "applies to --ladder bakes (a scene's bake takes the animation "
+                              "frames its renders show)";
+            if (a.allFrames) throw CLI::ValidationError("--frames", why);
+            if (a.frameGiven) throw CLI::ValidationError("--frame", why);
+        }
     std::vector<BakeSource> sources;
     for (const std::string& f : a.inputs) sources.push_back(loadSource(f, a));
     std::vector<BakeItem> items = workList(sources, a);
+    for (const BakeSource& src : sources)
+        if (a.followsRenders(src.file))
+            std::printf("%s: %zu snapshots of %zu model frames its renders ask for: %s\n",
+                        src.file.c_str(), src.needs.snapshots(), src.needs.needs.size(),
+                        followedText(src, a).c_str());
     if (const auto shard = readShard(a.shard)) {
         // Round robin over the fixed work list: every job computes the same list and keeps
         // every N-th item from its own index, so N jobs cover it exactly once, with no
@@ -293,24 +423,34 @@ void runPrebake(const BakeArgs& a) {
     }
 
     const BakeEstimate est = estimateBake(items, a.cacheDir.dir);
-    std::printf("estimate: %llu snapshots in %llu pack file%s, %.2f MB, %.2f MB on disk "
-                "(%llu-byte blocks; snapshots already there are not written again)\n",
-                static_cast<unsigned long long>(est.snapshots),
-                static_cast<unsigned long long>(est.files), est.files == 1 ? "" : "s",
-                double(est.bytes) / 1e6, double(est.diskBytes) / 1e6,
-                static_cast<unsigned long long>(est.blockBytes));
+    std::printf("estimate: %s (%llu-byte blocks; snapshots already there are not written again)\n",
+                est.text().c_str(), static_cast<unsigned long long>(est.blockBytes));
+    // What --ladder --frames all would write instead, for the scenes that follow their renders.
+    std::vector<BakeItem> ladder;
+    for (const BakeSource& src : sources)
+        if (a.followsRenders(src.file)) addLadderItems(src, a, /*allFrames=*/true, ladder);
+    if (!ladder.empty())
+        std::printf("estimate: the whole ladder of every model frame (--ladder --frames all) "
+                    "would be %s\n",
+                    estimateBake(ladder, a.cacheDir.dir).text().c_str());
     std::fflush(stdout);
     if (est.diskBytes > kConfirmDiskBytes && !a.yes && !a.cacheDir.limitMb)
         throw InputError(a.cacheDir.dir, "--cache-dir",
                          "this bake would write " + std::to_string(est.snapshots) + " snapshots, " +
-                             std::to_string(est.diskBytes >> 20) +
-                             " MiB on disk (over 256 MiB); add --yes to go ahead, or "
-                             "--cache-dir-mb MB to cap the directory");
+                             mebibytes(est.diskBytes) + " on disk (over " +
+                             mebibytes(kConfirmDiskBytes) +
+                             "); add --yes to go ahead, or --cache-dir-mb MIB to cap the "
+                             "directory");
 
     SnapshotCacheConfig config;
     config.budgetBytes = 0; // every snapshot goes to disk; nothing needs to stay in memory
-    config.store = std::make_shared<SnapshotStore>(
-        SnapshotStoreOptions{.dir = a.cacheDir.dir, .limitBytes = a.cacheDir.limitBytes()});
+    // Each pack written once, after its model frame (the bytes written are the packs'); a lock
+    // another bake holds is waited for longer than a render would, since failing is the cost.
+    config.store =
+        std::make_shared<SnapshotStore>(SnapshotStoreOptions{.dir = a.cacheDir.dir,
+                                                             .limitBytes = a.cacheDir.limitBytes(),
+                                                             .writeOnlyOnFlush = true,
+                                                             .lockWait = std::chrono::seconds(60)});
     // One cache per outline stride the sources ask for, one store.
     std::map<int, std::unique_ptr<SnapshotCache>> caches;
     const auto cacheFor = [&](const BakeSource& src) -> SnapshotCache& {
@@ -328,23 +468,29 @@ void runPrebake(const BakeArgs& a) {
     for (std::size_t i = 0; i < items.size(); ++i) {
         const BakeItem& it = items[i];
         SnapshotCache& cache = cacheFor(*it.source);
+        // The edited voxels of a model frame's later snapshots: the work list is in the order
+        // the edits are due, so applying them as it goes gives each item its own voxels.
+        if (it.editedAt >= 0) it.source->editor->applyEditsThrough(it.editedAt);
         const SnapshotCacheCounters before = cache.counters();
         const auto t1 = std::chrono::steady_clock::now();
-        const std::vector<ViewId>& viewList = it.source->views;
+        const std::vector<ViewId>& viewList = *it.views;
         const int n = int(viewList.size());
         tbb::parallel_for(0, n, [&](int v) {
-            cache.get(*it.model->model, it.frame, viewList[std::size_t(v)], it.source->sigma);
+            cache.get(*it.model->model, it.frame, viewList[std::size_t(v)], it.sigma);
         });
         config.store->flush(); // the model frame's pack, written once
         views += std::uint64_t(n);
         const SnapshotCacheCounters after = cache.counters();
         progress->clear();
-        std::printf(
-            "[%zu/%zu] %s %s frame %d: %d views at sigma %g, %llu baked, %llu already "
-            "there, %.1f ms\n",
-            i + 1, items.size(), it.source->file.c_str(), it.model->name.c_str(), it.frame, n,
-            it.source->sigma, static_cast<unsigned long long>(after.bakes - before.bakes),
-            static_cast<unsigned long long>(after.diskLoads - before.diskLoads), msSince(t1));
+        std::printf("[%zu/%zu] %s %s frame %d%s: %d views at sigma %g, %llu baked, %llu already "
+                    "there, %.1f ms\n",
+                    i + 1, items.size(), it.source->file.c_str(), it.model->name.c_str(), it.frame,
+                    it.editedAt >= 0
+                        ? (" (edited by path frame " + std::to_string(it.editedAt) + ")").c_str()
+                        : "",
+                    n, it.sigma, static_cast<unsigned long long>(after.bakes - before.bakes),
+                    static_cast<unsigned long long>(after.diskLoads - before.diskLoads),
+                    msSince(t1));
         std::fflush(stdout);
         progress->done(i + 1);
     }
@@ -408,9 +554,10 @@ void addBakeCommand(CLI::App& app) {
     cmd->add_option("--model", args->model, "Which model of a multi-model file")
         ->check(atLeast(0))
         ->capture_default_str();
-    cmd->add_option("--frame", args->frame, "Animation frame")
-        ->check(atLeast(0))
-        ->capture_default_str();
+    CLI::Option* frame = cmd->add_option("--frame", args->frame,
+                                         "Animation frame (with --cache-dir: of a --ladder bake)")
+                             ->check(atLeast(0))
+                             ->capture_default_str();
     CLI::Option* views =
         cmd->add_option("--views", args->views,
                         "View set: how many directions (a scene's own with --cache-dir)")
@@ -428,7 +575,8 @@ void addBakeCommand(CLI::App& app) {
             ->check(sigmaRange())
             ->capture_default_str();
     cmd->add_option("--frames", args->allFrames,
-                    "With --cache-dir: 'all' bakes every animation frame (default: --frame)")
+                    "With --cache-dir, of a .vox or a --ladder bake: 'all' bakes every animation "
+                    "frame (default: --frame)")
         ->type_name("all")
         ->transform(CLI::Validator(
             [](std::string& text) {
@@ -449,7 +597,38 @@ void addBakeCommand(CLI::App& app) {
             },
             "I/N"));
     addCacheDirOptions(*cmd, args->cacheDir,
-                       "bake every view of every model frame named into it (pre-baking)");
+                       "pre-bake into it a scene's snapshots its renders ask for (its still and "
+                       "camera path), or with --ladder every view of every model frame named");
+    cmd->add_flag("--ladder", args->ladder,
+                  "With --cache-dir: bake every view of a scene's view set or error-budget ladder "
+                  "(up to ladder_cap) for --frame's or (--frames all) every model frame, not only "
+                  "what its renders ask for (implied by --level, --views and a .vox)");
+    CLI::Option* mode =
+        addChoiceOption(*cmd, "--mode", args->mode, kRenderModeNames, "render mode",
+                        "With --cache-dir, a scene's bake: the mode of the renders it prepares, "
+                        "hybrid (default) or far (near and reference draw no snapshot)");
+    CLI::Option* margin =
+        cmd->add_option(
+               "--margin", args->margin,
+               "With --cache-dir, a scene's bake: beyond what its still and camera path ask "
+               "for, the view a fresh selector picks for each far entity at every frame (a "
+               "lone --frame N render) and, at DEG > 0, seen DEG degrees off its direction "
+               "(a camera off the path); 'none': the path in order only (default 0)")
+            ->type_name("DEG|none")
+            ->check(CLI::Validator(
+                [](std::string& text) {
+                    return text == "none" || readMargin(text)
+                               ? std::string()
+                               : "expected degrees in [0, " + std::to_string(int(kMaxMarginDeg)) +
+                                     "] or 'none', got '" + text + "'";
+                },
+                "DEG|none"));
+    CLI::Option* size =
+        cmd->add_option("--size", args->size,
+                        "With --cache-dir, a scene's bake: the image size its renders use, as "
+                        "render's --size (default: the scene's camera)")
+            ->type_name("WxH")
+            ->check(imageSize());
     cmd->add_flag(
         "--yes", args->yes,
         "With --cache-dir: go ahead with a bake estimated at over 256 MiB on disk (without "
@@ -472,9 +651,13 @@ void addBakeCommand(CLI::App& app) {
     cmd->add_option("--threads", args->threads, "Worker threads (0 = all)")
         ->check(atLeast(0))
         ->capture_default_str();
-    cmd->callback([args, views, sigma] {
+    cmd->callback([args, views, sigma, frame, mode, margin, size] {
         args->viewsGiven = views->count() > 0;
         args->sigmaGiven = sigma->count() > 0;
+        args->frameGiven = frame->count() > 0;
+        for (const CLI::Option* o : {mode, margin, size})
+            if (o->count() > 0) args->renderOptionsGiven.push_back(o->get_name());
+        if (margin->count() > 0) args->marginDeg = readMargin(args->margin);
         std::optional<tbb::global_control> limit;
         if (args->threads > 0)
             limit.emplace(tbb::global_control::max_allowed_parallelism, std::size_t(args->threads));

@@ -1,6 +1,8 @@
 // `voxtier check SCENE...`: the identity the near tier promises (DESIGN.md §3), checked by the
 // shipped binary itself on the machine it runs on: each scene drawn by the Vulkan near tier and by
 // the CPU reference tracer, compared in memory plane by plane (colour, depth bits, entity id).
+// It first prints the memory type each buffer class gets on this device (type, flags, heap), and
+// any installed Vulkan driver whose library does not load (and why).
 // The same comparison as tests/vulkan_identity_test.cpp, for a machine that has the CLI but not
 // the test suite (the portable folder, tools/gpu_check.sh). Exit status 1 when any pixel differs.
 #include "apps/commands.hpp"
@@ -10,10 +12,11 @@
 #include "core/scene_loader.hpp"
 #include "core/sprite.hpp"
 #include "core/sprite_kernel.h"
-#include "volumetric/near_renderer.hpp"
-#include "volumetric/reference_renderer.hpp"
+#include "device/icd_diagnosis.hpp"
 #include "device/vulkan_device_info.hpp"
 #include "device/vulkan_options.hpp"
+#include "volumetric/near_renderer.hpp"
+#include "volumetric/reference_renderer.hpp"
 
 #include <algorithm>
 #include <cstdio>
@@ -41,6 +44,15 @@ void run(const CheckArgs& a) {
     const VulkanDeviceInfo device = describeVulkanDevice();
     if (!device.found) throw std::runtime_error(device.whyNone);
     std::printf("Vulkan device: %s\n", device.summary().c_str());
+    // Where each buffer class lives (device/memory_policy.hpp): on a discrete GPU the classes the
+    // shaders read must say DEVICE_LOCAL, and Readback HOST_CACHED.
+    for (const std::string& line : describeMemoryPlacements())
+        std::printf("Vulkan memory: %s\n", line.c_str());
+    // A GPU driver that is installed but does not load leaves lavapipe as the device without a
+    // word from the loader (the H100 machine without glvnd): say so.
+    for (const IcdLoadFailure& f : findIcdLoadFailures(icdManifestFiles()))
+        std::printf("Vulkan driver not loaded: %s (%s): %s\n", f.manifest.c_str(),
+                    f.library.empty() ? "no library" : f.library.c_str(), f.reason.c_str());
     std::fflush(stdout);
     VulkanDeviceOptions deviceOptions;
     deviceOptions.validation = a.validation;

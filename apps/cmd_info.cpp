@@ -2,11 +2,15 @@
 // for people; --json is for scripts and tests. A bad file throws InputError, which main.cpp
 // prints as one line with exit status 1.
 #include "apps/commands.hpp"
+#include "core/error.hpp"
 #include "core/vox_reader.hpp"
 
 #include <nlohmann/json.hpp>
 
+#include <cctype>
 #include <cstddef>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -84,6 +88,23 @@ void printText(const VoxFile& vox) {
                   << '\n';
 }
 
+/// A scene file given to info would fail on the .vox magic ("not a MagicaVoxel .vox file (magic
+/// '{\x0a  ')"), which tells a user nothing: say what the file is and what reads it.
+void rejectSceneFile(const std::string& file) {
+    std::string ext = std::filesystem::path(file).extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    std::ifstream in(file, std::ios::binary);
+    char first = 0;
+    while (in.get(first) && std::isspace(static_cast<unsigned char>(first))) {
+    }
+    if (ext == ".json" || (in && first == '{'))
+        throw InputError(file, "",
+                         "is a scene file (JSON), not a MagicaVoxel .vox file: `voxtier render " +
+                             file +
+                             "` draws it (and names any error in it); `voxtier info` "
+                             "describes .vox files, such as the models a scene names");
+}
+
 } // namespace
 
 void addInfoCommand(CLI::App& app) {
@@ -92,6 +113,7 @@ void addInfoCommand(CLI::App& app) {
     cmd->add_option("file", options->file, "the .vox file")->required()->check(CLI::ExistingFile);
     cmd->add_flag("--json", options->json, "print JSON instead of text");
     cmd->callback([options] {
+        rejectSceneFile(options->file);
         const VoxFile vox = readVoxFile(options->file);
         if (options->json)
             printJson(vox);

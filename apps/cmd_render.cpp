@@ -5,6 +5,8 @@
 #include "apps/progress.hpp"
 #include "compose/frame.hpp"
 #include "compose/frame_figures.hpp"
+#include "compose/pop_measure.hpp"
+#include "compose/scene_render.hpp"
 #include "core/error.hpp"
 #include "core/file_write.hpp"
 #include "core/model_view.hpp"
@@ -22,6 +24,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <future>
 #include <limits>
 #include <optional>
 #include <vector>
@@ -44,6 +47,7 @@ struct RenderArgs {
     bool alpha = false;    ///< transparent background (alpha 0 where no sprite is drawn)
     bool costBound = true; ///< FrameOptions::costAwareBakes
     std::string overlay, csv, pops;
+    std::optional<int> popThreshold; ///< pixels of what is seen (PopSummary); measures pops
     std::optional<double> time;
     std::optional<int> frame;
     std::optional<std::string> frames; ///< FIRST:LAST[:STEP] (readFrameRange)
@@ -57,6 +61,11 @@ struct RenderArgs {
     std::optional<double> distance;  ///< default 0 (fit)
     std::optional<int> model;        ///< default 0
 };
+
+/// A switch that changes more pixels than this of what is seen counts as visible in the pops
+/// summary, unless --pop-threshold says otherwise: about a 4x4 block, a few virtual pixels of a
+/// sprite at sigma 1.
+constexpr int kDefaultPopThresholdPx = 16;
 
 /// A budget the machine cannot hold would fail as an out-of-memory deep in a bake; a zero
 /// budget would re-bake every far view every frame.
@@ -161,12 +170,10 @@ std::string numbered(const std::string& pattern, int frame) {
 /// The files a render writes, by option: no two may be one file (the later write would replace
 /// the earlier one without a word), and none may be the input. Numbered sequences share their
 /// pattern's rule, so comparing the patterns covers every frame.
-void rejectCollidingOutputs(const RenderArgs& a, const std::string& out) {
-    const std::pair<const char*, const std::string*> outputs[] = {{"--out", &out},
-                                                                  {"--overlay", &a.overlay},
-                                                                  {"--ids", &a.ids},
-                                                                  {"--csv", &a.csv},
-                                                                  {"--pops", &a.pops}};
+void rejectCollidingOutputs(const RenderArgs& a, const std::string& out, const std::string& idKey) {
+    const std::pair<const char*, const std::string*> outputs[] = {
+        {"--out", &out},   {"--overlay", &a.overlay}, {"--ids", &a.ids},
+        {"--csv", &a.csv}, {"--pops", &a.pops},       {"--ids (its key)", &idKey}};
     for (std::size_t i = 0; i < std::size(outputs); ++i) {
         if (outputs[i].second->empty()) continue;
         if (sameOutputFile(*outputs[i].second, a.input))
@@ -182,10 +189,11 @@ void rejectCollidingOutputs(const RenderArgs& a, const std::string& out) {
 
 /// Which frames one render writes.
 struct FramePlan {
-    std::vector<int> frames;         ///< path frames, in render order
-    std::optional<double> fixedTime; ///< --time: this time instead of the frame's
-    bool sequence = false;           ///< --path / --frames: numbered images, progress
-    int step = 1;                    ///< frames apart
+    std::vector<int> frames;                ///< path frames, in render order
+    std::optional<double> fixedTime;        ///< --time: this time instead of the frame's
+    bool sequence = false;                  ///< --path / --frames: numbered images, progress
+    int step = 1;                           ///< frames apart
+    SceneCamera camera = SceneCamera::Path; ///< Still: a plain render (compose/scene_render.hpp)
 };
 
 /// The last frame of the scene's camera path, or a frame past it is an error naming `option`.
@@ -218,10 +226,9 @@ void checkPathTime(const RenderArgs& a, const Scene& scene, double t) {
     throw InputError(a.input, "--time", msg);
 }
 
-/// The camera rule (docs/scenes.md "Which camera a render uses"): --path, --frames, --frame and
-/// --time follow the camera path; a plain render shows the static camera when the scene file
-/// positions one, else the path at its first frame.
-FramePlan planFrames(const RenderArgs& a, Scene& scene) {
+/// The camera rule (docs/scenes.md "Which camera a render uses"; applyCameraRule): --path,
+/// --frames, --frame and --time follow the camera path; a plain render is a still.
+FramePlan planFrames(const RenderArgs& a, const Scene& scene) {
     FramePlan p;
     if (a.path || a.frames) {
         FrameRange r;
@@ -241,13 +248,9 @@ FramePlan planFrames(const RenderArgs& a, Scene& scene) {
     } else if (a.time) {
         checkPathTime(a, scene, *a.time);
         p.fixedTime = *a.time;
-        const int f = scene.path
-                          ? int(std::floor(
-                                (*a.time - scene.path->keys.front().time) * scene.path->fps + 1e-9))
-                          : 0;
-        p.frames = {std::max(0, f)};
+        p.frames = {frameAtTime(scene, *a.time)};
     } else {
-        if (scene.cameraPositioned) scene.path.reset();
+        p.camera = SceneCamera::Still;
         p.frames = {0};
     }
     return p;
@@ -262,9 +265,28 @@ std::string progress(const FramePlan& plan, std::size_t done, double elapsedMs) 
     return buf;
 }
 
+/// What a frame's status line says it cost, apart: the frame itself (FrameStats::totalMs, the
+/// --csv frame_ms), measuring its pops, and writing (or, into a GIF, encoding) its files.
+struct FrameTimes {
+    double frameMs = 0.0;
+    std::optional<double> popsMs;
+    double writeMs = 0.0;
+    bool encoding = false; ///< a GIF's frame: encoded now, written with the last
+};
+
+/// ", 3 bakes" with, where an edit made snapshots stale, how many of them refreshed those.
+std::string bakesText(const FrameStats& st) {
+    std::string s = std::to_string(st.farBakes) + (st.farBakes == 1 ? " bake" : " bakes");
+    if (st.farRefreshes > 0)
+        s += " (" + std::to_string(st.farRefreshes) + " after an edit made " +
+             (st.farRefreshes == 1 ? "a snapshot" : "snapshots") + " stale)";
+    return s;
+}
+
 /// The one console line per frame.
 void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, const FrameResult& r,
-                 double wallMs, const std::string& file, const std::string& progressText) {
+                 const FrameTimes& times, const std::string& file,
+                 const std::string& progressText) {
     const FrameStats& st = r.stats;
     // Each visible entity once: a cross-fading one is drawn by both tiers but counted as fading.
     int nearOnly = 0, farOnly = 0, fading = 0;
@@ -275,10 +297,12 @@ void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, c
         else
             ++(r.plan[i].tier == Tier::Near ? nearOnly : farOnly);
     }
+    char pops[48] = "";
+    if (times.popsMs) std::snprintf(pops, sizeof pops, ", pops %.1f ms", *times.popsMs);
     std::printf("%s: %s, frame %d, t=%.3f s, %dx%d, %d entities (%d culled; %d near, %d far, "
                 "%d fading%s%s), "
-                "%d switches, %d bakes, worst predicted far displacement %.2f vpx, %.1f ms -> "
-                "%s%s\n",
+                "%d switches, %s, worst predicted far displacement %.2f vpx, frame %.1f ms%s, "
+                "%s %.1f ms -> %s%s\n",
                 a.input.c_str(), toString(mode), frame, time, r.image.width, r.image.height,
                 st.entities, st.culled, nearOnly, farOnly, fading,
                 st.nearDrawn == 0 ? ""
@@ -287,8 +311,10 @@ void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, c
                 st.farDrawn == 0 ? ""
                 : st.farOnVulkan ? "; far tier on Vulkan"
                                  : "; far tier on the CPU blit",
-                st.switchesToFar + st.switchesToNear, st.farBakes, st.farPredictedWorstVpx, wallMs,
-                file.c_str(), progressText.c_str());
+                st.switchesToFar + st.switchesToNear, bakesText(st).c_str(),
+                st.farPredictedWorstVpx, times.frameMs, pops,
+                times.encoding ? "encoding" : "writing", times.writeMs, file.c_str(),
+                progressText.c_str());
     std::fflush(stdout);
 }
 
@@ -309,6 +335,107 @@ struct Approximation {
     }
 };
 
+/// Frames that show no entity at all, and why the first of them does: an empty image would
+/// otherwise give no hint (an entity behind the camera, off screen, under half a pixel).
+struct EmptyFrames {
+    std::size_t frames = 0;
+    int first = 0;
+    std::string why; ///< the first one's
+
+    void add(int frame, const FrameResult& r) {
+        for (const SpriteSetup& s : r.sprites)
+            if (s.visible()) return;
+        if (frames++ > 0) return;
+        first = frame;
+        const std::size_t n = r.sprites.size();
+        if (n == 0) {
+            why = "the scene has no entities";
+            return;
+        }
+        why = "of " + std::to_string(n) + (n == 1 ? " entity: " : " entities: ");
+        const std::pair<CullReason, const char*> reasons[] = {
+            {CullReason::BehindCamera, "behind the camera"},
+            {CullReason::OffScreen, "off screen"},
+            {CullReason::SubPixel, "sub-pixel (under half a pixel across)"},
+            {CullReason::CameraInside, "around the camera (the eye inside its box)"},
+        };
+        bool firstReason = true;
+        for (const auto& [reason, text] : reasons) {
+            const auto count =
+                std::count_if(r.sprites.begin(), r.sprites.end(),
+                              [&](const SpriteSetup& s) { return s.cull == reason; });
+            if (count == 0) continue;
+            why += (firstReason ? "" : ", ") + std::to_string(count) + " " + text;
+            firstReason = false;
+        }
+    }
+    /// The one warning line ("" when every frame showed an entity).
+    std::string line(std::size_t framesRendered) const {
+        if (frames == 0) return "";
+        const std::string hint = "; check the camera's position and target and the entities' "
+                                 "positions";
+        if (framesRendered == 1) return "the image shows no entity (" + why + ")" + hint;
+        return std::to_string(frames) + " of " + std::to_string(framesRendered) +
+               " frames show no entity (the first, frame " + std::to_string(first) + ", " + why +
+               ")" + hint;
+    }
+};
+
+/// The key of the --ids image beside it: out/ids.png -> out/ids_key.csv (one for a sequence).
+std::string idKeyFile(const std::string& ids) {
+    const std::filesystem::path p(ids);
+    return (p.parent_path() / (p.stem().string() + "_key.csv")).string();
+}
+
+/// A CSV field: quoted where it holds a comma, a quote or a line break.
+std::string csvField(const std::string& text) {
+    if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+    std::string q = "\"";
+    for (char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return q + "\"";
+}
+
+/// The key from the --ids image's colours to entities: one row per entity the images show.
+std::string idKey(const Scene& scene, const std::vector<bool>& shown) {
+    std::string csv = "entity,name,model,r,g,b\n";
+    for (std::size_t i = 0; i < shown.size(); ++i) {
+        if (!shown[i]) continue;
+        const Entity& e = scene.entities[i];
+        const Rgba8 c = idColor(std::uint32_t(i));
+        csv += std::to_string(i) + "," + csvField(e.name) + "," +
+               csvField(scene.models.at(std::size_t(e.model))->name()) + "," +
+               std::to_string(channel(c, 0)) + "," + std::to_string(channel(c, 1)) + "," +
+               std::to_string(channel(c, 2)) + "\n";
+    }
+    return csv;
+}
+
+/// The pops summary line: how many switches, the worst seen change, how many over the threshold.
+std::string popSummaryLine(const PopSummary& s, std::size_t frames) {
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "pops: %zu switches in %zu frames (%zu tier, %zu view, %zu cross-fade steps), "
+                  "%zu changed what is seen",
+                  s.events, frames, s.tierSwitches, s.viewSwitches, s.fadeSteps, s.seen);
+    std::string line = buf;
+    if (s.seen > 0) {
+        std::snprintf(buf, sizeof buf, "; worst seen: %zu px changed (entity %u, frame %d)",
+                      s.worstPixels, s.worstPixelsEvent.entity, s.worstPixelsEvent.frame);
+        line += buf;
+        if (s.worstVpx > 0.0)
+            std::snprintf(buf, sizeof buf, ", silhouette moved %.2f vpx (entity %u, frame %d)",
+                          s.worstVpx, s.worstVpxEvent.entity, s.worstVpxEvent.frame);
+        else
+            std::snprintf(buf, sizeof buf, ", no silhouette moved");
+        line += buf;
+    }
+    if (s.appearing > 0)
+        line += "; " + std::to_string(s.appearing) + " made an entity appear or vanish";
+    std::snprintf(buf, sizeof buf, "; %zu over %zu px seen (--pop-threshold)", s.overThreshold,
+                  s.thresholdPx);
+    return line + buf;
+}
+
 /// A file that cannot hold an alpha channel: --alpha would be dropped without a word.
 void rejectAlphaFormat(const RenderArgs& a, const std::string& out) {
     if (!a.alpha) return;
@@ -319,10 +446,21 @@ void rejectAlphaFormat(const RenderArgs& a, const std::string& out) {
                                                       ".png, .exr or .tif");
 }
 
+/// An id image whose colours are not kept exactly: its key could not name each pixel's entity.
+void rejectLossyIdFormat(const RenderArgs& a) {
+    for (const char* ext : {".gif", ".jpg", ".jpeg"})
+        if (!a.ids.empty() && endsWith(a.ids, ext))
+            throw CLI::ValidationError("--ids", std::string("a ") + ext +
+                                                    " file does not keep every entity's colour "
+                                                    "(GIF holds 256, JPEG is lossy), so its key "
+                                                    "could not name each pixel's entity; write "
+                                                    ".png, .exr, .tif or .pam");
+}
+
 void run(const RenderArgs& a) {
     const auto runStart = std::chrono::steady_clock::now();
-    Scene scene = loadInput(a);
-    const FramePlan plan = planFrames(a, scene);
+    Scene input = loadInput(a);
+    const FramePlan plan = planFrames(a, input);
     FrameOptions opt;
     opt.nearBackend = a.nearBackend;
     opt.farBackend = a.farBackend;
@@ -334,7 +472,7 @@ void run(const RenderArgs& a) {
     WorkProgress nearRows;
     opt.nearProgress = &nearRows;
     opt.overlay = !a.overlay.empty();
-    opt.measurePops = !a.pops.empty();
+    opt.measurePops = !a.pops.empty() || a.popThreshold;
     opt.costAwareBakes = a.costBound;
     if (a.cacheMb) opt.cacheBudgetBytes = std::size_t(*a.cacheMb * double(1 << 20));
     opt.cacheDir = a.cacheDir.dir;
@@ -342,15 +480,18 @@ void run(const RenderArgs& a) {
     std::string out = a.out;
     if (out.empty())
         out = "out/" + std::filesystem::path(a.input).stem().string() + defaultImageExtension();
-    rejectCollidingOutputs(a, out);
+    rejectCollidingOutputs(a, out, a.ids.empty() ? "" : idKeyFile(a.ids));
     rejectAlphaFormat(a, out);
+    rejectLossyIdFormat(a);
     // A build without OpenImageIO writes .pam alone: say so before rendering, not after.
     for (const std::string& f : {a.overlay, a.ids})
         if (!f.empty() && !canWriteImageFormat(f)) throw InputError(f, "", imageFormatRefusal(f));
     // Depth and ids leave the GPU only for output that has them (EXR, --ids) or reads them.
     opt.depthAndIds =
         lowerExtension(out) == ".exr" || !a.ids.empty() || opt.overlay || opt.measurePops;
-    FrameRenderer renderer(scene, opt);
+    SceneRenderer sceneRenderer(std::move(input), plan.camera, opt);
+    const Scene& scene = sceneRenderer.scene();
+    FrameRenderer& renderer = sceneRenderer.frames();
     // A .vox render is a preview, where a user judges the model (or the file's scene graph):
     // without --mode it is drawn exactly, by the near tier (Vulkan on a GPU, else the CPU
     // reference: the same pixels, tests/vulkan_identity_test.cpp), never from a far snapshot.
@@ -362,14 +503,17 @@ void run(const RenderArgs& a) {
 
     // The CSVs are kept in memory and written whole after the last frame (core/file_write.hpp).
     std::string csv = "frame,time," + figureCsvHeader() + "\n";
-    std::string pops =
-        "frame,entity,kind,changed_pixels,changed_fraction,displacement_px,radius_px\n";
+    std::string pops = popCsvHeader() + "\n";
+    PopSummary popSummary(std::size_t(a.popThreshold.value_or(kDefaultPopThresholdPx)));
+    EmptyFrames empty;
+    std::vector<bool> idsShown(scene.entities.size(), false);
     char row[512];
     // A lone frame starts the selector fresh (tiers from the metric alone); a sequence runs its
     // frames in order, so hysteresis and cross-fades behave as in a game.
-    // A sequence to .gif is one animated GIF at the path's frame rate (per rendered frame).
+    // A sequence to .gif is one animated GIF at the path's frame rate (per rendered frame); a
+    // lone frame, a still one. Either way the encoder says which frames it could not hold.
     std::optional<AnimationWriter> animation;
-    if (plan.sequence && endsWith(out, ".gif"))
+    if (endsWith(out, ".gif"))
         animation.emplace(out, (scene.path ? scene.path->fps : 30.0) / plan.step);
     const auto start = std::chrono::steady_clock::now();
     bool choiceSaid = false, farChoiceSaid = false;
@@ -377,45 +521,72 @@ void run(const RenderArgs& a) {
     std::optional<Progress> progressLine(std::in_place,
                                          plan.frames.size() == 1 ? "frame" : "frames",
                                          plan.frames.size(), &nearRows, "sprite rows");
-    for (std::size_t k = 0; k < plan.frames.size(); ++k) {
-        const auto frameStart = std::chrono::steady_clock::now();
+    // A sequence keeps frames in flight: frame k+1 is submitted (set-up, selection, bakes, and a
+    // frame wholly on Vulkan recorded and on the device) before frame k is finished (read back),
+    // and frame k's files are written on a worker thread while frame k+1 is drawn. Pops are
+    // measured with the scene's models as frame k drew them, so they run one frame at a time.
+    const bool overlap = plan.sequence && !opt.measurePops;
+    const auto submitFrame = [&](std::size_t k) {
         const int frame = plan.frames[k];
-        const double time = plan.fixedTime ? *plan.fixedTime : scene.timeOfFrame(frame);
-        renderer.applyEditsThrough(frame);
-        nearRows.reset();
-        const FrameResult r = renderer.render(time, mode, frame);
-        approx.add(r);
-        const auto name = [&](const std::string& f) {
-            return plan.sequence ? numbered(f, frame) : f;
-        };
-        const std::string file = animation ? out : name(out);
-        if (!animation) progressLine->note("writing " + file);
+        return plan.fixedTime ? sceneRenderer.submitAt(*plan.fixedTime, mode)
+                              : sceneRenderer.submit(frame, mode);
+    };
+    /// A finished frame whose files are being written.
+    struct Writing {
+        std::size_t k = 0;
+        int frame = 0;
+        double time = 0.0;
+        FrameResult result;
+        FrameTimes times;
+        std::string file;
+        std::future<void> done;
+    };
+    std::optional<Writing> writing;
+    // Waits for the frame's files, names the frame if they failed, then prints its status line.
+    const auto finishWriting = [&](Writing& w) {
         try {
-            if (animation)
-                animation->add(r.image);
-            else
-                writeImage(file, r.image, scene.cameraAt(time).zNear);
-            if (r.overlay) writeImage(name(a.overlay), *r.overlay);
-            if (!a.ids.empty()) writeIdImage(name(a.ids), r.image);
+            w.done.get();
         } catch (const InputError& e) {
             if (!plan.sequence) throw;
             // Which frame, and what stands: the earlier numbered frames (each written whole),
             // never a GIF (written only whole, after the last frame).
             const std::string kept =
                 animation ? out + " is not written"
-                          : "the " + std::to_string(k) + " frames before it are written";
+                          : "the " + std::to_string(w.k) + " frames before it are written";
             throw InputError(e.file(), e.field(),
-                             e.reason() + " (frame " + std::to_string(frame) + "; " + kept + ")");
+                             e.reason() + " (frame " + std::to_string(w.frame) + "; " + kept + ")");
         }
+        progressLine->note("");
+        progressLine->clear();
+        printStatus(a, mode, w.frame, w.time, w.result, w.times, w.file,
+                    progress(plan, w.k + 1, msSince(start)));
+        progressLine->done(w.k + 1);
+    };
+    FrameRenderer::PendingFrame pending = submitFrame(0);
+    for (std::size_t k = 0; k < plan.frames.size(); ++k) {
+        const int frame = plan.frames[k];
+        const double time = plan.fixedTime ? *plan.fixedTime : scene.timeOfFrame(frame);
+        nearRows.reset();
+        const auto renderStart = std::chrono::steady_clock::now();
+        FrameRenderer::PendingFrame next;
+        if (overlap && k + 1 < plan.frames.size()) next = submitFrame(k + 1);
+        FrameResult r = renderer.finish(std::move(pending));
+        FrameTimes times;
+        times.frameMs = r.stats.totalMs;
+        // Measuring pops is the time render() takes past the frame's own.
+        if (opt.measurePops) times.popsMs = std::max(0.0, msSince(renderStart) - r.stats.totalMs);
+        approx.add(r);
+        empty.add(frame, r);
         csv += std::to_string(frame) + ",";
         std::snprintf(row, sizeof row, "%.6f,", time);
         csv += row + figureCsvRow(r.stats) + "\n";
         for (const PopEvent& e : r.pops) {
-            std::snprintf(row, sizeof row, "%d,%u,%s,%zu,%.6f,%.3f,%.3f\n", e.frame, e.entity,
-                          toString(e.kind), e.changedPixels, e.changedFraction, e.displacementPx,
-                          e.radiusPx);
-            pops += row;
+            pops += popCsvRow(e) + "\n";
+            popSummary.add(e);
         }
+        if (!a.ids.empty())
+            for (const std::uint32_t id : r.image.id)
+                if (id < idsShown.size()) idsShown[id] = true;
         if (k == 0 && !renderer.nearDeviceName().empty())
             std::printf("Vulkan device: %s\n", renderer.nearDeviceName().c_str());
         // Auto's choice, once, when a frame drew near sprites: which backend and why.
@@ -428,21 +599,50 @@ void run(const RenderArgs& a) {
             std::printf("%s\n", renderer.farBackendChoice().c_str());
             farChoiceSaid = true;
         }
-        // The frame's wall time, writing included (a GIF's frames are written at the end).
-        progressLine->note("");
-        progressLine->clear();
-        printStatus(a, mode, frame, time, r, msSince(frameStart), file,
-                    progress(plan, k + 1, msSince(start)));
-        progressLine->done(k + 1);
+        // The previous frame's files first (one write at a time, in order), then this frame's.
+        if (writing) finishWriting(*writing);
+        const auto name = [&](const std::string& f) {
+            return plan.sequence ? numbered(f, frame) : f;
+        };
+        writing.emplace(
+            Writing{k, frame, time, std::move(r), times, animation ? out : name(out), {}});
+        writing->times.encoding = animation.has_value();
+        // The job reads the frame through `writing`, which stays put until it is finished.
+        const auto write = [&, job = &*writing, overlay = name(a.overlay), ids = name(a.ids),
+                            zNear = scene.cameraAt(time).zNear] {
+            const auto writeStart = std::chrono::steady_clock::now();
+            if (animation)
+                animation->add(job->result.image);
+            else
+                writeImage(job->file, job->result.image, zNear);
+            if (job->result.overlay) writeImage(overlay, *job->result.overlay);
+            if (!a.ids.empty()) writeIdImage(ids, job->result.image);
+            job->times.writeMs = msSince(writeStart);
+        };
+        writing->done = std::async(overlap ? std::launch::async : std::launch::deferred, write);
+        if (!overlap) finishWriting(*writing), writing.reset();
+        pending = next                         ? std::move(next)
+                  : k + 1 < plan.frames.size() ? submitFrame(k + 1)
+                                               : FrameRenderer::PendingFrame();
     }
+    if (writing) finishWriting(*writing), writing.reset();
     progressLine.reset();
     if (animation) animation->close();
     if (!a.csv.empty()) writeFileWhole(a.csv, csv);
     if (!a.pops.empty()) writeFileWhole(a.pops, pops);
+    if (!a.ids.empty()) writeFileWhole(idKeyFile(a.ids), idKey(scene, idsShown));
+    if (opt.measurePops)
+        std::printf("%s\n", popSummaryLine(popSummary, plan.frames.size()).c_str());
     if (plan.sequence)
         std::printf("%zu frames in %.1f s (wall time: loading, rendering and writing) -> %s\n",
                     plan.frames.size(), msSince(runStart) / 1000.0,
                     animation ? out.c_str() : numbered(out, plan.frames.front()).c_str());
+    if (animation) {
+        const std::string note = gifFidelityNote(out, animation->fidelity());
+        if (!note.empty()) std::fprintf(stderr, "voxtier: warning: %s\n", note.c_str());
+    }
+    if (const std::string line = empty.line(plan.frames.size()); !line.empty())
+        std::fprintf(stderr, "voxtier: warning: %s\n", line.c_str());
     if (approx.sprites > 0)
         std::fprintf(stderr,
                      "voxtier: warning: %zu far sprite%s drawn from snapshots predicted to be off "
@@ -471,9 +671,10 @@ void addRenderCommand(CLI::App& app) {
         ->check(CLI::ExistingFile);
     cmd->add_option("-o,--out", args->out,
                     "Output image by extension: .png, .exr (linear colour with Z and id "
-                    "channels), .tif, .jpg (no alpha), .gif (no alpha; with --path or --frames: "
-                    "one animated GIF), .pam (RGBA written with no image library: the one format "
-                    "of a build without OpenImageIO); default out/<name>.png (.pam there)")
+                    "channels), .tif, .jpg (no alpha), .gif (no alpha; exact up to 256 colours a "
+                    "frame; with --path or --frames: one animated GIF), .pam (RGBA); .pam and "
+                    ".gif need no image library, the formats of a build without OpenImageIO; "
+                    "default out/<name>.png (.pam there)")
         ->check(imageFileName());
     auto* modeOption = addChoiceOption(
         *cmd, "--mode", args->mode, kRenderModeNames, "render mode",
@@ -507,9 +708,20 @@ void addRenderCommand(CLI::App& app) {
     cmd->add_option("--overlay", args->overlay,
                     "Also write the tier overlay (near blue, far orange, cross-fading green; "
                     "with a legend)");
-    cmd->add_option("--csv", args->csv, "Per-frame CSV: tier counts, switches, bakes, timings");
+    cmd->add_option("--csv", args->csv,
+                    "Per-frame CSV: tier counts, switches, bakes, timings (columns: "
+                    "docs/outputs.md)");
     cmd->add_option("--pops", args->pops,
-                    "Per-switch CSV: the image change each tier/view switch causes alone");
+                    "Per-switch CSV: what each tier or view switch changes, the entity alone and "
+                    "in the frame as seen, occlusion included (columns: docs/outputs.md); prints "
+                    "a pops summary line");
+    cmd->add_option("--pop-threshold", args->popThreshold,
+                    "Pixels of the seen image a switch may change before the pops summary counts "
+                    "it as visible (default " +
+                        std::to_string(kDefaultPopThresholdPx) +
+                        "); measures pops and prints the summary, with or without --pops")
+        ->type_name("PX")
+        ->check(atLeast(0));
     auto* t =
         cmd->add_option("--time", args->time,
                         "Time in seconds along the camera path, within its keys (without one: "
@@ -531,7 +743,10 @@ void addRenderCommand(CLI::App& app) {
                     "Far snapshot cache budget in MiB (default 256; LRU beyond)")
         ->check(numberIn(1, kMaxCacheMb, "MiB"));
     addCacheDirOptions(*cmd, args->cacheDir, "far snapshots are read from it before baking");
-    cmd->add_option("--ids", args->ids, "Also write the entity-id buffer as a colour-coded PNG");
+    cmd->add_option("--ids", args->ids,
+                    "Also write the entity-id buffer as a colour-coded image (each entity its own "
+                    "colour, black where none), and its key beside it: IDS_key.csv, the colour of "
+                    "each entity shown");
     cmd->add_option("--size", args->size,
                     "Image size (default: the scene's camera; 640x480 for a .vox)")
         ->type_name("WxH")

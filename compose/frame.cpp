@@ -3,13 +3,14 @@
 #include "compose/frame.hpp"
 
 #include "compose/backdrop.hpp"
-#include "compose/error_metrics.hpp"
 #include "compose/tier_legend.hpp"
+#include "compose/vulkan_frame.hpp"
 #include "core/error.hpp"
-#include "core/far_batch.hpp"
 #include "core/stopwatch.hpp"
 #include "core/view_set.hpp"
+#include "impostor_cache/far_batch.hpp"
 #include "impostor_cache/far_frame.hpp"
+#include "impostor_cache/far_pass.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 #include "volumetric/near_renderer.hpp"
 #include "volumetric/reference_renderer.hpp"
@@ -52,12 +53,12 @@ struct TierShares {
     std::vector<std::size_t> near;
     std::vector<std::pair<std::size_t, std::optional<ViewId>>> far; ///< sprite, view override
 
-    TierShares(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
-               std::optional<Tier> onlyTier)
+    /// `visible`: the visible sprites' ids, ascending.
+    TierShares(std::span<const SpriteSetup> sprites, std::span<const EntityPlan> plan,
+               std::span<const std::uint32_t> visible, std::optional<Tier> onlyTier)
         : sprites_(sprites) {
-        for (std::size_t i = 0; i < sprites.size(); ++i) {
+        for (const std::uint32_t i : visible) {
             const EntityPlan& p = plan[i];
-            if (!sprites[i].visible()) continue;
             if (p.drawsNear() && onlyTier != Tier::Far)
                 near.push_back(share(i, p, /*keepBelow=*/p.tier == Tier::Near));
             if (p.drawsFar() && onlyTier != Tier::Near)
@@ -78,7 +79,7 @@ struct TierShares {
     }
 
   private:
-    const std::vector<SpriteSetup>& sprites_;
+    std::span<const SpriteSetup> sprites_;
     std::size_t share(std::size_t i, const EntityPlan& p, bool keepBelow) {
         if (p.fade <= 0.0f) return i;
         faded.push_back(fadedCopy(sprites_[i], p.fade, keepBelow));
@@ -147,18 +148,6 @@ const char* toString(NearRate r) {
     return nameOf(kNearRateNames, r);
 }
 
-const char* toString(PopEvent::Kind k) {
-    switch (k) {
-    case PopEvent::Kind::TierSwitch:
-        return "tier";
-    case PopEvent::Kind::ViewSwitch:
-        return "view";
-    case PopEvent::Kind::FadeStep:
-        return "fade";
-    }
-    return "?";
-}
-
 namespace {
 SnapshotCacheConfig cacheConfig(const FrameOptions& o, const SelectorConfig& selector) {
     SnapshotCacheConfig c;
@@ -189,6 +178,34 @@ void addCellRateCounts(FrameStats& st, const CellRateCounts& c) {
     st.nearCellSprites += int(c.cellSprites);
     st.nearCellOverBudget += int(c.cellOverBudget);
 }
+/// A Vulkan frame's counts and times into the frame's figures: the near passes' counts, the far
+/// pass's, the device's named passes and the host's waits.
+void addVulkanFrame(FrameStats& st, const VulkanFrameResult& r) {
+    const NearStats& ns = r.near;
+    st.nearPixelsTested += ns.fragmentInvocations;
+    st.nearBytesUploaded += ns.bytesUploaded;
+    st.voxelFetches += ns.voxelFetches;
+    st.nearKernelFragments += ns.kernelFragments;
+    st.nearUploadMs += ns.uploadMs;
+    st.nearEarlyDepthSprites += ns.earlyDepthSprites;
+    addCellRateCounts(st, ns);
+    const GpuFrameReport& g = r.report;
+    st.hostRecordMs += g.recordMs;
+    st.hostWaitMs += g.host.waitMs;
+    st.hostReadbackMs += g.host.readbackMs;
+    const auto add = [&](double& field, std::initializer_list<const char*> names) {
+        for (const char* n : names) field += g.ms(n).value_or(0.0);
+    };
+    add(st.gpuFrameMs, {"frame"});
+    add(st.gpuUploadMs, {"near_upload", "far_upload"});
+    add(st.gpuCellsMs, {"near_cells"});
+    add(st.gpuSplatMs, {"near_splat"});
+    add(st.gpuDrawMs, {"near_draw"});
+    add(st.gpuResolveMs, {"near_resolve"});
+    add(st.gpuFarMs, {"far_blit"});
+    add(st.gpuCopyMs, {"copy_planes", "readback_copy"});
+}
+
 } // namespace
 
 FrameRenderer::FrameRenderer(Scene& scene, FrameOptions options)
@@ -213,13 +230,19 @@ const VulkanProbe& FrameRenderer::vulkanProbe() {
             probe.found = true;
             probe.cpu = options_.sharedNear->deviceIsCpu();
             probe.name = options_.sharedNear->deviceName();
-            probe.float64 = options_.sharedNear->farPassSupported();
+            probe.float64 = FarPass::supported(options_.sharedNear->device());
         } else {
             probe = probeVulkanDevice();
         }
         probe_ = probe;
     }
     return *probe_;
+}
+
+FarPass& FrameRenderer::farPass() {
+    // Created on first use, on the near tier's device and frames: one frame draws both tiers.
+    if (!farPass_) farPass_ = std::make_unique<FarPass>(nearRenderer().frames());
+    return *farPass_;
 }
 
 NearRenderer& FrameRenderer::nearRenderer() {
@@ -300,39 +323,84 @@ void FrameRenderer::applyEditsThrough(int frame) {
     }
 }
 
+/// What a submitted frame still needs to finish.
+struct FrameRenderer::Pending {
+    FrameResult out;
+    CameraFrame cam{};
+    RenderMode mode = RenderMode::Hybrid;
+    int frame = 0;
+    double hostMs = 0.0; ///< the frame's host time in submit()
+    SnapshotCacheCounters cacheBefore, cacheAfter;
+    /// The Vulkan half in flight, and whether it holds a far pass.
+    std::optional<VulkanFrameInFlight> gpu;
+    bool gpuHasFar = false;
+};
+
+void FrameRenderer::PendingDeleter::operator()(Pending* p) const {
+    if (p && p->gpu) (void)finishVulkanFrame(std::move(*p->gpu)); // never leave a frame in flight
+    delete p;
+}
+
 FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
+    return finish(submit(time, mode, frame));
+}
+
+FrameRenderer::PendingFrame FrameRenderer::submit(double time, RenderMode mode, int frame) {
     // Auto's one-time probe of the Vulkan loader (lavapipe's instance alone takes ~0.1 s) is not
     // part of any frame's time: a hybrid frame decides before the clock starts.
     if (mode == RenderMode::Hybrid) (void)nearBackend();
     if (mode == RenderMode::Hybrid || mode == RenderMode::Far) (void)farBackend();
     const auto t0 = Clock::now();
-    FrameResult out;
+    PendingFrame pending(new Pending);
+    pending->mode = mode;
+    pending->frame = frame;
+    FrameResult& out = pending->out;
     FrameStats& st = out.stats;
 
-    // 1. Camera and per-entity sprite set-up (DESIGN.md §3: double precision, camera-relative).
+    // 1. Camera and per-entity sprite set-up (DESIGN.md §3: double precision, camera-relative),
+    // kept from the frame before where neither the entity nor the camera changed.
     const CameraFrame cam = makeCameraFrame(scene_.cameraAt(time));
-    out.sprites = setupSprites(scene_, cam, time);
-    st.entities = int(out.sprites.size());
-    for (const auto& s : out.sprites) st.culled += !s.visible();
-    st.setupMs = msSince(t0);
+    const SpriteStore::Update setup = sprites_.update(scene_, cam, time);
+    out.sprites = sprites_.shareSprites();
+    st.entities = setup.entities;
+    st.culled = setup.culled;
+    st.hostSetupMs = msSince(t0);
 
     // 2. Select each entity's tier (DESIGN.md §5), its cross-fade and its far view.
     const auto t1 = Clock::now();
-    out.plan = planEntities(out.sprites, mode, st);
-    st.selectMs = msSince(t1);
+    out.plan = planEntities(mode, st);
+    st.hostSelectMs = msSince(t1);
 
-    // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z.
-    const SnapshotCacheCounters cacheBefore = cache_->counters();
-    out.image =
-        drawWith(nearBackendFor(mode, options_.nearBackend), cam, out.sprites, out.plan, st);
-    const SnapshotCacheCounters cacheAfter = cache_->counters();
+    // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z: drawn here, or,
+    // wholly on Vulkan, submitted here and read back by finish().
+    pending->cam = cam;
+    pending->cacheBefore = cache_->counters();
+    out.image = drawWith(nearBackendFor(mode, options_.nearBackend), cam, out.sprites, out.plan, st,
+                         std::nullopt, sprites_.visibleIds(), pending.get());
+    pending->cacheAfter = cache_->counters();
+    pending->hostMs = msSince(t0);
+    return pending;
+}
+
+FrameResult FrameRenderer::finish(PendingFrame pending) {
+    const auto t0 = Clock::now();
+    FrameResult& out = pending->out;
+    FrameStats& st = out.stats;
+    const CameraFrame& cam = pending->cam;
+    const RenderMode mode = pending->mode;
+    const int frame = pending->frame;
+    const SnapshotCacheCounters& cacheBefore = pending->cacheBefore;
+    const SnapshotCacheCounters& cacheAfter = pending->cacheAfter;
+    if (pending->gpu) {
+        out.image = finishOnVulkan(std::move(*pending->gpu), pending->gpuHasFar, st);
+        pending->gpu.reset();
+    }
 
     // 6. Where no sprite drew: the ground plane, or a (transparent) background.
     drawBackdrop(scene_, cam, out.image);
 
     // Debugging and measurement outputs.
     if (options_.overlay) out.overlay = tierOverlay(out.image, out.plan);
-    if (options_.measurePops) out.pops = measurePops(cam, out.sprites, out.plan, frame);
     // What the frame cost, to the planner's cost model: the bake time with the cache's split of
     // it (the cost model counts only the bakes' share), and the near tier's fixed cost, measured
     // here by drawing nothing, should the model ask for it.
@@ -345,19 +413,29 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     sample.nearMs = st.nearMs;
     sample.nearUploadMs = st.nearUploadMs;
     sample.blitMs = st.blitMs;
-    sample.planMs = st.selectMs;
+    sample.planMs = st.hostSelectMs;
     sample.planned =
         mode == RenderMode::Hybrid && scene_.selector.metric == SelectorMetric::ErrorBudget;
-    planner_.observe(out.sprites, out.plan, sample, options_.nearRate,
+    planner_.observe(out.sprites, sprites_.visibleIds(), out.plan, sample, options_.nearRate,
                      [&] { return nearFixedMs(cam, nearBackendFor(mode, options_.nearBackend)); });
-    previousPlan_ = out.plan;
     st.cacheBytes = cache_->counters().bytes;
-    st.totalMs = msSince(t0);
-    return out;
+    // The frame's own host time: its two halves, not what ran between them.
+    st.totalMs = pending->hostMs + msSince(t0);
+    // Pops are measured outside the frame's time: the CPU reference stands in for Vulkan (the
+    // same image by contract, and a few sprites are cheap).
+    if (options_.measurePops)
+        out.pops =
+            measurePops(scene_, cam, out.sprites, previousPlan_, out.plan, frame,
+                        [&](const auto& sprites, const auto& plan) {
+                            FrameStats unused;
+                            return drawWith(NearBackend::Reference, cam, sprites, plan, unused);
+                        });
+    // Kept only for the next frame's pops: a share held across frames costs the planner a copy.
+    previousPlan_ = options_.measurePops ? out.plan : SharedVector<EntityPlan>{};
+    return std::move(out);
 }
 
-std::vector<EntityPlan> FrameRenderer::planEntities(const std::vector<SpriteSetup>& sprites,
-                                                    RenderMode mode, FrameStats& st) {
+SharedVector<EntityPlan> FrameRenderer::planEntities(RenderMode mode, FrameStats& st) {
     PlanSettings settings;
     settings.mode = mode == RenderMode::Reference || mode == RenderMode::Near ? PlanMode::AllNear
                     : mode == RenderMode::Far                                 ? PlanMode::AllFar
@@ -373,7 +451,8 @@ std::vector<EntityPlan> FrameRenderer::planEntities(const std::vector<SpriteSetu
                                             s.lattice.sigma * cache_->snapshotScale());
     };
     PlanStats ps;
-    std::vector<EntityPlan> plan = planner_.plan(sprites, scene_.selector, settings, ps);
+    SharedVector<EntityPlan> plan =
+        planner_.plan(sprites_.sprites(), sprites_.visibleIds(), scene_.selector, settings, ps);
     st.switchesToFar = ps.switchesToFar;
     st.switchesToNear = ps.switchesToNear;
     st.viewChanges = ps.viewChanges;
@@ -407,25 +486,32 @@ double FrameRenderer::nearFixedMs(const CameraFrame& cam, NearBackend nearBacken
     return least;
 }
 
-Image FrameRenderer::draw(const CameraFrame& cam, const std::vector<SpriteSetup>& sprites,
-                          const std::vector<EntityPlan>& plan, FrameStats* stats,
+Image FrameRenderer::draw(const CameraFrame& cam, std::span<const SpriteSetup> sprites,
+                          std::span<const EntityPlan> plan, FrameStats* stats,
                           std::optional<Tier> onlyTier) {
     FrameStats local;
     return drawWith(options_.nearBackend, cam, sprites, plan, stats ? *stats : local, onlyTier);
 }
 
 Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
-                              const std::vector<SpriteSetup>& sprites,
-                              const std::vector<EntityPlan>& plan, FrameStats& st,
-                              std::optional<Tier> onlyTier) {
-    const TierShares shares(sprites, plan, onlyTier);
+                              std::span<const SpriteSetup> sprites,
+                              std::span<const EntityPlan> plan, FrameStats& st,
+                              std::optional<Tier> onlyTier, std::span<const std::uint32_t> visible,
+                              Pending* pending) {
+    std::vector<std::uint32_t> found;
+    if (visible.empty()) {
+        for (std::size_t i = 0; i < sprites.size(); ++i)
+            if (sprites[i].visible()) found.push_back(std::uint32_t(i));
+        visible = found;
+    }
+    const TierShares shares(sprites, plan, visible, onlyTier);
     st.nearDrawn = int(shares.near.size());
     st.farDrawn = int(shares.far.size());
     const std::vector<const SpriteSetup*> nearSprites = shares.nearSprites();
     if (!shares.far.empty() && farBackend() == FarBackend::Vulkan) {
         // 4 before 3 on Vulkan: make sure every needed snapshot exists (lazy bakes, parallel
         // over distinct snapshots), then one Vulkan frame draws the near sprites and, after
-        // them, the far ones into the same targets with the min-z/id rule. Near sprites drawn by
+        // them, the far ones into the same planes with the min-z/id rule. Near sprites drawn by
         // the CPU reference are composed with the Vulkan far image by the same rule.
         const auto t0 = Clock::now();
         FarFrameStats fs;
@@ -436,19 +522,18 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         st.farMs += msSince(t0);
         st.farOnVulkan = 1;
         if (nearSprites.empty() || resolved(nearBackend) == NearBackend::Vulkan)
-            return drawNear(NearBackend::Vulkan, cam, nearSprites, st, &batch, colourOnly());
-        Image image = drawNear(nearBackend, cam, nearSprites, st);
-        FrameStats farOnly;
-        const Image far = drawNear(NearBackend::Vulkan, cam, {}, farOnly, &batch);
-        st.blitMs += farOnly.blitMs;
-        st.farMs += farOnly.blitMs;
+            return drawOnVulkan(cam, nearSprites, &batch, colourOnly(), st, pending);
+        Image image = drawNearCpu(cam, nearSprites, st);
+        const Image far = drawOnVulkan(cam, {}, &batch, false, st);
         composeMinZ(image, far);
         return image;
     }
-    // 3. Near tier: one instanced Vulkan draw in ascending entity id (or the CPU reference).
-    // The CPU blit below composes on the near image's depth and ids.
+    // 3. Near tier: one Vulkan frame (or the CPU reference). The CPU blit below composes on the
+    // near image's depth and ids.
+    const bool onVulkan = !nearSprites.empty() && resolved(nearBackend) == NearBackend::Vulkan;
     Image image =
-        drawNear(nearBackend, cam, nearSprites, st, nullptr, shares.far.empty() && colourOnly());
+        onVulkan ? drawOnVulkan(cam, nearSprites, nullptr, shares.far.empty() && colourOnly(), st)
+                 : drawNearCpu(cam, nearSprites, st);
     // 4-5. Far tier: make sure every needed snapshot exists (lazy bakes, parallel over distinct
     // snapshots), then blit into the same image; the blit writes with the shared min-z/id rule,
     // which is the composition (composeMinZ is the same rule for two finished images).
@@ -456,60 +541,73 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
     return image;
 }
 
-Image FrameRenderer::drawNear(NearBackend nearBackend, const CameraFrame& cam,
-                              const std::vector<const SpriteSetup*>& sprites, FrameStats& st,
-                              const FarBatch* far, bool colourOnly) {
-    const auto t0 = Clock::now();
-    Image image;
-    if (!sprites.empty()) nearBackend = resolved(nearBackend);
-    double farMs = 0.0;
-    if ((nearBackend == NearBackend::Vulkan && !sprites.empty()) || far) {
-        st.nearOnVulkan = !sprites.empty();
-        NearOptions no;
-        no.countSteps = options_.nearCountSteps;
-        no.rate = options_.nearRate;
-        no.far = far;
-        no.earlyDepthTest = options_.earlyDepthTest;
-        if (colourOnly) {
-            // One plane read back. The backdrop then finds the pixels no sprite drew by their
-            // alpha (sprites always write 255): the targets are cleared to a transparent
-            // background where it must fill in an opaque one (the ground).
-            no.readDepthAndIds = false;
-            const Rgba8 bg = scene_.render.background;
-            if (scene_.ground && channel(bg, 3) == 255) no.clearColor = bg & 0x00FFFFFFu;
-        }
-        NearStats ns;
-        image =
-            nearRenderer().render(cam, scene_.models, sprites, scene_.render.background, no, &ns);
-        farMs = ns.farMs;
-        st.blitMs += ns.farMs;
-        st.farMs += ns.farMs;
-        st.nearPixelsTested += ns.fragmentInvocations;
-        st.nearBytesUploaded += ns.bytesUploaded;
-        st.voxelFetches += ns.voxelFetches;
-        st.nearKernelFragments += ns.kernelFragments;
-        st.nearUploadMs += ns.uploadMs;
-        st.nearDrawMs += ns.drawMs;
-        st.nearReadbackMs += ns.readbackMs;
-        st.nearComputeMs += ns.computeMs;
-        st.nearEarlyDepthSprites += ns.earlyDepthSprites;
-        addCellRateCounts(st, ns);
-    } else {
-        image = Image(cam.width, cam.height, scene_.render.background);
-        ReferenceStats rs;
-        ReferenceOptions ro;
-        ro.rate = options_.nearRate;
-        ro.occlusionCull = options_.occlusionCull;
-        ro.earlyDepthTest = options_.earlyDepthTest;
-        ro.progress = options_.nearProgress;
-        renderReference(scene_.models, sprites, image, &rs, ro);
-        st.nearPixelsTested += rs.pixelsTested;
-        st.nearPixelsWritten += rs.pixelsWritten;
-        st.nearOccluded += int(rs.culled);
-        st.voxelFetches += rs.voxelFetches;
-        addCellRateCounts(st, rs);
+Image FrameRenderer::drawOnVulkan(const CameraFrame& cam,
+                                  const std::vector<const SpriteSetup*>& sprites,
+                                  const FarBatch* far, bool colourOnly, FrameStats& st,
+                                  Pending* pending) {
+    VulkanFrameRequest request;
+    request.camera = &cam;
+    request.models = &scene_.models;
+    request.nearSprites = sprites;
+    request.far = far;
+    request.clear = scene_.render.background;
+    request.near.countSteps = options_.nearCountSteps;
+    request.near.rate = options_.nearRate;
+    request.near.earlyDepthTest = options_.earlyDepthTest;
+    request.depthAndIds = !colourOnly;
+    // Only a frame drawn wholly on Vulkan may skip its readback: a CPU tier composes on it.
+    request.readBack = options_.readBack || !pending;
+    if (colourOnly) {
+        // One plane read back. The backdrop then finds the pixels no sprite drew by their alpha
+        // (sprites always write 255): the planes start as a transparent background where it
+        // must fill in an opaque one (the ground).
+        const Rgba8 bg = scene_.render.background;
+        if (scene_.ground && channel(bg, 3) == 255) request.clear = bg & 0x00FFFFFFu;
     }
-    st.nearMs = std::max(0.0, msSince(t0) - farMs);
+    st.nearOnVulkan = st.nearOnVulkan || !sprites.empty();
+    VulkanFrameInFlight inFlight =
+        submitVulkanFrame(nearRenderer(), far ? &farPass() : nullptr, request);
+    if (pending) {
+        pending->gpu = std::move(inFlight);
+        pending->gpuHasFar = far != nullptr;
+        return Image();
+    }
+    return finishOnVulkan(std::move(inFlight), far != nullptr, st);
+}
+
+Image FrameRenderer::finishOnVulkan(VulkanFrameInFlight&& inFlight, bool hasFar, FrameStats& st) {
+    const auto tFinish = Clock::now();
+    VulkanFrameResult r = finishVulkanFrame(std::move(inFlight));
+    // The Vulkan frame's host time: recording it and finishing it (not what ran in between).
+    const double wallMs = r.report.recordMs + msSince(tFinish);
+    // The far pass's share of the frame: its recording and its device time.
+    const double farShare = hasFar ? r.farRecordMs + r.report.ms("far_upload").value_or(0.0) +
+                                         r.report.ms("far_blit").value_or(0.0)
+                                   : 0.0;
+    st.blitMs += farShare;
+    st.farMs += farShare;
+    st.nearMs += std::max(0.0, wallMs - farShare);
+    addVulkanFrame(st, r);
+    return std::move(r.image);
+}
+
+Image FrameRenderer::drawNearCpu(const CameraFrame& cam,
+                                 const std::vector<const SpriteSetup*>& sprites, FrameStats& st) {
+    const auto t0 = Clock::now();
+    Image image(cam.width, cam.height, scene_.render.background);
+    ReferenceStats rs;
+    ReferenceOptions ro;
+    ro.rate = options_.nearRate;
+    ro.occlusionCull = options_.occlusionCull;
+    ro.earlyDepthTest = options_.earlyDepthTest;
+    ro.progress = options_.nearProgress;
+    renderReference(scene_.models, sprites, image, &rs, ro);
+    st.nearPixelsTested += rs.pixelsTested;
+    st.nearPixelsWritten += rs.pixelsWritten;
+    st.nearOccluded += int(rs.culled);
+    st.voxelFetches += rs.voxelFetches;
+    addCellRateCounts(st, rs);
+    st.nearMs += msSince(t0);
     return image;
 }
 
@@ -528,49 +626,7 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
     st.farPixelsWritten += fs.blit.pixelsWritten;
 }
 
-std::vector<PopEvent> FrameRenderer::measurePops(const CameraFrame& cam,
-                                                 const std::vector<SpriteSetup>& sprites,
-                                                 const std::vector<EntityPlan>& plan, int frame) {
-    std::vector<PopEvent> pops;
-    if (previousPlan_.size() != plan.size()) return pops;
-    // Each entity whose plan changed is drawn alone, once as last frame planned it and once as
-    // this frame does, with this frame's camera: the difference is the switch's own pop. The CPU
-    // reference stands in for Vulkan here (the same image by contract, and one sprite is cheap).
-    for (std::size_t i = 0; i < sprites.size(); ++i) {
-        const EntityPlan& now = plan[i];
-        const EntityPlan& before = previousPlan_[i];
-        if (now == before || !sprites[i].visible()) continue;
-        PopEvent e;
-        e.frame = frame;
-        e.entity = std::uint32_t(i);
-        e.radiusPx = sprites[i].radiusPx;
-        e.kind = now.tier != before.tier ? PopEvent::Kind::TierSwitch
-                 : (now.fade != before.fade || now.fadeFrom != before.fadeFrom)
-                     ? PopEvent::Kind::FadeStep
-                     : PopEvent::Kind::ViewSwitch;
-        const std::vector<SpriteSetup> one = {sprites[i]};
-        EntityPlan oldPlan = before;
-        if (oldPlan.drawsFar() && !oldPlan.view) {
-            const ViewSet set = viewSetFromSize(scene_.selector.viewSetSize);
-            oldPlan.view = viewIdOf(set, nearestView(set, -sprites[i].lattice.dir));
-        }
-        std::vector<SpriteSetup> alone = one;
-        alone[0].entityId = std::uint32_t(i);
-        FrameStats unused;
-        const Image a = drawWith(NearBackend::Reference, cam, alone, {oldPlan}, unused);
-        const Image b = drawWith(NearBackend::Reference, cam, alone, {now}, unused);
-        const auto err = entityErrors(a, b, {std::uint32_t(i)}, sprites[i].screenRect);
-        if (!err.empty()) {
-            e.changedPixels = err[0].mismatched;
-            e.changedFraction = err[0].mismatchFraction();
-            e.displacementPx = err[0].silhouetteDisplacementPx;
-        }
-        pops.push_back(e);
-    }
-    return pops;
-}
-
-Image FrameRenderer::tierOverlay(const Image& image, const std::vector<EntityPlan>& plan) const {
+Image FrameRenderer::tierOverlay(const Image& image, std::span<const EntityPlan> plan) const {
     // Near entities tinted blue, far ones orange, cross-fading ones green (compose/tier_legend.hpp:
     // no tinted near or far pixel can take that colour); outlines stay black.
     Image o = image;

@@ -6,22 +6,27 @@
 // (lod/frame_planner.hpp). A FrameRenderer keeps what persists between frames of one scene: the
 // planner (the selector's per-entity state, the budget's views, the measured costs), the
 // snapshot cache and the Vulkan device with its voxel atlas.
+#include "compose/pop_measure.hpp"
 #include "core/image.hpp"
+#include "core/near_rate.hpp"
 #include "core/scene.hpp"
+#include "core/shared_vector.hpp"
 #include "core/sprite.hpp"
+#include "core/sprite_store.hpp"
 #include "core/view_set.hpp"
 #include "core/work_progress.hpp"
+#include "device/vulkan_options.hpp"
 #include "impostor_cache/far_blit.hpp"
 #include "lod/frame_planner.hpp"
 #include "lod/selector.hpp"
-#include "volumetric/near_rate.hpp"
-#include "device/vulkan_options.hpp"
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <initializer_list>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -29,6 +34,8 @@
 namespace voxtier {
 
 class NearRenderer;
+class FarPass;
+struct VulkanFrameInFlight;
 class SnapshotCache;
 struct FarRequest;
 struct FarBatch;
@@ -88,7 +95,7 @@ inline constexpr std::array<std::pair<const char*, FarBlitKernel>, 2> kFarBlitNa
 }};
 const char* toString(FarBlitKernel k);
 
-/// The one table of near rate names (volumetric/near_rate.hpp), like kRenderModeNames.
+/// The one table of near rate names (core/near_rate.hpp), like kRenderModeNames.
 inline constexpr std::array<std::pair<const char*, NearRate>, 3> kNearRateNames{{
     {"auto", NearRate::Auto},
     {"fragment", NearRate::Fragment},
@@ -110,7 +117,9 @@ struct FrameOptions {
     VulkanDeviceOptions vulkan;                  ///< device options when Vulkan is used
     std::shared_ptr<VulkanMessageLog> vulkanLog; ///< validation messages (outlives the device)
     bool overlay = false;                        ///< also produce FrameResult::overlay (tier tint)
-    bool measurePops = false; ///< FrameResult::pops: the change each switch causes alone
+    /// FrameResult::pops: the change each switch causes, alone and seen (compose/pop_measure.hpp),
+    /// measured after the frame's clock stops.
+    bool measurePops = false;
     std::size_t cacheBudgetBytes = std::size_t(256) << 20; ///< far snapshot cache budget
     /// On-disk snapshot cache directory ("" = none): snapshots are read from it before baking and
     /// written to it after; cacheDirBytes limits its size (0 = no limit; LRU files go first).
@@ -148,26 +157,16 @@ struct FrameOptions {
     /// planes (the backdrop finds the pixels no sprite drew by their alpha). For output that
     /// reads neither (a PNG without --ids); the CPU tiers and the overlay need both.
     bool depthAndIds = true;
+    /// false: a frame drawn wholly on Vulkan is drawn and timed but not read back
+    /// (FrameResult::image is empty): the device frame alone, for measuring it.
+    bool readBack = true;
 };
-
-/// The image change one switch causes on its own (DESIGN.md §8 "pop magnitude"): the entity
-/// rendered alone with its previous plan and with its new one, same camera.
-struct PopEvent {
-    enum class Kind { TierSwitch, ViewSwitch, FadeStep };
-    int frame = 0;
-    std::uint32_t entity = 0;
-    Kind kind = Kind::TierSwitch;
-    std::size_t changedPixels = 0; ///< pixels of the entity's footprint union that changed
-    double changedFraction = 0.0;  ///< changedPixels / footprint union
-    double displacementPx = 0.0;   ///< largest silhouette displacement
-    double radiusPx = 0.0;         ///< projected radius of the entity at the switch
-};
-const char* toString(PopEvent::Kind k);
 
 /// Where one frame's time went (wall-clock ms) and how much work each tier did. The step times
 /// add up to totalMs except for small glue (image moves, bookkeeping):
-/// totalMs ~ setupMs + selectMs + nearMs + farMs, nearMs ~ nearUploadMs + nearDrawMs +
-/// nearReadbackMs on Vulkan, farMs = bakeMs + blitMs. Every field has a line in kFrameFigures
+/// totalMs ~ hostSetupMs + hostSelectMs + nearMs + farMs, farMs = bakeMs + blitMs; a frame on
+/// Vulkan splits its share into hostRecordMs + hostWaitMs + hostReadbackMs, and the device's
+/// gpu*Ms say where the wait went. Every field has a line in kFrameFigures
 /// (compose/frame_figures.hpp), which names it in every output; the build checks that.
 struct FrameStats {
     int entities = 0, culled = 0;
@@ -187,24 +186,34 @@ struct FrameStats {
     int farRefreshes = 0, farIncrementalRefreshes = 0;
     std::uint64_t farCellsRetraced = 0, nearBytesUploaded = 0;
     std::uint64_t cacheBytes = 0; ///< snapshot bytes held after the frame
-    /// bakeMs: the far tier making sure its snapshots exist (cache lookups + the bakes they start).
-    double setupMs = 0.0, selectMs = 0.0, nearMs = 0.0, farMs = 0.0, bakeMs = 0.0, totalMs = 0.0;
-    /// The Vulkan near tier's split of nearMs: voxel uploads to the atlas, record + submit + wait
-    /// of the draw, copy of the three targets to host memory (0 with the reference backend).
-    double nearUploadMs = 0.0, nearDrawMs = 0.0, nearReadbackMs = 0.0;
-    /// Cell-rate near sprites (volumetric/near_rate.hpp): the Vulkan compute pass's GPU time
-    /// (nearDrawMs is the rest of the frame's commands), cells traced once, pixels that traced
-    /// their cell's rays and pixels that looked it up (Vulkan: the sprites' on-screen rectangle
+    /// The frame's steps on the host (wall-clock ms): set-up (step 1), selection (step 2), the
+    /// near tier, the far tier (bakeMs: making sure its snapshots exist, cache lookups + the
+    /// bakes they start; then blitMs), and the whole frame.
+    double hostSetupMs = 0.0, hostSelectMs = 0.0, nearMs = 0.0, farMs = 0.0, bakeMs = 0.0,
+           totalMs = 0.0;
+    /// The near tier's voxel uploads to the atlas (host: pack + submit + wait; 0 with the CPU
+    /// reference).
+    double nearUploadMs = 0.0;
+    /// A frame drawn on Vulkan, on the host: preparing and recording its passes (uploads
+    /// written), blocked on its fence, and unpacking what was read back.
+    double hostRecordMs = 0.0, hostWaitMs = 0.0, hostReadbackMs = 0.0;
+    /// A frame drawn on Vulkan, on the device (its named timestamps; 0 where the device has none
+    /// or the frame had no such pass): the whole frame, its uploads, the cell-rate cells, splat
+    /// and resolve, the near draw, the far pass, and the copies of the planes (targets into the
+    /// planes, planes into host memory).
+    double gpuFrameMs = 0.0, gpuUploadMs = 0.0, gpuCellsMs = 0.0, gpuSplatMs = 0.0, gpuDrawMs = 0.0,
+           gpuResolveMs = 0.0, gpuFarMs = 0.0, gpuCopyMs = 0.0;
+    /// Cell-rate near sprites (core/near_rate.hpp): cells traced once, pixels that traced their
+    /// cell's rays and pixels that looked it up (Vulkan: the sprites' on-screen rectangle
     /// pixels), sprites drawn cell-rate and sprites that did not fit the cell budget.
-    double nearComputeMs = 0.0;
     std::uint64_t nearCellsTraced = 0, nearPixelsTraced = 0, nearPixelsLookedUp = 0;
     int nearCellSprites = 0, nearCellOverBudget = 0;
     double blitMs = 0.0; ///< the far blit alone
     /// 1 when this frame's near sprites were drawn by the Vulkan near tier, 0 when by the CPU
     /// reference or when there were none (FrameRenderer::nearBackend says which Auto chose).
     int nearOnVulkan = 0;
-    /// 1 when this frame's far sprites were drawn by the Vulkan far pass (blitMs is then its
-    /// host preparation plus GPU time), 0 when by the CPU blit or when there were none.
+    /// 1 when this frame's far sprites were drawn by the Vulkan far pass (blitMs is then its share
+    /// of the Vulkan frame: recording and gpuFarMs), 0 when by the CPU blit or when none.
     int farOnVulkan = 0;
     std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;
     std::uint64_t farPixelsWritten = 0; ///< blit pixels a solid or outline cell won
@@ -226,10 +235,12 @@ struct FrameStats {
 
 struct FrameResult {
     Image image;
-    std::optional<Image> overlay;     ///< with FrameOptions::overlay
-    std::vector<SpriteSetup> sprites; ///< per entity id
-    std::vector<EntityPlan> plan;     ///< per entity id
-    std::vector<PopEvent> pops;       ///< with FrameOptions::measurePops
+    std::optional<Image> overlay; ///< with FrameOptions::overlay
+    /// Per entity id: shares of the renderer's own arrays (core/shared_vector.hpp), so a frame
+    /// hands them out without copying; they stay this frame's when later frames are drawn.
+    SharedVector<SpriteSetup> sprites;
+    SharedVector<EntityPlan> plan;
+    std::vector<PopEvent> pops; ///< with FrameOptions::measurePops
     FrameStats stats;
 };
 
@@ -243,15 +254,36 @@ class FrameRenderer {
     /// Applies the scene's scripted edits due up to path frame `frame` (each once).
     void applyEditsThrough(int frame);
     /// One frame at time t; `frame` only labels pop events. Consecutive calls are consecutive
-    /// frames for the selector (hysteresis, cross-fades).
+    /// frames for the selector (hysteresis, cross-fades). render() is finish(submit(...)).
     FrameResult render(double time, RenderMode mode, int frame = 0);
+
+    /// A frame begun by submit() and not yet finished.
+    struct Pending;
+    struct PendingDeleter {
+        void operator()(Pending* p) const;
+    };
+    using PendingFrame = std::unique_ptr<Pending, PendingDeleter>;
+    /// One frame in two halves, so that the host prepares frame k+1 while the device draws
+    /// frame k (a path render keeps two frames in flight): submit() runs set-up, selection and
+    /// the bakes and, for a frame drawn wholly on Vulkan, records and submits it; finish() waits
+    /// for it, reads it back and completes the frame (backdrop, overlay, pops, cost model). A
+    /// frame with a CPU tier is drawn whole by submit(). Finish frames in the order submitted,
+    /// at most two in flight.
+    PendingFrame submit(double time, RenderMode mode, int frame = 0);
+    FrameResult finish(PendingFrame frame);
 
     /// Draws `sprites` as `plan` says, with no selector involved: near sprites (and the near
     /// half of fades) by options().nearBackend, then far ones through the cache, composed by
     /// min-z. `onlyTier` draws just that tier's share (for tests and debugging).
-    Image draw(const CameraFrame& camera, const std::vector<SpriteSetup>& sprites,
-               const std::vector<EntityPlan>& plan, FrameStats* stats = nullptr,
+    Image draw(const CameraFrame& camera, std::span<const SpriteSetup> sprites,
+               std::span<const EntityPlan> plan, FrameStats* stats = nullptr,
                std::optional<Tier> onlyTier = std::nullopt);
+    Image draw(const CameraFrame& camera, std::span<const SpriteSetup> sprites,
+               std::initializer_list<EntityPlan> plan, FrameStats* stats = nullptr,
+               std::optional<Tier> onlyTier = std::nullopt) {
+        return draw(camera, sprites, std::span<const EntityPlan>(plan.begin(), plan.size()), stats,
+                    onlyTier);
+    }
 
     SnapshotCache& snapshotCache() { return *cache_; }
     TierSelector& selector() { return planner_.selector(); }
@@ -275,35 +307,44 @@ class FrameRenderer {
 
   private:
     /// Step 2: the planner's plan for this frame (lod/frame_planner.hpp), its figures into `st`.
-    std::vector<EntityPlan> planEntities(const std::vector<SpriteSetup>& sprites, RenderMode mode,
-                                         FrameStats& st);
+    SharedVector<EntityPlan> planEntities(RenderMode mode, FrameStats& st);
     /// The near tier's per-frame cost whatever it draws (ms): measured once, drawing nothing.
     /// The figure the planner's cost model asks for (CostModel::observe); compose only measures.
     double nearFixedMs(const CameraFrame& camera, NearBackend nearBackend);
     /// draw() with the near tier drawn by `nearBackend`.
+    /// `visible`: the visible sprites' ids, ascending (empty: found from `sprites`). With
+    /// `pending`, a frame drawn wholly on Vulkan is only submitted (into *pending), and the image
+    /// returned is empty until finish().
     Image drawWith(NearBackend nearBackend, const CameraFrame& camera,
-                   const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
-                   FrameStats& stats, std::optional<Tier> onlyTier = std::nullopt);
+                   std::span<const SpriteSetup> sprites, std::span<const EntityPlan> plan,
+                   FrameStats& stats, std::optional<Tier> onlyTier = std::nullopt,
+                   std::span<const std::uint32_t> visible = {}, Pending* pending = nullptr);
     /// `b`, with Auto resolved (nearBackend()).
     NearBackend resolved(NearBackend b) { return b == NearBackend::Auto ? nearBackend() : b; }
-    /// The near sprites by `nearBackend`; with `far`, Vulkan draws them (all near sprites on
-    /// Vulkan, or none) and the far batch in one frame.
-    Image drawNear(NearBackend nearBackend, const CameraFrame& camera,
-                   const std::vector<const SpriteSetup*>& sprites, FrameStats& stats,
-                   const FarBatch* far = nullptr, bool colourOnly = false);
+    /// One Vulkan frame (compose/vulkan_frame.hpp): `sprites` by the near passes, then `far`
+    /// (may be null) by the far pass; colour alone read back when `colourOnly`.
+    Image drawOnVulkan(const CameraFrame& camera, const std::vector<const SpriteSetup*>& sprites,
+                       const FarBatch* far, bool colourOnly, FrameStats& stats,
+                       Pending* pending = nullptr);
+    /// finish() of a Vulkan frame: read back, its figures into `stats`.
+    Image finishOnVulkan(VulkanFrameInFlight&& frame, bool hasFar, FrameStats& stats);
+    /// The near sprites by the CPU reference.
+    Image drawNearCpu(const CameraFrame& camera, const std::vector<const SpriteSetup*>& sprites,
+                      FrameStats& stats);
     /// Whether a frame drawn wholly on Vulkan may read back its colour alone.
-    bool colourOnly() const { return !options_.depthAndIds && !options_.overlay; }
+    bool colourOnly() const {
+        return !options_.depthAndIds && !options_.overlay && !options_.measurePops;
+    }
     /// The Vulkan probe both Auto choices read (the shared device's answer where there is one).
     const VulkanProbe& vulkanProbe();
     NearRenderer& nearRenderer();
+    FarPass& farPass();
     void drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& stats);
-    std::vector<PopEvent> measurePops(const CameraFrame& camera,
-                                      const std::vector<SpriteSetup>& sprites,
-                                      const std::vector<EntityPlan>& plan, int frame);
-    Image tierOverlay(const Image& image, const std::vector<EntityPlan>& plan) const;
+    Image tierOverlay(const Image& image, std::span<const EntityPlan> plan) const;
 
     Scene& scene_;
     FrameOptions options_;
+    SpriteStore sprites_;  ///< the entities' sprites, kept between frames (set-up, step 1)
     FramePlanner planner_; ///< the LOD policy: selector, error budget views, cost model
     struct NearFixed {
         double ms = -1.0; ///< < 0: not measured yet
@@ -318,8 +359,9 @@ class FrameRenderer {
     std::unique_ptr<SnapshotCache> cache_;
     std::shared_ptr<NearRenderer>
         near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan
-    std::vector<EntityPlan> previousPlan_;
-    int editsApplied_ = 0; ///< scene.edits are applied in order of atFrame
+    std::unique_ptr<FarPass> farPass_;      ///< on near_'s frames, created by the first far pass
+    SharedVector<EntityPlan> previousPlan_; ///< kept with FrameOptions::measurePops only
+    int editsApplied_ = 0;                  ///< scene.edits are applied in order of atFrame
 };
 
 /// Composes `far` into `near` by the shared depth/id rule (core/sprite.hpp winsDepthTest).

@@ -43,16 +43,15 @@ struct Accumulator {
 } // namespace
 
 EntityErrorSummary summarizeEntities(const std::vector<EntityError>& errors,
-                                     const std::vector<SpriteSetup>& sprites) {
+                                     std::span<const SpriteSetup> sprites) {
     Accumulator a;
-    for (const EntityError& e : errors) a.add(e, cellSizePx(sprites.at(e.entity)));
+    for (const EntityError& e : errors) a.add(e, cellSizePx(sprites[e.entity]));
     return a.done();
 }
 
 std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame& cam,
-                                           const std::vector<SpriteSetup>& sprites,
-                                           const std::vector<EntityPlan>& plan,
-                                           SnapshotCache& cache) {
+                                           std::span<const SpriteSetup> sprites,
+                                           std::span<const EntityPlan> plan, SnapshotCache& cache) {
     // Passes of entities whose screen rectangles share no 8x8 tile.
     constexpr int kTile = 8;
     const int tw = (cam.width + kTile - 1) / kTile, th = (cam.height + kTile - 1) / kTile;
@@ -109,8 +108,8 @@ std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame
 }
 
 FrameErrorReport measureFrameError(const Image& truth, const Image& test,
-                                   const std::vector<SpriteSetup>& sprites,
-                                   const std::vector<EntityPlan>& plan) {
+                                   std::span<const SpriteSetup> sprites,
+                                   std::span<const EntityPlan> plan) {
     std::vector<std::uint32_t> ids;
     ids.reserve(sprites.size());
     for (const SpriteSetup& s : sprites)
@@ -118,7 +117,7 @@ FrameErrorReport measureFrameError(const Image& truth, const Image& test,
     const std::vector<EntityError> per = entityErrors(truth, test, ids);
     Accumulator all, far;
     for (const EntityError& e : per) {
-        const SpriteSetup& s = sprites.at(e.entity);
+        const SpriteSetup& s = sprites[e.entity];
         const double cell = cellSizePx(s);
         all.add(e, cell);
         if (e.entity < plan.size() && plan[e.entity].drawsFar()) far.add(e, cell);

@@ -7,6 +7,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace voxtier {
@@ -44,7 +45,7 @@ struct FrameErrorReport {
 
 /// Mean and worst of `errors`; `sprites` (indexed by entity id) give each entity's cell size.
 EntityErrorSummary summarizeEntities(const std::vector<EntityError>& errors,
-                                     const std::vector<SpriteSetup>& sprites);
+                                     std::span<const SpriteSetup> sprites);
 
 /// The far tier's own error per entity, free of occlusion: every entity `plan` has the far tier
 /// draw (alone or in a cross-fade) is drawn alone, whole, by the near tier's CPU reference (the
@@ -52,14 +53,13 @@ EntityErrorSummary summarizeEntities(const std::vector<EntityError>& errors,
 /// compared. Entities whose screen rectangles do not overlap share a pass, so a pass costs one
 /// image per tier. `cache` should be the one that drew the frame (its snapshots are warm).
 std::vector<EntityError> isolatedFarErrors(const Scene& scene, const CameraFrame& camera,
-                                           const std::vector<SpriteSetup>& sprites,
-                                           const std::vector<EntityPlan>& plan,
-                                           SnapshotCache& cache);
+                                           std::span<const SpriteSetup> sprites,
+                                           std::span<const EntityPlan> plan, SnapshotCache& cache);
 
 /// `truth` is the all-near image of the frame `sprites` describe; `plan` the plan `test` was
 /// drawn with (empty: every entity counts as near). Sprites are indexed by entity id.
 FrameErrorReport measureFrameError(const Image& truth, const Image& test,
-                                   const std::vector<SpriteSetup>& sprites,
-                                   const std::vector<EntityPlan>& plan);
+                                   std::span<const SpriteSetup> sprites,
+                                   std::span<const EntityPlan> plan);
 
 } // namespace voxtier

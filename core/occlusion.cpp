@@ -1,5 +1,7 @@
 #include "core/occlusion.hpp"
 
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
 #include <bit>
 #include <limits>
@@ -80,7 +82,8 @@ std::vector<std::uint32_t> frontToBack(std::span<const SpriteSetup* const> sprit
         const std::uint32_t depthBits = std::bit_cast<std::uint32_t>(std::max(s->gpu.depth, 0.0f));
         keyed.push_back({(std::uint64_t(~depthBits) << 32) | s->entityId, i});
     }
-    std::sort(keyed.begin(), keyed.end());
+    // (key, index) pairs are distinct, so the parallel sort has one answer.
+    tbb::parallel_sort(keyed.begin(), keyed.end());
     std::vector<std::uint32_t> order(keyed.size());
     for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
     return order;

@@ -60,13 +60,20 @@ struct SceneBuilder {
         if (p.is_relative()) p = c.baseDir / p;
         std::error_code ec;
         const auto st = fs::status(p, ec);
-        if (!fs::exists(st))
+        if (!fs::exists(st)) {
+            // A scene file named without a folder has the empty one: name the current folder.
+            std::error_code cwdError;
+            const std::string folder =
+                c.baseDir.empty()
+                    ? "the current folder '" + fs::current_path(cwdError).string() + "'"
+                    : "'" + c.baseDir.string() + "'";
             fail(c, path,
                  "file not found: '" + p.string() + "'" +
                      (fs::path(rel).is_relative()
-                          ? " ('" + rel + "' is resolved against the scene file's folder '" +
-                                c.baseDir.string() + "')"
+                          ? " ('" + rel + "' is resolved against the scene file's folder, " +
+                                folder + ")"
                           : ""));
+        }
         if (fs::is_directory(st)) fail(c, path, "'" + p.string() + "' is a directory, not a file");
         return p;
     }

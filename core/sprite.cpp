@@ -125,11 +125,31 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
                         const VoxelModel& model, int frame, const RenderParams& params,
                         const Light& light) {
     SpriteSetup S;
+    const SpriteConstants k = spriteConstants(entity, model, frame, params, light);
+    setupSpriteInto(S, cam, k, entityId, params);
+    return S;
+}
+
+SpriteConstants spriteConstants(const Entity& entity, const VoxelModel& model, int frame,
+                                const RenderParams& params, const Light& light) {
+    SpriteConstants k;
+    k.model = entity.model;
+    k.frame = frame;
+    k.dims = model.frame(frame).dims();
+    k.pose = makeEntityPose(entity, k.dims, params.voxelSize);
+    k.light = faceLightFactors(light, k.pose);
+    k.skipEmpty = model.bricks(frame).worthSkipping() ? 1u : 0u;
+    return k;
+}
+
+void setupSpriteInto(SpriteSetup& S, const CameraFrame& cam, const SpriteConstants& constants,
+                     std::uint32_t entityId, const RenderParams& params) {
+    S.cull = CullReason::None;
     S.entityId = entityId;
-    S.model = entity.model;
-    S.frame = frame;
-    const glm::ivec3 dims = model.frame(frame).dims();
-    S.pose = makeEntityPose(entity, dims, params.voxelSize);
+    S.model = constants.model;
+    S.frame = constants.frame;
+    const glm::ivec3 dims = constants.dims;
+    S.pose = constants.pose;
     const EntityPose& pose = S.pose;
     const double k = pose.metresPerVoxel;
     const double sigma = params.sigma;
@@ -141,23 +161,22 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     S.distance = glm::length(S.centreRel);
     S.radiusPx = S.viewDepth > 0.0 ? glm::length(c) * k / S.viewDepth * cam.focalPx() : 0.0;
 
-    // §3.9 culling. The proxy box is the model bounds grown by one virtual pixel (§3.10).
+    // §3.9 culling. The proxy box is the model bounds grown by one virtual pixel (§3.10). A
+    // culled sprite keeps the defaults of the fields below (what a fresh SpriteSetup holds).
+    const auto culled = [&S](CullReason why) {
+        S.cull = why;
+        S.lattice = SpriteLattice{};
+        S.screenRect = glm::ivec4(0);
+        S.gpu = kernel::SpriteGpu{};
+    };
     const glm::dvec3 eyeVoxel = pose.anchor + pose.voxelDirection(-(pose.position - cam.eye)) / k;
     const double margin = 1.0 / sigma;
     if (eyeVoxel.x >= -margin && eyeVoxel.y >= -margin && eyeVoxel.z >= -margin &&
         eyeVoxel.x <= dims.x + margin && eyeVoxel.y <= dims.y + margin &&
-        eyeVoxel.z <= dims.z + margin) {
-        S.cull = CullReason::CameraInside;
-        return S;
-    }
-    if (!(S.viewDepth > cam.zNear)) {
-        S.cull = CullReason::BehindCamera;
-        return S;
-    }
-    if (S.radiusPx < 0.5) {
-        S.cull = CullReason::SubPixel;
-        return S;
-    }
+        eyeVoxel.z <= dims.z + margin)
+        return culled(CullReason::CameraInside);
+    if (!(S.viewDepth > cam.zNear)) return culled(CullReason::BehindCamera);
+    if (S.radiusPx < 0.5) return culled(CullReason::SubPixel);
 
     // §3.2-§3.3: view direction and sprite basis, in voxel space.
     const glm::dvec3 dirWorld =
@@ -183,6 +202,7 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
         (sigma / k) * (Cd * screenLinear(cam, uW) - Cu * den) - sigma * L.gV * den;
 
     kernel::SpriteGpu& g = S.gpu;
+    g = kernel::SpriteGpu{};
     g.mapI = toGpu(numI);
     g.mapJ = toGpu(numJ);
     g.mapDen = toGpu(den);
@@ -198,8 +218,8 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     g.cellRange = L.cellRange;
     g.dims = glm::uvec4(glm::uvec3(dims), entityId);
     g.atlas = glm::uvec4(0u);
-    g.skipEmpty = model.bricks(frame).worthSkipping() ? 1u : 0u;
-    const auto light6 = faceLightFactors(light, pose);
+    g.skipEmpty = constants.skipEmpty;
+    const auto& light6 = constants.light;
     g.faceLight0 = {light6[0], light6[1], light6[2], light6[3]};
     g.faceLight1 = {light6[4], light6[5], 0u, 0u};
 
@@ -250,7 +270,6 @@ SpriteSetup setupSprite(const CameraFrame& cam, const Entity& entity, std::uint3
     }
     if (S.screenRect.x >= S.screenRect.z || S.screenRect.y >= S.screenRect.w)
         S.cull = CullReason::OffScreen;
-    return S;
 }
 
 double cellSizePx(const SpriteSetup& sprite) {

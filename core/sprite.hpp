@@ -121,10 +121,30 @@ std::array<std::uint32_t, 6> faceLightFactors(const Light& light, const EntityPo
 /// Outward normal (voxel space) of the face a ray entered through, by face code 0..5.
 glm::dvec3 faceNormal(unsigned faceCode);
 
+/// What set-up derives from an entity alone, whatever the camera: its model frame and size,
+/// its pose, the light factors of its faces and whether its rays skip empty space
+/// (SpriteGpu::skipEmpty, from the frame's occupancy). A SpriteStore keeps it while the entity,
+/// its animation frame, the light and that skip rule's answer stay as they were.
+struct SpriteConstants {
+    int model = 0;
+    int frame = 0;
+    glm::ivec3 dims{1};
+    EntityPose pose;
+    std::array<std::uint32_t, 6> light{};
+    std::uint32_t skipEmpty = 0;
+};
+SpriteConstants spriteConstants(const Entity& entity, const VoxelModel& model, int frame,
+                                const RenderParams& params, const Light& light);
+
 /// The whole per-entity computation of §3.1-§3.10.
 SpriteSetup setupSprite(const CameraFrame& camera, const Entity& entity, std::uint32_t entityId,
                         const VoxelModel& model, int frame, const RenderParams& params,
                         const Light& light);
+/// setupSprite from the entity's constants, written over `sprite` in place (every field: the
+/// result equals a fresh setupSprite's bit for bit).
+void setupSpriteInto(SpriteSetup& sprite, const CameraFrame& camera,
+                     const SpriteConstants& constants, std::uint32_t entityId,
+                     const RenderParams& params);
 
 /// setupSprite for every entity of the scene at time t (TBB-parallel). Index = entity id.
 std::vector<SpriteSetup> setupSprites(const Scene& scene, const CameraFrame& camera, double time);

@@ -1,5 +1,7 @@
 #include "device/vulkan_device.hpp"
 
+#include "device/icd_diagnosis.hpp"
+
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -85,6 +87,11 @@ void throwVulkanFailure(VkResult r, const char* call, const char* file, int line
 
 bool validationRequestedByEnvironment() {
     const char* v = std::getenv("VOXTIER_VALIDATION");
+    return v && std::strcmp(v, "1") == 0;
+}
+
+bool forcedStagingRequestedByEnvironment() {
+    const char* v = std::getenv("VOXTIER_FORCE_STAGING");
     return v && std::strcmp(v, "1") == 0;
 }
 
@@ -211,7 +218,7 @@ VulkanProbe probeVulkanDevice() {
     const VkResult created = vkCreateInstance(&ici, nullptr, &instance);
     if (created != VK_SUCCESS) {
         probe.whyNone = created == VK_ERROR_INCOMPATIBLE_DRIVER
-                            ? std::string(kNoVulkanDeviceMessage)
+                            ? noVulkanDeviceMessage()
                             : std::string("vkCreateInstance: ") + vkResultName(created);
         return probe;
     }
@@ -233,7 +240,7 @@ VulkanProbe probeVulkanDevice() {
             probe.float64 = features.shaderFloat64 == VK_TRUE;
         }
     }
-    if (!probe.found) probe.whyNone = kNoVulkanDeviceMessage;
+    if (!probe.found) probe.whyNone = noVulkanDeviceMessage();
     vkDestroyInstance(instance, nullptr);
     return probe;
 }
@@ -243,6 +250,7 @@ VulkanDevice::VulkanDevice(const VulkanDeviceOptions& options,
     : log_(log ? std::move(log) : std::make_shared<VulkanMessageLog>()),
       validation_(options.validation || validationRequestedByEnvironment()),
       echo_(options.echoMessages) {
+    placementOptions_.forceStaging = options.forceStaging || forcedStagingRequestedByEnvironment();
     try {
         sink_ = std::make_unique<MessageSink>(MessageSink{log_.get(), echo_});
         const bool debugUtils = hasInstanceExtension(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
@@ -304,7 +312,7 @@ VulkanDevice::VulkanDevice(const VulkanDeviceOptions& options,
 
         const VkResult created = vkCreateInstance(&ici, nullptr, &instance_);
         if (created == VK_ERROR_INCOMPATIBLE_DRIVER)
-            throw VulkanError(kNoVulkanDeviceMessage, created);
+            throw VulkanError(noVulkanDeviceMessage(), created);
         VK_CHECK(created);
 
         if (debugUtils) {
@@ -335,9 +343,16 @@ VulkanDevice::VulkanDevice(const VulkanDeviceOptions& options,
                 physical_ = pd;
             }
         }
-        if (!physical_) throw VulkanError(kNoVulkanDeviceMessage, VK_ERROR_INCOMPATIBLE_DRIVER);
+        if (!physical_) throw VulkanError(noVulkanDeviceMessage(), VK_ERROR_INCOMPATIBLE_DRIVER);
         queueFamily_ = std::uint32_t(bestFamily);
         vkGetPhysicalDeviceProperties(physical_, &properties_);
+        {
+            std::uint32_t n = 0;
+            vkGetPhysicalDeviceQueueFamilyProperties(physical_, &n, nullptr);
+            std::vector<VkQueueFamilyProperties> families(n);
+            vkGetPhysicalDeviceQueueFamilyProperties(physical_, &n, families.data());
+            timestampValidBits_ = families[queueFamily_].timestampValidBits;
+        }
         vkGetPhysicalDeviceMemoryProperties(physical_, &memory_);
         name_ = properties_.deviceName;
 
@@ -411,6 +426,15 @@ std::uint32_t VulkanDevice::memoryType(std::uint32_t typeBits,
                       VK_ERROR_OUT_OF_DEVICE_MEMORY);
 }
 
+MemoryPlacement VulkanDevice::placementFor(BufferClass c, std::uint32_t typeBits) const {
+    const std::optional<MemoryPlacement> p = placeBuffer(memory_, typeBits, c, placementOptions_);
+    if (!p)
+        throw VulkanError(std::string("no Vulkan memory type for a ") + bufferClassName(c) +
+                              " buffer on " + name_,
+                          VK_ERROR_OUT_OF_DEVICE_MEMORY);
+    return *p;
+}
+
 VkCommandBuffer VulkanDevice::allocateCommandBuffer() {
     VkCommandBufferAllocateInfo ai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
     ai.commandPool = pool_;
@@ -438,8 +462,33 @@ void VulkanDevice::submitAndWait(VkCommandBuffer cb) {
 // Resources
 
 VulkanBuffer::VulkanBuffer(VulkanDevice& device, VkDeviceSize size, VkBufferUsageFlags usage,
-                           bool hostVisible)
-    : device_(device.device()), size_(size) {
+                           BufferClass bufferClass) {
+    switch (bufferClass) {
+    case BufferClass::ShaderRead:
+        // Whether it will be staged is known only from the requirements; TRANSFER_DST costs
+        // nothing on the direct path and keeps the requirements the same either way.
+    case BufferClass::Readback:
+        usage |= VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+        break;
+    case BufferClass::Staging:
+        usage |= VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+        break;
+    case BufferClass::DeviceOnly:
+        break;
+    }
+    create(device, size, usage, bufferClass, false);
+}
+
+VulkanBuffer::VulkanBuffer(VulkanDevice& device, VkDeviceSize size, VkBufferUsageFlags usage,
+                           bool hostVisible) {
+    create(device, size, usage, std::nullopt, hostVisible);
+}
+
+void VulkanBuffer::create(VulkanDevice& device, VkDeviceSize size, VkBufferUsageFlags usage,
+                          std::optional<BufferClass> bufferClass, bool hostVisible) {
+    device_ = device.device();
+    size_ = size;
+    atom_ = std::max<VkDeviceSize>(1, device.nonCoherentAtomSize());
     try {
         VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
         bci.size = size;
@@ -448,20 +497,71 @@ VulkanBuffer::VulkanBuffer(VulkanDevice& device, VkDeviceSize size, VkBufferUsag
         VK_CHECK(vkCreateBuffer(device_, &bci, nullptr, &buffer_));
         VkMemoryRequirements req{};
         vkGetBufferMemoryRequirements(device_, buffer_, &req);
+        if (bufferClass) {
+            placement_ = device.placementFor(*bufferClass, req.memoryTypeBits);
+        } else {
+            // The pre-policy choice, unchanged: coherent host-visible, or device-local.
+            const VkPhysicalDeviceMemoryProperties& m = device.memoryProperties();
+            placement_.typeIndex = device.memoryType(
+                req.memoryTypeBits, hostVisible ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                                                      VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
+                                                : VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+            placement_.flags = m.memoryTypes[placement_.typeIndex].propertyFlags;
+            placement_.heapIndex = m.memoryTypes[placement_.typeIndex].heapIndex;
+            placement_.heapSize = m.memoryHeaps[placement_.heapIndex].size;
+            placement_.hostWrite = hostVisible ? HostWrite::Direct : HostWrite::None;
+            placement_.mapped = hostVisible;
+        }
         VkMemoryAllocateInfo mai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
         mai.allocationSize = req.size;
-        // Host-visible buffers are coherent, so the renderer never flushes or invalidates.
-        mai.memoryTypeIndex = device.memoryType(
-            req.memoryTypeBits,
-            hostVisible ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
-                        : VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+        mai.memoryTypeIndex = placement_.typeIndex;
         VK_CHECK(vkAllocateMemory(device_, &mai, nullptr, &memory_));
+        allocationSize_ = req.size;
         VK_CHECK(vkBindBufferMemory(device_, buffer_, memory_, 0));
-        if (hostVisible) VK_CHECK(vkMapMemory(device_, memory_, 0, VK_WHOLE_SIZE, 0, &mapped_));
+        if (placement_.mapped)
+            VK_CHECK(vkMapMemory(device_, memory_, 0, VK_WHOLE_SIZE, 0, &mapped_));
     } catch (...) {
         reset();
         throw;
     }
+}
+
+VkMappedMemoryRange VulkanBuffer::atomRange(VkDeviceSize offset, VkDeviceSize bytes) const {
+    VkMappedMemoryRange r{VK_STRUCTURE_TYPE_MAPPED_MEMORY_RANGE};
+    r.memory = memory_;
+    r.offset = offset / atom_ * atom_;
+    if (bytes == VK_WHOLE_SIZE || offset + bytes >= allocationSize_) {
+        r.size = VK_WHOLE_SIZE;
+    } else {
+        const VkDeviceSize end = (offset + bytes + atom_ - 1) / atom_ * atom_;
+        r.size = std::min(end, allocationSize_) - r.offset;
+    }
+    return r;
+}
+
+void VulkanBuffer::write(VkDeviceSize offset, const void* data, VkDeviceSize bytes) {
+    if (placement_.hostWrite != HostWrite::Direct || !mapped_)
+        throw VulkanError("VulkanBuffer::write on a buffer the host cannot write directly (" +
+                          std::string(hostWriteName(placement_.hostWrite)) + ")");
+    if (offset > size_ || bytes > size_ - offset)
+        throw VulkanError("VulkanBuffer::write of " + std::to_string(bytes) + " bytes at " +
+                          std::to_string(offset) + " past the end of a " + std::to_string(size_) +
+                          "-byte buffer");
+    if (bytes == 0) return;
+    std::memcpy(static_cast<char*>(mapped_) + offset, data, std::size_t(bytes));
+    flush(offset, bytes);
+}
+
+void VulkanBuffer::flush(VkDeviceSize offset, VkDeviceSize bytes) {
+    if (!mapped_ || (placement_.flags & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT)) return;
+    const VkMappedMemoryRange r = atomRange(offset, bytes);
+    VK_CHECK(vkFlushMappedMemoryRanges(device_, 1, &r));
+}
+
+void VulkanBuffer::invalidateForRead(VkDeviceSize offset, VkDeviceSize bytes) {
+    if (!mapped_ || (placement_.flags & VK_MEMORY_PROPERTY_HOST_COHERENT_BIT)) return;
+    const VkMappedMemoryRange r = atomRange(offset, bytes);
+    VK_CHECK(vkInvalidateMappedMemoryRanges(device_, 1, &r));
 }
 
 VulkanBuffer& VulkanBuffer::operator=(VulkanBuffer&& o) noexcept {
@@ -471,7 +571,10 @@ VulkanBuffer& VulkanBuffer::operator=(VulkanBuffer&& o) noexcept {
         std::swap(buffer_, o.buffer_);
         std::swap(memory_, o.memory_);
         std::swap(size_, o.size_);
+        std::swap(allocationSize_, o.allocationSize_);
+        std::swap(atom_, o.atom_);
         std::swap(mapped_, o.mapped_);
+        std::swap(placement_, o.placement_);
     }
     return *this;
 }
@@ -483,6 +586,8 @@ void VulkanBuffer::reset() noexcept {
     memory_ = VK_NULL_HANDLE;
     mapped_ = nullptr;
     size_ = 0;
+    allocationSize_ = 0;
+    placement_ = MemoryPlacement{};
 }
 
 VulkanImage::VulkanImage(VulkanDevice& device, VkImageType type, VkFormat format, VkExtent3D extent,

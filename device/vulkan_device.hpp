@@ -3,12 +3,17 @@
 // Mesa lavapipe on the CPU), one graphics queue, optional validation with every message
 // recorded, and the few RAII resource wrappers the near renderer needs. No window, no
 // swapchain. Not thread-safe: one thread drives a device.
+//
+// Buffers are placed by class (device/memory_policy.hpp): VulkanBuffer(device, size, usage,
+// BufferClass) asks the device's policy where the buffer lives and how the host writes it.
+#include "device/memory_policy.hpp"
 #include "device/vulkan_check.hpp"
 #include "device/vulkan_options.hpp"
 
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,8 +21,9 @@ namespace voxtier {
 
 class VulkanDevice {
   public:
-    /// Throws VulkanError(kNoVulkanDeviceMessage) when no Vulkan 1.2 device with a graphics
-    /// queue exists, and VulkanError when validation is asked for but the layer is missing.
+    /// Throws VulkanError(noVulkanDeviceMessage(), device/icd_diagnosis.hpp) when no Vulkan 1.2
+    /// device with a graphics queue exists, and VulkanError when validation is asked for but the
+    /// layer is missing.
     explicit VulkanDevice(const VulkanDeviceOptions& options = {},
                           std::shared_ptr<VulkanMessageLog> log = nullptr);
     ~VulkanDevice();
@@ -43,7 +49,23 @@ class VulkanDevice {
     const VkPhysicalDeviceProperties& properties() const { return properties_; }
 
     /// A memory type allowed by `typeBits` with all of `required`; throws when there is none.
+    /// For images; buffers go through placementFor().
     std::uint32_t memoryType(std::uint32_t typeBits, VkMemoryPropertyFlags required) const;
+    const VkPhysicalDeviceMemoryProperties& memoryProperties() const { return memory_; }
+    /// The policy's placement (device/memory_policy.hpp) of a buffer of class `c` whose memory
+    /// requirements allow `typeBits`, with this device's options (forced staging). Throws
+    /// VulkanError when no allowed type can serve the class.
+    MemoryPlacement placementFor(BufferClass c, std::uint32_t typeBits) const;
+    /// ShaderRead buffers are staged even where the host could write them directly (options or
+    /// VOXTIER_FORCE_STAGING=1): the staging path, testable on lavapipe.
+    bool forcesStaging() const { return placementOptions_.forceStaging; }
+    /// VkPhysicalDeviceLimits::nonCoherentAtomSize: flush/invalidate ranges are rounded to it.
+    VkDeviceSize nonCoherentAtomSize() const { return properties_.limits.nonCoherentAtomSize; }
+    /// Valid bits of a timestamp written on the device's queue; 0 when the queue has no
+    /// timestamps (device/pass_timer.hpp reports no times then).
+    std::uint32_t timestampValidBits() const { return timestampValidBits_; }
+    /// Nanoseconds per timestamp tick (VkPhysicalDeviceLimits::timestampPeriod).
+    float timestampPeriod() const { return properties_.limits.timestampPeriod; }
 
     /// A primary command buffer from the device's pool (reset and re-recorded by its owner).
     VkCommandBuffer allocateCommandBuffer();
@@ -58,6 +80,8 @@ class VulkanDevice {
     bool pipelineStatistics_ = false;
     bool fragmentAtomics_ = false;
     bool float64_ = false;
+    std::uint32_t timestampValidBits_ = 0;
+    PlacementOptions placementOptions_;
     std::string name_;
     VkInstance instance_ = VK_NULL_HANDLE;
     VkDebugUtilsMessengerEXT messenger_ = VK_NULL_HANDLE;
@@ -82,10 +106,31 @@ class VulkanDevice {
     void destroy() noexcept;
 };
 
-/// A buffer with its own memory, persistently mapped when host-visible.
+/// A buffer with its own memory, placed by class (device/memory_policy.hpp) and persistently
+/// mapped when the placement is host-visible for the host's use (placement().mapped).
+///
+/// Usage flags the class needs are added to `usage`: TRANSFER_DST for a staged ShaderRead buffer
+/// and for Readback, TRANSFER_SRC for Staging.
+///
+/// Host access contract:
+/// - write(): only when placement().hostWrite == Direct (ShaderRead on a device with large
+///   host-visible device memory, Staging). It copies into the mapping and flushes when the memory
+///   is not coherent. Host writes are visible to commands submitted afterwards (vkQueueSubmit
+///   orders them); the caller must not write a region the device may still be reading (keep one
+///   buffer per frame in flight, or write after that frame's fence).
+/// - A ShaderRead buffer with hostWrite == Staged is filled through StagingRing::upload
+///   (device/staging_ring.hpp), or uploadToBuffer, which picks the path by itself.
+/// - Readback: after the fence of the frame that wrote it, call invalidateForRead() (a no-op on
+///   coherent memory) and read mapped().
 class VulkanBuffer {
   public:
     VulkanBuffer() = default;
+    VulkanBuffer(VulkanDevice& device, VkDeviceSize size, VkBufferUsageFlags usage,
+                 BufferClass bufferClass);
+    /// The placement before the policy, kept while volumetric/ and impostor_cache/ move to the
+    /// class-based constructor: hostVisible picks the first HOST_VISIBLE|HOST_COHERENT type
+    /// (mapped), otherwise the first DEVICE_LOCAL one. placement() reports what it got, with
+    /// hostWrite Direct for the host-visible case.
     VulkanBuffer(VulkanDevice& device, VkDeviceSize size, VkBufferUsageFlags usage,
                  bool hostVisible);
     ~VulkanBuffer() { reset(); }
@@ -97,15 +142,36 @@ class VulkanBuffer {
     void reset() noexcept;
     VkBuffer handle() const { return buffer_; }
     VkDeviceSize size() const { return size_; }
+    /// The persistent mapping, or nullptr when the placement is not mapped.
     void* mapped() const { return mapped_; }
+    const MemoryPlacement& placement() const { return placement_; }
     explicit operator bool() const { return buffer_ != VK_NULL_HANDLE; }
 
+    /// Copies `bytes` to `offset` in the mapping and flushes the range when not coherent.
+    /// Throws VulkanError when the buffer is not host-writable (placement().hostWrite != Direct)
+    /// or the range does not fit.
+    void write(VkDeviceSize offset, const void* data, VkDeviceSize bytes);
+    /// Flushes host writes to [offset, offset+bytes) when the memory is not coherent.
+    void flush(VkDeviceSize offset = 0, VkDeviceSize bytes = VK_WHOLE_SIZE);
+    /// Makes device writes to [offset, offset+bytes) visible to the host when the memory is not
+    /// coherent. Call after the fence, before reading mapped().
+    void invalidateForRead(VkDeviceSize offset = 0, VkDeviceSize bytes = VK_WHOLE_SIZE);
+
   private:
+    /// With a class: the policy's placement; without: the legacy hostVisible choice.
+    void create(VulkanDevice& device, VkDeviceSize size, VkBufferUsageFlags usage,
+                std::optional<BufferClass> bufferClass, bool hostVisible);
+    /// [offset, offset+bytes) widened to nonCoherentAtomSize (clamped to the allocation).
+    VkMappedMemoryRange atomRange(VkDeviceSize offset, VkDeviceSize bytes) const;
+
     VkDevice device_ = VK_NULL_HANDLE;
     VkBuffer buffer_ = VK_NULL_HANDLE;
     VkDeviceMemory memory_ = VK_NULL_HANDLE;
     VkDeviceSize size_ = 0;
+    VkDeviceSize allocationSize_ = 0;
+    VkDeviceSize atom_ = 1;
     void* mapped_ = nullptr;
+    MemoryPlacement placement_{};
 };
 
 /// An optimally tiled 2D or 3D image with its own device memory and one view.

@@ -33,6 +33,49 @@ std::string versionText(std::uint32_t v) {
 
 } // namespace
 
+std::vector<std::string> describeMemoryPlacements() {
+    std::vector<std::string> lines;
+    try {
+        VulkanDeviceOptions options;
+        options.echoMessages = false;
+        VulkanDevice device(options);
+        for (BufferClass c : kAllBufferClasses) {
+            // The usage a buffer of the class typically has; the constructor adds the transfer
+            // bits (VulkanBuffer), which can narrow memoryTypeBits on some drivers.
+            VkBufferUsageFlags usage = 0;
+            switch (c) {
+            case BufferClass::ShaderRead:
+                usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT |
+                        VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+                break;
+            case BufferClass::DeviceOnly:
+                usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+                break;
+            case BufferClass::Staging:
+                usage = VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+                break;
+            case BufferClass::Readback:
+                usage = VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+                break;
+            }
+            VkBufferCreateInfo bci{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+            bci.size = 4096;
+            bci.usage = usage;
+            bci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+            VkBuffer buffer = VK_NULL_HANDLE;
+            VK_CHECK(vkCreateBuffer(device.device(), &bci, nullptr, &buffer));
+            VkMemoryRequirements req{};
+            vkGetBufferMemoryRequirements(device.device(), buffer, &req);
+            vkDestroyBuffer(device.device(), buffer, nullptr);
+            lines.push_back(std::string(bufferClassName(c)) + ": " +
+                            describePlacement(device.placementFor(c, req.memoryTypeBits)));
+        }
+    } catch (const std::exception&) {
+        lines.clear();
+    }
+    return lines;
+}
+
 std::string VulkanDeviceInfo::summary() const {
     if (!found) return whyNone;
     return name + " (" + type + "; driver " + driver + "; Vulkan " + apiVersion + ")";

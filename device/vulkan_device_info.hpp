@@ -2,6 +2,7 @@
 // What a report says about the Vulkan device the near tier would use (tools/gpu_check.sh,
 // `voxtier check`), without Vulkan types (DESIGN.md §1).
 #include <string>
+#include <vector>
 
 namespace voxtier {
 
@@ -17,5 +18,11 @@ struct VulkanDeviceInfo {
 };
 /// Describes the device probeVulkanDevice() picks (device/vulkan_options.hpp). Never throws.
 VulkanDeviceInfo describeVulkanDevice();
+
+/// Where each buffer class lives on the device a VulkanDevice picks (device/memory_policy.hpp),
+/// one line per class: "ShaderRead: type 4 (DEVICE_LOCAL|HOST_VISIBLE|HOST_COHERENT), heap 0 of
+/// 15.92 GiB, host writes directly". Honours VOXTIER_FORCE_STAGING. Empty when there is no
+/// device; never throws.
+std::vector<std::string> describeMemoryPlacements();
 
 } // namespace voxtier

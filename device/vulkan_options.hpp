@@ -8,7 +8,9 @@
 
 namespace voxtier {
 
-/// The message (what() of the VulkanError) when the loader finds no usable device.
+/// The message (what() of the VulkanError) when the loader finds no usable device and every
+/// driver manifest's library loads; when one does not, the message names it instead
+/// (noVulkanDeviceMessage(), device/icd_diagnosis.hpp).
 inline constexpr const char* kNoVulkanDeviceMessage =
     "no Vulkan device: install mesa-vulkan-drivers for the CPU rasterizer lavapipe";
 
@@ -19,6 +21,10 @@ struct VulkanDeviceOptions {
     bool synchronizationValidation = true;
     /// Print each validation message to stderr as it arrives (tests read the log instead).
     bool echoMessages = true;
+    /// Buffers the shaders read are uploaded through the staging ring even where the host could
+    /// write them directly (also on when the environment has VOXTIER_FORCE_STAGING=1): exercises
+    /// the discrete-GPU upload path on lavapipe or an integrated GPU.
+    bool forceStaging = false;
 };
 
 /// What the Vulkan loader offers the near tier, found without creating a device: the device a
@@ -35,6 +41,8 @@ VulkanProbe probeVulkanDevice();
 
 /// True when the environment variable VOXTIER_VALIDATION is set to 1.
 bool validationRequestedByEnvironment();
+/// True when the environment variable VOXTIER_FORCE_STAGING is set to 1.
+bool forcedStagingRequestedByEnvironment();
 
 /// Warnings and errors from the validation layer and the loader. Shared, so it can outlive the
 /// device: leak reports arrive while vkDestroyDevice / vkDestroyInstance run.

@@ -1,5 +1,6 @@
-// A build without OpenImageIO (VOXTIER_IMAGE_FILES=OFF, tools/portable.sh): .pam is written by
-// image_files.cpp; every format that needs the library is refused with one InputError line.
+// A build without OpenImageIO (VOXTIER_IMAGE_FILES=OFF, tools/portable.sh): .pam and .gif are
+// written by image_files.cpp; every format that needs the library is refused with one InputError
+// line.
 #include "core/error.hpp"
 #include "image_files/detail/image_library.hpp"
 #include "image_files/image_files.hpp"
@@ -17,18 +18,6 @@ void writeWithImageLibrary(const std::filesystem::path& file, const Image&, doub
 }
 
 } // namespace detail
-
-struct AnimationWriter::Impl {};
-
-AnimationWriter::AnimationWriter(std::filesystem::path file, double) {
-    throw InputError(file.string(), "", imageFormatRefusal(file));
-}
-
-AnimationWriter::~AnimationWriter() = default;
-
-void AnimationWriter::add(const Image&) {}
-
-void AnimationWriter::close() {}
 
 Image readColorImage(const std::filesystem::path& file) {
     throw InputError(file.string(), "",

@@ -1,10 +1,10 @@
 #pragma once
 // The far half of a frame (DESIGN.md §6): choose each far sprite's view, make sure the
 // snapshots it needs exist (lazy, parallel over distinct snapshots), then blit them.
-#include "core/far_batch.hpp"
 #include "core/image.hpp"
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
+#include "impostor_cache/far_batch.hpp"
 #include "impostor_cache/far_blit.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
 
@@ -44,7 +44,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
                     Image& target, FarFrameStats* stats = nullptr, const FarBlitOptions& blit = {});
 
-/// The far half of a frame for a GPU far pass (core/far_batch.hpp): the same snapshots as
+/// The far half of a frame for a GPU far pass (impostor_cache/far_batch.hpp): the same snapshots as
 /// drawFarSprites (looked up or baked, in parallel over distinct snapshots) and, per visible
 /// sprite, its snapshot cell map; nothing drawn (stats->blit stays 0). No occlusion culling.
 FarBatch prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,

@@ -151,7 +151,7 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
 }
 
 std::vector<std::size_t>
-ErrorBudgetViews::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+ErrorBudgetViews::keepAffordableBakes(std::span<const SpriteSetup> sprites,
                                       const std::vector<std::optional<ViewId>>& drawnFrom,
                                       const BakeCosts& costs) {
     std::vector<std::size_t> givenUp;

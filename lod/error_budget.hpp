@@ -5,14 +5,15 @@
 // snapshots. The selector (lod/selector.hpp) decides the tier from budgetShare with its
 // hysteresis band; this picks the view, sticky while it stays within the budget, and never bakes
 // more than SelectorConfig::maxBakesPerFrame snapshots in one frame.
+#include "core/near_rate.hpp"
 #include "core/scene.hpp"
 #include "core/sprite.hpp"
 #include "core/view_set.hpp"
-#include "volumetric/near_rate.hpp"
 
 #include <cstddef>
 #include <functional>
 #include <optional>
+#include <span>
 #include <unordered_set>
 #include <vector>
 
@@ -81,7 +82,7 @@ class ErrorBudgetViews {
     /// are drawn near this frame. `drawnFrom[i]` is the view entity i is drawn far from (nullopt:
     /// near). Returns the entities given up, in ascending order (their views are dropped).
     std::vector<std::size_t>
-    keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+    keepAffordableBakes(std::span<const SpriteSetup> sprites,
                         const std::vector<std::optional<ViewId>>& drawnFrom,
                         const BakeCosts& costs);
     int viewChangesThisFrame() const { return viewChanges_; }

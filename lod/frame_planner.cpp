@@ -1,15 +1,22 @@
 #include "lod/frame_planner.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
 #include <algorithm>
 #include <cmath>
 
 namespace voxtier {
 
-std::vector<EntityPlan> FramePlanner::plan(const std::vector<SpriteSetup>& sprites,
-                                           const SelectorConfig& config,
-                                           const PlanSettings& settings, PlanStats& st) {
-    std::vector<EntityPlan> plan(sprites.size());
-    if (settings.mode == PlanMode::AllNear) return plan;
+SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites,
+                                            std::span<const std::uint32_t> visible,
+                                            const SelectorConfig& config,
+                                            const PlanSettings& settings, PlanStats& st) {
+    const std::size_t n = sprites.size();
+    std::vector<EntityPlan>& plan = plan_.writable();
+    plan.assign(n, EntityPlan{});
+    if (settings.mode == PlanMode::AllNear) return plan_.share();
     const ViewSet set = viewSetFromSize(config.viewSetSize);
     const auto& views = viewDirections(set);
     auto towardViewer = [](const SpriteSetup& s) { return -s.lattice.dir; };
@@ -19,24 +26,31 @@ std::vector<EntityPlan> FramePlanner::plan(const std::vector<SpriteSetup>& sprit
 
     // The selector sees distance, projected radius and the angle to the nearest snapshot view
     // (or, under the error budget, the best prediction over the budget).
-    std::vector<SelectorInput> inputs(sprites.size());
-    for (std::size_t i = 0; i < sprites.size(); ++i) {
-        const SpriteSetup& s = sprites[i];
-        inputs[i].distance = s.distance;
-        inputs[i].radiusPx = s.radiusPx;
-        if (!s.visible()) continue;
-        if (budget) { // the error budget's metric; the view angle serves only error_px
-            inputs[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
-            continue;
+    inputs_.resize(n);
+    nearest_.resize(n);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i)
+            inputs_[i] = {sprites[i].distance, sprites[i].radiusPx, 0.0, 0.0};
+    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, visible.size(), 1024), [&](const auto& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+            const std::uint32_t i = visible[k];
+            const SpriteSetup& s = sprites[i];
+            if (budget) { // the error budget's metric; the view angle serves only error_px
+                inputs_[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
+                continue;
+            }
+            nearest_[i] = nearestView(set, towardViewer(s));
+            const glm::dvec3 w = views[std::size_t(nearest_[i])];
+            inputs_[i].viewAngleRad =
+                std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
         }
-        const glm::dvec3 w = views[std::size_t(nearestView(set, towardViewer(s)))];
-        inputs[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
-    }
-    const SelectorStats ss = selector_.update(inputs);
-    budgetViews_.beginFrame(sprites.size(), config.maxBakesPerFrame);
+    });
+    const SelectorStats ss = selector_.update(inputs_);
+    budgetViews_.beginFrame(n, config.maxBakesPerFrame);
     st.switchesToFar = ss.switchesToFar;
     st.switchesToNear = ss.switchesToNear;
-    for (std::size_t i = 0; i < sprites.size(); ++i) {
+    const auto tierOf = [&](std::size_t i) {
         EntityPlan& p = plan[i];
         p.tier = settings.mode == PlanMode::AllFar ? Tier::Far : selector_.tier(i);
         if (hybrid) {
@@ -44,18 +58,48 @@ std::vector<EntityPlan> FramePlanner::plan(const std::vector<SpriteSetup>& sprit
             Tier from = p.tier;
             if (selector_.fading(i, &share, &from)) p.fade = share, p.fadeFrom = from;
         }
-        if (budget)
-            planBudgetView(i, sprites[i], config, settings, p);
-        else if (p.drawsFar() && sprites[i].visible())
-            p.view = viewIdOf(set, selector_.chooseView(i, towardViewer(sprites[i]), views));
-        st.fading += p.fade > 0.0f;
+    };
+    if (budget) {
+        // The budget's views share the frame's bake bound, given out in entity order.
+        for (std::size_t i = 0; i < n; ++i) {
+            tierOf(i);
+            planBudgetView(i, sprites[i], config, settings, plan[i]);
+        }
+    } else {
+        // Every entity's tier and view on its own: in parallel.
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
+            for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                tierOf(i);
+                if (plan[i].drawsFar() && sprites[i].visible())
+                    plan[i].view = viewIdOf(
+                        set, selector_.chooseView(i, towardViewer(sprites[i]), views, nearest_[i]));
+            }
+        });
     }
-    if (budget) st.bakesGivenUp = keepAffordableBakes(sprites, settings, plan);
+    for (const EntityPlan& p : plan) st.fading += p.fade > 0.0f;
+    if (budget) st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
     st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
+    st.worstVpx = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, visible.size(), 1024), 0.0,
+        [&](const auto& r, double worst) {
+            for (std::size_t k = r.begin(); k != r.end(); ++k) {
+                const std::uint32_t i = visible[k];
+                if (plan[i].drawsFar() && plan[i].view)
+                    worst = std::max(worst, predictedBudgetUnits(sprites[i], *plan[i].view));
+            }
+            return worst;
+        },
+        [](double a, double b) { return std::max(a, b); });
+    return plan_.share();
+}
+
+SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites,
+                                            const SelectorConfig& config,
+                                            const PlanSettings& settings, PlanStats& stats) {
+    std::vector<std::uint32_t> visible;
     for (std::size_t i = 0; i < sprites.size(); ++i)
-        if (plan[i].drawsFar() && plan[i].view && sprites[i].visible())
-            st.worstVpx = std::max(st.worstVpx, predictedBudgetUnits(sprites[i], *plan[i].view));
-    return plan;
+        if (sprites[i].visible()) visible.push_back(std::uint32_t(i));
+    return plan(sprites, visible, config, settings, stats);
 }
 
 void FramePlanner::planBudgetView(std::size_t entity, const SpriteSetup& sprite,
@@ -79,27 +123,29 @@ void FramePlanner::planBudgetView(std::size_t entity, const SpriteSetup& sprite,
         p.fade = share, p.fadeFrom = Tier::Far, p.fadeFromView = from;
 }
 
-int FramePlanner::keepAffordableBakes(const std::vector<SpriteSetup>& sprites,
+int FramePlanner::keepAffordableBakes(std::span<const SpriteSetup> sprites,
+                                      std::span<const std::uint32_t> visible,
                                       const PlanSettings& settings, std::vector<EntityPlan>& plan) {
     if (!settings.costAwareBakes) return 0;
     const std::size_t asked = budgetViews_.bakesAsked();
-    std::vector<std::optional<ViewId>> drawnFrom(plan.size());
-    for (std::size_t i = 0; i < plan.size(); ++i)
-        if (plan[i].drawsFar() && sprites[i].visible()) drawnFrom[i] = plan[i].view;
+    drawnFrom_.assign(plan.size(), std::nullopt);
+    for (const std::uint32_t i : visible)
+        if (plan[i].drawsFar()) drawnFrom_[i] = plan[i].view;
     const BakeCosts& costs = settings.bakeCosts ? *settings.bakeCosts : costs_.costs();
     // Given up: near this frame, as under the bake bound (the selector keeps its far state).
-    for (std::size_t i : budgetViews_.keepAffordableBakes(sprites, drawnFrom, costs))
+    for (std::size_t i : budgetViews_.keepAffordableBakes(sprites, drawnFrom_, costs))
         plan[i] = EntityPlan{};
     return int(asked - budgetViews_.bakesAsked());
 }
 
-void CostModel::observe(const std::vector<SpriteSetup>& sprites,
-                        const std::vector<EntityPlan>& plan, const FrameCostSample& sample,
-                        NearRate rate, const std::function<double()>& nearFixedMs) {
+void CostModel::observe(std::span<const SpriteSetup> sprites,
+                        std::span<const std::uint32_t> visible, std::span<const EntityPlan> plan,
+                        const FrameCostSample& sample, NearRate rate,
+                        const std::function<double()>& nearFixedMs) {
     costs_.nearRate = rate;
     double nearUnits = 0.0, farPx = 0.0;
-    for (std::size_t i = 0; i < sprites.size() && i < plan.size(); ++i) {
-        if (!sprites[i].visible()) continue;
+    for (const std::uint32_t i : visible) {
+        if (i >= sprites.size() || i >= plan.size()) continue;
         if (plan[i].drawsNear()) nearUnits += nearCostUnits(sprites[i], rate);
         if (plan[i].drawsFar()) farPx += double(rectPixels(sprites[i]));
     }

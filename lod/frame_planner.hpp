@@ -4,16 +4,18 @@
 // budget's cost bound reads. lod/ plans, compose/ draws: FrameRenderer hands the planner the
 // frame's sprites and what the snapshot cache holds, draws the plan, and hands back what the
 // drawing measured (FramePlanner::observe).
+#include "core/near_rate.hpp"
 #include "core/scene.hpp"
+#include "core/shared_vector.hpp"
 #include "core/sprite.hpp"
 #include "core/view_set.hpp"
 #include "lod/error_budget.hpp"
 #include "lod/selector.hpp"
-#include "volumetric/near_rate.hpp"
 
 #include <cstddef>
 #include <functional>
 #include <optional>
+#include <span>
 #include <vector>
 
 namespace voxtier {
@@ -82,8 +84,8 @@ class CostModel {
     /// Learns from a drawn frame: `sprites` drawn as `plan` says, near sprites at `rate`.
     /// `nearFixedMs` measures the near tier's per-frame cost whatever it draws (compose draws an
     /// empty frame); it is asked only when a planned frame drew near sprites.
-    void observe(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
-                 const FrameCostSample& sample, NearRate rate,
+    void observe(std::span<const SpriteSetup> sprites, std::span<const std::uint32_t> visible,
+                 std::span<const EntityPlan> plan, const FrameCostSample& sample, NearRate rate,
                  const std::function<double()>& nearFixedMs);
 
   private:
@@ -102,15 +104,23 @@ class FramePlanner {
   public:
     explicit FramePlanner(const SelectorConfig& config) : selector_(config) {}
 
-    /// Each entity's plan this frame, by `config` (the scene's selector settings).
-    std::vector<EntityPlan> plan(const std::vector<SpriteSetup>& sprites,
-                                 const SelectorConfig& config, const PlanSettings& settings,
-                                 PlanStats& stats);
+    /// Each entity's plan this frame, by `config` (the scene's selector settings). `sprites` is
+    /// indexed by entity id, `visible` lists the visible ones in ascending id. The per-entity
+    /// steps run in parallel, into arrays the planner keeps: a frame allocates nothing once the
+    /// entity count is known. The result stays as it is when later frames are planned.
+    SharedVector<EntityPlan> plan(std::span<const SpriteSetup> sprites,
+                                  std::span<const std::uint32_t> visible,
+                                  const SelectorConfig& config, const PlanSettings& settings,
+                                  PlanStats& stats);
+    /// The same, for sprites without a list of the visible ones (found here).
+    SharedVector<EntityPlan> plan(std::span<const SpriteSetup> sprites,
+                                  const SelectorConfig& config, const PlanSettings& settings,
+                                  PlanStats& stats);
     /// After drawing the plan: what it cost (CostModel::observe).
-    void observe(const std::vector<SpriteSetup>& sprites, const std::vector<EntityPlan>& plan,
-                 const FrameCostSample& sample, NearRate rate,
+    void observe(std::span<const SpriteSetup> sprites, std::span<const std::uint32_t> visible,
+                 std::span<const EntityPlan> plan, const FrameCostSample& sample, NearRate rate,
                  const std::function<double()>& nearFixedMs) {
-        costs_.observe(sprites, plan, sample, rate, nearFixedMs);
+        costs_.observe(sprites, visible, plan, sample, rate, nearFixedMs);
     }
 
     TierSelector& selector() { return selector_; }
@@ -122,12 +132,19 @@ class FramePlanner {
                         const PlanSettings& settings, EntityPlan& plan);
     /// Metric error_budget, after every entity's view: the bakes the frame can afford.
     /// Returns the bakes given up.
-    int keepAffordableBakes(const std::vector<SpriteSetup>& sprites, const PlanSettings& settings,
+    int keepAffordableBakes(std::span<const SpriteSetup> sprites,
+                            std::span<const std::uint32_t> visible, const PlanSettings& settings,
                             std::vector<EntityPlan>& plan);
 
     TierSelector selector_;
     ErrorBudgetViews budgetViews_; ///< far views under metric error_budget
     CostModel costs_;
+    // Per entity, kept between frames (resized only when the entity count changes): the plan,
+    // the selector's inputs and each visible entity's nearest view.
+    SharedVectorOwner<EntityPlan> plan_;
+    std::vector<SelectorInput> inputs_;
+    std::vector<int> nearest_;
+    std::vector<std::optional<ViewId>> drawnFrom_;
 };
 
 } // namespace voxtier

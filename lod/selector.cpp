@@ -2,6 +2,9 @@
 
 #include "core/sprite_kernel.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
 #include <algorithm>
 #include <cassert>
 #include <cmath>
@@ -42,40 +45,50 @@ bool TierSelector::pastNear(double m) const {
 }
 
 SelectorStats TierSelector::update(std::span<const SelectorInput> inputs) {
-    SelectorStats st;
-    viewChangesThisFrame_ = 0;
-    if (!initialised_) {
-        state_.assign(inputs.size(), State{});
-        for (std::size_t i = 0; i < inputs.size(); ++i)
-            state_[i].tier =
-                pastFar(selectorMetric(config_.metric, inputs[i])) ? Tier::Far : Tier::Near;
-        initialised_ = true;
-    } else {
-        assert(inputs.size() == state_.size() && "entity count changed: call reset()");
-        for (std::size_t i = 0; i < inputs.size(); ++i) {
-            State& s = state_[i];
-            if (s.fadeLeft > 0) --s.fadeLeft;
-            const double m = selectorMetric(config_.metric, inputs[i]);
-            const Tier before = s.tier;
-            if (s.tier == Tier::Near && pastFar(m)) {
-                s.tier = Tier::Far;
-                ++st.switchesToFar;
-            } else if (s.tier == Tier::Far && pastNear(m)) {
-                s.tier = Tier::Near;
-                s.view = -1; // a later return to far starts from the nearest view again
-                ++st.switchesToNear;
+    viewChangesThisFrame_.store(0, std::memory_order_relaxed);
+    const bool first = !initialised_;
+    if (first) state_.assign(inputs.size(), State{});
+    assert(inputs.size() == state_.size() && "entity count changed: call reset()");
+    initialised_ = true;
+    // Each entity's state moves on its own; only the counts are shared, summed per chunk.
+    return tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, inputs.size(), 4096), SelectorStats{},
+        [&](const tbb::blocked_range<std::size_t>& range, SelectorStats st) {
+            for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                State& s = state_[i];
+                const double m = selectorMetric(config_.metric, inputs[i]);
+                if (first) {
+                    // The first frame assigns tiers without counting switches.
+                    s.tier = pastFar(m) ? Tier::Far : Tier::Near;
+                } else {
+                    if (s.fadeLeft > 0) --s.fadeLeft;
+                    const Tier before = s.tier;
+                    if (s.tier == Tier::Near && pastFar(m)) {
+                        s.tier = Tier::Far;
+                        ++st.switchesToFar;
+                    } else if (s.tier == Tier::Far && pastNear(m)) {
+                        s.tier = Tier::Near;
+                        s.view = -1; // a later return to far starts from the nearest view again
+                        ++st.switchesToNear;
+                    }
+                    if (s.tier != before && config_.crossfadeFrames > 0) {
+                        s.fadeFrom = before;
+                        s.fadeLeft = config_.crossfadeFrames;
+                    }
+                }
+                (s.tier == Tier::Near ? st.nearCount : st.farCount)++;
+                st.fading += s.fadeLeft > 0;
             }
-            if (s.tier != before && config_.crossfadeFrames > 0) {
-                s.fadeFrom = before;
-                s.fadeLeft = config_.crossfadeFrames;
-            }
-        }
-    }
-    for (const State& s : state_) {
-        (s.tier == Tier::Near ? st.nearCount : st.farCount)++;
-        st.fading += s.fadeLeft > 0;
-    }
-    return st;
+            return st;
+        },
+        [](SelectorStats a, const SelectorStats& b) {
+            a.nearCount += b.nearCount;
+            a.farCount += b.farCount;
+            a.switchesToFar += b.switchesToFar;
+            a.switchesToNear += b.switchesToNear;
+            a.fading += b.fading;
+            return a;
+        });
 }
 
 bool TierSelector::fading(std::size_t entity, float* fraction, Tier* from) const {
@@ -97,6 +110,11 @@ int TierSelector::chooseView(std::size_t entity, glm::dvec3 towardViewer,
         const double d = glm::dot(views[v], towardViewer);
         if (d > bestDot) bestDot = d, best = int(v);
     }
+    return chooseView(entity, towardViewer, views, best);
+}
+
+int TierSelector::chooseView(std::size_t entity, glm::dvec3 towardViewer,
+                             std::span<const glm::dvec3> views, int best) {
     if (entity >= state_.size()) return best;
     State& s = state_[entity];
     if (s.view >= 0 && s.view < int(views.size()) && s.view != best &&
@@ -108,7 +126,8 @@ int TierSelector::chooseView(std::size_t entity, glm::dvec3 towardViewer,
         };
         if (angle(s.view) - angle(best) <= glm::radians(config_.viewHysteresisDeg)) return s.view;
     }
-    if (s.view >= 0 && s.view != best) ++viewChangesThisFrame_;
+    if (s.view >= 0 && s.view != best)
+        viewChangesThisFrame_.fetch_add(1, std::memory_order_relaxed);
     s.view = best;
     return best;
 }

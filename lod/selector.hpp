@@ -7,6 +7,7 @@
 
 #include <glm/glm.hpp>
 
+#include <atomic>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -51,7 +52,7 @@ class TierSelector {
 
     const SelectorConfig& config() const { return config_; }
     /// Advances one frame. `inputs[i]` describes entity i; the entity count may not change
-    /// between frames except through reset().
+    /// between frames except through reset(). Parallel over the entities.
     SelectorStats update(std::span<const SelectorInput> inputs);
     void reset();
 
@@ -66,9 +67,16 @@ class TierSelector {
     /// Far view choice with angular hysteresis: the view maximising w.towardViewer, except
     /// that the entity keeps its current view until another one is closer by more than
     /// config.viewHysteresisDeg. Ties go to the lowest view index. Counts view changes.
+    /// Entities may choose their views concurrently (each touches its own state).
     int chooseView(std::size_t entity, glm::dvec3 towardViewer, std::span<const glm::dvec3> views);
+    /// The same, where `nearest` is already known to be the view maximising w.towardViewer
+    /// (ties to the lowest index, as nearestView finds it).
+    int chooseView(std::size_t entity, glm::dvec3 towardViewer, std::span<const glm::dvec3> views,
+                   int nearest);
     /// View changes counted by chooseView since the last update().
-    int viewChangesThisFrame() const { return viewChangesThisFrame_; }
+    int viewChangesThisFrame() const {
+        return viewChangesThisFrame_.load(std::memory_order_relaxed);
+    }
 
   private:
     struct State {
@@ -83,7 +91,7 @@ class TierSelector {
     SelectorConfig config_;
     std::vector<State> state_;
     bool initialised_ = false;
-    int viewChangesThisFrame_ = 0;
+    std::atomic<int> viewChangesThisFrame_{0};
 };
 
 /// Ordered-dither threshold in (0, 1) for pixel (x, y) (4x4 Bayer matrix; the kernel's

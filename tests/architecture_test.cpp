@@ -21,8 +21,8 @@ const std::map<std::string, std::set<std::string>> kAllowed = {
     {"core", {"core"}},
     {"device", {"core", "device"}},
     {"volumetric", {"core", "device", "volumetric"}},
-    {"impostor_cache", {"core", "impostor_cache"}},
-    {"lod", {"core", "volumetric", "lod"}},
+    {"impostor_cache", {"core", "device", "impostor_cache"}},
+    {"lod", {"core", "lod"}},
     {"compose", {"core", "device", "volumetric", "impostor_cache", "lod", "compose"}},
     {"image_files", {"core", "image_files"}},
     {"apps",
@@ -91,6 +91,40 @@ TEST(Architecture, ThirdPartyLibrariesStayInTheirModules) {
             EXPECT_EQ(file.filename().string(), "oiio_files.cpp") << file.string();
         }
     }
+}
+
+// Tier x backend in the folders (issue 36): volumetric/ is the near tier, impostor_cache/ the far
+// tier with its own GPU pass; the device module knows neither tier; lod/ links core alone.
+TEST(Architecture, NoFarTierSourceUnderVolumetric) {
+    const std::vector<fs::path> files = sourcesOf("volumetric");
+    ASSERT_FALSE(files.empty());
+    for (const fs::path& file : files) {
+        const std::string name = file.filename().string();
+        EXPECT_EQ(name.find("far"), std::string::npos) << file.string() << " is the far tier's";
+    }
+}
+
+TEST(Architecture, DeviceIncludesNeitherTier) {
+    const std::regex include(R"re(#\s*include\s*"(volumetric|impostor_cache|lod|compose)/)re");
+    const std::vector<fs::path> files = sourcesOf("device");
+    ASSERT_FALSE(files.empty());
+    for (const fs::path& file : files) {
+        std::ifstream in(file);
+        const std::string text((std::istreambuf_iterator<char>(in)), {});
+        EXPECT_FALSE(std::regex_search(text, include)) << file.string() << " includes a tier";
+    }
+}
+
+TEST(Architecture, LodLinksCoreAlone) {
+    std::ifstream in(fs::path(VOXTIER_SOURCE_DIR) / "lod" / "CMakeLists.txt");
+    const std::string text((std::istreambuf_iterator<char>(in)), {});
+    std::smatch m;
+    ASSERT_TRUE(std::regex_search(text, m, std::regex(R"re(voxtier_module\(lod([^)]*)\))re")));
+    const std::string args = m[1];
+    std::smatch deps;
+    ASSERT_TRUE(std::regex_search(args, deps, std::regex(R"re(PUBLIC_DEPS\s+([^\n]*))re")));
+    EXPECT_EQ(std::string(deps[1]), "voxtier_core") << "lod/ links " << deps[1];
+    EXPECT_EQ(args.find("PRIVATE_DEPS"), std::string::npos) << "lod/ links privately: " << args;
 }
 
 /// A source file's text with its comments blanked out (a comment may name anything).

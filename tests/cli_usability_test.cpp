@@ -1,7 +1,10 @@
-// What a new user trips over on the command line (issue 27), end to end through the binary:
-// a .vox preview is exact, an approximate far sprite is said once, --time is range-checked like
-// --frame, --alpha is refused where the format cannot hold it, an unknown option gets a "did
-// you mean", GIF delays keep the path's frame rate, and a path render ends with its wall time.
+// What a new user trips over on the command line (issues 27 and 38), end to end through the
+// binary: a .vox preview is exact, an approximate far sprite is said once, --time is range-checked
+// like --frame, --alpha is refused where the format cannot hold it, an unknown option gets a "did
+// you mean", GIF delays keep the path's frame rate, and a path render ends with its wall time;
+// the status line gives a frame's time and its writing apart and counts an edit's refreshes, an
+// empty image says why, `info` on a scene says what it is, a missing model names the folder it
+// was looked for in, the id image has a key, and the pops summary says what the --pops CSV holds.
 #include "cli_support.hpp"
 #include "image_files/image_files.hpp"
 
@@ -9,8 +12,14 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -207,7 +216,7 @@ TEST(CliUsability, BakeEstimatesWhatItWrites) {
     const auto at = r.out.find("estimate: ");
     ASSERT_NE(at, std::string::npos) << r.out;
     ASSERT_EQ(std::sscanf(r.out.c_str() + at,
-                          "estimate: %llu snapshots in %llu pack file, %lf MB, %lf MB on disk "
+                          "estimate: %llu snapshots in %llu pack file, %lf MiB, %lf MiB on disk "
                           "(%llu-byte",
                           &snapshots, &files, &mb, &diskMb, &block),
               5)
@@ -224,8 +233,10 @@ TEST(CliUsability, BakeEstimatesWhatItWrites) {
     EXPECT_EQ(snapshots, 98u);
     EXPECT_EQ(files, 1u); // one model frame, one pack
     EXPECT_EQ(count, files);
-    EXPECT_NEAR(mb * 1e6, double(bytes), 0.005e6 + 0.001 * double(bytes));
-    EXPECT_NEAR(diskMb * 1e6, double(disk), 0.05 * double(disk)) << "block " << block;
+    const double mib = double(1 << 20);
+    EXPECT_NEAR(mb * mib, double(bytes), 0.005 * mib + 0.001 * double(bytes));
+    // Within 5 %, past the printed figure's rounding to 0.01 MiB.
+    EXPECT_NEAR(diskMb * mib, double(disk), 0.005 * mib + 0.05 * double(disk)) << "block " << block;
 }
 
 // A bake estimated over 256 MiB on disk is refused before it writes anything, with one line
@@ -238,6 +249,298 @@ TEST(CliUsability, AHugeBakeIsRefusedWithoutYes) {
                       dir.string(),
                   1, "add --yes to go ahead");
     EXPECT_FALSE(fs::exists(dir) && !fs::is_empty(dir)) << "nothing written";
+}
+
+/// The rows of a CSV file (no quoted fields), the header first.
+std::vector<std::vector<std::string>> readCsv(const fs::path& file) {
+    std::ifstream in(file);
+    std::vector<std::vector<std::string>> rows;
+    std::string line;
+    while (std::getline(in, line)) {
+        std::vector<std::string> cells;
+        std::stringstream ss(line);
+        std::string cell;
+        while (std::getline(ss, cell, ',')) cells.push_back(cell);
+        rows.push_back(cells);
+    }
+    return rows;
+}
+
+/// The index of column `name` in a CSV's header.
+std::size_t column(const std::vector<std::vector<std::string>>& csv, const std::string& name) {
+    const auto& h = csv.at(0);
+    const auto it = std::find(h.begin(), h.end(), name);
+    EXPECT_NE(it, h.end()) << name;
+    return std::size_t(it - h.begin());
+}
+
+/// The lines of `text` that contain `part`.
+std::vector<std::string> linesWith(const std::string& text, const std::string& part) {
+    std::vector<std::string> out;
+    std::stringstream ss(text);
+    std::string line;
+    while (std::getline(ss, line))
+        if (line.find(part) != std::string::npos) out.push_back(line);
+    return out;
+}
+
+// The status line gives the frame's own time (the --csv frame_ms) and the time its files took,
+// apart: writing a PNG took several times the frame before issue 38, inside one figure.
+TEST(CliUsability, StatusLineGivesFrameAndWritingTimesApart) {
+    const std::string scene = pathScene(10);
+    const fs::path d = scratch();
+    const test::CliRun r =
+        test::runCli("render " + scene + " --mode reference --frames 0:2 -o " +
+                     (d / "f.png").string() + " --csv " + (d / "c.csv").string());
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto csv = readCsv(d / "c.csv");
+    ASSERT_EQ(csv.size(), 4u);
+    const std::vector<std::string> lines = linesWith(r.out, ": reference, frame ");
+    ASSERT_EQ(lines.size(), 3u) << r.out;
+    const std::regex times(R"(, frame ([0-9.]+) ms, writing ([0-9.]+) ms -> )");
+    for (std::size_t k = 0; k < lines.size(); ++k) {
+        std::smatch m;
+        ASSERT_TRUE(std::regex_search(lines[k], m, times)) << lines[k];
+        const double frameMs = std::stod(m[1]),
+                     csvMs = std::stod(csv[k + 1][column(csv, "frame_ms")]);
+        EXPECT_NEAR(frameMs, csvMs, 0.05 + 1e-9) << lines[k];
+        EXPECT_NE(lines[k].find("-> " + (d / ("f_000" + std::to_string(k) + ".png")).string()),
+                  std::string::npos)
+            << lines[k];
+    }
+}
+
+// A scripted edit makes the far snapshot of the model it changes stale: the frame that refreshes
+// it says so on its status line, and only that frame.
+TEST(CliUsability, StatusLineSaysWhenAnEditRefreshedSnapshots) {
+    const std::string scene = test::writeText(scratch(), "edit.json", R"({
+        "camera": {"position": [0, 1, 4], "target": [0, 0.5, 0], "size": [48, 32]},
+        "models": [{"name": "b", "generator": "box"}], "entities": [{"model": "b"}],
+        "edits": [{"frame": 2, "model": "b", "op": "clear", "min": [0, 0, 6], "max": [8, 8, 8]}]})");
+    const test::CliRun r = test::runCli("render " + scene + " --mode far --frames 0:3 -o " +
+                                        (scratch() / "e.png").string());
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::vector<std::string> lines = linesWith(r.out, ": far, frame ");
+    ASSERT_EQ(lines.size(), 4u) << r.out;
+    for (std::size_t k = 0; k < lines.size(); ++k) {
+        // One entity seen from a still camera: one snapshot, baked at frame 0, refreshed at 2.
+        const char* bakes = k == 0   ? ", 1 bake, "
+                            : k == 2 ? ", 1 bake (1 after an edit made a snapshot stale), "
+                                     : ", 0 bakes, ";
+        EXPECT_NE(lines[k].find(bakes), std::string::npos) << lines[k];
+    }
+}
+
+// An image with no entity in it says why in one line: each entity behind the camera, off screen
+// or under half a pixel.
+TEST(CliUsability, AnEmptyImageSaysWhyNothingDrew) {
+    const std::string scene = test::writeText(scratch(), "empty.json", R"({
+        "camera": {"position": [0, 1, 0], "target": [0, 1, -10], "size": [48, 32]},
+        "models": [{"name": "b", "generator": "box"}],
+        "entities": [{"model": "b", "position": [0, 0, 5]}, {"model": "b", "position": [40, 0, -5]},
+                     {"model": "b", "position": [0, 0, -900]}]})");
+    const test::CliRun r =
+        test::runCli("render " + scene + " --mode reference -o " + (scratch() / "e.png").string());
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    EXPECT_NE(
+        r.err.find("voxtier: warning: the image shows no entity (of 3 entities: 1 behind the "
+                   "camera, 1 off screen, 1 sub-pixel (under half a pixel across)); check the "
+                   "camera's position and target"),
+        std::string::npos)
+        << r.err;
+    // A path: how many frames, and the first one's reasons.
+    const std::string path = test::writeText(scratch(), "path.json", R"({
+        "camera": {"size": [48, 32]},
+        "camera_path": {"fps": 10, "keys": [
+            {"time": 0, "position": [0, 1, 4], "target": [0, 0.5, -10]},
+            {"time": 0.5, "position": [0, 1, -4], "target": [0, 0.5, -10]}]},
+        "models": [{"name": "b", "generator": "box"}], "entities": [{"model": "b"}]})");
+    const test::CliRun p = test::runCli("render " + path + " --mode reference --path -o " +
+                                        (scratch() / "p.png").string());
+    ASSERT_EQ(p.status, 0) << p.err;
+    EXPECT_EQ(test::lineCount(p.err), 1u) << p.err;
+    // The camera passes the box at frame 3 (z = -0.8 m) and looks away from it from then on.
+    EXPECT_NE(p.err.find("voxtier: warning: 3 of 6 frames show no entity (the first, frame 3, of "
+                         "1 entity: 1 behind the camera); check"),
+              std::string::npos)
+        << p.err;
+    // Where every frame shows an entity, nothing is said.
+    const test::CliRun ok = test::runCli("render " + pathScene(10) + " --mode reference -o " +
+                                         (scratch() / "ok.png").string());
+    EXPECT_EQ(ok.err, "");
+}
+
+// `info` describes .vox files; given a scene, it says what the file is and what reads it, not
+// what its first bytes are not.
+TEST(CliUsability, InfoOnASceneSaysItIsAScene) {
+    const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/default.json";
+    expectOneLine("info " + scene, 1,
+                  scene +
+                      ": is a scene file (JSON), not a MagicaVoxel .vox file: `voxtier "
+                      "render " +
+                      scene + "` draws it");
+    const test::CliRun r = test::runCli("info " + scene);
+    EXPECT_EQ(r.err.find("magic"), std::string::npos) << r.err;
+}
+
+// A scene named without a folder resolves its models against the current folder, and the message
+// says which folder that is (it named '' before).
+TEST(CliUsability, AMissingModelNamesTheFolderItWasLookedFor) {
+    const fs::path d = fs::canonical(scratch());
+    test::writeText(d, "m.json", R"({"models": [{"name": "v", "vox": "nope/missing.vox"}]})");
+    const test::CliRun r = test::runCli("render m.json", "cd '" + d.string() + "' &&");
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    EXPECT_NE(r.err.find("file not found: 'nope/missing.vox' ('nope/missing.vox' is resolved "
+                         "against the scene file's folder, the current folder '" +
+                         d.string() + "')"),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(r.err.find("''"), std::string::npos) << r.err;
+}
+
+// The id image's key names the entity of every colour in it: checked against the EXR's id
+// channel of the same frame, pixel by pixel.
+TEST(CliUsability, IdImageHasAKeyFromColourToEntity) {
+    const fs::path d = scratch();
+    const std::string scene = test::writeText(d, "ids.json", R"({
+        "camera": {"position": [0, 2, 6], "target": [0, 0.5, 0], "size": [96, 64]},
+        "models": [{"name": "b", "generator": "box"}, {"name": "s", "generator": "sphere"}],
+        "entities": [{"model": "b", "position": [-1.5, 0, 0], "name": "left, crate"},
+                     {"model": "s", "position": [0, 0, 0]},
+                     {"model": "b", "position": [1.5, 0, 0], "name": "right"},
+                     {"model": "b", "position": [0, 0, 50]}]})");
+    const test::CliRun r =
+        test::runCli("render " + scene + " --mode reference -o " + (d / "f.exr").string() +
+                     " --ids " + (d / "ids.png").string());
+    ASSERT_EQ(r.status, 0) << r.err;
+    // The key: entity, name, model, r, g, b (a name with a comma is quoted).
+    std::ifstream in(d / "ids_key.csv");
+    std::string line;
+    std::getline(in, line);
+    EXPECT_EQ(line, "entity,name,model,r,g,b");
+    std::map<Rgba8, int> entityOf;
+    std::vector<std::string> rows;
+    while (std::getline(in, line)) {
+        rows.push_back(line);
+        const auto tail = line.rfind(',', line.rfind(',', line.rfind(',') - 1) - 1);
+        unsigned rgb[3];
+        ASSERT_EQ(std::sscanf(line.c_str() + tail, ",%u,%u,%u", &rgb[0], &rgb[1], &rgb[2]), 3);
+        ASSERT_TRUE(entityOf.emplace(packRgba(rgb[0], rgb[1], rgb[2]), std::stoi(line)).second)
+            << "two entities share a colour: " << line;
+    }
+    ASSERT_EQ(rows.size(), 3u) << "entities 0-2, not the one behind the camera";
+    EXPECT_EQ(rows[0].rfind("0,\"left, crate\",b,", 0), 0u) << rows[0];
+    EXPECT_EQ(rows[1].rfind("1,,s,", 0), 0u) << rows[1];
+    EXPECT_EQ(rows[2].rfind("2,right,b,", 0), 0u) << rows[2];
+    const Image ids = readColorImage(d / "ids.png");
+    auto exr = OIIO::ImageInput::open((d / "f.exr").string());
+    ASSERT_TRUE(exr) << OIIO::geterror();
+    const OIIO::ImageSpec& spec = exr->spec();
+    const int idChannel = spec.channelindex("id");
+    ASSERT_GE(idChannel, 0);
+    std::vector<float> id(std::size_t(spec.width * spec.height));
+    ASSERT_TRUE(exr->read_image(0, 0, idChannel, idChannel + 1, OIIO::TypeDesc::FLOAT, id.data()));
+    ASSERT_EQ(ids.pixelCount(), id.size());
+    std::size_t drawn = 0;
+    for (std::size_t p = 0; p < id.size(); ++p) {
+        const Rgba8 c = ids.color[p] | 0xFF000000u;
+        if (id[p] < 0) {
+            ASSERT_EQ(c, packRgba(0, 0, 0)) << p;
+            continue;
+        }
+        ++drawn;
+        const auto it = entityOf.find(c);
+        ASSERT_NE(it, entityOf.end()) << "pixel " << p << " has a colour the key lacks";
+        ASSERT_EQ(it->second, int(id[p])) << p;
+    }
+    EXPECT_GT(drawn, 100u);
+    // A format that does not keep the colours exactly would break the key: refused.
+    for (const char* ext : {".gif", ".jpg"})
+        expectOneLine("render " + scene + " --ids " + (d / "ids").string() + ext, 2,
+                      std::string("--ids: a ") + ext +
+                          " file does not keep every entity's colour (GIF holds 256, JPEG is "
+                          "lossy)");
+}
+
+// The pops summary line says what the --pops CSV holds: the switches by kind, how many changed
+// what is seen, the worst seen change, and how many exceed --pop-threshold.
+TEST(CliUsability, PopsSummaryAgreesWithThePopsCsv) {
+    const fs::path d = scratch();
+    const std::string scene = test::writeText(d, "pops.json", R"({
+        "camera": {"size": [96, 64], "fov_y": 50},
+        "camera_path": {"fps": 10, "keys": [
+            {"time": 0, "position": [0, 1, 2], "target": [0, 0.5, -20]},
+            {"time": 3, "position": [0, 1, 30], "target": [0, 0.5, -20]}]},
+        "selector": {"near_at": 14, "far_at": 16},
+        "models": [{"name": "w", "generator": "box", "size": [40, 4, 30]},
+                   {"name": "a", "generator": "arrow"}],
+        "entities": [{"model": "w", "position": [0, 0, -6], "rotation_deg": [0, 17, 0]},
+                     {"model": "a", "position": [0, 0, -9], "rotation_deg": [0, 40, 0]},
+                     {"model": "a", "position": [5, 0, -9], "rotation_deg": [0, 20, 0]}]})");
+    const test::CliRun r =
+        test::runCli("render " + scene + " --path -o " + (d / "f.pam").string() + " --pops " +
+                     (d / "pops.csv").string() + " --pop-threshold 20");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto csv = readCsv(d / "pops.csv");
+    ASSERT_GT(csv.size(), 2u);
+    std::size_t tier = 0, view = 0, fade = 0, seen = 0, over = 0, worst = 0;
+    for (std::size_t k = 1; k < csv.size(); ++k) {
+        const std::string kind = csv[k][column(csv, "kind")];
+        tier += kind == "tier", view += kind == "view", fade += kind == "fade";
+        const std::size_t px = std::stoul(csv[k][column(csv, "seen_changed_pixels")]);
+        seen += px > 0;
+        over += px > 20;
+        worst = std::max(worst, px);
+    }
+    const std::vector<std::string> summary = linesWith(r.out, "pops: ");
+    ASSERT_EQ(summary.size(), 1u) << r.out;
+    char expect[256];
+    std::snprintf(expect, sizeof expect,
+                  "pops: %zu switches in 31 frames (%zu tier, %zu view, %zu cross-fade steps), "
+                  "%zu changed what is seen; worst seen: %zu px changed (entity ",
+                  csv.size() - 1, tier, view, fade, seen, worst);
+    EXPECT_EQ(summary[0].rfind(expect, 0), 0u) << summary[0] << "\nexpected: " << expect;
+    EXPECT_NE(summary[0].find("; " + std::to_string(over) + " over 20 px seen (--pop-threshold)"),
+              std::string::npos)
+        << summary[0];
+    // The threshold alone measures pops and prints the summary, without a CSV.
+    const test::CliRun alone = test::runCli("render " + scene + " --path -o " +
+                                            (d / "g.pam").string() + " --pop-threshold 20");
+    ASSERT_EQ(alone.status, 0) << alone.err;
+    EXPECT_EQ(linesWith(alone.out, "pops: "), summary);
+}
+
+// A GIF whose frames have more colours than 256 says so in one line and names a lossless format;
+// one within 256 says nothing (CliUsability.GifDelaysKeepThePathFrameRate).
+TEST(CliUsability, AGifThatCannotBeExactSaysSo) {
+    std::string entities;
+    for (int i = 0; i < 120; ++i) // 120 colours, each box showing two or three lit faces
+        entities += std::string(i ? "," : "") + R"({"model": "m)" + std::to_string(i) +
+                    R"(", "position": [)" + std::to_string((i % 12) - 6) + ", " +
+                    std::to_string(i / 12) + ", 0]}";
+    std::string models;
+    for (int i = 0; i < 120; ++i)
+        models += std::string(i ? "," : "") + R"({"name": "m)" + std::to_string(i) +
+                  R"(", "generator": "box", "color": [)" + std::to_string(2 * i) + ", " +
+                  std::to_string(255 - 2 * i) + ", " + std::to_string((37 * i) % 256) + "]}";
+    const std::string scene = test::writeText(
+        scratch(), "colours.json",
+        R"({"camera": {"position": [4, 8, 14], "target": [0, 4, 0], "size": [160, 120]},
+            "models": [)" +
+            models + R"(], "entities": [)" + entities + "]}");
+    const std::string gif = (scratch() / "c.gif").string();
+    const test::CliRun r = test::runCli("render " + scene + " --mode reference -o " + gif);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    EXPECT_EQ(r.err.rfind("voxtier: warning: " + gif +
+                              ": the image has more colours than GIF's 256 a frame (up to ",
+                          0),
+              0u)
+        << r.err;
+    EXPECT_NE(r.err.find("write .png (a sequence: numbered PNGs) or .pam"), std::string::npos)
+        << r.err;
 }
 
 } // namespace

@@ -533,8 +533,9 @@ std::map<std::string, std::vector<std::uint8_t>> directoryContents(const fs::pat
 
 TEST(BakeCli, PreBakedSceneRendersWithZeroBakesAndTheSameImage) {
     const fs::path dir = freshDir();
+    // What the scene's renders at that size ask for (tests/path_bake_test.cpp has the path).
     const test::CliRun bake =
-        test::runCli("bake " + kDefaultScene + " --frames all --cache-dir " + quoted(dir));
+        test::runCli("bake " + kDefaultScene + " --size 240x136 --cache-dir " + quoted(dir));
     ASSERT_EQ(bake.status, 0) << bake.err;
     EXPECT_NE(bake.out.find("(0 already in the directory)"), std::string::npos) << bake.out;
     EXPECT_NE(bake.out.find("Mrays/s"), std::string::npos) << bake.out;
@@ -550,7 +551,7 @@ TEST(BakeCli, PreBakedSceneRendersWithZeroBakesAndTheSameImage) {
     EXPECT_EQ(readBytes(dir.string() + "_cold.png"), readBytes(dir.string() + "_warm.png"));
     // A second bake finds everything there and writes nothing.
     const test::CliRun again =
-        test::runCli("bake " + kDefaultScene + " --frames all --cache-dir " + quoted(dir));
+        test::runCli("bake " + kDefaultScene + " --size 240x136 --cache-dir " + quoted(dir));
     EXPECT_NE(again.out.find("baked 0 of"), std::string::npos) << again.out;
 }
 
@@ -566,7 +567,7 @@ TEST(BakeCli, PreBakesTheFinerSnapshotsASceneAsksFor) {
     std::ofstream(file) << scene.dump();
     const fs::path cache = dir / "cache";
     const test::CliRun bake =
-        test::runCli("bake " + quoted(file) + " --cache-dir " + quoted(cache));
+        test::runCli("bake " + quoted(file) + " --mode far --cache-dir " + quoted(cache));
     ASSERT_EQ(bake.status, 0) << bake.err;
     EXPECT_NE(bake.out.find("at sigma 3"), std::string::npos) << bake.out;
     const test::CliRun warm =
@@ -577,8 +578,8 @@ TEST(BakeCli, PreBakesTheFinerSnapshotsASceneAsksFor) {
 }
 
 TEST(BakeCli, ShardsTogetherAreTheUnshardedBakeFileForFile) {
-    const std::string inputs =
-        kDefaultScene + " '" + VOXTIER_SOURCE_DIR + "/scenes/vox/mmmm/chr_cop1.vox' --frames all";
+    const std::string inputs = kDefaultScene + " '" + VOXTIER_SOURCE_DIR +
+                               "/scenes/vox/mmmm/chr_cop1.vox' --ladder --frames all";
     const fs::path whole = freshDir("_whole");
     ASSERT_EQ(test::runCli("bake " + inputs + " --cache-dir " + quoted(whole)).status, 0);
     const auto expected = directoryContents(whole);

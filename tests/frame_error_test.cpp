@@ -96,7 +96,7 @@ TEST(FrameError, AloneErrorOfAFarEntityIgnoresWhatStandsInFrontOfIt) {
     const CameraFrame cam = makeCameraFrame(s.camera);
     const FrameResult truth = r.render(0.0, RenderMode::Reference);
     const FrameResult far = r.render(0.0, RenderMode::Far);
-    std::vector<EntityPlan> arrowFar = far.plan;
+    std::vector<EntityPlan> arrowFar = far.plan.copy();
     arrowFar[1].tier = Tier::Near; // the tank near, the arrow far
     arrowFar[1].view.reset();
     const Image mixed = r.draw(cam, far.sprites, arrowFar);

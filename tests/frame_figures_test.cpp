@@ -28,8 +28,8 @@ TEST(FrameFigures, NamesAreUniqueAndLookUpByMember) {
 }
 
 TEST(FrameFigures, WordsDropTheMillisecondUnitOnly) {
-    EXPECT_EQ(kFrameFigures[frameFigureIndex(&FrameStats::nearReadbackMs)].words(),
-              "near readback");
+    EXPECT_EQ(kFrameFigures[frameFigureIndex(&FrameStats::hostReadbackMs)].words(),
+              "host readback");
     EXPECT_EQ(kFrameFigures[frameFigureIndex(&FrameStats::bakeMs)].words(), "far lookup bake");
     EXPECT_EQ(kFrameFigures[frameFigureIndex(&FrameStats::cacheBytes)].words(), "cache bytes");
 }
@@ -73,7 +73,7 @@ TEST(FrameFigures, PathFiguresAverageTimesAndCountsAndKeepTheWorstMemory) {
 TEST(FrameFigures, CsvRowHasOneFieldPerHeaderNameWithIntegersExact) {
     FrameStats s;
     s.entities = 12;
-    s.setupMs = 1.23456;
+    s.hostSetupMs = 1.23456;
     s.farCellsRetraced = 123456789012ull;
     const std::string header = figureCsvHeader(), row = figureCsvRow(s);
     EXPECT_EQ(std::count(header.begin(), header.end(), ','), std::ptrdiff_t(kFrameFigureCount) - 1);
@@ -88,7 +88,7 @@ TEST(FrameFigures, CsvRowHasOneFieldPerHeaderNameWithIntegersExact) {
             fields.back().push_back(c);
     }
     EXPECT_EQ(fields[frameFigureIndex(&FrameStats::entities)], "12");
-    EXPECT_EQ(fields[frameFigureIndex(&FrameStats::setupMs)], "1.235");
+    EXPECT_EQ(fields[frameFigureIndex(&FrameStats::hostSetupMs)], "1.235");
     EXPECT_EQ(fields[frameFigureIndex(&FrameStats::farCellsRetraced)], "123456789012");
 }
 

@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
-# tools/gpu_check.sh --short against this build: it must pass its identity check, name the
-# Vulkan device, and write report.md and results.csv with the identity rows (0 differing pixels)
-# and the bench's rows. Usage: gpu_check_test.sh VOXTIER SOURCE_DIR
+# tools/gpu_check.sh --short --profile against this build: it must pass its identity check, name
+# the Vulkan device, and write report.md and results.csv with the identity rows (0 differing
+# pixels), the bench's rows and the profile's pass-by-pass rows (a small tank army curve here).
+# Usage: gpu_check_test.sh VOXTIER SOURCE_DIR
 set -euo pipefail
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-VOXTIER="$1" VOXTIER_SCENES="$2/scenes" bash "$2/tools/gpu_check.sh" --short "$work/out" |
+VOXTIER="$1" VOXTIER_SCENES="$2/scenes" VOXTIER_PROFILE_COUNTS=40,80 \
+    bash "$2/tools/gpu_check.sh" --short --profile "$work/out" |
     tee "$work/log"
 fail() {
     echo "gpu_check_test: $*" >&2
@@ -22,4 +24,9 @@ grep -q "^identity_near,golden/equal_depth.json,t=0.000 id_diffs,0,pixels" "$wor
     fail "results.csv lacks the identity rows"
 grep -q "^bench,street,hybrid.*in_motion_ms,[0-9.]\+,ms" "$work/out/results.csv" ||
     fail "results.csv lacks the hybrid's in-motion ms"
+grep -q "^## Where the time goes, pass by pass" "$work/out/report.md" || fail "report.md has no profile"
+# The device timed the near tier's draw of the tank army (lavapipe has timestamps): a positive
+# gpu_draw_ms in the profile rows of near_vulkan.
+grep -q "^profile,tank_army (80 entities),near_vulkan gpu_draw_ms,[0-9.]*[1-9][0-9.]*,ms" \
+    "$work/out/results.csv" || fail "results.csv lacks a timed near draw in the profile"
 echo "gpu_check_test: ok"

@@ -1,15 +1,39 @@
 #!/usr/bin/env bash
-# `cmake --install` the build tree into a scratch prefix, then configure, build and run a project
-# that only knows find_package(voxtier). Usage: install_consumer.sh BUILD_DIR SOURCE_DIR
-# [CXX_FLAGS LINKER_FLAGS]: a sanitizer build's static libraries need the consumer to compile and
-# link with the same sanitizer flags.
+# `cmake --install` the build tree into a scratch prefix, then, knowing only the prefix:
+#  - the installed headers are <voxtier/module/...> alone, including each other that way;
+#  - tests/consumer (find_package(voxtier)) configures, builds and runs;
+#  - the installed example sources (share/doc/voxtier/examples) build, and render_scene writes
+#    the installed CLI's images of the installed scenes byte for byte (tests/example_test.sh).
+# Usage: install_consumer.sh BUILD_DIR SOURCE_DIR [CXX_FLAGS LINKER_FLAGS]: a sanitizer build's
+# static libraries need the consumer to compile and link with the same sanitizer flags.
 set -euo pipefail
 build="$1"
 src="$2"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-cmake --install "$build" --prefix "$work/prefix" >/dev/null
-cmake -S "$src/tests/consumer" -B "$work/consumer" -G Ninja -DCMAKE_PREFIX_PATH="$work/prefix" \
-    -DCMAKE_CXX_FLAGS="${3:-}" -DCMAKE_EXE_LINKER_FLAGS="${4:-}" >/dev/null
-cmake --build "$work/consumer" >/dev/null
+prefix="$work/prefix"
+cmake --install "$build" --prefix "$prefix" >/dev/null
+
+# Only voxtier/ under include/, and no header reaching a module by its bare folder name.
+if [ "$(ls "$prefix/include")" != "voxtier" ]; then
+    echo "install_consumer: include/ holds $(ls "$prefix/include" | tr '\n' ' ')" >&2
+    exit 1
+fi
+if grep -rnE '#include "(core|device|volumetric|impostor_cache|lod|compose|image_files)/' \
+    "$prefix/include"; then
+    echo "install_consumer: installed headers include modules without voxtier/" >&2
+    exit 1
+fi
+
+configure() { # SOURCE BINARY
+    cmake -S "$1" -B "$2" -G Ninja -DCMAKE_PREFIX_PATH="$prefix" \
+        -DCMAKE_CXX_FLAGS="${CXX_FLAGS:-}" -DCMAKE_EXE_LINKER_FLAGS="${LINKER_FLAGS:-}" >/dev/null
+    cmake --build "$2" >/dev/null
+}
+CXX_FLAGS="${3:-}" LINKER_FLAGS="${4:-}" configure "$src/tests/consumer" "$work/consumer"
 "$work/consumer/consumer"
+
+CXX_FLAGS="${3:-}" LINKER_FLAGS="${4:-}" configure "$prefix/share/doc/voxtier/examples" \
+    "$work/examples"
+bash "$src/tests/example_test.sh" "$prefix/bin/voxtier" "$work/examples/render_scene" \
+    "$prefix/share/voxtier/scenes"

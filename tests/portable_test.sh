@@ -5,7 +5,7 @@
 # with its driver). There it renders scenes/default.json byte-identical to the ordinary build
 # (colour and the entity ids, as .pam), on the CPU reference and on Vulkan, passes `voxtier
 # check` on a golden scene, and refuses a .png with one line; and where even the C++ runtime is
-# missing, renders the same with the folder's lib/fallback/. Usage: portable_test.sh BUILD_DIR
+# missing, renders the same with the folder's lib/fallback/. Its ./gpu_check.sh runs as typed. Usage: portable_test.sh BUILD_DIR
 # SOURCE_DIR (BUILD_DIR holds voxtier and voxtier-portable).
 set -euo pipefail
 build="$(cd "$1" && pwd)"
@@ -30,6 +30,22 @@ trap 'rm -rf "$work"' EXIT
 mkdir -p "$work/out"
 
 bash "$src/tools/portable.sh" --from "$build" "$work/pkg"
+
+# The folder's own command, as its MANIFEST tells a user to type it (git keeps its run bit, and
+# portable.sh installs it with one): ./gpu_check.sh from inside the folder, with this machine's
+# Vulkan driver.
+[[ -x "$work/pkg/gpu_check.sh" ]] || {
+    echo "portable_test: the folder's gpu_check.sh is not executable" >&2
+    exit 1
+}
+grep -q '^run: ./gpu_check.sh' "$work/pkg/MANIFEST.txt"
+(cd "$work/pkg" && ./gpu_check.sh --short "$work/out/gpu-check") >"$work/out/gpu_check.log" 2>&1 || {
+    cat "$work/out/gpu_check.log" >&2
+    exit 1
+}
+grep -q "^gpu_check: Vulkan device used: ." "$work/out/gpu_check.log"
+[[ -s "$work/out/gpu-check/report.md" && -s "$work/out/gpu-check/results.csv" ]]
+echo "portable_test: ./gpu_check.sh --short from the folder: passed"
 
 # The files a machine with a Vulkan driver has anyway: the loader family, the Vulkan loader, the
 # lavapipe ICD and its own libraries (LLVM, libstdc++, ...), each bound alone at its path.

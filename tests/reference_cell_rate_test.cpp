@@ -1,4 +1,4 @@
-// Cell-rate sprites in the CPU reference (volumetric/near_rate.hpp, DESIGN.md §3.11): tracing
+// Cell-rate sprites in the CPU reference (core/near_rate.hpp, DESIGN.md §3.11): tracing
 // each lattice cell once and shading pixels by lookup gives the per-pixel image exactly (colour,
 // depth bits, entity id) on the golden scenes, every bundled .vox model from 46 directions at
 // sigma 0.5 to 3, rolled and straight-down cameras, cross-fades, sprites partly off-screen or

@@ -82,6 +82,12 @@ TEST(ResourceHygiene, LongHybridPathWithEditsKeepsMemoryFlatAndLeaksNothing) {
     int switches = 0, bakes = 0;
     {
         FrameRenderer r(s, o);
+        // lavapipe sets up its rasteriser (tens of MiB) on the first frame that rasterises a
+        // sprite, which this path may reach late (cell-rate sprites are not rasterised): one
+        // per-pixel near frame first puts it in the warm-up.
+        r.options().nearRate = NearRate::Fragment;
+        (void)r.render(s.timeOfFrame(0), RenderMode::Near, 0);
+        r.options().nearRate = o.nearRate;
         for (int f = 0; f < frames; ++f) {
             r.applyEditsThrough(f);
             const FrameResult fr = r.render(s.timeOfFrame(f), RenderMode::Hybrid, f);

@@ -1,4 +1,4 @@
-// Cell-rate sprites on Vulkan (volumetric/near_rate.hpp, DESIGN.md §3.11): compute passes trace
+// Cell-rate sprites on Vulkan (core/near_rate.hpp, DESIGN.md §3.11): compute passes trace
 // every cell of the frame's cell-rate sprites (primary rays, then the outline from the
 // neighbours), splat their pixels' depth ranks, and after the draw of the per-pixel sprites
 // shade the pixels they won. The image equals the per-pixel Vulkan image and the CPU reference

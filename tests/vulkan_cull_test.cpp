@@ -6,6 +6,7 @@
 #include "compose/frame.hpp"
 #include "core/scene_loader.hpp"
 #include "crowd_scenes.hpp"
+#include "impostor_cache/far_pass.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -97,7 +98,7 @@ TEST_F(VulkanCull, EqualDepthStacksAndSpritesThroughTheNearPlane) {
 TEST_F(VulkanCull, HybridFramesWithCrossFadesAreUnchanged) {
     Scene s = test::crossFadeCorridor();
     for (FarBackend far : {FarBackend::Cpu, FarBackend::Vulkan}) {
-        if (far == FarBackend::Vulkan && !nearRenderer().farPassSupported()) continue;
+        if (far == FarBackend::Vulkan && !FarPass::supported(nearRenderer().device())) continue;
         FrameOptions on, off;
         on.nearBackend = off.nearBackend = NearBackend::Vulkan;
         on.farBackend = off.farBackend = far;

@@ -3,8 +3,9 @@
 // other suites means something), a full render-and-destroy cycle leaks nothing, and without any
 // Vulkan driver the CLI fails with one clear line while --mode reference keeps working.
 #include "cli_support.hpp"
-#include "test_support.hpp"
 #include "device/vulkan_device.hpp"
+#include "device/vulkan_device_info.hpp"
+#include "test_support.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -222,6 +223,61 @@ TEST_F(VulkanCli, NearModePrintsTheDeviceAndMatchesReferenceFile) {
     const CliRun r = test::runCli("render " + scene + " --mode reference --out " + refPng, "");
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(slurp(nearPng) == slurp(refPng));
+}
+
+// `voxtier check` says where each buffer class lives on the machine's device: on lavapipe one
+// memory type serves all four, the shaders' data is written directly and read back cached.
+TEST_F(VulkanCli, CheckPrintsTheMemoryEachBufferClassGets) {
+    const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
+    const CliRun r = test::runCli("check " + scene, "");
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (const char* c : {"ShaderRead", "DeviceOnly", "Staging", "Readback"})
+        EXPECT_NE(r.out.find(std::string("Vulkan memory: ") + c + ": type "), std::string::npos)
+            << c << "\n"
+            << r.out;
+    VulkanDeviceOptions o;
+    o.echoMessages = false;
+    if (!VulkanDevice(o).isCpu()) GTEST_SKIP() << "the rest describes lavapipe";
+    EXPECT_NE(r.out.find("Vulkan memory: ShaderRead: type 0 (DEVICE_LOCAL|HOST_VISIBLE|"
+                         "HOST_COHERENT|HOST_CACHED), heap 0 of "),
+              std::string::npos)
+        << r.out;
+    EXPECT_NE(r.out.find("host writes directly"), std::string::npos) << r.out;
+}
+
+// With a driver installed beside lavapipe that does not load, check still runs (on lavapipe) and
+// names the driver that did not load.
+TEST_F(VulkanCli, CheckNamesAnInstalledDriverThatDoesNotLoad) {
+    const std::string dir = scratchDir();
+    const std::string fake = dir + "/needs_dep_icd.json";
+    std::ofstream(fake) << R"({"file_format_version": "1.0.0", "ICD": {"library_path": ")"
+                        << VOXTIER_TEST_ICD << R"("}})";
+    std::string drivers = fake;
+    for (const auto& e : std::filesystem::directory_iterator("/usr/share/vulkan/icd.d"))
+        if (e.path().filename().string().rfind("lvp_icd", 0) == 0)
+            drivers += ":" + e.path().string();
+    const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/golden/arrows.json";
+    const CliRun r = test::runCli("check " + scene, "VK_DRIVER_FILES=" + drivers);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("Vulkan driver not loaded: " + fake + " (" + VOXTIER_TEST_ICD +
+                         "): libvoxtier_test_icd_dependency.so"),
+              std::string::npos)
+        << r.out;
+}
+
+TEST(VulkanDevice, ForcedStagingFromTheEnvironmentShowsInThePlacements) {
+    ::setenv("VOXTIER_FORCE_STAGING", "1", 1);
+    const std::vector<std::string> lines = describeMemoryPlacements();
+    ::unsetenv("VOXTIER_FORCE_STAGING");
+    ASSERT_EQ(lines.size(), 4u);
+    EXPECT_EQ(lines[0].rfind("ShaderRead: ", 0), 0u) << lines[0];
+    EXPECT_NE(lines[0].find("host writes through staging"), std::string::npos) << lines[0];
+    VulkanDeviceOptions o;
+    o.echoMessages = false;
+    if (VulkanDevice(o).isCpu()) {
+        EXPECT_NE(describeMemoryPlacements()[0].find("host writes directly"), std::string::npos)
+            << "lavapipe, unforced";
+    }
 }
 
 TEST_F(VulkanCli, ValidationWithoutTheLayerInstalledIsAClearError) {

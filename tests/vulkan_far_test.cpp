@@ -6,6 +6,7 @@
 // sprites cut by the image edge, equal-depth pairs with near sprites either way round, and 10^6 m
 // from the origin. Snapshots are uploaded to the device once and freed when the cache drops them.
 #include "compose/frame.hpp"
+#include "compose/vulkan_frame.hpp"
 #include "core/scene_loader.hpp"
 #include "core/splitmix64.hpp"
 #include "impostor_cache/far_frame.hpp"
@@ -33,6 +34,29 @@ class VulkanFar : public test::VulkanTest {
     static std::shared_ptr<NearRenderer> shared() {
         return std::shared_ptr<NearRenderer>(&nearRenderer(), [](NearRenderer*) {});
     }
+    /// The suite's far pass, on the shared renderer's frames (its residency persists across the
+    /// suite's tests, as a renderer's does across frames).
+    static FarPass& farPass() {
+        if (!farPass_) farPass_ = std::make_unique<FarPass>(nearRenderer().frames());
+        return *farPass_;
+    }
+    static void TearDownTestSuite() { farPass_.reset(); }
+    /// `near` sprites and `batch` in one Vulkan frame (compose/vulkan_frame.hpp).
+    static Image drawBoth(const CameraFrame& cam, const Scene& scene,
+                          std::span<const SpriteSetup* const> near, const FarBatch& batch,
+                          FarPassStats* stats = nullptr, Rgba8 clear = 0) {
+        VulkanFrameRequest request;
+        request.camera = &cam;
+        request.models = &scene.models;
+        request.nearSprites = near;
+        request.far = &batch;
+        request.clear = clear;
+        VulkanFrameResult r = drawVulkanFrame(nearRenderer(), &farPass(), request);
+        if (stats) *stats = r.far;
+        return std::move(r.image);
+    }
+    inline static std::unique_ptr<FarPass> farPass_;
+
     static FrameOptions options(FarBackend far, NearBackend near = NearBackend::Vulkan) {
         FrameOptions o;
         o.sharedNear = shared();
@@ -71,17 +95,14 @@ class VulkanFar : public test::VulkanTest {
         const Image nearOnly = cpu;
         drawFarSprites(scene.models, requests, cache_, set, cpu);
         const FarBatch batch = prepareFarBatch(scene.models, requests, cache_, set);
-        NearOptions no;
-        no.far = &batch;
-        NearStats ns;
-        const Image gpu =
-            nearRenderer().render(cam, scene.models, nearSprites, scene.render.background, no, &ns);
+        FarPassStats fs;
+        const Image gpu = drawBoth(cam, scene, nearSprites, batch, &fs, scene.render.background);
         EXPECT_EQ(describeDifference(gpu, cpu, "vulkan far", "cpu far"), "") << what;
         std::size_t farPixels = 0;
         for (std::size_t p = 0; p < cpu.pixelCount(); ++p)
             farPixels += cpu.id[p] != nearOnly.id[p] || cpu.color[p] != nearOnly.color[p];
         if (farPixels) {
-            EXPECT_GT(ns.farTiles, 0u) << what; // the far pass really ran
+            EXPECT_GT(fs.tiles, 0u) << what; // the far pass really ran
         }
         return farPixels;
     }
@@ -265,21 +286,19 @@ TEST_F(VulkanFar, SnapshotsAreUploadedOnceAndFreedWhenTheCacheDropsThem) {
     std::vector<FarRequest> requests;
     for (const auto& sp : sprites) requests.push_back({&sp, std::nullopt});
     SnapshotCache cache;
-    NearStats first, second;
+    FarPassStats first, second;
     std::set<const void*> firstOwners;
     {
         const FarBatch batch = prepareFarBatch(s.models, requests, cache, ViewSet::Cube26);
-        NearOptions no;
-        no.far = &batch;
-        (void)nearRenderer().render(cam, s.models, std::vector<SpriteSetup>{}, 0, no, &first);
-        (void)nearRenderer().render(cam, s.models, std::vector<SpriteSetup>{}, 0, no, &second);
-        EXPECT_EQ(first.farSnapshotsUploaded, batch.snapshots.size());
-        EXPECT_GT(first.farBytesUploaded, 0u);
-        EXPECT_EQ(second.farSnapshotsUploaded, 0u); // resident since the first frame
-        EXPECT_EQ(second.farBytesUploaded, 0u);
+        (void)drawBoth(cam, s, {}, batch, &first);
+        (void)drawBoth(cam, s, {}, batch, &second);
+        EXPECT_EQ(first.snapshotsUploaded, batch.snapshots.size());
+        EXPECT_GT(first.bytesUploaded, 0u);
+        EXPECT_EQ(second.snapshotsUploaded, 0u); // resident since the first frame
+        EXPECT_EQ(second.bytesUploaded, 0u);
         for (const FarSnapshotCells& c : batch.snapshots) firstOwners.insert(c.owner.get());
         // Earlier tests' snapshots (their caches are gone) were freed by the first update.
-        EXPECT_EQ(nearRenderer().farResidentSnapshots(), batch.snapshots.size());
+        EXPECT_EQ(farPass().residentSnapshots(), batch.snapshots.size());
     }
     // An edit of model 0 (a corner voxel, seen from most views): its snapshots are refreshed
     // (new ones) and only those are uploaded, each into its predecessor's range and only the rows
@@ -288,39 +307,34 @@ TEST_F(VulkanFar, SnapshotsAreUploadedOnceAndFreedWhenTheCacheDropsThem) {
         s.models[0]->setVoxel(0, {0, 0, 0}, 0);
         FarFrameStats fs;
         const FarBatch batch = prepareFarBatch(s.models, requests, cache, ViewSet::Cube26, &fs);
-        NearOptions no;
-        no.far = &batch;
-        NearStats edited;
-        const Image gpu =
-            nearRenderer().render(cam, s.models, std::vector<SpriteSetup>{}, 0, no, &edited);
+        FarPassStats edited;
+        const Image gpu = drawBoth(cam, s, {}, batch, &edited);
         Image cpu(cam.width, cam.height, 0);
         drawFarSprites(s.models, requests, cache, ViewSet::Cube26, cpu);
         EXPECT_EQ(describeDifference(gpu, cpu, "vulkan far", "cpu far"), "") << "after an edit";
         EXPECT_GT(fs.refreshes, 0u);
-        EXPECT_EQ(edited.farSnapshotsUploaded, fs.refreshes);
-        EXPECT_LT(edited.farSnapshotsUploaded, batch.snapshots.size());
+        EXPECT_EQ(edited.snapshotsUploaded, fs.refreshes);
+        EXPECT_LT(edited.snapshotsUploaded, batch.snapshots.size());
         std::uint64_t refreshedBytes = 0; // what uploading the refreshed snapshots whole costs
         for (const FarSnapshotCells& c : batch.snapshots)
             if (!firstOwners.count(c.owner.get()))
                 refreshedBytes += std::uint64_t(c.width()) * std::uint64_t(c.height()) * 2;
-        EXPECT_GT(edited.farBytesUploaded, 0u);
-        EXPECT_LT(edited.farBytesUploaded, refreshedBytes);
+        EXPECT_GT(edited.bytesUploaded, 0u);
+        EXPECT_LT(edited.bytesUploaded, refreshedBytes);
         // The predecessors' ranges were taken over or freed: as many resident as in use.
-        EXPECT_EQ(nearRenderer().farResidentSnapshots(), batch.snapshots.size());
+        EXPECT_EQ(farPass().residentSnapshots(), batch.snapshots.size());
     }
     // The cache evicts everything (budget 0) and the frame's batch is gone: the next far pass
     // frees their device ranges before drawing.
     cache.setBudget(0);
-    NearOptions no;
     const Scene other = test::equalDepthPair();
     const CameraFrame oc = makeCameraFrame(other.camera);
     const auto os = setupSprites(other, oc, 0.0);
     std::vector<FarRequest> otherRequests{{&os[0], std::nullopt}};
     SnapshotCache otherCache;
     const FarBatch one = prepareFarBatch(other.models, otherRequests, otherCache, ViewSet::Cube26);
-    no.far = &one;
-    (void)nearRenderer().render(oc, other.models, std::vector<SpriteSetup>{}, 0, no);
-    EXPECT_EQ(nearRenderer().farResidentSnapshots(), one.snapshots.size());
+    (void)drawBoth(oc, other, {}, one);
+    EXPECT_EQ(farPass().residentSnapshots(), one.snapshots.size());
 }
 
 } // namespace

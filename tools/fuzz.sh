@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs each libFuzzer target for a given time (ASan + UBSan, clang).
 #   tools/fuzz.sh [SECONDS=60] [TARGET...]     targets: vox_reader_fuzz scene_loader_fuzz
-#                                                       snapshot_file_fuzz
+#                                                       snapshot_file_fuzz snapshot_pack_fuzz
 # Seeds: fuzz/corpus/<kind>/ (hand-made malformed fixtures) plus the real files in scenes/.
 # The growing corpus and crash artefacts stay in fuzz-out/<target>/ (git-ignored).
 set -euo pipefail
@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 shift || true
 targets=("$@")
-[[ ${#targets[@]} -eq 0 ]] && targets=(vox_reader_fuzz scene_loader_fuzz snapshot_file_fuzz)
+[[ ${#targets[@]} -eq 0 ]] && targets=(vox_reader_fuzz scene_loader_fuzz snapshot_file_fuzz snapshot_pack_fuzz)
 
 bash tools/setup.sh --fuzz
 cmake --preset fuzz >/dev/null
@@ -32,6 +32,10 @@ for t in "${targets[@]}"; do
         ;;
     snapshot_file_fuzz)
         cp fuzz/corpus/snapshot/* "$work/seeds/"
+        dict=()
+        ;;
+    snapshot_pack_fuzz)
+        cp fuzz/corpus/pack/* "$work/seeds/"
         dict=()
         ;;
     *) echo "unknown target $t" >&2; exit 2 ;;

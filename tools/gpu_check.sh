@@ -15,11 +15,16 @@
 # Under 6 minutes on a GPU; on lavapipe (2 CPU cores) the full run takes much longer
 # (DESIGN.md §8). Exit status 1 when an identity check fails or a command fails.
 #
-# Usage: gpu_check.sh [--short] [OUTDIR]      (OUTDIR default: gpu-check)
+# Usage: gpu_check.sh [--short] [--profile] [OUTDIR]      (OUTDIR default: gpu-check)
 #   --short   one golden scene and one small bench (what CI runs, tests/CMakeLists.txt)
+#   --profile also where each frame's time goes, pass by pass (the device's timestamps and the
+#             host's parts: the gpu_*_ms and host_*_ms figures): for the bench scenes in motion,
+#             and the tank army at 2,000, 20,000 and 100,000 entities (VOXTIER_PROFILE_COUNTS
+#             overrides them), in report.md and results.csv
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 short=0
+profile=0
 out=""
 while [[ $# -gt 0 ]]; do
     case "$1" in
@@ -27,8 +32,12 @@ while [[ $# -gt 0 ]]; do
         short=1
         shift
         ;;
+    --profile)
+        profile=1
+        shift
+        ;;
     -h | --help)
-        sed -n '2,21p' "$0"
+        sed -n '2,23p' "$0"
         exit 0
         ;;
     -*)
@@ -151,16 +160,34 @@ if ((bench_rc != 0)); then
     echo "gpu_check: the bench failed (exit $bench_rc): $(tail -1 "$out/logs/bench.log")" >&2
     failed=1
 fi
+# --- (c) the profile: the tank army's entity curve, every mode, with its per-pass figures ------
+if ((profile)); then
+    set +e
+    "$bin" bench "$scenes/bench/tank_army.json" --quick --no-sweeps --far-backend vulkan \
+        --entity-counts "${VOXTIER_PROFILE_COUNTS:-2000,20000,100000}" -o "$out/tank_curve" >"$out/logs/tank_curve.log" 2>&1
+    curve_rc=$?
+    set -e
+    if ((curve_rc != 0)); then
+        echo "gpu_check: the tank army curve failed (exit $curve_rc): $(tail -1 "$out/logs/tank_curve.log")" >&2
+        failed=1
+    fi
+fi
 total_s=$(($(date +%s) - start))
 
 # --- report.md and results.csv -------------------------------------------------------------
 export GC_OUT="$out" GC_DEVICE="$device" GC_VERSION="$version" GC_FAR_ROWS="$far_rows"
 export GC_TOTAL_S="$total_s" GC_BENCH_S="$bench_s" GC_SHORT="$short" GC_FAILED="$failed"
+export GC_PROFILE="$profile"
 export GC_BENCH_CMD="voxtier bench ${bench_args[*]//$scenes\//scenes/}"
 if command -v python3 >/dev/null; then
     python3 - <<'PY'
 import csv, os, platform, datetime
 out = os.environ["GC_OUT"]
+def fmt(v):
+    try:
+        return f"{float(v):.3g}" if abs(float(v)) < 100 else f"{float(v):.0f}"
+    except ValueError:
+        return v or "–"
 rows = []  # results.csv: section, scene, item, value, unit
 lines = ["# voxtier GPU check", ""]
 lines += [f"- Date: {datetime.datetime.now(datetime.timezone.utc):%Y-%m-%d %H:%M} UTC; host {platform.node()}, {os.cpu_count()} CPUs",
@@ -206,11 +233,6 @@ if os.path.exists(bench_csv):
             ("in_motion_speedup_vs_all_near_reference", "× vs all-near reference", "x"),
             ("near_backend", "near drawn by", ""), ("in_motion_psnr_min", "min PSNR (dB)", "dB")]
     lines += ["| scene | mode | " + " | ".join(c[1] for c in cols) + " |", "|---|---|" + "---|" * len(cols)]
-    def fmt(v):
-        try:
-            return f"{float(v):.3g}" if abs(float(v)) < 100 else f"{float(v):.0f}"
-        except ValueError:
-            return v or "–"
     aims = []
     for r in bench:
         scene = os.path.basename(r["scene"]).removesuffix(".json")
@@ -234,6 +256,41 @@ if os.path.exists(bench_csv):
     lines += ["", "The bench's own report, with every column: `bench/report.md`; every figure: `bench/results.csv`."]
 else:
     lines.append("The bench wrote no results (see logs/bench.log).")
+# The profile: where each frame's time goes, per pass, from the bench's figures (medians of the
+# timed frames: the host's parts, then the device's named passes).
+if os.environ.get("GC_PROFILE") == "1":
+    parts = [("frame_ms", "frame"), ("host_setup_ms", "set-up"), ("host_select_ms", "select"),
+             ("host_record_ms", "record"), ("host_wait_ms", "wait"), ("host_readback_ms", "readback"),
+             ("gpu_frame_ms", "GPU frame"), ("gpu_upload_ms", "GPU upload"), ("gpu_cells_ms", "GPU cells"),
+             ("gpu_splat_ms", "GPU splat"), ("gpu_draw_ms", "GPU draw"), ("gpu_resolve_ms", "GPU resolve"),
+             ("gpu_far_ms", "GPU far"), ("gpu_copy_ms", "GPU copies")]
+    sources = [(os.path.join(out, "bench", "results.csv"), "modes"),
+               (os.path.join(out, "tank_curve", "results.csv"), "scaling_entities")]
+    profile_rows = []
+    for path, group in sources:
+        if not os.path.exists(path):
+            continue
+        with open(path) as f:
+            for r in csv.DictReader(f):
+                if r.get("group") != group:
+                    continue
+                scene = os.path.basename(r["scene"]).removesuffix(".json")
+                if group == "scaling_entities":
+                    scene += f" ({float(r.get('param', 0) or 0):,.0f} entities)"
+                profile_rows.append((scene, r["mode"], [r.get(c, "") for c, _ in parts]))
+    lines += ["", "## Where the time goes, pass by pass (ms, medians)", "",
+              "Host: set-up, selection, recording the Vulkan frame (uploads written), waiting on its "
+              "fence, unpacking the readback. Device: the frame's named timestamps (0 where the frame "
+              "had no such pass). `bench/results.csv`, `tank_curve/results.csv`.", ""]
+    if profile_rows:
+        lines += ["| scene | mode | " + " | ".join(n for _, n in parts) + " |",
+                  "|---|---|" + "---|" * len(parts)]
+        for scene, mode, values in profile_rows:
+            lines.append(f"| {scene} | {mode} | " + " | ".join(fmt(v) for v in values) + " |")
+            for (c, _), v in zip(parts, values):
+                rows.append(("profile", scene, f"{mode} {c}", v, "ms"))
+    else:
+        lines.append("No profile rows: see logs/bench.log and logs/tank_curve.log.")
 with open(os.path.join(out, "report.md"), "w") as f:
     f.write("\n".join(lines) + "\n")
 with open(os.path.join(out, "results.csv"), "w", newline="") as f:

@@ -113,7 +113,7 @@ while read -r name path; do
 done < <(ldd "$bin" | awk '$2 == "=>" && $3 ~ /^\// {print $1, $3}')
 
 cp -r "$root/scenes" "$out/scenes"
-cp "$root/tools/gpu_check.sh" "$out/gpu_check.sh"
+install -m 755 "$root/tools/gpu_check.sh" "$out/gpu_check.sh"
 
 needs() { # PREFIX FILES...: the newest symbol version PREFIX_x.y the files ask for
     local prefix="$1"

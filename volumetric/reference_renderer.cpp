@@ -47,8 +47,8 @@ struct RowCounters {
                   traced = 0, lookedUp = 0, cellsTraced = 0;
 };
 
-/// The cell-rate sprites' cells (near_rate.hpp), traced on first use rather than all before the
-/// pixels: a cell's primary ray is traced the first time a pixel of it or of one of its four
+/// The cell-rate sprites' cells (core/near_rate.hpp), traced on first use rather than all before
+/// the pixels: a cell's primary ray is traced the first time a pixel of it or of one of its four
 /// neighbours needs it (vtOutcomeFromPrimaries reads all five), so the cells under pixels the
 /// early depth test rejects, or that occlusion tiles skip, are never traced. A cell may be needed
 /// by two band tasks at once (a magnified cell spans bands): both trace it and store the same value

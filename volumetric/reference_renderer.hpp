@@ -4,10 +4,10 @@
 // parallel over bands of rows, and writes with the shared depth/id rule. The Vulkan renderer must
 // produce exactly this image.
 #include "core/image.hpp"
+#include "core/near_rate.hpp"
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
 #include "core/work_progress.hpp"
-#include "volumetric/near_rate.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -29,7 +29,7 @@ struct ReferenceStats : CellRateCounts {
 };
 
 /// How the reference traces: per pixel (the executable spec, default) or cell-rate where the
-/// rate says so (near_rate.hpp); the image is the same either way.
+/// rate says so (core/near_rate.hpp); the image is the same either way.
 struct ReferenceOptions {
     NearRate rate = NearRate::Fragment;
     std::uint64_t cellBudgetBytes = kDefaultCellBudgetBytes;

@@ -22,6 +22,9 @@ VkDeviceSize roundUp4(VkDeviceSize v) {
     return (v + 3) & ~VkDeviceSize(3);
 }
 
+constexpr VkDeviceSize kInitialPaletteBytes = 64 * 256 * sizeof(std::uint32_t);
+constexpr VkDeviceSize kInitialBrickBytes = 1 << 16;
+
 } // namespace
 
 ResidencyStats& ResidencyStats::operator+=(const ResidencyStats& o) {
@@ -52,8 +55,8 @@ VoxelResidency::VoxelResidency(VulkanDevice& device)
                      VK_ACCESS_SHADER_READ_BIT);
         VK_CHECK(vkEndCommandBuffer(cb_));
         device_.submitAndWait(cb_);
-        ensurePaletteCapacity(256);
-        ensureBrickCapacity(1);
+        palettes_.reserve(device_, 256, kInitialPaletteBytes);
+        bricks_.reserve(device_, 1, kInitialBrickBytes);
     } catch (...) {
         device_.freeCommandBuffer(cb_);
         throw;
@@ -95,37 +98,46 @@ void VoxelResidency::createAtlas(std::uint32_t depth, VkCommandBuffer cb, bool c
     ++generation_;
 }
 
-void VoxelResidency::ensurePaletteCapacity(std::size_t entries) {
-    const VkDeviceSize need = VkDeviceSize(entries) * sizeof(std::uint32_t);
-    if (palettes_ && palettes_.size() >= need) return;
-    VkDeviceSize size = palettes_ ? palettes_.size() : 64 * 256 * sizeof(std::uint32_t);
-    while (size < need) size *= 2;
-    palettes_ = VulkanBuffer(device_, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
-    std::memset(palettes_.mapped(), 0, std::size_t(size));
-    // memcpy from an empty vector's data() (null) is undefined even for 0 bytes.
-    if (!paletteMirror_.empty())
-        std::memcpy(palettes_.mapped(), paletteMirror_.data(),
-                    paletteMirror_.size() * sizeof(std::uint32_t));
-    ++generation_;
-}
-
-void VoxelResidency::ensureBrickCapacity(std::size_t words) {
+bool VoxelResidency::MirroredWords::reserve(VulkanDevice& device, std::size_t words,
+                                            VkDeviceSize initialBytes) {
     const VkDeviceSize need = VkDeviceSize(std::max<std::size_t>(words, 1)) * sizeof(std::uint32_t);
-    if (bricks_ && bricks_.size() >= need) return;
-    VkDeviceSize size = bricks_ ? bricks_.size() : 1 << 16;
+    if (buffer && buffer.size() >= need) return false;
+    VkDeviceSize size = buffer ? buffer.size() : initialBytes;
     while (size < need) size *= 2;
-    bricks_ = VulkanBuffer(device_, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, true);
-    if (!brickMirror_.empty())
-        std::memcpy(bricks_.mapped(), brickMirror_.data(),
-                    brickMirror_.size() * sizeof(std::uint32_t));
-    ++generation_;
+    buffer =
+        VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::ShaderRead);
+    // The whole mirror goes into the new buffer (directly, or staged with the next upload); the
+    // tail past it is never read (no sprite's base points there).
+    write(0, mirror.size());
+    return true;
 }
 
-void VoxelResidency::writeBricks(const BrickOccupancy& occupancy, std::uint32_t base) {
-    const std::size_t bytes = occupancy.words().size() * sizeof(std::uint32_t);
-    std::memcpy(brickMirror_.data() + base, occupancy.words().data(), bytes);
-    std::memcpy(static_cast<std::uint32_t*>(bricks_.mapped()) + base, occupancy.words().data(),
-                bytes);
+void VoxelResidency::MirroredWords::write(std::size_t first, std::size_t count) {
+    if (count == 0) return;
+    if (buffer.placement().hostWrite == HostWrite::Direct)
+        buffer.write(first * sizeof(std::uint32_t), mirror.data() + first,
+                     count * sizeof(std::uint32_t));
+    else
+        staged = true; // the whole mirror, with the update's copies
+}
+
+VkDeviceSize VoxelResidency::MirroredWords::stagedBytes() const {
+    return staged ? mirror.size() * sizeof(std::uint32_t) : 0;
+}
+
+void VoxelResidency::MirroredWords::recordStagedCopy(VkCommandBuffer cb,
+                                                     const VulkanBuffer& staging,
+                                                     VkDeviceSize offset,
+                                                     VkPipelineStageFlags readers) {
+    const VkDeviceSize bytes = stagedBytes();
+    if (bytes == 0) return;
+    std::memcpy(static_cast<std::uint8_t*>(staging.mapped()) + offset, mirror.data(),
+                std::size_t(bytes));
+    const VkBufferCopy copy{offset, 0, bytes};
+    vkCmdCopyBuffer(cb, staging.handle(), buffer.handle(), 1, &copy);
+    bufferBarrier(cb, buffer.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                  readers, VK_ACCESS_SHADER_READ_BIT);
+    staged = false;
 }
 
 std::uint32_t VoxelResidency::brickBase(const VoxelModel& model, int frame) const {
@@ -165,11 +177,12 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                 r.origin.assign(std::size_t(model.frameCount()), glm::ivec3(0));
                 r.brickBase.assign(std::size_t(model.frameCount()), 0u);
                 r.present.assign(std::size_t(model.frameCount()), false);
-                paletteMirror_.insert(paletteMirror_.end(), model.palette().colors.begin(),
-                                      model.palette().colors.end());
-                ensurePaletteCapacity(paletteMirror_.size());
-                std::memcpy(static_cast<std::uint32_t*>(palettes_.mapped()) + r.paletteBase,
-                            model.palette().colors.data(), 256 * sizeof(std::uint32_t));
+                palettes_.mirror.insert(palettes_.mirror.end(), model.palette().colors.begin(),
+                                        model.palette().colors.end());
+                if (palettes_.reserve(device_, palettes_.mirror.size(), kInitialPaletteBytes))
+                    ++generation_; // the whole mirror written
+                else
+                    palettes_.write(r.paletteBase, 256);
             } else if (r.version != model.version()) {
                 // Edited since the last upload: each resident frame re-sends only its dirty box.
                 synced.emplace_back(&r, r.version);
@@ -183,7 +196,10 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                     uploads.push_back({&grid, box, r.origin[std::size_t(f)]});
                     // Its occupancy, whole: a few KiB at most (a region bit may change with
                     // any brick of the region).
-                    writeBricks(model.bricks(f), r.brickBase[std::size_t(f)]);
+                    const std::span<const std::uint32_t> words = model.bricks(f).words();
+                    const std::uint32_t base = r.brickBase[std::size_t(f)];
+                    std::copy(words.begin(), words.end(), bricks_.mirror.begin() + base);
+                    bricks_.write(base, words.size());
                     stats.fullFrames += box == whole;
                 }
                 r.version = model.version();
@@ -195,11 +211,13 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                 r.present[f] = true;
                 // Its brick occupancy, whole, after the mirror's words (left there, unused, when
                 // a later placement fails).
-                const BrickOccupancy& occupancy = model.bricks(sp->frame);
-                r.brickBase[f] = std::uint32_t(brickMirror_.size());
-                brickMirror_.resize(brickMirror_.size() + occupancy.words().size());
-                ensureBrickCapacity(brickMirror_.size());
-                writeBricks(occupancy, r.brickBase[f]);
+                const std::span<const std::uint32_t> words = model.bricks(sp->frame).words();
+                r.brickBase[f] = std::uint32_t(bricks_.mirror.size());
+                bricks_.mirror.insert(bricks_.mirror.end(), words.begin(), words.end());
+                if (bricks_.reserve(device_, bricks_.mirror.size(), kInitialBrickBytes))
+                    ++generation_; // the whole mirror written
+                else
+                    bricks_.write(r.brickBase[f], words.size());
                 placed.emplace_back(&r, sp->frame);
                 uploads.push_back({&grid, {glm::ivec3(0), grid.dims()}, r.origin[f]});
                 ++stats.fullFrames;
@@ -211,15 +229,20 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
         throw VulkanError(std::string("near tier: ") + e.what());
     }
     const bool grow = std::uint32_t(packer_.usedDepth()) > atlas_.extent().depth;
-    if (uploads.empty() && !grow) return stats;
+    if (uploads.empty() && !grow && !palettes_.staged && !bricks_.staged) return stats;
 
-    // Pack every region tightly into one staging buffer (rows of the box, x fastest).
+    // Pack every region tightly into one staging buffer (rows of the box, x fastest), then the
+    // palettes and the brick words where the device's buffers are staged.
     VkDeviceSize total = 0;
     for (const Upload& u : uploads) total = roundUp4(total + VkDeviceSize(u.box.volume()));
+    const VkDeviceSize paletteOffset = total;
+    total += palettes_.stagedBytes();
+    const VkDeviceSize brickOffset = total;
+    total += bricks_.stagedBytes();
     if (!staging_ || staging_.size() < total) {
         VkDeviceSize size = 1 << 16;
         while (size < total) size *= 2;
-        staging_ = VulkanBuffer(device_, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
+        staging_ = VulkanBuffer(device_, size, 0, BufferClass::Staging);
     }
     std::vector<VkBufferImageCopy> regions;
     regions.reserve(uploads.size());
@@ -266,6 +289,9 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
         vkCmdCopyBufferToImage(cb_, staging_.handle(), atlas_.handle(),
                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, std::uint32_t(regions.size()),
                                regions.data());
+    palettes_.recordStagedCopy(cb_, staging_, paletteOffset, kAtlasReaders);
+    bricks_.recordStagedCopy(cb_, staging_, brickOffset, kAtlasReaders);
+    staging_.flush(0, total);
     imageBarrier(cb_, atlas_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
                  VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, kAtlasReaders,

@@ -8,8 +8,8 @@
 // frame's occupancy words.
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
-#include "volumetric/atlas_packer.hpp"
 #include "device/vulkan_device.hpp"
+#include "volumetric/atlas_packer.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -45,9 +45,9 @@ class VoxelResidency {
     std::uint32_t brickBase(const VoxelModel& model, int frame) const;
 
     VkImageView atlasView() const { return atlas_.view(); }
-    VkBuffer paletteBuffer() const { return palettes_.handle(); }
-    VkDeviceSize paletteBytes() const { return palettes_.size(); }
-    VkBuffer brickBuffer() const { return bricks_.handle(); }
+    VkBuffer paletteBuffer() const { return palettes_.buffer.handle(); }
+    VkDeviceSize paletteBytes() const { return palettes_.buffer.size(); }
+    VkBuffer brickBuffer() const { return bricks_.buffer.handle(); }
     VkExtent3D atlasExtent() const { return atlas_.extent(); }
     /// Changes whenever the atlas image, the palette or the brick buffer is re-created
     /// (descriptors go stale).
@@ -70,21 +70,35 @@ class VoxelResidency {
         glm::ivec3 origin; ///< of the frame in the atlas
     };
 
+    /// A ShaderRead storage buffer of words (the palettes, the brick occupancy) and its host
+    /// mirror, which holds every word the buffer holds.
+    struct MirroredWords {
+        VulkanBuffer buffer;
+        std::vector<std::uint32_t> mirror;
+        bool staged = false; ///< the device's words wait for a staged copy of the whole mirror
+        /// Re-creates the buffer (from `initialBytes`, doubling) when it holds fewer than `words`
+        /// words, with the whole mirror in it; true when it did.
+        bool reserve(VulkanDevice& device, std::size_t words, VkDeviceSize initialBytes);
+        /// Words [first, first + count) of the mirror onto the device: written directly, or
+        /// marked for the next update's staged copy (then the whole mirror goes).
+        void write(std::size_t first, std::size_t count);
+        /// The bytes a staged copy takes now: the whole mirror, or 0 when nothing waits.
+        VkDeviceSize stagedBytes() const;
+        /// Records the staged copy from `staging` at `offset` (where the mirror is written) and
+        /// the barrier that makes it visible to `readers`.
+        void recordStagedCopy(VkCommandBuffer cb, const VulkanBuffer& staging, VkDeviceSize offset,
+                              VkPipelineStageFlags readers);
+    };
+
     void createAtlas(std::uint32_t depth, VkCommandBuffer cb, bool copyOld);
-    void ensurePaletteCapacity(std::size_t entries);
-    void ensureBrickCapacity(std::size_t words);
-    /// Copies a frame's occupancy words to the buffer (and its mirror) from word `base` on.
-    void writeBricks(const BrickOccupancy& occupancy, std::uint32_t base);
 
     VulkanDevice& device_;
     AtlasPacker packer_;
     VulkanImage atlas_;
     VulkanImage retired_; ///< the previous atlas while a growth copy is in flight
-    VulkanBuffer palettes_;
+    MirroredWords palettes_;
+    MirroredWords bricks_;
     VulkanBuffer staging_;
-    std::vector<std::uint32_t> paletteMirror_;
-    VulkanBuffer bricks_;
-    std::vector<std::uint32_t> brickMirror_;
     std::unordered_map<std::uint64_t, Resident> residents_; ///< by VoxelModel::uid()
     std::uint32_t nextPaletteSlot_ = 0;
     std::uint64_t generation_ = 0;

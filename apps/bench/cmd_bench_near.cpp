@@ -192,11 +192,15 @@ Row measureVariant(NearRenderer& near, const Scene& scene, const CameraFrame& ca
     Image img;
     for (int r = 0; r < a.repeat; ++r) {
         NearStats ns;
+        GpuFrameReport report;
         const double c0 = processCpuMs();
-        img = near.render(cam, scene.models, sprites, scene.render.background, v.options, &ns);
+        img = near.render(cam, scene.models, sprites, scene.render.background, v.options, &ns,
+                          &report);
         vkCpu.push_back(processCpuMs() - c0);
-        draw.push_back(ns.drawMs);
-        readback.push_back(ns.readbackMs);
+        // The device's own time of the draw where it has timestamps, else the host's wait.
+        draw.push_back(report.ms("near_draw").value_or(report.host.waitMs));
+        readback.push_back(report.host.readbackMs + report.ms("copy_planes").value_or(0.0) +
+                           report.ms("readback_copy").value_or(0.0));
         row.fragments = ns.fragmentInvocations;
         Image cpu(cam.width, cam.height, scene.render.background);
         ReferenceStats rs;

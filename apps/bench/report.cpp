@@ -955,8 +955,8 @@ json scalingContext(const SuiteResults& r, const std::vector<std::string>& plots
                      {"frame_ms", num(m.frameMs())},
                      {"growth", num(m.frameMs() / firstMs[toString(m.mode)], 1) + "×"},
                      {"speedup", speedupCell(m)},
-                     {"setup_ms",
-                      num(perFrame(m, &FrameStats::setupMs) + perFrame(m, &FrameStats::selectMs))},
+                     {"setup_ms", num(perFrame(m, &FrameStats::hostSetupMs) +
+                                      perFrame(m, &FrameStats::hostSelectMs))},
                      {"occluded", num(perFrame(m, &FrameStats::nearOccluded), 0) + " / " +
                                       num(perFrame(m, &FrameStats::farOccluded), 0)},
                      {"near_written", num(perFrame(m, &FrameStats::nearPixelsWritten), 0)},

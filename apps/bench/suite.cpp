@@ -490,8 +490,11 @@ std::vector<FrameStats> frameMedians(const Config& c) {
 void addThroughput(Measurement& m) {
     const PathFigures& f = m.figures;
     const double steps = f.of(&FrameStats::voxelFetches);
+    // On Vulkan the reads are the draw's (the counting shader's), over the device's own time of
+    // the draw where it has timestamps; on the CPU reference, over the near tier's time.
+    const double gpuDrawMs = f.of(&FrameStats::gpuDrawMs);
     const double stepMs =
-        f.of(info(m.mode).countsStepsApart ? &FrameStats::nearDrawMs : &FrameStats::nearMs);
+        info(m.mode).countsStepsApart && gpuDrawMs > 0 ? gpuDrawMs : f.of(&FrameStats::nearMs);
     if (stepMs > 0 && steps > 0) m.voxelStepsPerS = steps / stepMs * 1e3;
     const double blitPx = f.of(&FrameStats::farPixelsTested), blitMs = f.of(&FrameStats::blitMs);
     if (blitMs > 0 && blitPx > 0) {

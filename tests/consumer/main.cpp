@@ -1,10 +1,11 @@
 // Renders a procedural model through the installed voxtier (the CPU reference, no GPU needed),
 // checks the entity covers pixels, and writes the frame through the installed image_files module
-// (a .pam: the library-free format; the file must be the header plus 4 bytes a pixel).
-#include "compose/frame.hpp"
-#include "core/model_view.hpp"
-#include "core/procedural.hpp"
-#include "image_files/image_files.hpp"
+// (a .pam: the library-free format; the file must be the header plus 4 bytes a pixel). Includes
+// the installed headers as a consumer does, <voxtier/module/header.hpp>.
+#include <voxtier/compose/frame.hpp>
+#include <voxtier/core/model_view.hpp>
+#include <voxtier/core/procedural.hpp>
+#include <voxtier/image_files/image_files.hpp>
 
 #include <cstdio>
 #include <filesystem>

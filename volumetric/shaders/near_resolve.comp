@@ -1,6 +1,6 @@
 #version 450
 // The resolve pass of cell-rate sprites (DESIGN.md §3.11), after the draw's targets are copied
-// into the host-visible readback buffer: every pixel whose word (near_splat.comp) names a
+// into the frame's planes (device/gpu_frame.hpp): every pixel whose word (near_splat.comp) names a
 // cell-rate sprite gets that sprite's colour, entity id and depth where it beats what the draw
 // left, by Image::writeIfNearer's rule (nearer, or as near with the lower entity id). It reads
 // no geometry: the word holds the winner's rank and outcome. A workgroup is one 32x32 tile of
@@ -30,7 +30,7 @@ layout(std430, set = 0, binding = NEAR_BINDING_RANK_SPRITES) readonly buffer Ran
 layout(std430, set = 0, binding = NEAR_BINDING_PIXEL_WORDS) readonly buffer PixelWords {
     uint vtPixelWords[];
 };
-layout(std430, set = 0, binding = NEAR_BINDING_READBACK) buffer Readback {
+layout(std430, set = 0, binding = NEAR_BINDING_PLANES) buffer Planes {
     uint vtPlanes[]; // colour, then entity id, then depth bits: width * height each
 };
 layout(push_constant) uniform Push {

@@ -1,5 +1,5 @@
 // Constants and buffer layouts shared by the near-tier shaders (volumetric/shaders/near.*) and
-// their C++ host (volumetric/near_renderer.cpp), written in the common subset of GLSL 4.50 and
+// their C++ host (volumetric/near_passes.cpp), written in the common subset of GLSL 4.50 and
 // C++ like core/sprite_kernel.h, so a binding number or a field offset exists exactly once.
 #ifndef VOXTIER_NEAR_SHARED_H
 #define VOXTIER_NEAR_SHARED_H
@@ -27,7 +27,7 @@ VT_NEAR_CONST uint NEAR_BINDING_COUNTERS =
     3u;                                     // NearCounters (written by the VT_COUNT_STEPS variant)
 VT_NEAR_CONST uint NEAR_BINDING_BOXES = 4u; // NearBox[]: proxy-box corners (box proxy only)
 VT_NEAR_CONST uint NEAR_BINDING_HULLS = 5u; // NearHull[]: silhouette polygons (hull proxy, default)
-// Cell-rate sprites (volumetric/near_rate.hpp): per sprite the offset of its cells in the cell
+// Cell-rate sprites (core/near_rate.hpp): per sprite the offset of its cells in the cell
 // store or NEAR_NO_CELLS; the store (one packed kernel outcome per cell, written by the compute
 // pass near_cells.comp, read by near.frag); the compute pass's tiles (sprite, first cell slot).
 VT_NEAR_CONST uint NEAR_BINDING_CELL_BASES = 6u;
@@ -41,22 +41,16 @@ VT_NEAR_CONST uint NEAR_CELL_TILE = 64u;
 // word, the least over the cell-rate sprites that cover it of (depth rank, the pixel's cell
 // outcome): nearPixelWord. The rank is in the high bits, so the least word is the nearest
 // sprite's, and it carries what that sprite shows there. After the draw, near_resolve.comp
-// shades each pixel's word into the readback buffer where it beats what the draw left.
+// shades each pixel's word into the frame's planes where it beats what the draw left.
 VT_NEAR_CONST uint NEAR_BINDING_SPLAT_BLOCKS = 9u;
 VT_NEAR_CONST uint NEAR_BINDING_RANK_SPRITES = 10u; // uint[]: sprite index of each depth rank
 VT_NEAR_CONST uint NEAR_BINDING_PIXEL_WORDS = 11u;
-VT_NEAR_CONST uint NEAR_BINDING_READBACK = 12u;
-// The far pass (volumetric/shaders/far_shared.h, far_blit.comp): far sprite instances, the
-// device-resident snapshot cells, the frame's far palettes, the 32x32 image tiles far sprites
-// touch and, per tile, the far sprites that touch it.
-VT_NEAR_CONST uint NEAR_BINDING_FAR_INSTANCES = 13u;
-VT_NEAR_CONST uint NEAR_BINDING_FAR_SNAPSHOTS = 14u;
-VT_NEAR_CONST uint NEAR_BINDING_FAR_PALETTES = 15u;
-VT_NEAR_CONST uint NEAR_BINDING_FAR_TILES = 16u;
-VT_NEAR_CONST uint NEAR_BINDING_FAR_TILE_LIST = 17u;
+// The frame's planes (device/gpu_frame.hpp): colour, id and depth words, where the resolve
+// composes the cell-rate pixels.
+VT_NEAR_CONST uint NEAR_BINDING_PLANES = 12u;
 // uint[]: the brick occupancy words (core/sprite_kernel.h vtBrickIndex) of every resident model
 // frame, each frame's from its SpriteGpu::brickBase (volumetric/voxel_residency.hpp).
-VT_NEAR_CONST uint NEAR_BINDING_BRICKS = 18u;
+VT_NEAR_CONST uint NEAR_BINDING_BRICKS = 13u;
 VT_NEAR_CONST uint NEAR_NO_RANK = 0xFFFFFFFFu; // a pixel word no cell-rate sprite wrote
 VT_NEAR_CONST uint NEAR_SPLAT_BLOCK = 32u;     // pixels per side of a splat workgroup
 // A pixel word: depth rank << NEAR_RANK_SHIFT | kind | face << 2 | palette index << 5. The

@@ -1,4 +1,4 @@
-#include "volumetric/near_rate.hpp"
+#include "core/near_rate.hpp"
 
 #include <algorithm>
 

@@ -1,6 +1,7 @@
-// The far pass's per-sprite and per-tile records (far_blit.comp and its C++ host,
-// volumetric/far_pass.cpp), in the common subset of GLSL 4.50 and C++ like near_shared.h.
-// Included after core/sprite_kernel.h (it holds a SpriteGpu).
+// The far pass's bindings, per-sprite and per-tile records and push constants (far_blit.comp and
+// its C++ host, impostor_cache/far_pass.cpp), in the common subset of GLSL 4.50 and C++ like
+// core/sprite_kernel.h, so a binding number or a field offset exists exactly once. Included after
+// core/sprite_kernel.h (it holds a SpriteGpu).
 #ifndef VOXTIER_FAR_SHARED_H
 #define VOXTIER_FAR_SHARED_H
 
@@ -12,8 +13,22 @@
 namespace voxtier::far_gpu {
 using kernel::ivec4;
 using kernel::SpriteGpu;
+using kernel::uint;
 using kernel::uvec4;
+#define VT_FAR_CONST inline constexpr
+#else
+#define VT_FAR_CONST const
 #endif
+
+// Descriptor set 0 of the far pass.
+VT_FAR_CONST uint FAR_BINDING_INSTANCES = 0u; // FarInstanceGpu[]: the frame's far sprites
+VT_FAR_CONST uint FAR_BINDING_SNAPSHOTS = 1u; // uint[]: the device-resident snapshot cells
+VT_FAR_CONST uint FAR_BINDING_PALETTES = 2u;  // uint[]: the frame's far palettes
+VT_FAR_CONST uint FAR_BINDING_TILES = 3u;     // FarTile[]: the image tiles far sprites touch
+VT_FAR_CONST uint FAR_BINDING_TILE_LIST = 4u; // uint[]: per tile, the far sprites touching it
+VT_FAR_CONST uint FAR_BINDING_PLANES = 5u;    // uint[]: the frame's colour, id, depth planes
+// Pixels per side of a tile: one workgroup of 32 x 2 invocations.
+VT_FAR_CONST uint FAR_TILE = 32u;
 
 // One far sprite. `sprite` is the near tier's SpriteGpu (vtPixelCell, vtFaceLight, depth, id in
 // dims.w); the snapshot cell of near cell (i, j) is (floor(u0 + ui i + uj j), floor(v0 + vi i +
@@ -33,6 +48,13 @@ struct FarInstanceGpu {
     ivec4 extra; // first cell j, palette base, unused, unused
 };
 
+// Push constants: the tiles to run, and the image size.
+struct FarPush {
+    uint count;
+    uint width;
+    uint height;
+};
+
 // One 32x32 tile of the image that far sprites touch: its first pixel (x low 16 bits, y high 16)
 // and its far sprites, entries first .. first + count - 1 of the tile list.
 struct FarTile {
@@ -46,7 +68,7 @@ struct FarTile {
 static_assert(sizeof(FarInstanceGpu) == 368 && offsetof(FarInstanceGpu, u0) == 272 &&
                   offsetof(FarInstanceGpu, rect) == 320 && offsetof(FarInstanceGpu, extra) == 352,
               "FarInstanceGpu must match the std430 layout in GLSL");
-static_assert(sizeof(FarTile) == 16);
+static_assert(sizeof(FarTile) == 16 && sizeof(FarPush) == 12);
 } // namespace voxtier::far_gpu
 #endif
 

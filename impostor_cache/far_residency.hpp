@@ -8,8 +8,9 @@
 // holds what the cache holds, plus what frames still hold. A refreshed snapshot (the same
 // lineage, the same cell range) takes over its predecessor's range and uploads only the rows of
 // cells that differ from it.
-#include "core/far_batch.hpp"
+#include "device/gpu_frame.hpp"
 #include "device/vulkan_device.hpp"
+#include "impostor_cache/far_batch.hpp"
 
 #include <cstdint>
 #include <map>
@@ -35,14 +36,12 @@ class FarResidency {
     FarResidency& operator=(const FarResidency&) = delete;
 
     /// Frees the ranges of snapshots nobody else holds, makes every snapshot of `batch` resident
-    /// (staging what must be copied) and returns each one's word offset, in batch order. The
-    /// copies are recorded by recordUploads; until then buffer() may be a new, larger buffer.
+    /// and returns each one's word offset, in batch order. The copies are recorded by
+    /// recordUploads, into the same frame; until then buffer() may be a new, larger buffer.
     std::vector<std::uint32_t> update(const FarBatch& batch, FarResidencyStats* stats = nullptr);
-    /// Records this update's copies (growth copy, then staged cells) and the barrier that makes
-    /// them visible to compute shaders.
-    void recordUploads(VkCommandBuffer cb);
-    /// To be called once the command buffer of recordUploads has completed.
-    void uploadsDone();
+    /// Records this update's copies into `frame` (the growth copy, then the cells through the
+    /// frame's staging ring) and the barrier that makes them visible to compute shaders.
+    void recordUploads(GpuFrame& frame);
 
     VkBuffer buffer() const { return buffer_.handle(); }
     std::uint64_t residentBytes() const { return usedWords_ * 4; }
@@ -63,18 +62,21 @@ class FarResidency {
     void evictUnneeded(const std::unordered_set<const void*>& needed, FarResidencyStats& stats);
     /// Frees every resident snapshot (an entries_ element) for which keep(element) is false.
     template <class Keep> void freeUnless(Keep&& keep, FarResidencyStats& stats);
-    /// Stages `bytes` bytes of `from` for a copy to byte `deviceByte` of the buffer.
+    /// Notes `bytes` bytes of `from` for a copy to byte `deviceByte` of the buffer.
     void stage(const std::uint8_t* from, std::size_t bytes, VkDeviceSize deviceByte);
 
     VulkanDevice& device_;
-    VulkanBuffer buffer_, retired_, staging_;
+    VulkanBuffer buffer_, retired_;
     std::uint64_t capacityWords_ = 0, usedWords_ = 0;
     std::map<std::uint32_t, std::uint32_t> free_; ///< offset -> words, coalesced
     std::unordered_map<const void*, Entry> entries_;
     std::unordered_map<std::uint64_t, const void*> byLineage_; ///< the lineage's latest entry
-    std::vector<std::uint8_t> staged_; ///< this update's bytes, copied to staging_ at the end
-    std::vector<VkBufferCopy> copies_; ///< staging -> buffer, this update
-    std::uint64_t retiredWords_ = 0;   ///< words of retired_ to copy into buffer_ first
+    struct Copy {
+        const std::uint8_t* from; ///< held by the entry's owner until recordUploads
+        VkDeviceSize bytes, deviceByte;
+    };
+    std::vector<Copy> copies_;       ///< this update's, recorded by recordUploads
+    std::uint64_t retiredWords_ = 0; ///< words of retired_ to copy into buffer_ first
     FarResidencyStats totals_;
 };
 

@@ -1,7 +1,7 @@
 #version 450
 // The far pass (DESIGN.md §6, the far tier on Vulkan): the far blit of
 // impostor_cache/far_blit.cpp on the GPU, pixel for pixel. It runs after the near tier's
-// targets are copied into the readback buffer (and after the cell-rate resolve), so it composes
+// targets are copied into the frame's planes (and after the cell-rate resolve), so it composes
 // by the same rule as the CPU blit writing into the near image: Image::writeIfNearer (nearer, or
 // as near with the lower entity id), whichever tier drew the pixel before. Per pixel and far
 // sprite whose rectangle holds it: the near lattice cell (vtPixelCell, dither included), the
@@ -12,41 +12,40 @@
 // tile's far sprites pass over them, so nothing races and the sprites' order does not matter
 // (the rule decides).
 #extension GL_GOOGLE_include_directive : require
-#include "volumetric/shaders/near_shared.h"
-
-layout(local_size_x = NEAR_SPLAT_BLOCK, local_size_y = 2) in;
 
 // The kernel header needs a voxel source to compile; this pass never traces.
 uint vtFetchVoxel(ivec3 cell);
 #include "core/sprite_kernel.h"
-#include "volumetric/shaders/far_shared.h"
+#include "impostor_cache/shaders/far_shared.h"
 
-layout(std430, set = 0, binding = NEAR_BINDING_FAR_INSTANCES) readonly buffer Instances {
+layout(local_size_x = FAR_TILE, local_size_y = 2) in;
+
+layout(std430, set = 0, binding = FAR_BINDING_INSTANCES) readonly buffer Instances {
     FarInstanceGpu vtFar[];
 };
-layout(std430, set = 0, binding = NEAR_BINDING_FAR_SNAPSHOTS) readonly buffer Snapshots {
+layout(std430, set = 0, binding = FAR_BINDING_SNAPSHOTS) readonly buffer Snapshots {
     uint vtSnapshotWords[];
 };
-layout(std430, set = 0, binding = NEAR_BINDING_FAR_PALETTES) readonly buffer FarPalettes {
+layout(std430, set = 0, binding = FAR_BINDING_PALETTES) readonly buffer FarPalettes {
     uint vtFarPalettes[];
 };
-layout(std430, set = 0, binding = NEAR_BINDING_FAR_TILES) readonly buffer Tiles {
+layout(std430, set = 0, binding = FAR_BINDING_TILES) readonly buffer Tiles {
     FarTile vtTiles[];
 };
-layout(std430, set = 0, binding = NEAR_BINDING_FAR_TILE_LIST) readonly buffer TileList {
+layout(std430, set = 0, binding = FAR_BINDING_TILE_LIST) readonly buffer TileList {
     uint vtTileList[];
 };
-layout(std430, set = 0, binding = NEAR_BINDING_READBACK) buffer Readback {
+layout(std430, set = 0, binding = FAR_BINDING_PLANES) buffer Planes {
     uint vtPlanes[]; // colour, then entity id, then depth bits: width * height each
 };
 layout(push_constant) uniform Push {
-    NearComputePush vtPush; // count: tiles
+    FarPush vtPush; // count: tiles
 };
 
 const uint FAR_EMPTY = 0u;
 const uint FAR_SOLID0 = 1u;
 const uint FAR_OUTLINE = 7u;
-const int FAR_ROWS = int(NEAR_SPLAT_BLOCK) / 2; // rows of a tile per invocation
+const int FAR_ROWS = int(FAR_TILE) / 2; // rows of a tile per invocation
 
 void main() {
     uint tile = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
@@ -60,7 +59,7 @@ void main() {
     // registers while the tile's sprites pass over them, sprite by sprite: each sprite's
     // constants are read once, and only its rectangle's rows are visited.
     int y0 = int(origin >> 16) + int(gl_LocalInvocationID.y);
-    int yEnd = min(int(vtPush.height), int(origin >> 16) + int(NEAR_SPLAT_BLOCK));
+    int yEnd = min(int(vtPush.height), int(origin >> 16) + int(FAR_TILE));
     int rows = yEnd > y0 ? (yEnd - y0 + 1) / 2 : 0;
     uint plane = vtPush.width * vtPush.height;
     uint colors[FAR_ROWS];

@@ -1,4 +1,4 @@
-#include "volumetric/far_residency.hpp"
+#include "impostor_cache/far_residency.hpp"
 
 #include "device/vulkan_check.hpp"
 
@@ -40,7 +40,7 @@ void FarResidency::grow(std::uint64_t minWords) {
         throw VulkanError("far pass: the resident snapshots need " + std::to_string(words * 4) +
                           " bytes, past the device's storage buffer range of " +
                           std::to_string(limit));
-    VulkanBuffer bigger(device_, words * 4, kUsage, false);
+    VulkanBuffer bigger(device_, words * 4, kUsage, BufferClass::DeviceOnly);
     if (capacityWords_) {
         // The old contents move over in the next recorded upload, before anything new.
         if (!retired_) { // a second growth before the copy keeps the first buffer's contents
@@ -116,14 +116,13 @@ void FarResidency::evictUnneeded(const std::unordered_set<const void*>& needed,
 }
 
 void FarResidency::stage(const std::uint8_t* from, std::size_t bytes, VkDeviceSize deviceByte) {
-    copies_.push_back({VkDeviceSize(staged_.size()), deviceByte, VkDeviceSize(bytes)});
-    staged_.insert(staged_.end(), from, from + bytes);
+    // The cells stay alive until recordUploads: the entry (or the batch) holds their owner.
+    copies_.push_back({from, VkDeviceSize(bytes), deviceByte});
 }
 
 std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarResidencyStats* stats) {
     FarResidencyStats st;
     copies_.clear();
-    staged_.clear();
     // A snapshot new to the device whose predecessor (same lineage) nobody else holds any more
     // may take over its range: the predecessor is kept through the sweep for that.
     std::unordered_set<const void*> predecessors;
@@ -205,14 +204,6 @@ std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarReside
     }
     // Predecessors no refresh took over (another cell range) go now.
     sweep({}, st);
-    if (!staged_.empty()) {
-        if (!staging_ || staging_.size() < staged_.size()) {
-            VkDeviceSize size = staging_ ? staging_.size() : 1u << 16;
-            while (size < staged_.size()) size *= 2;
-            staging_ = VulkanBuffer(device_, size, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, true);
-        }
-        std::memcpy(staging_.mapped(), staged_.data(), staged_.size());
-    }
     totals_.snapshotsUploaded += st.snapshotsUploaded;
     totals_.bytesUploaded += st.bytesUploaded;
     totals_.refreshesInPlace += st.refreshesInPlace;
@@ -226,8 +217,9 @@ std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarReside
     return offsets;
 }
 
-void FarResidency::recordUploads(VkCommandBuffer cb) {
+void FarResidency::recordUploads(GpuFrame& frame) {
     if (!retiredWords_ && copies_.empty()) return;
+    VkCommandBuffer cb = frame.commandBuffer();
     if (retiredWords_) {
         const VkBufferCopy all{0, 0, retiredWords_ * 4};
         vkCmdCopyBuffer(cb, retired_.handle(), buffer_.handle(), 1, &all);
@@ -235,19 +227,16 @@ void FarResidency::recordUploads(VkCommandBuffer cb) {
             bufferBarrier(cb, buffer_.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
                           VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
                           VK_ACCESS_TRANSFER_WRITE_BIT);
+        // The old buffer lives until this frame has copied out of it.
+        frame.keepUntilDone(std::move(retired_));
+        retiredWords_ = 0;
     }
-    if (!copies_.empty())
-        vkCmdCopyBuffer(cb, staging_.handle(), buffer_.handle(), std::uint32_t(copies_.size()),
-                        copies_.data());
+    for (const Copy& c : copies_)
+        frame.ring().upload(cb, buffer_.handle(), c.deviceByte, c.from, c.bytes);
+    copies_.clear();
     bufferBarrier(cb, buffer_.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
                   VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT);
-}
-
-void FarResidency::uploadsDone() {
-    retired_.reset();
-    retiredWords_ = 0;
-    copies_.clear();
 }
 
 } // namespace voxtier

@@ -1,0 +1,76 @@
+#pragma once
+// The frame's sprites, kept from one frame to the next (the set-up step of the frame recipe).
+// A frame asks for every entity's SpriteSetup; most of it does not change between frames:
+// the entity's pose and face lights change only when the entity moves, turns or steps to another
+// animation frame (or the light changes), and nothing of a sprite changes while neither its
+// entity nor the camera does. So the store keeps, per entity, what set-up derives from the entity
+// alone (SpriteConstants) and the sprite itself, and an update recomputes only what changed:
+// the constants of the entities that changed, and the sprites of those entities, or of every
+// entity when the camera moved. The arrays grow with the entity count and are reused: an update
+// allocates nothing once the scene's entities are known, and runs in parallel (TBB).
+//
+// Every sprite equals a fresh setupSprite() of its entity bit for bit (the same functions compute
+// it); the store only decides when to compute it.
+#include "core/camera.hpp"
+#include "core/scene.hpp"
+#include "core/shared_vector.hpp"
+#include "core/sprite.hpp"
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace voxtier {
+
+class SpriteStore {
+  public:
+    /// What one update did.
+    struct Update {
+        int entities = 0;
+        int culled = 0;          ///< sprites that draw nothing this frame (SpriteSetup::cull)
+        int recomputed = 0;      ///< sprites set up afresh (the others are last frame's, unchanged)
+        int entitiesChanged = 0; ///< of those, entities whose constants changed (or are new)
+    };
+
+    /// Brings every entity's sprite up to date for `camera` at `time` (animation frames).
+    Update update(const Scene& scene, const CameraFrame& camera, double time);
+    /// Forgets everything: the next update sets every sprite up afresh.
+    void clear();
+
+    /// Per entity id, as of the last update.
+    std::span<const SpriteSetup> sprites() const { return sprites_.read(); }
+    /// The same, shared: it stays as it is when later updates change the store's sprites.
+    SharedVector<SpriteSetup> shareSprites() const { return sprites_.share(); }
+    /// The ids of the visible sprites (SpriteSetup::visible), ascending.
+    std::span<const std::uint32_t> visibleIds() const { return visibleIds_; }
+    /// Per entity id: 1 where the last update set the sprite up afresh, 0 where it is the one
+    /// before (what a consumer that mirrors the sprites elsewhere has to refresh).
+    std::span<const std::uint8_t> changed() const { return changed_; }
+
+  private:
+    /// What a sprite's constants depend on, besides the light and the render parameters.
+    struct EntityKey {
+        std::uint64_t modelUid = 0; ///< 0: not set up yet
+        int model = 0;
+        int frame = 0;
+        glm::dvec3 position{0.0};
+        glm::dquat rotation{1.0, 0.0, 0.0, 0.0};
+        double scale = 1.0;
+        bool hasAnchor = false;
+        glm::dvec3 anchor{0.0};
+        bool operator==(const EntityKey&) const = default;
+    };
+
+    std::vector<EntityKey> keys_;
+    std::vector<SpriteConstants> constants_;
+    SharedVectorOwner<SpriteSetup> sprites_;
+    std::vector<std::uint8_t> changed_, visible_;
+    std::vector<std::uint32_t> visibleIds_;
+    /// What every sprite of the last update was set up with.
+    bool valid_ = false;
+    CameraFrame camera_{};
+    RenderParams params_{};
+    Light light_{};
+};
+
+} // namespace voxtier

@@ -1,0 +1,265 @@
+#include "device/gpu_frame.hpp"
+
+#include "core/sprite_kernel.h"
+#include "core/stopwatch.hpp"
+
+#include <chrono>
+#include <cstring>
+#include <stdexcept>
+
+namespace voxtier {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// The staging ring's first size: a frame of a few thousand sprites fits; it grows as needed.
+constexpr VkDeviceSize kInitialRingBytes = VkDeviceSize(4) << 20;
+
+/// Every stage and access: the frame-start barrier orders a frame after everything before it.
+void fullBarrier(VkCommandBuffer cb) {
+    VkMemoryBarrier b{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    b.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
+    b.dstAccessMask = VK_ACCESS_MEMORY_READ_BIT | VK_ACCESS_MEMORY_WRITE_BIT;
+    vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT,
+                         0, 1, &b, 0, nullptr, 0, nullptr);
+}
+
+} // namespace
+
+// ---------------------------------------------------------------------------------------------
+// GpuFrame
+
+GpuFrame::GpuFrame(GpuFrames& owner, int slot)
+    : owner_(&owner), device_(&owner.device()), slot_(slot) {
+    cb_ = device_->allocateCommandBuffer();
+    VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    fci.flags = VK_FENCE_CREATE_SIGNALED_BIT; // a slot never used is free
+    const VkResult r = vkCreateFence(device_->device(), &fci, nullptr, &fence_);
+    if (r != VK_SUCCESS) {
+        device_->freeCommandBuffer(cb_);
+        VK_CHECK(r);
+    }
+    timer_ = std::make_unique<PassTimer>(*device_);
+}
+
+GpuFrame::~GpuFrame() {
+    if (fence_) {
+        vkWaitForFences(device_->device(), 1, &fence_, VK_TRUE, UINT64_MAX);
+        vkDestroyFence(device_->device(), fence_, nullptr);
+    }
+    device_->freeCommandBuffer(cb_);
+}
+
+StagingRing& GpuFrame::ring() {
+    return owner_->ring_;
+}
+
+const VulkanImage& GpuFrame::color() const {
+    return owner_->color_;
+}
+const VulkanImage& GpuFrame::id() const {
+    return owner_->id_;
+}
+const VulkanImage& GpuFrame::depth() const {
+    return owner_->depth_;
+}
+
+VkBuffer GpuFrame::planes() const {
+    return owner_->composeInReadback_ ? readback_.handle() : owner_->planes_.handle();
+}
+
+void* GpuFrame::hostWrite(VulkanBuffer& dst, VkDeviceSize dstOffset, VkDeviceSize bytes) {
+    if (bytes == 0) return nullptr;
+    if (dstOffset > dst.size() || bytes > dst.size() - dstOffset)
+        throw std::logic_error("GpuFrame::hostWrite past the end of the buffer");
+    switch (dst.placement().hostWrite) {
+    case HostWrite::Direct:
+        if (dst.placement().flushAfterWrite) directFlushes_.push_back(&dst);
+        return static_cast<std::uint8_t*>(dst.mapped()) + dstOffset;
+    case HostWrite::Staged:
+        return owner_->ring_.uploadInPlace(cb_, dst.handle(), dstOffset, bytes);
+    case HostWrite::None:
+        break;
+    }
+    throw std::logic_error("GpuFrame::hostWrite: the host does not write this buffer");
+}
+
+void GpuFrame::keepUntilDone(VulkanBuffer&& buffer) {
+    keptAlive_.push_back(std::move(buffer));
+}
+
+void GpuFrame::recordTargetsToPlanes(bool allPlanes) {
+    const VulkanImage* images[3] = {&color(), &id(), &depth()};
+    for (int i = 0; i < (allPlanes ? 3 : 1); ++i) {
+        VkBufferImageCopy region{};
+        region.bufferOffset = planeBytes() * VkDeviceSize(i);
+        region.imageSubresource = {images[i]->aspect(), 0, 0, 1};
+        region.imageExtent = {std::uint32_t(width_), std::uint32_t(height_), 1};
+        vkCmdCopyImageToBuffer(cb_, images[i]->handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                               planes(), 1, &region);
+    }
+    bufferBarrier(cb_, planes(), VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+                      VK_ACCESS_TRANSFER_READ_BIT);
+}
+
+void GpuFrame::recordClearPlanes(std::uint32_t clear, bool allPlanes) {
+    const VkDeviceSize plane = planeBytes();
+    vkCmdFillBuffer(cb_, planes(), 0, plane, clear);
+    if (allPlanes) {
+        vkCmdFillBuffer(cb_, planes(), plane, plane, kernel::VT_NO_ENTITY);
+        vkCmdFillBuffer(cb_, planes(), 2 * plane, plane, 0u); // depth 0.0f: nothing drawn
+    }
+    bufferBarrier(cb_, planes(), VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+                      VK_ACCESS_TRANSFER_READ_BIT);
+}
+
+void GpuFrame::recordReadback(bool depthAndIds) {
+    readBack_ = true;
+    readBackAll_ = depthAndIds;
+    timer_->begin(cb_, "readback_copy");
+    if (!owner_->composeInReadback_) {
+        const VkBufferCopy copy{0, 0, planeBytes() * (depthAndIds ? 3 : 1)};
+        vkCmdCopyBuffer(cb_, planes(), readback_.handle(), 1, &copy);
+    }
+    timer_->end(cb_);
+    bufferBarrier(cb_, readback_.handle(),
+                  VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
+}
+
+void GpuFrame::submit() {
+    if (!recording_) throw std::logic_error("GpuFrame::submit: not recording");
+    timer_->end(cb_); // "frame"
+    owner_->ring_.flushPending();
+    for (VulkanBuffer* b : directFlushes_) b->flush();
+    directFlushes_.clear();
+    VK_CHECK(vkEndCommandBuffer(cb_));
+    recording_ = false;
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cb_;
+    VK_CHECK(vkResetFences(device_->device(), 1, &fence_));
+    VK_CHECK(vkQueueSubmit(device_->queue(), 1, &si, fence_));
+    submitted_ = true;
+}
+
+void GpuFrame::wait() {
+    if (!submitted_) return;
+    const auto t0 = Clock::now();
+    VK_CHECK(vkWaitForFences(device_->device(), 1, &fence_, VK_TRUE, UINT64_MAX));
+    host_.waitMs = msSince(t0);
+    submitted_ = false;
+    keptAlive_.clear();
+    // One queue executes frames in order: every earlier frame has finished too.
+    owner_->ring_.retire(serial_);
+}
+
+Image GpuFrame::read(bool depthAndIds) {
+    wait();
+    Image img;
+    if (!readBack_) return img;
+    const auto t0 = Clock::now();
+    const bool all = depthAndIds && readBackAll_;
+    readback_.invalidateForRead(0, planeBytes() * (all ? 3 : 1));
+    img.width = width_;
+    img.height = height_;
+    const std::size_t count = img.pixelCount();
+    // assign() copies straight in; resize() + memcpy would write every byte twice.
+    const auto* base = static_cast<const std::uint8_t*>(readback_.mapped());
+    const auto* colors = reinterpret_cast<const Rgba8*>(base);
+    img.color.assign(colors, colors + count);
+    if (all) {
+        const auto* ids = reinterpret_cast<const std::uint32_t*>(base + planeBytes());
+        const auto* depths = reinterpret_cast<const float*>(base + 2 * planeBytes());
+        img.id.assign(ids, ids + count);
+        img.depth.assign(depths, depths + count);
+    }
+    host_.readbackMs = msSince(t0);
+    return img;
+}
+
+// ---------------------------------------------------------------------------------------------
+// GpuFrames
+
+GpuFrames::GpuFrames(VulkanDevice& device, int slots)
+    : device_(device), ring_(device, kInitialRingBytes) {
+    // Composing in the readback memory saves a copy of the planes wherever that memory is the
+    // device's own (its placement is device-local): lavapipe, integrated GPUs.
+    const MemoryPlacement readback = device.placementFor(BufferClass::Readback, ~0u);
+    composeInReadback_ = (readback.flags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) != 0;
+    for (int s = 0; s < std::max(1, slots); ++s)
+        frames_.push_back(std::unique_ptr<GpuFrame>(new GpuFrame(*this, s)));
+}
+
+GpuFrames::~GpuFrames() {
+    waitAll();
+}
+
+void GpuFrames::waitAll() {
+    for (auto& f : frames_) f->wait();
+}
+
+void GpuFrames::ensureTargets(int w, int h) {
+    if (w == width_ && h == height_ && color_) return;
+    // The targets are shared by the slots: no frame may still be using the old ones.
+    waitAll();
+    const VkExtent3D extent{std::uint32_t(w), std::uint32_t(h), 1};
+    const VkImageUsageFlags colorUsage =
+        VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+    color_ = VulkanImage(device_, VK_IMAGE_TYPE_2D, GpuFrame::kColorFormat, extent, colorUsage,
+                         VK_IMAGE_ASPECT_COLOR_BIT);
+    id_ = VulkanImage(device_, VK_IMAGE_TYPE_2D, GpuFrame::kIdFormat, extent, colorUsage,
+                      VK_IMAGE_ASPECT_COLOR_BIT);
+    depth_ =
+        VulkanImage(device_, VK_IMAGE_TYPE_2D, GpuFrame::kDepthFormat, extent,
+                    VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                    VK_IMAGE_ASPECT_DEPTH_BIT);
+    const VkDeviceSize planesBytes = 3 * VkDeviceSize(w) * VkDeviceSize(h) * 4;
+    const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                     VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    planes_ = composeInReadback_
+                  ? VulkanBuffer()
+                  : VulkanBuffer(device_, planesBytes, usage, BufferClass::DeviceOnly);
+    for (auto& f : frames_)
+        f->readback_ = VulkanBuffer(device_, planesBytes, usage, BufferClass::Readback);
+    width_ = w;
+    height_ = h;
+}
+
+GpuFrame& GpuFrames::begin(int width, int height) {
+    GpuFrame& f = *frames_[std::size_t(serial_ % frames_.size())];
+    if (f.recording_) {
+        // Begun and never submitted (an exception while recording): drop it, and its staging
+        // space once nothing earlier is in flight either.
+        f.recording_ = false; // vkResetCommandBuffer below resets it from the recording state
+        waitAll();
+        ring_.retire(f.serial_);
+    }
+    f.wait(); // the slot's previous frame
+    f.keptAlive_.clear();
+    ensureTargets(width, height);
+    f.serial_ = ++serial_;
+    f.width_ = width;
+    f.height_ = height;
+    f.readBack_ = f.readBackAll_ = false;
+    f.host_ = {};
+    VK_CHECK(vkResetCommandBuffer(f.cb_, 0));
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    VK_CHECK(vkBeginCommandBuffer(f.cb_, &bi));
+    f.recording_ = true;
+    ring_.beginFrame(f.serial_);
+    fullBarrier(f.cb_);
+    f.timer_->reset(f.cb_);
+    f.timer_->begin(f.cb_, "frame"); // the whole frame, closed by submit()
+    return f;
+}
+
+} // namespace voxtier

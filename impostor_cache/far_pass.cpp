@@ -1,0 +1,289 @@
+#include "impostor_cache/far_pass.hpp"
+
+#include "core/sprite_kernel.h"
+#include "impostor_cache/far_residency.hpp"
+#include "impostor_cache/shaders/far_shared.h"
+
+#include <cstring>
+#include <unordered_map>
+#include <vector>
+
+// SPIR-V generated at build time by glslangValidator (impostor_cache/CMakeLists.txt).
+#include "shaders/far_blit_comp.h"
+
+namespace voxtier {
+
+struct FarPass::Impl {
+    GpuFrames& frames;
+    VulkanDevice& device;
+    FarResidency residency;
+    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+    VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
+    VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
+    VkPipeline pipeline = VK_NULL_HANDLE;
+
+    /// Per frame in flight: what the host writes for a frame, and its descriptor set.
+    struct Slot {
+        VulkanBuffer instances, palettes, tiles, tileList;
+        VkDescriptorSet set = VK_NULL_HANDLE;
+    };
+    std::vector<Slot> slots;
+
+    // The frame being recorded (host scratch, reused from frame to frame).
+    std::vector<far_gpu::FarInstanceGpu> instances;
+    std::vector<std::uint32_t> palettes, perTile, start, list;
+    std::vector<far_gpu::FarTile> tiles;
+    std::unordered_map<const Palette*, std::uint32_t> paletteBase;
+
+    explicit Impl(GpuFrames& f) : frames(f), device(f.device()), residency(f.device()) {
+        if (!FarPass::supported(device))
+            throw VulkanError("far pass: " + device.name() +
+                              " lacks shaderFloat64, which the far pass needs (--far-backend cpu)");
+        try {
+            create();
+        } catch (...) {
+            destroy();
+            throw;
+        }
+    }
+    ~Impl() { destroy(); }
+
+    void create();
+    void destroy() noexcept;
+    void ensure(VulkanBuffer& b, VkDeviceSize bytes);
+    /// The frame's instances, palettes, tiles and tile lists, from `batch` (offsets: each
+    /// snapshot's word offset on the device). Returns the tiles to dispatch.
+    std::uint32_t prepare(const FarBatch& batch, const std::vector<std::uint32_t>& offsets,
+                          int width, int height);
+    void writeDescriptors(GpuFrame& frame, Slot& slot);
+};
+
+void FarPass::Impl::create() {
+    VkDevice dev = device.device();
+    using namespace far_gpu;
+    const VkDescriptorType sb = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    const VkShaderStageFlags c = VK_SHADER_STAGE_COMPUTE_BIT;
+    const VkDescriptorSetLayoutBinding bindings[] = {
+        {FAR_BINDING_INSTANCES, sb, 1, c, nullptr}, {FAR_BINDING_SNAPSHOTS, sb, 1, c, nullptr},
+        {FAR_BINDING_PALETTES, sb, 1, c, nullptr},  {FAR_BINDING_TILES, sb, 1, c, nullptr},
+        {FAR_BINDING_TILE_LIST, sb, 1, c, nullptr}, {FAR_BINDING_PLANES, sb, 1, c, nullptr},
+    };
+    VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+    dli.bindingCount = std::uint32_t(std::size(bindings));
+    dli.pBindings = bindings;
+    VK_CHECK(vkCreateDescriptorSetLayout(dev, &dli, nullptr, &setLayout));
+    VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+    pli.setLayoutCount = 1;
+    pli.pSetLayouts = &setLayout;
+    const VkPushConstantRange push{c, 0, sizeof(FarPush)};
+    pli.pushConstantRangeCount = 1;
+    pli.pPushConstantRanges = &push;
+    VK_CHECK(vkCreatePipelineLayout(dev, &pli, nullptr, &pipelineLayout));
+
+    const std::uint32_t n = std::uint32_t(frames.slots());
+    const VkDescriptorPoolSize sizes[] = {{sb, std::uint32_t(std::size(bindings)) * n}};
+    VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    dpi.maxSets = n;
+    dpi.poolSizeCount = 1;
+    dpi.pPoolSizes = sizes;
+    VK_CHECK(vkCreateDescriptorPool(dev, &dpi, nullptr, &descriptorPool));
+    slots.resize(n);
+    for (Slot& s : slots) {
+        VkDescriptorSetAllocateInfo dsa{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+        dsa.descriptorPool = descriptorPool;
+        dsa.descriptorSetCount = 1;
+        dsa.pSetLayouts = &setLayout;
+        VK_CHECK(vkAllocateDescriptorSets(dev, &dsa, &s.set));
+        for (VulkanBuffer* b : {&s.instances, &s.palettes, &s.tiles, &s.tileList}) ensure(*b, 4096);
+    }
+
+    VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    mi.codeSize = sizeof far_blit_comp;
+    mi.pCode = far_blit_comp;
+    VkShaderModule module = VK_NULL_HANDLE;
+    VK_CHECK(vkCreateShaderModule(dev, &mi, nullptr, &module));
+    VkComputePipelineCreateInfo cpi{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    cpi.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                 nullptr,
+                 0,
+                 VK_SHADER_STAGE_COMPUTE_BIT,
+                 module,
+                 "main",
+                 nullptr};
+    cpi.layout = pipelineLayout;
+    const VkResult r = vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &cpi, nullptr, &pipeline);
+    vkDestroyShaderModule(dev, module, nullptr);
+    VK_CHECK(r);
+}
+
+void FarPass::Impl::destroy() noexcept {
+    VkDevice dev = device.device();
+    if (!dev) return;
+    frames.waitAll();
+    slots.clear();
+    if (pipeline) vkDestroyPipeline(dev, pipeline, nullptr);
+    if (descriptorPool) vkDestroyDescriptorPool(dev, descriptorPool, nullptr); // frees the sets
+    if (pipelineLayout) vkDestroyPipelineLayout(dev, pipelineLayout, nullptr);
+    if (setLayout) vkDestroyDescriptorSetLayout(dev, setLayout, nullptr);
+    pipeline = VK_NULL_HANDLE;
+    descriptorPool = VK_NULL_HANDLE;
+    pipelineLayout = VK_NULL_HANDLE;
+    setLayout = VK_NULL_HANDLE;
+}
+
+void FarPass::Impl::ensure(VulkanBuffer& b, VkDeviceSize bytes) {
+    if (b && b.size() >= bytes) return;
+    VkDeviceSize size = b ? b.size() : 4096;
+    while (size < bytes) size *= 2;
+    b = VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::ShaderRead);
+}
+
+std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
+                                     const std::vector<std::uint32_t>& offsets, int width,
+                                     int height) {
+    using far_gpu::FAR_TILE;
+    paletteBase.clear();
+    palettes.clear();
+    instances.clear();
+    const int block = int(FAR_TILE);
+    const int tilesX = (width + block - 1) / block, tilesY = (height + block - 1) / block;
+    perTile.assign(std::size_t(tilesX) * std::size_t(tilesY) + 1, 0);
+    const auto tileSpan = [&](const glm::ivec4& r) {
+        return glm::ivec4(r.x / block, r.y / block, (r.z - 1) / block, (r.w - 1) / block);
+    };
+    for (const FarInstance& f : batch.instances) {
+        const SpriteSetup& s = *f.sprite;
+        if (!s.visible()) continue;
+        // The far blit's rectangle: the sprite's screen rectangle within the image.
+        const glm::ivec4 r =
+            glm::clamp(s.screenRect, glm::ivec4(0), glm::ivec4(width, height, width, height));
+        if (r.z <= r.x || r.w <= r.y) continue;
+        const auto [it, added] = paletteBase.emplace(f.palette, std::uint32_t(palettes.size()));
+        if (added)
+            for (const Rgba8 c : f.palette->colors) palettes.push_back(std::uint32_t(c));
+        const FarSnapshotCells& snap = batch.snapshots.at(f.snapshot);
+        far_gpu::FarInstanceGpu g{};
+        g.sprite = s.gpu;
+        g.u0 = f.u0, g.ui = f.ui, g.uj = f.uj, g.v0 = f.v0, g.vi = f.vi, g.vj = f.vj;
+        g.rect = r;
+        g.snap = {offsets[f.snapshot], std::uint32_t(snap.width()), std::uint32_t(snap.height()),
+                  std::uint32_t(snap.cellRange.x)};
+        g.extra = {snap.cellRange.z, int(it->second), 0, 0};
+        instances.push_back(g);
+        const glm::ivec4 t = tileSpan(r);
+        for (int ty = t.y; ty <= t.w; ++ty)
+            for (int tx = t.x; tx <= t.z; ++tx)
+                ++perTile[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)];
+    }
+    // Tiles with far sprites, and each one's sprites (in instance order; the rule makes the
+    // order irrelevant).
+    tiles.clear();
+    start.assign(perTile.size(), 0);
+    std::uint32_t total = 0;
+    for (std::size_t k = 0; k + 1 < perTile.size(); ++k) {
+        start[k] = total;
+        if (perTile[k] == 0) continue;
+        const std::uint32_t tx = std::uint32_t(k % std::size_t(tilesX)),
+                            ty = std::uint32_t(k / std::size_t(tilesX));
+        tiles.push_back({tx * FAR_TILE | (ty * FAR_TILE) << 16, total, perTile[k], 0});
+        total += perTile[k];
+    }
+    list.assign(total, 0);
+    for (std::uint32_t i = 0; i < instances.size(); ++i) {
+        const glm::ivec4 t = tileSpan(instances[i].rect);
+        for (int ty = t.y; ty <= t.w; ++ty)
+            for (int tx = t.x; tx <= t.z; ++tx)
+                list[start[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)]++] = i;
+    }
+    return std::uint32_t(tiles.size());
+}
+
+void FarPass::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
+    using namespace far_gpu;
+    const std::pair<std::uint32_t, VkBuffer> buffers[] = {
+        {FAR_BINDING_INSTANCES, slot.instances.handle()},
+        {FAR_BINDING_SNAPSHOTS, residency.buffer()},
+        {FAR_BINDING_PALETTES, slot.palettes.handle()},
+        {FAR_BINDING_TILES, slot.tiles.handle()},
+        {FAR_BINDING_TILE_LIST, slot.tileList.handle()},
+        {FAR_BINDING_PLANES, frame.planes()},
+    };
+    constexpr std::size_t kBuffers = std::size(buffers);
+    VkDescriptorBufferInfo infos[kBuffers];
+    VkWriteDescriptorSet w[kBuffers]{};
+    for (std::size_t i = 0; i < kBuffers; ++i) {
+        infos[i] = {buffers[i].second, 0, VK_WHOLE_SIZE};
+        w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+        w[i].dstSet = slot.set;
+        w[i].dstBinding = buffers[i].first;
+        w[i].descriptorCount = 1;
+        w[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+        w[i].pBufferInfo = &infos[i];
+    }
+    vkUpdateDescriptorSets(device.device(), std::uint32_t(kBuffers), w, 0, nullptr);
+}
+
+FarPass::FarPass(GpuFrames& frames) : impl_(std::make_unique<Impl>(frames)) {}
+FarPass::~FarPass() = default;
+
+std::uint64_t FarPass::residentBytes() const {
+    return impl_->residency.residentBytes();
+}
+std::size_t FarPass::residentSnapshots() const {
+    return impl_->residency.residentSnapshots();
+}
+
+void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats) {
+    Impl& m = *impl_;
+    if (3 * frame.planeBytes() > m.device.properties().limits.maxStorageBufferRange)
+        throw VulkanError("far pass: the image is larger than the device's storage buffer range");
+    Impl::Slot& slot = m.slots.at(std::size_t(frame.slot()));
+    VkCommandBuffer cb = frame.commandBuffer();
+    FarResidencyStats rs;
+    const std::vector<std::uint32_t> offsets = m.residency.update(batch, &rs);
+    stats.snapshotsUploaded = rs.snapshotsUploaded;
+    stats.bytesUploaded = rs.bytesUploaded;
+    const std::uint32_t tileCount = m.prepare(batch, offsets, frame.width(), frame.height());
+    stats.sprites = m.instances.size();
+    stats.tiles = tileCount;
+
+    frame.timer().begin(cb, "far_upload");
+    m.residency.recordUploads(frame);
+    const auto upload = [&](VulkanBuffer& b, const auto& v) {
+        const VkDeviceSize bytes = v.size() * sizeof(v[0]);
+        m.ensure(b, std::max<VkDeviceSize>(bytes, 4));
+        if (bytes) std::memcpy(frame.hostWrite(b, 0, bytes), v.data(), bytes);
+    };
+    upload(slot.instances, m.instances);
+    upload(slot.palettes, m.palettes);
+    upload(slot.tiles, m.tiles);
+    upload(slot.tileList, m.list);
+    m.writeDescriptors(frame, slot);
+    frame.ring().recordBarrier(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
+    frame.timer().end(cb);
+    if (!tileCount) return;
+
+    frame.timer().begin(cb, "far_blit");
+    // After the near tier's writes to the planes (copies and compute).
+    bufferBarrier(cb, frame.planes(),
+                  VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    const std::uint32_t maxX = m.device.properties().limits.maxComputeWorkGroupCount[0];
+    const std::uint32_t groupsX = std::min(tileCount, maxX);
+    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, m.pipeline);
+    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, m.pipelineLayout, 0, 1, &slot.set,
+                            0, nullptr);
+    const far_gpu::FarPush push{tileCount, std::uint32_t(frame.width()),
+                                std::uint32_t(frame.height())};
+    vkCmdPushConstants(cb, m.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+    vkCmdDispatch(cb, groupsX, (tileCount + groupsX - 1) / groupsX, 1);
+    frame.timer().end(cb);
+    bufferBarrier(
+        cb, frame.planes(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT);
+}
+
+} // namespace voxtier

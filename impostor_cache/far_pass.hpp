@@ -1,0 +1,46 @@
+#pragma once
+// The far tier on Vulkan (DESIGN.md §6, the far pass): the far blit of far_blit.hpp as a compute
+// pass over a GpuFrame's planes (device/gpu_frame.hpp), after the near tier's passes, by the
+// same exact rule (Image::writeIfNearer: nearer, or as near with the lower entity id), so the
+// image equals the CPU blit into the near image bit for bit. Its snapshots stay on the device
+// between frames (far_residency.hpp). Needs shaderFloat64 (the snapshot cell map is evaluated in
+// double, as on the CPU).
+#include "device/gpu_frame.hpp"
+#include "impostor_cache/far_batch.hpp"
+
+#include <cstdint>
+#include <memory>
+
+namespace voxtier {
+
+/// What the far pass did in one frame.
+struct FarPassStats {
+    /// Far sprites drawn, image tiles walked, snapshots (and their bytes) uploaded this frame.
+    std::uint64_t sprites = 0, tiles = 0, snapshotsUploaded = 0, bytesUploaded = 0;
+};
+
+class FarPass {
+  public:
+    /// Throws VulkanError when the device lacks shaderFloat64 (supported() says so first).
+    explicit FarPass(GpuFrames& frames);
+    ~FarPass();
+    FarPass(const FarPass&) = delete;
+    FarPass& operator=(const FarPass&) = delete;
+
+    static bool supported(const VulkanDevice& device) { return device.hasFloat64(); }
+
+    /// Records the far sprites of `batch` into `frame`, after whatever drew its planes: their new
+    /// snapshots uploaded, then the pass (timed as "far_upload" and "far_blit"). The planes must
+    /// hold all three planes (colour, id, depth).
+    void record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats);
+
+    /// Bytes of snapshot cells resident on the device, and how many snapshots.
+    std::uint64_t residentBytes() const;
+    std::size_t residentSnapshots() const;
+
+  private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+} // namespace voxtier

@@ -1,0 +1,136 @@
+// The sprite store (core/sprite_store.hpp): sprites kept between frames equal a fresh set-up of
+// every entity, bit for bit, and an update sets up afresh exactly what changed: nothing under a
+// still camera, the entities that stepped to another animation frame or moved, everything when
+// the camera or the light moves. A frame's share of the sprites stays as it was.
+#include "core/scene_loader.hpp"
+#include "core/sprite_store.hpp"
+#include "test_support.hpp"
+
+#include <cstring>
+
+namespace voxtier {
+namespace {
+
+using test::sourcePath;
+
+/// Field by field (SpriteSetup has padding; its SpriteGpu has none and is compared bytewise).
+::testing::AssertionResult sameSprite(const SpriteSetup& a, const SpriteSetup& b) {
+    const auto& la = a.lattice;
+    const auto& lb = b.lattice;
+    const bool same =
+        a.cull == b.cull && a.entityId == b.entityId && a.model == b.model && a.frame == b.frame &&
+        a.pose.worldFromVoxelRotation == b.pose.worldFromVoxelRotation &&
+        a.pose.position == b.pose.position && a.pose.anchor == b.pose.anchor &&
+        a.pose.metresPerVoxel == b.pose.metresPerVoxel && la.dir == lb.dir &&
+        la.right == lb.right && la.up == lb.up && la.centre == lb.centre && la.gU == lb.gU &&
+        la.gV == lb.gV && la.sigma == lb.sigma && la.maxDim == lb.maxDim && la.dims == lb.dims &&
+        la.cellRange == lb.cellRange && a.centreRel == b.centreRel && a.viewDepth == b.viewDepth &&
+        a.distance == b.distance && a.radiusPx == b.radiusPx && a.screenRect == b.screenRect &&
+        std::memcmp(&a.gpu, &b.gpu, sizeof a.gpu) == 0;
+    if (same) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure()
+           << "entity " << a.entityId << " differs from entity " << b.entityId << "'s fresh set-up";
+}
+
+/// Every sprite of the store against a fresh set-up of its entity.
+void expectFresh(const SpriteStore& store, const Scene& s, const CameraFrame& cam, double t) {
+    const std::vector<SpriteSetup> fresh = setupSprites(s, cam, t);
+    ASSERT_EQ(store.sprites().size(), fresh.size());
+    std::size_t visible = 0;
+    for (std::size_t i = 0; i < fresh.size(); ++i) {
+        ASSERT_TRUE(sameSprite(store.sprites()[i], fresh[i])) << " at t " << t;
+        visible += fresh[i].visible();
+    }
+    ASSERT_EQ(store.visibleIds().size(), visible);
+    for (const std::uint32_t i : store.visibleIds()) EXPECT_TRUE(fresh[i].visible());
+}
+
+/// The bench crowd: 800 entities, 40 of them animated (2 frames a second), a camera path.
+Scene crowd() {
+    return loadScene(sourcePath("scenes/bench/vox_crowd.json"));
+}
+
+TEST(SpriteStore, EverySpriteEqualsAFreshSetUpAlongAPath) {
+    const Scene s = crowd();
+    SpriteStore store;
+    for (int f = 0; f < 24; f += 3) {
+        const double t = s.timeOfFrame(f);
+        const CameraFrame cam = makeCameraFrame(s.cameraAt(t));
+        const SpriteStore::Update u = store.update(s, cam, t);
+        EXPECT_EQ(u.entities, int(s.entities.size()));
+        EXPECT_EQ(u.recomputed, u.entities) << "the camera moved: every sprite is new";
+        expectFresh(store, s, cam, t);
+    }
+}
+
+TEST(SpriteStore, AStillCameraSetsUpOnlyTheEntitiesThatChangedFrame) {
+    const Scene s = crowd();
+    const CameraFrame cam = makeCameraFrame(s.cameraAt(0.0));
+    SpriteStore store;
+    EXPECT_EQ(store.update(s, cam, 0.0).recomputed, int(s.entities.size()));
+    const SpriteStore::Update same = store.update(s, cam, 0.0);
+    EXPECT_EQ(same.recomputed, 0);
+    EXPECT_EQ(same.entitiesChanged, 0);
+    for (const std::uint8_t c : store.changed()) EXPECT_EQ(c, 0);
+    // Later, the animated entities (2 frames a second) have stepped on, the others not.
+    for (const double t : {0.6, 1.3, 2.9}) {
+        int stepped = 0;
+        std::vector<int> before(s.entities.size());
+        for (std::size_t i = 0; i < s.entities.size(); ++i) before[i] = store.sprites()[i].frame;
+        const SpriteStore::Update u = store.update(s, cam, t);
+        for (std::size_t i = 0; i < s.entities.size(); ++i) {
+            const Entity& e = s.entities[i];
+            const int now = e.frameAt(*s.models[std::size_t(e.model)], t);
+            stepped += now != before[i];
+            EXPECT_EQ(store.changed()[i], now != before[i] ? 1 : 0) << "entity " << i;
+        }
+        EXPECT_GT(stepped, 0) << "the crowd's animated entities step on between these times";
+        EXPECT_EQ(u.recomputed, stepped);
+        EXPECT_EQ(u.entitiesChanged, stepped);
+        expectFresh(store, s, cam, t);
+    }
+}
+
+TEST(SpriteStore, AMovedEntityAndANewLightAreSetUpAfresh) {
+    Scene s = crowd();
+    const CameraFrame cam = makeCameraFrame(s.cameraAt(0.0));
+    SpriteStore store;
+    store.update(s, cam, 0.0);
+    s.entities[17].position += glm::dvec3(0.5, 0.0, -0.25);
+    s.entities[400].rotation = glm::angleAxis(0.7, glm::dvec3(0.0, 1.0, 0.0));
+    const SpriteStore::Update moved = store.update(s, cam, 0.0);
+    EXPECT_EQ(moved.recomputed, 2);
+    EXPECT_EQ(store.changed()[17], 1);
+    EXPECT_EQ(store.changed()[400], 1);
+    expectFresh(store, s, cam, 0.0);
+
+    s.light.direction = {0.2, 1.0, -0.3};
+    EXPECT_EQ(store.update(s, cam, 0.0).recomputed, int(s.entities.size()));
+    expectFresh(store, s, cam, 0.0);
+
+    s.render.sigma = 2.0;
+    EXPECT_EQ(store.update(s, cam, 0.0).recomputed, int(s.entities.size()));
+    expectFresh(store, s, cam, 0.0);
+
+    s.entities.pop_back(); // a new entity count: everything afresh
+    EXPECT_EQ(store.update(s, cam, 0.0).recomputed, int(s.entities.size()));
+    expectFresh(store, s, cam, 0.0);
+}
+
+TEST(SpriteStore, AShareOfTheSpritesKeepsItsFrame) {
+    const Scene s = crowd();
+    SpriteStore store;
+    const CameraFrame first = makeCameraFrame(s.cameraAt(0.0));
+    store.update(s, first, 0.0);
+    const SharedVector<SpriteSetup> kept = store.shareSprites();
+    const double later = s.timeOfFrame(20);
+    const CameraFrame second = makeCameraFrame(s.cameraAt(later));
+    store.update(s, second, later);
+    const std::vector<SpriteSetup> fresh = setupSprites(s, first, 0.0);
+    ASSERT_EQ(kept.size(), fresh.size());
+    for (std::size_t i = 0; i < fresh.size(); ++i) ASSERT_TRUE(sameSprite(kept[i], fresh[i]));
+    expectFresh(store, s, second, later);
+}
+
+} // namespace
+} // namespace voxtier

@@ -1,0 +1,867 @@
+#include "volumetric/near_passes.hpp"
+
+#include "core/occlusion.hpp"
+#include "volumetric/shaders/near_shared.h"
+#include "volumetric/voxel_residency.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+
+// SPIR-V generated at build time by glslangValidator (volumetric/CMakeLists.txt).
+#include "shaders/near_box_vert.h"
+#include "shaders/near_cell_outline_comp.h"
+#include "shaders/near_cells_comp.h"
+#include "shaders/near_flat_frag.h"
+#include "shaders/near_flat_steps_frag.h"
+#include "shaders/near_frag.h"
+#include "shaders/near_hull_vert.h"
+#include "shaders/near_quad_vert.h"
+#include "shaders/near_resolve_comp.h"
+#include "shaders/near_splat_comp.h"
+#include "shaders/near_steps_frag.h"
+
+namespace voxtier {
+
+namespace {
+
+// The plan's marker and the shaders' marker are one value: near_shared.h is not installed with
+// the public core/near_rate.hpp, so the two spellings are tied here instead of by an include.
+static_assert(kNoCells == near_gpu::NEAR_NO_CELLS);
+static_assert(kMaxCellSprites == near_gpu::NEAR_MAX_CELL_SPRITES);
+static_assert(kMaxHullCorners == int(near_gpu::NEAR_HULL_MAX_VERTICES));
+
+/// Sprites per task of the host's per-sprite loops: enough work that TBB's overhead vanishes.
+constexpr std::size_t kSpriteGrain = 256;
+
+VkShaderModule makeModule(VkDevice dev, std::span<const std::uint32_t> code) {
+    VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    mi.codeSize = code.size_bytes();
+    mi.pCode = code.data();
+    VkShaderModule m = VK_NULL_HANDLE;
+    VK_CHECK(vkCreateShaderModule(dev, &mi, nullptr, &m));
+    return m;
+}
+
+} // namespace
+
+struct NearPasses::Impl {
+    GpuFrames& frames;
+    VulkanDevice& device;
+    VoxelResidency residency;
+
+    VkSampler sampler = VK_NULL_HANDLE;
+    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+    VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
+    VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
+    VkRenderPass renderPass = VK_NULL_HANDLE;
+    VkPipeline pipelines[3][2][2] = {}; ///< [proxy][countSteps][flatDepth], created on first use
+    enum ComputePass { TraceCells, Outline, Splat, Resolve, ComputePassCount };
+    VkPipeline computePipelines[ComputePassCount] = {};
+
+    // Shared by the slots (the frame-start barrier orders their use): the framebuffer over the
+    // frames' targets, the cell store (grown up to the budget) and the splat's pixel words.
+    VkFramebuffer framebuffer = VK_NULL_HANDLE;
+    VkImageView framebufferColor = VK_NULL_HANDLE;
+    VulkanBuffer cells, pixelWords;
+
+    /// Per frame in flight: what the host writes for a frame, its descriptor set and queries.
+    struct Slot {
+        VulkanBuffer sprites, boxes, hulls, cellBases, cellTiles, splatBlocks, rankSprites;
+        VulkanBuffer counters; ///< written by the counting shader, read by the host
+        VkDescriptorSet set = VK_NULL_HANDLE;
+        VkQueryPool statsPool = VK_NULL_HANDLE;
+        bool queried = false; ///< this slot's last frame ran the statistics query
+    };
+    std::vector<Slot> slots;
+
+    // The frame being recorded (host scratch, reused from frame to frame).
+    std::vector<const SpriteSetup*> visible;
+    std::vector<std::uint8_t> flat;
+    std::vector<glm::uvec2> tiles;
+    std::vector<near_gpu::NearSplatBlock> blocks;
+    std::vector<std::uint32_t> byDepth, ranks;
+    std::vector<std::uint8_t> touched;
+    std::uint32_t frameCells = 0;
+
+    struct CellWork {
+        std::uint32_t tiles = 0;        ///< near_cells.comp workgroups
+        std::uint32_t blocks = 0;       ///< near_splat.comp workgroups (0: no resolve either)
+        std::uint32_t resolveTiles = 0; ///< near_resolve.comp workgroups, after the blocks
+    };
+
+    explicit Impl(GpuFrames& f) : frames(f), device(f.device()), residency(f.device()) {
+        try {
+            create();
+        } catch (...) {
+            destroy();
+            throw;
+        }
+    }
+    ~Impl() { destroy(); }
+
+    void create();
+    void createLayouts();
+    void createRenderPass();
+    void createSlot(Slot& s);
+    void destroy() noexcept;
+    VkPipeline pipeline(NearProxy proxy, bool countSteps, bool flatDepth);
+    VkPipeline computePipeline(ComputePass pass);
+    /// Grows `b` (a ShaderRead buffer of the slot) to hold `bytes`, doubling.
+    void ensure(VulkanBuffer& b, VkDeviceSize bytes, BufferClass c = BufferClass::ShaderRead);
+
+    /// The sprites in draw order, their residency, their per-sprite data written for the frame.
+    void writeSprites(GpuFrame& frame, Slot& slot,
+                      const std::vector<std::shared_ptr<VoxelModel>>& models,
+                      std::span<const SpriteSetup* const> all, const NearOptions& opt,
+                      NearStats& stats);
+    void writeProxies(GpuFrame& frame, Slot& slot, const CameraFrame& cam, const NearOptions& opt,
+                      NearStats& stats);
+    CellWork writeCells(GpuFrame& frame, Slot& slot, const CellRatePlan& plan,
+                        std::uint64_t budgetBytes);
+    void writeDescriptors(GpuFrame& frame, Slot& slot);
+    void dispatch(GpuFrame& frame, Slot& slot, ComputePass pass, std::uint32_t groups,
+                  std::uint32_t first = 0);
+    void recordCells(GpuFrame& frame, Slot& slot, CellWork work);
+    /// The raster pass, then its attachments into the planes (all three when `allPlanes`).
+    void recordDraw(GpuFrame& frame, Slot& slot, Rgba8 clear, bool allPlanes,
+                    const NearOptions& opt, NearStats& stats);
+    void recordResolve(GpuFrame& frame, Slot& slot, CellWork work);
+    void ensureFramebuffer(GpuFrame& frame);
+};
+
+// ---------------------------------------------------------------------------------------------
+// Creation
+
+void NearPasses::Impl::create() {
+    createLayouts();
+    createRenderPass();
+    slots.resize(std::size_t(frames.slots()));
+    for (Slot& s : slots) createSlot(s);
+}
+
+void NearPasses::Impl::createLayouts() {
+    VkDevice dev = device.device();
+    VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+    // texelFetch ignores the sampler's filtering; nearest keeps the integer format legal.
+    sci.magFilter = VK_FILTER_NEAREST;
+    sci.minFilter = VK_FILTER_NEAREST;
+    sci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+    sci.addressModeU = sci.addressModeV = sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    VK_CHECK(vkCreateSampler(dev, &sci, nullptr, &sampler));
+
+    using namespace near_gpu;
+    const VkShaderStageFlags c = VK_SHADER_STAGE_COMPUTE_BIT;
+    const VkShaderStageFlags f = VK_SHADER_STAGE_FRAGMENT_BIT;
+    const VkShaderStageFlags v = VK_SHADER_STAGE_VERTEX_BIT;
+    const VkDescriptorType sb = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    const VkDescriptorSetLayoutBinding bindings[] = {
+        {NEAR_BINDING_SPRITES, sb, 1, v | f | c, nullptr},
+        {NEAR_BINDING_ATLAS, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, f | c, nullptr},
+        {NEAR_BINDING_PALETTES, sb, 1, f | c, nullptr},
+        {NEAR_BINDING_COUNTERS, sb, 1, f, nullptr},
+        {NEAR_BINDING_BOXES, sb, 1, v, nullptr},
+        {NEAR_BINDING_HULLS, sb, 1, v, nullptr},
+        {NEAR_BINDING_CELL_BASES, sb, 1, v | c, nullptr},
+        {NEAR_BINDING_CELLS, sb, 1, c, nullptr},
+        {NEAR_BINDING_CELL_TILES, sb, 1, c, nullptr},
+        {NEAR_BINDING_SPLAT_BLOCKS, sb, 1, c, nullptr},
+        {NEAR_BINDING_RANK_SPRITES, sb, 1, c, nullptr},
+        {NEAR_BINDING_PIXEL_WORDS, sb, 1, c, nullptr},
+        {NEAR_BINDING_PLANES, sb, 1, c, nullptr},
+        {NEAR_BINDING_BRICKS, sb, 1, f | c, nullptr},
+    };
+    VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+    dli.bindingCount = std::uint32_t(std::size(bindings));
+    dli.pBindings = bindings;
+    VK_CHECK(vkCreateDescriptorSetLayout(dev, &dli, nullptr, &setLayout));
+
+    VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+    pli.setLayoutCount = 1;
+    pli.pSetLayouts = &setLayout;
+    // Compute stages only: lavapipe 22.3 crashes when one range covers compute and graphics.
+    const VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(NearComputePush)};
+    pli.pushConstantRangeCount = 1;
+    pli.pPushConstantRanges = &push;
+    VK_CHECK(vkCreatePipelineLayout(dev, &pli, nullptr, &pipelineLayout));
+
+    const std::uint32_t n = std::uint32_t(frames.slots());
+    // Every binding but the atlas is a storage buffer.
+    const std::uint32_t buffersPerSet = std::uint32_t(std::size(bindings)) - 1;
+    const VkDescriptorPoolSize sizes[] = {{sb, buffersPerSet * n},
+                                          {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n}};
+    VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    dpi.maxSets = n;
+    dpi.poolSizeCount = std::uint32_t(std::size(sizes));
+    dpi.pPoolSizes = sizes;
+    VK_CHECK(vkCreateDescriptorPool(dev, &dpi, nullptr, &descriptorPool));
+}
+
+void NearPasses::Impl::createRenderPass() {
+    // Colour + id + depth, cleared on load, kept for the copy into the frame's planes.
+    VkAttachmentDescription att[3]{};
+    for (int i = 0; i < 3; ++i) {
+        att[i].format = i == 2 ? GpuFrame::kDepthFormat
+                               : (i == 0 ? GpuFrame::kColorFormat : GpuFrame::kIdFormat);
+        att[i].samples = VK_SAMPLE_COUNT_1_BIT;
+        att[i].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+        att[i].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+        att[i].stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+        att[i].stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+        att[i].initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+        att[i].finalLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+    }
+    const VkAttachmentReference colorRefs[2] = {{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL},
+                                                {1, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL}};
+    const VkAttachmentReference depthRef{2, VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL};
+    VkSubpassDescription sub{};
+    sub.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+    sub.colorAttachmentCount = 2;
+    sub.pColorAttachments = colorRefs;
+    sub.pDepthStencilAttachment = &depthRef;
+    const VkPipelineStageFlags attachmentStages = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT |
+                                                  VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT |
+                                                  VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+    const VkAccessFlags attachmentAccess =
+        VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT |
+        VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT;
+    const VkSubpassDependency deps[2] = {
+        // The previous frame's copy-out must finish reading before the clear overwrites.
+        {VK_SUBPASS_EXTERNAL, 0, VK_PIPELINE_STAGE_TRANSFER_BIT, attachmentStages, 0,
+         attachmentAccess, 0},
+        // The copy-out reads what the subpass wrote.
+        {0, VK_SUBPASS_EXTERNAL, attachmentStages, VK_PIPELINE_STAGE_TRANSFER_BIT,
+         VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+         VK_ACCESS_TRANSFER_READ_BIT, 0},
+    };
+    VkRenderPassCreateInfo rpi{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+    rpi.attachmentCount = 3;
+    rpi.pAttachments = att;
+    rpi.subpassCount = 1;
+    rpi.pSubpasses = &sub;
+    rpi.dependencyCount = 2;
+    rpi.pDependencies = deps;
+    VK_CHECK(vkCreateRenderPass(device.device(), &rpi, nullptr, &renderPass));
+}
+
+void NearPasses::Impl::createSlot(Slot& s) {
+    VkDevice dev = device.device();
+    VkDescriptorSetAllocateInfo dsa{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+    dsa.descriptorPool = descriptorPool;
+    dsa.descriptorSetCount = 1;
+    dsa.pSetLayouts = &setLayout;
+    VK_CHECK(vkAllocateDescriptorSets(dev, &dsa, &s.set));
+    if (device.hasPipelineStatistics()) {
+        VkQueryPoolCreateInfo qpi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+        qpi.queryType = VK_QUERY_TYPE_PIPELINE_STATISTICS;
+        qpi.queryCount = 1;
+        qpi.pipelineStatistics = VK_QUERY_PIPELINE_STATISTIC_FRAGMENT_SHADER_INVOCATIONS_BIT;
+        VK_CHECK(vkCreateQueryPool(dev, &qpi, nullptr, &s.statsPool));
+    }
+    s.counters = VulkanBuffer(device, sizeof(near_gpu::NearCounters),
+                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::Readback);
+    // Every binding has a buffer from the start (a binding never has size 0).
+    for (VulkanBuffer* b : {&s.sprites, &s.boxes, &s.hulls, &s.cellBases, &s.cellTiles,
+                            &s.splatBlocks, &s.rankSprites})
+        ensure(*b, 4096);
+}
+
+void NearPasses::Impl::destroy() noexcept {
+    VkDevice dev = device.device();
+    if (!dev) return;
+    frames.waitAll();
+    for (auto& perProxy : pipelines)
+        for (auto& perCount : perProxy)
+            for (VkPipeline& p : perCount) {
+                if (p) vkDestroyPipeline(dev, p, nullptr);
+                p = VK_NULL_HANDLE;
+            }
+    for (VkPipeline& p : computePipelines) {
+        if (p) vkDestroyPipeline(dev, p, nullptr);
+        p = VK_NULL_HANDLE;
+    }
+    for (Slot& s : slots)
+        if (s.statsPool) vkDestroyQueryPool(dev, s.statsPool, nullptr);
+    slots.clear();
+    cells.reset();
+    pixelWords.reset();
+    if (framebuffer) vkDestroyFramebuffer(dev, framebuffer, nullptr);
+    if (renderPass) vkDestroyRenderPass(dev, renderPass, nullptr);
+    if (descriptorPool) vkDestroyDescriptorPool(dev, descriptorPool, nullptr); // frees the sets
+    if (pipelineLayout) vkDestroyPipelineLayout(dev, pipelineLayout, nullptr);
+    if (setLayout) vkDestroyDescriptorSetLayout(dev, setLayout, nullptr);
+    if (sampler) vkDestroySampler(dev, sampler, nullptr);
+    framebuffer = VK_NULL_HANDLE;
+    renderPass = VK_NULL_HANDLE;
+    descriptorPool = VK_NULL_HANDLE;
+    pipelineLayout = VK_NULL_HANDLE;
+    setLayout = VK_NULL_HANDLE;
+    sampler = VK_NULL_HANDLE;
+}
+
+void NearPasses::Impl::ensure(VulkanBuffer& b, VkDeviceSize bytes, BufferClass c) {
+    if (b && b.size() >= bytes) return;
+    VkDeviceSize size = b ? b.size() : 4096;
+    while (size < bytes) size *= 2;
+    b = VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, c);
+}
+
+VkPipeline NearPasses::Impl::pipeline(NearProxy proxy, bool countSteps, bool flatDepth) {
+    VkPipeline& slot = pipelines[int(proxy)][countSteps][flatDepth];
+    if (slot) return slot;
+    VkDevice dev = device.device();
+    const std::span<const std::uint32_t> vertCode =
+        proxy == NearProxy::Box    ? std::span<const std::uint32_t>(near_box_vert)
+        : proxy == NearProxy::Hull ? std::span<const std::uint32_t>(near_hull_vert)
+                                   : std::span<const std::uint32_t>(near_quad_vert);
+    const std::span<const std::uint32_t> fragCode =
+        flatDepth ? (countSteps ? std::span<const std::uint32_t>(near_flat_steps_frag)
+                                : std::span<const std::uint32_t>(near_flat_frag))
+                  : (countSteps ? std::span<const std::uint32_t>(near_steps_frag)
+                                : std::span<const std::uint32_t>(near_frag));
+    VkShaderModule vert = makeModule(dev, vertCode);
+    VkShaderModule frag = VK_NULL_HANDLE;
+    try {
+        frag = makeModule(dev, fragCode);
+        VkPipelineShaderStageCreateInfo stages[2]{};
+        stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                     nullptr,
+                     0,
+                     VK_SHADER_STAGE_VERTEX_BIT,
+                     vert,
+                     "main",
+                     nullptr};
+        stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                     nullptr,
+                     0,
+                     VK_SHADER_STAGE_FRAGMENT_BIT,
+                     frag,
+                     "main",
+                     nullptr};
+        VkPipelineVertexInputStateCreateInfo vin{
+            VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+        VkPipelineInputAssemblyStateCreateInfo ia{
+            VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+        ia.topology = proxy != NearProxy::Quad ? VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST
+                                               : VK_PRIMITIVE_TOPOLOGY_TRIANGLE_STRIP;
+        VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+        vp.viewportCount = 1;
+        vp.scissorCount = 1;
+        VkPipelineRasterizationStateCreateInfo rs{
+            VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+        rs.polygonMode = VK_POLYGON_MODE_FILL;
+        // The quad may face either way after projection; the box is drawn by its front faces
+        // only, so each covered pixel runs the kernel once (see near_box.vert for the winding).
+        rs.cullMode = proxy == NearProxy::Box ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE;
+        rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+        rs.lineWidth = 1.0f;
+        VkPipelineMultisampleStateCreateInfo ms{
+            VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+        ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+        VkPipelineDepthStencilStateCreateInfo ds{
+            VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+        // Reversed-Z: nearer is larger. GREATER (not GREATER_OR_EQUAL) keeps the first fragment
+        // at equal depth, i.e. the lower entity id, because equal depths are drawn in ascending id.
+        ds.depthTestEnable = VK_TRUE;
+        ds.depthWriteEnable = VK_TRUE;
+        ds.depthCompareOp = VK_COMPARE_OP_GREATER;
+        VkPipelineColorBlendAttachmentState blend[2]{};
+        for (auto& b : blend)
+            b.colorWriteMask = VK_COLOR_COMPONENT_R_BIT; // integer targets: no blending
+        VkPipelineColorBlendStateCreateInfo cb{
+            VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+        cb.attachmentCount = 2;
+        cb.pAttachments = blend;
+        const VkDynamicState dynamic[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+        VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+        dyn.dynamicStateCount = 2;
+        dyn.pDynamicStates = dynamic;
+        VkGraphicsPipelineCreateInfo gpi{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+        gpi.stageCount = 2;
+        gpi.pStages = stages;
+        gpi.pVertexInputState = &vin;
+        gpi.pInputAssemblyState = &ia;
+        gpi.pViewportState = &vp;
+        gpi.pRasterizationState = &rs;
+        gpi.pMultisampleState = &ms;
+        gpi.pDepthStencilState = &ds;
+        gpi.pColorBlendState = &cb;
+        gpi.pDynamicState = &dyn;
+        gpi.layout = pipelineLayout;
+        gpi.renderPass = renderPass;
+        gpi.subpass = 0;
+        VK_CHECK(vkCreateGraphicsPipelines(dev, VK_NULL_HANDLE, 1, &gpi, nullptr, &slot));
+    } catch (...) {
+        vkDestroyShaderModule(dev, vert, nullptr);
+        if (frag) vkDestroyShaderModule(dev, frag, nullptr);
+        throw;
+    }
+    vkDestroyShaderModule(dev, vert, nullptr);
+    vkDestroyShaderModule(dev, frag, nullptr);
+    return slot;
+}
+
+VkPipeline NearPasses::Impl::computePipeline(ComputePass pass) {
+    VkPipeline& slot = computePipelines[pass];
+    if (slot) return slot;
+    VkDevice dev = device.device();
+    const std::span<const std::uint32_t> code =
+        pass == TraceCells ? std::span<const std::uint32_t>(near_cells_comp)
+        : pass == Outline  ? std::span<const std::uint32_t>(near_cell_outline_comp)
+        : pass == Splat    ? std::span<const std::uint32_t>(near_splat_comp)
+                           : std::span<const std::uint32_t>(near_resolve_comp);
+    VkShaderModule module = makeModule(dev, code);
+    VkComputePipelineCreateInfo cpi{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    cpi.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                 nullptr,
+                 0,
+                 VK_SHADER_STAGE_COMPUTE_BIT,
+                 module,
+                 "main",
+                 nullptr};
+    cpi.layout = pipelineLayout;
+    const VkResult r = vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &cpi, nullptr, &slot);
+    vkDestroyShaderModule(dev, module, nullptr);
+    VK_CHECK(r);
+    return slot;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The host's part of a frame: what the passes read, written straight where they read it
+
+void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
+                                    const std::vector<std::shared_ptr<VoxelModel>>& models,
+                                    std::span<const SpriteSetup* const> all, const NearOptions& opt,
+                                    NearStats& stats) {
+    // §6: front to back with equal depths in ascending id under the early depth test, which
+    // keeps every pixel the same (the depth test alone decides unequal depths, whatever their
+    // order); else ascending entity id, so that depth GREATER resolves ties to the lower id.
+    visible.clear();
+    for (const std::uint32_t i : drawOrder(all, opt.earlyDepthTest)) visible.push_back(all[i]);
+    if (!opt.earlyDepthTest)
+        std::stable_sort(
+            visible.begin(), visible.end(),
+            [](const SpriteSetup* a, const SpriteSetup* b) { return a->entityId < b->entityId; });
+    stats.sprites = visible.size();
+
+    const ResidencyStats up = residency.update(models, visible);
+    stats.bytesUploaded = up.bytesUploaded;
+    stats.uploadRegions = up.regions;
+    stats.atlasGrowths = up.atlasGrowths;
+    stats.uploadMs = up.milliseconds;
+
+    const std::size_t n = visible.size();
+    const VkDeviceSize bytes = VkDeviceSize(n) * sizeof(kernel::SpriteGpu);
+    ensure(slot.sprites, std::max<VkDeviceSize>(bytes, 4));
+    if (!n) return;
+    auto* gpu = static_cast<kernel::SpriteGpu*>(frame.hostWrite(slot.sprites, 0, bytes));
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), [&](const auto& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            const SpriteSetup& s = *visible[i];
+            gpu[i] = s.gpu;
+            // The only fields the near tier adds to what core computed: where the voxels and
+            // their brick occupancy are.
+            const VoxelModel& model = *models.at(std::size_t(s.model));
+            gpu[i].atlas = residency.entry(model, s.frame);
+            gpu[i].brickBase = residency.brickBase(model, s.frame);
+        }
+    });
+}
+
+void NearPasses::Impl::writeProxies(GpuFrame& frame, Slot& slot, const CameraFrame& cam,
+                                    const NearOptions& opt, NearStats& stats) {
+    const std::size_t n = visible.size();
+    flat.assign(n, 0);
+    if (!n) return;
+    if (opt.proxy == NearProxy::Box) {
+        const VkDeviceSize bytes = VkDeviceSize(n) * sizeof(near_gpu::NearBox);
+        ensure(slot.boxes, bytes);
+        auto* box = static_cast<near_gpu::NearBox*>(frame.hostWrite(slot.boxes, 0, bytes));
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                const auto corners = proxyBoxClipCorners(cam, *visible[i]);
+                for (int k = 0; k < 8; ++k) box[i].corner[k] = glm::vec4(corners[std::size_t(k)]);
+            }
+        });
+    }
+    if (opt.proxy != NearProxy::Hull) return;
+    // Hull sprites under the early depth test are rasterised flat at their own depth where that
+    // clips nothing the perspective proxy keeps: every corner in front of the eye and within the
+    // depth range. Then the corners are divided through on the host (w = 1) and z is the
+    // sprite's depth, so every fragment's depth is that float exactly (a triangle of equal z has
+    // zero depth slope). The rest (sprites through the near plane) keep the perspective proxy
+    // and the shader's depth.
+    const VkDeviceSize bytes = VkDeviceSize(n) * sizeof(near_gpu::NearHull);
+    ensure(slot.hulls, bytes);
+    auto* hull = static_cast<near_gpu::NearHull*>(frame.hostWrite(slot.hulls, 0, bytes));
+    stats.earlyDepthSprites = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), std::uint64_t(0),
+        [&](const auto& r, std::uint64_t flattened) {
+            std::array<glm::dvec4, kMaxHullCorners> corners;
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                const int count = proxyHullClipCorners(cam, *visible[i], corners);
+                hull[i] = near_gpu::NearHull{};
+                hull[i].count = std::uint32_t(count);
+                bool flatten = opt.earlyDepthTest;
+                for (int k = 0; k < count; ++k) {
+                    const glm::dvec4& c = corners[std::size_t(k)];
+                    flatten = flatten && c.w > 0.0 && c.z >= 0.0 && c.z <= c.w;
+                }
+                flat[i] = flatten;
+                flattened += flatten;
+                for (int k = 0; k < count; ++k) {
+                    const glm::dvec4& c = corners[std::size_t(k)];
+                    hull[i].corner[k] = flatten ? glm::vec4(float(c.x / c.w), float(c.y / c.w),
+                                                            visible[i]->gpu.depth, 1.0f)
+                                                : glm::vec4(c);
+                }
+            }
+            return flattened;
+        },
+        std::plus<>());
+}
+
+NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& slot,
+                                                        const CellRatePlan& plan,
+                                                        std::uint64_t budgetBytes) {
+    using near_gpu::NEAR_SPLAT_BLOCK;
+    const int width = frame.width(), height = frame.height();
+    const std::size_t n = visible.size();
+    const auto upload = [&](VulkanBuffer& b, const auto& v) {
+        const VkDeviceSize bytes = v.size() * sizeof(v[0]);
+        ensure(b, std::max<VkDeviceSize>(bytes, 4));
+        if (bytes) std::memcpy(frame.hostWrite(b, 0, bytes), v.data(), bytes);
+    };
+    upload(slot.cellBases, plan.cellBase);
+    // The store is kept for the next frames and grows by doubling, never past the budget (the
+    // plan never needs more than the budget).
+    const VkDeviceSize need = plan.cells * kCellStoreBytesPerCell;
+    if (cells.size() < need)
+        cells = VulkanBuffer(device,
+                             std::max(need, std::min<VkDeviceSize>(2 * cells.size(), budgetBytes)),
+                             VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::DeviceOnly);
+    if (!cells) ensure(cells, 4096, BufferClass::DeviceOnly);
+    tiles.clear();
+    blocks.clear();
+    byDepth.clear(); // cell-rate sprites, nearest first, ties by entity id
+    // The resolve's tiles: every 32x32 tile of the image grid that a cell-rate rectangle touches,
+    // once, so that a frame with a few small cell-rate sprites resolves a few tiles and not the
+    // whole image.
+    const int tilesX = (width + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
+    const int tilesY = (height + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
+    touched.assign(std::size_t(tilesX) * std::size_t(tilesY), 0);
+    for (std::size_t k = 0; k < n; ++k) {
+        if (plan.cellBase[k] == kNoCells) continue;
+        byDepth.push_back(std::uint32_t(k));
+        const std::uint64_t count = cellCount(*visible[k]);
+        for (std::uint64_t first = 0; first < count; first += near_gpu::NEAR_CELL_TILE)
+            tiles.push_back({std::uint32_t(k), std::uint32_t(first)});
+        const glm::ivec4 r =
+            glm::min(visible[k]->screenRect, glm::ivec4(width, height, width, height));
+        const std::uint32_t end = std::uint32_t(r.z) | std::uint32_t(r.w) << 16;
+        for (int y = r.y; y < r.w; y += int(NEAR_SPLAT_BLOCK))
+            for (int x = r.x; x < r.z; x += int(NEAR_SPLAT_BLOCK))
+                blocks.push_back(
+                    {std::uint32_t(k), std::uint32_t(x) | std::uint32_t(y) << 16, end, 0});
+        if (r.z <= r.x || r.w <= r.y) continue;
+        for (int ty = r.y / int(NEAR_SPLAT_BLOCK); ty <= (r.w - 1) / int(NEAR_SPLAT_BLOCK); ++ty)
+            for (int tx = r.x / int(NEAR_SPLAT_BLOCK); tx <= (r.z - 1) / int(NEAR_SPLAT_BLOCK);
+                 ++tx)
+                touched[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)] = 1;
+    }
+    // `visible` is in draw order with equal depths in ascending entity id, so a stable sort by
+    // depth alone gives Image::writeIfNearer's order: the least rank in a pixel is the sprite
+    // the depth test keeps.
+    std::stable_sort(byDepth.begin(), byDepth.end(), [&](std::uint32_t a, std::uint32_t b) {
+        return visible[a]->gpu.depth > visible[b]->gpu.depth;
+    });
+    ranks.assign(n, near_gpu::NEAR_NO_RANK);
+    for (std::size_t r = 0; r < byDepth.size(); ++r) ranks[byDepth[r]] = std::uint32_t(r);
+    for (auto& b : blocks) b.rank = ranks[b.sprite];
+    // The resolve tiles follow the splat blocks in the same buffer.
+    const std::uint32_t splatCount = std::uint32_t(blocks.size());
+    const std::uint32_t imageEnd = std::uint32_t(width) | std::uint32_t(height) << 16;
+    for (int ty = 0; ty < tilesY; ++ty)
+        for (int tx = 0; tx < tilesX; ++tx)
+            if (touched[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)])
+                blocks.push_back({0,
+                                  std::uint32_t(tx) * NEAR_SPLAT_BLOCK |
+                                      (std::uint32_t(ty) * NEAR_SPLAT_BLOCK) << 16,
+                                  imageEnd, 0});
+    upload(slot.cellTiles, tiles);
+    upload(slot.splatBlocks, blocks);
+    upload(slot.rankSprites, byDepth);
+    return {std::uint32_t(tiles.size()), splatCount, std::uint32_t(blocks.size()) - splatCount};
+}
+
+void NearPasses::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
+    // Rewritten every frame: cheap, and the slot's set is idle (its last frame has finished).
+    using namespace near_gpu;
+    if (!pixelWords || pixelWords.size() < frame.planeBytes())
+        pixelWords =
+            VulkanBuffer(device, frame.planeBytes(),
+                         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                         BufferClass::DeviceOnly);
+    const VkDescriptorImageInfo atlasInfo{sampler, residency.atlasView(),
+                                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    struct Binding {
+        std::uint32_t binding;
+        VkBuffer buffer;
+    };
+    const Binding buffers[] = {
+        {NEAR_BINDING_SPRITES, slot.sprites.handle()},
+        {NEAR_BINDING_PALETTES, residency.paletteBuffer()},
+        {NEAR_BINDING_COUNTERS, slot.counters.handle()},
+        {NEAR_BINDING_BOXES, slot.boxes.handle()},
+        {NEAR_BINDING_HULLS, slot.hulls.handle()},
+        {NEAR_BINDING_CELL_BASES, slot.cellBases.handle()},
+        {NEAR_BINDING_CELLS, cells.handle()},
+        {NEAR_BINDING_CELL_TILES, slot.cellTiles.handle()},
+        {NEAR_BINDING_SPLAT_BLOCKS, slot.splatBlocks.handle()},
+        {NEAR_BINDING_RANK_SPRITES, slot.rankSprites.handle()},
+        {NEAR_BINDING_PIXEL_WORDS, pixelWords.handle()},
+        {NEAR_BINDING_PLANES, frame.planes()},
+        {NEAR_BINDING_BRICKS, residency.brickBuffer()},
+    };
+    constexpr std::size_t kBuffers = std::size(buffers);
+    VkDescriptorBufferInfo infos[kBuffers];
+    VkWriteDescriptorSet w[kBuffers + 1]{};
+    for (std::size_t i = 0; i < kBuffers; ++i) {
+        infos[i] = {buffers[i].buffer, 0, VK_WHOLE_SIZE};
+        w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+        w[i].dstSet = slot.set;
+        w[i].dstBinding = buffers[i].binding;
+        w[i].descriptorCount = 1;
+        w[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+        w[i].pBufferInfo = &infos[i];
+    }
+    w[kBuffers].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    w[kBuffers].dstSet = slot.set;
+    w[kBuffers].dstBinding = NEAR_BINDING_ATLAS;
+    w[kBuffers].descriptorCount = 1;
+    w[kBuffers].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    w[kBuffers].pImageInfo = &atlasInfo;
+    vkUpdateDescriptorSets(device.device(), std::uint32_t(kBuffers + 1), w, 0, nullptr);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The passes
+
+void NearPasses::Impl::dispatch(GpuFrame& frame, Slot& slot, ComputePass pass, std::uint32_t groups,
+                                std::uint32_t first) {
+    // A list of workgroups, as a 2D grid when there are more than one dimension allows.
+    const std::uint32_t maxX = device.properties().limits.maxComputeWorkGroupCount[0];
+    const std::uint32_t groupsX = std::min(groups, maxX);
+    VkCommandBuffer cb = frame.commandBuffer();
+    vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, computePipeline(pass));
+    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout, 0, 1, &slot.set, 0,
+                            nullptr);
+    const near_gpu::NearComputePush push{groups, std::uint32_t(frame.width()),
+                                         std::uint32_t(frame.height()), frameCells, first};
+    vkCmdPushConstants(cb, pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+    vkCmdDispatch(cb, groupsX, (groups + groupsX - 1) / groupsX, 1);
+}
+
+void NearPasses::Impl::recordCells(GpuFrame& frame, Slot& slot, CellWork work) {
+    VkCommandBuffer cb = frame.commandBuffer();
+    const auto cellsWritten = [&] {
+        bufferBarrier(cb, cells.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    };
+    frame.timer().begin(cb, "near_cells");
+    dispatch(frame, slot, TraceCells, work.tiles);
+    cellsWritten(); // the outline pass reads the primaries
+    dispatch(frame, slot, Outline, work.tiles);
+    frame.timer().end(cb);
+    frame.timer().begin(cb, "near_splat");
+    vkCmdFillBuffer(cb, pixelWords.handle(), 0, frame.planeBytes(), near_gpu::NEAR_NO_RANK);
+    // The splat reads the outcomes and min-writes the cleared words.
+    cellsWritten();
+    bufferBarrier(cb, pixelWords.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
+                  VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    if (work.blocks) dispatch(frame, slot, Splat, work.blocks);
+    frame.timer().end(cb);
+}
+
+void NearPasses::Impl::ensureFramebuffer(GpuFrame& frame) {
+    // The frames' targets are re-created when the image size changes (GpuFrames::begin waits for
+    // every frame first), and with them their views.
+    if (framebuffer && framebufferColor == frame.color().view()) return;
+    if (framebuffer) vkDestroyFramebuffer(device.device(), framebuffer, nullptr);
+    framebuffer = VK_NULL_HANDLE;
+    const VkImageView views[3] = {frame.color().view(), frame.id().view(), frame.depth().view()};
+    VkFramebufferCreateInfo fci{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+    fci.renderPass = renderPass;
+    fci.attachmentCount = 3;
+    fci.pAttachments = views;
+    fci.width = std::uint32_t(frame.width());
+    fci.height = std::uint32_t(frame.height());
+    fci.layers = 1;
+    VK_CHECK(vkCreateFramebuffer(device.device(), &fci, nullptr, &framebuffer));
+    framebufferColor = frame.color().view();
+}
+
+void NearPasses::Impl::recordDraw(GpuFrame& frame, Slot& slot, Rgba8 clear, bool allPlanes,
+                                  const NearOptions& opt, NearStats& stats) {
+    VkCommandBuffer cb = frame.commandBuffer();
+    const std::uint32_t n = std::uint32_t(visible.size());
+    const bool query = opt.pipelineStatistics && slot.statsPool && n;
+    slot.queried = query;
+    if (query) vkCmdResetQueryPool(cb, slot.statsPool, 0, 1);
+    if (opt.countSteps) {
+        vkCmdFillBuffer(cb, slot.counters.handle(), 0, VK_WHOLE_SIZE, 0);
+        bufferBarrier(cb, slot.counters.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
+                      VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    }
+    ensureFramebuffer(frame);
+    frame.timer().begin(cb, "near_draw");
+    VkClearValue clears[3]{};
+    clears[0].color.uint32[0] = clear;
+    clears[1].color.uint32[0] = kernel::VT_NO_ENTITY;
+    clears[2].depthStencil = {0.0f, 0}; // reversed-Z: 0 = infinitely far, nothing drawn
+    VkRenderPassBeginInfo rbi{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+    rbi.renderPass = renderPass;
+    rbi.framebuffer = framebuffer;
+    rbi.renderArea = {{0, 0}, {std::uint32_t(frame.width()), std::uint32_t(frame.height())}};
+    rbi.clearValueCount = 3;
+    rbi.pClearValues = clears;
+    vkCmdBeginRenderPass(cb, &rbi, VK_SUBPASS_CONTENTS_INLINE);
+    vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout, 0, 1, &slot.set, 0,
+                            nullptr);
+    const VkViewport viewport{0.0f, 0.0f, float(frame.width()), float(frame.height()), 0.0f, 1.0f};
+    const VkRect2D scissor{{0, 0}, {std::uint32_t(frame.width()), std::uint32_t(frame.height())}};
+    vkCmdSetViewport(cb, 0, 1, &viewport);
+    vkCmdSetScissor(cb, 0, 1, &scissor);
+    if (query) vkCmdBeginQuery(cb, slot.statsPool, 0, 0);
+    const std::uint32_t vertices = opt.proxy == NearProxy::Box    ? near_gpu::NEAR_BOX_VERTICES
+                                   : opt.proxy == NearProxy::Hull ? near_gpu::NEAR_HULL_VERTICES
+                                                                  : near_gpu::NEAR_QUAD_VERTICES;
+    // One instanced draw per stretch of sprites with the same depth source, in order
+    // (gl_InstanceIndex counts from firstInstance, so it still indexes the sprite buffers).
+    for (std::uint32_t first = 0; first < n;) {
+        std::uint32_t end = first + 1;
+        while (end < n && flat[end] == flat[first]) ++end;
+        vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                          pipeline(opt.proxy, opt.countSteps, flat[first] != 0));
+        if (opt.draws == NearDraws::Instanced) {
+            vkCmdDraw(cb, vertices, end - first, 0, first);
+            stats.drawCalls += 1;
+        } else {
+            // Same order, one draw each: gl_InstanceIndex = firstInstance selects it.
+            for (std::uint32_t i = first; i < end; ++i) vkCmdDraw(cb, vertices, 1, 0, i);
+            stats.drawCalls += end - first;
+        }
+        first = end;
+    }
+    if (query) vkCmdEndQuery(cb, slot.statsPool, 0);
+    vkCmdEndRenderPass(cb);
+    frame.timer().end(cb);
+    if (opt.countSteps)
+        bufferBarrier(cb, slot.counters.handle(), VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+                      VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                      VK_ACCESS_HOST_READ_BIT);
+    frame.timer().begin(cb, "copy_planes");
+    frame.recordTargetsToPlanes(allPlanes);
+    frame.timer().end(cb);
+}
+
+void NearPasses::Impl::recordResolve(GpuFrame& frame, Slot& slot, CellWork work) {
+    // After the drawn targets are in the planes and the splat has finished (both earlier in
+    // this command buffer).
+    VkCommandBuffer cb = frame.commandBuffer();
+    bufferBarrier(cb, pixelWords.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_READ_BIT);
+    frame.timer().begin(cb, "near_resolve");
+    dispatch(frame, slot, Resolve, work.resolveTiles, work.blocks);
+    frame.timer().end(cb);
+    bufferBarrier(
+        cb, frame.planes(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+        VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+NearPasses::NearPasses(GpuFrames& frames) : impl_(std::make_unique<Impl>(frames)) {}
+NearPasses::~NearPasses() = default;
+
+const VoxelResidency& NearPasses::residency() const {
+    return impl_->residency;
+}
+
+void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
+                        const std::vector<std::shared_ptr<VoxelModel>>& models,
+                        std::span<const SpriteSetup* const> sprites, Rgba8 clear,
+                        const NearOptions& opt, NearStats& stats) {
+    Impl& m = *impl_;
+    if (opt.countSteps && !m.device.hasFragmentAtomics())
+        throw VulkanError("near tier: counting DDA steps needs fragmentStoresAndAtomics, which " +
+                          m.device.name() + " lacks");
+    Impl::Slot& slot = m.slots.at(std::size_t(frame.slot()));
+    VkCommandBuffer cb = frame.commandBuffer();
+    frame.timer().begin(cb, "near_upload");
+    m.writeSprites(frame, slot, models, sprites, opt, stats);
+    m.writeProxies(frame, slot, cam, opt, stats);
+    // The resolve pass binds the whole planes buffer; past the device's storage-buffer range (a
+    // huge image) every sprite is traced per pixel.
+    const bool resolvable =
+        3 * frame.planeBytes() <= m.device.properties().limits.maxStorageBufferRange;
+    const CellRatePlan plan =
+        planCellRate(m.visible, resolvable ? opt.rate : NearRate::Fragment, opt.cellBudgetBytes);
+    stats.cellsTraced = plan.cells;
+    stats.cellSprites = plan.cellSprites;
+    stats.cellOverBudget = plan.overBudget;
+    stats.pixelsTraced = plan.pixelsTraced;
+    stats.pixelsLookedUp = plan.pixelsLookedUp;
+    const Impl::CellWork work = m.writeCells(frame, slot, plan, opt.cellBudgetBytes);
+    m.frameCells = std::uint32_t(plan.cells);
+    m.writeDescriptors(frame, slot);
+    frame.ring().recordBarrier(cb,
+                               VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
+                                   VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |
+                                   VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                               VK_ACCESS_SHADER_READ_BIT);
+    frame.timer().end(cb);
+
+    // Cell-rate sprites: every cell traced once, then every pixel of theirs splatted; the draw
+    // skips them, the resolve after it shades them.
+    if (work.tiles) m.recordCells(frame, slot, work);
+    // Depth and ids are needed where the resolve composes by them, or someone reads them (the
+    // caller asks for them where a far pass follows).
+    const bool allPlanes = opt.readDepthAndIds || work.blocks;
+    const bool rasterised = plan.cellSprites < m.visible.size();
+    if (rasterised || opt.countSteps)
+        m.recordDraw(frame, slot, clear, allPlanes, opt, stats);
+    else
+        frame.recordClearPlanes(clear, allPlanes);
+    if (work.blocks) m.recordResolve(frame, slot, work);
+}
+
+void NearPasses::collect(GpuFrame& frame, const NearOptions& opt, NearStats& stats) {
+    Impl& m = *impl_;
+    frame.wait();
+    Impl::Slot& slot = m.slots.at(std::size_t(frame.slot()));
+    if (slot.queried) {
+        std::uint64_t invocations = 0;
+        VK_CHECK(vkGetQueryPoolResults(m.device.device(), slot.statsPool, 0, 1, sizeof invocations,
+                                       &invocations, sizeof invocations,
+                                       VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+        stats.fragmentInvocations = invocations;
+    }
+    if (opt.countSteps) {
+        slot.counters.invalidateForRead();
+        const auto* c = static_cast<const near_gpu::NearCounters*>(slot.counters.mapped());
+        stats.voxelFetches = (std::uint64_t(c->fetchesHi) << 32) | c->fetchesLo;
+        stats.kernelFragments = (std::uint64_t(c->fragmentsHi) << 32) | c->fragmentsLo;
+    }
+}
+
+} // namespace voxtier
