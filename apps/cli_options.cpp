@@ -240,6 +240,9 @@ void addFrameFlags(CLI::App& cmd, FrameOptions& options, const FrameFlagHelp& he
         "default: the CPU reference and Vulkan skip pixels a nearer sprite already holds); same "
         "image, for comparisons");
     on->excludes(off);
+    cmd.add_flag("--near-skip-empty", options.nearSkipEmpty,
+                 "The Vulkan near tier marches over empty space too, as the CPU reference does "
+                 "(off by default: on llvmpipe it costs more than it saves); same image");
     cmd.add_flag("!--no-cost-bound", options.costAwareBakes, help.costBound);
 }
 

@@ -559,6 +559,7 @@ Image FrameRenderer::drawOnVulkan(const CameraFrame& cam,
     request.near.countSteps = options_.nearCountSteps;
     request.near.rate = options_.nearRate;
     request.near.earlyDepthTest = options_.earlyDepthTest;
+    request.near.skipEmpty = options_.nearSkipEmpty;
     request.depthAndIds = !colourOnly;
     // Only a frame drawn wholly on Vulkan may skip its readback: a CPU tier composes on it.
     request.readBack = options_.readBack || !pending;

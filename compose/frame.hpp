@@ -160,6 +160,9 @@ struct FrameOptions {
     /// false: a frame drawn wholly on Vulkan is drawn and timed but not read back
     /// (FrameResult::image is empty): the device frame alone, for measuring it.
     bool readBack = true;
+    /// The Vulkan near tier's empty-space skipping (NearOptions::skipEmpty; the CPU reference
+    /// always skips where a sprite's model frame qualifies). The same image either way.
+    bool nearSkipEmpty = false;
 };
 
 /// Where one frame's time went (wall-clock ms) and how much work each tier did. The step times

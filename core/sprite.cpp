@@ -138,6 +138,7 @@ SpriteConstants spriteConstants(const Entity& entity, const VoxelModel& model, i
     k.dims = model.frame(frame).dims();
     k.pose = makeEntityPose(entity, k.dims, params.voxelSize);
     k.light = faceLightFactors(light, k.pose);
+    k.skipEmpty = model.bricks(frame).worthSkipping() ? 1u : 0u;
     return k;
 }
 
@@ -217,6 +218,7 @@ void setupSpriteInto(SpriteSetup& S, const CameraFrame& cam, const SpriteConstan
     g.cellRange = L.cellRange;
     g.dims = glm::uvec4(glm::uvec3(dims), entityId);
     g.atlas = glm::uvec4(0u);
+    g.skipEmpty = constants.skipEmpty;
     const auto& light6 = constants.light;
     g.faceLight0 = {light6[0], light6[1], light6[2], light6[3]};
     g.faceLight1 = {light6[4], light6[5], 0u, 0u};

@@ -122,14 +122,16 @@ std::array<std::uint32_t, 6> faceLightFactors(const Light& light, const EntityPo
 glm::dvec3 faceNormal(unsigned faceCode);
 
 /// What set-up derives from an entity alone, whatever the camera: its model frame and size,
-/// its pose and the light factors of its faces. A SpriteStore keeps it while the entity, its
-/// animation frame and the light stay as they were.
+/// its pose, the light factors of its faces and whether its rays skip empty space
+/// (SpriteGpu::skipEmpty, from the frame's occupancy). A SpriteStore keeps it while the entity,
+/// its animation frame, the light and that skip rule's answer stay as they were.
 struct SpriteConstants {
     int model = 0;
     int frame = 0;
     glm::ivec3 dims{1};
     EntityPose pose;
     std::array<std::uint32_t, 6> light{};
+    std::uint32_t skipEmpty = 0;
 };
 SpriteConstants spriteConstants(const Entity& entity, const VoxelModel& model, int frame,
                                 const RenderParams& params, const Light& light);

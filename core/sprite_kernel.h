@@ -37,12 +37,14 @@ using glm::min;
 #define VT_PRECISE
 #define VT_IN(T) const T&
 #define VT_OUT(T) T&
+#define VT_INOUT(T) T&
 #define VT_CONST inline constexpr
 #define VT_FN inline
 #else
 #define VT_PRECISE precise
 #define VT_IN(T) in T
 #define VT_OUT(T) out T
+#define VT_INOUT(T) inout T
 #define VT_CONST const
 #define VT_FN
 #endif
@@ -69,10 +71,10 @@ struct SpriteGpu {
                     // (j+.5) cellUp)
     float fadeSide; // > 0: draw the pixels whose dither threshold is below `fade`; else the others
     vec3 cellRight; // sprite right / sigma (voxel space)
-    float reserved2;
-    vec3 cellUp; // sprite up / sigma (voxel space)
-    float reserved3;
-    vec3 dir; // ray direction d (voxel space; components below 1e-6 are exactly 0)
+    uint brickBase; // Vulkan: first word of this model frame's occupancy (vtFetchBrickWord)
+    vec3 cellUp;    // sprite up / sigma (voxel space)
+    uint skipEmpty; // 1: the ray marches over the frame's occupancy (vtMarchBoxes), 0: cell by cell
+    vec3 dir;       // ray direction d (voxel space; components below 1e-6 are exactly 0)
     float reserved4;
     vec3 invDir; // 1/d per axis, 0 where d is 0
     float reserved5;
@@ -251,9 +253,12 @@ VT_FN ivec3 vtStepDir(VT_IN(SpriteGpu) s) {
 
 // Ray parameter of the voxel plane `plane` of axis k. Boundary crossings are recomputed from
 // the integer plane each step (no accumulated error): a pure function of the plane.
-VT_FN float vtPlaneT(VT_IN(SpriteGpu) s, vec3 o, int k, int plane) {
-    VT_PRECISE float t = (float(plane) - o[k]) * s.invDir[k];
+VT_FN float vtPlaneT1(float ok, float invDirK, int plane) {
+    VT_PRECISE float t = (float(plane) - ok) * invDirK;
     return t;
+}
+VT_FN float vtPlaneT(VT_IN(SpriteGpu) s, vec3 o, int k, int plane) {
+    return vtPlaneT1(o[k], s.invDir[k], plane);
 }
 
 // The next crossing of axis k out of cell c (VT_FAR on axes the ray does not move along).
@@ -271,32 +276,153 @@ VT_FN uint vtFaceCode(VT_IN(SpriteGpu) s, int axis) {
     return uint(2 * axis) + (s.dir[axis] > 0.0f ? 0u : 1u);
 }
 
+// Whether a sprite's skipEmpty is honoured at all: true in C++; a GLSL shader may set it from a
+// specialization constant (volumetric/shaders/near.frag), so that a pipeline built without it
+// holds no box march (on llvmpipe the larger shader alone cost 1.3-1.5x, skipping or not).
+#ifndef VT_SKIP_EMPTY_ENABLED
+#define VT_SKIP_EMPTY_ENABLED true
+#endif
+
+// Empty-space skipping. Each model frame keeps a conservative two-level occupancy: bricks of
+// VT_BRICK^3 voxels and regions of VT_REGION^3 voxels, cubes from the origin (the last of an axis
+// cut at the model's size). A bit is set when its box may hold a non-empty voxel and clear only
+// when all of the box's voxels are empty (core/voxel_model.hpp BrickOccupancy keeps it so through
+// edits). Each level numbers its boxes x fastest over vtLevelDims, 32 to a uint word, box i in
+// word i >> 5 at bit i & 31; the brick words come first, then the region words.
+VT_CONST int VT_BRICK_SHIFT = 2;
+VT_CONST int VT_REGION_SHIFT = 4;
+VT_CONST int VT_BRICK = 1 << VT_BRICK_SHIFT;
+VT_CONST int VT_REGION = 1 << VT_REGION_SHIFT;
+VT_FN ivec3 vtLevelDims(ivec3 n, int shift) {
+    return (n + ivec3((1 << shift) - 1)) >> shift;
+}
+VT_FN uint vtLevelIndex(ivec3 levelDims, ivec3 box) {
+    return uint(box.x + levelDims.x * (box.y + levelDims.y * box.z));
+}
+// Words of the brick level: the region level's first word.
+VT_FN uint vtBrickWords(ivec3 n) {
+    ivec3 d = vtLevelDims(n, VT_BRICK_SHIFT);
+    return (uint(d.x * d.y * d.z) + 31u) >> 5;
+}
+
+// The exit plane, along an axis with step stepK, of the box of side 1 << shift that holds cell
+// coordinate ck (the box is cut at the model's size nk).
+VT_FN int vtBoxPlane(int ck, int stepK, int nk, int shift) {
+    int lo = (ck >> shift) << shift;
+    return stepK > 0 ? min(lo + (1 << shift), nk) : lo;
+}
+
+// Empty-space skipping crosses an empty box (a brick or a region) in one step, and exactly. Why
+// exact: the cell-by-cell march (vtMarchCells) takes boundary crossings from three per-axis
+// sequences of planes, each crossing's t a pure function of its plane (vtPlaneT) and monotone
+// along the axis, and always steps the least (t, axis), x < y < z on ties (vtStepAxis): it visits
+// the merge of the three sequences ordered by (t, axis). Restricted to the planes of boxes of one
+// size (a subsequence of each axis's planes), that merge is the same rule applied to box planes:
+// vtBoxStep, which moves the box coordinates exactly while the cells it passes are empty (so their
+// reads change nothing). The cell along the step's axis is then known (the first of the new box);
+// along another axis k the march has crossed exactly the planes whose (t, k) precedes the step's
+// (tLast, axis): t < tLast, or t == tLast with k < axis. vtSettle counts those (vtSettleAxis)
+// when the march next needs its cell.
+
+// One box step: from the box of side 1 << shift holding c (c exact down to that side) across the
+// box plane the merge takes first. Sets that axis's cell to the new box's first, `axis` and
+// `tLast` to the step, and returns false when the step leaves the grid (the march's miss).
+VT_FN bool vtBoxStep(VT_IN(SpriteGpu) s, vec3 o, ivec3 stepDir, int shift, VT_INOUT(ivec3) c,
+                     VT_INOUT(int) axis, VT_OUT(float) tLast) {
+    ivec3 n = vtDims(s);
+    ivec3 plane =
+        ivec3(vtBoxPlane(c.x, stepDir.x, n.x, shift), vtBoxPlane(c.y, stepDir.y, n.y, shift),
+              vtBoxPlane(c.z, stepDir.z, n.z, shift));
+    VT_PRECISE float tx = stepDir.x != 0 ? vtPlaneT1(o.x, s.invDir.x, plane.x) : VT_FAR;
+    VT_PRECISE float ty = stepDir.y != 0 ? vtPlaneT1(o.y, s.invDir.y, plane.y) : VT_FAR;
+    VT_PRECISE float tz = stepDir.z != 0 ? vtPlaneT1(o.z, s.invDir.z, plane.z) : VT_FAR;
+    int a = vtStepAxis(tx, ty, tz);
+    tLast = a == 0 ? tx : (a == 1 ? ty : tz);
+    axis = a;
+    // The new box's first cell along a: the plane itself going up, the cell below it going down.
+    int first =
+        a == 0 ? plane.x - (stepDir.x < 0 ? 1 : 0)
+               : (a == 1 ? plane.y - (stepDir.y < 0 ? 1 : 0) : plane.z - (stepDir.z < 0 ? 1 : 0));
+    c = ivec3(a == 0 ? first : c.x, a == 1 ? first : c.y, a == 2 ? first : c.z);
+    return first >= 0 && first < (a == 0 ? n.x : (a == 1 ? n.y : n.z));
+}
+
+// vtSettle along one axis k other than the last step's: ck is the axis's last settled cell (the
+// march never moves back), in the same box of side 1 << shift as the march's cell now, whose exit
+// plane is `plane`. The planes from ck's next to the box plane (which follows (tLast, axis): the
+// box coordinate is exact) are crossed while their (t, k) precedes (tLast, axis); the position at
+// tLast guesses how many, and the comparisons alone decide. Scalars only, so that no vector is
+// indexed by a variable.
+VT_FN int vtSettleAxis(float ok, float dirK, float invDirK, int k, int stepK, int ck, int plane,
+                       float tLast, int axis) {
+    if (stepK == 0 || k == axis) return ck;
+    int first = ck + (stepK > 0 ? 1 : 0);
+    int planes = (plane - first) * stepK;
+    int at = int(clamp(ok + tLast * dirK, -1.0f, float(max(plane, ck) + 1)));
+    int m = clamp(stepK > 0 ? at - ck : ck - at, 0, planes);
+    for (; m > 0; --m) {
+        VT_PRECISE float t = vtPlaneT1(ok, invDirK, first + stepK * (m - 1));
+        if (t < tLast || (t == tLast && k < axis)) break;
+    }
+    for (; m < planes; ++m) {
+        VT_PRECISE float t = vtPlaneT1(ok, invDirK, first + stepK * m);
+        if (!(t < tLast || (t == tLast && k < axis))) break;
+    }
+    return ck + stepK * m;
+}
+
+// The march's cell after box steps: exact along the last step's axis, and exact down to boxes of
+// side 1 << shift along the others; settled along those to the cell (vtSettleAxis).
+VT_FN ivec3 vtSettle(VT_IN(SpriteGpu) s, vec3 o, ivec3 stepDir, int shift, ivec3 c, float tLast,
+                     int axis) {
+    ivec3 n = vtDims(s);
+    return ivec3(vtSettleAxis(o.x, s.dir.x, s.invDir.x, 0, stepDir.x, c.x,
+                              vtBoxPlane(c.x, stepDir.x, n.x, shift), tLast, axis),
+                 vtSettleAxis(o.y, s.dir.y, s.invDir.y, 1, stepDir.y, c.y,
+                              vtBoxPlane(c.y, stepDir.y, n.y, shift), tLast, axis),
+                 vtSettleAxis(o.z, s.dir.z, s.invDir.z, 2, stepDir.z, c.z,
+                              vtBoxPlane(c.z, stepDir.z, n.z, shift), tLast, axis));
+}
+
 // The tracer needs a voxel source: in GLSL the including shader defines
-// `uint vtFetchVoxel(ivec3 cell)`; in C++ it is a template parameter with `uint fetch(ivec3)`.
+// `uint vtFetchVoxel(ivec3 cell)` and `uint vtFetchBrickWord(uint word)` (word `word` of the
+// frame's occupancy); in C++ it is a template parameter with `uint fetch(ivec3)` and optionally
+// `uint fetchBrickWord(uint)` (without it every box counts as occupied: the plain cell-by-cell
+// traversal, which the far baker's sources and the tests' probes use).
 #ifdef __cplusplus
+template <class Voxels> inline constexpr bool vtHasOccupancy = requires(const Voxels& v, uint w) {
+    v.fetchBrickWord(w);
+};
+template <class Voxels> inline uint vtBrickWordOf(const Voxels& voxels, uint word) {
+    if constexpr (vtHasOccupancy<Voxels>)
+        return voxels.fetchBrickWord(word);
+    else
+        return 0xFFFFFFFFu;
+}
 template <class Voxels> struct SpriteTracer {
     const Voxels& voxels;
 #define VT_FETCH(c) voxels.fetch(c)
+#define VT_FETCH_BRICK_WORD(w) vtBrickWordOf(voxels, w)
 #else
+uint vtFetchVoxel(ivec3 cell);
+uint vtFetchBrickWord(uint word);
 #define VT_FETCH(c) vtFetchVoxel(c)
+#define VT_FETCH_BRICK_WORD(w) vtFetchBrickWord(w)
 #endif
 
-    // §3.6 + HARD_CASES DDA rules: the ray of cell (i, j) through the model's voxel AABB.
-    // Returns true on the first voxel with palette index != 0, with the index and the code of
-    // the face the ray entered it through (vtFaceCode). The steps are the traversal functions
-    // above, which the far baker (impostor_cache/kernel_order_dda.hpp) calls too.
-    VT_FN bool vtTrace(VT_IN(SpriteGpu) s, ivec2 cell, VT_OUT(uint) index, VT_OUT(uint) face) {
-        index = 0u;
-        face = 0u;
-        VT_PRECISE vec3 o = vtCellRayOrigin(s, cell);
-        float tEnter;
-        int entryAxis;
-        if (!vtSlabEntry(s, o, tEnter, entryAxis)) return false;
+    // Whether box `box` of a level (its dims, its first word) may hold a non-empty voxel: one
+    // read of the occupancy.
+    VT_FN bool vtBoxOccupied(ivec3 levelDims, uint base, ivec3 box) {
+        uint i = vtLevelIndex(levelDims, box);
+        return ((VT_FETCH_BRICK_WORD(base + (i >> 5u)) >> (i & 31u)) & 1u) != 0u;
+    }
+
+    // The cell-by-cell march of vtTrace from cell c, entered along `axis`: every cell read.
+    VT_FN bool vtMarchCells(VT_IN(SpriteGpu) s, vec3 o, ivec3 c, int axis, VT_OUT(uint) index,
+                            VT_OUT(uint) face) {
         ivec3 n = vtDims(s);
-        ivec3 c = vtEntryCell(s, o, tEnter, entryAxis);
         ivec3 stepDir = vtStepDir(s);
         // Bound: a ray visits < nx+ny+nz cells.
-        int axis = entryAxis;
         int maxSteps = n.x + n.y + n.z;
         for (int step = 0; step < maxSteps; ++step) {
             uint v = VT_FETCH(c);
@@ -313,6 +439,99 @@ template <class Voxels> struct SpriteTracer {
             axis = a;
         }
         return false;
+    }
+
+    // The same march over the occupancy: regions and bricks marked empty are crossed in one box
+    // step each (vtBoxStep), which changes no outcome; only the cells of occupied bricks are read.
+    VT_FN bool vtMarchBoxes(VT_IN(SpriteGpu) s, vec3 o, ivec3 c, int axis, VT_OUT(uint) index,
+                            VT_OUT(uint) face) {
+        ivec3 n = vtDims(s);
+        ivec3 stepDir = vtStepDir(s);
+        ivec3 brickDims = vtLevelDims(n, VT_BRICK_SHIFT);
+        ivec3 regionDims = vtLevelDims(n, VT_REGION_SHIFT);
+        uint regionBase = vtBrickWords(n);
+        // What to test next: 2 the region, then the brick; 1 the brick.
+        int level = 2;
+        // c is exact down to boxes of side 1 << exactShift (0: the march's cell); the step
+        // (tLast, axis) settles it (vtSettle) when a cell is next needed.
+        int exactShift = 0;
+        float tLast = 0.0f;
+        // Bound: a ray visits < nx+ny+nz cells, and every step (of a cell or a box) moves it on
+        // by at least one of them.
+        int maxSteps = n.x + n.y + n.z;
+        int steps = 0;
+        while (steps < maxSteps) {
+            if (level == 2) {
+                if (!vtBoxOccupied(regionDims, regionBase, c >> VT_REGION_SHIFT)) {
+                    if (!vtBoxStep(s, o, stepDir, VT_REGION_SHIFT, c, axis, tLast)) return false;
+                    exactShift = VT_REGION_SHIFT;
+                    ++steps;
+                    continue;
+                }
+                if (exactShift > VT_BRICK_SHIFT) {
+                    c = vtSettle(s, o, stepDir, exactShift, c, tLast, axis);
+                    exactShift = 0;
+                }
+            }
+            if (!vtBoxOccupied(brickDims, 0u, c >> VT_BRICK_SHIFT)) {
+                if (!vtBoxStep(s, o, stepDir, VT_BRICK_SHIFT, c, axis, tLast)) return false;
+                exactShift = VT_BRICK_SHIFT;
+                ++steps;
+                // A new region too when the new brick is the region's first along the step.
+                level = ((c[axis] ^ (c[axis] - stepDir[axis])) >> VT_REGION_SHIFT) != 0 ? 2 : 1;
+                continue;
+            }
+            if (exactShift > 0) {
+                c = vtSettle(s, o, stepDir, exactShift, c, tLast, axis);
+                exactShift = 0;
+            }
+            // The cells of this occupied brick, cell by cell, until a step reaches `beyond` (the
+            // first cell past the brick along its axis), which stands in for the grid's bounds.
+            ivec3 lo = (c >> VT_BRICK_SHIFT) << VT_BRICK_SHIFT;
+            ivec3 beyond = ivec3(stepDir.x > 0 ? min(lo.x + VT_BRICK, n.x) : lo.x - 1,
+                                 stepDir.y > 0 ? min(lo.y + VT_BRICK, n.y) : lo.y - 1,
+                                 stepDir.z > 0 ? min(lo.z + VT_BRICK, n.z) : lo.z - 1);
+            for (; steps < maxSteps; ++steps) {
+                uint v = VT_FETCH(c);
+                if (v != 0u) {
+                    index = v;
+                    face = vtFaceCode(s, axis);
+                    return true;
+                }
+                int a = vtStepAxis(vtNextCrossing(s, o, c, stepDir, 0),
+                                   vtNextCrossing(s, o, c, stepDir, 1),
+                                   vtNextCrossing(s, o, c, stepDir, 2));
+                c[a] += stepDir[a];
+                axis = a;
+                if (c[a] == beyond[a]) break;
+            }
+            if (c[axis] < 0 || c[axis] >= n[axis]) return false;
+            ++steps;
+            level = ((c[axis] ^ (c[axis] - stepDir[axis])) >> VT_REGION_SHIFT) != 0 ? 2 : 1;
+        }
+        return false;
+    }
+
+    // §3.6 + HARD_CASES DDA rules: the ray of cell (i, j) through the model's voxel AABB.
+    // Returns true on the first voxel with palette index != 0, with the index and the code of
+    // the face the ray entered it through (vtFaceCode). The steps are the traversal functions
+    // above, which the far baker (impostor_cache/kernel_order_dda.hpp) calls too. Sprites whose
+    // frame has empty space worth skipping (SpriteGpu::skipEmpty) march over its occupancy, the
+    // others cell by cell; both give the same outcome.
+    VT_FN bool vtTrace(VT_IN(SpriteGpu) s, ivec2 cell, VT_OUT(uint) index, VT_OUT(uint) face) {
+        index = 0u;
+        face = 0u;
+        VT_PRECISE vec3 o = vtCellRayOrigin(s, cell);
+        float tEnter;
+        int entryAxis;
+        if (!vtSlabEntry(s, o, tEnter, entryAxis)) return false;
+        ivec3 c = vtEntryCell(s, o, tEnter, entryAxis);
+#ifdef __cplusplus
+        if constexpr (!vtHasOccupancy<Voxels>) return vtMarchCells(s, o, c, entryAxis, index, face);
+#endif
+        if (VT_SKIP_EMPTY_ENABLED && s.skipEmpty != 0u)
+            return vtMarchBoxes(s, o, c, entryAxis, index, face);
+        return vtMarchCells(s, o, c, entryAxis, index, face);
     }
 
     // §3.7: a hit is solid; otherwise any hit among the four cardinal neighbour cells makes an
@@ -348,10 +567,12 @@ template <class Voxels> struct SpriteTracer {
 
 #ifdef __cplusplus
 #undef VT_FETCH
+#undef VT_FETCH_BRICK_WORD
 };
 
 static_assert(sizeof(SpriteGpu) == 272, "SpriteGpu must match the std430 layout in GLSL");
 static_assert(offsetof(SpriteGpu, depth) == 12 && offsetof(SpriteGpu, denMax) == 28);
+static_assert(offsetof(SpriteGpu, brickBase) == 76 && offsetof(SpriteGpu, skipEmpty) == 92);
 static_assert(offsetof(SpriteGpu, cellRange) == 128 && offsetof(SpriteGpu, dims) == 144);
 static_assert(offsetof(SpriteGpu, atlas) == 160 && offsetof(SpriteGpu, faceLight1) == 192);
 static_assert(offsetof(SpriteGpu, quad) == 208);

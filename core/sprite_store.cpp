@@ -73,7 +73,11 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                                     e.scale,
                                     e.anchor.has_value(),
                                     e.anchor.value_or(glm::dvec3(0.0))};
-                const bool entityChanged = !constantsKept || !(keys_[i] == key);
+                // An edit of the model can change the skip rule's answer without changing the
+                // key (BrickOccupancy::worthSkipping is O(1)).
+                const std::uint32_t skipEmpty = model.bricks(frame).worthSkipping() ? 1u : 0u;
+                const bool entityChanged =
+                    !constantsKept || !(keys_[i] == key) || constants_[i].skipEmpty != skipEmpty;
                 if (entityChanged) {
                     keys_[i] = key;
                     constants_[i] = spriteConstants(e, model, frame, scene.render, scene.light);

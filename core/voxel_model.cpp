@@ -67,6 +67,89 @@ Box3i VoxelGrid::contentBounds() const {
     return b;
 }
 
+BrickOccupancy::BrickOccupancy(const VoxelGrid& grid) : voxelDims_(grid.dims()) {
+    const glm::ivec3 regions = dims(kernel::VT_REGION_SHIFT);
+    words_.assign(
+        kernel::vtBrickWords(voxelDims_) +
+            (std::size_t(regions.x) * std::size_t(regions.y) * std::size_t(regions.z) + 31) / 32,
+        0u);
+    refresh(grid, {glm::ivec3(0), grid.dims()});
+}
+
+bool BrickOccupancy::occupied(int shift, glm::ivec3 box) const {
+    const std::uint32_t i = kernel::vtLevelIndex(dims(shift), box);
+    return (words_[base(shift) + (i >> 5)] >> (i & 31u) & 1u) != 0;
+}
+
+Box3i BrickOccupancy::boxesOf(int shift, Box3i box) const {
+    const Box3i clipped = box.intersected({glm::ivec3(0), voxelDims_});
+    if (clipped.empty()) return {};
+    return {clipped.min >> shift, ((clipped.max - 1) >> shift) + 1};
+}
+
+void BrickOccupancy::set(int shift, glm::ivec3 box, bool occupied) {
+    const std::uint32_t i = kernel::vtLevelIndex(dims(shift), box);
+    std::uint32_t& word = words_[base(shift) + (i >> 5)];
+    const std::uint32_t bit = 1u << (i & 31u);
+    if (shift == kernel::VT_BRICK_SHIFT && ((word & bit) != 0) != occupied)
+        occupied ? ++occupiedBricks_ : --occupiedBricks_;
+    word = occupied ? word | bit : word & ~bit;
+}
+
+bool BrickOccupancy::worthSkipping() const {
+    const glm::ivec3 b = dims(kernel::VT_BRICK_SHIFT);
+    const std::uint64_t bricks = std::uint64_t(b.x) * std::uint64_t(b.y) * std::uint64_t(b.z);
+    // (empty / bricks) * (sx + sy + sz) / 3 >= kWorthSkippingCells, in integers.
+    return (bricks - occupiedBricks_) * std::uint64_t(voxelDims_.x + voxelDims_.y + voxelDims_.z) >=
+           3 * std::uint64_t(kWorthSkippingCells) * bricks;
+}
+
+void BrickOccupancy::markOccupied(Box3i box) {
+    for (int shift : {kernel::VT_BRICK_SHIFT, kernel::VT_REGION_SHIFT}) {
+        const Box3i b = boxesOf(shift, box);
+        for (int z = b.min.z; z < b.max.z; ++z)
+            for (int y = b.min.y; y < b.max.y; ++y)
+                for (int x = b.min.x; x < b.max.x; ++x) set(shift, {x, y, z}, true);
+    }
+}
+
+void BrickOccupancy::refresh(const VoxelGrid& grid, Box3i box) {
+    constexpr int kBrick = kernel::VT_BRICK_SHIFT, kRegion = kernel::VT_REGION_SHIFT;
+    // The bricks: cleared, then one pass over their voxels, row by row; a row moves on to the
+    // next brick at its first non-empty voxel in this one.
+    const Box3i b = boxesOf(kBrick, box);
+    for (int z = b.min.z; z < b.max.z; ++z)
+        for (int y = b.min.y; y < b.max.y; ++y)
+            for (int x = b.min.x; x < b.max.x; ++x) set(kBrick, {x, y, z}, false);
+    const Box3i voxels =
+        Box3i{b.min << kBrick, b.max << kBrick}.intersected({glm::ivec3(0), voxelDims_});
+    for (int z = voxels.min.z; z < voxels.max.z; ++z)
+        for (int y = voxels.min.y; y < voxels.max.y; ++y) {
+            const std::uint8_t* row = &grid.data()[grid.linearIndex({0, y, z})];
+            for (int x = voxels.min.x; x < voxels.max.x; ++x)
+                if (row[x] != 0) {
+                    set(kBrick, glm::ivec3(x, y, z) >> kBrick, true);
+                    x |= kernel::VT_BRICK - 1;
+                }
+        }
+    // The regions holding those bricks, from their bricks.
+    const Box3i r = boxesOf(kRegion, box);
+    const glm::ivec3 bricks = dims(kBrick);
+    for (int z = r.min.z; z < r.max.z; ++z)
+        for (int y = r.min.y; y < r.max.y; ++y)
+            for (int x = r.min.x; x < r.max.x; ++x) {
+                const glm::ivec3 region{x, y, z};
+                const glm::ivec3 lo = region << (kRegion - kBrick);
+                const glm::ivec3 hi = glm::min(lo + (1 << (kRegion - kBrick)), bricks);
+                bool any = false;
+                for (int bz = lo.z; bz < hi.z && !any; ++bz)
+                    for (int by = lo.y; by < hi.y && !any; ++by)
+                        for (int bx = lo.x; bx < hi.x && !any; ++bx)
+                            any = occupied(kBrick, {bx, by, bz});
+                set(kRegion, region, any);
+            }
+}
+
 namespace {
 std::atomic<std::uint64_t> nextModelUid{1};
 }
@@ -74,7 +157,10 @@ std::atomic<std::uint64_t> nextModelUid{1};
 VoxelModel::VoxelModel() : uid_(nextModelUid++) {}
 
 VoxelModel::VoxelModel(std::string name, Palette palette, std::vector<VoxelGrid> frames)
-    : uid_(nextModelUid++), name_(std::move(name)), palette_(palette), frames_(std::move(frames)) {}
+    : uid_(nextModelUid++), name_(std::move(name)), palette_(palette), frames_(std::move(frames)) {
+    bricks_.reserve(frames_.size());
+    for (const VoxelGrid& g : frames_) bricks_.emplace_back(g);
+}
 
 int VoxelModel::wrapFrame(long long f) const {
     const long long n = std::max<long long>(1, frameCount());
@@ -100,6 +186,12 @@ bool VoxelModel::fillBox(int frame, Box3i box, std::uint8_t index) {
                 }
             }
     if (changed.empty()) return false;
+    // The occupancy stays tight: a fill occupies its bricks, a clear may empty some.
+    BrickOccupancy& bricks = bricks_[std::size_t(frame)];
+    if (index != 0)
+        bricks.markOccupied(changed);
+    else
+        bricks.refresh(g, changed);
     record(frame, changed);
     return true;
 }

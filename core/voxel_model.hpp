@@ -2,12 +2,15 @@
 // Voxel models: dense uint8 palette-index grids (one per animation frame) sharing one
 // 256-entry palette, with an edit API that bumps a version counter and logs dirty boxes so
 // every consumer (GPU residency, snapshot cache) can ask "what changed since version v?".
+#include "core/sprite_kernel.h"
+
 #include <glm/glm.hpp>
 
 #include <array>
 #include <atomic>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -83,6 +86,49 @@ class VoxelGrid {
     std::vector<std::uint8_t> data_;
 };
 
+/// The conservative occupancy of one grid that the kernel skips empty space with
+/// (core/sprite_kernel.h): one bit per brick (kernel::VT_BRICK^3 voxels), then one per region
+/// (kernel::VT_REGION^3 voxels), each level numbered by vtLevelIndex over vtLevelDims, 32 to a
+/// word. Contract: a box's bit is clear only when every voxel of it is empty; the skip is exact
+/// under that alone. It is kept tight as well (set exactly where a box holds a non-empty voxel)
+/// through every edit of a VoxelModel.
+class BrickOccupancy {
+  public:
+    BrickOccupancy() = default;
+    /// The occupancy of `grid`, tight.
+    explicit BrickOccupancy(const VoxelGrid& grid);
+
+    /// Size in boxes of the level with `shift` (kernel::VT_BRICK_SHIFT or VT_REGION_SHIFT).
+    glm::ivec3 dims(int shift) const { return kernel::vtLevelDims(voxelDims_, shift); }
+    /// Whether box `box` of that level is marked occupied.
+    bool occupied(int shift, glm::ivec3 box) const;
+    /// Both levels' words as the kernel reads them (vtFetchBrickWord).
+    std::span<const std::uint32_t> words() const { return words_; }
+    /// Whether marching over the occupancy pays on this grid (SpriteGpu::skipEmpty): the empty
+    /// bricks' share times the mean side, about the cells a ray walks through empty bricks, is
+    /// at least kWorthSkippingCells (docs/decisions/empty-space-skipping.md has the figures).
+    bool worthSkipping() const;
+    static constexpr int kWorthSkippingCells = 24;
+
+    /// After non-empty voxels were written into `box`: marks its bricks and regions occupied.
+    void markOccupied(Box3i box);
+    /// After voxels of `box` were cleared (or anything else written there): recomputes its
+    /// bricks from `grid` and its regions from the bricks.
+    void refresh(const VoxelGrid& grid, Box3i box);
+
+  private:
+    /// The boxes of the level with `shift` that hold a voxel of `box` (clipped to the grid).
+    Box3i boxesOf(int shift, Box3i box) const;
+    void set(int shift, glm::ivec3 box, bool occupied);
+    std::uint32_t base(int shift) const {
+        return shift == kernel::VT_BRICK_SHIFT ? 0u : kernel::vtBrickWords(voxelDims_);
+    }
+
+    glm::ivec3 voxelDims_{0};
+    std::vector<std::uint32_t> words_;
+    std::uint64_t occupiedBricks_ = 0;
+};
+
 /// One edit, as recorded in the model's log: the model version it produced and the voxels it
 /// may have changed.
 struct EditRecord {
@@ -107,6 +153,8 @@ class VoxelModel {
 
     int frameCount() const { return int(frames_.size()); }
     const VoxelGrid& frame(int f) const { return frames_.at(std::size_t(f)); }
+    /// The brick occupancy of frame `f`, kept tight through every edit.
+    const BrickOccupancy& bricks(int f) const { return bricks_.at(std::size_t(f)); }
     /// Animation wrap: frame index `f` modulo the frame count (negative wraps too).
     int wrapFrame(long long f) const;
 
@@ -132,6 +180,7 @@ class VoxelModel {
     std::string name_;
     Palette palette_;
     std::vector<VoxelGrid> frames_;
+    std::vector<BrickOccupancy> bricks_; ///< per frame
     std::uint64_t version_ = 1;
     std::vector<EditRecord> log_; ///< newest last, bounded by kMaxLog
     std::uint64_t logFloor_ = 1;  ///< versions <= logFloor_ are not in the log any more

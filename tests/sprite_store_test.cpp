@@ -2,9 +2,12 @@
 // every entity, bit for bit, and an update sets up afresh exactly what changed: nothing under a
 // still camera, the entities that stepped to another animation frame or moved, everything when
 // the camera or the light moves. A frame's share of the sprites stays as it was.
+#include "core/model_view.hpp"
 #include "core/scene_loader.hpp"
 #include "core/sprite_store.hpp"
 #include "source_tree.hpp"
+#include "test_models.hpp"
+#include "view_sweeps.hpp"
 
 #include <gtest/gtest.h>
 
@@ -132,6 +135,28 @@ TEST(SpriteStore, AShareOfTheSpritesKeepsItsFrame) {
     ASSERT_EQ(kept.size(), fresh.size());
     for (std::size_t i = 0; i < fresh.size(); ++i) ASSERT_TRUE(sameSprite(kept[i], fresh[i]));
     expectFresh(store, s, second, later);
+}
+
+// An edit that changes whether a model's rays skip empty space (SpriteGpu::skipEmpty, from the
+// frame's brick occupancy) sets its entities up afresh, camera and entities still; an edit that
+// leaves the answer as it was sets nothing up.
+TEST(SpriteStore, AnEditThatTurnsEmptySpaceSkippingSetsItsEntitiesUpAfresh) {
+    Scene s = sceneForModel(test::solidBox({64, 64, 64}), test::viewToward({1, 2, 3}, 1.0, 64, 48));
+    VoxelModel& model = *s.models.at(0);
+    const CameraFrame cam = makeCameraFrame(s.cameraAt(0.0));
+    SpriteStore store;
+    store.update(s, cam, 0.0);
+    ASSERT_EQ(store.sprites()[0].gpu.skipEmpty, 0u) << "a solid box has no empty space";
+    // A corner voxel less: still no empty brick, the same answer.
+    ASSERT_TRUE(model.clearBox(0, {glm::ivec3(0), glm::ivec3(1)}));
+    EXPECT_EQ(store.update(s, cam, 0.0).entitiesChanged, 0);
+    // All but a shell of one voxel's thickness at one side: most bricks empty.
+    ASSERT_TRUE(model.clearBox(0, {glm::ivec3(1, 0, 0), glm::ivec3(64)}));
+    const SpriteStore::Update u = store.update(s, cam, 0.0);
+    EXPECT_EQ(u.entitiesChanged, 1);
+    EXPECT_EQ(store.changed()[0], 1);
+    EXPECT_EQ(store.sprites()[0].gpu.skipEmpty, 1u);
+    expectFresh(store, s, cam, 0.0);
 }
 
 } // namespace

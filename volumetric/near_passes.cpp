@@ -59,9 +59,13 @@ struct NearPasses::Impl {
     VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
     VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
     VkRenderPass renderPass = VK_NULL_HANDLE;
-    VkPipeline pipelines[3][2][2] = {}; ///< [proxy][countSteps][flatDepth], created on first use
+    /// [proxy][countSteps][flatDepth][skipEmpty], created on first use
+    VkPipeline pipelines[3][2][2][2] = {};
     enum ComputePass { TraceCells, Outline, Splat, Resolve, ComputePassCount };
-    VkPipeline computePipelines[ComputePassCount] = {};
+    /// [pass][skipEmpty] (only TraceCells has a skipping variant), created on first use
+    VkPipeline computePipelines[ComputePassCount][2] = {};
+    /// This frame's NearOptions::skipEmpty: which variant the pipelines take.
+    bool skipEmpty = false;
 
     // Shared by the slots (the frame-start barrier orders their use): the framebuffer over the
     // frames' targets, the cell store (grown up to the budget) and the splat's pixel words.
@@ -174,6 +178,7 @@ void NearPasses::Impl::createLayouts() {
         {NEAR_BINDING_RANK_SPRITES, sb, 1, c, nullptr},
         {NEAR_BINDING_PIXEL_WORDS, sb, 1, c, nullptr},
         {NEAR_BINDING_PLANES, sb, 1, c, nullptr},
+        {NEAR_BINDING_BRICKS, sb, 1, f | c, nullptr},
     };
     VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
     dli.bindingCount = std::uint32_t(std::size(bindings));
@@ -190,7 +195,9 @@ void NearPasses::Impl::createLayouts() {
     VK_CHECK(vkCreatePipelineLayout(dev, &pli, nullptr, &pipelineLayout));
 
     const std::uint32_t n = std::uint32_t(frames.slots());
-    const VkDescriptorPoolSize sizes[] = {{sb, 12 * n},
+    // Every binding but the atlas is a storage buffer.
+    const std::uint32_t buffersPerSet = std::uint32_t(std::size(bindings)) - 1;
+    const VkDescriptorPoolSize sizes[] = {{sb, buffersPerSet * n},
                                           {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n}};
     VkDescriptorPoolCreateInfo dpi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     dpi.maxSets = n;
@@ -274,14 +281,16 @@ void NearPasses::Impl::destroy() noexcept {
     frames.waitAll();
     for (auto& perProxy : pipelines)
         for (auto& perCount : perProxy)
-            for (VkPipeline& p : perCount) {
-                if (p) vkDestroyPipeline(dev, p, nullptr);
-                p = VK_NULL_HANDLE;
-            }
-    for (VkPipeline& p : computePipelines) {
-        if (p) vkDestroyPipeline(dev, p, nullptr);
-        p = VK_NULL_HANDLE;
-    }
+            for (auto& perFlat : perCount)
+                for (VkPipeline& p : perFlat) {
+                    if (p) vkDestroyPipeline(dev, p, nullptr);
+                    p = VK_NULL_HANDLE;
+                }
+    for (auto& perPass : computePipelines)
+        for (VkPipeline& p : perPass) {
+            if (p) vkDestroyPipeline(dev, p, nullptr);
+            p = VK_NULL_HANDLE;
+        }
     for (Slot& s : slots)
         if (s.statsPool) vkDestroyQueryPool(dev, s.statsPool, nullptr);
     slots.clear();
@@ -308,9 +317,20 @@ void NearPasses::Impl::ensure(VulkanBuffer& b, VkDeviceSize bytes, BufferClass c
     b = VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, c);
 }
 
+/// The specialization constant NEAR_SPEC_SKIP_EMPTY of near.frag and near_cells.comp (shaders
+/// without it ignore it).
+struct SkipEmptySpecialization {
+    VkBool32 value;
+    VkSpecializationMapEntry entry{NEAR_SPEC_SKIP_EMPTY, 0, sizeof(VkBool32)};
+    VkSpecializationInfo info{1, &entry, sizeof(VkBool32), &value};
+    explicit SkipEmptySpecialization(bool on) : value(on ? VK_TRUE : VK_FALSE) {}
+    SkipEmptySpecialization(const SkipEmptySpecialization&) = delete;
+};
+
 VkPipeline NearPasses::Impl::pipeline(NearProxy proxy, bool countSteps, bool flatDepth) {
-    VkPipeline& slot = pipelines[int(proxy)][countSteps][flatDepth];
+    VkPipeline& slot = pipelines[int(proxy)][countSteps][flatDepth][skipEmpty];
     if (slot) return slot;
+    const SkipEmptySpecialization spec(skipEmpty);
     VkDevice dev = device.device();
     const std::span<const std::uint32_t> vertCode =
         proxy == NearProxy::Box    ? std::span<const std::uint32_t>(near_box_vert)
@@ -339,7 +359,7 @@ VkPipeline NearPasses::Impl::pipeline(NearProxy proxy, bool countSteps, bool fla
                      VK_SHADER_STAGE_FRAGMENT_BIT,
                      frag,
                      "main",
-                     nullptr};
+                     &spec.info};
         VkPipelineVertexInputStateCreateInfo vin{
             VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
         VkPipelineInputAssemblyStateCreateInfo ia{
@@ -404,8 +424,10 @@ VkPipeline NearPasses::Impl::pipeline(NearProxy proxy, bool countSteps, bool fla
 }
 
 VkPipeline NearPasses::Impl::computePipeline(ComputePass pass) {
-    VkPipeline& slot = computePipelines[pass];
+    const bool skip = pass == TraceCells && skipEmpty;
+    VkPipeline& slot = computePipelines[pass][skip];
     if (slot) return slot;
+    const SkipEmptySpecialization spec(skip);
     VkDevice dev = device.device();
     const std::span<const std::uint32_t> code =
         pass == TraceCells ? std::span<const std::uint32_t>(near_cells_comp)
@@ -420,7 +442,7 @@ VkPipeline NearPasses::Impl::computePipeline(ComputePass pass) {
                  VK_SHADER_STAGE_COMPUTE_BIT,
                  module,
                  "main",
-                 nullptr};
+                 &spec.info};
     cpi.layout = pipelineLayout;
     const VkResult r = vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &cpi, nullptr, &slot);
     vkDestroyShaderModule(dev, module, nullptr);
@@ -461,8 +483,11 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
             const SpriteSetup& s = *visible[i];
             gpu[i] = s.gpu;
-            // The only field the near tier adds to what core computed: where the voxels are.
-            gpu[i].atlas = residency.entry(*models.at(std::size_t(s.model)), s.frame);
+            // The only fields the near tier adds to what core computed: where the voxels and
+            // their brick occupancy are.
+            const VoxelModel& model = *models.at(std::size_t(s.model));
+            gpu[i].atlas = residency.entry(model, s.frame);
+            gpu[i].brickBase = residency.brickBase(model, s.frame);
         }
     });
 }
@@ -627,6 +652,7 @@ void NearPasses::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
         {NEAR_BINDING_RANK_SPRITES, slot.rankSprites.handle()},
         {NEAR_BINDING_PIXEL_WORDS, pixelWords.handle()},
         {NEAR_BINDING_PLANES, frame.planes()},
+        {NEAR_BINDING_BRICKS, residency.brickBuffer()},
     };
     constexpr std::size_t kBuffers = std::size(buffers);
     VkDescriptorBufferInfo infos[kBuffers];
@@ -807,6 +833,7 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
         throw VulkanError("near tier: counting DDA steps needs fragmentStoresAndAtomics, which " +
                           m.device.name() + " lacks");
     Impl::Slot& slot = m.slots.at(std::size_t(frame.slot()));
+    m.skipEmpty = opt.skipEmpty;
     VkCommandBuffer cb = frame.commandBuffer();
     frame.timer().begin(cb, "near_upload");
     m.writeSprites(frame, slot, models, sprites, opt, stats);

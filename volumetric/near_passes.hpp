@@ -66,6 +66,11 @@ struct NearOptions {
     /// run before the draw); the quad and box proxies are only reordered. false: ascending id,
     /// every sprite's depth written by its shader (the tests' and --no-cull's baseline).
     bool earlyDepthTest = true;
+    /// Empty-space skipping (core/sprite_kernel.h vtMarchBoxes) for the sprites whose model frame
+    /// qualifies (SpriteGpu::skipEmpty): the same image either way. Off by default on Vulkan: on
+    /// llvmpipe the pipelines that hold the box march ran the near tier 1.3-1.5x slower, skipping
+    /// or not (docs/decisions/empty-space-skipping.md); a GPU's figure decides.
+    bool skipEmpty = false;
 };
 
 /// What the near passes did in one frame (the counts; the device times are the frame's named

@@ -16,25 +16,35 @@ namespace voxtier {
 
 namespace {
 
-/// The kernel's voxel source on the CPU: the dense grid, counting reads when asked to.
+/// The kernel's voxel source on the CPU: the dense grid and its brick occupancy, counting reads
+/// when asked to.
 template <bool Count> struct GridVoxels {
     const std::uint8_t* data;
     std::size_t sx, sxy;
-    mutable std::uint64_t fetches = 0;
+    const std::uint32_t* brickWords;
+    mutable std::uint64_t fetches = 0, brickFetches = 0;
     kernel::uint fetch(glm::ivec3 c) const {
         if constexpr (Count) ++fetches;
         return data[std::size_t(c.x) + sx * std::size_t(c.y) + sxy * std::size_t(c.z)];
     }
+    /// Without words (ReferenceOptions::skipEmptyBricks off) every brick is occupied: the
+    /// cell-by-cell traversal, which reads no brick.
+    kernel::uint fetchBrickWord(kernel::uint word) const {
+        if (!brickWords) return 0xFFFFFFFFu;
+        if constexpr (Count) ++brickFetches;
+        return brickWords[word];
+    }
 };
 
-template <bool Count> GridVoxels<Count> voxelsOf(const VoxelGrid& g) {
+template <bool Count> GridVoxels<Count> voxelsOf(const VoxelGrid& g, const BrickOccupancy* bricks) {
     return {g.data().data(), std::size_t(g.dims().x),
-            std::size_t(g.dims().x) * std::size_t(g.dims().y)};
+            std::size_t(g.dims().x) * std::size_t(g.dims().y),
+            bricks ? bricks->words().data() : nullptr};
 }
 
 struct RowCounters {
-    std::uint64_t tested = 0, hidden = 0, inSprite = 0, written = 0, fetches = 0, traced = 0,
-                  lookedUp = 0, cellsTraced = 0;
+    std::uint64_t tested = 0, hidden = 0, inSprite = 0, written = 0, fetches = 0, brickFetches = 0,
+                  traced = 0, lookedUp = 0, cellsTraced = 0;
 };
 
 /// The cell-rate sprites' cells (core/near_rate.hpp), traced on first use rather than all before
@@ -67,9 +77,10 @@ template <class Make> kernel::uint memoised(kernel::uint& slot, Make&& make) {
 template <class Open>
 void drawSpriteRows(const std::vector<std::shared_ptr<VoxelModel>>& models, const SpriteSetup& sp,
                     kernel::uint cellBase, LazyCells& cells, int y0, int y1, int x0, int x1,
-                    Open&& open, bool earlyDepth, Image& target, RowCounters& rc) {
+                    Open&& open, bool earlyDepth, bool skipBricks, Image& target, RowCounters& rc) {
     const VoxelModel& model = *models[std::size_t(sp.model)];
-    const auto voxels = voxelsOf<true>(model.frame(sp.frame));
+    const auto voxels =
+        voxelsOf<true>(model.frame(sp.frame), skipBricks ? &model.bricks(sp.frame) : nullptr);
     kernel::SpriteTracer<GridVoxels<true>> tracer{voxels};
     const kernel::SpriteGpu& g = sp.gpu;
     for (int y = y0; y < y1; ++y) {
@@ -124,7 +135,8 @@ void drawSpriteRows(const std::vector<std::shared_ptr<VoxelModel>>& models, cons
             target.writeIfNearer(p, color, g.depth, sp.entityId);
         }
     }
-    rc.fetches += voxels.fetches;
+    rc.fetches += voxels.fetches + voxels.brickFetches;
+    rc.brickFetches += voxels.brickFetches;
 }
 
 } // namespace
@@ -188,7 +200,7 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                         drawSpriteRows(
                             models, sp, plan.cellBase[i], cells, r0, r1, sp.screenRect.x,
                             sp.screenRect.z, [](int) { return true; }, options.earlyDepthTest,
-                            target, rc);
+                            options.skipEmptyBricks, target, rc);
                         continue;
                     }
                     const auto [x0, x1] =
@@ -205,7 +217,7 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     drawSpriteRows(
                         models, sp, plan.cellBase[i], cells, r0, r1, x0, x1,
                         [&](int x) { return open[std::size_t(x / kTile - c0)] != 0; },
-                        options.earlyDepthTest, target, rc);
+                        options.earlyDepthTest, options.skipEmptyBricks, target, rc);
                     tiles->drawn(b, x0, x1, r1 - r0);
                 }
                 if (options.progress)
@@ -220,6 +232,7 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
             total.inSprite += c.inSprite;
             total.written += c.written;
             total.fetches += c.fetches;
+            total.brickFetches += c.brickFetches;
             total.traced += c.traced;
             total.lookedUp += c.lookedUp;
             total.cellsTraced += c.cellsTraced;
@@ -231,6 +244,7 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
         stats->pixelsInSprite += total.inSprite;
         stats->pixelsWritten += total.written;
         stats->voxelFetches += total.fetches;
+        stats->brickFetches += total.brickFetches;
         stats->pixelsTraced += total.traced;
         stats->pixelsLookedUp += total.lookedUp;
         stats->cellsTraced += total.cellsTraced;
@@ -256,7 +270,8 @@ CellImage traceCells(const kernel::SpriteGpu& g, const VoxelGrid& grid) {
     out.kind.assign(n, 0);
     out.index.assign(n, 0);
     out.face.assign(n, 0);
-    const auto voxels = voxelsOf<false>(grid);
+    const BrickOccupancy bricks(grid);
+    const auto voxels = voxelsOf<false>(grid, &bricks);
     kernel::SpriteTracer<GridVoxels<false>> tracer{voxels};
     for (int j = out.range.z; j <= out.range.w; ++j)
         for (int i = out.range.x; i <= out.range.y; ++i) {

@@ -23,7 +23,8 @@ struct ReferenceStats : CellRateCounts {
     std::uint64_t pixelsHidden = 0;   ///< of those, already nearer: neither traced nor looked up
     std::uint64_t pixelsInSprite = 0; ///< of those, pixels that map to a lattice cell
     std::uint64_t pixelsWritten = 0;  ///< solid or outline outcomes
-    std::uint64_t voxelFetches = 0;   ///< DDA steps (one voxel read each)
+    std::uint64_t voxelFetches = 0;   ///< reads: DDA steps (one voxel each) and brick reads
+    std::uint64_t brickFetches = 0;   ///< of those, reads of the brick occupancy
     double milliseconds = 0.0;
 };
 
@@ -42,6 +43,10 @@ struct ReferenceOptions {
     /// that it rejects most of a crowd. Same image, fewer traces; off to count the voxel reads of
     /// the Vulkan counting shader, which traces every covered pixel, and under --no-cull.
     bool earlyDepthTest = true;
+    /// Empty-space skipping (core/sprite_kernel.h): the traversal steps over the bricks the
+    /// model frame's occupancy marks empty. Same image; off for the cell-by-cell traversal and its
+    /// read counts, for comparisons.
+    bool skipEmptyBricks = true;
     /// Where to count sprite rows (null: not counted): each run of sprites adds its rows (the
     /// screen rows of each sprite's rectangle) to total before it draws them, each band of rows
     /// what it finished. Cell-rate cells are traced inside the rows, so
@@ -62,7 +67,8 @@ void renderReference(const std::vector<std::shared_ptr<VoxelModel>>& models,
 
 /// The kernel evaluated per lattice cell instead of per pixel: a (width x height) grid over
 /// the sprite's cellRange with VT_KIND_* per cell and the palette index / face code of solid
-/// cells. Tests compare this with closed-form silhouettes.
+/// cells, skipping the empty bricks of the grid's occupancy (built here). Tests compare this
+/// with closed-form silhouettes.
 struct CellImage {
     glm::ivec4 range{0}; ///< iMin, iMax, jMin, jMax
     std::vector<std::uint8_t> kind, index, face;

@@ -22,6 +22,9 @@ VkDeviceSize roundUp4(VkDeviceSize v) {
     return (v + 3) & ~VkDeviceSize(3);
 }
 
+constexpr VkDeviceSize kInitialPaletteBytes = 64 * 256 * sizeof(std::uint32_t);
+constexpr VkDeviceSize kInitialBrickBytes = 1 << 16;
+
 } // namespace
 
 ResidencyStats& ResidencyStats::operator+=(const ResidencyStats& o) {
@@ -52,7 +55,8 @@ VoxelResidency::VoxelResidency(VulkanDevice& device, std::function<void()> waitF
                      VK_ACCESS_SHADER_READ_BIT);
         VK_CHECK(vkEndCommandBuffer(cb_));
         device_.submitAndWait(cb_);
-        ensurePaletteCapacity(256);
+        palettes_.reserve(device_, 256, kInitialPaletteBytes, waitForReaders_);
+        bricks_.reserve(device_, 1, kInitialBrickBytes, waitForReaders_);
     } catch (...) {
         device_.freeCommandBuffer(cb_);
         throw;
@@ -94,27 +98,56 @@ void VoxelResidency::createAtlas(std::uint32_t depth, VkCommandBuffer cb, bool c
     ++generation_;
 }
 
-void VoxelResidency::ensurePaletteCapacity(std::size_t entries) {
-    const VkDeviceSize need = VkDeviceSize(entries) * sizeof(std::uint32_t);
-    if (palettes_ && palettes_.size() >= need) return;
-    VkDeviceSize size = palettes_ ? palettes_.size() : 64 * 256 * sizeof(std::uint32_t);
+bool VoxelResidency::MirroredWords::reserve(VulkanDevice& device, std::size_t words,
+                                            VkDeviceSize initialBytes,
+                                            const std::function<void()>& waitForReaders) {
+    const VkDeviceSize need = VkDeviceSize(std::max<std::size_t>(words, 1)) * sizeof(std::uint32_t);
+    if (buffer && buffer.size() >= need) return false;
+    VkDeviceSize size = buffer ? buffer.size() : initialBytes;
     while (size < need) size *= 2;
-    if (palettes_ && waitForReaders_) waitForReaders_(); // frames in flight read the old buffer
-    palettes_ =
-        VulkanBuffer(device_, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::ShaderRead);
+    if (buffer && waitForReaders) waitForReaders(); // frames in flight read the old buffer
+    buffer =
+        VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::ShaderRead);
     // The whole mirror goes into the new buffer (directly, or staged with the next upload); the
-    // tail past it is never read (no sprite's palette base points there).
-    writePalettes(0, paletteMirror_.size());
-    ++generation_;
+    // tail past it is never read (no sprite's base points there).
+    write(0, mirror.size());
+    return true;
 }
 
-void VoxelResidency::writePalettes(std::size_t first, std::size_t count) {
+void VoxelResidency::MirroredWords::write(std::size_t first, std::size_t count) {
     if (count == 0) return;
-    if (palettes_.placement().hostWrite == HostWrite::Direct)
-        palettes_.write(first * sizeof(std::uint32_t), paletteMirror_.data() + first,
-                        count * sizeof(std::uint32_t));
+    if (buffer.placement().hostWrite == HostWrite::Direct)
+        buffer.write(first * sizeof(std::uint32_t), mirror.data() + first,
+                     count * sizeof(std::uint32_t));
     else
-        paletteStaged_ = true; // the whole mirror, with the update's copies
+        staged = true; // the whole mirror, with the update's copies
+}
+
+VkDeviceSize VoxelResidency::MirroredWords::stagedBytes() const {
+    return staged ? mirror.size() * sizeof(std::uint32_t) : 0;
+}
+
+void VoxelResidency::MirroredWords::recordStagedCopy(VkCommandBuffer cb,
+                                                     const VulkanBuffer& staging,
+                                                     VkDeviceSize offset,
+                                                     VkPipelineStageFlags readers) {
+    const VkDeviceSize bytes = stagedBytes();
+    if (bytes == 0) return;
+    std::memcpy(static_cast<std::uint8_t*>(staging.mapped()) + offset, mirror.data(),
+                std::size_t(bytes));
+    const VkBufferCopy copy{offset, 0, bytes};
+    vkCmdCopyBuffer(cb, staging.handle(), buffer.handle(), 1, &copy);
+    bufferBarrier(cb, buffer.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                  readers, VK_ACCESS_SHADER_READ_BIT);
+    staged = false;
+}
+
+std::uint32_t VoxelResidency::brickBase(const VoxelModel& model, int frame) const {
+    const auto it = residents_.find(model.uid());
+    if (it == residents_.end() || frame < 0 || std::size_t(frame) >= it->second.present.size() ||
+        !it->second.present[std::size_t(frame)])
+        throw std::logic_error("VoxelResidency::brickBase: frame not resident (call update first)");
+    return it->second.brickBase[std::size_t(frame)];
 }
 
 glm::uvec4 VoxelResidency::entry(const VoxelModel& model, int frame) const {
@@ -144,15 +177,20 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                 r.version = model.version();
                 r.paletteBase = nextPaletteSlot_++ * 256u;
                 r.origin.assign(std::size_t(model.frameCount()), glm::ivec3(0));
+                r.brickBase.assign(std::size_t(model.frameCount()), 0u);
                 r.present.assign(std::size_t(model.frameCount()), false);
-                paletteMirror_.insert(paletteMirror_.end(), model.palette().colors.begin(),
-                                      model.palette().colors.end());
-                if (palettes_.size() < paletteMirror_.size() * sizeof(std::uint32_t))
-                    ensurePaletteCapacity(paletteMirror_.size()); // writes the whole mirror
+                palettes_.mirror.insert(palettes_.mirror.end(), model.palette().colors.begin(),
+                                        model.palette().colors.end());
+                if (palettes_.reserve(device_, palettes_.mirror.size(), kInitialPaletteBytes,
+                                      waitForReaders_))
+                    ++generation_; // the whole mirror written
                 else
-                    writePalettes(r.paletteBase, 256);
+                    palettes_.write(r.paletteBase, 256);
             } else if (r.version != model.version()) {
                 // Edited since the last upload: each resident frame re-sends only its dirty box.
+                // Its occupancy words are rewritten in place, possibly straight into memory a
+                // frame in flight reads: that frame must finish first (edits are rare).
+                if (waitForReaders_) waitForReaders_();
                 synced.emplace_back(&r, r.version);
                 for (int f = 0; f < model.frameCount(); ++f) {
                     if (!r.present[std::size_t(f)]) continue;
@@ -162,6 +200,12 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                     const Box3i box = dirty ? dirty->intersected(whole) : whole;
                     if (box.empty()) continue;
                     uploads.push_back({&grid, box, r.origin[std::size_t(f)]});
+                    // Its occupancy, whole: a few KiB at most (a region bit may change with
+                    // any brick of the region).
+                    const std::span<const std::uint32_t> words = model.bricks(f).words();
+                    const std::uint32_t base = r.brickBase[std::size_t(f)];
+                    std::copy(words.begin(), words.end(), bricks_.mirror.begin() + base);
+                    bricks_.write(base, words.size());
                     stats.fullFrames += box == whole;
                 }
                 r.version = model.version();
@@ -171,6 +215,16 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                 const VoxelGrid& grid = model.frame(sp->frame);
                 r.origin[f] = packer_.allocate(grid.dims());
                 r.present[f] = true;
+                // Its brick occupancy, whole, after the mirror's words (left there, unused, when
+                // a later placement fails).
+                const std::span<const std::uint32_t> words = model.bricks(sp->frame).words();
+                r.brickBase[f] = std::uint32_t(bricks_.mirror.size());
+                bricks_.mirror.insert(bricks_.mirror.end(), words.begin(), words.end());
+                if (bricks_.reserve(device_, bricks_.mirror.size(), kInitialBrickBytes,
+                                    waitForReaders_))
+                    ++generation_; // the whole mirror written
+                else
+                    bricks_.write(r.brickBase[f], words.size());
                 placed.emplace_back(&r, sp->frame);
                 uploads.push_back({&grid, {glm::ivec3(0), grid.dims()}, r.origin[f]});
                 ++stats.fullFrames;
@@ -182,16 +236,16 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
         throw VulkanError(std::string("near tier: ") + e.what());
     }
     const bool grow = std::uint32_t(packer_.usedDepth()) > atlas_.extent().depth;
-    if (uploads.empty() && !grow && !paletteStaged_) return stats;
+    if (uploads.empty() && !grow && !palettes_.staged && !bricks_.staged) return stats;
 
     // Pack every region tightly into one staging buffer (rows of the box, x fastest), then the
-    // palettes where the device's palette buffer is staged.
+    // palettes and the brick words where the device's buffers are staged.
     VkDeviceSize total = 0;
     for (const Upload& u : uploads) total = roundUp4(total + VkDeviceSize(u.box.volume()));
     const VkDeviceSize paletteOffset = total;
-    const VkDeviceSize paletteBytes =
-        paletteStaged_ ? paletteMirror_.size() * sizeof(std::uint32_t) : 0;
-    total += paletteBytes;
+    total += palettes_.stagedBytes();
+    const VkDeviceSize brickOffset = total;
+    total += bricks_.stagedBytes();
     if (!staging_ || staging_.size() < total) {
         VkDeviceSize size = 1 << 16;
         while (size < total) size *= 2;
@@ -244,14 +298,8 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
         vkCmdCopyBufferToImage(cb_, staging_.handle(), atlas_.handle(),
                                VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, std::uint32_t(regions.size()),
                                regions.data());
-    if (paletteBytes) {
-        std::memcpy(dst + paletteOffset, paletteMirror_.data(), std::size_t(paletteBytes));
-        const VkBufferCopy copy{paletteOffset, 0, paletteBytes};
-        vkCmdCopyBuffer(cb_, staging_.handle(), palettes_.handle(), 1, &copy);
-        bufferBarrier(cb_, palettes_.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
-                      VK_ACCESS_TRANSFER_WRITE_BIT, kAtlasReaders, VK_ACCESS_SHADER_READ_BIT);
-        paletteStaged_ = false;
-    }
+    palettes_.recordStagedCopy(cb_, staging_, paletteOffset, kAtlasReaders);
+    bricks_.recordStagedCopy(cb_, staging_, brickOffset, kAtlasReaders);
     staging_.flush(0, total);
     imageBarrier(cb_, atlas_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
                  VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,

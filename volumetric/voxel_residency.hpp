@@ -2,8 +2,10 @@
 // GPU residency of voxel data for the near tier: one R8_UINT 3D atlas holding every (model,
 // frame) that a sprite has needed so far, once, shared by all entities (lavapipe has no
 // descriptor indexing, and one atlas keeps the whole near tier a single instanced draw,
-// CONTRACT.md §6), plus one storage buffer with 256 packed colours per resident model.
-// Edits re-upload only the dirty box of a frame (VoxelModel::dirtySince).
+// CONTRACT.md §6), plus one storage buffer with 256 packed colours per resident model and one
+// with every resident frame's brick occupancy words (VoxelModel::bricks, the kernel's empty-space
+// skipping). Edits re-upload only the dirty box of a frame (VoxelModel::dirtySince) and the
+// frame's occupancy words.
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
 #include "device/vulkan_device.hpp"
@@ -43,12 +45,16 @@ class VoxelResidency {
                           std::span<const SpriteSetup* const> sprites);
     /// SpriteGpu::atlas for a resident frame: xyz = atlas origin, w = palette base index.
     glm::uvec4 entry(const VoxelModel& model, int frame) const;
+    /// SpriteGpu::brickBase for a resident frame: its first word in brickBuffer().
+    std::uint32_t brickBase(const VoxelModel& model, int frame) const;
 
     VkImageView atlasView() const { return atlas_.view(); }
-    VkBuffer paletteBuffer() const { return palettes_.handle(); }
-    VkDeviceSize paletteBytes() const { return palettes_.size(); }
+    VkBuffer paletteBuffer() const { return palettes_.buffer.handle(); }
+    VkDeviceSize paletteBytes() const { return palettes_.buffer.size(); }
+    VkBuffer brickBuffer() const { return bricks_.buffer.handle(); }
     VkExtent3D atlasExtent() const { return atlas_.extent(); }
-    /// Changes whenever the atlas image or the palette buffer is re-created (descriptors go stale).
+    /// Changes whenever the atlas image, the palette or the brick buffer is re-created
+    /// (descriptors go stale).
     std::uint64_t generation() const { return generation_; }
     const AtlasPacker& packer() const { return packer_; }
     /// Totals since construction.
@@ -58,8 +64,9 @@ class VoxelResidency {
     struct Resident {
         std::uint64_t version = 0; ///< model version the atlas holds
         std::uint32_t paletteBase = 0;
-        std::vector<glm::ivec3> origin; ///< per frame
-        std::vector<bool> present;      ///< per frame
+        std::vector<glm::ivec3> origin;       ///< per frame
+        std::vector<std::uint32_t> brickBase; ///< per frame
+        std::vector<bool> present;            ///< per frame
     };
     struct Upload {
         const VoxelGrid* grid;
@@ -67,21 +74,38 @@ class VoxelResidency {
         glm::ivec3 origin; ///< of the frame in the atlas
     };
 
+    /// A ShaderRead storage buffer of words (the palettes, the brick occupancy) and its host
+    /// mirror, which holds every word the buffer holds.
+    struct MirroredWords {
+        VulkanBuffer buffer;
+        std::vector<std::uint32_t> mirror;
+        bool staged = false; ///< the device's words wait for a staged copy of the whole mirror
+        /// Re-creates the buffer (from `initialBytes`, doubling) when it holds fewer than `words`
+        /// words, with the whole mirror in it; true when it did. `waitForReaders` (may be empty)
+        /// runs first when an old buffer is replaced.
+        bool reserve(VulkanDevice& device, std::size_t words, VkDeviceSize initialBytes,
+                     const std::function<void()>& waitForReaders);
+        /// Words [first, first + count) of the mirror onto the device: written directly, or
+        /// marked for the next update's staged copy (then the whole mirror goes).
+        void write(std::size_t first, std::size_t count);
+        /// The bytes a staged copy takes now: the whole mirror, or 0 when nothing waits.
+        VkDeviceSize stagedBytes() const;
+        /// Records the staged copy from `staging` at `offset` (where the mirror is written) and
+        /// the barrier that makes it visible to `readers`.
+        void recordStagedCopy(VkCommandBuffer cb, const VulkanBuffer& staging, VkDeviceSize offset,
+                              VkPipelineStageFlags readers);
+    };
+
     void createAtlas(std::uint32_t depth, VkCommandBuffer cb, bool copyOld);
-    void ensurePaletteCapacity(std::size_t entries);
-    /// Palette entries [first, first + count) of the mirror onto the device: written directly,
-    /// or marked for the next update's staged copy (then the whole mirror goes).
-    void writePalettes(std::size_t first, std::size_t count);
 
     VulkanDevice& device_;
     std::function<void()> waitForReaders_;
     AtlasPacker packer_;
     VulkanImage atlas_;
     VulkanImage retired_; ///< the previous atlas while a growth copy is in flight
-    VulkanBuffer palettes_;
+    MirroredWords palettes_;
+    MirroredWords bricks_;
     VulkanBuffer staging_;
-    std::vector<std::uint32_t> paletteMirror_;
-    bool paletteStaged_ = false; ///< the device's palettes wait for a staged copy of the mirror
     std::unordered_map<std::uint64_t, Resident> residents_; ///< by VoxelModel::uid()
     std::uint32_t nextPaletteSlot_ = 0;
     std::uint64_t generation_ = 0;

@@ -14,11 +14,21 @@
 #extension GL_GOOGLE_include_directive : require
 #include "volumetric/shaders/near_shared.h"
 
-layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
+// Specialization constant NEAR_SPEC_SKIP_EMPTY: whether this pipeline marches over empty space
+// (NearOptions::skipEmpty); false builds it without the box march.
+layout(constant_id = NEAR_SPEC_SKIP_EMPTY) const bool vtSkipEmptyEnabled = false;
+#define VT_SKIP_EMPTY_ENABLED vtSkipEmptyEnabled
 
-// The kernel's voxel source: the model frame's block of the shared atlas. The block origin is
-// per sprite; main() sets it before tracing.
+layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
+layout(std430, set = 0, binding = NEAR_BINDING_BRICKS) readonly buffer Bricks {
+    uint vtBricks[];
+};
+
+// The kernel's voxel source: the model frame's block of the shared atlas and its brick
+// occupancy words. Both origins are per sprite; main() sets them before tracing. A brick read
+// counts as a voxel read.
 ivec3 vtAtlasBase;
+uint vtBrickBase;
 #ifdef VT_COUNT_STEPS
 uint vtFetches = 0u;
 #endif
@@ -27,6 +37,12 @@ uint vtFetchVoxel(ivec3 cell) {
     vtFetches += 1u;
 #endif
     return texelFetch(vtAtlas, vtAtlasBase + cell, 0).r;
+}
+uint vtFetchBrickWord(uint word) {
+#ifdef VT_COUNT_STEPS
+    vtFetches += 1u;
+#endif
+    return vtBricks[vtBrickBase + word];
 }
 #include "core/sprite_kernel.h"
 
@@ -60,6 +76,7 @@ layout(location = 1) out uint outEntity;
 void main() {
     SpriteGpu s = vtSprites[vInstance];
     vtAtlasBase = ivec3(s.atlas.xyz);
+    vtBrickBase = s.brickBase;
     uint index;
     uint face;
     uint kind = vtShadePixel(s, gl_FragCoord.xy, index, face);

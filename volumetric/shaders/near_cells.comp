@@ -7,12 +7,24 @@
 #extension GL_GOOGLE_include_directive : require
 #include "volumetric/shaders/near_shared.h"
 
+// Specialization constant NEAR_SPEC_SKIP_EMPTY: whether this pipeline marches over empty space
+// (NearOptions::skipEmpty); false builds it without the box march.
+layout(constant_id = NEAR_SPEC_SKIP_EMPTY) const bool vtSkipEmptyEnabled = false;
+#define VT_SKIP_EMPTY_ENABLED vtSkipEmptyEnabled
+
 layout(local_size_x = 64) in; // NEAR_CELL_TILE
 
 layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
+layout(std430, set = 0, binding = NEAR_BINDING_BRICKS) readonly buffer Bricks {
+    uint vtBricks[];
+};
 ivec3 vtAtlasBase;
+uint vtBrickBase;
 uint vtFetchVoxel(ivec3 cell) {
     return texelFetch(vtAtlas, vtAtlasBase + cell, 0).r;
+}
+uint vtFetchBrickWord(uint word) {
+    return vtBricks[vtBrickBase + word];
 }
 #include "core/sprite_kernel.h"
 
@@ -41,5 +53,6 @@ void main() {
     uint rows = uint(s.cellRange.w - s.cellRange.z + 1);
     if (slot >= rows * vtCellRowLength(s)) return;
     vtAtlasBase = ivec3(s.atlas.xyz);
+    vtBrickBase = s.brickBase;
     vtCells[vtCellBases[t.x] + slot] = vtTraceCellPrimary(s, vtSlotCell(s, slot));
 }
