@@ -1,6 +1,7 @@
 #include "volumetric/near_passes.hpp"
 
 #include "core/occlusion.hpp"
+#include "volumetric/near_pipelines.hpp"
 #include "volumetric/shaders/near_shared.h"
 #include "volumetric/voxel_residency.hpp"
 
@@ -11,19 +12,6 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
-
-// SPIR-V generated at build time by glslangValidator (volumetric/CMakeLists.txt).
-#include "shaders/near_box_vert.h"
-#include "shaders/near_cell_outline_comp.h"
-#include "shaders/near_cells_comp.h"
-#include "shaders/near_flat_frag.h"
-#include "shaders/near_flat_steps_frag.h"
-#include "shaders/near_frag.h"
-#include "shaders/near_hull_vert.h"
-#include "shaders/near_quad_vert.h"
-#include "shaders/near_resolve_comp.h"
-#include "shaders/near_splat_comp.h"
-#include "shaders/near_steps_frag.h"
 
 namespace voxtier {
 
@@ -37,15 +25,6 @@ static_assert(kMaxHullCorners == int(near_gpu::NEAR_HULL_MAX_VERTICES));
 
 /// Sprites per task of the host's per-sprite loops: enough work that TBB's overhead vanishes.
 constexpr std::size_t kSpriteGrain = 256;
-
-VkShaderModule makeModule(VkDevice dev, std::span<const std::uint32_t> code) {
-    VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-    mi.codeSize = code.size_bytes();
-    mi.pCode = code.data();
-    VkShaderModule m = VK_NULL_HANDLE;
-    VK_CHECK(vkCreateShaderModule(dev, &mi, nullptr, &m));
-    return m;
-}
 
 } // namespace
 
@@ -61,6 +40,7 @@ struct NearPasses::Impl {
     VkRenderPass renderPass = VK_NULL_HANDLE;
     /// [proxy][countSteps][flatDepth][skipEmpty], created on first use
     VkPipeline pipelines[3][2][2][2] = {};
+    /// NearComputePass's values, as indices.
     enum ComputePass { TraceCells, Outline, Splat, Resolve, ComputePassCount };
     /// [pass][skipEmpty] (only TraceCells has a skipping variant), created on first use
     VkPipeline computePipelines[ComputePassCount][2] = {};
@@ -317,136 +297,20 @@ void NearPasses::Impl::ensure(VulkanBuffer& b, VkDeviceSize bytes, BufferClass c
     b = VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, c);
 }
 
-/// The specialization constant NEAR_SPEC_SKIP_EMPTY of near.frag and near_cells.comp (shaders
-/// without it ignore it).
-struct SkipEmptySpecialization {
-    VkBool32 value;
-    VkSpecializationMapEntry entry{NEAR_SPEC_SKIP_EMPTY, 0, sizeof(VkBool32)};
-    VkSpecializationInfo info{1, &entry, sizeof(VkBool32), &value};
-    explicit SkipEmptySpecialization(bool on) : value(on ? VK_TRUE : VK_FALSE) {}
-    SkipEmptySpecialization(const SkipEmptySpecialization&) = delete;
-};
-
 VkPipeline NearPasses::Impl::pipeline(NearProxy proxy, bool countSteps, bool flatDepth) {
     VkPipeline& slot = pipelines[int(proxy)][countSteps][flatDepth][skipEmpty];
-    if (slot) return slot;
-    const SkipEmptySpecialization spec(skipEmpty);
-    VkDevice dev = device.device();
-    const std::span<const std::uint32_t> vertCode =
-        proxy == NearProxy::Box    ? std::span<const std::uint32_t>(near_box_vert)
-        : proxy == NearProxy::Hull ? std::span<const std::uint32_t>(near_hull_vert)
-                                   : std::span<const std::uint32_t>(near_quad_vert);
-    const std::span<const std::uint32_t> fragCode =
-        flatDepth ? (countSteps ? std::span<const std::uint32_t>(near_flat_steps_frag)
-                                : std::span<const std::uint32_t>(near_flat_frag))
-                  : (countSteps ? std::span<const std::uint32_t>(near_steps_frag)
-                                : std::span<const std::uint32_t>(near_frag));
-    VkShaderModule vert = makeModule(dev, vertCode);
-    VkShaderModule frag = VK_NULL_HANDLE;
-    try {
-        frag = makeModule(dev, fragCode);
-        VkPipelineShaderStageCreateInfo stages[2]{};
-        stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                     nullptr,
-                     0,
-                     VK_SHADER_STAGE_VERTEX_BIT,
-                     vert,
-                     "main",
-                     nullptr};
-        stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                     nullptr,
-                     0,
-                     VK_SHADER_STAGE_FRAGMENT_BIT,
-                     frag,
-                     "main",
-                     &spec.info};
-        VkPipelineVertexInputStateCreateInfo vin{
-            VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
-        VkPipelineInputAssemblyStateCreateInfo ia{
-            VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
-        ia.topology = proxy != NearProxy::Quad ? VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST
-                                               : VK_PRIMITIVE_TOPOLOGY_TRIANGLE_STRIP;
-        VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
-        vp.viewportCount = 1;
-        vp.scissorCount = 1;
-        VkPipelineRasterizationStateCreateInfo rs{
-            VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
-        rs.polygonMode = VK_POLYGON_MODE_FILL;
-        // The quad may face either way after projection; the box is drawn by its front faces
-        // only, so each covered pixel runs the kernel once (see near_box.vert for the winding).
-        rs.cullMode = proxy == NearProxy::Box ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE;
-        rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-        rs.lineWidth = 1.0f;
-        VkPipelineMultisampleStateCreateInfo ms{
-            VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
-        ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-        VkPipelineDepthStencilStateCreateInfo ds{
-            VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
-        // Reversed-Z: nearer is larger. GREATER (not GREATER_OR_EQUAL) keeps the first fragment
-        // at equal depth, i.e. the lower entity id, because equal depths are drawn in ascending id.
-        ds.depthTestEnable = VK_TRUE;
-        ds.depthWriteEnable = VK_TRUE;
-        ds.depthCompareOp = VK_COMPARE_OP_GREATER;
-        VkPipelineColorBlendAttachmentState blend[2]{};
-        for (auto& b : blend)
-            b.colorWriteMask = VK_COLOR_COMPONENT_R_BIT; // integer targets: no blending
-        VkPipelineColorBlendStateCreateInfo cb{
-            VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
-        cb.attachmentCount = 2;
-        cb.pAttachments = blend;
-        const VkDynamicState dynamic[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
-        VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
-        dyn.dynamicStateCount = 2;
-        dyn.pDynamicStates = dynamic;
-        VkGraphicsPipelineCreateInfo gpi{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
-        gpi.stageCount = 2;
-        gpi.pStages = stages;
-        gpi.pVertexInputState = &vin;
-        gpi.pInputAssemblyState = &ia;
-        gpi.pViewportState = &vp;
-        gpi.pRasterizationState = &rs;
-        gpi.pMultisampleState = &ms;
-        gpi.pDepthStencilState = &ds;
-        gpi.pColorBlendState = &cb;
-        gpi.pDynamicState = &dyn;
-        gpi.layout = pipelineLayout;
-        gpi.renderPass = renderPass;
-        gpi.subpass = 0;
-        VK_CHECK(vkCreateGraphicsPipelines(dev, VK_NULL_HANDLE, 1, &gpi, nullptr, &slot));
-    } catch (...) {
-        vkDestroyShaderModule(dev, vert, nullptr);
-        if (frag) vkDestroyShaderModule(dev, frag, nullptr);
-        throw;
-    }
-    vkDestroyShaderModule(dev, vert, nullptr);
-    vkDestroyShaderModule(dev, frag, nullptr);
+    if (!slot)
+        slot = createNearDrawPipeline(device.device(), pipelineLayout, renderPass, proxy,
+                                      countSteps, flatDepth, skipEmpty);
     return slot;
 }
 
 VkPipeline NearPasses::Impl::computePipeline(ComputePass pass) {
-    const bool skip = pass == TraceCells && skipEmpty;
+    const bool skip = pass == TraceCells && skipEmpty; // the one pass with a skipping variant
     VkPipeline& slot = computePipelines[pass][skip];
-    if (slot) return slot;
-    const SkipEmptySpecialization spec(skip);
-    VkDevice dev = device.device();
-    const std::span<const std::uint32_t> code =
-        pass == TraceCells ? std::span<const std::uint32_t>(near_cells_comp)
-        : pass == Outline  ? std::span<const std::uint32_t>(near_cell_outline_comp)
-        : pass == Splat    ? std::span<const std::uint32_t>(near_splat_comp)
-                           : std::span<const std::uint32_t>(near_resolve_comp);
-    VkShaderModule module = makeModule(dev, code);
-    VkComputePipelineCreateInfo cpi{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-    cpi.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                 nullptr,
-                 0,
-                 VK_SHADER_STAGE_COMPUTE_BIT,
-                 module,
-                 "main",
-                 &spec.info};
-    cpi.layout = pipelineLayout;
-    const VkResult r = vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &cpi, nullptr, &slot);
-    vkDestroyShaderModule(dev, module, nullptr);
-    VK_CHECK(r);
+    if (!slot)
+        slot = createNearComputePipeline(device.device(), pipelineLayout,
+                                         static_cast<NearComputePass>(pass), skip);
     return slot;
 }
 

@@ -163,6 +163,18 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
                                       std::span<const SpriteSetup* const> sprites) {
     const auto t0 = std::chrono::steady_clock::now();
     ResidencyStats stats;
+    const std::vector<Upload> uploads = placeFrames(models, sprites, stats);
+    const bool grow = std::uint32_t(packer_.usedDepth()) > atlas_.extent().depth;
+    if (uploads.empty() && !grow && !palettes_.staged && !bricks_.staged) return stats;
+    submitUploads(uploads, grow, stats);
+    stats.milliseconds = msSince(t0);
+    totals_ += stats;
+    return stats;
+}
+
+std::vector<VoxelResidency::Upload>
+VoxelResidency::placeFrames(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                            std::span<const SpriteSetup* const> sprites, ResidencyStats& stats) {
     std::vector<Upload> uploads;
     // Undo list: if placing a block fails (atlas full), nothing recorded here was uploaded.
     std::vector<std::pair<Resident*, int>> placed;
@@ -235,9 +247,11 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
         for (auto [r, v] : synced) r->version = v;
         throw VulkanError(std::string("near tier: ") + e.what());
     }
-    const bool grow = std::uint32_t(packer_.usedDepth()) > atlas_.extent().depth;
-    if (uploads.empty() && !grow && !palettes_.staged && !bricks_.staged) return stats;
+    return uploads;
+}
 
+void VoxelResidency::submitUploads(const std::vector<Upload>& uploads, bool grow,
+                                   ResidencyStats& stats) {
     // Pack every region tightly into one staging buffer (rows of the box, x fastest), then the
     // palettes and the brick words where the device's buffers are staged.
     VkDeviceSize total = 0;
@@ -308,9 +322,6 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
     VK_CHECK(vkEndCommandBuffer(cb_));
     device_.submitAndWait(cb_);
     retired_.reset();
-    stats.milliseconds = msSince(t0);
-    totals_ += stats;
-    return stats;
 }
 
 } // namespace voxtier

@@ -73,6 +73,15 @@ class VoxelResidency {
         Box3i box;         ///< in the frame's voxel coordinates
         glm::ivec3 origin; ///< of the frame in the atlas
     };
+    /// update()'s first half: places every visible sprite's (model, frame) not yet resident
+    /// (palettes and occupancy words into their mirrors) and lists the voxel boxes to copy,
+    /// edited frames' dirty boxes included; on an atlas overflow nothing of it stays.
+    std::vector<Upload> placeFrames(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                                    std::span<const SpriteSetup* const> sprites,
+                                    ResidencyStats& stats);
+    /// Its second half: packs `uploads` (and the staged mirrors) into the staging buffer, grows
+    /// the atlas when `grow`, records the copies and waits for them.
+    void submitUploads(const std::vector<Upload>& uploads, bool grow, ResidencyStats& stats);
 
     /// A ShaderRead storage buffer of words (the palettes, the brick occupancy) and its host
     /// mirror, which holds every word the buffer holds.

@@ -1,0 +1,169 @@
+#include "volumetric/near_pipelines.hpp"
+
+#include "volumetric/shaders/near_shared.h"
+
+#include <cstdint>
+#include <span>
+
+// SPIR-V generated at build time by glslangValidator (volumetric/CMakeLists.txt).
+#include "shaders/near_box_vert.h"
+#include "shaders/near_cell_outline_comp.h"
+#include "shaders/near_cells_comp.h"
+#include "shaders/near_flat_frag.h"
+#include "shaders/near_flat_steps_frag.h"
+#include "shaders/near_frag.h"
+#include "shaders/near_hull_vert.h"
+#include "shaders/near_quad_vert.h"
+#include "shaders/near_resolve_comp.h"
+#include "shaders/near_splat_comp.h"
+#include "shaders/near_steps_frag.h"
+
+namespace voxtier {
+
+namespace {
+
+VkShaderModule makeModule(VkDevice dev, std::span<const std::uint32_t> code) {
+    VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    mi.codeSize = code.size_bytes();
+    mi.pCode = code.data();
+    VkShaderModule m = VK_NULL_HANDLE;
+    VK_CHECK(vkCreateShaderModule(dev, &mi, nullptr, &m));
+    return m;
+}
+
+/// The specialization constant NEAR_SPEC_SKIP_EMPTY of near.frag and near_cells.comp (shaders
+/// without it ignore it).
+struct SkipEmptySpecialization {
+    VkBool32 value;
+    VkSpecializationMapEntry entry{NEAR_SPEC_SKIP_EMPTY, 0, sizeof(VkBool32)};
+    VkSpecializationInfo info{1, &entry, sizeof(VkBool32), &value};
+    explicit SkipEmptySpecialization(bool on) : value(on ? VK_TRUE : VK_FALSE) {}
+    SkipEmptySpecialization(const SkipEmptySpecialization&) = delete;
+};
+
+} // namespace
+
+VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRenderPass renderPass,
+                                  NearProxy proxy, bool countSteps, bool flatDepth,
+                                  bool skipEmpty) {
+    const SkipEmptySpecialization spec(skipEmpty);
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    const std::span<const std::uint32_t> vertCode =
+        proxy == NearProxy::Box    ? std::span<const std::uint32_t>(near_box_vert)
+        : proxy == NearProxy::Hull ? std::span<const std::uint32_t>(near_hull_vert)
+                                   : std::span<const std::uint32_t>(near_quad_vert);
+    const std::span<const std::uint32_t> fragCode =
+        flatDepth ? (countSteps ? std::span<const std::uint32_t>(near_flat_steps_frag)
+                                : std::span<const std::uint32_t>(near_flat_frag))
+                  : (countSteps ? std::span<const std::uint32_t>(near_steps_frag)
+                                : std::span<const std::uint32_t>(near_frag));
+    VkShaderModule vert = makeModule(dev, vertCode);
+    VkShaderModule frag = VK_NULL_HANDLE;
+    try {
+        frag = makeModule(dev, fragCode);
+        VkPipelineShaderStageCreateInfo stages[2]{};
+        stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                     nullptr,
+                     0,
+                     VK_SHADER_STAGE_VERTEX_BIT,
+                     vert,
+                     "main",
+                     nullptr};
+        stages[1] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                     nullptr,
+                     0,
+                     VK_SHADER_STAGE_FRAGMENT_BIT,
+                     frag,
+                     "main",
+                     &spec.info};
+        VkPipelineVertexInputStateCreateInfo vin{
+            VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+        VkPipelineInputAssemblyStateCreateInfo ia{
+            VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO};
+        ia.topology = proxy != NearProxy::Quad ? VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST
+                                               : VK_PRIMITIVE_TOPOLOGY_TRIANGLE_STRIP;
+        VkPipelineViewportStateCreateInfo vp{VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO};
+        vp.viewportCount = 1;
+        vp.scissorCount = 1;
+        VkPipelineRasterizationStateCreateInfo rs{
+            VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO};
+        rs.polygonMode = VK_POLYGON_MODE_FILL;
+        // The quad may face either way after projection; the box is drawn by its front faces
+        // only, so each covered pixel runs the kernel once (see near_box.vert for the winding).
+        rs.cullMode = proxy == NearProxy::Box ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE;
+        rs.frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+        rs.lineWidth = 1.0f;
+        VkPipelineMultisampleStateCreateInfo ms{
+            VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO};
+        ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+        VkPipelineDepthStencilStateCreateInfo ds{
+            VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO};
+        // Reversed-Z: nearer is larger. GREATER (not GREATER_OR_EQUAL) keeps the first fragment
+        // at equal depth, i.e. the lower entity id, because equal depths are drawn in ascending id.
+        ds.depthTestEnable = VK_TRUE;
+        ds.depthWriteEnable = VK_TRUE;
+        ds.depthCompareOp = VK_COMPARE_OP_GREATER;
+        VkPipelineColorBlendAttachmentState blend[2]{};
+        for (auto& b : blend)
+            b.colorWriteMask = VK_COLOR_COMPONENT_R_BIT; // integer targets: no blending
+        VkPipelineColorBlendStateCreateInfo cb{
+            VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+        cb.attachmentCount = 2;
+        cb.pAttachments = blend;
+        const VkDynamicState dynamic[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+        VkPipelineDynamicStateCreateInfo dyn{VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO};
+        dyn.dynamicStateCount = 2;
+        dyn.pDynamicStates = dynamic;
+        VkGraphicsPipelineCreateInfo gpi{VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO};
+        gpi.stageCount = 2;
+        gpi.pStages = stages;
+        gpi.pVertexInputState = &vin;
+        gpi.pInputAssemblyState = &ia;
+        gpi.pViewportState = &vp;
+        gpi.pRasterizationState = &rs;
+        gpi.pMultisampleState = &ms;
+        gpi.pDepthStencilState = &ds;
+        gpi.pColorBlendState = &cb;
+        gpi.pDynamicState = &dyn;
+        gpi.layout = layout;
+        gpi.renderPass = renderPass;
+        gpi.subpass = 0;
+        VK_CHECK(vkCreateGraphicsPipelines(dev, VK_NULL_HANDLE, 1, &gpi, nullptr, &pipeline));
+    } catch (...) {
+        vkDestroyShaderModule(dev, vert, nullptr);
+        if (frag) vkDestroyShaderModule(dev, frag, nullptr);
+        throw;
+    }
+    vkDestroyShaderModule(dev, vert, nullptr);
+    vkDestroyShaderModule(dev, frag, nullptr);
+    return pipeline;
+}
+
+
+VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, NearComputePass pass,
+                                     bool skipEmpty) {
+    using enum NearComputePass;
+    const SkipEmptySpecialization spec(skipEmpty);
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    const std::span<const std::uint32_t> code =
+        pass == TraceCells ? std::span<const std::uint32_t>(near_cells_comp)
+        : pass == Outline  ? std::span<const std::uint32_t>(near_cell_outline_comp)
+        : pass == Splat    ? std::span<const std::uint32_t>(near_splat_comp)
+                           : std::span<const std::uint32_t>(near_resolve_comp);
+    VkShaderModule module = makeModule(dev, code);
+    VkComputePipelineCreateInfo cpi{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    cpi.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                 nullptr,
+                 0,
+                 VK_SHADER_STAGE_COMPUTE_BIT,
+                 module,
+                 "main",
+                 &spec.info};
+    cpi.layout = layout;
+    const VkResult r = vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &cpi, nullptr, &pipeline);
+    vkDestroyShaderModule(dev, module, nullptr);
+    VK_CHECK(r);
+    return pipeline;
+}
+
+} // namespace voxtier
