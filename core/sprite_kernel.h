@@ -276,13 +276,6 @@ VT_FN uint vtFaceCode(VT_IN(SpriteGpu) s, int axis) {
     return uint(2 * axis) + (s.dir[axis] > 0.0f ? 0u : 1u);
 }
 
-// Whether a sprite's skipEmpty is honoured at all: true in C++; a GLSL shader may set it from a
-// specialization constant (volumetric/shaders/near.frag), so that a pipeline built without it
-// holds no box march (on llvmpipe the larger shader alone cost 1.3-1.5x, skipping or not).
-#ifndef VT_SKIP_EMPTY_ENABLED
-#define VT_SKIP_EMPTY_ENABLED true
-#endif
-
 // Empty-space skipping. Each model frame keeps a conservative two-level occupancy: bricks of
 // VT_BRICK^3 voxels and regions of VT_REGION^3 voxels, cubes from the origin (the last of an axis
 // cut at the model's size). A bit is set when its box may hold a non-empty voxel and clear only
@@ -529,8 +522,11 @@ uint vtFetchBrickWord(uint word);
 #ifdef __cplusplus
         if constexpr (!vtHasOccupancy<Voxels>) return vtMarchCells(s, o, c, entryAxis, index, face);
 #endif
-        if (VT_SKIP_EMPTY_ENABLED && s.skipEmpty != 0u)
-            return vtMarchBoxes(s, o, c, entryAxis, index, face);
+            // GLSL holds the march only where compiled with VT_SKIP_EMPTY (NearOptions::skipEmpty):
+            // on llvmpipe the shader's size alone cost 1.3-2x, skipping or not.
+#if defined(__cplusplus) || defined(VT_SKIP_EMPTY)
+        if (s.skipEmpty != 0u) return vtMarchBoxes(s, o, c, entryAxis, index, face);
+#endif
         return vtMarchCells(s, o, c, entryAxis, index, face);
     }
 

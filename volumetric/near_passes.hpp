@@ -68,7 +68,7 @@ struct NearOptions {
     bool earlyDepthTest = true;
     /// Empty-space skipping (core/sprite_kernel.h vtMarchBoxes) for the sprites whose model frame
     /// qualifies (SpriteGpu::skipEmpty): the same image either way. Off by default on Vulkan: on
-    /// llvmpipe the pipelines that hold the box march ran the near tier 1.3-1.5x slower, skipping
+    /// llvmpipe the shaders that hold the box march ran the near tier 1.3-2x slower, skipping
     /// or not (docs/decisions/empty-space-skipping.md); a GPU's figure decides.
     bool skipEmpty = false;
 };

@@ -9,12 +9,17 @@
 #include "shaders/near_box_vert.h"
 #include "shaders/near_cell_outline_comp.h"
 #include "shaders/near_cells_comp.h"
+#include "shaders/near_cells_skip_comp.h"
 #include "shaders/near_flat_frag.h"
 #include "shaders/near_flat_steps_frag.h"
 #include "shaders/near_frag.h"
 #include "shaders/near_hull_vert.h"
 #include "shaders/near_quad_vert.h"
 #include "shaders/near_resolve_comp.h"
+#include "shaders/near_skip_flat_frag.h"
+#include "shaders/near_skip_flat_steps_frag.h"
+#include "shaders/near_skip_frag.h"
+#include "shaders/near_skip_steps_frag.h"
 #include "shaders/near_splat_comp.h"
 #include "shaders/near_steps_frag.h"
 
@@ -31,32 +36,23 @@ VkShaderModule makeModule(VkDevice dev, std::span<const std::uint32_t> code) {
     return m;
 }
 
-/// The specialization constant NEAR_SPEC_SKIP_EMPTY of near.frag and near_cells.comp (shaders
-/// without it ignore it).
-struct SkipEmptySpecialization {
-    VkBool32 value;
-    VkSpecializationMapEntry entry{NEAR_SPEC_SKIP_EMPTY, 0, sizeof(VkBool32)};
-    VkSpecializationInfo info{1, &entry, sizeof(VkBool32), &value};
-    explicit SkipEmptySpecialization(bool on) : value(on ? VK_TRUE : VK_FALSE) {}
-    SkipEmptySpecialization(const SkipEmptySpecialization&) = delete;
-};
-
 } // namespace
 
 VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRenderPass renderPass,
                                   NearProxy proxy, bool countSteps, bool flatDepth,
                                   bool skipEmpty) {
-    const SkipEmptySpecialization spec(skipEmpty);
     VkPipeline pipeline = VK_NULL_HANDLE;
     const std::span<const std::uint32_t> vertCode =
         proxy == NearProxy::Box    ? std::span<const std::uint32_t>(near_box_vert)
         : proxy == NearProxy::Hull ? std::span<const std::uint32_t>(near_hull_vert)
                                    : std::span<const std::uint32_t>(near_quad_vert);
-    const std::span<const std::uint32_t> fragCode =
-        flatDepth ? (countSteps ? std::span<const std::uint32_t>(near_flat_steps_frag)
-                                : std::span<const std::uint32_t>(near_flat_frag))
-                  : (countSteps ? std::span<const std::uint32_t>(near_steps_frag)
-                                : std::span<const std::uint32_t>(near_frag));
+    using Code = std::span<const std::uint32_t>;
+    // [skipEmpty][flatDepth][countSteps]
+    const Code variants[2][2][2] = {{{Code(near_frag), Code(near_steps_frag)},
+                                     {Code(near_flat_frag), Code(near_flat_steps_frag)}},
+                                    {{Code(near_skip_frag), Code(near_skip_steps_frag)},
+                                     {Code(near_skip_flat_frag), Code(near_skip_flat_steps_frag)}}};
+    const Code fragCode = variants[skipEmpty][flatDepth][countSteps];
     VkShaderModule vert = makeModule(dev, vertCode);
     VkShaderModule frag = VK_NULL_HANDLE;
     try {
@@ -75,7 +71,7 @@ VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRende
                      VK_SHADER_STAGE_FRAGMENT_BIT,
                      frag,
                      "main",
-                     &spec.info};
+                     nullptr};
         VkPipelineVertexInputStateCreateInfo vin{
             VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
         VkPipelineInputAssemblyStateCreateInfo ia{
@@ -139,14 +135,13 @@ VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRende
     return pipeline;
 }
 
-
 VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, NearComputePass pass,
                                      bool skipEmpty) {
     using enum NearComputePass;
-    const SkipEmptySpecialization spec(skipEmpty);
     VkPipeline pipeline = VK_NULL_HANDLE;
     const std::span<const std::uint32_t> code =
-        pass == TraceCells ? std::span<const std::uint32_t>(near_cells_comp)
+        pass == TraceCells ? (skipEmpty ? std::span<const std::uint32_t>(near_cells_skip_comp)
+                                        : std::span<const std::uint32_t>(near_cells_comp))
         : pass == Outline  ? std::span<const std::uint32_t>(near_cell_outline_comp)
         : pass == Splat    ? std::span<const std::uint32_t>(near_splat_comp)
                            : std::span<const std::uint32_t>(near_resolve_comp);
@@ -158,7 +153,7 @@ VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, Near
                  VK_SHADER_STAGE_COMPUTE_BIT,
                  module,
                  "main",
-                 &spec.info};
+                 nullptr};
     cpi.layout = layout;
     const VkResult r = vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &cpi, nullptr, &pipeline);
     vkDestroyShaderModule(dev, module, nullptr);

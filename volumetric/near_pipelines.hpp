@@ -11,10 +11,10 @@ namespace voxtier {
 
 /// The draw's pipeline: `proxy`'s vertex shader and near.frag, its variant counting voxel reads
 /// (`countSteps`), writing no depth for a flattened proxy (`flatDepth`), holding the box march
-/// (`skipEmpty`, a specialization constant). Reversed-Z depth test GREATER, two integer targets.
+/// (`skipEmpty`, the variant compiled with VT_SKIP_EMPTY). Reversed-Z depth test GREATER, two
+/// integer targets.
 VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRenderPass renderPass,
-                                  NearProxy proxy, bool countSteps, bool flatDepth,
-                                  bool skipEmpty);
+                                  NearProxy proxy, bool countSteps, bool flatDepth, bool skipEmpty);
 
 /// The cell-rate compute passes, in the order a frame records them.
 enum class NearComputePass { TraceCells, Outline, Splat, Resolve };

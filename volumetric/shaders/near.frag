@@ -14,11 +14,6 @@
 #extension GL_GOOGLE_include_directive : require
 #include "volumetric/shaders/near_shared.h"
 
-// Specialization constant NEAR_SPEC_SKIP_EMPTY: whether this pipeline marches over empty space
-// (NearOptions::skipEmpty); false builds it without the box march.
-layout(constant_id = NEAR_SPEC_SKIP_EMPTY) const bool vtSkipEmptyEnabled = false;
-#define VT_SKIP_EMPTY_ENABLED vtSkipEmptyEnabled
-
 layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
 layout(std430, set = 0, binding = NEAR_BINDING_BRICKS) readonly buffer Bricks {
     uint vtBricks[];

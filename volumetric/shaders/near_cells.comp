@@ -7,11 +7,6 @@
 #extension GL_GOOGLE_include_directive : require
 #include "volumetric/shaders/near_shared.h"
 
-// Specialization constant NEAR_SPEC_SKIP_EMPTY: whether this pipeline marches over empty space
-// (NearOptions::skipEmpty); false builds it without the box march.
-layout(constant_id = NEAR_SPEC_SKIP_EMPTY) const bool vtSkipEmptyEnabled = false;
-#define VT_SKIP_EMPTY_ENABLED vtSkipEmptyEnabled
-
 layout(local_size_x = 64) in; // NEAR_CELL_TILE
 
 layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;

@@ -51,9 +51,6 @@ VT_NEAR_CONST uint NEAR_BINDING_PLANES = 12u;
 // uint[]: the brick occupancy words (core/sprite_kernel.h vtBrickIndex) of every resident model
 // frame, each frame's from its SpriteGpu::brickBase (volumetric/voxel_residency.hpp).
 VT_NEAR_CONST uint NEAR_BINDING_BRICKS = 13u;
-// Specialization constant of near.frag and near_cells.comp: whether the pipeline marches over
-// empty space (NearOptions::skipEmpty). A macro, as layout(constant_id) needs a literal.
-#define NEAR_SPEC_SKIP_EMPTY 0
 VT_NEAR_CONST uint NEAR_NO_RANK = 0xFFFFFFFFu; // a pixel word no cell-rate sprite wrote
 VT_NEAR_CONST uint NEAR_SPLAT_BLOCK = 32u;     // pixels per side of a splat workgroup
 // A pixel word: depth rank << NEAR_RANK_SHIFT | kind | face << 2 | palette index << 5. The
