@@ -25,6 +25,15 @@ void fullBarrier(VkCommandBuffer cb) {
                          0, 1, &b, 0, nullptr, 0, nullptr);
 }
 
+/// The planes of a width x height frame (colour, id, depth: one 32-bit word a pixel each), and
+/// how their buffers are used (written by compute passes and copies, copied out).
+VkDeviceSize planesBytesOf(int width, int height) {
+    return 3 * VkDeviceSize(width) * VkDeviceSize(height) * 4;
+}
+constexpr VkBufferUsageFlags kPlanesUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                            VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                            VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+
 } // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -222,13 +231,9 @@ void GpuFrames::ensureTargets(int w, int h) {
         VulkanImage(device_, VK_IMAGE_TYPE_2D, GpuFrame::kDepthFormat, extent,
                     VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                     VK_IMAGE_ASPECT_DEPTH_BIT);
-    const VkDeviceSize planesBytes = 3 * VkDeviceSize(w) * VkDeviceSize(h) * 4;
-    const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                                     VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-    planes_ = composeInReadback_
-                  ? VulkanBuffer()
-                  : VulkanBuffer(device_, planesBytes, usage, BufferClass::DeviceOnly);
+    planes_ = composeInReadback_ ? VulkanBuffer()
+                                 : VulkanBuffer(device_, planesBytesOf(w, h), kPlanesUsage,
+                                                BufferClass::DeviceOnly);
     width_ = w;
     height_ = h;
 }
@@ -259,13 +264,9 @@ GpuFrame& GpuFrames::begin(int width, int height) {
     ensureTargets(width, height);
     // The slot's readback memory, sized for the largest frame it has held (per slot: another
     // slot's may still hold a frame not yet read).
-    const VkDeviceSize planesBytes = 3 * VkDeviceSize(width) * VkDeviceSize(height) * 4;
+    const VkDeviceSize planesBytes = planesBytesOf(width, height);
     if (f.readback_.size() < planesBytes)
-        f.readback_ =
-            VulkanBuffer(device_, planesBytes,
-                         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                             VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                         BufferClass::Readback);
+        f.readback_ = VulkanBuffer(device_, planesBytes, kPlanesUsage, BufferClass::Readback);
     f.serial_ = ++serial_;
     f.width_ = width;
     f.height_ = height;

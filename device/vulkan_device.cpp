@@ -697,4 +697,33 @@ void bufferBarrier(VkCommandBuffer cb, VkBuffer buffer, VkPipelineStageFlags src
     vkCmdPipelineBarrier(cb, srcStage, dstStage, 0, 0, nullptr, 1, &b, 0, nullptr);
 }
 
+VkShaderModule createShaderModule(VkDevice device, std::span<const std::uint32_t> code) {
+    VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    mi.codeSize = code.size_bytes();
+    mi.pCode = code.data();
+    VkShaderModule module = VK_NULL_HANDLE;
+    VK_CHECK(vkCreateShaderModule(device, &mi, nullptr, &module));
+    return module;
+}
+
+VkPipeline createComputePipeline(VkDevice device, VkPipelineLayout layout,
+                                 std::span<const std::uint32_t> code) {
+    VkShaderModule module = createShaderModule(device, code);
+    VkComputePipelineCreateInfo cpi{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    cpi.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                 nullptr,
+                 0,
+                 VK_SHADER_STAGE_COMPUTE_BIT,
+                 module,
+                 "main",
+                 nullptr};
+    cpi.layout = layout;
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    const VkResult r =
+        vkCreateComputePipelines(device, VK_NULL_HANDLE, 1, &cpi, nullptr, &pipeline);
+    vkDestroyShaderModule(device, module, nullptr);
+    VK_CHECK(r);
+    return pipeline;
+}
+
 } // namespace voxtier

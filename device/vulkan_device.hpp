@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -219,5 +220,12 @@ void imageBarrier(VkCommandBuffer cb, VkImage image, VkImageAspectFlags aspect, 
 /// A pipeline barrier on one whole buffer (no queue family transfer).
 void bufferBarrier(VkCommandBuffer cb, VkBuffer buffer, VkPipelineStageFlags srcStage,
                    VkAccessFlags srcAccess, VkPipelineStageFlags dstStage, VkAccessFlags dstAccess);
+
+/// A shader module of SPIR-V `code`; the caller destroys it.
+VkShaderModule createShaderModule(VkDevice device, std::span<const std::uint32_t> code);
+/// A compute pipeline of SPIR-V `code` (entry point "main") with `layout`; its module is gone
+/// by the time it returns. Throws VulkanError.
+VkPipeline createComputePipeline(VkDevice device, VkPipelineLayout layout,
+                                 std::span<const std::uint32_t> code);
 
 } // namespace voxtier

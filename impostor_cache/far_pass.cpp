@@ -97,23 +97,7 @@ void FarPass::Impl::create() {
         for (VulkanBuffer* b : {&s.instances, &s.palettes, &s.tiles, &s.tileList}) ensure(*b, 4096);
     }
 
-    VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-    mi.codeSize = sizeof far_blit_comp;
-    mi.pCode = far_blit_comp;
-    VkShaderModule module = VK_NULL_HANDLE;
-    VK_CHECK(vkCreateShaderModule(dev, &mi, nullptr, &module));
-    VkComputePipelineCreateInfo cpi{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-    cpi.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                 nullptr,
-                 0,
-                 VK_SHADER_STAGE_COMPUTE_BIT,
-                 module,
-                 "main",
-                 nullptr};
-    cpi.layout = pipelineLayout;
-    const VkResult r = vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &cpi, nullptr, &pipeline);
-    vkDestroyShaderModule(dev, module, nullptr);
-    VK_CHECK(r);
+    pipeline = createComputePipeline(dev, pipelineLayout, far_blit_comp);
 }
 
 void FarPass::Impl::destroy() noexcept {

@@ -25,19 +25,6 @@
 
 namespace voxtier {
 
-namespace {
-
-VkShaderModule makeModule(VkDevice dev, std::span<const std::uint32_t> code) {
-    VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
-    mi.codeSize = code.size_bytes();
-    mi.pCode = code.data();
-    VkShaderModule m = VK_NULL_HANDLE;
-    VK_CHECK(vkCreateShaderModule(dev, &mi, nullptr, &m));
-    return m;
-}
-
-} // namespace
-
 VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRenderPass renderPass,
                                   NearProxy proxy, bool countSteps, bool flatDepth,
                                   bool skipEmpty) {
@@ -53,10 +40,10 @@ VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRende
                                     {{Code(near_skip_frag), Code(near_skip_steps_frag)},
                                      {Code(near_skip_flat_frag), Code(near_skip_flat_steps_frag)}}};
     const Code fragCode = variants[skipEmpty][flatDepth][countSteps];
-    VkShaderModule vert = makeModule(dev, vertCode);
+    VkShaderModule vert = createShaderModule(dev, vertCode);
     VkShaderModule frag = VK_NULL_HANDLE;
     try {
-        frag = makeModule(dev, fragCode);
+        frag = createShaderModule(dev, fragCode);
         VkPipelineShaderStageCreateInfo stages[2]{};
         stages[0] = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
                      nullptr,
@@ -138,27 +125,13 @@ VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRende
 VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, NearComputePass pass,
                                      bool skipEmpty) {
     using enum NearComputePass;
-    VkPipeline pipeline = VK_NULL_HANDLE;
     const std::span<const std::uint32_t> code =
         pass == TraceCells ? (skipEmpty ? std::span<const std::uint32_t>(near_cells_skip_comp)
                                         : std::span<const std::uint32_t>(near_cells_comp))
         : pass == Outline  ? std::span<const std::uint32_t>(near_cell_outline_comp)
         : pass == Splat    ? std::span<const std::uint32_t>(near_splat_comp)
                            : std::span<const std::uint32_t>(near_resolve_comp);
-    VkShaderModule module = makeModule(dev, code);
-    VkComputePipelineCreateInfo cpi{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-    cpi.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                 nullptr,
-                 0,
-                 VK_SHADER_STAGE_COMPUTE_BIT,
-                 module,
-                 "main",
-                 nullptr};
-    cpi.layout = layout;
-    const VkResult r = vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &cpi, nullptr, &pipeline);
-    vkDestroyShaderModule(dev, module, nullptr);
-    VK_CHECK(r);
-    return pipeline;
+    return createComputePipeline(dev, layout, code);
 }
 
 } // namespace voxtier
