@@ -221,6 +221,10 @@ void addFrameFlags(CLI::App& cmd, FrameOptions& options, const FrameFlagHelp& he
         cmd, "--near-rate", options.nearRate, kNearRateNames, "near rate",
         "Near sprites traced per pixel (fragment), once per lattice cell and looked up per pixel "
         "(cell), or cell-rate where it is cheaper (auto); same image");
+    addChoiceOption(cmd, "--near-pixels", options.nearPixels, kNearPixelsNames, "near pixels",
+                    "How the Vulkan near tier traces its per-pixel sprites: compute (default: "
+                    "every pixel of their rectangles in a compute pass) or raster (their proxies "
+                    "rasterised, the kernel in the fragment shader); same image");
     addChoiceOption(cmd, "--far-blit", options.farBlit.kernel, kFarBlitNames, "far blit",
                     "The far blit's kernel: simd (spans of pixels on the widest SIMD unit "
                     "of this CPU) or scalar (one pixel at a time, the reference); same "

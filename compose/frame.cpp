@@ -148,6 +148,10 @@ const char* toString(NearRate r) {
     return nameOf(kNearRateNames, r);
 }
 
+const char* toString(NearPixels p) {
+    return nameOf(kNearPixelsNames, p);
+}
+
 namespace {
 SnapshotCacheConfig cacheConfig(const FrameOptions& o, const SelectorConfig& selector) {
     SnapshotCacheConfig c;
@@ -200,7 +204,7 @@ void addVulkanFrame(FrameStats& st, const VulkanFrameResult& r) {
     add(st.gpuUploadMs, {"near_upload", "far_upload"});
     add(st.gpuCellsMs, {"near_cells"});
     add(st.gpuSplatMs, {"near_splat"});
-    add(st.gpuDrawMs, {"near_draw"});
+    add(st.gpuDrawMs, {"near_draw", "near_trace"});
     add(st.gpuResolveMs, {"near_resolve"});
     add(st.gpuFarMs, {"far_blit"});
     add(st.gpuCopyMs, {"copy_planes", "readback_copy"});
@@ -478,6 +482,7 @@ double FrameRenderer::nearFixedMs(const CameraFrame& cam, NearBackend nearBacken
         if (vulkan) {
             NearOptions no;
             no.rate = options_.nearRate;
+            no.pixels = options_.nearPixels;
             (void)near_->render(cam, scene_.models, std::span<const SpriteSetup* const>{},
                                 scene_.render.background, no, nullptr);
         } else {
@@ -558,6 +563,7 @@ Image FrameRenderer::drawOnVulkan(const CameraFrame& cam,
     request.clear = scene_.render.background;
     request.near.countSteps = options_.nearCountSteps;
     request.near.rate = options_.nearRate;
+    request.near.pixels = options_.nearPixels;
     request.near.earlyDepthTest = options_.earlyDepthTest;
     request.near.skipEmpty = options_.nearSkipEmpty;
     request.depthAndIds = !colourOnly;

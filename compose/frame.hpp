@@ -105,11 +105,20 @@ inline constexpr std::array<std::pair<const char*, NearRate>, 3> kNearRateNames{
 NearRate parseNearRate(const std::string& name);
 const char* toString(NearRate r);
 
+/// The one table of names of how Vulkan traces per-pixel near sprites (NearPixels).
+inline constexpr std::array<std::pair<const char*, NearPixels>, 2> kNearPixelsNames{{
+    {"compute", NearPixels::Compute},
+    {"raster", NearPixels::Raster},
+}};
+const char* toString(NearPixels p);
+
 struct FrameOptions {
     /// Of hybrid and far frames (reference frames use the CPU tracer, near frames Vulkan).
     NearBackend nearBackend = NearBackend::Auto;
     /// Per-pixel or cell-rate near sprites, on either backend (same image).
     NearRate nearRate = NearRate::Auto;
+    /// The Vulkan near tier's per-pixel sprites drawn or traced in compute (same image).
+    NearPixels nearPixels = NearPixels::Compute;
     /// Of hybrid and far frames: the CPU blit or the Vulkan far pass (same image).
     FarBackend farBackend = FarBackend::Auto;
     /// The far blit's kernel: SIMD (default) or the scalar reference (same image, for measuring).
@@ -202,8 +211,8 @@ struct FrameStats {
     double hostRecordMs = 0.0, hostWaitMs = 0.0, hostReadbackMs = 0.0;
     /// A frame drawn on Vulkan, on the device (its named timestamps; 0 where the device has none
     /// or the frame had no such pass): the whole frame, its uploads, the cell-rate cells, splat
-    /// and resolve, the near draw, the far pass, and the copies of the planes (targets into the
-    /// planes, planes into host memory).
+    /// and resolve, the per-pixel sprites (drawn, or traced in compute), the far pass, and the
+    /// copies of the planes (targets into the planes, planes into host memory).
     double gpuFrameMs = 0.0, gpuUploadMs = 0.0, gpuCellsMs = 0.0, gpuSplatMs = 0.0, gpuDrawMs = 0.0,
            gpuResolveMs = 0.0, gpuFarMs = 0.0, gpuCopyMs = 0.0;
     /// Cell-rate near sprites (core/near_rate.hpp): cells traced once, pixels that traced their

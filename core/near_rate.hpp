@@ -22,6 +22,17 @@ enum class NearRate {
     Cell,     ///< every sprite cell-rate (while the cell budget lasts): for tests
 };
 
+/// How the Vulkan near tier traces its per-pixel sprites (those not cell-rate); the same image
+/// either way (volumetric/near_passes.hpp).
+enum class NearPixels {
+    Compute, ///< the trace pass (default): every pixel of their screen rectangles in a compute
+             ///< shader, composed with the cell-rate pixels by depth rank (no rasteriser, no
+             ///< proxies); on an NVIDIA H200 about 50x faster than the draw, on lavapipe as fast
+             ///< (docs/decisions/near-pixels-in-compute.md)
+    Raster,  ///< the draw: their proxies rasterised, the kernel in the fragment shader, under the
+             ///< early depth test
+};
+
 /// Auto draws a sprite cell-rate when kCellRateCost * C < P (C: cells of its cellRange, P: the
 /// pixels of its on-screen rectangle). Cell-rate costs a primary ray per cell plus a cheap
 /// lookup per rectangle pixel (compute passes); per-pixel costs a fragment, and its rays, per

@@ -27,14 +27,21 @@ using test::sourcePath;
 
 class VulkanCellRate : public test::VulkanTest {
   protected:
-    /// Vulkan at `rate` equals the reference; returns the near stats.
+    /// Vulkan at `rate` equals the reference, its per-pixel sprites traced in compute (the
+    /// default) and rasterised (their pixels then composed with the cell-rate ones by the
+    /// resolve against the drawn depth); returns the near stats of the first.
     NearStats expectMatchesReference(const Scene& scene, NearRate rate, const std::string& what,
                                      std::uint64_t budgetBytes = kDefaultCellBudgetBytes) {
         NearOptions options;
         options.rate = rate;
         options.cellBudgetBytes = budgetBytes;
         const auto r = test::renderBoth(nearRenderer(), scene, 0.0, options);
-        EXPECT_EQ(test::describeDifference(r.near, r.reference), "") << what;
+        EXPECT_EQ(test::describeDifference(r.near, r.reference), "") << what << ", compute";
+        options.pixels = NearPixels::Raster;
+        const Image drawn =
+            nearRenderer().render(makeCameraFrame(scene.cameraAt(0.0)), scene.models, r.sprites,
+                                  scene.render.background, options);
+        EXPECT_EQ(test::describeDifference(drawn, r.reference), "") << what << ", raster";
         return r.nearStats;
     }
     /// Cell, fragment and auto all equal the reference; cell really drew every sprite cell-rate.

@@ -1,8 +1,10 @@
 // The Vulkan near tier's early depth test (issue 25, NearOptions::earlyDepthTest): the sprites are
 // drawn front to back, hull sprites rasterised flat at their own depth so that the depth test runs
-// before the fragment shader. The image must not change by a single bit of colour, depth or id,
-// on every scene, proxy and rate, in whole hybrid frames with cross-fades, with equal depths,
-// through the near plane and at 100,000 entities.
+// before the fragment shader; traced in compute (NearPixels::Compute, the default), the same order
+// lets a sprite skip the pixels a nearer one holds. The image must not change by a single bit of
+// colour, depth or id, on every scene, proxy and rate, both ways of tracing per-pixel sprites, in
+// whole hybrid frames with cross-fades, with equal depths, through the near plane and at 100,000
+// entities.
 #include "compose/frame.hpp"
 #include "core/scene_loader.hpp"
 #include "crowd_scenes.hpp"
@@ -25,13 +27,15 @@ class VulkanCull : public test::VulkanTest {};
 /// unculled one and to the CPU reference. Returns the fragment shader invocations without and
 /// with culling (pipeline statistics; 0 where the device has none).
 std::pair<std::uint64_t, std::uint64_t> expectSameImage(NearRenderer& renderer, const Scene& s,
-                                                        double t, NearProxy proxy, NearRate rate,
+                                                        double t, NearPixels pixels,
+                                                        NearProxy proxy, NearRate rate,
                                                         const std::string& what) {
     const CameraFrame cam = makeCameraFrame(s.cameraAt(t));
     const std::vector<SpriteSetup> sprites = setupSprites(s, cam, t);
     Image reference(cam.width, cam.height, s.render.background);
     renderReference(s.models, sprites, reference);
     NearOptions plain;
+    plain.pixels = pixels;
     plain.proxy = proxy;
     plain.rate = rate;
     plain.earlyDepthTest = false;
@@ -45,9 +49,10 @@ std::pair<std::uint64_t, std::uint64_t> expectSameImage(NearRenderer& renderer, 
     const Image img =
         renderer.render(cam, s.models, sprites, s.render.background, culled, &culledStats);
     EXPECT_EQ(test::describeDifference(img, whole, "culled", "whole"), "") << what;
-    if (proxy == NearProxy::Hull && rate == NearRate::Fragment) {
+    if (pixels == NearPixels::Raster && proxy == NearProxy::Hull && rate == NearRate::Fragment) {
         EXPECT_GT(culledStats.earlyDepthSprites, 0u) << what;
     }
+    EXPECT_EQ(culledStats.pixelsInCompute, pixels == NearPixels::Compute) << what;
     // The counting variant writes memory, so llvmpipe tests its depth late: the same image.
     culled.countSteps = true;
     const Image counted = renderer.render(cam, s.models, sprites, s.render.background, culled);
@@ -64,16 +69,19 @@ TEST_P(VulkanCullOnSceneFiles, SameImageWithEveryProxyAndRate) {
     const int frames = s.path ? s.path->frameCount() : 1;
     for (const int f : {0, frames / 2}) {
         const double t = s.path ? s.timeOfFrame(f) : 0.0;
-        for (NearProxy proxy : {NearProxy::Hull, NearProxy::Quad})
-            for (NearRate rate : {NearRate::Fragment, NearRate::Auto}) {
-                const std::string what = std::string(GetParam()) + " frame " + std::to_string(f) +
-                                         (proxy == NearProxy::Hull ? " hull " : " quad ") +
-                                         toString(rate);
+        for (NearRate rate : {NearRate::Fragment, NearRate::Auto}) {
+            const std::string at = std::string(GetParam()) + " frame " + std::to_string(f) + " ";
+            expectSameImage(nearRenderer(), s, t, NearPixels::Compute, NearProxy::Hull, rate,
+                            at + "compute " + toString(rate));
+            for (NearProxy proxy : {NearProxy::Hull, NearProxy::Quad}) {
+                const std::string what =
+                    at + (proxy == NearProxy::Hull ? "hull " : "quad ") + toString(rate);
                 const auto [whole, culled] =
-                    expectSameImage(nearRenderer(), s, t, proxy, rate, what);
+                    expectSameImage(nearRenderer(), s, t, NearPixels::Raster, proxy, rate, what);
                 std::printf("%s: fragment shader invocations %llu whole, %llu culled\n",
                             what.c_str(), (unsigned long long)whole, (unsigned long long)culled);
             }
+        }
     }
 }
 
@@ -89,9 +97,13 @@ INSTANTIATE_TEST_SUITE_P(
 // view depth, and a first row whose sprites cross the near plane.
 TEST_F(VulkanCull, EqualDepthStacksAndSpritesThroughTheNearPlane) {
     const Scene s = test::equalDepthStacks();
-    for (NearProxy proxy : {NearProxy::Hull, NearProxy::Quad})
-        for (NearRate rate : {NearRate::Fragment, NearRate::Auto})
-            expectSameImage(nearRenderer(), s, 0.0, proxy, rate, "equal-depth stacks");
+    for (NearRate rate : {NearRate::Fragment, NearRate::Auto}) {
+        expectSameImage(nearRenderer(), s, 0.0, NearPixels::Compute, NearProxy::Hull, rate,
+                        "equal-depth stacks, compute");
+        for (NearProxy proxy : {NearProxy::Hull, NearProxy::Quad})
+            expectSameImage(nearRenderer(), s, 0.0, NearPixels::Raster, proxy, rate,
+                            "equal-depth stacks");
+    }
 }
 
 // Whole frames through compose/: the hybrid with cross-fades (dithered halves of one entity at
@@ -128,6 +140,7 @@ TEST_F(VulkanCull, OneHundredThousandTanks) {
     const std::vector<SpriteSetup> sprites = setupSprites(s, cam, 0.0);
     NearOptions plainOptions, culledOptions;
     plainOptions.rate = culledOptions.rate = NearRate::Fragment;
+    plainOptions.pixels = culledOptions.pixels = NearPixels::Raster;
     plainOptions.earlyDepthTest = false;
     NearStats a, b;
     const Image culled =
@@ -135,6 +148,12 @@ TEST_F(VulkanCull, OneHundredThousandTanks) {
     const Image whole =
         nearRenderer().render(cam, s.models, sprites, s.render.background, plainOptions, &b);
     EXPECT_EQ(test::describeDifference(culled, whole, "culled", "whole"), "");
+    // The same sprites traced in compute, front to back, skipping the pixels nearer ones hold.
+    NearOptions computeOptions = culledOptions;
+    computeOptions.pixels = NearPixels::Compute;
+    const Image traced =
+        nearRenderer().render(cam, s.models, sprites, s.render.background, computeOptions);
+    EXPECT_EQ(test::describeDifference(traced, whole, "traced in compute", "whole"), "");
     EXPECT_GT(a.earlyDepthSprites, a.sprites * 9 / 10);
     std::printf("100,000 tanks at 320x180: %llu of %llu sprites flat, fragment shader invocations "
                 "%llu culled / %llu whole\n",

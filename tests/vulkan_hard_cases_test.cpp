@@ -27,7 +27,18 @@ namespace {
 const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRendererEnvironment);
 
 using test::VulkanTest;
-class NearHardCases : public VulkanTest {};
+/// Each hard case both ways of tracing per-pixel sprites: in compute (the default) and rasterised.
+class NearHardCases : public VulkanTest, public ::testing::WithParamInterface<NearPixels> {
+  protected:
+    NearOptions options() const {
+        NearOptions o;
+        o.pixels = GetParam();
+        return o;
+    }
+    test::NearAndReference renderBoth(const Scene& s) {
+        return test::renderBoth(nearRenderer(), s, 0.0, options());
+    }
+};
 
 std::string str(glm::ivec3 v) {
     return "(" + std::to_string(v.x) + "," + std::to_string(v.y) + "," + std::to_string(v.z) + ")";
@@ -46,17 +57,19 @@ class CanonicalBoxViewsOnVulkan : public VulkanTest,
 
 // Direction components of exactly 0 (face views: two, edge views: one), even and odd sizes,
 // integer and non-integer sigma: the GPU image is the closed-form silhouette with outline,
-// lighting, billboard depth and id, and equals the reference, with the hull and the quad proxy.
+// lighting, billboard depth and id, and equals the reference: traced in compute, and rasterised
+// with the hull and the quad proxy.
 TEST_P(CanonicalBoxViewsOnVulkan, MatchClosedFormAndReferenceAlongAll26Directions) {
     const CubeCase cc = GetParam();
     const auto model = test::solidBox(glm::ivec3(cc.size));
     for (glm::ivec3 w : test::canonicalDirections())
-        for (NearProxy proxy : {NearProxy::Hull, NearProxy::Quad}) {
+        for (int way = 0; way < 3; ++way) { // traced in compute, rasterised as hull and quad
             const auto v = test::viewAlong(model, glm::dvec3(w), cc.sigma, 4);
             NearOptions options;
-            options.proxy = proxy;
+            options.pixels = way == 0 ? NearPixels::Compute : NearPixels::Raster;
+            options.proxy = way == 2 ? NearProxy::Quad : NearProxy::Hull;
             const auto r = test::renderBoth(nearRenderer(), v.scene, 0.0, options);
-            const char* name = proxy == NearProxy::Hull ? " (hull)" : " (quad)";
+            const char* name = way == 0 ? " (compute)" : way == 1 ? " (hull)" : " (quad)";
             int zeros = 0;
             for (int k = 0; k < 3; ++k) zeros += r.sprites[0].gpu.dir[k] == 0.0f;
             EXPECT_EQ(zeros, (w.x == 0) + (w.y == 0) + (w.z == 0))
@@ -79,12 +92,12 @@ INSTANTIATE_TEST_SUITE_P(EvenOddIntegerAndFractionalSigma, CanonicalBoxViewsOnVu
                          });
 
 // Quarter-turn camera rolls keep the closed form (the lattice follows the camera up).
-TEST_F(NearHardCases, RolledCameraMatchesClosedForm) {
+TEST_P(NearHardCases, RolledCameraMatchesClosedForm) {
     const auto model = test::solidBox({4, 6, 3});
     for (int roll = 1; roll < 4; ++roll)
         for (glm::ivec3 w : {glm::ivec3(1, 0, 0), glm::ivec3(0, 0, 1), glm::ivec3(1, -1, 0)}) {
             const auto v = test::viewAlong(model, glm::dvec3(w), 2.0, 4, roll);
-            const auto r = test::renderBoth(nearRenderer(), v.scene);
+            const auto r = renderBoth(v.scene);
             std::string first;
             EXPECT_EQ(test::countClosedFormMismatches(v, glm::dvec3(w), r.near, &first), 0)
                 << "roll " << roll << " view " << str(w) << ": " << first;
@@ -93,13 +106,13 @@ TEST_F(NearHardCases, RolledCameraMatchesClosedForm) {
 }
 
 // Camera-relative double precision: the world moved 2^20 m renders the same GPU image.
-TEST_F(NearHardCases, WorldAtTwoToTheTwentyMetresEqualsWorldAtOrigin) {
-    const auto origin = test::renderBoth(nearRenderer(), test::hardCaseWorld(glm::dvec3(0.0)));
+TEST_P(NearHardCases, WorldAtTwoToTheTwentyMetresEqualsWorldAtOrigin) {
+    const auto origin = renderBoth(test::hardCaseWorld(glm::dvec3(0.0)));
     ASSERT_GT(test::drawnPixels(origin.near), 1000u);
     EXPECT_EQ(test::describeDifference(origin.near, origin.reference), "");
     for (glm::dvec3 offset :
          {glm::dvec3(1048576.0, 0.0, -1048576.0), glm::dvec3(-131072.0, 65536.0, 131072.0)}) {
-        const auto far = test::renderBoth(nearRenderer(), test::hardCaseWorld(offset));
+        const auto far = renderBoth(test::hardCaseWorld(offset));
         EXPECT_EQ(test::describeDifference(far.near, origin.near), "") << "offset " << offset.x;
         EXPECT_EQ(test::describeDifference(far.near, far.reference), "");
     }
@@ -107,9 +120,9 @@ TEST_F(NearHardCases, WorldAtTwoToTheTwentyMetresEqualsWorldAtOrigin) {
 
 // RTS camera straight down (up = world -Z), slightly off-centre: equals the reference, and the
 // bar's marker is right of and above its centre (no mirror, no flip on the GPU either).
-TEST_F(NearHardCases, CameraStraightDownIsUprightUnmirroredAndExact) {
+TEST_P(NearHardCases, CameraStraightDownIsUprightUnmirroredAndExact) {
     const Scene s = test::topDownMarkedBar();
-    const auto r = test::renderBoth(nearRenderer(), s);
+    const auto r = renderBoth(s);
     EXPECT_EQ(test::describeDifference(r.near, r.reference), "");
     const test::MarkerAndBar c = test::markerAndBarCentres(s, r.near);
     ASSERT_GT(c.markerPixels, 0);
@@ -120,9 +133,9 @@ TEST_F(NearHardCases, CameraStraightDownIsUprightUnmirroredAndExact) {
 
 // Eye inside and exactly on entity 0's proxy box: it is culled (the GPU draws none of it), the
 // others still draw, and the image equals the reference.
-TEST_F(NearHardCases, CameraInsideOrOnProxyBoxCullsOnlyThatEntity) {
+TEST_P(NearHardCases, CameraInsideOrOnProxyBoxCullsOnlyThatEntity) {
     for (const Scene& t : test::eyeInsideAndOnProxyBox()) {
-        const auto r = test::renderBoth(nearRenderer(), t);
+        const auto r = renderBoth(t);
         EXPECT_EQ(r.sprites[0].cull, CullReason::CameraInside);
         EXPECT_EQ(r.near.countEntity(0), 0u);
         EXPECT_GT(test::drawnPixels(r.near), 0u);
@@ -133,7 +146,7 @@ TEST_F(NearHardCases, CameraInsideOrOnProxyBoxCullsOnlyThatEntity) {
 // Eye just outside the proxy box, looking past the entity at a wide angle: part of its quad lies
 // behind the near plane and Vulkan clips it. The kernel's own "nearer than 2 zNear" rule decides
 // those pixels, so the image still equals the reference.
-TEST_F(NearHardCases, QuadCrossingTheNearPlaneIsClippedWithoutChangingPixels) {
+TEST_P(NearHardCases, QuadCrossingTheNearPlaneIsClippedWithoutChangingPixels) {
     Scene s;
     s.render.sigma = 2.0;
     s.models = {test::solidBox({8, 8, 8}, 3)};
@@ -150,7 +163,7 @@ TEST_F(NearHardCases, QuadCrossingTheNearPlaneIsClippedWithoutChangingPixels) {
             const double a = glm::radians(angleDeg);
             s.camera.position = {0.0, 0.05, off};
             s.camera.target = s.camera.position + glm::dvec3(std::sin(a), 0.0, -std::cos(a));
-            const auto r = test::renderBoth(nearRenderer(), s);
+            const auto r = renderBoth(s);
             if (!r.sprites[0].visible()) continue;
             bool behind = false;
             for (const auto& q : r.sprites[0].gpu.quad) behind |= !(q.w > float(s.camera.zNear));
@@ -163,17 +176,18 @@ TEST_F(NearHardCases, QuadCrossingTheNearPlaneIsClippedWithoutChangingPixels) {
 
 // Equal depths: the lower entity id owns every shared pixel, whatever order the sprites are
 // handed to the renderer in (it sorts them: one instanced draw in ascending id, depth GREATER).
-TEST_F(NearHardCases, EqualDepthLowerIdWinsRegardlessOfSubmissionOrder) {
+TEST_P(NearHardCases, EqualDepthLowerIdWinsRegardlessOfSubmissionOrder) {
     const Scene s = test::equalDepthPair();
     const CameraFrame cam = makeCameraFrame(s.camera);
     const auto sprites = setupSprites(s, cam, 0.0);
     ASSERT_EQ(sprites[0].gpu.depth, sprites[1].gpu.depth);
     NearRenderer& nr = nearRenderer();
-    const Image forward =
-        nr.render(cam, s.models, std::vector<const SpriteSetup*>{&sprites[0], &sprites[1]}, 0);
-    const Image backward =
-        nr.render(cam, s.models, std::vector<const SpriteSetup*>{&sprites[1], &sprites[0]}, 0);
-    const Image only1 = nr.render(cam, s.models, std::vector<const SpriteSetup*>{&sprites[1]}, 0);
+    const Image forward = nr.render(
+        cam, s.models, std::vector<const SpriteSetup*>{&sprites[0], &sprites[1]}, 0, options());
+    const Image backward = nr.render(
+        cam, s.models, std::vector<const SpriteSetup*>{&sprites[1], &sprites[0]}, 0, options());
+    const Image only1 =
+        nr.render(cam, s.models, std::vector<const SpriteSetup*>{&sprites[1]}, 0, options());
     EXPECT_EQ(test::describeDifference(forward, backward), "");
     Image ref(cam.width, cam.height, 0);
     renderReference(s.models, sprites, ref);
@@ -185,18 +199,18 @@ TEST_F(NearHardCases, EqualDepthLowerIdWinsRegardlessOfSubmissionOrder) {
     EXPECT_GT(forward.countEntity(1), 0u);
 }
 
-TEST_F(NearHardCases, EntityBehindCameraDrawsNothing) {
+TEST_P(NearHardCases, EntityBehindCameraDrawsNothing) {
     const Scene s = test::entityBehindCamera();
-    const auto r = test::renderBoth(nearRenderer(), s);
+    const auto r = renderBoth(s);
     EXPECT_EQ(r.sprites[0].cull, CullReason::BehindCamera);
     EXPECT_EQ(test::drawnPixels(r.near), 0u);
     EXPECT_EQ(r.nearStats.sprites, 0u);
     EXPECT_EQ(test::describeDifference(r.near, r.reference), "");
 }
 
-TEST_F(NearHardCases, SubPixelEntityDrawsNothing) {
+TEST_P(NearHardCases, SubPixelEntityDrawsNothing) {
     const Scene s = test::subPixelEntity();
-    const auto r = test::renderBoth(nearRenderer(), s);
+    const auto r = renderBoth(s);
     EXPECT_EQ(r.sprites[0].cull, CullReason::SubPixel);
     EXPECT_EQ(test::drawnPixels(r.near), 0u);
     EXPECT_EQ(test::describeDifference(r.near, r.reference), "");
@@ -228,8 +242,8 @@ Scene tileCrowd() {
     return s;
 }
 
-TEST_F(NearHardCases, SpritesStraddlingRasterizerTileEdgesMatchReference) {
-    const auto r = test::renderBoth(nearRenderer(), tileCrowd());
+TEST_P(NearHardCases, SpritesStraddlingRasterizerTileEdgesMatchReference) {
+    const auto r = renderBoth(tileCrowd());
     int straddleX = 0, straddleY = 0, corners = 0;
     for (const auto& sp : r.sprites) {
         if (!sp.visible()) continue;
@@ -248,7 +262,7 @@ TEST_F(NearHardCases, SpritesStraddlingRasterizerTileEdgesMatchReference) {
 
 // HARD_CASES 7: the ray crosses a whole 256^3 grid along its diagonal (766 cells) before it
 // hits the one voxel in the far corner: the step bound never truncates it, on the GPU either.
-TEST_F(NearHardCases, LongestDiagonalIn256CubedGridReachesFarCornerVoxel) {
+TEST_P(NearHardCases, LongestDiagonalIn256CubedGridReachesFarCornerVoxel) {
     VoxelGrid g({256, 256, 256});
     g.set({255, 255, 255}, 5);
     auto model =
@@ -261,7 +275,7 @@ TEST_F(NearHardCases, LongestDiagonalIn256CubedGridReachesFarCornerVoxel) {
     v.scene.camera.fovYDeg = 8.0;
     const glm::dvec3 dirW = glm::normalize(worldFromVoxelSwizzle() * glm::dvec3(w));
     v.scene.camera.position = v.scene.entities[0].position + dirW * 35.0;
-    const auto r = test::renderBoth(nearRenderer(), v.scene);
+    const auto r = renderBoth(v.scene);
     EXPECT_GT(r.near.countEntity(0), 0u);
     EXPECT_EQ(test::describeDifference(r.near, r.reference), "");
 }
@@ -295,6 +309,13 @@ int runCli(const std::string& env, const std::string& args, const std::string& e
     const int status = std::system(cmd.c_str());
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
+
+INSTANTIATE_TEST_SUITE_P(ComputeAndRaster, NearHardCases,
+                         ::testing::Values(NearPixels::Compute, NearPixels::Raster),
+                         [](const auto& info) {
+                             return std::string(info.param == NearPixels::Compute ? "compute"
+                                                                                  : "raster");
+                         });
 
 TEST(VulkanThreads, ImageIdenticalForLpNumThreads0And1And2) {
     const std::string dir =

@@ -21,11 +21,20 @@ class NearMeasurements : public VulkanTest {};
 using test::sourcePath;
 
 TEST_F(NearMeasurements, StepCounterVariantCountsExactlyTheReferenceVoxelReads) {
+    struct Way {
+        NearPixels pixels;
+        NearProxy proxy;
+        const char* name;
+    };
     for (const char* file : {"scenes/golden/crowd.json", "scenes/golden/arrows.json"})
-        for (NearProxy proxy : {NearProxy::Quad, NearProxy::Hull}) {
+        for (const Way way : {Way{NearPixels::Raster, NearProxy::Quad, "quad"},
+                              Way{NearPixels::Raster, NearProxy::Hull, "hull"},
+                              Way{NearPixels::Compute, NearProxy::Hull, "compute"}}) {
+            const NearProxy proxy = way.proxy;
             const Scene s = loadScene(sourcePath(file));
             NearOptions counting;
             counting.countSteps = true;
+            counting.pixels = way.pixels;
             counting.proxy = proxy;
             // The counting variant counts the fragment shader's reads: every sprite per pixel,
             // as the reference traces by default (cell-rate counts are in cell_rate tests).
@@ -35,7 +44,7 @@ TEST_F(NearMeasurements, StepCounterVariantCountsExactlyTheReferenceVoxelReads) 
             ReferenceOptions everyPixel;
             everyPixel.earlyDepthTest = false;
             const auto r = test::renderBoth(nearRenderer(), s, 0.0, counting, everyPixel);
-            const char* name = proxy == NearProxy::Quad ? "quad" : "hull";
+            const char* name = way.name;
             EXPECT_EQ(test::describeDifference(r.near, r.reference), "")
                 << file << " " << name << ": the variant draws the same image";
             // Both proxies cover every pixel whose cell is in range (the quad all of cellRange, the
@@ -43,7 +52,12 @@ TEST_F(NearMeasurements, StepCounterVariantCountsExactlyTheReferenceVoxelReads) 
             // and the CPU run the tracer on exactly the same cells.
             EXPECT_EQ(r.nearStats.voxelFetches, r.referenceStats.voxelFetches)
                 << file << " " << name;
-            if (proxy == NearProxy::Quad) {
+            if (way.pixels == NearPixels::Compute) {
+                // The trace runs the kernel on every pixel of every rectangle, as the reference
+                // without its early depth test.
+                EXPECT_EQ(r.nearStats.kernelFragments, r.referenceStats.pixelsTested) << file;
+                EXPECT_EQ(r.nearStats.fragmentInvocations, 0u) << file << ": nothing rasterised";
+            } else if (proxy == NearProxy::Quad) {
                 EXPECT_GE(r.nearStats.kernelFragments, r.referenceStats.pixelsInSprite) << file;
             }
             if (r.nearStats.fragmentInvocations > 0) {
@@ -64,6 +78,7 @@ TEST_F(NearMeasurements, StepCounterVariantCountsExactlyTheReferenceVoxelReads) 
 TEST_F(NearMeasurements, OneDrawPerEntityGivesTheSameImageAsOneInstancedDraw) {
     const Scene s = loadScene(sourcePath("scenes/golden/equal_depth.json")); // ties need the order
     NearOptions perEntity;
+    perEntity.pixels = NearPixels::Raster; // draws exist in the raster path alone
     perEntity.draws = NearDraws::PerEntity;
     perEntity.rate = NearRate::Fragment; // draws: cell-rate sprites are not rasterised
     const auto r = test::renderBoth(nearRenderer(), s, 0.0, perEntity);
@@ -82,11 +97,13 @@ TEST_F(NearMeasurements, HullProxyIsExactWithFewerFragmentsThanTheQuad) {
           "scenes/golden/far_origin.json", "scenes/golden/topdown.json", "scenes/default.json"}) {
         const Scene s = loadScene(sourcePath(file));
         NearOptions hull;
+        hull.pixels = NearPixels::Raster; // proxies are rasterised in the raster path alone
         hull.proxy = NearProxy::Hull;
         hull.rate = NearRate::Fragment;
         const auto r = test::renderBoth(nearRenderer(), s, 0.0, hull);
         EXPECT_EQ(test::describeDifference(r.near, r.reference), "") << file;
         NearOptions quad;
+        quad.pixels = NearPixels::Raster;
         quad.proxy = NearProxy::Quad;
         quad.rate = NearRate::Fragment;
         const auto q = test::renderBoth(nearRenderer(), s, 0.0, quad);
@@ -131,6 +148,7 @@ TEST_F(NearMeasurements, BoxProxyOnlyLosesPixelsAndOnlyAtCloseRange) {
     s.camera.fovYDeg = 60.0;
     s.camera.target = {0.0, 0.25, 0.0};
     NearOptions box;
+    box.pixels = NearPixels::Raster;
     box.proxy = NearProxy::Box;
     box.rate = NearRate::Fragment; // the proxy is rasterised for per-pixel sprites only
     std::size_t lostClose = 0, lostFar = 0;

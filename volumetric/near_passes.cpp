@@ -41,11 +41,13 @@ struct NearPasses::Impl {
     /// [proxy][countSteps][flatDepth][skipEmpty], created on first use
     VkPipeline pipelines[3][2][2][2] = {};
     /// NearComputePass's values, as indices.
-    enum ComputePass { TraceCells, Outline, Splat, Resolve, ComputePassCount };
-    /// [pass][skipEmpty] (only TraceCells has a skipping variant), created on first use
-    VkPipeline computePipelines[ComputePassCount][2] = {};
-    /// This frame's NearOptions::skipEmpty: which variant the pipelines take.
+    enum ComputePass { TraceCells, Outline, Splat, TracePixels, Resolve, ComputePassCount };
+    /// [pass][skipEmpty][countSteps] (only the tracing passes have those variants), created on
+    /// first use
+    VkPipeline computePipelines[ComputePassCount][2][2] = {};
+    /// This frame's NearOptions::skipEmpty and countSteps: which variant the pipelines take.
     bool skipEmpty = false;
+    bool countSteps = false;
 
     // Shared by the slots (the frame-start barrier orders their use): the framebuffer over the
     // frames' targets, the cell store (grown up to the budget) and the splat's pixel words.
@@ -67,15 +69,18 @@ struct NearPasses::Impl {
     std::vector<const SpriteSetup*> visible;
     std::vector<std::uint8_t> flat;
     std::vector<glm::uvec2> tiles;
-    std::vector<near_gpu::NearSplatBlock> blocks;
+    std::vector<near_gpu::NearSplatBlock> blocks, traceBlocks;
     std::vector<std::uint32_t> byDepth, ranks;
     std::vector<std::uint8_t> touched;
     std::uint32_t frameCells = 0;
 
+    /// The compute passes' workgroups; the blocks buffer holds the splat's, then the trace's,
+    /// then the resolve's.
     struct CellWork {
         std::uint32_t tiles = 0;        ///< near_cells.comp workgroups
-        std::uint32_t blocks = 0;       ///< near_splat.comp workgroups (0: no resolve either)
-        std::uint32_t resolveTiles = 0; ///< near_resolve.comp workgroups, after the blocks
+        std::uint32_t blocks = 0;       ///< near_splat.comp workgroups
+        std::uint32_t traceBlocks = 0;  ///< near_trace.comp workgroups
+        std::uint32_t resolveTiles = 0; ///< near_resolve.comp workgroups (0: no words to resolve)
     };
 
     explicit Impl(GpuFrames& f)
@@ -106,12 +111,15 @@ struct NearPasses::Impl {
                       NearStats& stats);
     void writeProxies(GpuFrame& frame, Slot& slot, const CameraFrame& cam, const NearOptions& opt,
                       NearStats& stats);
+    /// The compute passes' work; with `tracePixels` the per-pixel sprites' blocks too, and every
+    /// sprite ranked.
     CellWork writeCells(GpuFrame& frame, Slot& slot, const CellRatePlan& plan,
-                        std::uint64_t budgetBytes);
+                        std::uint64_t budgetBytes, bool tracePixels);
     void writeDescriptors(GpuFrame& frame, Slot& slot);
     void dispatch(GpuFrame& frame, Slot& slot, ComputePass pass, std::uint32_t groups,
                   std::uint32_t first = 0);
-    void recordCells(GpuFrame& frame, Slot& slot, CellWork work);
+    /// The cells, the splat and the trace: every pass that leaves pixel words.
+    void recordWords(GpuFrame& frame, Slot& slot, CellWork work);
     /// The raster pass, then its attachments into the planes (all three when `allPlanes`).
     void recordDraw(GpuFrame& frame, Slot& slot, Rgba8 clear, bool allPlanes,
                     const NearOptions& opt, NearStats& stats);
@@ -148,7 +156,7 @@ void NearPasses::Impl::createLayouts() {
         {NEAR_BINDING_SPRITES, sb, 1, v | f | c, nullptr},
         {NEAR_BINDING_ATLAS, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, f | c, nullptr},
         {NEAR_BINDING_PALETTES, sb, 1, f | c, nullptr},
-        {NEAR_BINDING_COUNTERS, sb, 1, f, nullptr},
+        {NEAR_BINDING_COUNTERS, sb, 1, f | c, nullptr},
         {NEAR_BINDING_BOXES, sb, 1, v, nullptr},
         {NEAR_BINDING_HULLS, sb, 1, v, nullptr},
         {NEAR_BINDING_CELL_BASES, sb, 1, v | c, nullptr},
@@ -267,10 +275,11 @@ void NearPasses::Impl::destroy() noexcept {
                     p = VK_NULL_HANDLE;
                 }
     for (auto& perPass : computePipelines)
-        for (VkPipeline& p : perPass) {
-            if (p) vkDestroyPipeline(dev, p, nullptr);
-            p = VK_NULL_HANDLE;
-        }
+        for (auto& perSkip : perPass)
+            for (VkPipeline& p : perSkip) {
+                if (p) vkDestroyPipeline(dev, p, nullptr);
+                p = VK_NULL_HANDLE;
+            }
     for (Slot& s : slots)
         if (s.statsPool) vkDestroyQueryPool(dev, s.statsPool, nullptr);
     slots.clear();
@@ -306,11 +315,14 @@ VkPipeline NearPasses::Impl::pipeline(NearProxy proxy, bool countSteps, bool fla
 }
 
 VkPipeline NearPasses::Impl::computePipeline(ComputePass pass) {
-    const bool skip = pass == TraceCells && skipEmpty; // the one pass with a skipping variant
-    VkPipeline& slot = computePipelines[pass][skip];
+    static_assert(int(TracePixels) == int(NearComputePass::TracePixels) &&
+                  int(Resolve) == int(NearComputePass::Resolve));
+    const bool skip = (pass == TraceCells || pass == TracePixels) && skipEmpty;
+    const bool count = pass == TracePixels && countSteps;
+    VkPipeline& slot = computePipelines[pass][skip][count];
     if (!slot)
         slot = createNearComputePipeline(device.device(), pipelineLayout,
-                                         static_cast<NearComputePass>(pass), skip);
+                                         static_cast<NearComputePass>(pass), skip, count);
     return slot;
 }
 
@@ -411,7 +423,8 @@ void NearPasses::Impl::writeProxies(GpuFrame& frame, Slot& slot, const CameraFra
 
 NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& slot,
                                                         const CellRatePlan& plan,
-                                                        std::uint64_t budgetBytes) {
+                                                        std::uint64_t budgetBytes,
+                                                        bool tracePixels) {
     using near_gpu::NEAR_SPLAT_BLOCK;
     const int width = frame.width(), height = frame.height();
     const std::size_t n = visible.size();
@@ -436,25 +449,33 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
     if (!cells) ensure(cells, 4096, BufferClass::DeviceOnly);
     tiles.clear();
     blocks.clear();
-    byDepth.clear(); // cell-rate sprites, nearest first, ties by entity id
-    // The resolve's tiles: every 32x32 tile of the image grid that a cell-rate rectangle touches,
+    traceBlocks.clear();
+    byDepth.clear(); // the ranked sprites, nearest first, ties by entity id
+    // The resolve's tiles: every 32x32 tile of the image grid that a ranked rectangle touches,
     // once, so that a frame with a few small cell-rate sprites resolves a few tiles and not the
     // whole image.
     const int tilesX = (width + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
     const int tilesY = (height + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
     touched.assign(std::size_t(tilesX) * std::size_t(tilesY), 0);
+    // `visible` is front to back under the early depth test, so the trace's blocks are recorded
+    // nearest first too: a nearer sprite's words are then mostly written before a farther one
+    // reads them, and the farther one skips the pixels it has lost.
     for (std::size_t k = 0; k < n; ++k) {
-        if (plan.cellBase[k] == kNoCells) continue;
+        const bool cellRate = plan.cellBase[k] != kNoCells;
+        if (!cellRate && !tracePixels) continue;
         byDepth.push_back(std::uint32_t(k));
-        const std::uint64_t count = cellCount(*visible[k]);
-        for (std::uint64_t first = 0; first < count; first += near_gpu::NEAR_CELL_TILE)
-            tiles.push_back({std::uint32_t(k), std::uint32_t(first)});
+        if (cellRate) {
+            const std::uint64_t count = cellCount(*visible[k]);
+            for (std::uint64_t first = 0; first < count; first += near_gpu::NEAR_CELL_TILE)
+                tiles.push_back({std::uint32_t(k), std::uint32_t(first)});
+        }
+        auto& into = cellRate ? blocks : traceBlocks;
         const glm::ivec4 r =
             glm::min(visible[k]->screenRect, glm::ivec4(width, height, width, height));
         const std::uint32_t end = std::uint32_t(r.z) | std::uint32_t(r.w) << 16;
         for (int y = r.y; y < r.w; y += int(NEAR_SPLAT_BLOCK))
             for (int x = r.x; x < r.z; x += int(NEAR_SPLAT_BLOCK))
-                blocks.push_back(
+                into.push_back(
                     {std::uint32_t(k), std::uint32_t(x) | std::uint32_t(y) << 16, end, 0});
         if (r.z <= r.x || r.w <= r.y) continue;
         for (int ty = r.y / int(NEAR_SPLAT_BLOCK); ty <= (r.w - 1) / int(NEAR_SPLAT_BLOCK); ++ty)
@@ -471,8 +492,11 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
     ranks.assign(n, near_gpu::NEAR_NO_RANK);
     for (std::size_t r = 0; r < byDepth.size(); ++r) ranks[byDepth[r]] = std::uint32_t(r);
     for (auto& b : blocks) b.rank = ranks[b.sprite];
-    // The resolve tiles follow the splat blocks in the same buffer.
+    for (auto& b : traceBlocks) b.rank = ranks[b.sprite];
+    // The trace's blocks, then the resolve's tiles, follow the splat's in the same buffer.
     const std::uint32_t splatCount = std::uint32_t(blocks.size());
+    const std::uint32_t traceCount = std::uint32_t(traceBlocks.size());
+    blocks.insert(blocks.end(), traceBlocks.begin(), traceBlocks.end());
     const std::uint32_t imageEnd = std::uint32_t(width) | std::uint32_t(height) << 16;
     for (int ty = 0; ty < tilesY; ++ty)
         for (int tx = 0; tx < tilesX; ++tx)
@@ -484,7 +508,8 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
     upload(slot.cellTiles, tiles);
     upload(slot.splatBlocks, blocks);
     upload(slot.rankSprites, byDepth);
-    return {std::uint32_t(tiles.size()), splatCount, std::uint32_t(blocks.size()) - splatCount};
+    return {std::uint32_t(tiles.size()), splatCount, traceCount,
+            std::uint32_t(blocks.size()) - splatCount - traceCount};
 }
 
 void NearPasses::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
@@ -557,27 +582,42 @@ void NearPasses::Impl::dispatch(GpuFrame& frame, Slot& slot, ComputePass pass, s
     vkCmdDispatch(cb, groupsX, (groups + groupsX - 1) / groupsX, 1);
 }
 
-void NearPasses::Impl::recordCells(GpuFrame& frame, Slot& slot, CellWork work) {
+void NearPasses::Impl::recordWords(GpuFrame& frame, Slot& slot, CellWork work) {
     VkCommandBuffer cb = frame.commandBuffer();
     const auto cellsWritten = [&] {
         bufferBarrier(cb, cells.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                       VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     };
-    frame.timer().begin(cb, "near_cells");
-    dispatch(frame, slot, TraceCells, work.tiles);
-    cellsWritten(); // the outline pass reads the primaries
-    dispatch(frame, slot, Outline, work.tiles);
-    frame.timer().end(cb);
+    if (work.tiles) {
+        frame.timer().begin(cb, "near_cells");
+        dispatch(frame, slot, TraceCells, work.tiles);
+        cellsWritten(); // the outline pass reads the primaries
+        dispatch(frame, slot, Outline, work.tiles);
+        frame.timer().end(cb);
+    }
+    if (!work.resolveTiles) return;
     frame.timer().begin(cb, "near_splat");
     vkCmdFillBuffer(cb, pixelWords.handle(), 0, frame.planeBytes(), near_gpu::NEAR_NO_RANK);
     // The splat reads the outcomes and min-writes the cleared words.
-    cellsWritten();
+    if (work.tiles) cellsWritten();
     bufferBarrier(cb, pixelWords.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
                   VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     if (work.blocks) dispatch(frame, slot, Splat, work.blocks);
     frame.timer().end(cb);
+    if (!work.traceBlocks) return;
+    // The trace reads the splat's words to skip the pixels a nearer sprite holds.
+    bufferBarrier(cb, pixelWords.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    frame.timer().begin(cb, "near_trace");
+    dispatch(frame, slot, TracePixels, work.traceBlocks, work.blocks);
+    frame.timer().end(cb);
+    if (countSteps)
+        bufferBarrier(cb, slot.counters.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                      VK_ACCESS_HOST_READ_BIT);
 }
 
 void NearPasses::Impl::ensureFramebuffer(GpuFrame& frame) {
@@ -671,7 +711,7 @@ void NearPasses::Impl::recordResolve(GpuFrame& frame, Slot& slot, CellWork work)
                   VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT);
     frame.timer().begin(cb, "near_resolve");
-    dispatch(frame, slot, Resolve, work.resolveTiles, work.blocks);
+    dispatch(frame, slot, Resolve, work.resolveTiles, work.blocks + work.traceBlocks);
     frame.timer().end(cb);
     bufferBarrier(
         cb, frame.planes(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
@@ -693,19 +733,25 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
                         std::span<const SpriteSetup* const> sprites, Rgba8 clear,
                         const NearOptions& opt, NearStats& stats) {
     Impl& m = *impl_;
-    if (opt.countSteps && !m.device.hasFragmentAtomics())
-        throw VulkanError("near tier: counting DDA steps needs fragmentStoresAndAtomics, which " +
-                          m.device.name() + " lacks");
     Impl::Slot& slot = m.slots.at(std::size_t(frame.slot()));
+    slot.queried = false; // the draw's statistics query, when the frame draws
     m.skipEmpty = opt.skipEmpty;
+    m.countSteps = opt.countSteps;
     VkCommandBuffer cb = frame.commandBuffer();
     frame.timer().begin(cb, "near_upload");
     m.writeSprites(frame, slot, models, sprites, opt, stats);
-    m.writeProxies(frame, slot, cam, opt, stats);
     // The resolve pass binds the whole planes buffer; past the device's storage-buffer range (a
-    // huge image) every sprite is traced per pixel.
+    // huge image) every sprite is traced per pixel by the draw. The ranks of a pixel word hold
+    // at most NEAR_MAX_CELL_SPRITES sprites; a frame of more draws its per-pixel sprites.
     const bool resolvable =
         3 * frame.planeBytes() <= m.device.properties().limits.maxStorageBufferRange;
+    const bool tracePixels = opt.pixels == NearPixels::Compute && resolvable &&
+                             m.visible.size() <= near_gpu::NEAR_MAX_CELL_SPRITES;
+    stats.pixelsInCompute = tracePixels;
+    if (opt.countSteps && !tracePixels && !m.device.hasFragmentAtomics())
+        throw VulkanError("near tier: counting DDA steps needs fragmentStoresAndAtomics, which " +
+                          m.device.name() + " lacks");
+    if (!tracePixels) m.writeProxies(frame, slot, cam, opt, stats);
     const CellRatePlan plan =
         planCellRate(m.visible, resolvable ? opt.rate : NearRate::Fragment, opt.cellBudgetBytes);
     stats.cellsTraced = plan.cells;
@@ -713,7 +759,7 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
     stats.cellOverBudget = plan.overBudget;
     stats.pixelsTraced = plan.pixelsTraced;
     stats.pixelsLookedUp = plan.pixelsLookedUp;
-    const Impl::CellWork work = m.writeCells(frame, slot, plan, opt.cellBudgetBytes);
+    const Impl::CellWork work = m.writeCells(frame, slot, plan, opt.cellBudgetBytes, tracePixels);
     m.frameCells = std::uint32_t(plan.cells);
     m.writeDescriptors(frame, slot);
     frame.ring().recordBarrier(cb,
@@ -723,18 +769,28 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
                                VK_ACCESS_SHADER_READ_BIT);
     frame.timer().end(cb);
 
-    // Cell-rate sprites: every cell traced once, then every pixel of theirs splatted; the draw
-    // skips them, the resolve after it shades them.
-    if (work.tiles) m.recordCells(frame, slot, work);
+    // Cell-rate sprites: every cell traced once, then every pixel of theirs splatted; per-pixel
+    // sprites traced in compute leave their words next. The draw skips them all; the resolve
+    // after it shades them.
+    if (opt.countSteps && tracePixels) {
+        // The trace counts; zeroed here, so that a frame with nothing to trace reads 0.
+        vkCmdFillBuffer(cb, slot.counters.handle(), 0, VK_WHOLE_SIZE, 0);
+        bufferBarrier(cb, slot.counters.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
+                      VK_ACCESS_TRANSFER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+                          VK_ACCESS_HOST_READ_BIT);
+    }
+    m.recordWords(frame, slot, work);
     // Depth and ids are needed where the resolve composes by them, or someone reads them (the
     // caller asks for them where a far pass follows).
-    const bool allPlanes = opt.readDepthAndIds || work.blocks;
-    const bool rasterised = plan.cellSprites < m.visible.size();
-    if (rasterised || opt.countSteps)
+    const bool allPlanes = opt.readDepthAndIds || work.resolveTiles;
+    const bool rasterised = !tracePixels && plan.cellSprites < m.visible.size();
+    if (rasterised || (opt.countSteps && !tracePixels))
         m.recordDraw(frame, slot, clear, allPlanes, opt, stats);
     else
         frame.recordClearPlanes(clear, allPlanes);
-    if (work.blocks) m.recordResolve(frame, slot, work);
+    if (work.resolveTiles) m.recordResolve(frame, slot, work);
 }
 
 void NearPasses::collect(GpuFrame& frame, const NearOptions& opt, NearStats& stats) {

@@ -7,12 +7,14 @@
 //                 outline from the neighbours' primaries;
 //   near_splat    every pixel of a cell-rate sprite's rectangle leaves its nearest cell in a
 //                 per-pixel word;
-//   near_draw     the per-pixel sprites: one instanced draw of their proxies (near_proxy.hpp),
-//                 front to back under the early depth test, whose fragment shader runs the
-//                 shared kernel (core/sprite_kernel.h) into the frame's colour, id and depth
-//                 attachments, then copied into the frame's planes (or, with nothing to
-//                 rasterise, the planes cleared);
-//   near_resolve  the cell-rate pixels composed into the planes by the depth/id rule.
+//   near_trace    the per-pixel sprites in compute (NearPixels::Compute, the default): every
+//                 pixel of their rectangles runs the shared kernel (core/sprite_kernel.h) and
+//                 leaves its word as the splat does;
+//   near_draw     or else the per-pixel sprites drawn: one instanced draw of their proxies
+//                 (near_proxy.hpp), front to back under the early depth test, whose fragment
+//                 shader runs the kernel into the frame's colour, id and depth attachments, then
+//                 copied into the frame's planes (with nothing to rasterise, the planes cleared);
+//   near_resolve  the words' pixels composed into the planes by the depth/id rule.
 // The image equals the CPU reference pixel for pixel. No Vulkan types in this header beyond the
 // device module's: compose/ records a frame's far pass after these.
 #include "core/camera.hpp"
@@ -39,10 +41,12 @@ enum class NearDraws {
 };
 
 struct NearOptions {
+    NearPixels pixels = NearPixels::Compute;
     NearProxy proxy = NearProxy::Hull;
     NearDraws draws = NearDraws::Instanced;
-    /// Use the shader variant compiled with -DVT_COUNT_STEPS (counts the fragment shader's voxel
-    /// reads; the cell-rate compute pass is not counted; slower).
+    /// Use the shader variant compiled with -DVT_COUNT_STEPS (counts the per-pixel sprites' voxel
+    /// reads, in the fragment shader or the trace pass; the cell-rate compute pass is not counted;
+    /// slower).
     bool countSteps = false;
     /// Count fragment-shader invocations with a pipeline-statistics query (when supported).
     bool pipelineStatistics = true;
@@ -80,8 +84,8 @@ struct NearStats : CellRateCounts {
     std::uint64_t drawCalls = 0;
     /// FRAGMENT_SHADER_INVOCATIONS of the draw (0 when the device has no statistics queries).
     std::uint64_t fragmentInvocations = 0;
-    /// With countSteps: fragments that ran the kernel, and their vtFetchVoxel calls (DDA steps,
-    /// the four outline neighbour rays included).
+    /// With countSteps: fragments (or, traced in compute, pixels) that ran the kernel, and their
+    /// vtFetchVoxel calls (DDA steps, the four outline neighbour rays included).
     std::uint64_t kernelFragments = 0, voxelFetches = 0;
     std::uint64_t bytesUploaded = 0; ///< voxel bytes copied to the atlas for this frame
     std::uint64_t uploadRegions = 0;
@@ -89,6 +93,8 @@ struct NearStats : CellRateCounts {
     double uploadMs = 0.0;          ///< residency on the host: pack + copy + wait
     /// Sprites rasterised flat at their depth, with the early depth test (earlyDepthTest).
     std::uint64_t earlyDepthSprites = 0;
+    /// The per-pixel sprites were traced by the compute pass (NearPixels::Compute), not drawn.
+    bool pixelsInCompute = false;
 };
 
 class VoxelResidency;

@@ -22,6 +22,10 @@
 #include "shaders/near_skip_steps_frag.h"
 #include "shaders/near_splat_comp.h"
 #include "shaders/near_steps_frag.h"
+#include "shaders/near_trace_comp.h"
+#include "shaders/near_trace_skip_comp.h"
+#include "shaders/near_trace_skip_steps_comp.h"
+#include "shaders/near_trace_steps_comp.h"
 
 namespace voxtier {
 
@@ -123,14 +127,18 @@ VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRende
 }
 
 VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, NearComputePass pass,
-                                     bool skipEmpty) {
+                                     bool skipEmpty, bool countSteps) {
     using enum NearComputePass;
-    const std::span<const std::uint32_t> code =
-        pass == TraceCells ? (skipEmpty ? std::span<const std::uint32_t>(near_cells_skip_comp)
-                                        : std::span<const std::uint32_t>(near_cells_comp))
-        : pass == Outline  ? std::span<const std::uint32_t>(near_cell_outline_comp)
-        : pass == Splat    ? std::span<const std::uint32_t>(near_splat_comp)
-                           : std::span<const std::uint32_t>(near_resolve_comp);
+    using Code = std::span<const std::uint32_t>;
+    // [skipEmpty][countSteps]
+    const Code trace[2][2] = {{Code(near_trace_comp), Code(near_trace_steps_comp)},
+                              {Code(near_trace_skip_comp), Code(near_trace_skip_steps_comp)}};
+    const Code code = pass == TraceCells
+                          ? (skipEmpty ? Code(near_cells_skip_comp) : Code(near_cells_comp))
+                      : pass == Outline     ? Code(near_cell_outline_comp)
+                      : pass == Splat       ? Code(near_splat_comp)
+                      : pass == TracePixels ? trace[skipEmpty][countSteps]
+                                            : Code(near_resolve_comp);
     return createComputePipeline(dev, layout, code);
 }
 

@@ -16,10 +16,12 @@ namespace voxtier {
 VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRenderPass renderPass,
                                   NearProxy proxy, bool countSteps, bool flatDepth, bool skipEmpty);
 
-/// The cell-rate compute passes, in the order a frame records them.
-enum class NearComputePass { TraceCells, Outline, Splat, Resolve };
-/// A compute pass's pipeline; `skipEmpty` matters to TraceCells alone.
+/// The compute passes, in the order a frame records them: the cell-rate sprites' cells, their
+/// outline and splat, the per-pixel sprites' trace (NearPixels::Compute), the resolve.
+enum class NearComputePass { TraceCells, Outline, Splat, TracePixels, Resolve };
+/// A compute pass's pipeline; `skipEmpty` matters to the two tracing passes alone, `countSteps`
+/// to TracePixels alone (its variant counting traced pixels and voxel reads).
 VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, NearComputePass pass,
-                                     bool skipEmpty);
+                                     bool skipEmpty, bool countSteps);
 
 } // namespace voxtier

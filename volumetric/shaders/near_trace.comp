@@ -1,0 +1,108 @@
+#version 450
+// The trace pass of per-pixel sprites without the rasteriser (NearPixels::Compute, CONTRACT.md
+// §3.11): every pixel of every per-pixel sprite's screen rectangle runs the shared kernel
+// (core/sprite_kernel.h vtShadePixel, at the pixel's centre as a fragment would) and leaves
+// atomicMin of its pixel word (near_shared.h: the sprite's depth rank above the outcome) where
+// the sprite shows something. The ranks order all the frame's sprites, cell-rate and per-pixel,
+// nearest first and lower entity id first at equal depth (Image::writeIfNearer's rule), so the
+// least word is what the depth test would keep; near_resolve.comp shades it. A pixel whose word
+// already holds a nearer rank is skipped untraced: the word only falls, so the skip is exact
+// whatever order the workgroups run in (the blocks are recorded nearest first, so that it pays).
+// Why not the fragment shader: on an NVIDIA H200 the same kernel ran about 50 times faster per
+// invocation in a compute pass than in the draw's fragment shader
+// (docs/decisions/near-pixels-in-compute.md).
+// The workgroup is the splat's: one NEAR_SPLAT_BLOCK² block of one sprite's rectangle, 32 x 2
+// invocations walking it two rows at a time. Compiled with VT_COUNT_STEPS too: the variant that
+// counts traced pixels and their voxel reads, and with VT_SKIP_EMPTY (the box march).
+#extension GL_GOOGLE_include_directive : require
+#include "volumetric/shaders/near_shared.h"
+
+layout(local_size_x = NEAR_SPLAT_BLOCK, local_size_y = 2) in;
+
+layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
+layout(std430, set = 0, binding = NEAR_BINDING_BRICKS) readonly buffer Bricks {
+    uint vtBricks[];
+};
+ivec3 vtAtlasBase;
+uint vtBrickBase;
+#ifdef VT_COUNT_STEPS
+uint vtFetches = 0u;
+#endif
+uint vtFetchVoxel(ivec3 cell) {
+#ifdef VT_COUNT_STEPS
+    vtFetches += 1u;
+#endif
+    return texelFetch(vtAtlas, vtAtlasBase + cell, 0).r;
+}
+uint vtFetchBrickWord(uint word) {
+#ifdef VT_COUNT_STEPS
+    vtFetches += 1u;
+#endif
+    return vtBricks[vtBrickBase + word];
+}
+#include "core/sprite_kernel.h"
+
+layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites {
+    SpriteGpu vtSprites[];
+};
+layout(std430, set = 0, binding = NEAR_BINDING_SPLAT_BLOCKS) readonly buffer SplatBlocks {
+    NearSplatBlock vtBlocks[];
+};
+layout(std430, set = 0, binding = NEAR_BINDING_PIXEL_WORDS) buffer PixelWords {
+    uint vtPixelWords[];
+};
+#ifdef VT_COUNT_STEPS
+layout(std430, set = 0, binding = NEAR_BINDING_COUNTERS) buffer Counters {
+    NearCounters vtCounters;
+};
+// 64-bit add on a (low, high) pair: the returned old low word tells whether this add wrapped.
+void vtCount64(bool fetches, uint amount) {
+    if (amount == 0u) return;
+    if (fetches) {
+        uint old = atomicAdd(vtCounters.fetchesLo, amount);
+        if (old > 0xFFFFFFFFu - amount) atomicAdd(vtCounters.fetchesHi, 1u);
+    } else {
+        uint old = atomicAdd(vtCounters.fragmentsLo, amount);
+        if (old > 0xFFFFFFFFu - amount) atomicAdd(vtCounters.fragmentsHi, 1u);
+    }
+}
+#endif
+layout(push_constant) uniform Push {
+    NearComputePush vtPush; // count: blocks, from block `first` on
+};
+
+void main() {
+    uint block = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (block >= vtPush.count) return;
+    NearSplatBlock b = vtBlocks[vtPush.first + block];
+    uint x = (b.origin & 0xFFFFu) + gl_LocalInvocationID.x;
+    if (x >= (b.end & 0xFFFFu)) return;
+    uint yEnd = min(b.end >> 16, (b.origin >> 16) + NEAR_SPLAT_BLOCK);
+    SpriteGpu s = vtSprites[b.sprite];
+    vtAtlasBase = ivec3(s.atlas.xyz);
+    vtBrickBase = s.brickBase;
+#ifdef VT_COUNT_STEPS
+    uint traced = 0u;
+#endif
+    for (uint y = (b.origin >> 16) + gl_LocalInvocationID.y; y < yEnd; y += 2u) {
+        uint p = y * vtPush.width + x;
+#ifndef VT_COUNT_STEPS
+        // A nearer sprite already shows something here: this one cannot win the pixel. (The
+        // counting variant traces every pixel, as the reference without its early depth test,
+        // so that its counts do not depend on the order the workgroups ran in.)
+        if ((vtPixelWords[p] >> NEAR_RANK_SHIFT) < b.rank) continue;
+#endif
+        uint index;
+        uint face;
+        uint kind = vtShadePixel(s, vec2(float(x) + 0.5f, float(y) + 0.5f), index, face);
+#ifdef VT_COUNT_STEPS
+        traced += 1u;
+#endif
+        if (kind == VT_KIND_EMPTY) continue;
+        atomicMin(vtPixelWords[p], nearPixelWord(b.rank, vtPackOutcome(kind, index, face)));
+    }
+#ifdef VT_COUNT_STEPS
+    vtCount64(true, vtFetches);
+    vtCount64(false, traced);
+#endif
+}
