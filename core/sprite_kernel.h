@@ -533,8 +533,13 @@ uint vtFetchBrickWord(uint word);
     // §3.7: a hit is solid; otherwise any hit among the four cardinal neighbour cells makes an
     // outline pixel. Neighbour rays are exactly the neighbours' own primary rays, so the
     // outline equals a cardinal 2D dilation of the coverage mask (what the far tier bakes).
+    // index and face are 0 unless solid: a GLSL `out` parameter is not copied in, so after a
+    // miss (which assigns neither) vtTrace's would be undefined on the GPU, where C++ references
+    // keep 0 (an NVIDIA H200 left register garbage there, which a packed outcome carried).
     VT_FN uint vtShadeCell(VT_IN(SpriteGpu) s, ivec2 cell, VT_OUT(uint) index, VT_OUT(uint) face) {
         if (vtTrace(s, cell, index, face)) return VT_KIND_SOLID;
+        index = 0u;
+        face = 0u;
         uint ni;
         uint nf;
         if (vtTrace(s, cell + ivec2(-1, 0), ni, nf) || vtTrace(s, cell + ivec2(1, 0), ni, nf) ||

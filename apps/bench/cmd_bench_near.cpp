@@ -198,7 +198,10 @@ Row measureVariant(NearRenderer& near, const Scene& scene, const CameraFrame& ca
                           &report);
         vkCpu.push_back(processCpuMs() - c0);
         // The device's own time of the draw where it has timestamps, else the host's wait.
-        draw.push_back(report.ms("near_draw").value_or(report.host.waitMs));
+        // (The per-pixel sprites are drawn, or traced in compute: NearOptions::pixels.)
+        const std::optional<double> device =
+            ns.pixelsInCompute ? report.ms("near_trace") : report.ms("near_draw");
+        draw.push_back(device.value_or(report.host.waitMs));
         readback.push_back(report.host.readbackMs + report.ms("copy_planes").value_or(0.0) +
                            report.ms("readback_copy").value_or(0.0));
         row.fragments = ns.fragmentInvocations;
@@ -239,13 +242,16 @@ void run(const BenchArgs& a) {
 
     auto variant = [](const char* name, NearProxy proxy, NearDraws draws) {
         NearOptions o;
+        o.pixels = NearPixels::Raster;
         o.proxy = proxy;
         o.draws = draws;
         return Variant{name, o};
     };
-    // The default first (hull proxy, one instanced draw), then one change at a time.
-    std::vector<Variant> variants = {
-        variant("hull-instanced", NearProxy::Hull, NearDraws::Instanced)};
+    // The default first (per-pixel sprites traced in compute), then the draw (hull proxy, one
+    // instanced draw), then one change of the draw at a time.
+    std::vector<Variant> variants = {Variant{"compute", NearOptions{}},
+                                     variant("hull-instanced", NearProxy::Hull,
+                                             NearDraws::Instanced)};
     if (a.alternatives) {
         variants.push_back(variant("hull-per-entity", NearProxy::Hull, NearDraws::PerEntity));
         variants.push_back(variant("quad-instanced", NearProxy::Quad, NearDraws::Instanced));

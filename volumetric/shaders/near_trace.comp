@@ -99,7 +99,11 @@ void main() {
         traced += 1u;
 #endif
         if (kind == VT_KIND_EMPTY) continue;
-        atomicMin(vtPixelWords[p], nearPixelWord(b.rank, vtPackOutcome(kind, index, face)));
+        // The outcome as the cell-rate passes pack it: index and face only where solid, so that
+        // no bit of them can reach the rank's (nearPixelWord keeps the low 13 bits of outcome).
+        uint outcome = kind == VT_KIND_SOLID ? vtPackOutcome(kind, index & 255u, face & 7u)
+                                             : vtPackOutcome(VT_KIND_OUTLINE, 0u, 0u);
+        atomicMin(vtPixelWords[p], nearPixelWord(b.rank, outcome));
     }
 #ifdef VT_COUNT_STEPS
     vtCount64(true, vtFetches);
