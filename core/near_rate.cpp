@@ -1,6 +1,10 @@
 #include "core/near_rate.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <vector>
 
 namespace voxtier {
 
@@ -35,11 +39,24 @@ CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate 
     // GPU; kNoCells stays out of reach.
     const std::uint64_t budgetCells =
         std::min<std::uint64_t>(budgetBytes / kCellStoreBytesPerCell, kNoCells / 2 - 1);
+    // Each sprite's wish and sizes in parallel; the budget is then given out in sprite order
+    // (a running total, so serial), over figures already at hand.
+    struct Wish {
+        std::uint64_t cells = 0, pixels = 0;
+        bool visible = false, wanted = false;
+    };
+    std::vector<Wish> wishes(sprites.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sprites.size(), 1024), [&](const auto& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+            const SpriteSetup& s = *sprites[k];
+            if (!s.visible()) continue;
+            wishes[k] = {cellCount(s), rectPixels(s), true, wantsCellRate(s, rate)};
+        }
+    });
     for (std::size_t k = 0; k < sprites.size(); ++k) {
-        const SpriteSetup& s = *sprites[k];
-        if (!s.visible()) continue;
-        const std::uint64_t cells = cellCount(s), pixels = rectPixels(s);
-        const bool wanted = wantsCellRate(s, rate);
+        if (!wishes[k].visible) continue;
+        const std::uint64_t cells = wishes[k].cells, pixels = wishes[k].pixels;
+        const bool wanted = wishes[k].wanted;
         const bool fits =
             wanted && plan.cells + cells <= budgetCells && plan.cellSprites < maxCellSprites;
         if (wanted && !fits) ++plan.overBudget;

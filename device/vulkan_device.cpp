@@ -9,6 +9,7 @@
 #include <dlfcn.h>
 #include <link.h>
 #include <utility>
+#include <vector>
 
 namespace voxtier {
 
@@ -707,8 +708,15 @@ VkShaderModule createShaderModule(VkDevice device, std::span<const std::uint32_t
 }
 
 VkPipeline createComputePipeline(VkDevice device, VkPipelineLayout layout,
-                                 std::span<const std::uint32_t> code) {
+                                 std::span<const std::uint32_t> code,
+                                 std::span<const std::uint32_t> specialization) {
     VkShaderModule module = createShaderModule(device, code);
+    // Constant k (constant_id = k in the shader) is specialization[k], a 32-bit value.
+    std::vector<VkSpecializationMapEntry> entries;
+    for (std::uint32_t k = 0; k < specialization.size(); ++k)
+        entries.push_back({k, k * std::uint32_t(sizeof(std::uint32_t)), sizeof(std::uint32_t)});
+    const VkSpecializationInfo info{std::uint32_t(entries.size()), entries.data(),
+                                    specialization.size_bytes(), specialization.data()};
     VkComputePipelineCreateInfo cpi{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     cpi.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
                  nullptr,
@@ -716,7 +724,7 @@ VkPipeline createComputePipeline(VkDevice device, VkPipelineLayout layout,
                  VK_SHADER_STAGE_COMPUTE_BIT,
                  module,
                  "main",
-                 nullptr};
+                 specialization.empty() ? nullptr : &info};
     cpi.layout = layout;
     VkPipeline pipeline = VK_NULL_HANDLE;
     const VkResult r =

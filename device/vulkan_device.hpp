@@ -223,9 +223,11 @@ void bufferBarrier(VkCommandBuffer cb, VkBuffer buffer, VkPipelineStageFlags src
 
 /// A shader module of SPIR-V `code`; the caller destroys it.
 VkShaderModule createShaderModule(VkDevice device, std::span<const std::uint32_t> code);
-/// A compute pipeline of SPIR-V `code` (entry point "main") with `layout`; its module is gone
-/// by the time it returns. Throws VulkanError.
+/// A compute pipeline of SPIR-V `code` (entry point "main") with `layout`, its specialization
+/// constant k (constant_id = k) set to `specialization[k]`; its module is gone by the time it
+/// returns. Throws VulkanError.
 VkPipeline createComputePipeline(VkDevice device, VkPipelineLayout layout,
-                                 std::span<const std::uint32_t> code);
+                                 std::span<const std::uint32_t> code,
+                                 std::span<const std::uint32_t> specialization = {});
 
 } // namespace voxtier

@@ -10,6 +10,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <cstring>
 
@@ -48,6 +49,8 @@ struct NearPasses::Impl {
     /// This frame's NearOptions::skipEmpty and countSteps: which variant the pipelines take.
     bool skipEmpty = false;
     bool countSteps = false;
+    /// The trace's rows per workgroup on this device (nearTraceRows).
+    const std::uint32_t traceRows = nearTraceRows(device);
 
     // Shared by the slots (the frame-start barrier orders their use): the framebuffer over the
     // frames' targets, the cell store (grown up to the budget) and the splat's pixel words.
@@ -69,7 +72,10 @@ struct NearPasses::Impl {
     std::vector<const SpriteSetup*> visible;
     std::vector<std::uint8_t> flat;
     std::vector<glm::uvec2> tiles;
-    std::vector<near_gpu::NearSplatBlock> blocks, traceBlocks;
+    std::vector<near_gpu::NearSplatBlock> blocks;
+    /// Per sprite of `visible`, the first of its cell tiles, splat blocks and trace blocks (a
+    /// prefix sum: entry n is the total).
+    std::vector<std::uint64_t> tileStart, splatStart, traceStart;
     std::vector<std::uint32_t> byDepth, ranks;
     std::vector<std::uint8_t> touched;
     std::uint32_t frameCells = 0;
@@ -321,8 +327,9 @@ VkPipeline NearPasses::Impl::computePipeline(ComputePass pass) {
     const bool count = pass == TracePixels && countSteps;
     VkPipeline& slot = computePipelines[pass][skip][count];
     if (!slot)
-        slot = createNearComputePipeline(device.device(), pipelineLayout,
-                                         static_cast<NearComputePass>(pass), skip, count);
+        slot =
+            createNearComputePipeline(device.device(), pipelineLayout,
+                                      static_cast<NearComputePass>(pass), skip, count, traceRows);
     return slot;
 }
 
@@ -447,56 +454,97 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
             VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::DeviceOnly);
     }
     if (!cells) ensure(cells, 4096, BufferClass::DeviceOnly);
-    tiles.clear();
-    blocks.clear();
-    traceBlocks.clear();
-    byDepth.clear(); // the ranked sprites, nearest first, ties by entity id
-    // The resolve's tiles: every 32x32 tile of the image grid that a ranked rectangle touches,
-    // once, so that a frame with a few small cell-rate sprites resolves a few tiles and not the
-    // whole image.
+    // The ranked sprites: the cell-rate ones, and with tracePixels all. `visible` is in draw
+    // order with equal depths in ascending entity id, so a stable sort by depth alone gives
+    // Image::writeIfNearer's order: the least rank in a pixel is the sprite the depth test keeps.
+    // Under the early depth test `visible` is front to back already, and the sort is skipped.
+    byDepth.clear();
+    for (std::size_t k = 0; k < n; ++k)
+        if (tracePixels || plan.cellBase[k] != kNoCells) byDepth.push_back(std::uint32_t(k));
+    const auto nearer = [&](std::uint32_t a, std::uint32_t b) {
+        return visible[a]->gpu.depth > visible[b]->gpu.depth;
+    };
+    if (!std::is_sorted(byDepth.begin(), byDepth.end(), nearer))
+        std::stable_sort(byDepth.begin(), byDepth.end(), nearer);
+    ranks.assign(n, near_gpu::NEAR_NO_RANK);
+    const std::size_t ranked = byDepth.size();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ranked, kSpriteGrain), [&](const auto& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) ranks[byDepth[i]] = std::uint32_t(i);
+    });
+
+    // Each sprite's cell tiles (cell-rate) and its rectangle's 32x32 blocks (the splat's for a
+    // cell-rate sprite, the trace's for a per-pixel one), in `visible` order, written in parallel
+    // at offsets counted first: the trace's blocks go nearest first under the early depth test,
+    // so a nearer sprite's words are mostly written before a farther one reads them and the
+    // farther one skips the pixels it has lost. The resolve's tiles: every 32x32 tile of the
+    // image grid that a ranked rectangle touches, once, so that a frame with a few small
+    // cell-rate sprites resolves a few tiles and not the whole image.
     const int tilesX = (width + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
     const int tilesY = (height + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
     touched.assign(std::size_t(tilesX) * std::size_t(tilesY), 0);
-    // `visible` is front to back under the early depth test, so the trace's blocks are recorded
-    // nearest first too: a nearer sprite's words are then mostly written before a farther one
-    // reads them, and the farther one skips the pixels it has lost.
-    for (std::size_t k = 0; k < n; ++k) {
-        const bool cellRate = plan.cellBase[k] != kNoCells;
-        if (!cellRate && !tracePixels) continue;
-        byDepth.push_back(std::uint32_t(k));
-        if (cellRate) {
-            const std::uint64_t count = cellCount(*visible[k]);
-            for (std::uint64_t first = 0; first < count; first += near_gpu::NEAR_CELL_TILE)
-                tiles.push_back({std::uint32_t(k), std::uint32_t(first)});
+    const auto rectOf = [&](std::size_t k) {
+        return glm::min(visible[k]->screenRect, glm::ivec4(width, height, width, height));
+    };
+    const auto blockCount = [&](std::size_t k) -> std::uint64_t {
+        const glm::ivec4 r = rectOf(k);
+        if (r.z <= r.x || r.w <= r.y) return 0;
+        const auto b = std::uint64_t(NEAR_SPLAT_BLOCK);
+        return (std::uint64_t(r.z - r.x) + b - 1) / b * ((std::uint64_t(r.w - r.y) + b - 1) / b);
+    };
+    // Per ranked sprite (in byDepth's index space, then back to visible order): offsets.
+    tileStart.assign(n + 1, 0);
+    splatStart.assign(n + 1, 0);
+    traceStart.assign(n + 1, 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), [&](const auto& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+            if (ranks[k] == near_gpu::NEAR_NO_RANK) continue;
+            const bool cellRate = plan.cellBase[k] != kNoCells;
+            const std::uint64_t nb = blockCount(k);
+            if (cellRate) {
+                tileStart[k + 1] = (cellCount(*visible[k]) + near_gpu::NEAR_CELL_TILE - 1) /
+                                   near_gpu::NEAR_CELL_TILE;
+                splatStart[k + 1] = nb;
+            } else {
+                traceStart[k + 1] = nb;
+            }
         }
-        auto& into = cellRate ? blocks : traceBlocks;
-        const glm::ivec4 r =
-            glm::min(visible[k]->screenRect, glm::ivec4(width, height, width, height));
-        const std::uint32_t end = std::uint32_t(r.z) | std::uint32_t(r.w) << 16;
-        for (int y = r.y; y < r.w; y += int(NEAR_SPLAT_BLOCK))
-            for (int x = r.x; x < r.z; x += int(NEAR_SPLAT_BLOCK))
-                into.push_back(
-                    {std::uint32_t(k), std::uint32_t(x) | std::uint32_t(y) << 16, end, 0});
-        if (r.z <= r.x || r.w <= r.y) continue;
-        for (int ty = r.y / int(NEAR_SPLAT_BLOCK); ty <= (r.w - 1) / int(NEAR_SPLAT_BLOCK); ++ty)
-            for (int tx = r.x / int(NEAR_SPLAT_BLOCK); tx <= (r.z - 1) / int(NEAR_SPLAT_BLOCK);
-                 ++tx)
-                touched[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)] = 1;
-    }
-    // `visible` is in draw order with equal depths in ascending entity id, so a stable sort by
-    // depth alone gives Image::writeIfNearer's order: the least rank in a pixel is the sprite
-    // the depth test keeps.
-    std::stable_sort(byDepth.begin(), byDepth.end(), [&](std::uint32_t a, std::uint32_t b) {
-        return visible[a]->gpu.depth > visible[b]->gpu.depth;
     });
-    ranks.assign(n, near_gpu::NEAR_NO_RANK);
-    for (std::size_t r = 0; r < byDepth.size(); ++r) ranks[byDepth[r]] = std::uint32_t(r);
-    for (auto& b : blocks) b.rank = ranks[b.sprite];
-    for (auto& b : traceBlocks) b.rank = ranks[b.sprite];
-    // The trace's blocks, then the resolve's tiles, follow the splat's in the same buffer.
-    const std::uint32_t splatCount = std::uint32_t(blocks.size());
-    const std::uint32_t traceCount = std::uint32_t(traceBlocks.size());
-    blocks.insert(blocks.end(), traceBlocks.begin(), traceBlocks.end());
+    for (std::size_t k = 0; k < n; ++k) {
+        tileStart[k + 1] += tileStart[k];
+        splatStart[k + 1] += splatStart[k];
+        traceStart[k + 1] += traceStart[k];
+    }
+    tiles.resize(std::size_t(tileStart[n]));
+    blocks.resize(std::size_t(splatStart[n] + traceStart[n]));
+    // The trace's blocks follow the splat's in the same buffer.
+    const std::uint64_t traceBase = splatStart[n];
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), [&](const auto& range) {
+        for (std::size_t k = range.begin(); k != range.end(); ++k) {
+            if (ranks[k] == near_gpu::NEAR_NO_RANK) continue;
+            const bool cellRate = plan.cellBase[k] != kNoCells;
+            for (std::uint64_t t = tileStart[k]; t < tileStart[k + 1]; ++t)
+                tiles[std::size_t(t)] = {
+                    std::uint32_t(k), std::uint32_t((t - tileStart[k]) * near_gpu::NEAR_CELL_TILE)};
+            const glm::ivec4 r = rectOf(k);
+            if (r.z <= r.x || r.w <= r.y) continue;
+            const std::uint32_t end = std::uint32_t(r.z) | std::uint32_t(r.w) << 16;
+            std::size_t at = std::size_t(cellRate ? splatStart[k] : traceBase + traceStart[k]);
+            for (int y = r.y; y < r.w; y += int(NEAR_SPLAT_BLOCK))
+                for (int x = r.x; x < r.z; x += int(NEAR_SPLAT_BLOCK))
+                    blocks[at++] = {std::uint32_t(k), std::uint32_t(x) | std::uint32_t(y) << 16,
+                                    end, ranks[k]};
+            for (int ty = r.y / int(NEAR_SPLAT_BLOCK); ty <= (r.w - 1) / int(NEAR_SPLAT_BLOCK);
+                 ++ty)
+                for (int tx = r.x / int(NEAR_SPLAT_BLOCK); tx <= (r.z - 1) / int(NEAR_SPLAT_BLOCK);
+                     ++tx)
+                    std::atomic_ref<std::uint8_t>(
+                        touched[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)])
+                        .store(1, std::memory_order_relaxed);
+        }
+    });
+    const std::uint32_t splatCount = std::uint32_t(splatStart[n]);
+    const std::uint32_t traceCount = std::uint32_t(traceStart[n]);
+    // The resolve's tiles follow the trace's blocks.
     const std::uint32_t imageEnd = std::uint32_t(width) | std::uint32_t(height) << 16;
     for (int ty = 0; ty < tilesY; ++ty)
         for (int tx = 0; tx < tilesX; ++tx)

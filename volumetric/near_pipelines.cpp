@@ -3,7 +3,9 @@
 #include "volumetric/shaders/near_shared.h"
 
 #include <cstdint>
+#include <cstdlib>
 #include <span>
+#include <string>
 
 // SPIR-V generated at build time by glslangValidator (volumetric/CMakeLists.txt).
 #include "shaders/near_box_vert.h"
@@ -127,7 +129,7 @@ VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRende
 }
 
 VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, NearComputePass pass,
-                                     bool skipEmpty, bool countSteps) {
+                                     bool skipEmpty, bool countSteps, std::uint32_t traceRows) {
     using enum NearComputePass;
     using Code = std::span<const std::uint32_t>;
     // [skipEmpty][countSteps]
@@ -139,7 +141,21 @@ VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, Near
                       : pass == Splat       ? Code(near_splat_comp)
                       : pass == TracePixels ? trace[skipEmpty][countSteps]
                                             : Code(near_resolve_comp);
-    return createComputePipeline(dev, layout, code);
+    const std::uint32_t rows[] = {traceRows};
+    return createComputePipeline(dev, layout, code,
+                                 pass == TracePixels ? std::span<const std::uint32_t>(rows)
+                                                     : std::span<const std::uint32_t>());
+}
+
+std::uint32_t nearTraceRows(const VulkanDevice& device) {
+    if (const char* v = std::getenv("VOXTIER_NEAR_TRACE_ROWS")) {
+        const std::string s = v;
+        for (std::uint32_t rows : {1u, 2u, 4u, 8u, 16u, 32u})
+            if (s == std::to_string(rows)) return rows;
+        throw VulkanError("VOXTIER_NEAR_TRACE_ROWS: expected 1, 2, 4, 8, 16 or 32, got '" + s +
+                          "'");
+    }
+    return device.isCpu() ? 2u : 8u;
 }
 
 } // namespace voxtier

@@ -20,8 +20,14 @@ VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRende
 /// outline and splat, the per-pixel sprites' trace (NearPixels::Compute), the resolve.
 enum class NearComputePass { TraceCells, Outline, Splat, TracePixels, Resolve };
 /// A compute pass's pipeline; `skipEmpty` matters to the two tracing passes alone, `countSteps`
-/// to TracePixels alone (its variant counting traced pixels and voxel reads).
+/// and `traceRows` (the rows of a 32-pixel-wide block its workgroup runs at once) to TracePixels
+/// alone.
 VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, NearComputePass pass,
-                                     bool skipEmpty, bool countSteps);
+                                     bool skipEmpty, bool countSteps, std::uint32_t traceRows);
+
+/// The trace's rows per workgroup on `device`: 2 on a CPU device (llvmpipe pays per workgroup
+/// invocation), 8 on a GPU (docs/decisions/near-pixels-in-compute.md); VOXTIER_NEAR_TRACE_ROWS
+/// (1, 2, 4, 8, 16 or 32) overrides it, for measuring.
+std::uint32_t nearTraceRows(const VulkanDevice& device);
 
 } // namespace voxtier

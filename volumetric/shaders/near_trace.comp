@@ -11,13 +11,16 @@
 // Why not the fragment shader: on an NVIDIA H200 the same kernel ran about 50 times faster per
 // invocation in a compute pass than in the draw's fragment shader
 // (docs/decisions/near-pixels-in-compute.md).
-// The workgroup is the splat's: one NEAR_SPLAT_BLOCK² block of one sprite's rectangle, 32 x 2
-// invocations walking it two rows at a time. Compiled with VT_COUNT_STEPS too: the variant that
-// counts traced pixels and their voxel reads, and with VT_SKIP_EMPTY (the box march).
+// A workgroup is one NEAR_SPLAT_BLOCK² block of one sprite's rectangle (the splat's blocks).
+// Compiled with VT_COUNT_STEPS too: the variant that counts traced pixels and their voxel reads,
+// and with VT_SKIP_EMPTY (the box march).
 #extension GL_GOOGLE_include_directive : require
 #include "volumetric/shaders/near_shared.h"
 
-layout(local_size_x = NEAR_SPLAT_BLOCK, local_size_y = 2) in;
+// The rows a workgroup runs at once (specialization constant 0, NearPasses: traceRows): few on a
+// CPU device, which pays per workgroup invocation, many on a GPU, whose invocations run side by
+// side; the invocations walk the block's 32 rows that many at a time.
+layout(local_size_x = NEAR_SPLAT_BLOCK, local_size_y_id = 0) in;
 
 layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
 layout(std430, set = 0, binding = NEAR_BINDING_BRICKS) readonly buffer Bricks {
@@ -84,7 +87,7 @@ void main() {
 #ifdef VT_COUNT_STEPS
     uint traced = 0u;
 #endif
-    for (uint y = (b.origin >> 16) + gl_LocalInvocationID.y; y < yEnd; y += 2u) {
+    for (uint y = (b.origin >> 16) + gl_LocalInvocationID.y; y < yEnd; y += gl_WorkGroupSize.y) {
         uint p = y * vtPush.width + x;
 #ifndef VT_COUNT_STEPS
         // A nearer sprite already shows something here: this one cannot win the pixel. (The
