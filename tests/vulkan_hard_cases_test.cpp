@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -344,6 +345,40 @@ TEST(VulkanThreads, ImageIdenticalForLpNumThreads0And1And2) {
     ASSERT_EQ(
         runCli("", "render " + scene + " --mode reference --out " + ref, dir + "/err_ref.txt"), 0);
     EXPECT_TRUE(withoutDateTime(readFile(ref)) == first) << "near EXR differs from reference EXR";
+    std::filesystem::remove_all(dir);
+}
+
+// The trace's workgroup shape a GPU takes (8x8 blocks, a pixel per invocation) and another,
+// forced on lavapipe through the measuring variables: the same EXR (colour, Z, id) as the
+// reference, per-pixel sprites only (so that every sprite goes through the trace). A bad value
+// is a one-line error naming the variable.
+TEST(VulkanTraceShape, EveryShapeWritesTheReferenceImage) {
+    const std::string dir =
+        ::testing::TempDir() + "voxtier_trace_shape_" + std::to_string(::getpid());
+    std::filesystem::create_directories(dir);
+    const std::string scene = std::string(VOXTIER_SOURCE_DIR) + "/scenes/default.json";
+    const std::string ref = dir + "/reference.exr";
+    ASSERT_EQ(runCli("", "render " + scene + " --mode reference --out " + ref, dir + "/e.txt"), 0)
+        << readFile(dir + "/e.txt");
+    for (const char* shape : {"VOXTIER_NEAR_TRACE_BLOCK=8 VOXTIER_NEAR_TRACE_ROWS=8",
+                              "VOXTIER_NEAR_TRACE_BLOCK=16 VOXTIER_NEAR_TRACE_ROWS=1"}) {
+        const std::string out = dir + "/near.exr";
+        ASSERT_EQ(runCli(shape,
+                         "render " + scene +
+                             " --mode near --near-backend vulkan --near-rate fragment --out " + out,
+                         dir + "/e.txt"),
+                  0)
+            << shape << ": " << readFile(dir + "/e.txt");
+        EXPECT_TRUE(withoutDateTime(readFile(out)) == withoutDateTime(readFile(ref))) << shape;
+    }
+    EXPECT_EQ(
+        runCli("VOXTIER_NEAR_TRACE_BLOCK=12",
+               "render " + scene + " --mode near --near-backend vulkan --out " + dir + "/x.exr",
+               dir + "/e.txt"),
+        1);
+    const std::string err = readFile(dir + "/e.txt");
+    EXPECT_NE(err.find("VOXTIER_NEAR_TRACE_BLOCK"), std::string::npos) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
     std::filesystem::remove_all(dir);
 }
 

@@ -49,8 +49,8 @@ struct NearPasses::Impl {
     /// This frame's NearOptions::skipEmpty and countSteps: which variant the pipelines take.
     bool skipEmpty = false;
     bool countSteps = false;
-    /// The trace's rows per workgroup on this device (nearTraceRows).
-    const std::uint32_t traceRows = nearTraceRows(device);
+    /// The trace's workgroup on this device (nearTraceShape).
+    const NearTraceShape traceShape = nearTraceShape(device);
 
     // Shared by the slots (the frame-start barrier orders their use): the framebuffer over the
     // frames' targets, the cell store (grown up to the budget) and the splat's pixel words.
@@ -329,7 +329,7 @@ VkPipeline NearPasses::Impl::computePipeline(ComputePass pass) {
     if (!slot)
         slot =
             createNearComputePipeline(device.device(), pipelineLayout,
-                                      static_cast<NearComputePass>(pass), skip, count, traceRows);
+                                      static_cast<NearComputePass>(pass), skip, count, traceShape);
     return slot;
 }
 
@@ -485,10 +485,14 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
     const auto rectOf = [&](std::size_t k) {
         return glm::min(visible[k]->screenRect, glm::ivec4(width, height, width, height));
     };
-    const auto blockCount = [&](std::size_t k) -> std::uint64_t {
+    // A splat block is NEAR_SPLAT_BLOCK pixels a side, a trace block the trace's side.
+    const auto sideOf = [&](bool cellRate) {
+        return cellRate ? int(NEAR_SPLAT_BLOCK) : int(traceShape.side);
+    };
+    const auto blockCount = [&](std::size_t k, int side) -> std::uint64_t {
         const glm::ivec4 r = rectOf(k);
         if (r.z <= r.x || r.w <= r.y) return 0;
-        const auto b = std::uint64_t(NEAR_SPLAT_BLOCK);
+        const auto b = std::uint64_t(side);
         return (std::uint64_t(r.z - r.x) + b - 1) / b * ((std::uint64_t(r.w - r.y) + b - 1) / b);
     };
     // Per ranked sprite (in byDepth's index space, then back to visible order): offsets.
@@ -499,7 +503,7 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
         for (std::size_t k = r.begin(); k != r.end(); ++k) {
             if (ranks[k] == near_gpu::NEAR_NO_RANK) continue;
             const bool cellRate = plan.cellBase[k] != kNoCells;
-            const std::uint64_t nb = blockCount(k);
+            const std::uint64_t nb = blockCount(k, sideOf(cellRate));
             if (cellRate) {
                 tileStart[k + 1] = (cellCount(*visible[k]) + near_gpu::NEAR_CELL_TILE - 1) /
                                    near_gpu::NEAR_CELL_TILE;
@@ -529,8 +533,9 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
             if (r.z <= r.x || r.w <= r.y) continue;
             const std::uint32_t end = std::uint32_t(r.z) | std::uint32_t(r.w) << 16;
             std::size_t at = std::size_t(cellRate ? splatStart[k] : traceBase + traceStart[k]);
-            for (int y = r.y; y < r.w; y += int(NEAR_SPLAT_BLOCK))
-                for (int x = r.x; x < r.z; x += int(NEAR_SPLAT_BLOCK))
+            const int side = sideOf(cellRate);
+            for (int y = r.y; y < r.w; y += side)
+                for (int x = r.x; x < r.z; x += side)
                     blocks[at++] = {std::uint32_t(k), std::uint32_t(x) | std::uint32_t(y) << 16,
                                     end, ranks[k]};
             for (int ty = r.y / int(NEAR_SPLAT_BLOCK); ty <= (r.w - 1) / int(NEAR_SPLAT_BLOCK);

@@ -2,6 +2,7 @@
 
 #include "volumetric/shaders/near_shared.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <span>
@@ -129,7 +130,7 @@ VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRende
 }
 
 VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, NearComputePass pass,
-                                     bool skipEmpty, bool countSteps, std::uint32_t traceRows) {
+                                     bool skipEmpty, bool countSteps, NearTraceShape traceShape) {
     using enum NearComputePass;
     using Code = std::span<const std::uint32_t>;
     // [skipEmpty][countSteps]
@@ -141,21 +142,30 @@ VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, Near
                       : pass == Splat       ? Code(near_splat_comp)
                       : pass == TracePixels ? trace[skipEmpty][countSteps]
                                             : Code(near_resolve_comp);
-    const std::uint32_t rows[] = {traceRows};
+    const std::uint32_t shape[] = {traceShape.rows, traceShape.side}; // constant_id 0, 1
     return createComputePipeline(dev, layout, code,
-                                 pass == TracePixels ? std::span<const std::uint32_t>(rows)
+                                 pass == TracePixels ? std::span<const std::uint32_t>(shape)
                                                      : std::span<const std::uint32_t>());
 }
 
-std::uint32_t nearTraceRows(const VulkanDevice& device) {
-    if (const char* v = std::getenv("VOXTIER_NEAR_TRACE_ROWS")) {
-        const std::string s = v;
-        for (std::uint32_t rows : {1u, 2u, 4u, 8u, 16u, 32u})
-            if (s == std::to_string(rows)) return rows;
-        throw VulkanError("VOXTIER_NEAR_TRACE_ROWS: expected 1, 2, 4, 8, 16 or 32, got '" + s +
-                          "'");
-    }
-    return device.isCpu() ? 2u : 8u;
+namespace {
+/// The environment's power of two in [1, most] named `name`, or `fallback` where it is unset.
+std::uint32_t powerOfTwoFromEnv(const char* name, std::uint32_t least, std::uint32_t most,
+                                std::uint32_t fallback) {
+    const char* v = std::getenv(name);
+    if (!v) return fallback;
+    for (std::uint32_t p = least; p <= most; p *= 2)
+        if (std::string(v) == std::to_string(p)) return p;
+    throw VulkanError(std::string(name) + ": expected a power of two from " +
+                      std::to_string(least) + " to " + std::to_string(most) + ", got '" + v + "'");
+}
+} // namespace
+
+NearTraceShape nearTraceShape(const VulkanDevice& device) {
+    NearTraceShape s = device.isCpu() ? NearTraceShape{32, 2} : NearTraceShape{8, 8};
+    s.side = powerOfTwoFromEnv("VOXTIER_NEAR_TRACE_BLOCK", 8, 32, s.side);
+    s.rows = std::min(s.side, powerOfTwoFromEnv("VOXTIER_NEAR_TRACE_ROWS", 1, 32, s.rows));
+    return s;
 }
 
 } // namespace voxtier

@@ -19,15 +19,20 @@ VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRende
 /// The compute passes, in the order a frame records them: the cell-rate sprites' cells, their
 /// outline and splat, the per-pixel sprites' trace (NearPixels::Compute), the resolve.
 enum class NearComputePass { TraceCells, Outline, Splat, TracePixels, Resolve };
-/// A compute pass's pipeline; `skipEmpty` matters to the two tracing passes alone, `countSteps`
-/// and `traceRows` (the rows of a 32-pixel-wide block its workgroup runs at once) to TracePixels
-/// alone.
-VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, NearComputePass pass,
-                                     bool skipEmpty, bool countSteps, std::uint32_t traceRows);
+/// The trace's workgroup: square blocks of `side` pixels of a sprite's rectangle, `rows` of them
+/// run at once (rows <= side).
+struct NearTraceShape {
+    std::uint32_t side = 32, rows = 2;
+};
+/// On `device`: 32-pixel blocks two rows at a time on a CPU device (llvmpipe pays per workgroup
+/// invocation), 8x8 blocks a pixel each on a GPU (docs/decisions/near-pixels-in-compute.md).
+/// VOXTIER_NEAR_TRACE_BLOCK (8, 16 or 32) and VOXTIER_NEAR_TRACE_ROWS (1 to 32, a power of two
+/// up to the side) override them, for measuring. Throws VulkanError on other values.
+NearTraceShape nearTraceShape(const VulkanDevice& device);
 
-/// The trace's rows per workgroup on `device`: 2 on a CPU device (llvmpipe pays per workgroup
-/// invocation), 8 on a GPU (docs/decisions/near-pixels-in-compute.md); VOXTIER_NEAR_TRACE_ROWS
-/// (1, 2, 4, 8, 16 or 32) overrides it, for measuring.
-std::uint32_t nearTraceRows(const VulkanDevice& device);
+/// A compute pass's pipeline; `skipEmpty` matters to the two tracing passes alone, `countSteps`
+/// and `traceShape` (its workgroup) to TracePixels alone.
+VkPipeline createNearComputePipeline(VkDevice dev, VkPipelineLayout layout, NearComputePass pass,
+                                     bool skipEmpty, bool countSteps, NearTraceShape traceShape);
 
 } // namespace voxtier

@@ -11,16 +11,19 @@
 // Why not the fragment shader: on an NVIDIA H200 the same kernel ran about 50 times faster per
 // invocation in a compute pass than in the draw's fragment shader
 // (docs/decisions/near-pixels-in-compute.md).
-// A workgroup is one NEAR_SPLAT_BLOCK² block of one sprite's rectangle (the splat's blocks).
+// A workgroup is one square block of one sprite's rectangle (NearTraceShape: 32 pixels a side
+// on a CPU device, 8 on a GPU).
 // Compiled with VT_COUNT_STEPS too: the variant that counts traced pixels and their voxel reads,
 // and with VT_SKIP_EMPTY (the box march).
 #extension GL_GOOGLE_include_directive : require
 #include "volumetric/shaders/near_shared.h"
 
-// The rows a workgroup runs at once (specialization constant 0, NearPasses: traceRows): few on a
-// CPU device, which pays per workgroup invocation, many on a GPU, whose invocations run side by
-// side; the invocations walk the block's 32 rows that many at a time.
-layout(local_size_x = NEAR_SPLAT_BLOCK, local_size_y_id = 0) in;
+// The workgroup's shape (specialization constants, NearTraceShape): constant 1 the block's side
+// in pixels, constant 0 the rows it runs at once, walking the block that many at a time. A CPU
+// device pays per workgroup invocation and takes 32-pixel blocks two rows at a time; a GPU runs
+// invocations side by side and takes 8x8 blocks a pixel each, so that a sprite of a few pixels
+// occupies few idle lanes.
+layout(local_size_x_id = 1, local_size_y_id = 0) in;
 
 layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
 layout(std430, set = 0, binding = NEAR_BINDING_BRICKS) readonly buffer Bricks {
@@ -80,7 +83,7 @@ void main() {
     NearSplatBlock b = vtBlocks[vtPush.first + block];
     uint x = (b.origin & 0xFFFFu) + gl_LocalInvocationID.x;
     if (x >= (b.end & 0xFFFFu)) return;
-    uint yEnd = min(b.end >> 16, (b.origin >> 16) + NEAR_SPLAT_BLOCK);
+    uint yEnd = min(b.end >> 16, (b.origin >> 16) + gl_WorkGroupSize.x);
     SpriteGpu s = vtSprites[b.sprite];
     vtAtlasBase = ivec3(s.atlas.xyz);
     vtBrickBase = s.brickBase;
