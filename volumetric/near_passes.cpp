@@ -10,9 +10,12 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <cstring>
+#include <map>
+#include <utility>
 
 namespace voxtier {
 
@@ -46,11 +49,13 @@ struct NearPasses::Impl {
     /// [pass][skipEmpty][countSteps] (only the tracing passes have those variants), created on
     /// first use
     VkPipeline computePipelines[ComputePassCount][2][2] = {};
+    /// The trace's pipelines of other shapes than 32x2 ([skipEmpty][countSteps] each).
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::array<VkPipeline, 4>> tracePipelines;
     /// This frame's NearOptions::skipEmpty and countSteps: which variant the pipelines take.
     bool skipEmpty = false;
     bool countSteps = false;
-    /// The trace's workgroup on this device (nearTraceShape).
-    const NearTraceShape traceShape = nearTraceShape(device);
+    /// This frame's trace workgroup (nearTraceShape).
+    NearTraceShape traceShape;
 
     // Shared by the slots (the frame-start barrier orders their use): the framebuffer over the
     // frames' targets, the cell store (grown up to the budget) and the splat's pixel words.
@@ -286,6 +291,10 @@ void NearPasses::Impl::destroy() noexcept {
                 if (p) vkDestroyPipeline(dev, p, nullptr);
                 p = VK_NULL_HANDLE;
             }
+    for (auto& [shape, four] : tracePipelines)
+        for (VkPipeline p : four)
+            if (p) vkDestroyPipeline(dev, p, nullptr);
+    tracePipelines.clear();
     for (Slot& s : slots)
         if (s.statsPool) vkDestroyQueryPool(dev, s.statsPool, nullptr);
     slots.clear();
@@ -325,7 +334,10 @@ VkPipeline NearPasses::Impl::computePipeline(ComputePass pass) {
                   int(Resolve) == int(NearComputePass::Resolve));
     const bool skip = (pass == TraceCells || pass == TracePixels) && skipEmpty;
     const bool count = pass == TracePixels && countSteps;
-    VkPipeline& slot = computePipelines[pass][skip][count];
+    const bool shaped = pass == TracePixels && (traceShape.side != 32 || traceShape.rows != 2);
+    VkPipeline& slot =
+        shaped ? tracePipelines[{traceShape.side, traceShape.rows}][std::size_t(skip) * 2 + count]
+               : computePipelines[pass][skip][count];
     if (!slot)
         slot =
             createNearComputePipeline(device.device(), pipelineLayout,
@@ -812,6 +824,7 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
     stats.cellOverBudget = plan.overBudget;
     stats.pixelsTraced = plan.pixelsTraced;
     stats.pixelsLookedUp = plan.pixelsLookedUp;
+    m.traceShape = nearTraceShape(m.device, tracePixels ? m.visible.size() - plan.cellSprites : 0);
     const Impl::CellWork work = m.writeCells(frame, slot, plan, opt.cellBudgetBytes, tracePixels);
     m.frameCells = std::uint32_t(plan.cells);
     m.writeDescriptors(frame, slot);

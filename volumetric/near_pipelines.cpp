@@ -161,8 +161,9 @@ std::uint32_t powerOfTwoFromEnv(const char* name, std::uint32_t least, std::uint
 }
 } // namespace
 
-NearTraceShape nearTraceShape(const VulkanDevice& device) {
-    NearTraceShape s = device.isCpu() ? NearTraceShape{32, 2} : NearTraceShape{8, 8};
+NearTraceShape nearTraceShape(const VulkanDevice& device, std::size_t sprites) {
+    NearTraceShape s =
+        device.isCpu() || sprites > kFewTraceSprites ? NearTraceShape{32, 2} : NearTraceShape{8, 8};
     s.side = powerOfTwoFromEnv("VOXTIER_NEAR_TRACE_BLOCK", 8, 32, s.side);
     s.rows = std::min(s.side, powerOfTwoFromEnv("VOXTIER_NEAR_TRACE_ROWS", 1, 32, s.rows));
     return s;

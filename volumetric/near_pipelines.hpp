@@ -7,6 +7,9 @@
 
 #include <vulkan/vulkan.h>
 
+#include <cstddef>
+#include <cstdint>
+
 namespace voxtier {
 
 /// The draw's pipeline: `proxy`'s vertex shader and near.frag, its variant counting voxel reads
@@ -24,11 +27,16 @@ enum class NearComputePass { TraceCells, Outline, Splat, TracePixels, Resolve };
 struct NearTraceShape {
     std::uint32_t side = 32, rows = 2;
 };
-/// On `device`: 32-pixel blocks two rows at a time on a CPU device (llvmpipe pays per workgroup
-/// invocation), 8x8 blocks a pixel each on a GPU (docs/decisions/near-pixels-in-compute.md).
+/// Per-pixel sprites up to which a GPU frame traces in 8x8 blocks (see nearTraceShape).
+inline constexpr std::size_t kFewTraceSprites = 8192;
+/// On `device`, for a frame that traces `sprites` per-pixel sprites: 32-pixel blocks two rows at
+/// a time on a CPU device (llvmpipe pays per workgroup invocation); on a GPU 8x8 blocks a pixel
+/// each up to kFewTraceSprites sprites, and past them 32-pixel blocks two rows at a time, as on a
+/// CPU. On an NVIDIA H200 8x8 blocks took 0.20 ms against 1.49 at 2,000 tanks, 5.7 against 3.9
+/// at 20,000 and 31 against 16 at 100,000 (docs/decisions/near-pixels-in-compute.md).
 /// VOXTIER_NEAR_TRACE_BLOCK (8, 16 or 32) and VOXTIER_NEAR_TRACE_ROWS (1 to 32, a power of two
-/// up to the side) override them, for measuring. Throws VulkanError on other values.
-NearTraceShape nearTraceShape(const VulkanDevice& device);
+/// up to the side) force one shape, for measuring. Throws VulkanError on other values.
+NearTraceShape nearTraceShape(const VulkanDevice& device, std::size_t sprites);
 
 /// A compute pass's pipeline; `skipEmpty` matters to the two tracing passes alone, `countSteps`
 /// and `traceShape` (its workgroup) to TracePixels alone.
