@@ -264,7 +264,7 @@ if os.environ.get("GC_PROFILE") == "1":
     parts = [("frame_ms", "frame"), ("host_setup_ms", "set-up"), ("host_select_ms", "select"),
              ("host_record_ms", "record"), ("host_wait_ms", "wait"), ("host_readback_ms", "readback"),
              ("gpu_frame_ms", "GPU frame"), ("gpu_upload_ms", "GPU upload"), ("gpu_cells_ms", "GPU cells"),
-             ("gpu_splat_ms", "GPU splat"), ("gpu_draw_ms", "GPU draw"), ("gpu_resolve_ms", "GPU resolve"),
+             ("gpu_splat_ms", "GPU splat"), ("gpu_draw_ms", "GPU trace or draw"), ("gpu_resolve_ms", "GPU resolve"),
              ("gpu_far_ms", "GPU far"), ("gpu_copy_ms", "GPU copies")]
     sources = [(os.path.join(out, "bench", "results.csv"), "modes"),
                (os.path.join(out, "tank_curve", "results.csv"), "scaling_entities")]

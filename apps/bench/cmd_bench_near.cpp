@@ -249,9 +249,9 @@ void run(const BenchArgs& a) {
     };
     // The default first (per-pixel sprites traced in compute), then the draw (hull proxy, one
     // instanced draw), then one change of the draw at a time.
-    std::vector<Variant> variants = {Variant{"compute", NearOptions{}},
-                                     variant("hull-instanced", NearProxy::Hull,
-                                             NearDraws::Instanced)};
+    std::vector<Variant> variants = {
+        Variant{"compute", NearOptions{}},
+        variant("hull-instanced", NearProxy::Hull, NearDraws::Instanced)};
     if (a.alternatives) {
         variants.push_back(variant("hull-per-entity", NearProxy::Hull, NearDraws::PerEntity));
         variants.push_back(variant("quad-instanced", NearProxy::Quad, NearDraws::Instanced));
