@@ -173,8 +173,10 @@ TEST(SharedCache, ADirectoryWithoutTheCoarsestViewsGivesTheLoneImage) {
     const std::set<std::string> coarse = snapshotNames(d / "l1");
     ASSERT_FALSE(coarse.empty());
     removeSnapshots(d / "l2", coarse);
-    ASSERT_GT(snapshotNames(d / "l2").size(), 0u);
-    for (const std::string& name : coarse) ASSERT_EQ(snapshotNames(d / "l2").count(name), 0u);
+    // Decoded once: each decode digests every pack, and under ASan one per name took minutes.
+    const std::set<std::string> left = snapshotNames(d / "l2");
+    ASSERT_GT(left.size(), 0u);
+    for (const std::string& name : coarse) ASSERT_EQ(left.count(name), 0u);
     ASSERT_EQ(finish(start(renderArgs(d / "out", (d / "l2").string()))), 0);
     EXPECT_EQ(differences(d / "out"), "");
 }
@@ -182,10 +184,11 @@ TEST(SharedCache, ADirectoryWithoutTheCoarsestViewsGivesTheLoneImage) {
 // Rounds of: two renders at once into a fresh directory of 1 MiB, a bake of the finer views
 // into it, two more renders started while those run. Every image must equal the lone render.
 // With the planner fix reverted 8 of 8 rounds had a differing image, one by exactly the issue's
-// 1 pixel at three frames (docs/baking.md); VOXTIER_STRESS_ROUNDS=N runs N rounds.
+// 1 pixel at three frames (docs/baking.md), so 4 rounds by default still catch it;
+// VOXTIER_STRESS_ROUNDS=N runs N rounds.
 TEST(SharedCache, ConcurrentRendersAndBakesIntoOneLimitedDirectoryDrawTheLoneImage) {
     const char* env = std::getenv("VOXTIER_STRESS_ROUNDS");
-    const int rounds = env ? std::atoi(env) : 8;
+    const int rounds = env ? std::atoi(env) : 4;
     ASSERT_FALSE(loneFrames().empty());
     const WorkDir work;
     std::string failures;
