@@ -963,6 +963,29 @@ TEST(BenchCommand, HelpGivesEachPresetsFigures) {
     EXPECT_EQ(r.out.find("smoke"), std::string::npos) << r.out; // test-only
 }
 
+// --entity-counts and --far-backend vulkan, which the smoke fixture above does not pass: the
+// entity curve has a row per mode at the asked count, and every mode with far sprites names the
+// Vulkan far pass (the GPU check's profile runs them at scale; this keeps them under the
+// sanitizers at the smallest size).
+TEST(BenchCommand, EntityCountsAndTheVulkanFarPassGiveTheirRows) {
+    ScratchDir dir;
+    const CliRun r = runCli("bench --smoke --no-sweeps --far-backend vulkan --entity-counts 20 "
+                            "scenes/bench/tank_army.json --out '" +
+                            (dir.path / "out").string() + "'");
+    ASSERT_EQ(r.status, 0) << r.out << r.err;
+    const json results = json::parse(slurp(dir.path / "out" / "results.json"));
+    std::set<std::string> curve, farOnVulkan;
+    for (const json& row : results["rows"]) {
+        if (row["group"] == "scaling_entities" && row["param"].get<double>() == 20.0)
+            curve.insert(row["mode"].get<std::string>());
+        if (row["group"] == "modes" && row["far_backend"] == "vulkan")
+            farOnVulkan.insert(row["mode"].get<std::string>());
+    }
+    EXPECT_EQ(curve, (std::set<std::string>{"near_vulkan", "near_vulkan_fragment", "near_reference",
+                                            "far", "hybrid", "hybrid_gpu_far"}));
+    EXPECT_EQ(farOnVulkan, (std::set<std::string>{"far", "hybrid", "hybrid_gpu_far"}));
+}
+
 // `bench near --out`: header and rows come from one column table (apps/bench/harness.hpp
 // CsvWriter), so the header keeps its 15 names in order and every row is as wide as it. Its
 // repeats are --repeats, as everywhere else in the bench.
