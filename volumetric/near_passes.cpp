@@ -126,6 +126,11 @@ struct NearPasses::Impl {
     /// sprite ranked.
     CellWork writeCells(GpuFrame& frame, Slot& slot, const CellRatePlan& plan,
                         std::uint64_t budgetBytes, bool tracePixels);
+    /// byDepth and ranks: the ranked sprites (cell-rate, and with `tracePixels` all) in
+    /// Image::writeIfNearer's order, and each one's place in it.
+    void rankSprites(const CellRatePlan& plan, bool tracePixels);
+    /// writeCells' lists: ranks, cell tiles, splat and trace blocks, resolve tiles.
+    CellWork buildWorkLists(const CellRatePlan& plan, bool tracePixels, int width, int height);
     void writeDescriptors(GpuFrame& frame, Slot& slot);
     void dispatch(GpuFrame& frame, Slot& slot, ComputePass pass, std::uint32_t groups,
                   std::uint32_t first = 0);
@@ -444,9 +449,7 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
                                                         const CellRatePlan& plan,
                                                         std::uint64_t budgetBytes,
                                                         bool tracePixels) {
-    using near_gpu::NEAR_SPLAT_BLOCK;
     const int width = frame.width(), height = frame.height();
-    const std::size_t n = visible.size();
     const auto upload = [&](VulkanBuffer& b, const auto& v) {
         const VkDeviceSize bytes = v.size() * sizeof(v[0]);
         ensure(b, std::max<VkDeviceSize>(bytes, 4));
@@ -466,6 +469,15 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
             VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::DeviceOnly);
     }
     if (!cells) ensure(cells, 4096, BufferClass::DeviceOnly);
+    const CellWork work = buildWorkLists(plan, tracePixels, width, height);
+    upload(slot.cellTiles, tiles);
+    upload(slot.splatBlocks, blocks);
+    upload(slot.rankSprites, byDepth);
+    return work;
+}
+
+void NearPasses::Impl::rankSprites(const CellRatePlan& plan, bool tracePixels) {
+    const std::size_t n = visible.size();
     // The ranked sprites: the cell-rate ones, and with tracePixels all. `visible` is in draw
     // order with equal depths in ascending entity id, so a stable sort by depth alone gives
     // Image::writeIfNearer's order: the least rank in a pixel is the sprite the depth test keeps.
@@ -483,7 +495,14 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ranked, kSpriteGrain), [&](const auto& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) ranks[byDepth[i]] = std::uint32_t(i);
     });
+}
 
+NearPasses::Impl::CellWork NearPasses::Impl::buildWorkLists(const CellRatePlan& plan,
+                                                            bool tracePixels, int width,
+                                                            int height) {
+    using near_gpu::NEAR_SPLAT_BLOCK;
+    const std::size_t n = visible.size();
+    rankSprites(plan, tracePixels);
     // Each sprite's cell tiles (cell-rate) and its rectangle's 32x32 blocks (the splat's for a
     // cell-rate sprite, the trace's for a per-pixel one), in `visible` order, written in parallel
     // at offsets counted first: the trace's blocks go nearest first under the early depth test,
@@ -507,7 +526,7 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
         const auto b = std::uint64_t(side);
         return (std::uint64_t(r.z - r.x) + b - 1) / b * ((std::uint64_t(r.w - r.y) + b - 1) / b);
     };
-    // Per ranked sprite (in byDepth's index space, then back to visible order): offsets.
+    // Per sprite of `visible` (0 where unranked): its counts, then their prefix sums.
     tileStart.assign(n + 1, 0);
     splatStart.assign(n + 1, 0);
     traceStart.assign(n + 1, 0);
@@ -570,9 +589,6 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
                                   std::uint32_t(tx) * NEAR_SPLAT_BLOCK |
                                       (std::uint32_t(ty) * NEAR_SPLAT_BLOCK) << 16,
                                   imageEnd, 0});
-    upload(slot.cellTiles, tiles);
-    upload(slot.splatBlocks, blocks);
-    upload(slot.rankSprites, byDepth);
     return {std::uint32_t(tiles.size()), splatCount, traceCount,
             std::uint32_t(blocks.size()) - splatCount - traceCount};
 }
