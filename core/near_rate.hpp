@@ -27,8 +27,7 @@ enum class NearRate {
 enum class NearPixels {
     Compute, ///< the trace pass (default): every pixel of their screen rectangles in a compute
              ///< shader, composed with the cell-rate pixels by depth rank (no rasteriser, no
-             ///< proxies); on an NVIDIA H200 about 50x faster than the draw, on lavapipe as fast
-             ///< (docs/decisions/near-pixels-in-compute.md)
+             ///< proxies; why: docs/decisions/near-pixels-in-compute.md)
     Raster,  ///< the draw: their proxies rasterised, the kernel in the fragment shader, under the
              ///< early depth test
 };

@@ -534,8 +534,8 @@ uint vtFetchBrickWord(uint word);
     // outline pixel. Neighbour rays are exactly the neighbours' own primary rays, so the
     // outline equals a cardinal 2D dilation of the coverage mask (what the far tier bakes).
     // index and face are 0 unless solid: a GLSL `out` parameter is not copied in, so after a
-    // miss (which assigns neither) vtTrace's would be undefined on the GPU, where C++ references
-    // keep 0 (an NVIDIA H200 left register garbage there, which a packed outcome carried).
+    // miss (which assigns neither) vtTrace's would be undefined on a GPU, where C++ references
+    // keep 0, and a packed outcome would carry the garbage.
     VT_FN uint vtShadeCell(VT_IN(SpriteGpu) s, ivec2 cell, VT_OUT(uint) index, VT_OUT(uint) face) {
         if (vtTrace(s, cell, index, face)) return VT_KIND_SOLID;
         index = 0u;

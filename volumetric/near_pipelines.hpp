@@ -32,8 +32,7 @@ inline constexpr std::size_t kFewTraceSprites = 8192;
 /// On `device`, for a frame that traces `sprites` per-pixel sprites: 32-pixel blocks two rows at
 /// a time on a CPU device (llvmpipe pays per workgroup invocation); on a GPU 8x8 blocks a pixel
 /// each up to kFewTraceSprites sprites, and past them 32-pixel blocks two rows at a time, as on a
-/// CPU. On an NVIDIA H200 8x8 blocks took 0.20 ms against 1.49 at 2,000 tanks, 5.7 against 3.9
-/// at 20,000 and 31 against 16 at 100,000 (docs/decisions/near-pixels-in-compute.md).
+/// CPU (the measurements behind it: docs/decisions/near-pixels-in-compute.md).
 /// VOXTIER_NEAR_TRACE_BLOCK (8, 16 or 32) and VOXTIER_NEAR_TRACE_ROWS (1 to 32, a power of two
 /// up to the side) force one shape, for measuring. Throws VulkanError on other values.
 NearTraceShape nearTraceShape(const VulkanDevice& device, std::size_t sprites);

@@ -8,9 +8,7 @@
 // least word is what the depth test would keep; near_resolve.comp shades it. A pixel whose word
 // already holds a nearer rank is skipped untraced: the word only falls, so the skip is exact
 // whatever order the workgroups run in (the blocks are recorded nearest first, so that it pays).
-// Why not the fragment shader: on an NVIDIA H200 the same kernel ran about 50 times faster per
-// invocation in a compute pass than in the draw's fragment shader
-// (docs/decisions/near-pixels-in-compute.md).
+// Why not the fragment shader: docs/decisions/near-pixels-in-compute.md.
 // A workgroup is one square block of one sprite's rectangle (NearTraceShape: 32 pixels a side
 // on a CPU device, 8 on a GPU).
 // Compiled with VT_COUNT_STEPS too: the variant that counts traced pixels and their voxel reads,
