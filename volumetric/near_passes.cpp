@@ -46,10 +46,10 @@ struct NearPasses::Impl {
     VkPipeline pipelines[3][2][2][2] = {};
     /// NearComputePass's values, as indices.
     enum ComputePass { TraceCells, Outline, Splat, TracePixels, Resolve, ComputePassCount };
-    /// [pass][skipEmpty][countSteps] (only the tracing passes have those variants), created on
-    /// first use
-    VkPipeline computePipelines[ComputePassCount][2][2] = {};
-    /// The trace's pipelines of other shapes than 32x2 ([skipEmpty][countSteps] each).
+    /// [pass][skipEmpty] (only the tracing passes have a skipping variant), created on first
+    /// use; TracePixels' are in tracePipelines.
+    VkPipeline computePipelines[ComputePassCount][2] = {};
+    /// The trace's pipelines by workgroup shape (side, rows): [skipEmpty * 2 + countSteps].
     std::map<std::pair<std::uint32_t, std::uint32_t>, std::array<VkPipeline, 4>> tracePipelines;
     /// This frame's NearOptions::skipEmpty and countSteps: which variant the pipelines take.
     bool skipEmpty = false;
@@ -291,11 +291,10 @@ void NearPasses::Impl::destroy() noexcept {
                     p = VK_NULL_HANDLE;
                 }
     for (auto& perPass : computePipelines)
-        for (auto& perSkip : perPass)
-            for (VkPipeline& p : perSkip) {
-                if (p) vkDestroyPipeline(dev, p, nullptr);
-                p = VK_NULL_HANDLE;
-            }
+        for (VkPipeline& p : perPass) {
+            if (p) vkDestroyPipeline(dev, p, nullptr);
+            p = VK_NULL_HANDLE;
+        }
     for (auto& [shape, four] : tracePipelines)
         for (VkPipeline p : four)
             if (p) vkDestroyPipeline(dev, p, nullptr);
@@ -339,10 +338,10 @@ VkPipeline NearPasses::Impl::computePipeline(ComputePass pass) {
                   int(Resolve) == int(NearComputePass::Resolve));
     const bool skip = (pass == TraceCells || pass == TracePixels) && skipEmpty;
     const bool count = pass == TracePixels && countSteps;
-    const bool shaped = pass == TracePixels && (traceShape.side != 32 || traceShape.rows != 2);
     VkPipeline& slot =
-        shaped ? tracePipelines[{traceShape.side, traceShape.rows}][std::size_t(skip) * 2 + count]
-               : computePipelines[pass][skip][count];
+        pass == TracePixels
+            ? tracePipelines[{traceShape.side, traceShape.rows}][std::size_t(skip) * 2 + count]
+            : computePipelines[pass][skip];
     if (!slot)
         slot =
             createNearComputePipeline(device.device(), pipelineLayout,
@@ -503,8 +502,9 @@ NearPasses::Impl::CellWork NearPasses::Impl::buildWorkLists(const CellRatePlan& 
     using near_gpu::NEAR_SPLAT_BLOCK;
     const std::size_t n = visible.size();
     rankSprites(plan, tracePixels);
-    // Each sprite's cell tiles (cell-rate) and its rectangle's 32x32 blocks (the splat's for a
-    // cell-rate sprite, the trace's for a per-pixel one), in `visible` order, written in parallel
+    // Each sprite's cell tiles (cell-rate) and its rectangle's blocks (the splat's, 32 pixels a
+    // side, for a cell-rate sprite; the trace's, traceShape.side, for a per-pixel one), in
+    // `visible` order, written in parallel
     // at offsets counted first: the trace's blocks go nearest first under the early depth test,
     // so a nearer sprite's words are mostly written before a farther one reads them and the
     // farther one skips the pixels it has lost. The resolve's tiles: every 32x32 tile of the
@@ -695,10 +695,6 @@ void NearPasses::Impl::recordWords(GpuFrame& frame, Slot& slot, CellWork work) {
     frame.timer().begin(cb, "near_trace");
     dispatch(frame, slot, TracePixels, work.traceBlocks, work.blocks);
     frame.timer().end(cb);
-    if (countSteps)
-        bufferBarrier(cb, slot.counters.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                      VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
-                      VK_ACCESS_HOST_READ_BIT);
 }
 
 void NearPasses::Impl::ensureFramebuffer(GpuFrame& frame) {
@@ -726,12 +722,6 @@ void NearPasses::Impl::recordDraw(GpuFrame& frame, Slot& slot, Rgba8 clear, bool
     const bool query = opt.pipelineStatistics && slot.statsPool && n;
     slot.queried = query;
     if (query) vkCmdResetQueryPool(cb, slot.statsPool, 0, 1);
-    if (opt.countSteps) {
-        vkCmdFillBuffer(cb, slot.counters.handle(), 0, VK_WHOLE_SIZE, 0);
-        bufferBarrier(cb, slot.counters.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
-                      VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
-                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-    }
     ensureFramebuffer(frame);
     frame.timer().begin(cb, "near_draw");
     VkClearValue clears[3]{};
@@ -775,10 +765,6 @@ void NearPasses::Impl::recordDraw(GpuFrame& frame, Slot& slot, Rgba8 clear, bool
     if (query) vkCmdEndQuery(cb, slot.statsPool, 0);
     vkCmdEndRenderPass(cb);
     frame.timer().end(cb);
-    if (opt.countSteps)
-        bufferBarrier(cb, slot.counters.handle(), VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
-                      VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
-                      VK_ACCESS_HOST_READ_BIT);
     frame.timer().begin(cb, "copy_planes");
     frame.recordTargetsToPlanes(allPlanes);
     frame.timer().end(cb);
@@ -854,12 +840,14 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
     // Cell-rate sprites: every cell traced once, then every pixel of theirs splatted; per-pixel
     // sprites traced in compute leave their words next. The draw skips them all; the resolve
     // after it shades them.
-    if (opt.countSteps && tracePixels) {
-        // The trace counts; zeroed here, so that a frame with nothing to trace reads 0.
+    // The counting variants (the trace's or the fragment shader's) add to counters zeroed here,
+    // so that a frame with nothing to count reads 0.
+    const VkPipelineStageFlags counting =
+        VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT;
+    if (opt.countSteps) {
         vkCmdFillBuffer(cb, slot.counters.handle(), 0, VK_WHOLE_SIZE, 0);
         bufferBarrier(cb, slot.counters.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
-                      VK_ACCESS_TRANSFER_WRITE_BIT,
-                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                      VK_ACCESS_TRANSFER_WRITE_BIT, counting | VK_PIPELINE_STAGE_HOST_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
                           VK_ACCESS_HOST_READ_BIT);
     }
@@ -868,11 +856,14 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
     // caller asks for them where a far pass follows).
     const bool allPlanes = opt.readDepthAndIds || work.resolveTiles;
     const bool rasterised = !tracePixels && plan.cellSprites < m.visible.size();
-    if (rasterised || (opt.countSteps && !tracePixels))
+    if (rasterised)
         m.recordDraw(frame, slot, clear, allPlanes, opt, stats);
     else
         frame.recordClearPlanes(clear, allPlanes);
     if (work.resolveTiles) m.recordResolve(frame, slot, work);
+    if (opt.countSteps)
+        bufferBarrier(cb, slot.counters.handle(), counting, VK_ACCESS_SHADER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
 }
 
 void NearPasses::collect(GpuFrame& frame, const NearOptions& opt, NearStats& stats) {
