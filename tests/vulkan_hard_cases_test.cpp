@@ -64,13 +64,10 @@ TEST_P(CanonicalBoxViewsOnVulkan, MatchClosedFormAndReferenceAlongAll26Direction
     const CubeCase cc = GetParam();
     const auto model = test::solidBox(glm::ivec3(cc.size));
     for (glm::ivec3 w : test::canonicalDirections())
-        for (int way = 0; way < 3; ++way) { // traced in compute, rasterised as hull and quad
+        for (const test::NearWay& way : test::kNearWays) {
             const auto v = test::viewAlong(model, glm::dvec3(w), cc.sigma, 4);
-            NearOptions options;
-            options.pixels = way == 0 ? NearPixels::Compute : NearPixels::Raster;
-            options.proxy = way == 2 ? NearProxy::Quad : NearProxy::Hull;
-            const auto r = test::renderBoth(nearRenderer(), v.scene, 0.0, options);
-            const char* name = way == 0 ? " (compute)" : way == 1 ? " (hull)" : " (quad)";
+            const auto r = test::renderBoth(nearRenderer(), v.scene, 0.0, way.options());
+            const std::string name = std::string(" (") + way.name + ")";
             int zeros = 0;
             for (int k = 0; k < 3; ++k) zeros += r.sprites[0].gpu.dir[k] == 0.0f;
             EXPECT_EQ(zeros, (w.x == 0) + (w.y == 0) + (w.z == 0))

@@ -49,12 +49,9 @@ const std::vector<std::string> kVoxFiles = {
     "blender_magicavoxel/hierarchy.vox",
 };
 
-/// How the per-pixel sprites are traced: in compute (the default), or rasterised with the hull
-/// proxy or the quad.
-enum class Way { Compute, Hull, Quad };
-
 class SceneIdentity : public test::VulkanTest,
-                      public ::testing::WithParamInterface<std::tuple<std::string, Way>> {};
+                      public ::testing::WithParamInterface<std::tuple<std::string, test::NearWay>> {
+};
 
 // Every golden scene and the default scene (its path frames too: the camera flies in from
 // above), traced in compute, and rasterised with the hull proxy and with the quad.
@@ -63,9 +60,7 @@ TEST_P(SceneIdentity, VulkanImageEqualsReferenceImage) {
     Scene scene = loadScene(sourcePath(file));
     std::vector<double> times = {0.0};
     if (scene.path) times = {0.0, scene.timeOfFrame(scene.path->frameCount() / 2)};
-    NearOptions options;
-    options.pixels = way == Way::Compute ? NearPixels::Compute : NearPixels::Raster;
-    options.proxy = way == Way::Quad ? NearProxy::Quad : NearProxy::Hull;
+    const NearOptions options = way.options();
     for (double t : times) {
         const auto r = test::renderBoth(nearRenderer(), scene, t, options);
         EXPECT_EQ(test::describeDifference(r.near, r.reference), "") << file << " at t=" << t;
@@ -80,13 +75,10 @@ INSTANTIATE_TEST_SUITE_P(
                                          "scenes/golden/equal_depth.json",
                                          "scenes/golden/far_origin.json",
                                          "scenes/golden/topdown.json", "scenes/default.json"),
-                       ::testing::Values(Way::Compute, Way::Hull, Way::Quad)),
+                       ::testing::ValuesIn(test::kNearWays)),
     [](const auto& info) {
-        const Way way = std::get<1>(info.param);
-        return std::filesystem::path(std::get<0>(info.param)).stem().string() +
-               (way == Way::Compute ? "_compute"
-                : way == Way::Hull  ? "_hull"
-                                    : "_quad");
+        return std::filesystem::path(std::get<0>(info.param)).stem().string() + "_" +
+               std::get<1>(info.param).name;
     });
 
 class VoxModelSweep : public test::VulkanTest, public ::testing::WithParamInterface<std::string> {};

@@ -21,21 +21,12 @@ class NearMeasurements : public VulkanTest {};
 using test::sourcePath;
 
 TEST_F(NearMeasurements, StepCounterVariantCountsExactlyTheReferenceVoxelReads) {
-    struct Way {
-        NearPixels pixels;
-        NearProxy proxy;
-        const char* name;
-    };
     for (const char* file : {"scenes/golden/crowd.json", "scenes/golden/arrows.json"})
-        for (const Way way : {Way{NearPixels::Raster, NearProxy::Quad, "quad"},
-                              Way{NearPixels::Raster, NearProxy::Hull, "hull"},
-                              Way{NearPixels::Compute, NearProxy::Hull, "compute"}}) {
+        for (const test::NearWay& way : test::kNearWays) {
             const NearProxy proxy = way.proxy;
             const Scene s = loadScene(sourcePath(file));
-            NearOptions counting;
+            NearOptions counting = way.options();
             counting.countSteps = true;
-            counting.pixels = way.pixels;
-            counting.proxy = proxy;
             // The counting variant counts the fragment shader's reads: every sprite per pixel,
             // as the reference traces by default (cell-rate counts are in cell_rate tests).
             counting.rate = NearRate::Fragment;

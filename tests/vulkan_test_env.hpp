@@ -62,6 +62,23 @@ class VulkanTest : public ::testing::Test {
     }
 };
 
+/// A way the Vulkan near tier traces its per-pixel sprites: in compute (the default), or
+/// rasterised over the hull proxy or the quad. Every way draws the reference image.
+struct NearWay {
+    const char* name;
+    NearPixels pixels;
+    NearProxy proxy;
+    NearOptions options() const {
+        NearOptions o;
+        o.pixels = pixels;
+        o.proxy = proxy;
+        return o;
+    }
+};
+inline constexpr NearWay kNearWays[] = {{"compute", NearPixels::Compute, NearProxy::Hull},
+                                        {"hull", NearPixels::Raster, NearProxy::Hull},
+                                        {"quad", NearPixels::Raster, NearProxy::Quad}};
+
 /// A frame of a scene through the CPU reference and through the Vulkan near tier.
 struct NearAndReference {
     Image near, reference;
