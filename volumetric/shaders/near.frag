@@ -13,32 +13,7 @@
 // near_cell_outline and near_splat draw them.
 #extension GL_GOOGLE_include_directive : require
 #include "volumetric/shaders/near_shared.h"
-
-layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
-layout(std430, set = 0, binding = NEAR_BINDING_BRICKS) readonly buffer Bricks {
-    uint vtBricks[];
-};
-
-// The kernel's voxel source: the model frame's block of the shared atlas and its brick
-// occupancy words. Both origins are per sprite; main() sets them before tracing. A brick read
-// counts as a voxel read.
-ivec3 vtAtlasBase;
-uint vtBrickBase;
-#ifdef VT_COUNT_STEPS
-uint vtFetches = 0u;
-#endif
-uint vtFetchVoxel(ivec3 cell) {
-#ifdef VT_COUNT_STEPS
-    vtFetches += 1u;
-#endif
-    return texelFetch(vtAtlas, vtAtlasBase + cell, 0).r;
-}
-uint vtFetchBrickWord(uint word) {
-#ifdef VT_COUNT_STEPS
-    vtFetches += 1u;
-#endif
-    return vtBricks[vtBrickBase + word];
-}
+#include "volumetric/shaders/near_voxels.h"
 #include "core/sprite_kernel.h"
 
 layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites {
@@ -47,22 +22,6 @@ layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites 
 layout(std430, set = 0, binding = NEAR_BINDING_PALETTES) readonly buffer Palettes {
     uint vtPalettes[];
 };
-#ifdef VT_COUNT_STEPS
-layout(std430, set = 0, binding = NEAR_BINDING_COUNTERS) buffer Counters {
-    NearCounters vtCounters;
-};
-// 64-bit add on a (low, high) pair: the returned old low word tells whether this add wrapped.
-void vtCount64(uint which, uint amount) {
-    if (amount == 0u) return;
-    if (which == 0u) {
-        uint old = atomicAdd(vtCounters.fetchesLo, amount);
-        if (old > 0xFFFFFFFFu - amount) atomicAdd(vtCounters.fetchesHi, 1u);
-    } else {
-        uint old = atomicAdd(vtCounters.fragmentsLo, amount);
-        if (old > 0xFFFFFFFFu - amount) atomicAdd(vtCounters.fragmentsHi, 1u);
-    }
-}
-#endif
 
 layout(location = 0) flat in uint vInstance;
 layout(location = 0) out uint outColor;

@@ -9,18 +9,7 @@
 
 layout(local_size_x = 64) in; // NEAR_CELL_TILE
 
-layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
-layout(std430, set = 0, binding = NEAR_BINDING_BRICKS) readonly buffer Bricks {
-    uint vtBricks[];
-};
-ivec3 vtAtlasBase;
-uint vtBrickBase;
-uint vtFetchVoxel(ivec3 cell) {
-    return texelFetch(vtAtlas, vtAtlasBase + cell, 0).r;
-}
-uint vtFetchBrickWord(uint word) {
-    return vtBricks[vtBrickBase + word];
-}
+#include "volumetric/shaders/near_voxels.h"
 #include "core/sprite_kernel.h"
 
 layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites {

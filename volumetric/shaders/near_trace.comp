@@ -23,27 +23,7 @@
 // occupies few idle lanes.
 layout(local_size_x_id = 1, local_size_y_id = 0) in;
 
-layout(set = 0, binding = NEAR_BINDING_ATLAS) uniform usampler3D vtAtlas;
-layout(std430, set = 0, binding = NEAR_BINDING_BRICKS) readonly buffer Bricks {
-    uint vtBricks[];
-};
-ivec3 vtAtlasBase;
-uint vtBrickBase;
-#ifdef VT_COUNT_STEPS
-uint vtFetches = 0u;
-#endif
-uint vtFetchVoxel(ivec3 cell) {
-#ifdef VT_COUNT_STEPS
-    vtFetches += 1u;
-#endif
-    return texelFetch(vtAtlas, vtAtlasBase + cell, 0).r;
-}
-uint vtFetchBrickWord(uint word) {
-#ifdef VT_COUNT_STEPS
-    vtFetches += 1u;
-#endif
-    return vtBricks[vtBrickBase + word];
-}
+#include "volumetric/shaders/near_voxels.h"
 #include "core/sprite_kernel.h"
 
 layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites {
@@ -55,22 +35,6 @@ layout(std430, set = 0, binding = NEAR_BINDING_SPLAT_BLOCKS) readonly buffer Spl
 layout(std430, set = 0, binding = NEAR_BINDING_PIXEL_WORDS) buffer PixelWords {
     uint vtPixelWords[];
 };
-#ifdef VT_COUNT_STEPS
-layout(std430, set = 0, binding = NEAR_BINDING_COUNTERS) buffer Counters {
-    NearCounters vtCounters;
-};
-// 64-bit add on a (low, high) pair: the returned old low word tells whether this add wrapped.
-void vtCount64(bool fetches, uint amount) {
-    if (amount == 0u) return;
-    if (fetches) {
-        uint old = atomicAdd(vtCounters.fetchesLo, amount);
-        if (old > 0xFFFFFFFFu - amount) atomicAdd(vtCounters.fetchesHi, 1u);
-    } else {
-        uint old = atomicAdd(vtCounters.fragmentsLo, amount);
-        if (old > 0xFFFFFFFFu - amount) atomicAdd(vtCounters.fragmentsHi, 1u);
-    }
-}
-#endif
 layout(push_constant) uniform Push {
     NearComputePush vtPush; // count: blocks, from block `first` on
 };
@@ -110,7 +74,7 @@ void main() {
         atomicMin(vtPixelWords[p], nearPixelWord(b.rank, outcome));
     }
 #ifdef VT_COUNT_STEPS
-    vtCount64(true, vtFetches);
-    vtCount64(false, traced);
+    vtCount64(0u, vtFetches);
+    vtCount64(1u, traced);
 #endif
 }
