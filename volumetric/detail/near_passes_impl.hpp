@@ -1,0 +1,130 @@
+#pragma once
+// Internal to volumetric (not installed): the state of NearPasses, shared by the file that creates
+// its Vulkan objects (near_passes_create.cpp) and the one that records a frame's passes
+// (near_passes.cpp).
+#include "core/near_rate.hpp"
+#include "volumetric/near_passes.hpp"
+#include "volumetric/near_pipelines.hpp"
+#include "volumetric/shaders/near_shared.h"
+#include "volumetric/voxel_residency.hpp"
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <utility>
+#include <vector>
+
+namespace voxtier {
+
+struct NearPasses::Impl {
+    GpuFrames& frames;
+    VulkanDevice& device;
+    VoxelResidency residency;
+
+    VkSampler sampler = VK_NULL_HANDLE;
+    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+    VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
+    VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
+    VkRenderPass renderPass = VK_NULL_HANDLE;
+    /// [proxy][countSteps][flatDepth][skipEmpty], created on first use
+    VkPipeline pipelines[3][2][2][2] = {};
+    /// NearComputePass's values, as indices.
+    enum ComputePass { TraceCells, Outline, Splat, TracePixels, Resolve, ComputePassCount };
+    /// [pass][skipEmpty] (only the tracing passes have a skipping variant), created on first
+    /// use; TracePixels' are in tracePipelines.
+    VkPipeline computePipelines[ComputePassCount][2] = {};
+    /// The trace's pipelines by workgroup shape (side, rows): [skipEmpty * 2 + countSteps].
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::array<VkPipeline, 4>> tracePipelines;
+    /// This frame's NearOptions::skipEmpty and countSteps: which variant the pipelines take.
+    bool skipEmpty = false;
+    bool countSteps = false;
+    /// This frame's trace workgroup (nearTraceShape).
+    NearTraceShape traceShape;
+
+    // Shared by the slots (the frame-start barrier orders their use): the framebuffer over the
+    // frames' targets, the cell store (grown up to the budget) and the splat's pixel words.
+    VkFramebuffer framebuffer = VK_NULL_HANDLE;
+    VkImageView framebufferColor = VK_NULL_HANDLE;
+    VulkanBuffer cells, pixelWords;
+
+    /// Per frame in flight: what the host writes for a frame, its descriptor set and queries.
+    struct Slot {
+        VulkanBuffer sprites, boxes, hulls, cellBases, cellTiles, splatBlocks, rankSprites;
+        VulkanBuffer counters; ///< written by the counting shader, read by the host
+        VkDescriptorSet set = VK_NULL_HANDLE;
+        VkQueryPool statsPool = VK_NULL_HANDLE;
+        bool queried = false; ///< this slot's last frame ran the statistics query
+    };
+    std::vector<Slot> slots;
+
+    // The frame being recorded (host scratch, reused from frame to frame).
+    std::vector<const SpriteSetup*> visible;
+    std::vector<std::uint8_t> flat;
+    std::vector<glm::uvec2> tiles;
+    std::vector<near_gpu::NearSplatBlock> blocks;
+    /// Per sprite of `visible`, the first of its cell tiles, splat blocks and trace blocks (a
+    /// prefix sum: entry n is the total).
+    std::vector<std::uint64_t> tileStart, splatStart, traceStart;
+    std::vector<std::uint32_t> byDepth, ranks;
+    std::vector<std::uint8_t> touched;
+    std::uint32_t frameCells = 0;
+
+    /// The compute passes' workgroups; the blocks buffer holds the splat's, then the trace's,
+    /// then the resolve's.
+    struct CellWork {
+        std::uint32_t tiles = 0;        ///< near_cells.comp workgroups
+        std::uint32_t blocks = 0;       ///< near_splat.comp workgroups
+        std::uint32_t traceBlocks = 0;  ///< near_trace.comp workgroups
+        std::uint32_t resolveTiles = 0; ///< near_resolve.comp workgroups (0: no words to resolve)
+    };
+
+    explicit Impl(GpuFrames& f)
+        : frames(f), device(f.device()), residency(f.device(), [&f] { f.waitAll(); }) {
+        try {
+            create();
+        } catch (...) {
+            destroy();
+            throw;
+        }
+    }
+    ~Impl() { destroy(); }
+
+    void create();
+    void createLayouts();
+    void createRenderPass();
+    void createSlot(Slot& s);
+    void destroy() noexcept;
+    VkPipeline pipeline(NearProxy proxy, bool countSteps, bool flatDepth);
+    VkPipeline computePipeline(ComputePass pass);
+    /// Grows `b` (a ShaderRead buffer of the slot) to hold `bytes`, doubling.
+    void ensure(VulkanBuffer& b, VkDeviceSize bytes, BufferClass c = BufferClass::ShaderRead);
+
+    /// The sprites in draw order, their residency, their per-sprite data written for the frame.
+    void writeSprites(GpuFrame& frame, Slot& slot,
+                      const std::vector<std::shared_ptr<VoxelModel>>& models,
+                      std::span<const SpriteSetup* const> all, const NearOptions& opt,
+                      NearStats& stats);
+    void writeProxies(GpuFrame& frame, Slot& slot, const CameraFrame& cam, const NearOptions& opt,
+                      NearStats& stats);
+    /// The compute passes' work; with `tracePixels` the per-pixel sprites' blocks too, and every
+    /// sprite ranked.
+    CellWork writeCells(GpuFrame& frame, Slot& slot, const CellRatePlan& plan,
+                        std::uint64_t budgetBytes, bool tracePixels);
+    /// byDepth and ranks: the ranked sprites (cell-rate, and with `tracePixels` all) in
+    /// Image::writeIfNearer's order, and each one's place in it.
+    void rankSprites(const CellRatePlan& plan, bool tracePixels);
+    /// writeCells' lists: ranks, cell tiles, splat and trace blocks, resolve tiles.
+    CellWork buildWorkLists(const CellRatePlan& plan, bool tracePixels, int width, int height);
+    void writeDescriptors(GpuFrame& frame, Slot& slot);
+    void dispatch(GpuFrame& frame, Slot& slot, ComputePass pass, std::uint32_t groups,
+                  std::uint32_t first = 0);
+    /// The cells, the splat and the trace: every pass that leaves pixel words.
+    void recordWords(GpuFrame& frame, Slot& slot, CellWork work);
+    /// The raster pass, then its attachments into the planes (all three when `allPlanes`).
+    void recordDraw(GpuFrame& frame, Slot& slot, Rgba8 clear, bool allPlanes,
+                    const NearOptions& opt, NearStats& stats);
+    void recordResolve(GpuFrame& frame, Slot& slot, CellWork work);
+    void ensureFramebuffer(GpuFrame& frame);
+};
+
+} // namespace voxtier
