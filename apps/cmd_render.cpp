@@ -273,10 +273,10 @@ struct FrameTimes {
 
 /// ", 3 bakes" with, where an edit made snapshots stale, how many of them refreshed those.
 std::string bakesText(const FrameStats& st) {
-    std::string s = std::to_string(st.farBakes) + (st.farBakes == 1 ? " bake" : " bakes");
-    if (st.farRefreshes > 0)
-        s += " (" + std::to_string(st.farRefreshes) + " after an edit made " +
-             (st.farRefreshes == 1 ? "a snapshot" : "snapshots") + " stale)";
+    std::string s = std::to_string(st.far.bakes) + (st.far.bakes == 1 ? " bake" : " bakes");
+    if (st.far.refreshes > 0)
+        s += " (" + std::to_string(st.far.refreshes) + " after an edit made " +
+             (st.far.refreshes == 1 ? "a snapshot" : "snapshots") + " stale)";
     return s;
 }
 
@@ -308,10 +308,9 @@ void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, c
                 st.farDrawn == 0 ? ""
                 : st.farOnVulkan ? "; far tier on Vulkan"
                                  : "; far tier on the CPU blit",
-                st.switchesToFar + st.switchesToNear, bakesText(st).c_str(),
-                st.farPredictedWorstVpx, times.frameMs, pops,
-                times.encoding ? "encoding" : "writing", times.writeMs, file.c_str(),
-                progressText.c_str());
+                st.plan.switchesToFar + st.plan.switchesToNear, bakesText(st).c_str(),
+                st.plan.worstVpx, times.frameMs, pops, times.encoding ? "encoding" : "writing",
+                times.writeMs, file.c_str(), progressText.c_str());
     std::fflush(stdout);
 }
 
@@ -569,7 +568,7 @@ void run(const RenderArgs& a) {
         empty.add(frame, r);
         csv += std::to_string(frame) + ",";
         std::snprintf(row, sizeof row, "%.6f,", time);
-        csv += row + figureCsvRow(r.stats) + "\n";
+        csv += row + figureCsvRow(figuresOf(r.stats)) + "\n";
         for (const PopEvent& e : r.pops) {
             pops += popCsvRow(e) + "\n";
             popSummary.add(e);

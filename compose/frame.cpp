@@ -163,51 +163,27 @@ SnapshotCacheConfig cacheConfig(const FrameOptions& o, const SelectorConfig& sel
     return c;
 }
 
-/// What the snapshot cache did for the far tier (bakes, refreshes), into the frame's figures;
-/// the same whichever backend draws the far sprites.
-void addFarCacheWork(FrameStats& st, const FarFrameStats& fs) {
-    st.farBakes += int(fs.bakes);
-    st.farScenesBuilt += int(fs.scenesBuilt);
-    st.farRefreshes += int(fs.refreshes);
-    st.farIncrementalRefreshes += int(fs.incrementalRefreshes);
-    st.farCellsRetraced += fs.cellsRetraced;
-    st.raysTraced += fs.raysTraced;
-}
-
-/// A near backend's cell-rate counts into the frame's figures (both backends carry them).
-void addCellRateCounts(FrameStats& st, const CellRateCounts& c) {
-    st.nearCellsTraced += c.cellsTraced;
-    st.nearPixelsTraced += c.pixelsTraced;
-    st.nearPixelsLookedUp += c.pixelsLookedUp;
-    st.nearCellSprites += int(c.cellSprites);
-    st.nearCellOverBudget += int(c.cellOverBudget);
-}
-/// A Vulkan frame's counts and times into the frame's figures: the near passes' counts, the far
-/// pass's, the device's named passes and the host's waits.
-void addVulkanFrame(FrameStats& st, const VulkanFrameResult& r) {
-    const NearStats& ns = r.near;
-    st.nearPixelsTested += ns.fragmentInvocations;
-    st.nearBytesUploaded += ns.bytesUploaded;
-    st.voxelFetches += ns.voxelFetches;
-    st.nearKernelFragments += ns.kernelFragments;
-    st.nearUploadMs += ns.uploadMs;
-    st.nearEarlyDepthSprites += ns.earlyDepthSprites;
-    addCellRateCounts(st, ns);
-    const GpuFrameReport& g = r.report;
-    st.hostRecordMs += g.recordMs;
-    st.hostWaitMs += g.host.waitMs;
-    st.hostReadbackMs += g.host.readbackMs;
-    const auto add = [&](double& field, std::initializer_list<const char*> names) {
-        for (const char* n : names) field += g.ms(n).value_or(0.0);
+/// The Vulkan frame's times, host and device, by the passes' names (the tiers name them: the
+/// near passes in volumetric/near_passes.cpp, the far pass in impostor_cache/far_pass.cpp).
+VulkanFrameTimes timesOf(const GpuFrameReport& g) {
+    VulkanFrameTimes t;
+    t.hostRecordMs = g.recordMs;
+    t.hostWaitMs = g.host.waitMs;
+    t.hostReadbackMs = g.host.readbackMs;
+    const auto sum = [&](std::initializer_list<const char*> names) {
+        double ms = 0.0;
+        for (const char* n : names) ms += g.ms(n).value_or(0.0);
+        return ms;
     };
-    add(st.gpuFrameMs, {"frame"});
-    add(st.gpuUploadMs, {"near_upload", "far_upload"});
-    add(st.gpuCellsMs, {"near_cells"});
-    add(st.gpuSplatMs, {"near_splat"});
-    add(st.gpuDrawMs, {"near_draw", "near_trace"});
-    add(st.gpuResolveMs, {"near_resolve"});
-    add(st.gpuFarMs, {"far_blit"});
-    add(st.gpuCopyMs, {"copy_planes", "readback_copy"});
+    t.gpuFrameMs = sum({"frame"});
+    t.gpuUploadMs = sum({"near_upload", "far_upload"});
+    t.gpuCellsMs = sum({"near_cells"});
+    t.gpuSplatMs = sum({"near_splat"});
+    t.gpuDrawMs = sum({"near_draw", "near_trace"});
+    t.gpuResolveMs = sum({"near_resolve"});
+    t.gpuFarMs = sum({"far_blit"});
+    t.gpuCopyMs = sum({"copy_planes", "readback_copy"});
+    return t;
 }
 
 } // namespace
@@ -411,14 +387,14 @@ FrameResult FrameRenderer::finish(PendingFrame pending) {
     // it (the cost model counts only the bakes' share), and the near tier's fixed cost, measured
     // here by drawing nothing, should the model ask for it.
     FrameCostSample sample;
-    sample.bakes = st.farBakes;
-    sample.bakeMs = st.bakeMs;
+    sample.bakes = int(st.far.bakes);
+    sample.bakeMs = st.far.ensureMs;
     sample.bakeWorkMs = cacheAfter.bakeMs - cacheBefore.bakeMs;
     sample.sceneAndStoreMs =
         (cacheAfter.sceneMs - cacheBefore.sceneMs) + (cacheAfter.storeMs - cacheBefore.storeMs);
     sample.nearMs = st.nearMs;
-    sample.nearUploadMs = st.nearUploadMs;
-    sample.blitMs = st.blitMs;
+    sample.nearUploadMs = st.vulkanNear.uploadMs;
+    sample.blitMs = st.far.blit.milliseconds + st.vulkan.farPassMs;
     sample.planMs = st.hostSelectMs;
     sample.planned =
         mode == RenderMode::Hybrid && scene_.selector.metric == SelectorMetric::ErrorBudget;
@@ -460,12 +436,7 @@ SharedVector<EntityPlan> FrameRenderer::planEntities(RenderMode mode, FrameStats
     PlanStats ps;
     SharedVector<EntityPlan> plan =
         planner_.plan(sprites_.sprites(), sprites_.visibleIds(), scene_.selector, settings, ps);
-    st.switchesToFar = ps.switchesToFar;
-    st.switchesToNear = ps.switchesToNear;
-    st.viewChanges = ps.viewChanges;
-    st.fading = ps.fading;
-    st.farBakesGivenUp = ps.bakesGivenUp;
-    st.farPredictedWorstVpx = ps.worstVpx;
+    st.plan = ps;
     return plan;
 }
 
@@ -525,8 +496,7 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         FarFrameStats fs;
         const FarBatch batch = prepareFarBatch(scene_.models, shares.farRequests(), *cache_,
                                                viewSetFromSize(scene_.selector.viewSetSize), &fs);
-        addFarCacheWork(st, fs);
-        st.bakeMs += msSince(t0);
+        st.far = fs;
         st.farMs += msSince(t0);
         st.farOnVulkan = 1;
         if (nearSprites.empty() || resolved(nearBackend) == NearBackend::Vulkan)
@@ -596,10 +566,12 @@ Image FrameRenderer::finishOnVulkan(VulkanFrameInFlight&& inFlight, bool hasFar,
     const double farShare = hasFar ? r.farRecordMs + r.report.ms("far_upload").value_or(0.0) +
                                          r.report.ms("far_blit").value_or(0.0)
                                    : 0.0;
-    st.blitMs += farShare;
     st.farMs += farShare;
     st.nearMs += std::max(0.0, wallMs - farShare);
-    addVulkanFrame(st, r);
+    st.vulkanNear = r.near;
+    st.vulkanFar = r.far;
+    st.vulkan = timesOf(r.report);
+    st.vulkan.farPassMs = farShare;
     return std::move(r.image);
 }
 
@@ -614,11 +586,7 @@ Image FrameRenderer::drawNearCpu(const CameraFrame& cam,
     ro.earlyDepthTest = options_.earlyDepthTest;
     ro.progress = options_.nearProgress;
     renderReference(scene_.models, sprites, image, &rs, ro);
-    st.nearPixelsTested += rs.pixelsTested;
-    st.nearPixelsWritten += rs.pixelsWritten;
-    st.nearOccluded += int(rs.culled);
-    st.voxelFetches += rs.voxelFetches;
-    addCellRateCounts(st, rs);
+    st.reference = rs;
     st.nearMs += msSince(t0);
     return image;
 }
@@ -629,13 +597,8 @@ void FrameRenderer::drawFar(const std::vector<FarRequest>& requests, Image& imag
     blit.occlusionCull = options_.occlusionCull;
     drawFarSprites(scene_.models, requests, *cache_, viewSetFromSize(scene_.selector.viewSetSize),
                    image, &fs, blit);
-    st.farOccluded += int(fs.culled);
-    addFarCacheWork(st, fs);
-    st.bakeMs += fs.ensureMs;
-    st.blitMs += fs.blit.milliseconds;
+    st.far = fs;
     st.farMs += fs.ensureMs + fs.blit.milliseconds;
-    st.farPixelsTested += fs.blit.pixelsTested;
-    st.farPixelsWritten += fs.blit.pixelsWritten;
 }
 
 Image FrameRenderer::tierOverlay(const Image& image, std::span<const EntityPlan> plan) const {

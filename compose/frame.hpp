@@ -17,8 +17,10 @@
 #include "core/work_progress.hpp"
 #include "device/vulkan_options.hpp"
 #include "impostor_cache/far_blit.hpp"
+#include "impostor_cache/far_stats.hpp"
 #include "lod/frame_planner.hpp"
 #include "lod/selector.hpp"
+#include "volumetric/near_stats.hpp"
 
 #include <array>
 #include <cstddef>
@@ -134,8 +136,8 @@ struct FrameOptions {
     /// written to it after; cacheDirBytes limits its size (0 = no limit; LRU files go first).
     std::string cacheDir;
     std::uint64_t cacheDirBytes = 0;
-    /// Near tier on Vulkan: the shader variant that counts voxel reads (FrameStats::voxelFetches,
-    /// nearKernelFragments). Same image, slower: for measuring, never for timing.
+    /// Near tier on Vulkan: the shader variant that counts voxel reads (NearStats::voxelFetches,
+    /// kernelFragments). Same image, slower: for measuring, never for timing.
     bool nearCountSteps = false;
     /// A near renderer to draw with instead of creating one: several FrameRenderers (bench
     /// configurations, views of one world) can share one Vulkan device. Null: created on first use.
@@ -174,75 +176,48 @@ struct FrameOptions {
     bool nearSkipEmpty = false;
 };
 
-/// Where one frame's time went (wall-clock ms) and how much work each tier did. The step times
-/// add up to totalMs except for small glue (image moves, bookkeeping):
-/// totalMs ~ hostSetupMs + hostSelectMs + nearMs + farMs, farMs = bakeMs + blitMs; a frame on
-/// Vulkan splits its share into hostRecordMs + hostWaitMs + hostReadbackMs, and the device's
-/// gpu*Ms say where the wait went. Every field has a line in kFrameFigures
-/// (compose/frame_figures.hpp), which names it in every output; the build checks that.
+/// A frame drawn on Vulkan: the host's share of it and the device's named passes (ms; 0 where
+/// the device has no timestamps or the frame had no such pass).
+struct VulkanFrameTimes {
+    /// On the host: preparing and recording the passes (uploads written), blocked on the fence,
+    /// and unpacking what was read back.
+    double hostRecordMs = 0.0, hostWaitMs = 0.0, hostReadbackMs = 0.0;
+    /// On the device: the whole frame, its uploads, the cell-rate cells, splat and resolve, the
+    /// per-pixel sprites (drawn, or traced in compute), the far pass, and the copies of the
+    /// planes (targets into the planes, planes into host memory).
+    double gpuFrameMs = 0.0, gpuUploadMs = 0.0, gpuCellsMs = 0.0, gpuSplatMs = 0.0, gpuDrawMs = 0.0,
+           gpuResolveMs = 0.0, gpuFarMs = 0.0, gpuCopyMs = 0.0;
+    /// The far pass's share of the frame: its recording, its upload and its device time.
+    double farPassMs = 0.0;
+};
+
+/// What a frame did. The frame's own figures (its steps on the host, what each tier drew; the
+/// steps add up to totalMs but for small glue: totalMs ~ hostSetupMs + hostSelectMs + nearMs +
+/// farMs), then each backend's figures as that backend reported them, zero where it drew nothing
+/// this frame. The output columns (compose/frame_figures.hpp) read them; several combine the
+/// backends (a frame's near sprites are drawn by one near backend, so "near_fragments" is the
+/// reference's pixels tested or the Vulkan draw's fragment invocations).
 struct FrameStats {
     int entities = 0, culled = 0;
     int nearDrawn = 0, farDrawn = 0; ///< visible sprites drawn by each tier
-    int fading = 0;                  ///< entities drawn by both tiers (cross-fade)
-    int switchesToFar = 0, switchesToNear = 0, viewChanges = 0;
-    int farBakes = 0; ///< snapshots baked during this frame
-    /// Metric error_budget: bakes the planner asked for and gave up under the cost bound (their
-    /// entities drawn near this frame; ErrorBudgetViews::keepAffordableBakes).
-    int farBakesGivenUp = 0;
-    /// Embree scenes the frame's bakes had to build first (a (model, animation frame, version)
-    /// not in the cache's scene budget): each costs several bakes (CONTRACT.md §4, Budget).
-    int farScenesBuilt = 0;
-    /// Edits (CONTRACT.md §4): of the bakes, stale snapshots refreshed after an edit, how many of
-    /// those only where the edit reaches, and the cells they re-traced; the voxel bytes the near
-    /// tier copied to the GPU (whole frames when new, only dirty boxes after edits).
-    int farRefreshes = 0, farIncrementalRefreshes = 0;
-    std::uint64_t farCellsRetraced = 0, nearBytesUploaded = 0;
-    std::uint64_t cacheBytes = 0; ///< snapshot bytes held after the frame
     /// The frame's steps on the host (wall-clock ms): set-up (step 1), selection (step 2), the
-    /// near tier, the far tier (bakeMs: making sure its snapshots exist, cache lookups + the
-    /// bakes they start; then blitMs), and the whole frame.
-    double hostSetupMs = 0.0, hostSelectMs = 0.0, nearMs = 0.0, farMs = 0.0, bakeMs = 0.0,
-           totalMs = 0.0;
-    /// The near tier's voxel uploads to the atlas (host: pack + submit + wait; 0 with the CPU
-    /// reference).
-    double nearUploadMs = 0.0;
-    /// A frame drawn on Vulkan, on the host: preparing and recording its passes (uploads
-    /// written), blocked on its fence, and unpacking what was read back.
-    double hostRecordMs = 0.0, hostWaitMs = 0.0, hostReadbackMs = 0.0;
-    /// A frame drawn on Vulkan, on the device (its named timestamps; 0 where the device has none
-    /// or the frame had no such pass): the whole frame, its uploads, the cell-rate cells, splat
-    /// and resolve, the per-pixel sprites (drawn, or traced in compute), the far pass, and the
-    /// copies of the planes (targets into the planes, planes into host memory).
-    double gpuFrameMs = 0.0, gpuUploadMs = 0.0, gpuCellsMs = 0.0, gpuSplatMs = 0.0, gpuDrawMs = 0.0,
-           gpuResolveMs = 0.0, gpuFarMs = 0.0, gpuCopyMs = 0.0;
-    /// Cell-rate near sprites (core/near_rate.hpp): cells traced once, pixels that traced their
-    /// cell's rays and pixels that looked it up (Vulkan: the sprites' on-screen rectangle
-    /// pixels), sprites drawn cell-rate and sprites that did not fit the cell budget.
-    std::uint64_t nearCellsTraced = 0, nearPixelsTraced = 0, nearPixelsLookedUp = 0;
-    int nearCellSprites = 0, nearCellOverBudget = 0;
-    double blitMs = 0.0; ///< the far blit alone
+    /// near tier, the far tier (its cache lookups and bakes, far.ensureMs, then the blit or the
+    /// far pass), and the whole frame.
+    double hostSetupMs = 0.0, hostSelectMs = 0.0, nearMs = 0.0, farMs = 0.0, totalMs = 0.0;
+    std::uint64_t cacheBytes = 0; ///< snapshot bytes held after the frame
     /// 1 when this frame's near sprites were drawn by the Vulkan near tier, 0 when by the CPU
     /// reference or when there were none (FrameRenderer::nearBackend says which Auto chose).
     int nearOnVulkan = 0;
-    /// 1 when this frame's far sprites were drawn by the Vulkan far pass (blitMs is then its share
-    /// of the Vulkan frame: recording and gpuFarMs), 0 when by the CPU blit or when none.
+    /// 1 when this frame's far sprites were drawn by the Vulkan far pass, 0 when by the CPU blit
+    /// or when none.
     int farOnVulkan = 0;
-    std::uint64_t nearPixelsTested = 0, farPixelsTested = 0, voxelFetches = 0;
-    std::uint64_t farPixelsWritten = 0; ///< blit pixels a solid or outline cell won
-    /// Near sprite pixels that took a solid or outline outcome (the CPU reference counts them;
-    /// 0 on Vulkan).
-    std::uint64_t nearPixelsWritten = 0;
-    /// Visible sprites occlusion culling dropped whole, before any bake or trace (the CPU tiers;
-    /// FrameOptions::occlusionCull), per tier.
-    int nearOccluded = 0, farOccluded = 0;
-    /// Near sprites Vulkan rasterised flat at their depth, under the early depth test
-    /// (NearStats::earlyDepthSprites; FrameOptions::earlyDepthTest).
-    std::uint64_t nearEarlyDepthSprites = 0;
-    std::uint64_t nearKernelFragments = 0; ///< with nearCountSteps: fragments that ran the kernel
-    std::uint64_t raysTraced = 0;          ///< by this frame's bakes
-    /// The largest predicted silhouette displacement of a far-drawn entity (CONTRACT.md §5,
-    /// predictedBudgetUnits: virtual pixels, screen pixels where a cell is smaller).
-    double farPredictedWorstVpx = 0.0;
+
+    PlanStats plan;           ///< the selection (lod/frame_planner.hpp): switches, fades, views
+    ReferenceStats reference; ///< the near tier on the CPU (volumetric/near_stats.hpp)
+    NearStats vulkanNear;     ///< the near tier on Vulkan
+    FarFrameStats far;        ///< the far tier's cache work; with the CPU blit, far.blit
+    FarPassStats vulkanFar;   ///< the far tier on Vulkan (impostor_cache/far_stats.hpp)
+    VulkanFrameTimes vulkan;  ///< a frame drawn on Vulkan
 };
 
 struct FrameResult {

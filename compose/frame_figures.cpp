@@ -2,32 +2,20 @@
 #include "compose/frame_figures.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
-#include <type_traits>
 
 namespace voxtier {
 
 namespace {
 
-// Every FrameStats field has exactly one line in the table, or the build stops here: T{a, b, ...}
-// compiles for as many initializers as the aggregate T has fields, and no more.
-struct AnyField {
-    template <class T> constexpr operator T() const { return T{}; }
-};
-template <class T, class... Fields> constexpr std::size_t fieldCount() {
-    if constexpr (requires { T{Fields{}..., AnyField{}}; })
-        return fieldCount<T, Fields..., AnyField>();
-    else
-        return sizeof...(Fields);
-}
-constexpr bool membersDistinct() {
+constexpr bool namesDistinct() {
     for (std::size_t i = 0; i < kFrameFigureCount; ++i)
         for (std::size_t j = i + 1; j < kFrameFigureCount; ++j)
-            if (kFrameFigures[i].member == kFrameFigures[j].member) return false;
+            if (std::string_view(kFrameFigures[i].name) == kFrameFigures[j].name) return false;
     return true;
 }
-static_assert(fieldCount<FrameStats>() == kFrameFigureCount && membersDistinct(),
-              "every FrameStats field needs exactly one line in kFrameFigures");
+static_assert(namesDistinct(), "every output column of kFrameFigures needs its own name");
 
 double median(std::vector<double> v) {
     if (v.empty()) return 0.0;
@@ -46,6 +34,8 @@ const char* toString(FigureUnit u) {
         return "bytes";
     case FigureUnit::Ms:
         return "ms";
+    case FigureUnit::Vpx:
+        return "vpx";
     }
     return "?";
 }
@@ -62,18 +52,13 @@ const char* toString(AcrossFrames a) {
     return "?";
 }
 
-std::string FrameFigure::text(const FrameStats& s) const {
-    return std::visit(
-        [&](auto m) {
-            if constexpr (std::is_floating_point_v<std::remove_reference_t<decltype(s.*m)>>) {
-                char buf[32];
-                std::snprintf(buf, sizeof buf, "%.3f", s.*m);
-                return std::string(buf);
-            } else {
-                return std::to_string(s.*m);
-            }
-        },
-        member);
+std::string FrameFigure::text(double value) const {
+    char buf[32];
+    if (isWhole(unit))
+        std::snprintf(buf, sizeof buf, "%.0f", std::trunc(value));
+    else
+        std::snprintf(buf, sizeof buf, "%.3f", value);
+    return buf;
 }
 
 std::string FrameFigure::words() const {
@@ -83,28 +68,32 @@ std::string FrameFigure::words() const {
     return w;
 }
 
-FrameStats medianOf(const std::vector<FrameStats>& repeats) {
-    FrameStats m;
+Figures figuresOf(const FrameStats& s) {
+    Figures out;
+    for (std::size_t i = 0; i < kFrameFigureCount; ++i) out.values[i] = kFrameFigures[i].read(s);
+    return out;
+}
+
+Figures medianOf(const std::vector<FrameStats>& repeats) {
+    Figures out;
     std::vector<double> values;
-    for (const FrameFigure& f : kFrameFigures) {
+    for (std::size_t i = 0; i < kFrameFigureCount; ++i) {
+        const FrameFigure& f = kFrameFigures[i];
         values.clear();
-        for (const FrameStats& s : repeats) values.push_back(f.of(s));
-        f.set(m, median(values));
+        for (const FrameStats& s : repeats) values.push_back(f.read(s));
+        const double m = median(values);
+        out.values[i] = isWhole(f.unit) ? std::trunc(m) : m;
     }
-    return m;
+    return out;
 }
 
-double PathFigures::of(FrameMember member) const {
-    return values[frameFigureIndex(member)];
-}
-
-PathFigures acrossFrames(const std::vector<FrameStats>& frames) {
-    PathFigures out;
+Figures acrossFrames(const std::vector<Figures>& frames) {
+    Figures out;
     for (std::size_t i = 0; i < kFrameFigureCount; ++i) {
         const FrameFigure& f = kFrameFigures[i];
         double& v = out.values[i];
-        for (const FrameStats& s : frames)
-            v = f.acrossFrames == AcrossFrames::Worst ? std::max(v, f.of(s)) : v + f.of(s);
+        for (const Figures& s : frames)
+            v = f.acrossFrames == AcrossFrames::Worst ? std::max(v, s.values[i]) : v + s.values[i];
         if (f.acrossFrames == AcrossFrames::Mean && !frames.empty()) v /= double(frames.size());
     }
     return out;
@@ -117,9 +106,10 @@ std::string figureCsvHeader() {
     return out;
 }
 
-std::string figureCsvRow(const FrameStats& s) {
+std::string figureCsvRow(const Figures& f) {
     std::string out;
-    for (const FrameFigure& f : kFrameFigures) out += (out.empty() ? "" : ",") + f.text(s);
+    for (std::size_t i = 0; i < kFrameFigureCount; ++i)
+        out += (i ? "," : "") + kFrameFigures[i].text(f.values[i]);
     return out;
 }
 

@@ -10,6 +10,7 @@
 #include "core/occlusion.hpp"
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
+#include "impostor_cache/far_stats.hpp"
 #include "impostor_cache/snapshot.hpp"
 
 #include <cmath>
@@ -22,16 +23,6 @@ struct FarSprite {
     const SpriteSetup* sprite = nullptr; ///< culled sprites (!visible()) draw nothing
     const Snapshot* snapshot = nullptr;  ///< of the sprite's model frame, any view
     const Palette* palette = nullptr;
-};
-
-struct FarBlitStats {
-    std::uint64_t sprites = 0; ///< sprites drawn
-    std::uint64_t pixelsTested =
-        0; ///< pixels evaluated (of each row, the columns that can hold a cell)
-    std::uint64_t pixelsWritten = 0; ///< pixels a solid or outline snapshot cell won
-    /// (sprite, 16-row tile row) parts not drawn because occlusion tiles hid them
-    std::uint64_t partsCulled = 0;
-    double milliseconds = 0.0;
 };
 
 /// Which snapshot cell the blit reads for near cell (i, j): the centre of the near cell on the

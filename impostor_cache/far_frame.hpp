@@ -15,20 +15,6 @@
 
 namespace voxtier {
 
-struct FarFrameStats {
-    std::uint64_t sprites = 0;       ///< visible sprites drawn through the cache
-    std::uint64_t culled = 0;        ///< visible sprites occlusion culling dropped whole
-    std::uint64_t snapshotsUsed = 0; ///< distinct snapshots this frame
-    std::uint64_t bakes = 0;         ///< of those, baked during this frame
-    std::uint64_t scenesBuilt = 0;   ///< Embree scenes those bakes built first
-    /// Of the bakes, stale snapshots brought up to date after an edit; of those, the ones
-    /// re-traced only where the edit reaches, and the rays they traced (SnapshotCacheCounters).
-    std::uint64_t refreshes = 0, incrementalRefreshes = 0, cellsRetraced = 0;
-    std::uint64_t raysTraced = 0; ///< by those bakes (SnapshotCacheCounters::raysTraced)
-    double ensureMs = 0.0;        ///< lookups + bakes
-    FarBlitStats blit;
-};
-
 /// One far sprite to draw; `view` overrides the nearest-view choice (a selector applying angular
 /// hysteresis or an error budget, with a view of any set or ladder level), nullopt =
 /// chooseFarView in the frame's set.

@@ -7,17 +7,12 @@
 // double, as on the CPU).
 #include "device/gpu_frame.hpp"
 #include "impostor_cache/far_batch.hpp"
+#include "impostor_cache/far_stats.hpp"
 
 #include <cstdint>
 #include <memory>
 
 namespace voxtier {
-
-/// What the far pass did in one frame.
-struct FarPassStats {
-    /// Far sprites drawn, image tiles walked, snapshots (and their bytes) uploaded this frame.
-    std::uint64_t sprites = 0, tiles = 0, snapshotsUploaded = 0, bytesUploaded = 0;
-};
 
 class FarPass {
   public:

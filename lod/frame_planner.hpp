@@ -69,7 +69,7 @@ struct FrameCostSample {
     /// builds with the on-disk store's reads and writes.
     double bakeWorkMs = 0.0, sceneAndStoreMs = 0.0;
     double nearMs = 0.0, nearUploadMs = 0.0, blitMs = 0.0;
-    double planMs = 0.0; ///< the planner's own time (FrameStats::selectMs)
+    double planMs = 0.0; ///< the planner's own time (FrameStats::hostSelectMs)
     /// A hybrid frame under metric error_budget: the only frames whose near cost and planning
     /// time the cost bound reads.
     bool planned = false;

@@ -253,7 +253,7 @@ TEST(ErrorBudget, OnlyTheViewsDrawnAreBakedAndBakesPerFrameAreBounded) {
     const int frames = s.path->frameCount();
     for (int f = 0; f < frames; f += std::max(1, frames / 15)) {
         const FrameResult fr = r.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
-        EXPECT_LE(fr.stats.farBakes, 3) << "frame " << f;
+        EXPECT_LE(fr.stats.far.bakes, 3) << "frame " << f;
         for (std::size_t i = 0; i < fr.plan.size(); ++i) {
             if (!fr.plan[i].drawsFar() || !fr.sprites[i].visible()) continue;
             const glm::ivec3 v = fr.plan[i].view->lattice;
@@ -290,7 +290,7 @@ TEST(ErrorBudget, SnapshotsOnDiskCountAsCachedNotAsBakes) {
         FrameRenderer r(s, withDir);
         baked = r.render(0.0, RenderMode::Hybrid, 0);
     }
-    ASSERT_GT(baked.stats.farBakes, 0);
+    ASSERT_GT(baked.stats.far.bakes, 0);
     ASSERT_GE(farCount(baked), 10);
 
     // Everything the selector puts far is far at once, nothing baked, the same image.
@@ -299,7 +299,7 @@ TEST(ErrorBudget, SnapshotsOnDiskCountAsCachedNotAsBakes) {
         s.selector.maxBakesPerFrame = bound;
         FrameRenderer fromDisk(s, withDir);
         const FrameResult fr = fromDisk.render(0.0, RenderMode::Hybrid, 0);
-        EXPECT_EQ(fr.stats.farBakes, 0) << bound;
+        EXPECT_EQ(fr.stats.far.bakes, 0) << bound;
         EXPECT_EQ(farCount(fr), farCount(baked)) << bound;
         EXPECT_GT(fromDisk.snapshotCache().counters().diskLoads, 0u);
         for (std::size_t i = 0; i < fr.plan.size(); ++i)
@@ -309,7 +309,7 @@ TEST(ErrorBudget, SnapshotsOnDiskCountAsCachedNotAsBakes) {
         // Without the directory the bound keeps them near: the all-near image.
         FrameRenderer noDir(s, cpuNear());
         const FrameResult near = noDir.render(0.0, RenderMode::Hybrid, 0);
-        EXPECT_LE(near.stats.farBakes, bound);
+        EXPECT_LE(near.stats.far.bakes, bound);
         EXPECT_LT(farCount(near), farCount(fr)) << bound; // one bake: the entities of one view
         if (bound == 0) {
             EXPECT_EQ(farCount(near), 0);
@@ -424,20 +424,20 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
     };
     const std::vector<FrameResult> bound = run(std::nullopt);
     int boundBakes = 0;
-    for (const FrameResult& fr : bound) boundBakes += fr.stats.farBakes;
+    for (const FrameResult& fr : bound) boundBakes += fr.stats.far.bakes;
     ASSERT_GT(boundBakes, 10);
 
     const std::vector<FrameResult> free = run(BakeCosts{.msPerBake = 1e-12, .nearMsPerUnit = 1.0});
     for (int f = 0; f < frames; ++f) {
         EXPECT_TRUE(free[f].plan == bound[f].plan) << "frame " << f;
-        EXPECT_EQ(free[f].stats.farBakesGivenUp, 0) << "frame " << f;
+        EXPECT_EQ(free[f].stats.plan.bakesGivenUp, 0) << "frame " << f;
         EXPECT_EQ(test::describeDifference(bound[f].image, free[f].image, "bound", "free"), "");
     }
 
     FrameRenderer allNear(s, cpuNear());
     const std::vector<FrameResult> dear = run(BakeCosts{.msPerBake = 1e12, .nearMsPerUnit = 1.0});
     for (int f = 0; f < frames; ++f) {
-        EXPECT_EQ(dear[f].stats.farBakes, 0) << "frame " << f;
+        EXPECT_EQ(dear[f].stats.far.bakes, 0) << "frame " << f;
         EXPECT_EQ(dear[f].stats.farDrawn, 0) << "frame " << f;
         const Image near = allNear.render(s.timeOfFrame(f), RenderMode::Near, f).image;
         EXPECT_EQ(test::describeDifference(near, dear[f].image, "all near", "dear bakes"), "");
@@ -449,11 +449,11 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
     int costedBakes = 0, farFrames = 0, costedFar = 0, boundFar = 0, givenUp = 0;
     for (int f = 0; f < frames; ++f) {
         const FrameResult& fr = costed[f];
-        costedBakes += fr.stats.farBakes;
-        givenUp += fr.stats.farBakesGivenUp;
+        costedBakes += fr.stats.far.bakes;
+        givenUp += fr.stats.plan.bakesGivenUp;
         farFrames += fr.stats.farDrawn > 0;
         costedFar += fr.stats.farDrawn, boundFar += bound[f].stats.farDrawn;
-        EXPECT_LE(fr.stats.farBakes * costs.msPerBake, farSavingMs(fr, costs) + 1e-9)
+        EXPECT_LE(fr.stats.far.bakes * costs.msPerBake, farSavingMs(fr, costs) + 1e-9)
             << "frame " << f;
     }
     std::printf("over %d frames: %d bakes and %d far sprites under the bound alone, %d and %d "
@@ -461,7 +461,7 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
                 frames, boundBakes, boundFar, costedBakes, costedFar);
     // The first frame has only its own bakes' users to pay for them: fewer bakes than the bound
     // allows. Later frames' cached far sprites pay for more.
-    EXPECT_LT(costed[0].stats.farBakes, bound[0].stats.farBakes);
+    EXPECT_LT(costed[0].stats.far.bakes, bound[0].stats.far.bakes);
     EXPECT_LT(costedFar, boundFar);
     EXPECT_GT(costedBakes, 0);
     EXPECT_GT(givenUp, 0); // the frame figure counts them

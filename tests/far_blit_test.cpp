@@ -304,13 +304,13 @@ TEST(FarMode, FrameRendererDrawsEveryEntityThroughItsCache) {
     EXPECT_EQ(parseRenderMode("far"), RenderMode::Far);
     const FrameResult first = r.render(0.0, RenderMode::Far);
     EXPECT_EQ(first.stats.farDrawn, first.stats.entities - first.stats.culled);
-    EXPECT_GT(first.stats.farBakes, 0);
+    EXPECT_GT(first.stats.far.bakes, 0);
     EXPECT_GT(test::drawnPixels(first.image), 500u);
     const FrameResult second = r.render(0.0, RenderMode::Far);
-    EXPECT_EQ(second.stats.farBakes, 0); // cached
+    EXPECT_EQ(second.stats.far.bakes, 0); // cached
     // One Embree scene per model (one animation frame each), built by the first frame only.
-    EXPECT_EQ(first.stats.farScenesBuilt, 2);
-    EXPECT_EQ(second.stats.farScenesBuilt, 0);
+    EXPECT_EQ(first.stats.far.scenesBuilt, 2);
+    EXPECT_EQ(second.stats.far.scenesBuilt, 0);
     EXPECT_TRUE(diffImages(first.image, second.image).identical());
     for (std::size_t i = 0; i < s.entities.size(); ++i)
         EXPECT_GT(first.image.countEntity(std::uint32_t(i)), 0u) << i;

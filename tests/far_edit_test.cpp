@@ -445,7 +445,7 @@ TEST(FarEditCost, FrameStatsReportNearBytesAndFarRefreshesPerEdit) {
         std::vector<std::uint64_t> bytes;
         for (int f = 0; f < 3; ++f) {
             r.applyEditsThrough(f);
-            bytes.push_back(r.render(0.0, RenderMode::Near, f).stats.nearBytesUploaded);
+            bytes.push_back(r.render(0.0, RenderMode::Near, f).stats.vulkanNear.bytesUploaded);
         }
         EXPECT_EQ(bytes[0], 64u * 64u * 64u) << "a new model is uploaded whole";
         EXPECT_EQ(bytes[1], 1u) << "one voxel";
@@ -458,16 +458,16 @@ TEST(FarEditCost, FrameStatsReportNearBytesAndFarRefreshesPerEdit) {
         r.applyEditsThrough(f);
         st.push_back(r.render(0.0, RenderMode::Far, f).stats);
     }
-    EXPECT_EQ(st[0].farBakes, 1);
-    EXPECT_EQ(st[0].farRefreshes, 0);
+    EXPECT_EQ(st[0].far.bakes, 1);
+    EXPECT_EQ(st[0].far.refreshes, 0);
     for (int f = 1; f < 3; ++f) {
-        EXPECT_EQ(st[std::size_t(f)].farBakes, 1) << f;
-        EXPECT_EQ(st[std::size_t(f)].farRefreshes, 1) << f;
-        EXPECT_EQ(st[std::size_t(f)].farIncrementalRefreshes, 1) << f;
-        EXPECT_GT(st[std::size_t(f)].farCellsRetraced, 0u) << f;
-        EXPECT_EQ(st[std::size_t(f)].nearBytesUploaded, 0u) << "far mode draws nothing near";
+        EXPECT_EQ(st[std::size_t(f)].far.bakes, 1) << f;
+        EXPECT_EQ(st[std::size_t(f)].far.refreshes, 1) << f;
+        EXPECT_EQ(st[std::size_t(f)].far.incrementalRefreshes, 1) << f;
+        EXPECT_GT(st[std::size_t(f)].far.cellsRetraced, 0u) << f;
+        EXPECT_EQ(st[std::size_t(f)].vulkanNear.bytesUploaded, 0u) << "far mode draws nothing near";
     }
-    EXPECT_LT(st[1].farCellsRetraced, st[2].farCellsRetraced) << "one voxel < a 4x6x4 box";
+    EXPECT_LT(st[1].far.cellsRetraced, st[2].far.cellsRetraced) << "one voxel < a 4x6x4 box";
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -143,7 +143,7 @@ int countSwitches(Scene& s) {
     int switches = 0;
     for (int f = 0; f < s.path->frameCount(); ++f) {
         const FrameResult fr = r.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
-        switches += fr.stats.switchesToFar + fr.stats.switchesToNear;
+        switches += fr.stats.plan.switchesToFar + fr.stats.plan.switchesToNear;
     }
     return switches;
 }
@@ -294,8 +294,8 @@ TEST(HybridFrame, SecondFrameReusesSnapshots) {
     const FrameResult b = r.render(0.0, RenderMode::Hybrid);
     EXPECT_GT(a.stats.farDrawn, 0);
     EXPECT_GT(a.stats.nearDrawn, 0);
-    EXPECT_GT(a.stats.farBakes, 0);
-    EXPECT_EQ(b.stats.farBakes, 0);
+    EXPECT_GT(a.stats.far.bakes, 0);
+    EXPECT_EQ(b.stats.far.bakes, 0);
     EXPECT_TRUE(diffImages(a.image, b.image).identical());
 }
 

@@ -91,11 +91,11 @@ int expectCullingChangesNothing(Scene scene, RenderMode mode, const std::vector<
         const double t = scene.path ? scene.timeOfFrame(f) : 0.0;
         const FrameResult a = culled.render(t, mode, f);
         const FrameResult b = whole.render(t, mode, f);
-        EXPECT_EQ(b.stats.nearOccluded + b.stats.farOccluded, 0) << what;
+        EXPECT_EQ(b.stats.reference.culled + b.stats.far.culled, 0) << what;
         const ImageDiff d = diffImages(a.image, b.image);
         EXPECT_TRUE(d.identical()) << what << " " << toString(mode) << " frame " << f << ": "
                                    << test::describeDifference(a.image, b.image, "culled", "whole");
-        dropped += a.stats.nearOccluded + a.stats.farOccluded;
+        dropped += a.stats.reference.culled + a.stats.far.culled;
     }
     return dropped;
 }
@@ -173,7 +173,8 @@ TEST(Culling, CrossFadingEntitiesKeepEveryPixel) {
     for (int f = 0; f < s.path->frameCount(); ++f) all.push_back(f);
     FrameRenderer probe(s, test::cpuNear());
     int fading = 0;
-    for (int f : all) fading += probe.render(s.timeOfFrame(f), RenderMode::Hybrid, f).stats.fading;
+    for (int f : all)
+        fading += probe.render(s.timeOfFrame(f), RenderMode::Hybrid, f).stats.plan.fading;
     ASSERT_GT(fading, 0) << "the path must cross-fade somewhere";
     EXPECT_GT(expectCullingChangesNothing(s, RenderMode::Hybrid, all, "corridor"), 0);
     s.selector.metric = SelectorMetric::ErrorBudget;
@@ -220,22 +221,23 @@ TEST(Culling, EntitiesBehindAWallAreDroppedBeforeAnyBake) {
     const FrameResult a = culled.render(0.0, RenderMode::Far, 0);
     const FrameResult b = whole.render(0.0, RenderMode::Far, 0);
     EXPECT_TRUE(diffImages(a.image, b.image).identical());
-    EXPECT_EQ(a.stats.farOccluded, 30);
-    EXPECT_EQ(a.stats.farBakes, 1) << "the wall's one view, nothing of the hidden spheres";
-    EXPECT_GT(b.stats.farBakes, 1);
+    EXPECT_EQ(a.stats.far.culled, 30);
+    EXPECT_EQ(a.stats.far.bakes, 1) << "the wall's one view, nothing of the hidden spheres";
+    EXPECT_GT(b.stats.far.bakes, 1);
     for (std::uint32_t e = 1; e <= 30; ++e) ASSERT_EQ(b.image.countEntity(e), 0u);
     const FrameResult c = culled.render(0.0, RenderMode::Reference, 0);
-    EXPECT_EQ(c.stats.nearOccluded, 30);
+    EXPECT_EQ(c.stats.reference.culled, 30);
     // Not one voxel read for the hidden spheres, with culling (dropped whole) and without it
     // (the wall, entity 0, is drawn first, and the early depth test rejects every pixel behind
     // it): both read exactly what the wall alone reads.
     Scene wallOnly = s;
     wallOnly.entities.resize(1);
     FrameRenderer alone(wallOnly, off);
-    const std::uint64_t wallReads = alone.render(0.0, RenderMode::Reference, 0).stats.voxelFetches;
+    const std::uint64_t wallReads =
+        alone.render(0.0, RenderMode::Reference, 0).stats.reference.voxelFetches;
     EXPECT_GT(wallReads, 0u);
-    EXPECT_EQ(c.stats.voxelFetches, wallReads);
-    EXPECT_EQ(whole.render(0.0, RenderMode::Reference, 0).stats.voxelFetches, wallReads);
+    EXPECT_EQ(c.stats.reference.voxelFetches, wallReads);
+    EXPECT_EQ(whole.render(0.0, RenderMode::Reference, 0).stats.reference.voxelFetches, wallReads);
 }
 
 // The CPU reference counts its sprite rows for a progress line (issue 27): every row it adds to

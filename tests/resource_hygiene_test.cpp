@@ -92,8 +92,8 @@ TEST(ResourceHygiene, LongHybridPathWithEditsKeepsMemoryFlatAndLeaksNothing) {
             r.applyEditsThrough(f);
             const FrameResult fr = r.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
             maxCache = std::max(maxCache, fr.stats.cacheBytes);
-            switches += fr.stats.switchesToFar + fr.stats.switchesToNear;
-            bakes += fr.stats.farBakes;
+            switches += fr.stats.plan.switchesToFar + fr.stats.plan.switchesToNear;
+            bakes += fr.stats.far.bakes;
             if (f == 300) rssWarm = residentMiB();
         }
         rssEnd = residentMiB();

@@ -124,7 +124,7 @@ TEST_F(VulkanCull, HybridFramesWithCrossFadesAreUnchanged) {
         for (int f = 0; f < s.path->frameCount(); f += 2) {
             const FrameResult ra = culled.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
             const FrameResult rb = whole.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
-            fading += ra.stats.fading;
+            fading += ra.stats.plan.fading;
             EXPECT_EQ(test::describeDifference(ra.image, rb.image, "culled", "whole"), "")
                 << "frame " << f << (far == FarBackend::Vulkan ? " far on Vulkan" : "");
         }

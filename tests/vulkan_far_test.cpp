@@ -164,8 +164,8 @@ TEST_F(VulkanFar, FinerSnapshotsEqualTheCpuBlit) {
             EXPECT_GT(fc.stats.farDrawn, 0) << file;
             EXPECT_EQ(fg.stats.farOnVulkan, 1) << file;
             // The bakes' rays count whichever backend draws the far sprites.
-            EXPECT_GT(fc.stats.raysTraced, 0u) << file;
-            EXPECT_EQ(fg.stats.raysTraced, fc.stats.raysTraced) << file;
+            EXPECT_GT(fc.stats.far.raysTraced, 0u) << file;
+            EXPECT_EQ(fg.stats.far.raysTraced, fc.stats.far.raysTraced) << file;
         }
 }
 

@@ -24,6 +24,7 @@
 #include "core/voxel_model.hpp"
 #include "device/gpu_frame.hpp"
 #include "volumetric/near_proxy.hpp"
+#include "volumetric/near_stats.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -75,26 +76,6 @@ struct NearOptions {
     /// llvmpipe the shaders that hold the box march ran the near tier 1.3-2x slower, skipping
     /// or not (docs/decisions/empty-space-skipping.md); a GPU's figure decides.
     bool skipEmpty = false;
-};
-
-/// What the near passes did in one frame (the counts; the device times are the frame's named
-/// passes, device/pass_timer.hpp).
-struct NearStats : CellRateCounts {
-    std::uint64_t sprites = 0; ///< instances drawn
-    std::uint64_t drawCalls = 0;
-    /// FRAGMENT_SHADER_INVOCATIONS of the draw (0 when the device has no statistics queries).
-    std::uint64_t fragmentInvocations = 0;
-    /// With countSteps: fragments (or, traced in compute, pixels) that ran the kernel, and their
-    /// vtFetchVoxel calls (DDA steps, the four outline neighbour rays included).
-    std::uint64_t kernelFragments = 0, voxelFetches = 0;
-    std::uint64_t bytesUploaded = 0; ///< voxel bytes copied to the atlas for this frame
-    std::uint64_t uploadRegions = 0;
-    std::uint64_t atlasGrowths = 0; ///< the atlas was re-created larger this frame
-    double uploadMs = 0.0;          ///< residency on the host: pack + copy + wait
-    /// Sprites rasterised flat at their depth, with the early depth test (earlyDepthTest).
-    std::uint64_t earlyDepthSprites = 0;
-    /// The per-pixel sprites were traced by the compute pass (NearPixels::Compute), not drawn.
-    bool pixelsInCompute = false;
 };
 
 class VoxelResidency;

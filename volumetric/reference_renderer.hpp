@@ -8,6 +8,7 @@
 #include "core/sprite.hpp"
 #include "core/voxel_model.hpp"
 #include "core/work_progress.hpp"
+#include "volumetric/near_stats.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -15,18 +16,6 @@
 #include <vector>
 
 namespace voxtier {
-
-struct ReferenceStats : CellRateCounts {
-    std::uint64_t sprites = 0;        ///< sprites drawn
-    std::uint64_t culled = 0;         ///< visible sprites occlusion culling dropped whole
-    std::uint64_t pixelsTested = 0;   ///< pixels of sprite rectangles evaluated ("fragments")
-    std::uint64_t pixelsHidden = 0;   ///< of those, already nearer: neither traced nor looked up
-    std::uint64_t pixelsInSprite = 0; ///< of those, pixels that map to a lattice cell
-    std::uint64_t pixelsWritten = 0;  ///< solid or outline outcomes
-    std::uint64_t voxelFetches = 0;   ///< reads: DDA steps (one voxel each) and brick reads
-    std::uint64_t brickFetches = 0;   ///< of those, reads of the brick occupancy
-    double milliseconds = 0.0;
-};
 
 /// How the reference traces: per pixel (the executable spec, default) or cell-rate where the
 /// rate says so (core/near_rate.hpp); the image is the same either way.

@@ -62,9 +62,9 @@ std::string verdict(bool met) {
 // report.md: the template's context, every number formatted here.
 
 std::string entitiesCell(const Measurement& m) {
-    std::string s = num(perFrame(m, &FrameStats::nearDrawn), 0) + " / " +
-                    num(perFrame(m, &FrameStats::farDrawn), 0);
-    const double fading = perFrame(m, &FrameStats::fading);
+    std::string s =
+        num(perFrame(m, "near_entities"), 0) + " / " + num(perFrame(m, "far_entities"), 0);
+    const double fading = perFrame(m, "fading_entities");
     if (fading >= 0.5) s += " (" + num(fading, 0) + " fading)";
     return s;
 }
@@ -86,7 +86,7 @@ std::string speedupCell(const Measurement& m) {
 /// skipped them.
 std::string nearShareCell(const Measurement& m) {
     if (m.allNearSameBackendFragments <= 0) return "–";
-    const double share = perFrame(m, &FrameStats::nearPixelsTested) / m.allNearSameBackendFragments;
+    const double share = perFrame(m, "near_fragments") / m.allNearSameBackendFragments;
     return pct(share, 1) + (share > 1.0 ? " (near pixels behind far sprites traced)" : "");
 }
 
@@ -179,8 +179,8 @@ json headlineContext(const SuiteResults& r, const std::string& scene) {
             {"fastest_ms", num(hyb->fastestExactMs)},
             {"speedup", num(hyb->speedupVsFastestExact, 2) + "×"},
             {"vs_vulkan", speedupCell(*hyb)},
-            {"near_entities", num(perFrame(*hyb, &FrameStats::nearDrawn), 0)},
-            {"far_entities", num(perFrame(*hyb, &FrameStats::farDrawn), 0)},
+            {"near_entities", num(perFrame(*hyb, "near_entities"), 0)},
+            {"far_entities", num(perFrame(*hyb, "far_entities"), 0)},
             {"mismatch_mean", pct(hyb->error.mismatchMean)},
             {"mismatch_worst", pct(hyb->error.mismatchWorst)},
             {"displacement_px", num(hyb->error.farDisplacementWorstPx, 1)},
@@ -499,7 +499,7 @@ json throughputContext(const SuiteResults& r) {
              {"memcpy_mpx_per_s", rate(m.memcpyPixelsPerS, "")},
              {"blit_over_memcpy",
               m.memcpyPixelsPerS > 0 ? pct(m.blitPixelsPerS / m.memcpyPixelsPerS, 1) : "–"},
-             {"cache_mb", num(perFrame(m, &FrameStats::cacheBytes) / 1048576.0, 2)}});
+             {"cache_mb", num(perFrame(m, "cache_bytes") / 1048576.0, 2)}});
     }
     return rows;
 }
@@ -557,17 +557,17 @@ json scalingContext(const SuiteResults& r, const std::vector<std::string>& plots
                      {"frame_ms", num(m.frameMs())},
                      {"growth", num(m.frameMs() / firstMs[toString(m.mode)], 1) + "×"},
                      {"speedup", speedupCell(m)},
-                     {"setup_ms", num(perFrame(m, &FrameStats::hostSetupMs) +
-                                      perFrame(m, &FrameStats::hostSelectMs))},
-                     {"occluded", num(perFrame(m, &FrameStats::nearOccluded), 0) + " / " +
-                                      num(perFrame(m, &FrameStats::farOccluded), 0)},
-                     {"near_written", num(perFrame(m, &FrameStats::nearPixelsWritten), 0)},
-                     {"blit_written", num(perFrame(m, &FrameStats::farPixelsWritten), 0)},
-                     {"near_ms", num(perFrame(m, &FrameStats::nearMs))},
-                     {"near_fragments", num(perFrame(m, &FrameStats::nearPixelsTested), 0)},
-                     {"voxel_steps", num(perFrame(m, &FrameStats::voxelFetches), 0)},
-                     {"blit_ms", num(perFrame(m, &FrameStats::blitMs))},
-                     {"blit_pixels", num(perFrame(m, &FrameStats::farPixelsTested), 0)},
+                     {"setup_ms",
+                      num(perFrame(m, "host_setup_ms") + perFrame(m, "host_select_ms"))},
+                     {"occluded", num(perFrame(m, "near_occluded"), 0) + " / " +
+                                      num(perFrame(m, "far_occluded"), 0)},
+                     {"near_written", num(perFrame(m, "near_pixels_written"), 0)},
+                     {"blit_written", num(perFrame(m, "blit_pixels_written"), 0)},
+                     {"near_ms", num(perFrame(m, "near_ms"))},
+                     {"near_fragments", num(perFrame(m, "near_fragments"), 0)},
+                     {"voxel_steps", num(perFrame(m, "voxel_steps"), 0)},
+                     {"blit_ms", num(perFrame(m, "far_blit_ms"))},
+                     {"blit_pixels", num(perFrame(m, "blit_pixels"), 0)},
                      {"cold_bake_ms", num(m.cold.bakeMs, 1)},
                      {"error",
                       m.hasError ? json({{"mismatch", pct(m.error.mismatchMean)}}) : json(false)}});

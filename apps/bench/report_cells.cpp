@@ -44,8 +44,8 @@ std::vector<std::string> sceneNames(const SuiteResults& r) {
     return out;
 }
 
-double perFrame(const Measurement& m, FrameMember member) {
-    return m.figures.of(member);
+double perFrame(const Measurement& m, FigureId figure) {
+    return m.figures[figure];
 }
 
 } // namespace voxtier::bench::cells

@@ -28,6 +28,6 @@ const Measurement* find(const SuiteResults& r, const std::string& group, const s
 /// The scenes of the mode rows, in the order measured.
 std::vector<std::string> sceneNames(const SuiteResults& r);
 /// A figure of the path, per frame as the figure table combines it.
-double perFrame(const Measurement& m, FrameMember member);
+double perFrame(const Measurement& m, FigureId figure);
 
 } // namespace voxtier::bench::cells

@@ -164,8 +164,11 @@ json summaryJson(const EntityErrorSummary& s) {
 json frameJson(const FrameRow& f) {
     json fr = {
         {"frame", f.frame}, {"time", f.time}, {"frame_ms_min", f.minMs}, {"frame_ms_max", f.maxMs}};
-    for (const FrameFigure& fig : kFrameFigures)
-        fr[fig.name] = std::visit([&](auto member) { return json(f.median.*member); }, fig.member);
+    for (std::size_t i = 0; i < kFrameFigureCount; ++i) {
+        const FrameFigure& fig = kFrameFigures[i];
+        const double v = f.median.values[i];
+        fr[fig.name] = isWhole(fig.unit) ? json(std::int64_t(v)) : json(v);
+    }
     fr["error"] = nullptr;
     if (f.hasError)
         fr["error"] = {{"all", summaryJson(f.error.all)},

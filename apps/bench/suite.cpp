@@ -159,9 +159,9 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
                     c.renderer->render(set.times[fi], info(c.mode).renderMode, set.frames[fi]);
                 if (pass == 0) {
                     if (fi == 0) c.coldFirstMs = r.stats.totalMs;
-                    c.cold.farBakes += r.stats.farBakes;
-                    c.cold.bakeMs += r.stats.bakeMs;
-                    c.cold.raysTraced += r.stats.raysTraced;
+                    c.cold.far.bakes += r.stats.far.bakes;
+                    c.cold.far.ensureMs += r.stats.far.ensureMs;
+                    c.cold.far.raysTraced += r.stats.far.raysTraced;
                     c.cold.totalMs += r.stats.totalMs;
                 }
                 if (timed) c.samples[fi].push_back(r.stats);
@@ -190,8 +190,9 @@ void runSet(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& nea
             progress.step(set.label + ": " + c->name + ", counting voxel steps");
             const FrameResult r =
                 c->renderer->render(set.times[fi], info(c->mode).renderMode, set.frames[fi]);
-            c->countedSteps[fi] = r.stats.voxelFetches;
-            c->countedFragments[fi] = r.stats.nearKernelFragments;
+            const Figures counted = figuresOf(r.stats);
+            c->countedSteps[fi] = std::uint64_t(counted["voxel_steps"]);
+            c->countedFragments[fi] = std::uint64_t(counted["near_kernel_fragments"]);
         }
         c->renderer->options().nearCountSteps = false;
     }
@@ -270,8 +271,7 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Confi
     double timed = 0;
     for (std::size_t f = 0; f < c.motion.size(); ++f) {
         const Config::MotionFrame& mf = c.motion[f];
-        m.motion.predictedWorstVpx =
-            std::max(m.motion.predictedWorstVpx, mf.stats.farPredictedWorstVpx);
+        m.motion.predictedWorstVpx = std::max(m.motion.predictedWorstVpx, mf.stats.plan.worstVpx);
         m.motion.cacheBytes = std::max(m.motion.cacheBytes, double(mf.stats.cacheBytes));
         if (mf.psnr < m.motion.psnrMin) {
             m.motion.psnrMin = mf.psnr;
@@ -284,8 +284,8 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Confi
             continue;
         }
         ++timed;
-        m.motion.bakes += mf.stats.farBakes;
-        m.motion.bakeMs += mf.stats.bakeMs;
+        m.motion.bakes += double(mf.stats.far.bakes);
+        m.motion.bakeMs += mf.stats.far.ensureMs;
         m.motion.nearMs += mf.stats.nearMs;
         m.motion.nearEntities += mf.stats.nearDrawn;
         m.motion.farEntities += mf.stats.farDrawn;
@@ -298,13 +298,13 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Confi
 
 /// Each sampled frame's figures: the medians over the timed passes, with the voxel reads of
 /// the counting frame where the mode counts them apart.
-std::vector<FrameStats> frameMedians(const Config& c) {
-    std::vector<FrameStats> out;
+std::vector<Figures> frameMedians(const Config& c) {
+    std::vector<Figures> out;
     for (std::size_t fi = 0; fi < c.samples.size(); ++fi) {
-        FrameStats s = medianOf(c.samples[fi]);
+        Figures s = medianOf(c.samples[fi]);
         if (info(c.mode).countsStepsApart) {
-            s.voxelFetches = c.countedSteps[fi];
-            s.nearKernelFragments = c.countedFragments[fi];
+            s["voxel_steps"] = double(c.countedSteps[fi]);
+            s["near_kernel_fragments"] = double(c.countedFragments[fi]);
         }
         out.push_back(s);
     }
@@ -313,15 +313,14 @@ std::vector<FrameStats> frameMedians(const Config& c) {
 
 /// Voxel steps, blit pixels and memcpy pixels per second, from the path's figures.
 void addThroughput(Measurement& m) {
-    const PathFigures& f = m.figures;
-    const double steps = f.of(&FrameStats::voxelFetches);
+    const Figures& f = m.figures;
+    const double steps = f["voxel_steps"];
     // On Vulkan the reads are the draw's (the counting shader's), over the device's own time of
     // the draw where it has timestamps; on the CPU reference, over the near tier's time.
-    const double gpuDrawMs = f.of(&FrameStats::gpuDrawMs);
-    const double stepMs =
-        info(m.mode).countsStepsApart && gpuDrawMs > 0 ? gpuDrawMs : f.of(&FrameStats::nearMs);
+    const double gpuDrawMs = f["gpu_draw_ms"];
+    const double stepMs = info(m.mode).countsStepsApart && gpuDrawMs > 0 ? gpuDrawMs : f["near_ms"];
     if (stepMs > 0 && steps > 0) m.voxelStepsPerS = steps / stepMs * 1e3;
-    const double blitPx = f.of(&FrameStats::farPixelsTested), blitMs = f.of(&FrameStats::blitMs);
+    const double blitPx = f["blit_pixels"], blitMs = f["far_blit_ms"];
     if (blitMs > 0 && blitPx > 0) {
         m.blitPixelsPerS = blitPx / blitMs * 1e3;
         const double ms = memcpyMs(std::size_t(blitPx * kBlitBytesPerPixel));
@@ -387,7 +386,7 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
                                          : nullptr;
     m.selector = selectorSummary(c.scene);
     m.truth = c.isTruth ? "itself" : c.truth >= 0 ? set.configs[std::size_t(c.truth)]->name : "";
-    const std::vector<FrameStats> medians = frameMedians(c);
+    const std::vector<Figures> medians = frameMedians(c);
     for (std::size_t fi = 0; fi < medians.size(); ++fi) {
         FrameRow fr;
         fr.frame = set.frames[fi];
@@ -398,21 +397,21 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
             fr.minMs = std::min(fr.minMs, s.totalMs), fr.maxMs = std::max(fr.maxMs, s.totalMs);
         fr.hasError = c.hasError[fi];
         fr.error = c.errors[fi];
-        m.worstFrameMs = std::max(m.worstFrameMs, fr.median.totalMs);
+        m.worstFrameMs = std::max(m.worstFrameMs, fr.median["frame_ms"]);
         m.frames.push_back(fr);
     }
     m.figures = acrossFrames(medians);
-    m.visible = m.figures.of(&FrameStats::entities) - m.figures.of(&FrameStats::culled);
+    m.visible = m.figures["entities"] - m.figures["culled"];
     const auto pathOf = [](const Config& of) { return acrossFrames(frameMedians(of)); };
     const auto ratio = [](double baseline, double ms) { return ms > 0 ? baseline / ms : 0.0; };
     if (truth) {
-        const PathFigures t = pathOf(*truth);
-        m.allNearVulkanMs = t.of(&FrameStats::totalMs);
-        m.allNearVulkanFragments = t.of(&FrameStats::nearPixelsTested);
+        const Figures t = pathOf(*truth);
+        m.allNearVulkanMs = t["frame_ms"];
+        m.allNearVulkanFragments = t["near_fragments"];
     }
     m.speedupVsAllNearVulkan = ratio(m.allNearVulkanMs, m.frameMs());
     if (const Config* fragment = sameSigma(set, c, BenchMode::NearVulkanFragment))
-        m.nearVulkanFragmentMs = pathOf(*fragment).of(&FrameStats::totalMs);
+        m.nearVulkanFragmentMs = pathOf(*fragment)["frame_ms"];
     m.speedupVsNearVulkanFragment = ratio(m.nearVulkanFragmentMs, m.frameMs());
     // The fastest exact path: the faster of all-near on Vulkan and on the CPU reference, where
     // both were measured at this sigma (the sigma sweep's truths are on Vulkan alone), as in
@@ -421,7 +420,7 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
     m.fastestExact = truth ? toString(BenchMode::NearVulkan) : "";
     m.fastestExactMs = m.allNearVulkanMs;
     if (reference) {
-        const double referenceMs = pathOf(*reference).of(&FrameStats::totalMs);
+        const double referenceMs = pathOf(*reference)["frame_ms"];
         if (m.fastestExactMs <= 0 || referenceMs < m.fastestExactMs)
             m.fastestExact = toString(BenchMode::NearReference), m.fastestExactMs = referenceMs;
     }
@@ -448,14 +447,14 @@ Measurement aggregate(const Set& set, const Row& row, const Plan& plan) {
                               : info(c.mode).perPixel      ? BenchMode::NearVulkanFragment
                                                            : BenchMode::NearVulkan;
     if (const Config* same = sameSigma(set, c, sameWay))
-        m.allNearSameBackendFragments = pathOf(*same).of(&FrameStats::nearPixelsTested);
+        m.allNearSameBackendFragments = pathOf(*same)["near_fragments"];
     m.imagePixels = double(c.scene.camera.width) * double(c.scene.camera.height);
     m.cold.firstFrameMs = c.coldFirstMs;
-    m.cold.bakeMs = c.cold.bakeMs;
-    m.cold.bakes = c.cold.farBakes;
-    m.cold.rays = double(c.cold.raysTraced);
-    if (c.cold.bakeMs > 0 && c.cold.raysTraced)
-        m.cold.raysPerS = double(c.cold.raysTraced) / c.cold.bakeMs * 1e3;
+    m.cold.bakeMs = c.cold.far.ensureMs;
+    m.cold.bakes = double(c.cold.far.bakes);
+    m.cold.rays = double(c.cold.far.raysTraced);
+    if (c.cold.far.ensureMs > 0 && c.cold.far.raysTraced)
+        m.cold.raysPerS = double(c.cold.far.raysTraced) / c.cold.far.ensureMs * 1e3;
     return m;
 }
 

@@ -128,7 +128,7 @@ struct FrameRow {
     /// Figure by figure, the median over the timed passes (kFrameFigures); where the mode counts
     /// voxel reads apart (countsStepsApart), voxelFetches and nearKernelFragments are the
     /// counting frame's.
-    FrameStats median;
+    Figures median;
     double minMs = 0.0, maxMs = 0.0; ///< spread of totalMs over the passes
     bool hasError = false;
     FrameErrorReport error; ///< against the all-near (Vulkan) image of the frame (last pass)
@@ -158,7 +158,7 @@ struct InMotion {
     /// its error is from a PSNR target follows from them (bench report, "target and bound").
     double psnrMin = 0, psnrMinShare = 0, psnrMinDifferingPixels = 0, psnrMinFarEntities = 0;
     double differingShare = 0;    ///< of the frame's pixels, mean (colour, depth or id)
-    double predictedWorstVpx = 0; ///< FrameStats::farPredictedWorstVpx, worst frame
+    double predictedWorstVpx = 0; ///< "far_predicted_worst_vpx", worst frame
 };
 
 /// Cold: the warm-up pass, the first use of every snapshot.
@@ -199,8 +199,8 @@ struct Measurement {
     double imagePixels = 0; ///< of one frame
 
     /// The frames' figures (FrameRow::median) combined over the path as kFrameFigures says.
-    PathFigures figures;
-    double frameMs() const { return figures.of(&FrameStats::totalMs); }
+    Figures figures;
+    double frameMs() const { return figures["frame_ms"]; }
     double visible = 0;      ///< entities - culled, per frame
     double worstFrameMs = 0; ///< the slowest path frame's median
     /// The same frames drawn on the Vulkan device alone and not read back (FrameOptions::

@@ -28,8 +28,7 @@ struct TimeColumn {
 /// lines), with each tier's whole time (near_ms, far_ms: either backend) before the steps named
 /// after it ("near_…", "far_…"), which are parts of it. What no column holds is "other".
 std::vector<TimeColumn> timeColumns() {
-    const std::size_t tiers[] = {frameFigureIndex(&FrameStats::nearMs),
-                                 frameFigureIndex(&FrameStats::farMs)};
+    const std::size_t tiers[] = {FigureId("near_ms").index, FigureId("far_ms").index};
     const auto tierPrefix = [](std::size_t tier) {
         const std::string name = kFrameFigures[tier].name; // "near_ms" -> "near_"
         return name.substr(0, name.size() - 2);
@@ -104,8 +103,7 @@ json deviceContext(const SuiteResults& r) {
     for (const std::string& scene : sceneNames(r))
         for (const BenchModeInfo& mode : kBenchModes) {
             const Measurement* m = find(r, kModesGroup, scene, mode.mode);
-            if (!m || (m->figures.of(&FrameStats::nearOnVulkan) <= 0 &&
-                       m->figures.of(&FrameStats::farOnVulkan) <= 0))
+            if (!m || (m->figures["near_on_vulkan"] <= 0 && m->figures["far_on_vulkan"] <= 0))
                 continue;
             json steps = json::array();
             for (const std::size_t c : cols) steps.push_back(num(m->figures.values[c]));

@@ -1,0 +1,44 @@
+#pragma once
+// What each near backend reports of the frames it draws: the CPU reference (ReferenceStats) and
+// the Vulkan near passes (NearStats). compose's FrameStats holds one of each as the backend
+// wrote it; the frame's output columns read them through compose/frame_figures.hpp.
+#include "core/near_rate.hpp"
+
+#include <cstdint>
+
+namespace voxtier {
+
+/// What the CPU reference tracer did in one frame.
+struct ReferenceStats : CellRateCounts {
+    std::uint64_t sprites = 0;        ///< sprites drawn
+    std::uint64_t culled = 0;         ///< visible sprites occlusion culling dropped whole
+    std::uint64_t pixelsTested = 0;   ///< pixels of sprite rectangles evaluated ("fragments")
+    std::uint64_t pixelsHidden = 0;   ///< of those, already nearer: neither traced nor looked up
+    std::uint64_t pixelsInSprite = 0; ///< of those, pixels that map to a lattice cell
+    std::uint64_t pixelsWritten = 0;  ///< solid or outline outcomes
+    std::uint64_t voxelFetches = 0;   ///< reads: DDA steps (one voxel each) and brick reads
+    std::uint64_t brickFetches = 0;   ///< of those, reads of the brick occupancy
+    double milliseconds = 0.0;
+};
+
+/// What the near passes did in one frame (the counts; the device times are the frame's named
+/// passes, device/pass_timer.hpp).
+struct NearStats : CellRateCounts {
+    std::uint64_t sprites = 0; ///< instances drawn
+    std::uint64_t drawCalls = 0;
+    /// FRAGMENT_SHADER_INVOCATIONS of the draw (0 when the device has no statistics queries).
+    std::uint64_t fragmentInvocations = 0;
+    /// With countSteps: fragments (or, traced in compute, pixels) that ran the kernel, and their
+    /// vtFetchVoxel calls (DDA steps, the four outline neighbour rays included).
+    std::uint64_t kernelFragments = 0, voxelFetches = 0;
+    std::uint64_t bytesUploaded = 0; ///< voxel bytes copied to the atlas for this frame
+    std::uint64_t uploadRegions = 0;
+    std::uint64_t atlasGrowths = 0; ///< the atlas was re-created larger this frame
+    double uploadMs = 0.0;          ///< residency on the host: pack + copy + wait
+    /// Sprites rasterised flat at their depth, with the early depth test (earlyDepthTest).
+    std::uint64_t earlyDepthSprites = 0;
+    /// The per-pixel sprites were traced by the compute pass (NearPixels::Compute), not drawn.
+    bool pixelsInCompute = false;
+};
+
+} // namespace voxtier
