@@ -435,7 +435,8 @@ SharedVector<EntityPlan> FrameRenderer::planEntities(RenderMode mode, FrameStats
     };
     PlanStats ps;
     SharedVector<EntityPlan> plan =
-        planner_.plan(sprites_.sprites(), sprites_.visibleIds(), scene_.selector, settings, ps);
+        planner_.plan(sprites_.sprites(), sprites_.visibleIds(), scene_.selector, settings, ps,
+                      sprites_.changed());
     st.plan = ps;
     return plan;
 }

@@ -75,6 +75,7 @@ struct SelectorConfig {
     /// grow by k^2. With an odd k a canonical view's near cell centres are snapshot cell centres,
     /// so far == near stays exact there.
     int snapshotScale = 1;
+    bool operator==(const SelectorConfig&) const = default;
 };
 /// The finest snapshots a scene may ask for (SelectorConfig::snapshotScale, 1 to this): past 4,
 /// k^2 the bake cost buys little (CONTRACT.md §4), and snapshot files bound their stride by it.

@@ -12,46 +12,74 @@ namespace voxtier {
 SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites,
                                             std::span<const std::uint32_t> visible,
                                             const SelectorConfig& config,
-                                            const PlanSettings& settings, PlanStats& st) {
+                                            const PlanSettings& settings, PlanStats& st,
+                                            std::span<const std::uint8_t> changed) {
     const std::size_t n = sprites.size();
     std::vector<EntityPlan>& plan = plan_.writable();
-    plan.assign(n, EntityPlan{});
-    if (settings.mode == PlanMode::AllNear) return plan_.share();
+    if (settings.mode == PlanMode::AllNear) {
+        plan.assign(n, EntityPlan{});
+        st.planned = 0;
+        chained_ = false; // the selector does not see this frame: the next one starts afresh
+        return plan_.share();
+    }
     const ViewSet set = viewSetFromSize(config.viewSetSize);
     const auto& views = viewDirections(set);
     auto towardViewer = [](const SpriteSetup& s) { return -s.lattice.dir; };
     const bool hybrid = settings.mode == PlanMode::Hybrid;
     const bool budget = config.metric == SelectorMetric::ErrorBudget && hybrid;
     if (selector_.size() == 0) budgetViews_.reset(); // a restarted selector restarts its views
+    // Only the entities whose sprite changed, or that are inside a cross-fade, where the frame
+    // before was planned here the same way: every other entity's inputs, and so its selector
+    // state, tier and view, are last frame's (TierSelector::settled). Not under the error
+    // budget, whose views share a bake bound and depend on what the cache holds.
+    const bool incremental = !budget && chained_ && changed.size() == n && selector_.size() == n &&
+                             plan.size() == n && settings.mode == lastMode_ &&
+                             config == lastConfig_;
+    chained_ = true, lastMode_ = settings.mode, lastConfig_ = config;
+    if (!incremental) plan.assign(n, EntityPlan{});
+    predicted_.resize(n);
+    work_.clear();
+    if (incremental)
+        for (std::size_t i = 0; i < n; ++i)
+            if (changed[i] || !selector_.settled(i)) work_.push_back(std::uint32_t(i));
+    st.planned = int(incremental ? work_.size() : n);
 
     // The selector sees distance, projected radius and the angle to the nearest snapshot view
     // (or, under the error budget, the best prediction over the budget).
     inputs_.resize(n);
     nearest_.resize(n);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i != range.end(); ++i)
-            inputs_[i] = {sprites[i].distance, sprites[i].radiusPx, 0.0, 0.0};
-    });
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, visible.size(), 1024), [&](const auto& r) {
-        for (std::size_t k = r.begin(); k != r.end(); ++k) {
-            const std::uint32_t i = visible[k];
-            const SpriteSetup& s = sprites[i];
-            if (budget) { // the error budget's metric; the view angle serves only error_px
-                inputs_[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
-                continue;
-            }
-            nearest_[i] = nearestView(set, towardViewer(s));
-            const glm::dvec3 w = views[std::size_t(nearest_[i])];
-            inputs_[i].viewAngleRad =
-                std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
+    const auto input = [&](std::size_t i) {
+        const SpriteSetup& s = sprites[i];
+        inputs_[i] = {s.distance, s.radiusPx, 0.0, 0.0};
+        if (!s.visible()) return;
+        if (budget) { // the error budget's metric; the view angle serves only error_px
+            inputs_[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
+            return;
         }
-    });
-    const SelectorStats ss = selector_.update(inputs_);
+        nearest_[i] = nearestView(set, towardViewer(s));
+        const glm::dvec3 w = views[std::size_t(nearest_[i])];
+        inputs_[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
+    };
+    const auto forEach = [&](auto&& f) {
+        if (incremental)
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 1024),
+                              [&](const auto& r) {
+                                  for (std::size_t k = r.begin(); k != r.end(); ++k) f(work_[k]);
+                              });
+        else
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& r) {
+                for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
+            });
+    };
+    forEach(input);
+    const SelectorStats ss =
+        incremental ? selector_.update(inputs_, work_) : selector_.update(inputs_);
     budgetViews_.beginFrame(n, config.maxBakesPerFrame);
     st.switchesToFar = ss.switchesToFar;
     st.switchesToNear = ss.switchesToNear;
     const auto tierOf = [&](std::size_t i) {
         EntityPlan& p = plan[i];
+        p = EntityPlan{};
         p.tier = settings.mode == PlanMode::AllFar ? Tier::Far : selector_.tier(i);
         if (hybrid) {
             float share = 0.0f;
@@ -67,26 +95,39 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         }
     } else {
         // Every entity's tier and view on its own: in parallel.
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
-            for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                tierOf(i);
-                if (plan[i].drawsFar() && sprites[i].visible())
-                    plan[i].view = viewIdOf(
-                        set, selector_.chooseView(i, towardViewer(sprites[i]), views, nearest_[i]));
-            }
+        forEach([&](std::size_t i) {
+            tierOf(i);
+            if (plan[i].drawsFar() && sprites[i].visible())
+                plan[i].view = viewIdOf(
+                    set, selector_.chooseView(i, towardViewer(sprites[i]), views, nearest_[i]));
         });
     }
-    for (const EntityPlan& p : plan) st.fading += p.fade > 0.0f;
     if (budget) st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
     st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
+    // Each far-drawn visible entity's predicted displacement, kept per entity so that a frame
+    // that plans a few entities updates only theirs; the frame's worst is over all of them.
+    const auto predict = [&](std::size_t i) {
+        const EntityPlan& p = plan[i];
+        predicted_[i] = sprites[i].visible() && p.drawsFar() && p.view
+                            ? predictedBudgetUnits(sprites[i], *p.view)
+                            : 0.0;
+    };
+    if (budget) // a given-up bake changes an entity's plan after its view was chosen
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) predict(i);
+        });
+    else
+        forEach(predict);
+    // Entities outside the work list are settled, so none of them fades.
+    if (incremental)
+        for (const std::uint32_t i : work_) st.fading += plan[i].fade > 0.0f;
+    else
+        for (const EntityPlan& p : plan) st.fading += p.fade > 0.0f;
     st.worstVpx = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, visible.size(), 1024), 0.0,
+        tbb::blocked_range<std::size_t>(0, n, 4096), 0.0,
         [&](const auto& r, double worst) {
-            for (std::size_t k = r.begin(); k != r.end(); ++k) {
-                const std::uint32_t i = visible[k];
-                if (plan[i].drawsFar() && plan[i].view)
-                    worst = std::max(worst, predictedBudgetUnits(sprites[i], *plan[i].view));
-            }
+            for (std::size_t i = r.begin(); i != r.end(); ++i)
+                worst = std::max(worst, predicted_[i]);
             return worst;
         },
         [](double a, double b) { return std::max(a, b); });

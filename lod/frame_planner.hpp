@@ -46,6 +46,9 @@ struct PlanStats {
     int fading = 0;        ///< entities drawn by both tiers (cross-fade)
     int bakesGivenUp = 0;  ///< metric error_budget: bakes given up under the cost bound
     double worstVpx = 0.0; ///< largest predictedBudgetUnits of a far-drawn entity
+    /// Entities planned afresh: every one, or, planning what changed, the entities whose sprite
+    /// changed and those inside a cross-fade (FramePlanner::plan's `changed`).
+    int planned = 0;
 };
 
 /// How one frame is planned.
@@ -108,10 +111,14 @@ class FramePlanner {
     /// indexed by entity id, `visible` lists the visible ones in ascending id. The per-entity
     /// steps run in parallel, into arrays the planner keeps: a frame allocates nothing once the
     /// entity count is known. The result stays as it is when later frames are planned.
+    /// `changed` (optional) marks per entity id the sprites that differ from those of this
+    /// planner's previous call (SpriteStore::changed): given it, a frame that follows a planned
+    /// frame of the same mode and config plans only those entities and the ones inside a
+    /// cross-fade, and keeps every other entity's plan (the same plan a whole frame gives).
     SharedVector<EntityPlan> plan(std::span<const SpriteSetup> sprites,
                                   std::span<const std::uint32_t> visible,
                                   const SelectorConfig& config, const PlanSettings& settings,
-                                  PlanStats& stats);
+                                  PlanStats& stats, std::span<const std::uint8_t> changed = {});
     /// The same, for sprites without a list of the visible ones (found here).
     SharedVector<EntityPlan> plan(std::span<const SpriteSetup> sprites,
                                   const SelectorConfig& config, const PlanSettings& settings,
@@ -145,6 +152,13 @@ class FramePlanner {
     std::vector<SelectorInput> inputs_;
     std::vector<int> nearest_;
     std::vector<std::optional<ViewId>> drawnFrom_;
+    std::vector<double> predicted_;   ///< predictedBudgetUnits of each far-drawn visible entity
+    std::vector<std::uint32_t> work_; ///< the entities a frame plans afresh
+    /// The previous call went through the selector, with this mode and config: a frame with
+    /// the sprites' changes since then may plan only what changed.
+    bool chained_ = false;
+    PlanMode lastMode_ = PlanMode::AllNear;
+    SelectorConfig lastConfig_;
 };
 
 } // namespace voxtier

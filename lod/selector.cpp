@@ -44,6 +44,45 @@ bool TierSelector::pastNear(double m) const {
     return config_.metric == SelectorMetric::Distance ? m < config_.nearAt : m > config_.nearAt;
 }
 
+namespace {
+
+SelectorStats add(SelectorStats a, const SelectorStats& b) {
+    a.nearCount += b.nearCount;
+    a.farCount += b.farCount;
+    a.switchesToFar += b.switchesToFar;
+    a.switchesToNear += b.switchesToNear;
+    a.fading += b.fading;
+    return a;
+}
+
+} // namespace
+
+void TierSelector::step(std::size_t i, const SelectorInput& in, bool first, SelectorStats& st) {
+    State& s = state_[i];
+    const double m = selectorMetric(config_.metric, in);
+    if (first) {
+        // The first frame assigns tiers without counting switches.
+        s.tier = pastFar(m) ? Tier::Far : Tier::Near;
+    } else {
+        if (s.fadeLeft > 0) --s.fadeLeft;
+        const Tier before = s.tier;
+        if (s.tier == Tier::Near && pastFar(m)) {
+            s.tier = Tier::Far;
+            ++st.switchesToFar;
+        } else if (s.tier == Tier::Far && pastNear(m)) {
+            s.tier = Tier::Near;
+            s.view = -1; // a later return to far starts from the nearest view again
+            ++st.switchesToNear;
+        }
+        if (s.tier != before && config_.crossfadeFrames > 0) {
+            s.fadeFrom = before;
+            s.fadeLeft = config_.crossfadeFrames;
+        }
+    }
+    (s.tier == Tier::Near ? st.nearCount : st.farCount)++;
+    st.fading += s.fadeLeft > 0;
+}
+
 SelectorStats TierSelector::update(std::span<const SelectorInput> inputs) {
     viewChangesThisFrame_.store(0, std::memory_order_relaxed);
     const bool first = !initialised_;
@@ -54,41 +93,25 @@ SelectorStats TierSelector::update(std::span<const SelectorInput> inputs) {
     return tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, inputs.size(), 4096), SelectorStats{},
         [&](const tbb::blocked_range<std::size_t>& range, SelectorStats st) {
-            for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                State& s = state_[i];
-                const double m = selectorMetric(config_.metric, inputs[i]);
-                if (first) {
-                    // The first frame assigns tiers without counting switches.
-                    s.tier = pastFar(m) ? Tier::Far : Tier::Near;
-                } else {
-                    if (s.fadeLeft > 0) --s.fadeLeft;
-                    const Tier before = s.tier;
-                    if (s.tier == Tier::Near && pastFar(m)) {
-                        s.tier = Tier::Far;
-                        ++st.switchesToFar;
-                    } else if (s.tier == Tier::Far && pastNear(m)) {
-                        s.tier = Tier::Near;
-                        s.view = -1; // a later return to far starts from the nearest view again
-                        ++st.switchesToNear;
-                    }
-                    if (s.tier != before && config_.crossfadeFrames > 0) {
-                        s.fadeFrom = before;
-                        s.fadeLeft = config_.crossfadeFrames;
-                    }
-                }
-                (s.tier == Tier::Near ? st.nearCount : st.farCount)++;
-                st.fading += s.fadeLeft > 0;
-            }
+            for (std::size_t i = range.begin(); i != range.end(); ++i)
+                step(i, inputs[i], first, st);
             return st;
         },
-        [](SelectorStats a, const SelectorStats& b) {
-            a.nearCount += b.nearCount;
-            a.farCount += b.farCount;
-            a.switchesToFar += b.switchesToFar;
-            a.switchesToNear += b.switchesToNear;
-            a.fading += b.fading;
-            return a;
-        });
+        add);
+}
+
+SelectorStats TierSelector::update(std::span<const SelectorInput> inputs,
+                                   std::span<const std::uint32_t> ids) {
+    assert(initialised_ && inputs.size() == state_.size() && "a partial frame follows a whole one");
+    viewChangesThisFrame_.store(0, std::memory_order_relaxed);
+    return tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, ids.size(), 4096), SelectorStats{},
+        [&](const tbb::blocked_range<std::size_t>& range, SelectorStats st) {
+            for (std::size_t k = range.begin(); k != range.end(); ++k)
+                step(ids[k], inputs[ids[k]], false, st);
+            return st;
+        },
+        add);
 }
 
 bool TierSelector::fading(std::size_t entity, float* fraction, Tier* from) const {

@@ -54,7 +54,14 @@ class TierSelector {
     /// Advances one frame. `inputs[i]` describes entity i; the entity count may not change
     /// between frames except through reset(). Parallel over the entities.
     SelectorStats update(std::span<const SelectorInput> inputs);
+    /// Advances one frame for the entities `ids` alone (ascending or not): every other entity
+    /// must be settled (settled()) with the input it had last frame, for which update() would
+    /// change nothing. The counts are the listed entities' (nearCount, farCount included).
+    SelectorStats update(std::span<const SelectorInput> inputs, std::span<const std::uint32_t> ids);
     void reset();
+    /// Whether `entity` is outside a cross-fade: given last frame's input again, a frame changes
+    /// nothing of its state (a switch needs a crossing, and near_at and far_at are apart).
+    bool settled(std::size_t entity) const { return state_[entity].fadeLeft <= 0; }
 
     Tier tier(std::size_t entity) const { return state_[entity].tier; }
     std::size_t size() const { return state_.size(); }
@@ -87,6 +94,8 @@ class TierSelector {
     };
     bool pastFar(double m) const;
     bool pastNear(double m) const;
+    /// One entity's frame (`first`: the tier from the metric alone, nothing counted).
+    void step(std::size_t i, const SelectorInput& in, bool first, SelectorStats& st);
 
     SelectorConfig config_;
     std::vector<State> state_;
