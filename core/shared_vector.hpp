@@ -46,6 +46,13 @@ template <class T> class SharedVectorOwner {
         if (data_.use_count() > 1) data_ = std::make_shared<std::vector<T>>(*data_);
         return *data_;
     }
+    /// The array to fill anew: a new, empty one if a share of it is still held (nothing
+    /// copied), else this one, emptied.
+    std::vector<T>& fresh() {
+        if (data_.use_count() > 1) data_ = std::make_shared<std::vector<T>>();
+        data_->clear();
+        return *data_;
+    }
     const std::vector<T>& read() const { return *data_; }
     SharedVector<T> share() const { return SharedVector<T>(data_); }
 

@@ -3,6 +3,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_reduce.h>
 
+#include <algorithm>
+
 namespace voxtier {
 
 namespace {
@@ -21,12 +23,49 @@ bool sameLight(const Light& a, const Light& b) {
     return a.direction == b.direction && a.ambient == b.ambient && a.diffuse == b.diffuse;
 }
 
+/// Two frames in flight (a path render) and the one being set up; a caller that keeps more
+/// results gets fresh arrays for them.
+constexpr std::size_t kSpriteArrays = 3;
+
 } // namespace
+
+std::span<const SpriteSetup> SpriteStore::sprites() const {
+    if (arrays_.empty()) return {};
+    return *arrays_[current_].array;
+}
+
+SharedVector<SpriteSetup> SpriteStore::shareSprites() const {
+    if (arrays_.empty()) return {};
+    return SharedVector<SpriteSetup>(arrays_[current_].array);
+}
+
+SpriteStore::Sprites& SpriteStore::writableSprites(std::size_t n) {
+    Sprites* best = nullptr;
+    for (Sprites& a : arrays_)
+        if (a.array.use_count() == 1 && (!best || a.asOf > best->asOf)) best = &a;
+    if (!best) {
+        // Every array is held by some frame: a new one, in place of the oldest kept.
+        if (arrays_.size() >= kSpriteArrays) {
+            auto oldest = std::min_element(
+                arrays_.begin(), arrays_.end(),
+                [](const Sprites& a, const Sprites& b) { return a.asOf < b.asOf; });
+            arrays_.erase(oldest);
+        }
+        arrays_.push_back({std::make_shared<std::vector<SpriteSetup>>(), 0});
+        best = &arrays_.back();
+    }
+    if (best->array->size() != n) best->array->resize(n), best->asOf = 0;
+    current_ = std::size_t(best - arrays_.data());
+    return *best;
+}
 
 void SpriteStore::clear() {
     keys_.clear();
     constants_.clear();
-    sprites_.writable().clear();
+    arrays_.clear();
+    current_ = 0;
+    changedAt_.clear();
+    allChangedAt_ = 0;
     changed_.clear();
     visible_.clear();
     visibleIds_.writable().clear();
@@ -36,12 +75,12 @@ void SpriteStore::clear() {
 SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& camera,
                                         double time) {
     const std::size_t n = scene.entities.size();
-    std::vector<SpriteSetup>& sprites = sprites_.writable();
+    const std::uint64_t now = ++updates_;
     if (keys_.size() != n) {
         // A new entity count: every sprite afresh (keys of modelUid 0 never match).
         keys_.assign(n, EntityKey{});
         constants_.resize(n);
-        sprites.resize(n);
+        changedAt_.assign(n, 0);
         changed_.resize(n);
         visible_.resize(n);
         valid_ = false;
@@ -52,6 +91,10 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
         valid_ && sameLight(light_, scene.light) && params_.voxelSize == scene.render.voxelSize;
     const bool spritesKept =
         constantsKept && sameParams(params_, scene.render) && sameCamera(camera_, camera);
+    if (!spritesKept) allChangedAt_ = now;
+    Sprites& into = writableSprites(n);
+    std::vector<SpriteSetup>& sprites = *into.array;
+    const std::uint64_t asOf = into.asOf;
 
     struct Counts {
         int culled = 0, recomputed = 0, entitiesChanged = 0;
@@ -83,12 +126,13 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                     constants_[i] = spriteConstants(e, model, frame, scene.render, scene.light);
                     ++c.entitiesChanged;
                 }
-                const bool recompute = entityChanged || !spritesKept;
-                if (recompute) {
+                if (entityChanged) changedAt_[i] = now;
+                // This array is as of update asOf: set up again what changed since.
+                if (std::max(changedAt_[i], allChangedAt_) > asOf)
                     setupSpriteInto(sprites[i], camera, constants_[i], std::uint32_t(i),
                                     scene.render);
-                    ++c.recomputed;
-                }
+                const bool recompute = entityChanged || !spritesKept;
+                c.recomputed += recompute;
                 changed_[i] = recompute;
                 visible_[i] = sprites[i].visible();
                 c.culled += !visible_[i];
@@ -101,10 +145,10 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
             a.entitiesChanged += b.entitiesChanged;
             return a;
         });
-    std::vector<std::uint32_t>& visibleIds = visibleIds_.writable();
-    visibleIds.clear();
+    std::vector<std::uint32_t>& visibleIds = visibleIds_.fresh();
     for (std::size_t i = 0; i < n; ++i)
         if (visible_[i]) visibleIds.push_back(std::uint32_t(i));
+    into.asOf = now;
     valid_ = true;
     camera_ = camera;
     params_ = scene.render;

@@ -9,6 +9,12 @@
 // entity when the camera moved. The arrays grow with the entity count and are reused: an update
 // allocates nothing once the scene's entities are known, and runs in parallel (TBB).
 //
+// A frame's result shares the sprites it drew (shareSprites), and a path render keeps frames in
+// flight, so the array the last frame drew is usually still held when the next update comes.
+// Rather than copy it (64 MB at 100,000 entities), the store keeps a few arrays in turn, each
+// stamped with the update it is as of, and brings the one no frame holds up to date: the sprites
+// of the entities that changed since its stamp (every sprite when the camera moved since).
+//
 // Every sprite equals a fresh setupSprite() of its entity bit for bit (the same functions compute
 // it); the store only decides when to compute it.
 #include "core/camera.hpp"
@@ -17,6 +23,7 @@
 #include "core/sprite.hpp"
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -27,8 +34,8 @@ class SpriteStore {
     /// What one update did.
     struct Update {
         int entities = 0;
-        int culled = 0;          ///< sprites that draw nothing this frame (SpriteSetup::cull)
-        int recomputed = 0;      ///< sprites set up afresh (the others are last frame's, unchanged)
+        int culled = 0;     ///< sprites that draw nothing this frame (SpriteSetup::cull)
+        int recomputed = 0; ///< sprites that changed since the last update (the others did not)
         int entitiesChanged = 0; ///< of those, entities whose constants changed (or are new)
     };
 
@@ -38,9 +45,9 @@ class SpriteStore {
     void clear();
 
     /// Per entity id, as of the last update.
-    std::span<const SpriteSetup> sprites() const { return sprites_.read(); }
+    std::span<const SpriteSetup> sprites() const;
     /// The same, shared: it stays as it is when later updates change the store's sprites.
-    SharedVector<SpriteSetup> shareSprites() const { return sprites_.share(); }
+    SharedVector<SpriteSetup> shareSprites() const;
     /// The ids of the visible sprites (SpriteSetup::visible), ascending.
     std::span<const std::uint32_t> visibleIds() const { return visibleIds_.read(); }
     /// The same, shared with a frame still in flight (copied by the next update only then).
@@ -63,9 +70,24 @@ class SpriteStore {
         bool operator==(const EntityKey&) const = default;
     };
 
+    /// One array of sprites, as of update `asOf` (0: none yet).
+    struct Sprites {
+        std::shared_ptr<std::vector<SpriteSetup>> array;
+        std::uint64_t asOf = 0;
+    };
+    /// The array the next update writes: one no share holds, the most recent such, or a new one.
+    Sprites& writableSprites(std::size_t n);
+
     std::vector<EntityKey> keys_;
     std::vector<SpriteConstants> constants_;
-    SharedVectorOwner<SpriteSetup> sprites_;
+    /// The arrays in turn (at most kSpriteArrays kept); current_ is the last update's.
+    std::vector<Sprites> arrays_;
+    std::size_t current_ = 0;
+    std::uint64_t updates_ = 0; ///< updates so far: the stamp of the last one
+    /// Per entity, the update that last changed its sprite; every sprite's, for the camera,
+    /// sigma, view mode, light or entity count.
+    std::vector<std::uint64_t> changedAt_;
+    std::uint64_t allChangedAt_ = 0;
     std::vector<std::uint8_t> changed_, visible_;
     SharedVectorOwner<std::uint32_t> visibleIds_;
     /// What every sprite of the last update was set up with.

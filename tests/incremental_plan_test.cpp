@@ -50,12 +50,13 @@ std::vector<int> compare(Scene s, const std::vector<Step>& steps) {
         PlanSettings settings;
         settings.mode = steps[f].mode;
         PlanStats a, b;
-        const SharedVector<EntityPlan> pa =
-            told.plan(store.sprites(), store.visibleIds(), s.selector, settings, a, store.changed());
+        const SharedVector<EntityPlan> pa = told.plan(store.sprites(), store.visibleIds(),
+                                                      s.selector, settings, a, store.changed());
         const SharedVector<EntityPlan> pb =
             whole.plan(store.sprites(), store.visibleIds(), s.selector, settings, b);
         EXPECT_EQ(b.planned, steps[f].mode == PlanMode::AllNear ? 0 : int(s.entities.size()));
-        for (std::size_t i = 0; i < pb.size(); ++i) EXPECT_TRUE(pa[i] == pb[i]) << "frame " << f << ", entity " << i;
+        for (std::size_t i = 0; i < pb.size(); ++i)
+            EXPECT_TRUE(pa[i] == pb[i]) << "frame " << f << ", entity " << i;
         EXPECT_EQ(a.switchesToFar, b.switchesToFar) << "frame " << f;
         EXPECT_EQ(a.switchesToNear, b.switchesToNear) << "frame " << f;
         EXPECT_EQ(a.viewChanges, b.viewChanges) << "frame " << f;
