@@ -222,9 +222,10 @@ void addFrameFlags(CLI::App& cmd, FrameOptions& options, const FrameFlagHelp& he
         "Near sprites traced per pixel (fragment), once per lattice cell and looked up per pixel "
         "(cell), or cell-rate where it is cheaper (auto); same image");
     addChoiceOption(cmd, "--near-pixels", options.nearPixels, kNearPixelsNames, "near pixels",
-                    "How the Vulkan near tier traces its per-pixel sprites: compute (default: "
-                    "every pixel of their rectangles in a compute pass) or raster (their proxies "
-                    "rasterised, the kernel in the fragment shader); same image");
+                    "How the Vulkan near tier traces its per-pixel sprites: compute (every pixel "
+                    "of their rectangles in a compute pass), raster (their proxies rasterised, "
+                    "the kernel in the fragment shader) or auto (default: compute on a GPU, "
+                    "raster on a CPU device such as lavapipe); same image");
     addChoiceOption(cmd, "--far-blit", options.farBlit.kernel, kFarBlitNames, "far blit",
                     "The far blit's kernel: simd (spans of pixels on the widest SIMD unit "
                     "of this CPU) or scalar (one pixel at a time, the reference); same "

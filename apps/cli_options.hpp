@@ -115,7 +115,7 @@ struct FrameFlagHelp {
 /// with (one place, so the two commands cannot drift apart):
 /// - `--far-backend auto|vulkan|cpu` (FrameOptions::farBackend);
 /// - `--near-rate auto|fragment|cell` (nearRate, compose/frame.hpp kNearRateNames);
-/// - `--near-pixels compute|raster` (nearPixels, kNearPixelsNames);
+/// - `--near-pixels auto|compute|raster` (nearPixels, kNearPixelsNames);
 /// - `--far-blit simd|scalar` (farBlit.kernel, kFarBlitNames);
 /// - the occlusion switches (CONTRACT.md §6, Occlusion): by default the near tier's early depth
 ///   test alone; `--cull` adds the CPU tiers' tiles and whole-sprite drops (occlusionCull);

@@ -108,7 +108,8 @@ NearRate parseNearRate(const std::string& name);
 const char* toString(NearRate r);
 
 /// The one table of names of how Vulkan traces per-pixel near sprites (NearPixels).
-inline constexpr std::array<std::pair<const char*, NearPixels>, 2> kNearPixelsNames{{
+inline constexpr std::array<std::pair<const char*, NearPixels>, 3> kNearPixelsNames{{
+    {"auto", NearPixels::Auto},
     {"compute", NearPixels::Compute},
     {"raster", NearPixels::Raster},
 }};
@@ -120,7 +121,7 @@ struct FrameOptions {
     /// Per-pixel or cell-rate near sprites, on either backend (same image).
     NearRate nearRate = NearRate::Auto;
     /// The Vulkan near tier's per-pixel sprites drawn or traced in compute (same image).
-    NearPixels nearPixels = NearPixels::Compute;
+    NearPixels nearPixels = NearPixels::Auto;
     /// Of hybrid and far frames: the CPU blit or the Vulkan far pass (same image).
     FarBackend farBackend = FarBackend::Auto;
     /// The far blit's kernel: SIMD (default) or the scalar reference (same image, for measuring).

@@ -25,9 +25,10 @@ enum class NearRate {
 /// How the Vulkan near tier traces its per-pixel sprites (those not cell-rate); the same image
 /// either way (volumetric/near_passes.hpp).
 enum class NearPixels {
-    Compute, ///< the trace pass (default): every pixel of their screen rectangles in a compute
-             ///< shader, composed with the cell-rate pixels by depth rank (no rasteriser, no
-             ///< proxies; why: docs/decisions/near-pixels-in-compute.md)
+    Auto,    ///< Compute on a GPU, Raster on a CPU device such as lavapipe (default; why, with the
+             ///< figures of both: docs/decisions/near-pixels-in-compute.md)
+    Compute, ///< the trace pass: every pixel of their screen rectangles in a compute shader,
+             ///< composed with the cell-rate pixels by depth rank (no rasteriser, no proxies)
     Raster,  ///< the draw: their proxies rasterised, the kernel in the fragment shader, under the
              ///< early depth test
 };

@@ -7,7 +7,7 @@
 //                 outline from the neighbours' primaries;
 //   near_splat    every pixel of a cell-rate sprite's rectangle leaves its nearest cell in a
 //                 per-pixel word;
-//   near_trace    the per-pixel sprites in compute (NearPixels::Compute, the default): every
+//   near_trace    the per-pixel sprites in compute (NearPixels::Compute; Auto on a GPU): every
 //                 pixel of their rectangles runs the shared kernel (core/sprite_kernel.h) and
 //                 leaves its word as the splat does;
 //   near_draw     or else the per-pixel sprites drawn: one instanced draw of their proxies
@@ -42,7 +42,7 @@ enum class NearDraws {
 };
 
 struct NearOptions {
-    NearPixels pixels = NearPixels::Compute;
+    NearPixels pixels = NearPixels::Auto;
     NearProxy proxy = NearProxy::Hull;
     NearDraws draws = NearDraws::Instanced;
     /// Use the shader variant compiled with -DVT_COUNT_STEPS (counts the per-pixel sprites' voxel
