@@ -34,6 +34,7 @@ class FramesInFlight : public test::VulkanTest {
         // The test process's validated renderer, not owned by the FrameRenderers.
         o.sharedNear = std::shared_ptr<NearRenderer>(&nearRenderer(), [](NearRenderer*) {});
         o.nearBackend = NearBackend::Vulkan;
+        o.nearPixels = NearPixels::Compute; // a GPU's default (Auto draws on lavapipe)
         o.farBackend = far;
         o.costAwareBakes = false; // images must not depend on timing
         o.depthAndIds = true;     // compare every plane

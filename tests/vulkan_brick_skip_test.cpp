@@ -35,7 +35,7 @@ class VulkanBrickSkip : public test::VulkanTest {
     }
     /// Vulkan, every sprite skipping, at `rate`.
     Image skipping(const Scene& scene, NearRate rate, NearStats* stats = nullptr) {
-        NearOptions options;
+        NearOptions options = test::gpuDefaults();
         options.rate = rate;
         options.skipEmpty = true; // the pipelines that hold the box march
         return nearRenderer().render(makeCameraFrame(scene.cameraAt(0.0)), scene.models,
@@ -110,7 +110,7 @@ TEST_F(VulkanBrickSkip, CountingVariantCountsTheReferenceReads) {
     for (const Scene& scene :
          {sceneForModel(tree->model, test::viewToward({1, 2, 3}, 0.5, 200, 150)),
           sceneForModel(test::solidBox({40, 30, 20}), test::viewToward({2, 1, 1}, 1.0, 96, 72))}) {
-        NearOptions counting;
+        NearOptions counting = test::gpuDefaults();
         counting.countSteps = true;
         counting.rate = NearRate::Fragment;
         counting.skipEmpty = true;
@@ -135,7 +135,7 @@ TEST_F(VulkanBrickSkip, CountingVariantCountsTheReferenceReads) {
 TEST_F(VulkanBrickSkip, WithoutTheOptionEverySpriteIsTracedCellByCell) {
     const Scene scene =
         sceneForModel(test::solidBox({40, 30, 20}), test::viewToward({2, 1, 1}, 1.0, 96, 72));
-    NearOptions counting;
+    NearOptions counting = test::gpuDefaults();
     counting.countSteps = true;
     counting.rate = NearRate::Fragment;
     NearStats near;

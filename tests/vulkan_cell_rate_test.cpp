@@ -27,12 +27,12 @@ using test::sourcePath;
 
 class VulkanCellRate : public test::VulkanTest {
   protected:
-    /// Vulkan at `rate` equals the reference, its per-pixel sprites traced in compute (the
+    /// Vulkan at `rate` equals the reference, its per-pixel sprites traced in compute (a GPU's
     /// default) and rasterised (their pixels then composed with the cell-rate ones by the
     /// resolve against the drawn depth); returns the near stats of the first.
     NearStats expectMatchesReference(const Scene& scene, NearRate rate, const std::string& what,
                                      std::uint64_t budgetBytes = kDefaultCellBudgetBytes) {
-        NearOptions options;
+        NearOptions options = test::gpuDefaults();
         options.rate = rate;
         options.cellBudgetBytes = budgetBytes;
         const auto r = test::renderBoth(nearRenderer(), scene, 0.0, options);
@@ -119,7 +119,7 @@ TEST_F(VulkanCellRate, QuadsCrossingTheNearPlaneGetClippedRectangles) {
     renderReference(scene.models, whole, unclipped);
     EXPECT_EQ(test::describeDifference(clipped, unclipped, "clipped", "whole image"), "");
     for (NearRate rate : {NearRate::Fragment, NearRate::Auto}) {
-        NearOptions options;
+        NearOptions options = test::gpuDefaults();
         options.rate = rate;
         const Image near =
             nearRenderer().render(cam, scene.models, sprites, scene.render.background, options);
@@ -198,7 +198,7 @@ TEST_F(VulkanCellRate, EqualDepthTiesBetweenCellRateAndPerPixelSprites) {
         EXPECT_EQ(st.cellSprites, 1u) << what;
         EXPECT_EQ(st.cellOverBudget, 1u) << what;
         // Both sprites show: the tie really was decided between the two paths.
-        const auto r = test::renderBoth(nearRenderer(), scene, 0.0, {});
+        const auto r = test::renderBoth(nearRenderer(), scene);
         EXPECT_GT(r.near.countEntity(sprites[0].entityId), 0u);
         EXPECT_GT(r.near.countEntity(sprites[1].entityId), 0u);
     }
@@ -217,7 +217,7 @@ TEST_F(VulkanCellRate, CrossFadingSpritesAtCellRate) {
         Image reference(cam.width, cam.height, scene.render.background);
         renderReference(scene.models, sprites, reference);
         for (NearRate rate : {NearRate::Cell, NearRate::Auto}) {
-            NearOptions options;
+            NearOptions options = test::gpuDefaults();
             options.rate = rate;
             NearStats st;
             const Image near = nearRenderer().render(cam, scene.models, sprites,

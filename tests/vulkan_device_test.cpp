@@ -21,6 +21,7 @@
 #include <iterator>
 #include <sstream>
 #include <unistd.h>
+#include <utility>
 
 namespace voxtier {
 namespace {
@@ -127,8 +128,13 @@ TEST(VulkanDevice, RenderAndTeardownLeaveNoValidationMessages) {
     {
         NearRenderer nr(validated(), log);
         const auto v = test::viewAlong(test::solidBox({5, 7, 3}), glm::dvec3(1, 2, -1), 2.0, 3);
-        for (NearProxy proxy : {NearProxy::Quad, NearProxy::Box}) {
+        // The trace (a GPU's default), and the draw over two proxies (a CPU device's).
+        const std::pair<NearPixels, NearProxy> ways[] = {{NearPixels::Compute, NearProxy::Hull},
+                                                         {NearPixels::Raster, NearProxy::Quad},
+                                                         {NearPixels::Raster, NearProxy::Box}};
+        for (const auto& [pixels, proxy] : ways) {
             NearOptions o;
+            o.pixels = pixels;
             o.proxy = proxy;
             o.countSteps = true;
             const auto r = test::renderBoth(nr, v.scene, 0.0, o);

@@ -66,6 +66,7 @@ class VulkanFar : public test::VulkanTest {
         FrameOptions o;
         o.sharedNear = shared();
         o.nearBackend = near;
+        o.nearPixels = NearPixels::Compute; // a GPU's default (Auto draws on lavapipe)
         o.farBackend = far;
         o.costAwareBakes = false; // a test must not depend on timing
         return o;

@@ -62,7 +62,7 @@ class VulkanTest : public ::testing::Test {
     }
 };
 
-/// A way the Vulkan near tier traces its per-pixel sprites: in compute (the default), or
+/// A way the Vulkan near tier traces its per-pixel sprites: in compute (a GPU's default), or
 /// rasterised over the hull proxy or the quad. Every way draws the reference image.
 struct NearWay {
     const char* name;
@@ -79,7 +79,16 @@ inline constexpr NearWay kNearWays[] = {{"compute", NearPixels::Compute, NearPro
                                         {"hull", NearPixels::Raster, NearProxy::Hull},
                                         {"quad", NearPixels::Raster, NearProxy::Quad}};
 
-/// A frame of a scene through the CPU reference and through the Vulkan near tier.
+/// NearOptions as a GPU takes them by default: the per-pixel sprites traced in compute
+/// (NearPixels::Auto draws them instead on lavapipe, whose tests would then miss the GPUs' path).
+inline NearOptions gpuDefaults() {
+    NearOptions o;
+    o.pixels = NearPixels::Compute;
+    return o;
+}
+
+/// A frame of a scene through the CPU reference and through the Vulkan near tier (by default as
+/// a GPU draws it).
 struct NearAndReference {
     Image near, reference;
     std::vector<SpriteSetup> sprites;
@@ -87,7 +96,7 @@ struct NearAndReference {
     ReferenceStats referenceStats;
 };
 inline NearAndReference renderBoth(NearRenderer& renderer, const Scene& scene, double time = 0.0,
-                                   const NearOptions& options = {},
+                                   const NearOptions& options = gpuDefaults(),
                                    const ReferenceOptions& referenceOptions = {}) {
     NearAndReference r;
     const CameraFrame cam = makeCameraFrame(scene.cameraAt(time));

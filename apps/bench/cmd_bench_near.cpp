@@ -247,10 +247,13 @@ void run(const BenchArgs& a) {
         o.draws = draws;
         return Variant{name, o};
     };
-    // The default first (per-pixel sprites traced in compute), then the draw (hull proxy, one
-    // instanced draw), then one change of the draw at a time.
+    // The GPUs' default first (per-pixel sprites traced in compute; NearPixels::Auto draws them
+    // on a CPU device), then the draw (hull proxy, one instanced draw), then one change of the
+    // draw at a time.
+    NearOptions compute;
+    compute.pixels = NearPixels::Compute;
     std::vector<Variant> variants = {
-        Variant{"compute", NearOptions{}},
+        Variant{"compute", compute},
         variant("hull-instanced", NearProxy::Hull, NearDraws::Instanced)};
     if (a.alternatives) {
         variants.push_back(variant("hull-per-entity", NearProxy::Hull, NearDraws::PerEntity));
