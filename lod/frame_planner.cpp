@@ -87,23 +87,6 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
             if (selector_.fading(i, &share, &from)) p.fade = share, p.fadeFrom = from;
         }
     };
-    if (budget) {
-        // The budget's views share the frame's bake bound, given out in entity order.
-        for (std::size_t i = 0; i < n; ++i) {
-            tierOf(i);
-            planBudgetView(i, sprites[i], config, settings, plan[i]);
-        }
-    } else {
-        // Every entity's tier and view on its own: in parallel.
-        forEach([&](std::size_t i) {
-            tierOf(i);
-            if (plan[i].drawsFar() && sprites[i].visible())
-                plan[i].view = viewIdOf(
-                    set, selector_.chooseView(i, towardViewer(sprites[i]), views, nearest_[i]));
-        });
-    }
-    if (budget) st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
-    st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
     // Each far-drawn visible entity's predicted displacement, kept per entity so that a frame
     // that plans a few entities updates only theirs; the frame's worst is over all of them.
     const auto predict = [&](std::size_t i) {
@@ -112,12 +95,25 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                             ? predictedBudgetUnits(sprites[i], *p.view)
                             : 0.0;
     };
-    if (budget) // a given-up bake changes an entity's plan after its view was chosen
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& r) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) predict(i);
+    if (budget) {
+        // The budget's views share the frame's bake bound, given out in entity order.
+        for (std::size_t i = 0; i < n; ++i) {
+            tierOf(i);
+            planBudgetView(i, sprites[i], config, settings, plan[i]);
+        }
+        st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
+        forEach(predict); // after the bakes given up, which send their entities near
+    } else {
+        // Every entity's tier, view and prediction on its own: in parallel.
+        forEach([&](std::size_t i) {
+            tierOf(i);
+            if (plan[i].drawsFar() && sprites[i].visible())
+                plan[i].view = viewIdOf(
+                    set, selector_.chooseView(i, towardViewer(sprites[i]), views, nearest_[i]));
+            predict(i);
         });
-    else
-        forEach(predict);
+    }
+    st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
     // Entities outside the work list are settled, so none of them fades.
     if (incremental)
         for (const std::uint32_t i : work_) st.fading += plan[i].fade > 0.0f;
