@@ -707,6 +707,22 @@ VkShaderModule createShaderModule(VkDevice device, std::span<const std::uint32_t
     return module;
 }
 
+void createPassLayouts(VkDevice device, std::span<const VkDescriptorSetLayoutBinding> bindings,
+                       std::uint32_t pushBytes, VkDescriptorSetLayout& setLayout,
+                       VkPipelineLayout& pipelineLayout) {
+    VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+    dli.bindingCount = std::uint32_t(bindings.size());
+    dli.pBindings = bindings.data();
+    VK_CHECK(vkCreateDescriptorSetLayout(device, &dli, nullptr, &setLayout));
+    VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+    pli.setLayoutCount = 1;
+    pli.pSetLayouts = &setLayout;
+    const VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, pushBytes};
+    pli.pushConstantRangeCount = 1;
+    pli.pPushConstantRanges = &push;
+    VK_CHECK(vkCreatePipelineLayout(device, &pli, nullptr, &pipelineLayout));
+}
+
 VkPipeline createComputePipeline(VkDevice device, VkPipelineLayout layout,
                                  std::span<const std::uint32_t> code,
                                  std::span<const std::uint32_t> specialization) {

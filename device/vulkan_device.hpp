@@ -221,6 +221,13 @@ void imageBarrier(VkCommandBuffer cb, VkImage image, VkImageAspectFlags aspect, 
 void bufferBarrier(VkCommandBuffer cb, VkBuffer buffer, VkPipelineStageFlags srcStage,
                    VkAccessFlags srcAccess, VkPipelineStageFlags dstStage, VkAccessFlags dstAccess);
 
+/// A pass's layouts: a descriptor set layout of `bindings`, then a pipeline layout of that one set
+/// with `pushBytes` of push constants seen by compute stages alone (lavapipe 22.3 crashes when
+/// one range covers compute and graphics stages). Each is stored as soon as it exists, for the
+/// caller to destroy, even when the second throws (VulkanError).
+void createPassLayouts(VkDevice device, std::span<const VkDescriptorSetLayoutBinding> bindings,
+                       std::uint32_t pushBytes, VkDescriptorSetLayout& setLayout,
+                       VkPipelineLayout& pipelineLayout);
 /// A shader module of SPIR-V `code`; the caller destroys it.
 VkShaderModule createShaderModule(VkDevice device, std::span<const std::uint32_t> code);
 /// A compute pipeline of SPIR-V `code` (entry point "main") with `layout`, its specialization

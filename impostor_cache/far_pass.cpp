@@ -68,17 +68,7 @@ void FarPass::Impl::create() {
         {FAR_BINDING_PALETTES, sb, 1, c, nullptr},  {FAR_BINDING_TILES, sb, 1, c, nullptr},
         {FAR_BINDING_TILE_LIST, sb, 1, c, nullptr}, {FAR_BINDING_PLANES, sb, 1, c, nullptr},
     };
-    VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-    dli.bindingCount = std::uint32_t(std::size(bindings));
-    dli.pBindings = bindings;
-    VK_CHECK(vkCreateDescriptorSetLayout(dev, &dli, nullptr, &setLayout));
-    VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-    pli.setLayoutCount = 1;
-    pli.pSetLayouts = &setLayout;
-    const VkPushConstantRange push{c, 0, sizeof(FarPush)};
-    pli.pushConstantRangeCount = 1;
-    pli.pPushConstantRanges = &push;
-    VK_CHECK(vkCreatePipelineLayout(dev, &pli, nullptr, &pipelineLayout));
+    createPassLayouts(dev, bindings, sizeof(FarPush), setLayout, pipelineLayout);
 
     const std::uint32_t n = std::uint32_t(frames.slots());
     const VkDescriptorPoolSize sizes[] = {{sb, std::uint32_t(std::size(bindings)) * n}};

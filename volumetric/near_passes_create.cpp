@@ -42,19 +42,8 @@ void NearPasses::Impl::createLayouts() {
         {NEAR_BINDING_PLANES, sb, 1, c, nullptr},
         {NEAR_BINDING_BRICKS, sb, 1, f | c, nullptr},
     };
-    VkDescriptorSetLayoutCreateInfo dli{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-    dli.bindingCount = std::uint32_t(std::size(bindings));
-    dli.pBindings = bindings;
-    VK_CHECK(vkCreateDescriptorSetLayout(dev, &dli, nullptr, &setLayout));
-
-    VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-    pli.setLayoutCount = 1;
-    pli.pSetLayouts = &setLayout;
-    // Compute stages only: lavapipe 22.3 crashes when one range covers compute and graphics.
-    const VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(NearComputePush)};
-    pli.pushConstantRangeCount = 1;
-    pli.pPushConstantRanges = &push;
-    VK_CHECK(vkCreatePipelineLayout(dev, &pli, nullptr, &pipelineLayout));
+    // The draw's pipelines share the layout; its push constants are the compute passes' alone.
+    createPassLayouts(dev, bindings, sizeof(NearComputePush), setLayout, pipelineLayout);
 
     const std::uint32_t n = std::uint32_t(frames.slots());
     // Every binding but the atlas is a storage buffer.
