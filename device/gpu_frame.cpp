@@ -3,9 +3,15 @@
 #include "core/sprite_kernel.h"
 #include "core/stopwatch.hpp"
 
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <span>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 namespace voxtier {
 
@@ -33,6 +39,21 @@ VkDeviceSize planesBytesOf(int width, int height) {
 constexpr VkBufferUsageFlags kPlanesUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
                                             VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                             VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+
+/// Copies `bytes` from each pair's source to its destination, in chunks of 256 KiB spread over
+/// the cores (large enough that a task's overhead vanishes, small enough that a 2 MB plane
+/// keeps 8 cores busy).
+void copyPlanes(std::span<const std::pair<void*, const void*>> planes, std::size_t bytes) {
+    constexpr std::size_t kChunk = std::size_t(256) << 10;
+    const std::size_t chunks = (bytes + kChunk - 1) / kChunk;
+    tbb::parallel_for(std::size_t(0), planes.size() * chunks, [&](std::size_t k) {
+        const auto& [to, from] = planes[k / chunks];
+        const std::size_t offset = (k % chunks) * kChunk;
+        std::memcpy(static_cast<std::uint8_t*>(to) + offset,
+                    static_cast<const std::uint8_t*>(from) + offset,
+                    std::min(kChunk, bytes - offset));
+    });
+}
 
 } // namespace
 
@@ -180,16 +201,19 @@ Image GpuFrame::read(bool depthAndIds) {
     img.width = width_;
     img.height = height_;
     const std::size_t count = img.pixelCount();
-    // assign() copies straight in; resize() + memcpy would write every byte twice.
-    const auto* base = static_cast<const std::uint8_t*>(readback_.mapped());
-    const auto* colors = reinterpret_cast<const Rgba8*>(base);
-    img.color.assign(colors, colors + count);
+    // The planes' resize() writes nothing (Plane's allocator leaves new words uninitialised), so
+    // each byte is written once, by the copy, on every core: one core copied the 6 MB of a
+    // 960x540 frame in 0.6-0.9 ms on the H200's host, most of an empty frame.
+    img.color.resize(count);
+    std::vector<std::pair<void*, const void*>> planes{{img.color.data(), readback_.mapped()}};
     if (all) {
-        const auto* ids = reinterpret_cast<const std::uint32_t*>(base + planeBytes());
-        const auto* depths = reinterpret_cast<const float*>(base + 2 * planeBytes());
-        img.id.assign(ids, ids + count);
-        img.depth.assign(depths, depths + count);
+        const auto* base = static_cast<const std::uint8_t*>(readback_.mapped());
+        img.id.resize(count);
+        img.depth.resize(count);
+        planes.push_back({img.id.data(), base + planeBytes()});
+        planes.push_back({img.depth.data(), base + 2 * planeBytes()});
     }
+    copyPlanes(planes, std::size_t(planeBytes()));
     host_.readbackMs = msSince(t0);
     unread_ = false;
     return img;
