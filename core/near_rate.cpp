@@ -46,7 +46,7 @@ CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate 
         bool visible = false, wanted = false;
     };
     std::vector<Wish> wishes(sprites.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sprites.size(), 1024), [&](const auto& r) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sprites.size(), 128), [&](const auto& r) {
         for (std::size_t k = r.begin(); k != r.end(); ++k) {
             const SpriteSetup& s = *sprites[k];
             if (!s.visible()) continue;

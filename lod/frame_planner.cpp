@@ -60,14 +60,15 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         const glm::dvec3 w = views[std::size_t(nearest_[i])];
         inputs_[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
     };
+    // At most 128 entities a task: a few thousand still spread over 16 cores.
     const auto forEach = [&](auto&& f) {
         if (incremental)
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 1024),
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 128),
                               [&](const auto& r) {
                                   for (std::size_t k = r.begin(); k != r.end(); ++k) f(work_[k]);
                               });
         else
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& r) {
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 128), [&](const auto& r) {
                 for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
             });
     };

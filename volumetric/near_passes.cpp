@@ -27,8 +27,10 @@ static_assert(kNoCells == near_gpu::NEAR_NO_CELLS);
 static_assert(kMaxCellSprites == near_gpu::NEAR_MAX_CELL_SPRITES);
 static_assert(kMaxHullCorners == int(near_gpu::NEAR_HULL_MAX_VERTICES));
 
-/// Sprites per task of the host's per-sprite loops: enough work that TBB's overhead vanishes.
-constexpr std::size_t kSpriteGrain = 256;
+/// Sprites per task of the host's per-sprite loops, at most: enough work that TBB's overhead
+/// vanishes, and a few thousand sprites still spread over 16 cores (the auto partitioner splits
+/// no finer than it must).
+constexpr std::size_t kSpriteGrain = 64;
 
 } // namespace
 
