@@ -154,7 +154,7 @@ bool SnapshotCache::availableWithoutBake(const VoxelModel& model, int frame, Vie
 }
 
 bool SnapshotCache::inMemory(const VoxelModel& model, int frame, ViewId view, double sigma) const {
-    return snapshots_.find({model.uid(), frame, view, sigma}, model.version()) != nullptr;
+    return snapshots_.contains({model.uid(), frame, view, sigma}, model.version());
 }
 
 SnapshotCacheCounters SnapshotCache::counters() const {

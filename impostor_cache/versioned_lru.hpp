@@ -24,6 +24,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <shared_mutex>
 #include <unordered_map>
 #include <utility>
 
@@ -105,9 +106,19 @@ template <class StableKey, class T, class Hash = std::hash<StableKey>> class Ver
         return e->value;
     }
 
+    /// Whether (key, version) is listed; as find(), without taking a share of the value (the
+    /// planner asks from every core at once, and shares would contend on one count).
+    bool contains(const StableKey& key, std::uint64_t version) const {
+        std::shared_lock lock(mutex_);
+        const auto k = entries_.find(key);
+        if (k == entries_.end()) return false;
+        const auto v = k->second.find(version);
+        return v != k->second.end() && v->second->listed;
+    }
+
     /// The listed value of (key, version) or nullptr; never produces, counts or reorders.
     Value find(const StableKey& key, std::uint64_t version) const {
-        std::lock_guard lock(mutex_);
+        std::shared_lock lock(mutex_); // a read: shared
         const std::shared_ptr<Entry> e = entryLocked({key, version});
         return e && e->listed ? e->value : nullptr;
     }
@@ -185,7 +196,7 @@ template <class StableKey, class T, class Hash = std::hash<StableKey>> class Ver
     }
 
     LruBudget budget_;
-    mutable std::mutex mutex_;
+    mutable std::shared_mutex mutex_;
     std::unordered_map<StableKey, Versions, Hash> entries_;
     std::list<Slot> lru_; ///< listed entries, most recent first
     LruStats stats_;

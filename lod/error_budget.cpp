@@ -77,11 +77,70 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
                                                const SelectorConfig& config,
                                                const IsCached& isCached,
                                                const IsCached& withoutBake) {
-    std::optional<ViewId>& current = current_.at(entity);
+    return choose(entity, sprite, config, prepare(entity, sprite, config, isCached), isCached,
+                  withoutBake);
+}
+
+namespace {
+
+/// ErrorBudgetViews::LevelScan of `sprite`. The levels' nearest views within the budget, coarse
+/// to fine: a fresh choice aims at far_at's share of the budget where it can, so the next small
+/// move does not switch again; a snapshot already cached (in memory or on disk) wins over one
+/// that needs a bake. A level's view and prediction are computed only when the scan reaches it
+/// (a scan that stops at a coarse level never looks up the finer ones), and each level is met
+/// once: the first target's levels are within the second's, so meeting them again in the same
+/// order changes neither the first cached view nor the first of the others.
+ErrorBudgetViews::LevelScan scanLevels(const SpriteSetup& sprite, const SelectorConfig& config,
+                                       const ErrorBudgetViews::IsCached& isCached) {
+    ErrorBudgetViews::LevelScan scan;
+    scan.done = true;
     const double budget = config.budgetVpx;
+    std::size_t count = 0;
+    while (count < kViewLadder.size() && kViewLadder[count] <= config.ladderCap) ++count;
+    std::array<std::optional<double>, kViewLadder.size()> predicted;
+    std::array<ViewId, kViewLadder.size()> views;
+    std::array<bool, kViewLadder.size()> met{};
+    const double targets[2] = {budget * std::min(1.0, config.farAt / config.nearAt), budget};
+    for (const double target : targets)
+        for (std::size_t k = 0; k < count; ++k) {
+            if (!predicted[k]) {
+                views[k] = nearestLadderView(kViewLadder[k], -sprite.lattice.dir);
+                predicted[k] = predictedBudgetUnits(sprite, views[k]);
+            }
+            if (*predicted[k] > target || met[k]) continue;
+            met[k] = true;
+            if (isCached(sprite, views[k])) {
+                scan.cachedPick = views[k];
+                return scan;
+            }
+            scan.met[std::size_t(scan.metCount++)] = views[k];
+        }
+    return scan;
+}
+
+} // namespace
+
+ErrorBudgetViews::Prepared ErrorBudgetViews::prepare(std::size_t entity, const SpriteSetup& sprite,
+                                                     const SelectorConfig& config,
+                                                     const IsCached& isCached) const {
+    Prepared p;
+    const std::optional<ViewId>& current = current_.at(entity);
+    p.currentWithin = current && predictedBudgetUnits(sprite, *current) <= config.budgetVpx;
+    p.currentCached = p.currentWithin && isCached(sprite, *current);
+    // A current view within the budget is kept unless it needs a bake that neither another
+    // entity nor the bound gives it: choose() scans only then (many entities of one model,
+    // frame and view wait for one bake each frame, and would scan for nothing).
+    if (!p.currentWithin) p.scan = scanLevels(sprite, config, isCached);
+    return p;
+}
+
+std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteSetup& sprite,
+                                               const SelectorConfig& config,
+                                               const Prepared& prepared, const IsCached& isCached,
+                                               const IsCached& withoutBake) {
+    std::optional<ViewId>& current = current_.at(entity);
     const auto baking = [&](ViewId v) { return bakingSet_.count(keyOf(sprite, v)) > 0; };
     const auto onDisk = [&](ViewId v) { return withoutBake && withoutBake(sprite, v); };
-    const auto available = [&](ViewId v) { return isCached(sprite, v) || baking(v) || onDisk(v); };
     const auto bake = [&](ViewId v) {
         if (baking(v)) return v; // another entity's bake this frame: no second one
         --bakesLeft_;
@@ -92,50 +151,24 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
     // Hysteresis on the view and level: a view within the budget is kept however the camera
     // wobbles, even when a coarser level would do now. An animated model may need it baked for
     // its new frame: that counts against the bound like any bake.
-    if (current && predictedBudgetUnits(sprite, *current) <= budget) {
-        if (available(*current)) return current;
+    if (prepared.currentWithin) {
+        if (prepared.currentCached || baking(*current) || onDisk(*current)) return current;
         if (bakesLeft_ > 0) return bake(*current);
     }
-    // Each level's nearest view and its prediction, computed once and only when the scan below
-    // reaches it (this runs for every entity the selector puts far, each frame; a scan that
-    // stops at a coarse level never looks up the finer ones).
-    struct Level {
-        ViewId view;
-        double predicted = 0.0;
-        int cached = -1; ///< -1 not asked yet, else whether the snapshot is cached
-        bool known = false;
-    };
-    std::array<Level, kViewLadder.size()> levels;
-    std::size_t count = 0;
-    while (count < kViewLadder.size() && kViewLadder[count] <= config.ladderCap) ++count;
-    const auto level = [&](std::size_t k) -> Level& {
-        Level& l = levels[k];
-        if (!l.known) {
-            l.view = nearestLadderView(kViewLadder[k], -sprite.lattice.dir);
-            l.predicted = predictedBudgetUnits(sprite, l.view);
-            l.known = true;
+    const LevelScan scan =
+        prepared.scan.done ? prepared.scan : scanLevels(sprite, config, isCached);
+    // No cached view within the budget: the first the scan met needs a bake, unless another
+    // entity bakes one of them this frame. A view another entity bakes is not preferred to the
+    // coarsest one (so that a frame picks the same views whether its snapshots were baked before
+    // or are baked now: a pre-baked directory gives the cold image), only taken when the bake
+    // bound is spent.
+    std::optional<ViewId> pick = scan.cachedPick, pickNeedingBake, pickBaking;
+    if (!pick)
+        for (int k = 0; k < scan.metCount; ++k) {
+            const ViewId v = scan.met[std::size_t(k)];
+            if (!pickNeedingBake) pickNeedingBake = v;
+            if (!pickBaking && baking(v)) pickBaking = v;
         }
-        return l;
-    };
-    // The levels' nearest views within the budget, coarse to fine. A fresh choice aims at
-    // far_at's share of the budget where it can, so the next small move does not switch again;
-    // a snapshot already cached (in memory or on disk) wins over one that needs a bake. A view
-    // another entity bakes this frame is not preferred to the coarsest one (so that a frame
-    // picks the same views whether its snapshots were baked before or are baked now: a
-    // pre-baked directory gives the cold image), only taken when the bake bound is spent.
-    const double targets[2] = {budget * std::min(1.0, config.farAt / config.nearAt), budget};
-    std::optional<ViewId> pick, pickNeedingBake, pickBaking;
-    for (const double target : targets) {
-        for (std::size_t k = 0; k < count && !pick; ++k) {
-            Level& l = level(k);
-            if (l.predicted > target) continue;
-            if (l.cached < 0) l.cached = isCached(sprite, l.view);
-            if (l.cached) pick = l.view;
-            if (!pickNeedingBake) pickNeedingBake = l.view;
-            if (!pickBaking && baking(l.view)) pickBaking = l.view;
-        }
-        if (pick) break;
-    }
     // The view a bake would be for, read from disk instead when a file has it: the same view
     // either way, only the bake is spared.
     if (!pick && pickNeedingBake && onDisk(*pickNeedingBake)) pick = pickNeedingBake;

@@ -10,6 +10,7 @@
 #include "core/sprite.hpp"
 #include "core/view_set.hpp"
 
+#include <array>
 #include <cstddef>
 #include <functional>
 #include <optional>
@@ -68,6 +69,30 @@ class ErrorBudgetViews {
     std::optional<ViewId> choose(std::size_t entity, const SpriteSetup& sprite,
                                  const SelectorConfig& config, const IsCached& isCached,
                                  const IsCached& withoutBake = {});
+
+    /// The budget's levels as choose() scans them, coarse to fine: the first cached view within
+    /// its targets, or, when none is, every view within them in the scan's order.
+    struct LevelScan {
+        bool done = false;
+        std::optional<ViewId> cachedPick;
+        std::array<ViewId, kViewLadder.size()> met{};
+        int metCount = 0;
+    };
+    /// What choose() reads that no other entity's choice changes: whether the current view is
+    /// within the budget and cached, and (when it is not within) the level scan. Only the bake
+    /// hand-out is left to the serial pass, so a frame prepares its far entities in parallel;
+    /// const, and thread-safe where `isCached` is (SnapshotCache's is).
+    struct Prepared {
+        bool currentWithin = false, currentCached = false;
+        LevelScan scan; ///< not done where the current view is within the budget
+    };
+    Prepared prepare(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
+                     const IsCached& isCached) const;
+    /// choose() given prepare()'s result for this entity, computed this frame before any
+    /// choice: the same view.
+    std::optional<ViewId> choose(std::size_t entity, const SpriteSetup& sprite,
+                                 const SelectorConfig& config, const Prepared& prepared,
+                                 const IsCached& isCached, const IsCached& withoutBake = {});
     /// The entity is drawn near: the next far frame picks its view afresh.
     void drop(std::size_t entity);
     /// After choose(): whether the entity is inside a view switch's cross-fade

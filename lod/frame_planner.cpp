@@ -97,11 +97,17 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                             : 0.0;
     };
     if (budget) {
-        // The budget's views share the frame's bake bound, given out in entity order.
-        for (std::size_t i = 0; i < n; ++i) {
+        // The budget's views share the frame's bake bound, given out in entity order; what
+        // each far entity's choice reads of no other entity (its tier, its levels' views and
+        // predictions, the cache's answers) is found first, in parallel.
+        prepared_.resize(n);
+        forEach([&](std::size_t i) {
             tierOf(i);
-            planBudgetView(i, sprites[i], config, settings, plan[i]);
-        }
+            if (plan[i].drawsFar() && sprites[i].visible())
+                prepared_[i] = budgetViews_.prepare(i, sprites[i], config, settings.inMemory);
+        });
+        for (std::size_t i = 0; i < n; ++i)
+            planBudgetView(i, sprites[i], config, settings, prepared_[i], plan[i]);
         st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
         forEach(predict); // after the bakes given up, which send their entities near
     } else {
@@ -142,14 +148,15 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
 
 void FramePlanner::planBudgetView(std::size_t entity, const SpriteSetup& sprite,
                                   const SelectorConfig& config, const PlanSettings& settings,
-                                  EntityPlan& p) {
+                                  const ErrorBudgetViews::Prepared& prepared, EntityPlan& p) {
     if (!p.drawsFar() || !sprite.visible()) {
         budgetViews_.drop(entity);
         return;
     }
     // In memory: preferred. On disk (--cache-dir): not a bake either, but never preferred, since
     // what a shared directory holds is up to other processes (ErrorBudgetViews::choose).
-    p.view = budgetViews_.choose(entity, sprite, config, settings.inMemory, settings.withoutBake);
+    p.view = budgetViews_.choose(entity, sprite, config, prepared, settings.inMemory,
+                                 settings.withoutBake);
     // No view within the budget without passing this frame's bake bound: near this frame (the
     // selector keeps its far state, so the entity goes far as soon as a view can be had).
     if (!p.view) p = EntityPlan{};

@@ -135,8 +135,10 @@ class FramePlanner {
 
   private:
     /// Metric error_budget: the view within the budget (plan.view), or the entity drawn near.
+    /// `prepared`: budgetViews_.prepare() for this entity, this frame.
     void planBudgetView(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
-                        const PlanSettings& settings, EntityPlan& plan);
+                        const PlanSettings& settings, const ErrorBudgetViews::Prepared& prepared,
+                        EntityPlan& plan);
     /// Metric error_budget, after every entity's view: the bakes the frame can afford.
     /// Returns the bakes given up.
     int keepAffordableBakes(std::span<const SpriteSetup> sprites,
@@ -152,7 +154,9 @@ class FramePlanner {
     std::vector<SelectorInput> inputs_;
     std::vector<int> nearest_;
     std::vector<std::optional<ViewId>> drawnFrom_;
-    std::vector<double> predicted_;   ///< predictedBudgetUnits of each far-drawn visible entity
+    std::vector<double> predicted_; ///< predictedBudgetUnits of each far-drawn visible entity
+    /// error_budget: what each far entity's view choice reads of no other entity, this frame
+    std::vector<ErrorBudgetViews::Prepared> prepared_;
     std::vector<std::uint32_t> work_; ///< the entities a frame plans afresh
     /// The previous call went through the selector, with this mode and config: a frame with
     /// the sprites' changes since then may plan only what changed.

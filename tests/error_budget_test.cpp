@@ -12,11 +12,13 @@
 #include "lod/error_budget.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <random>
 #include <set>
 #include <tuple>
 #include <unistd.h>
@@ -240,6 +242,118 @@ TEST(ErrorBudget, PicksTheCoarsestLevelWithinTheBudget) {
         views.beginFrame(1, 0);
         EXPECT_FALSE(views.choose(0, sp, c, cached).has_value());
     }
+}
+
+/// The view rule as one scan per entity, in entity order (CONTRACT.md §5; ErrorBudgetViews
+/// before it was split into a parallel prepare and a serial hand-out): the current view while
+/// within the budget (baked if it must be and may be), else the levels coarse to fine within
+/// far_at's share of the budget and then within the budget, the first cached one; else the first
+/// met, read from disk or baked within the bound; else the first met that another entity bakes.
+struct OneScanViews {
+    std::vector<std::optional<ViewId>> current;
+    std::set<std::tuple<int, int, int, int, int>> baking;
+    int bakesLeft = 0;
+    std::optional<ViewId> choose(std::size_t e, const SpriteSetup& sp, const SelectorConfig& c,
+                                 const ErrorBudgetViews::IsCached& cached,
+                                 const ErrorBudgetViews::IsCached& onDisk) {
+        const auto key = [&](ViewId v) {
+            return std::tuple{sp.model, sp.frame, v.lattice.x, v.lattice.y, v.lattice.z};
+        };
+        const auto isBaking = [&](ViewId v) { return baking.count(key(v)) > 0; };
+        const auto bake = [&](ViewId v) {
+            if (!isBaking(v)) --bakesLeft, baking.insert(key(v));
+            return v;
+        };
+        std::optional<ViewId>& cur = current[e];
+        if (cur && predictedBudgetUnits(sp, *cur) <= c.budgetVpx) {
+            if (cached(sp, *cur) || isBaking(*cur) || onDisk(sp, *cur)) return cur;
+            if (bakesLeft > 0) return bake(*cur);
+        }
+        std::optional<ViewId> pick, needingBake, beingBaked;
+        for (double target : {c.budgetVpx * std::min(1.0, c.farAt / c.nearAt), c.budgetVpx})
+            for (int n : kViewLadder) {
+                if (n > c.ladderCap || pick) continue;
+                const ViewId v = nearestLadderView(n, -sp.lattice.dir);
+                if (predictedBudgetUnits(sp, v) > target) continue;
+                if (cached(sp, v)) pick = v;
+                if (!needingBake) needingBake = v;
+                if (!beingBaked && isBaking(v)) beingBaked = v;
+            }
+        if (!pick && needingBake && onDisk(sp, *needingBake)) pick = needingBake;
+        if (!pick && needingBake && (bakesLeft > 0 || isBaking(*needingBake)))
+            pick = bake(*needingBake);
+        if (!pick) pick = beingBaked;
+        cur = pick;
+        return pick;
+    }
+};
+
+// The planner prepares every far entity's choice in parallel and hands out the bakes in entity
+// order: the views are those of one scan per entity in order, frame after frame (current views
+// kept, moved out of the budget, shared bakes, the bound spent, snapshots on disk).
+TEST(ErrorBudget, PreparedInParallelTheViewsAreThoseOfOneScanPerEntity) {
+    SelectorConfig c = budgetSelector(1.0);
+    std::mt19937 rng(35);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    constexpr std::size_t kEntities = 600;
+    std::vector<SpriteSetup> sprites(kEntities);
+    const double cellPxs[] = {0.05, 0.2, 0.5, 1.0, 3.0};
+    for (std::size_t i = 0; i < kEntities; ++i) {
+        sprites[i] = syntheticSprite({unit(rng), unit(rng), unit(rng) + 1.5}, cellPxs[i % 5]);
+        sprites[i].model = int(i % 3), sprites[i].frame = int(i / 3 % 2);
+    }
+    // Which snapshots are cached or on disk: fixed per (model, frame, view), a third of them.
+    const auto hashed = [](const SpriteSetup& sp, ViewId v, unsigned salt) {
+        const std::uint64_t h =
+            (std::uint64_t(sp.model * 7 + sp.frame) * 1000003u ^
+             std::uint64_t(v.lattice.x * 73856093) ^ std::uint64_t(v.lattice.y * 19349663) ^
+             std::uint64_t(v.lattice.z * 83492791)) *
+            (2654435761u + salt);
+        return (h >> 17) % 3 == 0;
+    };
+    ErrorBudgetViews views;
+    OneScanViews scan;
+    scan.current.resize(kEntities);
+    std::size_t kept = 0, baked = 0, far = 0;
+    for (int frame = 0; frame < 40; ++frame) {
+        const int bound = frame % 4 == 3 ? 0 : 1 + frame % 7;
+        const bool disk = frame % 5 == 2;
+        const ErrorBudgetViews::IsCached cached = [&](const SpriteSetup& sp, ViewId v) {
+            return hashed(sp, v, unsigned(frame / 10)); // the cache changes every 10 frames
+        };
+        const ErrorBudgetViews::IsCached onDisk = [&](const SpriteSetup& sp, ViewId v) {
+            return disk && hashed(sp, v, 99u);
+        };
+        views.beginFrame(kEntities, bound);
+        scan.baking.clear();
+        scan.bakesLeft = bound;
+        std::vector<ErrorBudgetViews::Prepared> prepared(kEntities);
+        tbb::parallel_for(std::size_t(0), kEntities, [&](std::size_t i) {
+            prepared[i] = views.prepare(i, sprites[i], c, cached);
+        });
+        for (std::size_t i = 0; i < kEntities; ++i) {
+            const std::optional<ViewId> before = scan.current[i];
+            const std::optional<ViewId> want = scan.choose(i, sprites[i], c, cached, onDisk);
+            const std::optional<ViewId> got =
+                views.choose(i, sprites[i], c, prepared[i], cached,
+                             disk ? onDisk : ErrorBudgetViews::IsCached{});
+            ASSERT_EQ(got.has_value(), want.has_value()) << "frame " << frame << " entity " << i;
+            if (want) {
+                ASSERT_EQ(got->lattice, want->lattice) << "frame " << frame << " entity " << i;
+            }
+            far += want.has_value();
+            kept += want && before && *want == *before;
+        }
+        EXPECT_EQ(views.bakesAsked(), scan.baking.size()) << "frame " << frame;
+        baked += scan.baking.size();
+        // The camera moves: a few entities turn far enough to leave their view's budget.
+        for (std::size_t i = 0; i < kEntities; i += 7)
+            sprites[i].lattice.dir = -glm::normalize(glm::dvec3(unit(rng), unit(rng), 2.0));
+    }
+    // Every path of the rule was taken.
+    EXPECT_GT(kept, 1000u);
+    EXPECT_GT(baked, 20u);
+    EXPECT_LT(far, 40 * kEntities);
 }
 
 // The cache holds exactly the snapshots far sprites were drawn from (nothing baked ahead), and no
