@@ -67,13 +67,17 @@ int latticeN(ViewSet set) {
 struct Tables {
     std::array<std::vector<glm::ivec3>, 3> points;
     std::array<std::vector<glm::dvec3>, 3> dirs;
+    std::array<std::vector<ViewId>, 3> ids; ///< viewIdOf of each point (two gcds each, else)
     Tables() {
         for (int n = 1; n <= 3; ++n) {
-            points[std::size_t(n - 1)] = latticeSet(n);
+            const std::size_t k = std::size_t(n - 1);
+            points[k] = latticeSet(n);
             // From the primitive vector, so a direction is the very same double vector in every
             // set (normalising (2,2,0) and (1,1,0) can differ in the last bit).
-            for (const glm::ivec3 p : points[std::size_t(n - 1)])
-                dirs[std::size_t(n - 1)].push_back(viewDirection(viewIdOf(p)));
+            for (const glm::ivec3 p : points[k]) {
+                ids[k].push_back(viewIdOf(p));
+                dirs[k].push_back(viewDirection(ids[k].back()));
+            }
         }
     }
 };
@@ -91,7 +95,7 @@ ViewId viewIdOf(glm::ivec3 p) {
 }
 
 ViewId viewIdOf(ViewSet set, int index) {
-    return viewIdOf(viewLatticePoints(set).at(std::size_t(index)));
+    return tables().ids[std::size_t(latticeN(set) - 1)].at(std::size_t(index));
 }
 
 glm::dvec3 viewDirection(ViewId view) {
