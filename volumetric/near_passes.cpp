@@ -66,12 +66,15 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), [&](const auto& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
             const SpriteSetup& s = *visible[i];
-            gpu[i] = s.gpu;
             // The only fields the near tier adds to what core computed: where the voxels and
-            // their brick occupancy are.
+            // their brick occupancy are. Composed here and stored once: the destination may be
+            // write-combined device memory (resizable BAR, written directly), where patching a
+            // record after storing it writes its lines twice across the bus.
+            kernel::SpriteGpu g = s.gpu;
             const VoxelModel& model = *models.at(std::size_t(s.model));
-            gpu[i].atlas = residency.entry(model, s.frame);
-            gpu[i].brickBase = residency.brickBase(model, s.frame);
+            g.atlas = residency.entry(model, s.frame);
+            g.brickBase = residency.brickBase(model, s.frame);
+            gpu[i] = g;
         }
     });
 }
@@ -88,7 +91,9 @@ void NearPasses::Impl::writeProxies(GpuFrame& frame, Slot& slot, const CameraFra
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), [&](const auto& r) {
             for (std::size_t i = r.begin(); i != r.end(); ++i) {
                 const auto corners = proxyBoxClipCorners(cam, *visible[i]);
-                for (int k = 0; k < 8; ++k) box[i].corner[k] = glm::vec4(corners[std::size_t(k)]);
+                near_gpu::NearBox b;
+                for (int k = 0; k < 8; ++k) b.corner[k] = glm::vec4(corners[std::size_t(k)]);
+                box[i] = b;
             }
         });
     }
@@ -108,8 +113,9 @@ void NearPasses::Impl::writeProxies(GpuFrame& frame, Slot& slot, const CameraFra
             std::array<glm::dvec4, kMaxHullCorners> corners;
             for (std::size_t i = r.begin(); i != r.end(); ++i) {
                 const int count = proxyHullClipCorners(cam, *visible[i], corners);
-                hull[i] = near_gpu::NearHull{};
-                hull[i].count = std::uint32_t(count);
+                // Composed here and stored once, as the sprites are (writeSprites).
+                near_gpu::NearHull h{};
+                h.count = std::uint32_t(count);
                 bool flatten = opt.earlyDepthTest;
                 for (int k = 0; k < count; ++k) {
                     const glm::dvec4& c = corners[std::size_t(k)];
@@ -119,10 +125,11 @@ void NearPasses::Impl::writeProxies(GpuFrame& frame, Slot& slot, const CameraFra
                 flattened += flatten;
                 for (int k = 0; k < count; ++k) {
                     const glm::dvec4& c = corners[std::size_t(k)];
-                    hull[i].corner[k] = flatten ? glm::vec4(float(c.x / c.w), float(c.y / c.w),
-                                                            visible[i]->gpu.depth, 1.0f)
-                                                : glm::vec4(c);
+                    h.corner[k] = flatten ? glm::vec4(float(c.x / c.w), float(c.y / c.w),
+                                                      visible[i]->gpu.depth, 1.0f)
+                                          : glm::vec4(c);
                 }
+                hull[i] = h;
             }
             return flattened;
         },
