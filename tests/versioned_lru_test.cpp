@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace voxtier {
@@ -69,6 +70,52 @@ TEST(VersionedLru, FindNeitherCountsNorReorders) {
     EXPECT_EQ(lru.find("a", 1), nullptr);
     EXPECT_EQ(lru.stats().hits, 0u);
     EXPECT_EQ(lru.stats().misses, 3u);
+}
+
+// contains() is find() != nullptr without taking a share of the value: listed entries only (not
+// evicted, superseded or still in production); readers on threads of their own share the lock
+// while a writer lists and evicts entries (ThreadSanitizer checks them in the tsan preset).
+TEST(VersionedLru, ContainsIsFindWithoutTheValue) {
+    Lru lru(LruBudget{.entries = 2});
+    request(lru, "a", 1);
+    request(lru, "b", 1);
+    request(lru, "a", 3); // supersedes a@1
+    request(lru, "c", 1); // evicts b@1
+    for (const auto& [key, version] : std::vector<std::pair<std::string, std::uint64_t>>{
+             {"a", 1}, {"a", 3}, {"b", 1}, {"c", 1}, {"c", 2}, {"z", 1}})
+        EXPECT_EQ(lru.contains(key, version), lru.find(key, version) != nullptr)
+            << key << "@" << version;
+    EXPECT_TRUE(lru.contains("a", 3));
+    EXPECT_FALSE(lru.contains("b", 1));
+
+    // In production: not listed yet.
+    std::atomic<bool> producing{false}, release{false};
+    std::thread producer([&] {
+        lru.get("p", 1, [&](const std::optional<Older>&) {
+            producing = true;
+            while (!release.load()) std::this_thread::yield();
+            return std::make_shared<const Blob>(Blob{1, "p"});
+        });
+    });
+    while (!producing.load()) std::this_thread::yield();
+    EXPECT_FALSE(lru.contains("p", 1));
+    release = true;
+    producer.join();
+    EXPECT_TRUE(lru.contains("p", 1));
+
+    // Readers beside a writer.
+    std::atomic<bool> done{false};
+    std::atomic<int> seen{0};
+    std::vector<std::thread> readers;
+    for (int t = 0; t < 4; ++t)
+        readers.emplace_back([&] {
+            while (!done.load()) seen += lru.contains("p", 1) ? 1 : 0;
+        });
+    for (int k = 0; k < 200; ++k) request(lru, "w" + std::to_string(k));
+    done = true;
+    for (auto& t : readers) t.join();
+    EXPECT_FALSE(lru.contains("p", 1)); // evicted by the writer's entries
+    EXPECT_EQ(lru.stats().entries, 2u);
 }
 
 TEST(VersionedLru, KeepsTheByteBudgetAndHandedOutValuesOutliveEviction) {
