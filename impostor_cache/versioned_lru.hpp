@@ -93,7 +93,7 @@ template <class StableKey, class T, class Hash = std::hash<StableKey>> class Ver
             e->value = value;
             if (older && dropLocked({key, older->version})) ++stats_.superseded;
             // Still wanted (not dropped meanwhile, e.g. as someone's superseded version): list it.
-            if (entryLocked({key, version}) == e) {
+            if (entryLocked({key, version}) == e.get()) {
                 lru_.push_front({key, version});
                 e->lruPos = lru_.begin();
                 e->listed = true;
@@ -110,16 +110,14 @@ template <class StableKey, class T, class Hash = std::hash<StableKey>> class Ver
     /// planner asks from every core at once, and shares would contend on one count).
     bool contains(const StableKey& key, std::uint64_t version) const {
         std::shared_lock lock(mutex_);
-        const auto k = entries_.find(key);
-        if (k == entries_.end()) return false;
-        const auto v = k->second.find(version);
-        return v != k->second.end() && v->second->listed;
+        const Entry* e = entryLocked({key, version});
+        return e && e->listed;
     }
 
     /// The listed value of (key, version) or nullptr; never produces, counts or reorders.
     Value find(const StableKey& key, std::uint64_t version) const {
         std::shared_lock lock(mutex_); // a read: shared
-        const std::shared_ptr<Entry> e = entryLocked({key, version});
+        const Entry* e = entryLocked({key, version});
         return e && e->listed ? e->value : nullptr;
     }
 
@@ -151,11 +149,12 @@ template <class StableKey, class T, class Hash = std::hash<StableKey>> class Ver
     using Versions = std::map<std::uint64_t, std::shared_ptr<Entry>>;
 
     // mutex_ held for all of these.
-    std::shared_ptr<Entry> entryLocked(const Slot& s) const {
+    /// The entry of (key, version), or null; no share taken (readers would contend on its count).
+    const Entry* entryLocked(const Slot& s) const {
         const auto k = entries_.find(s.key);
         if (k == entries_.end()) return nullptr;
         const auto v = k->second.find(s.version);
-        return v == k->second.end() ? nullptr : v->second;
+        return v == k->second.end() ? nullptr : v->second.get();
     }
 
     std::optional<Older> olderLocked(const StableKey& key, std::uint64_t version) const {

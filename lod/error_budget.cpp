@@ -93,7 +93,6 @@ namespace {
 ErrorBudgetViews::LevelScan scanLevels(const SpriteSetup& sprite, const SelectorConfig& config,
                                        const ErrorBudgetViews::IsCached& isCached) {
     ErrorBudgetViews::LevelScan scan;
-    scan.done = true;
     const double budget = config.budgetVpx;
     std::size_t count = 0;
     while (count < kViewLadder.size() && kViewLadder[count] <= config.ladderCap) ++count;
@@ -156,7 +155,7 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
         if (bakesLeft_ > 0) return bake(*current);
     }
     const LevelScan scan =
-        prepared.scan.done ? prepared.scan : scanLevels(sprite, config, isCached);
+        prepared.currentWithin ? scanLevels(sprite, config, isCached) : prepared.scan;
     // No cached view within the budget: the first the scan met needs a bake, unless another
     // entity bakes one of them this frame. A view another entity bakes is not preferred to the
     // coarsest one (so that a frame picks the same views whether its snapshots were baked before

@@ -73,7 +73,6 @@ class ErrorBudgetViews {
     /// The budget's levels as choose() scans them, coarse to fine: the first cached view within
     /// its targets, or, when none is, every view within them in the scan's order.
     struct LevelScan {
-        bool done = false;
         std::optional<ViewId> cachedPick;
         std::array<ViewId, kViewLadder.size()> met{};
         int metCount = 0;
@@ -84,7 +83,7 @@ class ErrorBudgetViews {
     /// const, and thread-safe where `isCached` is (SnapshotCache's is).
     struct Prepared {
         bool currentWithin = false, currentCached = false;
-        LevelScan scan; ///< not done where the current view is within the budget
+        LevelScan scan; ///< where the current view is not within the budget (else choose's)
     };
     Prepared prepare(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                      const IsCached& isCached) const;
