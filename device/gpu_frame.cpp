@@ -1,9 +1,8 @@
 #include "device/gpu_frame.hpp"
 
+#include "core/parallel_copy.hpp"
 #include "core/sprite_kernel.h"
 #include "core/stopwatch.hpp"
-
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
@@ -38,21 +37,6 @@ VkDeviceSize planesBytesOf(int width, int height) {
 constexpr VkBufferUsageFlags kPlanesUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
                                             VK_BUFFER_USAGE_TRANSFER_DST_BIT |
                                             VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-
-/// Copies `bytes` from each pair's source to its destination, in chunks of 256 KiB spread over
-/// the cores (large enough that a task's overhead vanishes, small enough that a 2 MB plane
-/// keeps 8 cores busy).
-void copyPlanes(std::span<const std::pair<void*, const void*>> planes, std::size_t bytes) {
-    constexpr std::size_t kChunk = std::size_t(256) << 10;
-    const std::size_t chunks = (bytes + kChunk - 1) / kChunk;
-    tbb::parallel_for(std::size_t(0), planes.size() * chunks, [&](std::size_t k) {
-        const auto& [to, from] = planes[k / chunks];
-        const std::size_t offset = (k % chunks) * kChunk;
-        std::memcpy(static_cast<std::uint8_t*>(to) + offset,
-                    static_cast<const std::uint8_t*>(from) + offset,
-                    std::min(kChunk, bytes - offset));
-    });
-}
 
 } // namespace
 
@@ -206,10 +190,11 @@ Image GpuFrame::read(bool depthAndIds) {
     const auto* base = static_cast<const std::uint8_t*>(readback_.mapped());
     img.color.resize(count);
     if (all) img.id.resize(count), img.depth.resize(count);
-    const std::pair<void*, const void*> planes[] = {{img.color.data(), base},
-                                                    {img.id.data(), base + planeBytes()},
-                                                    {img.depth.data(), base + 2 * planeBytes()}};
-    copyPlanes(std::span(planes, all ? 3 : 1), std::size_t(planeBytes()));
+    const std::size_t bytes = std::size_t(planeBytes());
+    const CopyPiece planes[] = {{img.color.data(), base, bytes},
+                                {img.id.data(), base + planeBytes(), bytes},
+                                {img.depth.data(), base + 2 * planeBytes(), bytes}};
+    copyInParallel(std::span(planes, all ? 3 : 1));
     host_.readbackMs = msSince(t0);
     unread_ = false;
     return img;
