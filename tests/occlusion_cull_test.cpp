@@ -16,6 +16,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <limits>
+#include <vector>
+
 namespace voxtier {
 namespace {
 
@@ -74,6 +78,44 @@ TEST(OcclusionTiles, FrontToBackOrdersByDepthThenId) {
     s[3].cull = CullReason::OffScreen;
     std::vector<const SpriteSetup*> p = {&s[0], &s[1], &s[2], &s[3]};
     EXPECT_EQ(frontToBack(p), (std::vector<std::uint32_t>{1, 2, 0}));
+}
+
+// Many sprites (so that the keys are read and sorted in parallel): the order is the one a plain
+// sort of the visible sprites by (nearer first, lower id, lower index) gives, with hidden and
+// absent sprites left out, ties of depth and id broken by index, and a visible sprite at depth 0
+// with the greatest id (its key equals the hidden sprites' marker) kept in its place.
+TEST(OcclusionTiles, FrontToBackOfManySpritesIsTheSortOfTheVisibleOnes) {
+    const std::size_t n = 50000;
+    std::vector<SpriteSetup> s(n);
+    std::vector<const SpriteSetup*> p(n);
+    std::uint64_t state = 12345;
+    const auto next = [&] {
+        return (state = state * 6364136223846793005ull + 1442695040888963407ull) >> 33;
+    };
+    for (std::size_t i = 0; i < n; ++i) {
+        s[i].gpu.depth = float(next() % 500) / 500.0f; // many equal depths, some 0
+        s[i].entityId = std::uint32_t(next() % 40000); // some equal ids
+        if (next() % 7 == 0) s[i].cull = CullReason::OffScreen;
+        p[i] = next() % 50 == 0 ? nullptr : &s[i];
+    }
+    for (std::size_t i : {std::size_t(17), std::size_t(n - 3)}) {
+        s[i] = SpriteSetup{};
+        s[i].gpu.depth = 0.0f;
+        s[i].entityId = std::numeric_limits<std::uint32_t>::max();
+        p[i] = &s[i];
+    }
+    std::vector<std::uint32_t> expected;
+    for (std::uint32_t i = 0; i < n; ++i)
+        if (p[i] && p[i]->visible()) expected.push_back(i);
+    std::stable_sort(expected.begin(), expected.end(), [&](std::uint32_t a, std::uint32_t b) {
+        if (s[a].gpu.depth != s[b].gpu.depth) return s[a].gpu.depth > s[b].gpu.depth;
+        return s[a].entityId < s[b].entityId;
+    });
+    const std::vector<std::uint32_t> order = frontToBack(p);
+    ASSERT_EQ(order.size(), expected.size());
+    EXPECT_TRUE(order == expected);
+    EXPECT_EQ(order[order.size() - 2], 17u);
+    EXPECT_EQ(order.back(), std::uint32_t(n - 3));
 }
 
 /// Renders the frames of `scene` in `mode` with and without culling (two renderers, the same
