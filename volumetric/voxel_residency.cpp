@@ -2,9 +2,13 @@
 
 #include "core/stopwatch.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 
 namespace voxtier {
@@ -24,6 +28,53 @@ VkDeviceSize roundUp4(VkDeviceSize v) {
 
 constexpr VkDeviceSize kInitialPaletteBytes = 64 * 256 * sizeof(std::uint32_t);
 constexpr VkDeviceSize kInitialBrickBytes = 1 << 16;
+
+/// The sprites, by index, that first show a model or a frame of one, in order. Placing frames
+/// sprite by sprite does something only at these: every later sprite of the same frame finds it
+/// resident and current. Found in parallel (at 100,000 sprites the serial walk over every sprite
+/// was a cache miss apiece, 5-7 ms on two cores), each task keeping the least index per model
+/// and per frame of a model.
+std::vector<std::uint32_t> firstShowings(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                                         std::span<const SpriteSetup* const> sprites) {
+    constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+    // Slot layout: one per model, then one per frame of each model, then one for the first sprite
+    // whose model or frame is out of range (left to the serial walk, which names it).
+    std::vector<std::uint32_t> frameSlot(models.size() + 1, std::uint32_t(models.size()));
+    for (std::size_t m = 0; m < models.size(); ++m)
+        frameSlot[m + 1] = frameSlot[m] + std::uint32_t(models[m] ? models[m]->frameCount() : 0);
+    const std::size_t slots = frameSlot.back() + 1;
+    using Least = std::vector<std::uint32_t>;
+    const Least least = tbb::parallel_reduce(
+        tbb::blocked_range<std::uint32_t>(0, std::uint32_t(sprites.size()), 256), Least(),
+        [&](const auto& r, Least local) {
+            if (local.empty()) local.assign(slots, kNone);
+            for (std::uint32_t k = r.begin(); k != r.end(); ++k) {
+                const SpriteSetup* sp = sprites[k];
+                if (!sp->visible()) continue;
+                const auto m = std::size_t(sp->model);
+                if (m >= models.size() || sp->frame < 0 ||
+                    frameSlot[m] + std::uint32_t(sp->frame) >= frameSlot[m + 1]) {
+                    local[slots - 1] = std::min(local[slots - 1], k);
+                    continue;
+                }
+                local[m] = std::min(local[m], k);
+                const std::size_t f = frameSlot[m] + std::size_t(sp->frame);
+                local[f] = std::min(local[f], k);
+            }
+            return local;
+        },
+        [](Least a, const Least& b) {
+            if (a.empty()) return b;
+            for (std::size_t i = 0; i < b.size(); ++i) a[i] = std::min(a[i], b[i]);
+            return a;
+        });
+    std::vector<std::uint32_t> firsts;
+    for (const std::uint32_t k : least)
+        if (k != kNone) firsts.push_back(k);
+    std::sort(firsts.begin(), firsts.end());
+    firsts.erase(std::unique(firsts.begin(), firsts.end()), firsts.end());
+    return firsts;
+}
 
 } // namespace
 
@@ -180,8 +231,8 @@ VoxelResidency::placeFrames(const std::vector<std::shared_ptr<VoxelModel>>& mode
     std::vector<std::pair<Resident*, int>> placed;
     std::vector<std::pair<Resident*, std::uint64_t>> synced;
     try {
-        for (const SpriteSetup* sp : sprites) {
-            if (!sp->visible()) continue;
+        for (const std::uint32_t k : firstShowings(models, sprites)) {
+            const SpriteSetup* sp = sprites[k];
             const VoxelModel& model = *models.at(std::size_t(sp->model));
             auto [it, inserted] = residents_.try_emplace(model.uid());
             Resident& r = it->second;
