@@ -3,6 +3,7 @@
 #include "volumetric/near_passes.hpp"
 
 #include "core/occlusion.hpp"
+#include "core/parallel_copy.hpp"
 #include "volumetric/detail/near_passes_impl.hpp"
 
 #include <tbb/blocked_range.h>
@@ -59,6 +60,7 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
     stats.uploadMs = up.milliseconds;
 
     const std::size_t n = visible.size();
+    depths.resize(n);
     const VkDeviceSize bytes = VkDeviceSize(n) * sizeof(kernel::SpriteGpu);
     ensure(slot.sprites, std::max<VkDeviceSize>(bytes, 4));
     if (!n) return;
@@ -75,6 +77,7 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
             g.atlas = residency.entry(model, s.frame);
             g.brickBase = residency.brickBase(model, s.frame);
             gpu[i] = g;
+            depths[i] = g.depth;
         }
     });
 }
@@ -141,10 +144,12 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
                                                         std::uint64_t budgetBytes,
                                                         bool tracePixels) {
     const int width = frame.width(), height = frame.height();
+    // Copied on every core: at 100,000 sprites the lists are megabytes, and the destination may
+    // be write-combined device memory, which one core fills at a fraction of the bus's rate.
     const auto upload = [&](VulkanBuffer& b, const auto& v) {
         const VkDeviceSize bytes = v.size() * sizeof(v[0]);
         ensure(b, std::max<VkDeviceSize>(bytes, 4));
-        if (bytes) std::memcpy(frame.hostWrite(b, 0, bytes), v.data(), bytes);
+        if (bytes) copyInParallel({{frame.hostWrite(b, 0, bytes), v.data(), std::size_t(bytes)}});
     };
     upload(slot.cellBases, plan.cellBase);
     // The store is kept for the next frames and grows by doubling, never past the budget (the
@@ -176,9 +181,7 @@ void NearPasses::Impl::rankSprites(const CellRatePlan& plan, bool tracePixels) {
     byDepth.clear();
     for (std::size_t k = 0; k < n; ++k)
         if (tracePixels || plan.cellBase[k] != kNoCells) byDepth.push_back(std::uint32_t(k));
-    const auto nearer = [&](std::uint32_t a, std::uint32_t b) {
-        return visible[a]->gpu.depth > visible[b]->gpu.depth;
-    };
+    const auto nearer = [&](std::uint32_t a, std::uint32_t b) { return depths[a] > depths[b]; };
     if (!std::is_sorted(byDepth.begin(), byDepth.end(), nearer))
         std::stable_sort(byDepth.begin(), byDepth.end(), nearer);
     ranks.assign(n, near_gpu::NEAR_NO_RANK);
@@ -385,7 +388,16 @@ void NearPasses::Impl::recordWords(GpuFrame& frame, Slot& slot, CellWork work) {
                   VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     frame.timer().begin(cb, "near_trace");
-    dispatch(frame, slot, TracePixels, work.traceBlocks, work.blocks);
+    const std::uint32_t waves = std::max(1u, std::min(traceShape.waves, work.traceBlocks));
+    for (std::uint32_t w = 0; w < waves; ++w) {
+        const std::uint32_t first = std::uint32_t(std::uint64_t(work.traceBlocks) * w / waves);
+        const std::uint32_t end = std::uint32_t(std::uint64_t(work.traceBlocks) * (w + 1) / waves);
+        if (w > 0) // this wave reads the words the nearer ones wrote
+            bufferBarrier(cb, pixelWords.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                          VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                          VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        dispatch(frame, slot, TracePixels, end - first, work.blocks + first);
+    }
     frame.timer().end(cb);
 }
 

@@ -59,6 +59,9 @@ struct NearPasses::Impl {
 
     // The frame being recorded (host scratch, reused from frame to frame).
     std::vector<const SpriteSetup*> visible;
+    /// visible[k]->gpu.depth, gathered where the sprites are written (in parallel), so that the
+    /// ranking's serial order check reads an array and not one record per sprite.
+    std::vector<float> depths;
     std::vector<std::uint8_t> flat;
     std::vector<glm::uvec2> tiles;
     std::vector<near_gpu::NearSplatBlock> blocks;
