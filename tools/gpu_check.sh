@@ -171,6 +171,17 @@ if ((profile)); then
         echo "gpu_check: the tank army curve failed (exit $curve_rc): $(tail -1 "$out/logs/tank_curve.log")" >&2
         failed=1
     fi
+    # All-near Vulkan along each bench scene's path with frames in flight, as a game draws: frame
+    # k+1 is set up, recorded and on the device while frame k is read back (render --frames).
+    mkdir -p "$out/in_flight"
+    for s in street tank_army rts_pan; do
+        if ! "$bin" render "$scenes/bench/$s.json" --mode near --near-backend vulkan --frames 0:47 \
+            --csv "$out/in_flight/$s.csv" -o "$out/in_flight/$s.pam" >>"$out/logs/in_flight.log" 2>&1; then
+            echo "gpu_check: the in-flight render of $s failed: $(tail -1 "$out/logs/in_flight.log")" >&2
+            failed=1
+        fi
+        rm -f "$out/in_flight/$s"_*.pam
+    done
 fi
 total_s=$(($(date +%s) - start))
 
@@ -293,6 +304,35 @@ if os.environ.get("GC_PROFILE") == "1":
                 rows.append(("profile", scene, f"{mode} {c}", v, "ms"))
     else:
         lines.append("No profile rows: see logs/bench.log and logs/tank_curve.log.")
+    # Frames in flight: the median frame of frames 6-47 of `render --frames 0:47` (the first six
+    # are the cold start, as in the bench), beside the bench's figure, which draws one frame at a
+    # time. A frame's time is its host part plus the wait and readback of its finish.
+    flight = []
+    for s in ("street", "tank_army", "rts_pan"):
+        path = os.path.join(out, "in_flight", s + ".csv")
+        if not os.path.exists(path):
+            continue
+        with open(path) as f:
+            frames = list(csv.DictReader(f))[6:]
+        if not frames:
+            continue
+        med = lambda c: sorted(float(r[c]) for r in frames)[len(frames) // 2]
+        serial = next((r.get("in_motion_ms", "") for r in (bench if os.path.exists(bench_csv) else [])
+                       if os.path.basename(r["scene"]).removesuffix(".json") == s and r["mode"] == "near_vulkan"), "")
+        flight.append((s, len(frames), med("frame_ms"), med("host_wait_ms"), med("gpu_frame_ms"), serial))
+        rows.append(("in_flight", s, "near_vulkan frame_ms", med("frame_ms"), "ms"))
+        rows.append(("in_flight", s, "near_vulkan gpu_frame_ms", med("gpu_frame_ms"), "ms"))
+    lines += ["", "## All-near Vulkan in motion with frames in flight (ms, medians)", "",
+              "`voxtier render scenes/bench/S.json --mode near --near-backend vulkan --frames 0:47 --csv`: "
+              "frame k+1 is set up, recorded and on the device while frame k is read back. Frames 6-47; "
+              "the bench's in-motion figure draws one frame at a time.", ""]
+    if flight:
+        lines += ["| scene | frames | frame in flight | host wait | GPU frame | bench, one at a time |",
+                  "|---|---|---|---|---|---|"]
+        for s, n, fr, wait, gpu, serial in flight:
+            lines.append(f"| {s} | {n} | {fmt(fr)} | {fmt(wait)} | {fmt(gpu)} | {fmt(serial)} |")
+    else:
+        lines.append("No in-flight rows: see logs/in_flight.log.")
 with open(os.path.join(out, "report.md"), "w") as f:
     f.write("\n".join(lines) + "\n")
 with open(os.path.join(out, "results.csv"), "w", newline="") as f:
