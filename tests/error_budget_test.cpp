@@ -664,5 +664,55 @@ TEST(ErrorBudget, AViewSwitchCrossFadesBetweenTheTwoSnapshots) {
     EXPECT_EQ(shares, (std::vector<float>{0.25f, 0.5f, 0.75f}));
 }
 
+// The cost model's sums over a frame's visible sprites (read in parallel): the near sprites' cost
+// units and the far sprites' rectangle pixels, each sprite counted by what it draws (both while
+// it cross-fades), indices past the frame's sprites skipped. Written out here as one serial walk.
+TEST(CostModel, LearnsFromTheSumsOverTheVisibleSprites) {
+    const std::size_t n = 20000;
+    std::vector<SpriteSetup> sprites(n);
+    std::vector<EntityPlan> plan(n);
+    std::vector<std::uint32_t> visible;
+    std::mt19937 rng(7);
+    for (std::size_t i = 0; i < n; ++i) {
+        const int x = int(rng() % 900), y = int(rng() % 500);
+        sprites[i].screenRect = glm::ivec4(x, y, x + 1 + int(rng() % 40), y + 1 + int(rng() % 30));
+        plan[i].tier = rng() % 3 == 0 ? Tier::Far : Tier::Near;
+        if (rng() % 10 == 0) plan[i].fade = 0.5f, plan[i].fadeFrom = Tier::Near;
+        if (rng() % 4 != 0) visible.push_back(std::uint32_t(i));
+    }
+    visible.push_back(std::uint32_t(n + 5)); // not one of the frame's sprites
+    double units = 0.0, farPx = 0.0;
+    for (const std::uint32_t i : visible) {
+        if (i >= n) continue;
+        if (plan[i].drawsNear()) units += nearCostUnits(sprites[i], NearRate::Fragment);
+        if (plan[i].drawsFar()) farPx += double(rectPixels(sprites[i]));
+    }
+    ASSERT_GT(units, 0.0);
+    ASSERT_GT(farPx, 0.0);
+    CostModel model;
+    FrameCostSample sample;
+    sample.planned = true;
+    sample.nearMs = 10.0;
+    sample.blitMs = 3.0;
+    int asked = 0;
+    const auto fixed = [&] {
+        ++asked;
+        return 2.0;
+    };
+    // The first planned near frame is no sample of the near cost; the blit's is.
+    model.observe(sprites, visible, plan, sample, NearRate::Fragment, fixed);
+    EXPECT_NEAR(model.costs().blitMsPerPx, 3.0 / farPx, 1e-12 * 3.0 / farPx);
+    model.observe(sprites, visible, plan, sample, NearRate::Fragment, fixed);
+    EXPECT_NEAR(model.costs().nearMsPerUnit, 8.0 / units, 1e-12 * 8.0 / units);
+    EXPECT_EQ(asked, 2);
+    // Not planned: the near cost is not learnt and its fixed cost not measured.
+    CostModel unplanned;
+    sample.planned = false;
+    unplanned.observe(sprites, visible, plan, sample, NearRate::Fragment, fixed);
+    unplanned.observe(sprites, visible, plan, sample, NearRate::Fragment, fixed);
+    EXPECT_EQ(unplanned.costs().nearMsPerUnit, BakeCosts{}.nearMsPerUnit);
+    EXPECT_EQ(asked, 2);
+}
+
 } // namespace
 } // namespace voxtier
