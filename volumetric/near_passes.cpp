@@ -388,16 +388,7 @@ void NearPasses::Impl::recordWords(GpuFrame& frame, Slot& slot, CellWork work) {
                   VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     frame.timer().begin(cb, "near_trace");
-    const std::uint32_t waves = std::max(1u, std::min(traceShape.waves, work.traceBlocks));
-    for (std::uint32_t w = 0; w < waves; ++w) {
-        const std::uint32_t first = std::uint32_t(std::uint64_t(work.traceBlocks) * w / waves);
-        const std::uint32_t end = std::uint32_t(std::uint64_t(work.traceBlocks) * (w + 1) / waves);
-        if (w > 0) // this wave reads the words the nearer ones wrote
-            bufferBarrier(cb, pixelWords.handle(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                          VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                          VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-        dispatch(frame, slot, TracePixels, end - first, work.blocks + first);
-    }
+    dispatch(frame, slot, TracePixels, work.traceBlocks, work.blocks);
     frame.timer().end(cb);
 }
 

@@ -166,7 +166,6 @@ NearTraceShape nearTraceShape(const VulkanDevice& device, std::size_t sprites) {
         device.isCpu() || sprites > kFewTraceSprites ? NearTraceShape{32, 2} : NearTraceShape{8, 8};
     s.side = powerOfTwoFromEnv("VOXTIER_NEAR_TRACE_BLOCK", 8, 32, s.side);
     s.rows = std::min(s.side, powerOfTwoFromEnv("VOXTIER_NEAR_TRACE_ROWS", 1, 32, s.rows));
-    s.waves = powerOfTwoFromEnv("VOXTIER_NEAR_TRACE_WAVES", 1, 64, s.waves);
     return s;
 }
 

@@ -23,12 +23,9 @@ VkPipeline createNearDrawPipeline(VkDevice dev, VkPipelineLayout layout, VkRende
 /// outline and splat, the per-pixel sprites' trace (NearPixels::Compute), the resolve.
 enum class NearComputePass { TraceCells, Outline, Splat, TracePixels, Resolve };
 /// The trace's workgroup: square blocks of `side` pixels of a sprite's rectangle, `rows` of them
-/// run at once (rows <= side); and its dispatch: the blocks, nearest first, in `waves` dispatches
-/// of equal size, each after the words of those before it are written (so that a block skips
-/// every pixel a nearer wave holds, not only what finished before it in one dispatch).
+/// run at once (rows <= side).
 struct NearTraceShape {
     std::uint32_t side = 32, rows = 2;
-    std::uint32_t waves = 1;
 };
 /// Per-pixel sprites up to which a GPU frame traces in 8x8 blocks (see nearTraceShape).
 inline constexpr std::size_t kFewTraceSprites = 8192;
@@ -37,8 +34,7 @@ inline constexpr std::size_t kFewTraceSprites = 8192;
 /// each up to kFewTraceSprites sprites, and past them 32-pixel blocks two rows at a time, as on a
 /// CPU (the measurements behind it: docs/decisions/near-pixels-in-compute.md).
 /// VOXTIER_NEAR_TRACE_BLOCK (8, 16 or 32) and VOXTIER_NEAR_TRACE_ROWS (1 to 32, a power of two
-/// up to the side) force one shape, VOXTIER_NEAR_TRACE_WAVES (1 to 64, a power of two) the
-/// waves, for measuring. Throws VulkanError on other values.
+/// up to the side) force one shape, for measuring. Throws VulkanError on other values.
 NearTraceShape nearTraceShape(const VulkanDevice& device, std::size_t sprites);
 
 /// A compute pass's pipeline; `skipEmpty` matters to the two tracing passes alone, `countSteps`
