@@ -31,29 +31,33 @@ double nearCostUnits(const SpriteSetup& s, NearRate rate) {
     return wantsCellRate(s, rate) ? kCellRateCost * double(cellCount(s)) : double(rectPixels(s));
 }
 
+CellRateWish cellRateWish(const SpriteSetup& s, NearRate rate) {
+    if (!s.visible()) return {};
+    return {cellCount(s), rectPixels(s), true, wantsCellRate(s, rate)};
+}
+
 CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate rate,
                           std::uint64_t budgetBytes, std::uint64_t maxCellSprites) {
+    // Each sprite's wish and sizes in parallel; the budget is then given out in sprite order.
+    std::vector<CellRateWish> wishes(sprites.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sprites.size(), 128), [&](const auto& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k)
+            wishes[k] = cellRateWish(*sprites[k], rate);
+    });
+    return planCellRate(wishes, budgetBytes, maxCellSprites);
+}
+
+CellRatePlan planCellRate(std::span<const CellRateWish> wishes, std::uint64_t budgetBytes,
+                          std::uint64_t maxCellSprites) {
     CellRatePlan plan;
-    plan.cellBase.assign(sprites.size(), kNoCells);
+    plan.cellBase.assign(wishes.size(), kNoCells);
     // Offsets (up to twice the cell count: the outcomes follow the primaries) are uint32 on the
     // GPU; kNoCells stays out of reach.
     const std::uint64_t budgetCells =
         std::min<std::uint64_t>(budgetBytes / kCellStoreBytesPerCell, kNoCells / 2 - 1);
-    // Each sprite's wish and sizes in parallel; the budget is then given out in sprite order
-    // (a running total, so serial), over figures already at hand.
-    struct Wish {
-        std::uint64_t cells = 0, pixels = 0;
-        bool visible = false, wanted = false;
-    };
-    std::vector<Wish> wishes(sprites.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, sprites.size(), 128), [&](const auto& r) {
-        for (std::size_t k = r.begin(); k != r.end(); ++k) {
-            const SpriteSetup& s = *sprites[k];
-            if (!s.visible()) continue;
-            wishes[k] = {cellCount(s), rectPixels(s), true, wantsCellRate(s, rate)};
-        }
-    });
-    for (std::size_t k = 0; k < sprites.size(); ++k) {
+    // The budget is given out in sprite order (a running total, so serial), over figures
+    // already at hand.
+    for (std::size_t k = 0; k < wishes.size(); ++k) {
         if (!wishes[k].visible) continue;
         const std::uint64_t cells = wishes[k].cells, pixels = wishes[k].pixels;
         const bool wanted = wishes[k].wanted;

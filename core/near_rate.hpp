@@ -89,9 +89,22 @@ bool wantsCellRate(const SpriteSetup& sprite, NearRate rate);
 /// magnified sprite costs its cells, not its pixels.
 double nearCostUnits(const SpriteSetup& sprite, NearRate rate);
 
+/// What the rate plan reads of one sprite: its cells and rectangle pixels, whether it is
+/// visible, and whether `rate` draws it cell-rate (wantsCellRate).
+struct CellRateWish {
+    std::uint64_t cells = 0, pixels = 0;
+    bool visible = false, wanted = false;
+};
+CellRateWish cellRateWish(const SpriteSetup& sprite, NearRate rate);
+
 /// Chooses the rate of every sprite in order (visible ones; others get kNoCells) and lays out
 /// the cell store, at most budgetBytes of it and at most maxCellSprites sprites.
 CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate rate,
+                          std::uint64_t budgetBytes = kDefaultCellBudgetBytes,
+                          std::uint64_t maxCellSprites = kMaxCellSprites);
+/// The same from each sprite's wish, gathered by the caller (the near passes read them where
+/// they write the sprites, so that the plan does not read every sprite's record again).
+CellRatePlan planCellRate(std::span<const CellRateWish> wishes,
                           std::uint64_t budgetBytes = kDefaultCellBudgetBytes,
                           std::uint64_t maxCellSprites = kMaxCellSprites);
 

@@ -41,7 +41,7 @@ constexpr std::size_t kSpriteGrain = 64;
 void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
                                     const std::vector<std::shared_ptr<VoxelModel>>& models,
                                     std::span<const SpriteSetup* const> all, const NearOptions& opt,
-                                    NearStats& stats) {
+                                    NearRate rate, NearStats& stats) {
     // §6: front to back with equal depths in ascending id under the early depth test, which
     // keeps every pixel the same (the depth test alone decides unequal depths, whatever their
     // order); else ascending entity id, so that depth GREATER resolves ties to the lower id.
@@ -61,6 +61,8 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
 
     const std::size_t n = visible.size();
     depths.resize(n);
+    rects.resize(n);
+    wishes.resize(n);
     const VkDeviceSize bytes = VkDeviceSize(n) * sizeof(kernel::SpriteGpu);
     ensure(slot.sprites, std::max<VkDeviceSize>(bytes, 4));
     if (!n) return;
@@ -77,7 +79,10 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
             g.atlas = residency.entry(model, s.frame);
             g.brickBase = residency.brickBase(model, s.frame);
             gpu[i] = g;
+            // What the rate plan and the work lists read, gathered while the record is at hand.
             depths[i] = g.depth;
+            rects[i] = s.screenRect;
+            wishes[i] = cellRateWish(s, rate);
         }
     });
 }
@@ -209,7 +214,7 @@ NearPasses::Impl::CellWork NearPasses::Impl::buildWorkLists(const CellRatePlan& 
     const int tilesY = (height + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
     touched.assign(std::size_t(tilesX) * std::size_t(tilesY), 0);
     const auto rectOf = [&](std::size_t k) {
-        return glm::min(visible[k]->screenRect, glm::ivec4(width, height, width, height));
+        return glm::min(rects[k], glm::ivec4(width, height, width, height));
     };
     // A splat block is NEAR_SPLAT_BLOCK pixels a side, a trace block the trace's side.
     const auto sideOf = [&](bool cellRate) {
@@ -231,8 +236,8 @@ NearPasses::Impl::CellWork NearPasses::Impl::buildWorkLists(const CellRatePlan& 
             const bool cellRate = plan.cellBase[k] != kNoCells;
             const std::uint64_t nb = blockCount(k, sideOf(cellRate));
             if (cellRate) {
-                tileStart[k + 1] = (cellCount(*visible[k]) + near_gpu::NEAR_CELL_TILE - 1) /
-                                   near_gpu::NEAR_CELL_TILE;
+                tileStart[k + 1] =
+                    (wishes[k].cells + near_gpu::NEAR_CELL_TILE - 1) / near_gpu::NEAR_CELL_TILE;
                 splatStart[k + 1] = nb;
             } else {
                 traceStart[k + 1] = nb;
@@ -501,12 +506,13 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
     m.countSteps = opt.countSteps;
     VkCommandBuffer cb = frame.commandBuffer();
     frame.timer().begin(cb, "near_upload");
-    m.writeSprites(frame, slot, models, sprites, opt, stats);
     // The resolve pass binds the whole planes buffer; past the device's storage-buffer range (a
     // huge image) every sprite is traced per pixel by the draw. The ranks of a pixel word hold
     // at most NEAR_MAX_CELL_SPRITES sprites; a frame of more draws its per-pixel sprites.
     const bool resolvable =
         3 * frame.planeBytes() <= m.device.properties().limits.maxStorageBufferRange;
+    const NearRate rate = resolvable ? opt.rate : NearRate::Fragment;
+    m.writeSprites(frame, slot, models, sprites, opt, rate, stats);
     // Auto: llvmpipe rasterises a crowd under the early depth test faster than it runs the
     // trace's workgroups over every rectangle (100,000 tanks: 2.7 s against 8.0 s); a GPU the
     // other way round (docs/decisions/near-pixels-in-compute.md).
@@ -520,8 +526,7 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
         throw VulkanError("near tier: counting DDA steps needs fragmentStoresAndAtomics, which " +
                           m.device.name() + " lacks");
     if (!tracePixels) m.writeProxies(frame, slot, cam, opt, stats);
-    const CellRatePlan plan =
-        planCellRate(m.visible, resolvable ? opt.rate : NearRate::Fragment, opt.cellBudgetBytes);
+    const CellRatePlan plan = planCellRate(m.wishes, opt.cellBudgetBytes);
     stats.cellsTraced = plan.cells;
     stats.cellSprites = plan.cellSprites;
     stats.cellOverBudget = plan.overBudget;
