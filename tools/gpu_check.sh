@@ -150,6 +150,17 @@ else
         "$scenes/bench/rts_pan.json" --quick --no-sweeps --no-scaling --budget 1
         --motion-frames 48 --motion-warmup 6)
 fi
+# The GPU's clocks while it works (nvidia-smi, where the machine has one): a GPU that idles
+# between frames, as it does while the bench draws the CPU modes between its Vulkan frames, runs
+# them at a fraction of its clock. The phases' times mark which samples belong to what.
+clocks_pid=""
+if command -v nvidia-smi >/dev/null && nvidia-smi -L >/dev/null 2>&1; then
+    nvidia-smi --query-gpu=timestamp,clocks.sm,utilization.gpu --format=csv,noheader,nounits \
+        -lms 100 >"$out/logs/clocks.csv" 2>/dev/null &
+    clocks_pid=$!
+fi
+phase() { echo "$(date +%s.%N) $1" >>"$out/logs/phases.txt"; }
+phase bench
 bench_start=$(date +%s)
 set +e
 "$bin" bench "${bench_args[@]}" -o "$out/bench" >"$out/logs/bench.log" 2>&1
@@ -173,6 +184,7 @@ if ((profile)); then
     fi
     # All-near Vulkan along each bench scene's path with frames in flight, as a game draws: frame
     # k+1 is set up, recorded and on the device while frame k is read back (render --frames).
+    phase in_flight
     mkdir -p "$out/in_flight"
     for s in street tank_army rts_pan; do
         if ! "$bin" render "$scenes/bench/$s.json" --mode near --near-backend vulkan --frames 0:47 \
@@ -183,6 +195,8 @@ if ((profile)); then
         rm -f "$out/in_flight/$s"_*.pam
     done
 fi
+phase end
+[[ -n "$clocks_pid" ]] && kill "$clocks_pid" 2>/dev/null
 total_s=$(($(date +%s) - start))
 
 # --- report.md and results.csv -------------------------------------------------------------
@@ -333,6 +347,32 @@ if os.environ.get("GC_PROFILE") == "1":
             lines.append(f"| {s} | {n} | {fmt(fr)} | {fmt(wait)} | {fmt(gpu)} | {fmt(serial)} |")
     else:
         lines.append("No in-flight rows: see logs/in_flight.log.")
+    # The GPU's SM clock in each phase (nvidia-smi every 100 ms; logs/clocks.csv).
+    clocks_csv, phases_txt = os.path.join(out, "logs", "clocks.csv"), os.path.join(out, "logs", "phases.txt")
+    if os.path.exists(clocks_csv) and os.path.exists(phases_txt):
+        samples = []
+        for line in open(clocks_csv):
+            parts = [p.strip() for p in line.split(",")]
+            try:
+                t = datetime.datetime.strptime(parts[0], "%Y/%m/%d %H:%M:%S.%f").timestamp()
+                samples.append((t, float(parts[1]), float(parts[2])))
+            except (ValueError, IndexError):
+                pass
+        marks = [(float(a), b.strip()) for a, b in (l.split(None, 1) for l in open(phases_txt) if l.strip())]
+        table = []
+        for (a, name), (b, _) in zip(marks, marks[1:]):
+            seg = sorted(x[1] for x in samples if a <= x[0] < b)
+            if seg:
+                table.append((name, b - a, seg[len(seg) // 2], seg[0], seg[-1], len(seg)))
+                rows.append(("clocks", name, "sm_clock_median", seg[len(seg) // 2], "MHz"))
+        if table:
+            lines += ["", "## The GPU's SM clock by phase (nvidia-smi, every 100 ms)", "",
+                      "A GPU that idles between frames runs the next one at a low clock: the bench "
+                      "draws the CPU modes between its Vulkan frames, the in-flight renders keep the "
+                      "GPU busy.", "",
+                      "| phase | s | median MHz | min | max | samples |", "|---|---|---|---|---|---|"]
+            for name, secs, med, lo, hi, n in table:
+                lines.append(f"| {name} | {secs:.1f} | {med:.0f} | {lo:.0f} | {hi:.0f} | {n} |")
 with open(os.path.join(out, "report.md"), "w") as f:
     f.write("\n".join(lines) + "\n")
 with open(os.path.join(out, "results.csv"), "w", newline="") as f:
