@@ -1014,53 +1014,5 @@ TEST(BenchCommand, NearSubcommandStillRunsBesideTheSceneBench) {
     EXPECT_FALSE(std::getline(csv, extra)) << extra;
 }
 
-// The in-motion run's two orders draw the same frames: every configuration's error against its
-// truth is the same, the order changes only what runs between two timed frames (consecutive:
-// nothing but the configuration's own frames, so that a GPU keeps its clock). Without the cost
-// bound, whose measured costs would let the machine's timing change the bakes. A bad order is a
-// one-line error naming the flag.
-TEST(BenchMotionOrder, ConsecutiveMeasuresTheSameErrorsAsInterleaved) {
-    const fs::path dir =
-        fs::path(::testing::TempDir()) / ("voxtier_motion_order_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    std::map<std::string, json> results;
-    for (const std::string order : {"interleaved", "consecutive"}) {
-        const CliRun r =
-            runCli("bench --smoke --no-sweeps --no-scaling --motion-frames 4 "
-                   "--motion-warmup 2 --budget 1 --no-cost-bound --motion-order " +
-                   order + " --out '" + (dir / order).string() + "' scenes/bench/tank_army.json");
-        ASSERT_EQ(r.status, 0) << order << ": " << r.out << r.err;
-        results[order] = json::parse(slurp(dir / order / "results.json"));
-        EXPECT_EQ(results[order]["plan"]["motion_order"], order);
-    }
-    const json& a = results["interleaved"];
-    const json& b = results["consecutive"];
-    int compared = 0;
-    for (const json& ra : a["rows"]) {
-        if (ra["group"] != "modes") continue;
-        const json* rb = nullptr;
-        for (const json& r : b["rows"])
-            if (r["group"] == "modes" && r["mode"] == ra["mode"]) rb = &r;
-        ASSERT_NE(rb, nullptr) << ra["mode"];
-        for (const char* key : {"in_motion_psnr_min", "in_motion_differing_share",
-                                "in_motion_psnr_min_differing_pixels", "in_motion_bakes_per_frame"})
-            EXPECT_EQ(ra[key], (*rb)[key]) << ra["mode"] << " " << key;
-        compared += ra["truth"] != "itself";
-    }
-    EXPECT_GE(compared, 4) << "modes with an error against a truth";
-    const auto says = [](const json& r) {
-        for (const json& n : r["notes"])
-            if (n.get<std::string>().find("in a row") != std::string::npos) return true;
-        return false;
-    };
-    EXPECT_FALSE(says(a));
-    EXPECT_TRUE(says(b));
-    const CliRun bad = runCli("bench --smoke --motion-order sideways scenes/bench/tank_army.json");
-    EXPECT_NE(bad.status, 0);
-    EXPECT_NE(bad.err.find("--motion-order"), std::string::npos) << bad.err;
-    EXPECT_EQ(std::count(bad.err.begin(), bad.err.end(), '\n'), 1) << bad.err;
-    fs::remove_all(dir);
-}
-
 } // namespace
 } // namespace voxtier

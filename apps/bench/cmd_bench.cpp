@@ -138,12 +138,6 @@ void addBenchCommand(CLI::App& app) {
                      "pixels (default: each scene's own selector)")
         ->type_name("VPX")
         ->check(numberIn(0.01, 64.0, "vpx"));
-    bench
-        ->add_option("--motion-order", o->motionOrder,
-                     "In motion: interleaved (every configuration's frame, then the next frame: "
-                     "fair on a loaded CPU host), consecutive (each configuration's frames in a "
-                     "row: a GPU keeps its clock), or auto (consecutive on a GPU; the default)")
-        ->type_name("ORDER");
     auto cacheDir = std::make_shared<CacheDirArgs>();
     addCacheDirOptions(*bench, *cacheDir, "every configuration reads its snapshots from it");
     bench->callback([bench, o, cacheDir] {

@@ -150,10 +150,6 @@ Plan makePlan(const SuiteOptions& o) {
     if (o.budgetVpx && !(*o.budgetVpx >= 0.01 && *o.budgetVpx <= 64.0))
         throw InputError("", "--budget", "must be in [0.01, 64] virtual pixels");
     plan.budgetVpx = o.budgetVpx;
-    if (o.motionOrder != "auto" && o.motionOrder != "interleaved" && o.motionOrder != "consecutive")
-        throw InputError("", "--motion-order",
-                         "expected auto, interleaved or consecutive, got '" + o.motionOrder + "'");
-    plan.motionOrder = o.motionOrder;
     for (const CountOverride& c : kCountOverrides) {
         const std::optional<int>& given = o.*c.given;
         if (!given) continue;

@@ -591,42 +591,36 @@ json reportContext(const SuiteResults& r, const PlotSet& plots) {
     const bool speedErrorPlot = std::count(plots.pngs.begin(), plots.pngs.end(), "speed_error.png");
     const bool motionErrorPlot =
         std::count(plots.pngs.begin(), plots.pngs.end(), "motion_error.png");
-    json context = {
-        {"preset", p.name},
-        {"lead", leadLines(r, /*markdown=*/true)},
-        {"date", date},
-        {"wall_s", num(r.wallSeconds, 0)},
-        {"cpu", r.cpu},
-        {"threads", std::to_string(r.threads)},
-        {"vulkan_device", r.vulkanDevice},
-        {"warmup", std::to_string(p.warmup)},
-        {"repeats", std::to_string(p.repeats)},
-        {"path_frames", std::to_string(p.pathFrames)},
-        {"motion_frames", std::to_string(p.motionFrames)},
-        {"motion_order", p.motionOrder == "consecutive"
-                             ? std::string("each configuration's frames in a row, so that a GPU "
-                                           "keeps its clock; errors measured after the last")
-                             : std::string("interleaved with the other configurations frame by "
-                                           "frame")},
-        {"motion_warmup", std::to_string(p.motionWarmup)},
-        {"scaling_repeats", std::to_string(p.scalingRepeats)},
-        {"headline", headlineContext(r, first)},
-        {"baselines", baselinesContext(r)},
-        {"far_blit", r.plan.frame.farBlit.kernel == FarBlitKernel::Simd
-                         ? std::string("SIMD, ") + farBlitSimdTarget()
-                         : std::string("scalar")},
-        {"scenes", modesContext(r)},
-        {"budget_target", budgetTargetContext(r)},
-        {"frontier",
-         frontierContext(r, std::count(plots.pngs.begin(), plots.pngs.end(), "frontier.png"))},
-        {"blit_bytes_per_pixel", num(kBlitBytesPerPixel, 0)},
-        {"memcpy_gbps", num(r.memcpyGBps, 1)},
-        {"throughput", throughputContext(r)},
-        {"sweeps", sweepsContext(r, first, speedErrorPlot, motionErrorPlot)},
-        {"scaling", scalingContext(r, plots.pngs)},
-        {"plot_note", plots.note.empty() ? json(false) : json(plots.note)},
-        {"notes", r.notes},
-        {"plots", plots.pngs}};
+    json context = {{"preset", p.name},
+                    {"lead", leadLines(r, /*markdown=*/true)},
+                    {"date", date},
+                    {"wall_s", num(r.wallSeconds, 0)},
+                    {"cpu", r.cpu},
+                    {"threads", std::to_string(r.threads)},
+                    {"vulkan_device", r.vulkanDevice},
+                    {"warmup", std::to_string(p.warmup)},
+                    {"repeats", std::to_string(p.repeats)},
+                    {"path_frames", std::to_string(p.pathFrames)},
+                    {"motion_frames", std::to_string(p.motionFrames)},
+                    {"motion_warmup", std::to_string(p.motionWarmup)},
+                    {"scaling_repeats", std::to_string(p.scalingRepeats)},
+                    {"headline", headlineContext(r, first)},
+                    {"baselines", baselinesContext(r)},
+                    {"far_blit", r.plan.frame.farBlit.kernel == FarBlitKernel::Simd
+                                     ? std::string("SIMD, ") + farBlitSimdTarget()
+                                     : std::string("scalar")},
+                    {"scenes", modesContext(r)},
+                    {"budget_target", budgetTargetContext(r)},
+                    {"frontier", frontierContext(r, std::count(plots.pngs.begin(), plots.pngs.end(),
+                                                               "frontier.png"))},
+                    {"blit_bytes_per_pixel", num(kBlitBytesPerPixel, 0)},
+                    {"memcpy_gbps", num(r.memcpyGBps, 1)},
+                    {"throughput", throughputContext(r)},
+                    {"sweeps", sweepsContext(r, first, speedErrorPlot, motionErrorPlot)},
+                    {"scaling", scalingContext(r, plots.pngs)},
+                    {"plot_note", plots.note.empty() ? json(false) : json(plots.note)},
+                    {"notes", r.notes},
+                    {"plots", plots.pngs}};
     context.update(timeSplitContext(r));
     return context;
 }

@@ -219,7 +219,6 @@ json planJson(const Plan& p) {
     if (p.width) plan["size"] = {*p.width, *p.height};
     if (p.entityCap) plan["entity_cap"] = *p.entityCap;
     if (p.budgetVpx) plan["budget_vpx"] = *p.budgetVpx;
-    plan["motion_order"] = p.motionOrder;
     plan["near_rate"] = toString(p.frame.nearRate);
     plan["far_blit"] = toString(p.frame.farBlit.kernel);
     plan["far_backend"] = toString(p.frame.farBackend);

@@ -218,37 +218,6 @@ void runMotion(Set& set, const Plan& plan, const std::shared_ptr<NearRenderer>& 
         c->motion.clear();
     }
     const std::size_t others = set.configs.size() - truths;
-    if (plan.motionOrder == "consecutive") {
-        // Each configuration's frames in a row, truths first, their images kept; each other
-        // configuration's errors are measured after its last frame, so that nothing but its
-        // own frames runs between two of them.
-        std::vector<std::vector<Image>> truthImages(set.configs.size());
-        for (std::size_t ci = 0; ci < set.configs.size(); ++ci) {
-            Config& c = *set.configs[ci];
-            std::vector<FrameResult> drawn;
-            for (int f = 0; f < frames; ++f) {
-                progress.step(set.label + ": " + c.name + ", in motion, frame " +
-                              std::to_string(f));
-                FrameResult r =
-                    c.renderer->render(c.scene.timeOfFrame(f), info(c.mode).renderMode, f);
-                c.motion.push_back(Config::MotionFrame{r.stats});
-                if (c.isTruth)
-                    truthImages[ci].push_back(std::move(r.image));
-                else if (c.truth >= 0)
-                    drawn.push_back(std::move(r));
-            }
-            for (std::size_t f = 0; f < drawn.size(); ++f) {
-                const FrameResult& r = drawn[f];
-                const FrameErrorReport e = measureFrameError(truthImages[std::size_t(c.truth)][f],
-                                                             r.image, r.sprites, r.plan);
-                Config::MotionFrame& m = c.motion[f];
-                m.psnr = e.psnr;
-                m.differingShare = double(e.differingPixels) / double(r.image.pixelCount());
-                m.differingPixels = e.differingPixels;
-            }
-        }
-        return;
-    }
     for (int f = 0; f < frames; ++f) {
         std::vector<Image> truthImages(set.configs.size());
         for (std::size_t k = 0; k < set.configs.size(); ++k) {
@@ -565,11 +534,6 @@ SuiteResults runSuite(const SuiteOptions& options) {
     // One Vulkan device for the whole run; validation (VOXTIER_VALIDATION=1) inflates timings.
     auto near = std::make_shared<NearRenderer>();
     res.vulkanDevice = near->deviceName();
-    if (res.plan.motionOrder == "auto")
-        res.plan.motionOrder = near->deviceIsCpu() ? "interleaved" : "consecutive";
-    if (res.plan.motionOrder == "consecutive")
-        res.notes.push_back("In motion, each configuration's frames were drawn in a row (a GPU "
-                            "keeps its clock), their errors measured after its last frame.");
     if (near->validationEnabled())
         res.notes.push_back("Vulkan validation was ON: every Vulkan timing is inflated.");
     Progress progress(total);

@@ -112,7 +112,6 @@ struct SuiteOptions {
     /// Every scene's selector becomes the error budget at this many virtual pixels (its view set,
     /// view hysteresis, cross-fade and snapshot scale kept); unset: each scene's own selector.
     std::optional<double> budgetVpx;
-    std::string motionOrder = "auto"; ///< Plan::motionOrder
 };
 
 /// The resolved plan: the preset with the overrides (makePlan, apps/bench/presets.hpp), and
@@ -120,13 +119,6 @@ struct SuiteOptions {
 struct Plan : Preset {
     FrameOptions frame;              ///< SuiteOptions::frame
     std::optional<double> budgetVpx; ///< SuiteOptions::budgetVpx
-    /// How the in-motion run orders the configurations' frames: "interleaved" (every
-    /// configuration's frame f, then frame f + 1: a loaded CPU host is fair to every mode) or
-    /// "consecutive" (each configuration's frames in a row, their errors measured after its last:
-    /// a GPU that would idle between two Vulkan frames while the CPU modes draw keeps its clock,
-    /// docs/decisions/gpu-clocks-and-frames-in-flight.md). "auto" (makePlan's) becomes
-    /// consecutive where the Vulkan device is a GPU, else interleaved (runSuite).
-    std::string motionOrder = "auto";
 };
 
 /// One sampled path frame of a measured configuration.
