@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <mutex>
+#include <set>
 #include <string>
 #include <unistd.h>
 
@@ -46,11 +48,18 @@ inline CliRun runCli(const std::string& args, const std::string& env = "") {
 }
 
 /// A scratch folder under the test temp dir, one per process (CTest runs cases as separate
-/// processes) and, with perTest, one per test case too.
+/// processes) and, with perTest, one per test case too. Emptied the first time this process asks
+/// for it: the folders outlive their processes, and one named by a pid that a later process gets
+/// again still holds the earlier run's files (with 674 such folders in /tmp and pids up to 32,768,
+/// RenderOutput.PathToGifIsOneAnimatedGif found the 11 PNGs of an earlier run beside its GIF).
 inline std::filesystem::path scratchDir(const std::string& prefix, bool perTest = false) {
     std::filesystem::path d =
         std::filesystem::path(::testing::TempDir()) / (prefix + "_" + std::to_string(getpid()));
     if (perTest) d /= ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    static std::mutex mutex;
+    static std::set<std::string> emptied;
+    std::lock_guard<std::mutex> lock(mutex);
+    if (emptied.insert(d.string()).second) std::filesystem::remove_all(d);
     std::filesystem::create_directories(d);
     return d;
 }

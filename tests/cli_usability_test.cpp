@@ -543,5 +543,23 @@ TEST(CliUsability, AGifThatCannotBeExactSaysSo) {
         << r.err;
 }
 
+// The tests' scratch folders are named by the process id, which a later process can get again:
+// the first time a process asks for its folder, what an earlier process of that pid left there
+// is gone; later in the same process the folder keeps what the test wrote.
+TEST(ScratchDir, AFolderLeftByAnEarlierProcessOfTheSamePidIsEmptiedOnce) {
+    const fs::path stale = fs::path(::testing::TempDir()) /
+                           ("voxtier_scratch_probe_" + std::to_string(::getpid())) /
+                           ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    fs::create_directories(stale);
+    std::ofstream(stale / "left_by_an_earlier_run.png") << "x";
+    const fs::path d = test::scratchDir("voxtier_scratch_probe", true);
+    ASSERT_EQ(d, stale);
+    EXPECT_FALSE(fs::exists(d / "left_by_an_earlier_run.png"));
+    std::ofstream(d / "mine.txt") << "y";
+    EXPECT_EQ(test::scratchDir("voxtier_scratch_probe", true), d);
+    EXPECT_TRUE(fs::exists(d / "mine.txt")) << "emptied once a process, not at every call";
+    fs::remove_all(d.parent_path());
+}
+
 } // namespace
 } // namespace voxtier
