@@ -98,6 +98,10 @@ void* GpuFrame::hostWrite(VulkanBuffer& dst, VkDeviceSize dstOffset, VkDeviceSiz
     throw std::logic_error("GpuFrame::hostWrite: the host does not write this buffer");
 }
 
+void GpuFrame::hostCopy(VulkanBuffer& dst, const void* data, VkDeviceSize bytes) {
+    if (bytes) copyInParallel({{hostWrite(dst, 0, bytes), data, std::size_t(bytes)}});
+}
+
 void GpuFrame::keepUntilDone(VulkanBuffer&& buffer) {
     keptAlive_.push_back(std::move(buffer));
 }

@@ -71,6 +71,10 @@ class GpuFrame {
     /// recorded now. Fill it before submit(). The caller records the ring's barrier
     /// (ring().recordBarrier) before the passes that read what was staged.
     void* hostWrite(VulkanBuffer& dst, VkDeviceSize dstOffset, VkDeviceSize bytes);
+    /// hostWrite(dst, 0, bytes) filled from `data`, on every core: a tier's lists are megabytes
+    /// at 100,000 sprites, and where the destination is write-combined device memory (resizable
+    /// BAR) one core fills it at a fraction of the bus's rate (core/parallel_copy.hpp).
+    void hostCopy(VulkanBuffer& dst, const void* data, VkDeviceSize bytes);
 
     /// Keeps `buffer` alive until this frame has executed (a buffer the frame still copies from
     /// while its owner has replaced it).

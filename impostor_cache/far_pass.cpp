@@ -1,6 +1,5 @@
 #include "impostor_cache/far_pass.hpp"
 
-#include "core/parallel_copy.hpp"
 #include "core/sprite_kernel.h"
 #include "impostor_cache/far_residency.hpp"
 #include "impostor_cache/shaders/far_shared.h"
@@ -8,7 +7,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include <cstring>
 #include <limits>
 #include <unordered_map>
 #include <vector>
@@ -264,9 +262,7 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
     const auto upload = [&](VulkanBuffer& b, const auto& v) {
         const VkDeviceSize bytes = v.size() * sizeof(v[0]);
         m.ensure(b, std::max<VkDeviceSize>(bytes, 4));
-        // On every core: the instances are megabytes at 100,000 tanks, and the destination may
-        // be write-combined device memory.
-        if (bytes) copyInParallel({{frame.hostWrite(b, 0, bytes), v.data(), std::size_t(bytes)}});
+        frame.hostCopy(b, v.data(), bytes);
     };
     upload(slot.instances, m.instances);
     upload(slot.palettes, m.palettes);

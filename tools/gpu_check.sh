@@ -208,6 +208,9 @@ if command -v python3 >/dev/null; then
     python3 - <<'PY'
 import csv, os, platform, datetime
 out = os.environ["GC_OUT"]
+def middle(values):
+    """A median as the report takes it: the upper middle of the sorted values."""
+    return sorted(values)[len(values) // 2]
 def fmt(v):
     try:
         return f"{float(v):.3g}" if abs(float(v)) < 100 else f"{float(v):.0f}"
@@ -330,12 +333,13 @@ if os.environ.get("GC_PROFILE") == "1":
             frames = list(csv.DictReader(f))[6:]
         if not frames:
             continue
-        med = lambda c: sorted(float(r[c]) for r in frames)[len(frames) // 2]
+        frame_ms, wait_ms, gpu_ms = (middle([float(r[c]) for r in frames])
+                                     for c in ("frame_ms", "host_wait_ms", "gpu_frame_ms"))
         serial = next((r.get("in_motion_ms", "") for r in (bench if os.path.exists(bench_csv) else [])
                        if os.path.basename(r["scene"]).removesuffix(".json") == s and r["mode"] == "near_vulkan"), "")
-        flight.append((s, len(frames), med("frame_ms"), med("host_wait_ms"), med("gpu_frame_ms"), serial))
-        rows.append(("in_flight", s, "near_vulkan frame_ms", med("frame_ms"), "ms"))
-        rows.append(("in_flight", s, "near_vulkan gpu_frame_ms", med("gpu_frame_ms"), "ms"))
+        flight.append((s, len(frames), frame_ms, wait_ms, gpu_ms, serial))
+        rows.append(("in_flight", s, "near_vulkan frame_ms", frame_ms, "ms"))
+        rows.append(("in_flight", s, "near_vulkan gpu_frame_ms", gpu_ms, "ms"))
     lines += ["", "## All-near Vulkan in motion with frames in flight (ms, medians)", "",
               "`voxtier render scenes/bench/S.json --mode near --near-backend vulkan --frames 0:47 --csv`: "
               "frame k+1 is set up, recorded and on the device while frame k is read back. Frames 6-47; "
@@ -347,32 +351,33 @@ if os.environ.get("GC_PROFILE") == "1":
             lines.append(f"| {s} | {n} | {fmt(fr)} | {fmt(wait)} | {fmt(gpu)} | {fmt(serial)} |")
     else:
         lines.append("No in-flight rows: see logs/in_flight.log.")
-    # The GPU's SM clock in each phase (nvidia-smi every 100 ms; logs/clocks.csv).
-    clocks_csv, phases_txt = os.path.join(out, "logs", "clocks.csv"), os.path.join(out, "logs", "phases.txt")
-    if os.path.exists(clocks_csv) and os.path.exists(phases_txt):
-        samples = []
-        for line in open(clocks_csv):
-            parts = [p.strip() for p in line.split(",")]
-            try:
-                t = datetime.datetime.strptime(parts[0], "%Y/%m/%d %H:%M:%S.%f").timestamp()
-                samples.append((t, float(parts[1]), float(parts[2])))
-            except (ValueError, IndexError):
-                pass
-        marks = [(float(a), b.strip()) for a, b in (l.split(None, 1) for l in open(phases_txt) if l.strip())]
-        table = []
-        for (a, name), (b, _) in zip(marks, marks[1:]):
-            seg = sorted(x[1] for x in samples if a <= x[0] < b)
-            if seg:
-                table.append((name, b - a, seg[len(seg) // 2], seg[0], seg[-1], len(seg)))
-                rows.append(("clocks", name, "sm_clock_median", seg[len(seg) // 2], "MHz"))
-        if table:
-            lines += ["", "## The GPU's SM clock by phase (nvidia-smi, every 100 ms)", "",
-                      "A GPU that idles between frames runs the next one at a low clock: the bench "
-                      "draws the CPU modes between its Vulkan frames, the in-flight renders keep the "
-                      "GPU busy.", "",
-                      "| phase | s | median MHz | min | max | samples |", "|---|---|---|---|---|---|"]
-            for name, secs, med, lo, hi, n in table:
-                lines.append(f"| {name} | {secs:.1f} | {med:.0f} | {lo:.0f} | {hi:.0f} | {n} |")
+# The GPU's SM clock in each phase (nvidia-smi every 100 ms; logs/clocks.csv), in every run:
+# it explains the bench's Vulkan figures with or without --profile.
+clocks_csv, phases_txt = os.path.join(out, "logs", "clocks.csv"), os.path.join(out, "logs", "phases.txt")
+if os.path.exists(clocks_csv) and os.path.exists(phases_txt):
+    samples = []
+    for line in open(clocks_csv):
+        parts = [p.strip() for p in line.split(",")]
+        try:
+            t = datetime.datetime.strptime(parts[0], "%Y/%m/%d %H:%M:%S.%f").timestamp()
+            samples.append((t, float(parts[1]), float(parts[2])))
+        except (ValueError, IndexError):
+            pass
+    marks = [(float(a), b.strip()) for a, b in (l.split(None, 1) for l in open(phases_txt) if l.strip())]
+    table = []
+    for (a, name), (b, _) in zip(marks, marks[1:]):
+        seg = [x[1] for x in samples if a <= x[0] < b]
+        if seg:
+            table.append((name, b - a, middle(seg), min(seg), max(seg), len(seg)))
+            rows.append(("clocks", name, "sm_clock_median", middle(seg), "MHz"))
+    if table:
+        lines += ["", "## The GPU's SM clock by phase (nvidia-smi, every 100 ms)", "",
+                  "A GPU that idles between frames runs the next one at a low clock: the bench "
+                  "draws the CPU modes between its Vulkan frames, the in-flight renders keep the "
+                  "GPU busy.", "",
+                  "| phase | s | median MHz | min | max | samples |", "|---|---|---|---|---|---|"]
+        for name, secs, med, lo, hi, n in table:
+            lines.append(f"| {name} | {secs:.1f} | {med:.0f} | {lo:.0f} | {hi:.0f} | {n} |")
 with open(os.path.join(out, "report.md"), "w") as f:
     f.write("\n".join(lines) + "\n")
 with open(os.path.join(out, "results.csv"), "w", newline="") as f:

@@ -3,7 +3,6 @@
 #include "volumetric/near_passes.hpp"
 
 #include "core/occlusion.hpp"
-#include "core/parallel_copy.hpp"
 #include "volumetric/detail/near_passes_impl.hpp"
 
 #include <tbb/blocked_range.h>
@@ -14,7 +13,6 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
-#include <cstring>
 #include <map>
 #include <utility>
 
@@ -149,12 +147,10 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
                                                         std::uint64_t budgetBytes,
                                                         bool tracePixels) {
     const int width = frame.width(), height = frame.height();
-    // Copied on every core: at 100,000 sprites the lists are megabytes, and the destination may
-    // be write-combined device memory, which one core fills at a fraction of the bus's rate.
     const auto upload = [&](VulkanBuffer& b, const auto& v) {
         const VkDeviceSize bytes = v.size() * sizeof(v[0]);
         ensure(b, std::max<VkDeviceSize>(bytes, 4));
-        if (bytes) copyInParallel({{frame.hostWrite(b, 0, bytes), v.data(), std::size_t(bytes)}});
+        frame.hostCopy(b, v.data(), bytes);
     };
     upload(slot.cellBases, plan.cellBase);
     // The store is kept for the next frames and grows by doubling, never past the budget (the
