@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace voxtier {
@@ -145,6 +146,20 @@ SpriteSetup setupSprite(const CameraFrame& camera, const Entity& entity, std::ui
 void setupSpriteInto(SpriteSetup& sprite, const CameraFrame& camera,
                      const SpriteConstants& constants, std::uint32_t entityId,
                      const RenderParams& params);
+
+/// One sprite for setupSpritesInto: where it goes, its entity's constants and id.
+struct SpriteSetupJob {
+    SpriteSetup* sprite = nullptr;
+    const SpriteConstants* constants = nullptr;
+    std::uint32_t entityId = 0;
+};
+/// setupSpriteInto for each job, the same bits, several sprites per SIMD instruction (the widest
+/// unit this CPU has; core/sprite_setup_simd.cpp). What the sprite store calls: with a moving
+/// camera every sprite is set up again each frame.
+void setupSpritesInto(std::span<const SpriteSetupJob> jobs, const CameraFrame& camera,
+                      const RenderParams& params);
+/// The SIMD target setupSpritesInto runs on this CPU (Highway's name, or "scalar").
+const char* spriteSetupSimdTarget();
 
 /// setupSprite for every entity of the scene at time t (TBB-parallel). Index = entity id.
 std::vector<SpriteSetup> setupSprites(const Scene& scene, const CameraFrame& camera, double time);

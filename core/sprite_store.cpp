@@ -4,6 +4,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <array>
 
 namespace voxtier {
 
@@ -106,6 +107,13 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
     const Counts counts = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, n, 64), Counts{},
         [&](const tbb::blocked_range<std::size_t>& range, Counts c) {
+            // The sprites to set up again, several at a time (setupSpritesInto's SIMD lanes).
+            std::array<SpriteSetupJob, 64> jobs;
+            std::size_t queued = 0;
+            const auto setUpQueued = [&] {
+                setupSpritesInto(std::span(jobs.data(), queued), camera, scene.render);
+                queued = 0;
+            };
             for (std::size_t i = range.begin(); i != range.end(); ++i) {
                 const Entity& e = scene.entities[i];
                 const VoxelModel& model = *scene.models.at(std::size_t(e.model));
@@ -130,12 +138,16 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                 }
                 if (entityChanged) changedAt_[i] = now;
                 // This array is as of update asOf: set up again what changed since.
-                if (std::max(changedAt_[i], allChangedAt_) > asOf)
-                    setupSpriteInto(sprites[i], camera, constants_[i], std::uint32_t(i),
-                                    scene.render);
+                if (std::max(changedAt_[i], allChangedAt_) > asOf) {
+                    jobs[queued++] = {&sprites[i], &constants_[i], std::uint32_t(i)};
+                    if (queued == jobs.size()) setUpQueued();
+                }
                 const bool recompute = entityChanged || !spritesKept;
                 c.recomputed += recompute;
                 changed_[i] = recompute;
+            }
+            setUpQueued();
+            for (std::size_t i = range.begin(); i != range.end(); ++i) {
                 visible_[i] = sprites[i].visible();
                 c.culled += !visible_[i];
             }

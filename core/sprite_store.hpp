@@ -15,8 +15,9 @@
 // stamped with the update it is as of, and brings the one no frame holds up to date: the sprites
 // of the entities that changed since its stamp (every sprite when the camera moved since).
 //
-// Every sprite equals a fresh setupSprite() of its entity bit for bit (the same functions compute
-// it); the store only decides when to compute it.
+// Every sprite equals a fresh setupSprite() of its entity bit for bit: the store decides when to
+// set a sprite up, and sets the ones it must up several at a time on SIMD lanes (setupSpritesInto,
+// the same operations in the same order as the scalar setupSpriteInto).
 #include "core/camera.hpp"
 #include "core/scene.hpp"
 #include "core/shared_vector.hpp"

@@ -6,36 +6,17 @@
 #include "core/scene_loader.hpp"
 #include "core/sprite_store.hpp"
 #include "source_tree.hpp"
+#include "sprite_compare.hpp"
 #include "test_models.hpp"
 #include "view_sweeps.hpp"
 
 #include <gtest/gtest.h>
 
-#include <cstring>
-
 namespace voxtier {
 namespace {
 
+using test::sameSprite;
 using test::sourcePath;
-
-/// Field by field (SpriteSetup has padding; its SpriteGpu has none and is compared bytewise).
-::testing::AssertionResult sameSprite(const SpriteSetup& a, const SpriteSetup& b) {
-    const auto& la = a.lattice;
-    const auto& lb = b.lattice;
-    const bool same =
-        a.cull == b.cull && a.entityId == b.entityId && a.model == b.model && a.frame == b.frame &&
-        a.pose.worldFromVoxelRotation == b.pose.worldFromVoxelRotation &&
-        a.pose.position == b.pose.position && a.pose.anchor == b.pose.anchor &&
-        a.pose.metresPerVoxel == b.pose.metresPerVoxel && la.dir == lb.dir &&
-        la.right == lb.right && la.up == lb.up && la.centre == lb.centre && la.gU == lb.gU &&
-        la.gV == lb.gV && la.sigma == lb.sigma && la.maxDim == lb.maxDim && la.dims == lb.dims &&
-        la.cellRange == lb.cellRange && a.centreRel == b.centreRel && a.viewDepth == b.viewDepth &&
-        a.distance == b.distance && a.radiusPx == b.radiusPx && a.screenRect == b.screenRect &&
-        std::memcmp(&a.gpu, &b.gpu, sizeof a.gpu) == 0;
-    if (same) return ::testing::AssertionSuccess();
-    return ::testing::AssertionFailure()
-           << "entity " << a.entityId << " differs from entity " << b.entityId << "'s fresh set-up";
-}
 
 /// Every sprite of the store against a fresh set-up of its entity.
 void expectFresh(const SpriteStore& store, const Scene& s, const CameraFrame& cam, double t) {
