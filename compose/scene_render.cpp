@@ -201,8 +201,8 @@ class RenderFollower {
             const EntityPlan& p = plan[i];
             if (!sprites[i].visible()) continue;
             if (p.drawsFar())
-                drawn.emplace_back(i,
-                                   p.view.value_or(viewIdOf(set, chooseFarView(sprites[i], set))));
+                drawn.emplace_back(i, p.view ? *p.view // not value_or: it searches every time
+                                             : viewIdOf(set, chooseFarView(sprites[i], set)));
             if (p.fadeFromView && p.fade > 0.0f) drawn.emplace_back(i, *p.fadeFromView);
         }
     }

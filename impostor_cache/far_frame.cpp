@@ -3,6 +3,7 @@
 #include "core/splitmix64.hpp"
 #include "core/stopwatch.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -53,9 +54,13 @@ class SnapshotNeeds {
     explicit SnapshotNeeds(int snapshotScale) : scale_(snapshotScale) {}
     std::size_t slotOf(const FarRequest& r, ViewSet set) {
         const SpriteSetup& sp = *r.sprite;
-        const glm::ivec3 view = r.view.value_or(viewIdOf(set, chooseFarView(sp, set))).lattice;
+        // Not value_or: its argument, a nearest-view search over the set, would run for every
+        // sprite, though the planner gives almost every one its view (at 100,000 tanks that
+        // search was 3-8 ms of the far tier's 4-10 ms host time a frame, on 2 cores or 16).
+        const glm::ivec3 view = (r.view ? *r.view : viewIdOf(set, chooseFarView(sp, set))).lattice;
         const Need n{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma * scale_};
-        auto [it, inserted] = slot_.emplace(n, needs_.size());
+        // try_emplace: emplace would allocate a node for every sprite before finding its key.
+        auto [it, inserted] = slot_.try_emplace(n, needs_.size());
         if (inserted) needs_.push_back(n);
         return it->second;
     }
@@ -63,10 +68,23 @@ class SnapshotNeeds {
     void fetchNew(const std::vector<std::shared_ptr<VoxelModel>>& models, SnapshotCache& cache) {
         const std::size_t from = snaps_.size();
         snaps_.resize(needs_.size());
-        tbb::parallel_for(from, needs_.size(), [&](std::size_t i) {
+        const auto fetch = [&](std::size_t i) {
             const auto [m, f, x, y, z, sigma] = needs_[i];
             snaps_[i] = cache.get(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma);
-        });
+        };
+        // What is in memory, one after another: a fetch holds the cache's lock, and from every
+        // core at once the ~2,000 fetches of a 100,000-tank frame queued on it. Only what must
+        // be baked (or read from disk) is fetched in parallel, as the bakes are.
+        missing_.clear();
+        for (std::size_t i = from; i < needs_.size(); ++i) {
+            const auto [m, f, x, y, z, sigma] = needs_[i];
+            if (cache.inMemory(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma))
+                fetch(i);
+            else
+                missing_.push_back(i);
+        }
+        tbb::parallel_for(std::size_t(0), missing_.size(),
+                          [&](std::size_t k) { fetch(missing_[k]); });
     }
     std::size_t size() const { return needs_.size(); }
     const Need& need(std::size_t i) const { return needs_[i]; }
@@ -77,6 +95,7 @@ class SnapshotNeeds {
     std::unordered_map<Need, std::size_t, NeedHash> slot_;
     std::vector<Need> needs_;
     std::vector<std::shared_ptr<const Snapshot>> snaps_;
+    std::vector<std::size_t> missing_; ///< fetchNew's needs not in memory
 };
 
 } // namespace
@@ -162,13 +181,22 @@ FarBatch prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,
                                    reinterpret_cast<const std::uint8_t*>(snap->cells.data()),
                                    snap->lattice.cellRange});
     }
-    batch.instances.reserve(drawn.size());
-    for (std::size_t k = 0; k < drawn.size(); ++k) {
-        const SpriteSetup& sp = *drawn[k];
-        const SnapshotCellMap m = snapshotCellMap(sp.lattice, needs.snapshot(slotOf[k])->lattice);
-        batch.instances.push_back({&sp, slotOf[k], &models.at(std::size_t(sp.model))->palette(),
-                                   m.u0, m.ui, m.uj, m.v0, m.vi, m.vj});
-    }
+    // Each instance's cell map (double-precision) on every core: at 100,000 tanks the ~10,000
+    // far sprites' maps, one core after another, were most of the far tier's host time on the
+    // H200's host (docs/decisions/entity-scaling.md). Same instances, same order.
+    batch.instances.resize(drawn.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, drawn.size(), 256),
+                      [&](const tbb::blocked_range<std::size_t>& range) {
+                          for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                              const SpriteSetup& sp = *drawn[k];
+                              const SnapshotCellMap m =
+                                  snapshotCellMap(sp.lattice, needs.snapshot(slotOf[k])->lattice);
+                              batch.instances[k] = {
+                                  &sp,  slotOf[k], &models.at(std::size_t(sp.model))->palette(),
+                                  m.u0, m.ui,      m.uj,
+                                  m.v0, m.vi,      m.vj};
+                          }
+                      });
     if (stats) {
         stats->sprites += drawn.size();
         stats->snapshotsUsed += needs.size();
