@@ -11,9 +11,10 @@
 // operations in its order: glm's dot ((x + y) + z), normalize (v * (1 / sqrt(dot))), cross and
 // matrix products as glm spells them, divisions where it divides (never a reciprocal it does
 // not take); the project builds with -ffp-contract=off, so nothing is fused. Branches become
-// selects computed on every lane. What stays per sprite, in scalar code after the vectors, is
-// what is already exact there: the culling tests in their order, the float and int conversions
-// and the rectangle's clamp (tests/sprite_setup_simd_test.cpp compares every field, bit for bit).
+// selects computed on every lane, and the float fields' rounding (toGpuFloat) is the lanes'
+// round-to-nearest demotion with the same flush of subnormals. What stays per sprite, in scalar
+// code after the vectors, is the culling tests in their order, the int conversions and the
+// rectangle's clamp (tests/sprite_setup_simd_test.cpp compares every field, bit for bit).
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "core/sprite_setup_simd.cpp"
 #include "core/sprite.hpp"
@@ -147,7 +148,8 @@ float toGpuFloat(double v) {
     return std::abs(f) < 1.17549435e-38f ? 0.0f : f;
 }
 
-/// The lanes' set-up, as far as it is vector arithmetic: writes out[field * N + lane].
+/// The lanes' set-up, as far as it is vector arithmetic: writes out[field * N + lane] and the
+/// float fields outFloat[field * N + lane].
 void SetupLanes(const CameraFrame& cam, const RenderParams& params, const double* in, double* out,
                 float* outFloat) {
     const D d;
