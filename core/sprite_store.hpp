@@ -13,7 +13,8 @@
 // flight, so the array the last frame drew is usually still held when the next update comes.
 // Rather than copy it (64 MB at 100,000 entities), the store keeps a few arrays in turn, each
 // stamped with the update it is as of, and brings the one no frame holds up to date: the sprites
-// of the entities that changed since its stamp (every sprite when the camera moved since).
+// of the entities that changed since its stamp (every sprite when the camera moved since),
+// copied from the last update's array where this update changed neither them nor the camera.
 //
 // Every sprite equals a fresh setupSprite() of its entity bit for bit: the store decides when to
 // set a sprite up, and sets the ones it must up several at a time on SIMD lanes (setupSpritesInto,
