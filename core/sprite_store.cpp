@@ -93,9 +93,11 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
     const bool spritesKept =
         constantsKept && sameParams(params_, scene.render) && sameCamera(camera_, camera);
     if (!spritesKept) allChangedAt_ = now;
-    // The last update's array, before writableSprites picks this update's.
-    const std::shared_ptr<const std::vector<SpriteSetup>> last =
-        arrays_.empty() ? nullptr : arrays_[current_].array;
+    // The last update's array, before writableSprites picks this update's. Not a share: that
+    // would keep writableSprites from picking it again when no frame holds it. It outlives the
+    // update: writableSprites drops only the oldest array, never the newest.
+    const std::vector<SpriteSetup>* last =
+        arrays_.empty() ? nullptr : arrays_[current_].array.get();
     const std::uint64_t lastAsOf = arrays_.empty() ? 0 : arrays_[current_].asOf;
     Sprites& into = writableSprites(n);
     std::vector<SpriteSetup>& sprites = *into.array;
@@ -105,10 +107,10 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
     // they are now: those of entities this update leaves as they were, when nothing else changed
     // this update. A copy of 640 bytes in place of a set-up (with a still camera and an animated
     // crowd, every step of the animation was set up once per array kept).
-    const std::vector<SpriteSetup>* copyFrom = last && last.get() != into.array.get() &&
+    const std::vector<SpriteSetup>* copyFrom = last && last != into.array.get() &&
                                                        lastAsOf + 1 == now && allChangedAt_ < now &&
                                                        last->size() == n
-                                                   ? last.get()
+                                                   ? last
                                                    : nullptr;
 
     struct Counts {
