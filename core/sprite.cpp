@@ -161,22 +161,12 @@ void setupSpriteInto(SpriteSetup& S, const CameraFrame& cam, const SpriteConstan
     S.distance = glm::length(S.centreRel);
     S.radiusPx = S.viewDepth > 0.0 ? glm::length(c) * k / S.viewDepth * cam.focalPx() : 0.0;
 
-    // §3.9 culling. The proxy box is the model bounds grown by one virtual pixel (§3.10). A
-    // culled sprite keeps the defaults of the fields below (what a fresh SpriteSetup holds).
-    const auto culled = [&S](CullReason why) {
-        S.cull = why;
-        S.lattice = SpriteLattice{};
-        S.screenRect = glm::ivec4(0);
-        S.gpu = kernel::SpriteGpu{};
-    };
+    // §3.9 culling (cullBeforeLattice). A culled sprite keeps the defaults of the fields below
+    // (what a fresh SpriteSetup holds: markCulled).
     const glm::dvec3 eyeVoxel = pose.anchor + pose.voxelDirection(-(pose.position - cam.eye)) / k;
-    const double margin = 1.0 / sigma;
-    if (eyeVoxel.x >= -margin && eyeVoxel.y >= -margin && eyeVoxel.z >= -margin &&
-        eyeVoxel.x <= dims.x + margin && eyeVoxel.y <= dims.y + margin &&
-        eyeVoxel.z <= dims.z + margin)
-        return culled(CullReason::CameraInside);
-    if (!(S.viewDepth > cam.zNear)) return culled(CullReason::BehindCamera);
-    if (S.radiusPx < 0.5) return culled(CullReason::SubPixel);
+    const CullReason early =
+        cullBeforeLattice(eyeVoxel, dims, sigma, S.viewDepth, S.radiusPx, cam.zNear);
+    if (early != CullReason::None) return markCulled(S, early);
 
     // §3.2-§3.3: view direction and sprite basis, in voxel space.
     const glm::dvec3 dirWorld =
@@ -258,6 +248,30 @@ void setupSpriteInto(SpriteSetup& S, const CameraFrame& cam, const SpriteConstan
         if (aIn) extend(a);
         if (aIn != bIn) extend(a + (b - a) * ((a.w - cam.zNear) / (a.w - b.w)));
     }
+    setScreenRect(S, lo, hi, cam);
+}
+
+CullReason cullBeforeLattice(glm::dvec3 eyeVoxel, glm::ivec3 dims, double sigma, double viewDepth,
+                             double radiusPx, double zNear) {
+    // The proxy box is the model bounds grown by one virtual pixel (§3.10).
+    const double margin = 1.0 / sigma;
+    if (eyeVoxel.x >= -margin && eyeVoxel.y >= -margin && eyeVoxel.z >= -margin &&
+        eyeVoxel.x <= dims.x + margin && eyeVoxel.y <= dims.y + margin &&
+        eyeVoxel.z <= dims.z + margin)
+        return CullReason::CameraInside;
+    if (!(viewDepth > zNear)) return CullReason::BehindCamera;
+    if (radiusPx < 0.5) return CullReason::SubPixel;
+    return CullReason::None;
+}
+
+void markCulled(SpriteSetup& S, CullReason why) {
+    S.cull = why;
+    S.lattice = SpriteLattice{};
+    S.screenRect = glm::ivec4(0);
+    S.gpu = kernel::SpriteGpu{};
+}
+
+void setScreenRect(SpriteSetup& S, glm::dvec2 lo, glm::dvec2 hi, const CameraFrame& cam) {
     if (hi.x >= lo.x) {
         // Clamp in double first: a huge quad must not overflow the int conversion.
         const double W = cam.width, H = cam.height;

@@ -147,6 +147,20 @@ void setupSpriteInto(SpriteSetup& sprite, const CameraFrame& camera,
                      const SpriteConstants& constants, std::uint32_t entityId,
                      const RenderParams& params);
 
+/// Steps of setupSpriteInto that its SIMD form (setupSpritesInto) runs per sprite after its
+/// vectors, written once for both:
+/// §3.9's tests before the lattice, in their order: the eye inside the proxy box (`eyeVoxel`, the
+/// eye in voxel space, against the box grown by one virtual pixel), the centre not beyond the near
+/// plane, a projected radius below half a pixel. CullReason::None when the sprite goes on.
+CullReason cullBeforeLattice(glm::dvec3 eyeVoxel, glm::ivec3 dims, double sigma, double viewDepth,
+                             double radiusPx, double zNear);
+/// A culled sprite's lattice, rectangle and GPU record: the defaults a fresh SpriteSetup holds.
+void markCulled(SpriteSetup& sprite, CullReason why);
+/// §3.10: the screen rectangle from the pixel bounds [lo, hi] of the proxy quad's part beyond
+/// zNear (hi.x < lo.x: no such part), one pixel of margin, clamped to the image; OffScreen where
+/// it is empty.
+void setScreenRect(SpriteSetup& sprite, glm::dvec2 lo, glm::dvec2 hi, const CameraFrame& camera);
+
 /// One sprite for setupSpritesInto: where it goes, its entity's constants and id.
 struct SpriteSetupJob {
     SpriteSetup* sprite = nullptr;

@@ -337,21 +337,10 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
     S.viewDepth = at(kViewDepth);
     S.distance = at(kDistance);
     S.radiusPx = at(kRadiusPx);
-    const auto culled = [&S](CullReason why) {
-        S.cull = why;
-        S.lattice = SpriteLattice{};
-        S.screenRect = glm::ivec4(0);
-        S.gpu = kernel::SpriteGpu{};
-    };
     const glm::ivec3 dims = k.dims;
-    const glm::dvec3 eyeVoxel = at3(kEyeVoxel);
-    const double margin = 1.0 / params.sigma;
-    if (eyeVoxel.x >= -margin && eyeVoxel.y >= -margin && eyeVoxel.z >= -margin &&
-        eyeVoxel.x <= dims.x + margin && eyeVoxel.y <= dims.y + margin &&
-        eyeVoxel.z <= dims.z + margin)
-        return culled(CullReason::CameraInside);
-    if (!(S.viewDepth > cam.zNear)) return culled(CullReason::BehindCamera);
-    if (S.radiusPx < 0.5) return culled(CullReason::SubPixel);
+    const CullReason early =
+        cullBeforeLattice(at3(kEyeVoxel), dims, params.sigma, S.viewDepth, S.radiusPx, cam.zNear);
+    if (early != CullReason::None) return markCulled(S, early);
 
     SpriteLattice& L = S.lattice;
     L.dir = at3(kDir);
@@ -388,18 +377,7 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
     for (int i = 0; i < 4; ++i)
         g.quad[i] = glm::vec4(atFloat(kFQuad + 3 * i), atFloat(kFQuad + 3 * i + 1), zNear,
                               atFloat(kFQuad + 3 * i + 2));
-    const glm::dvec2 lo(at(kLo), at(kLo + 1)), hi(at(kHi), at(kHi + 1));
-    if (hi.x >= lo.x) {
-        const double W = cam.width, H = cam.height;
-        S.screenRect = {int(std::clamp(std::floor(lo.x) - 1.0, 0.0, W)),
-                        int(std::clamp(std::floor(lo.y) - 1.0, 0.0, H)),
-                        int(std::clamp(std::ceil(hi.x) + 1.0, 0.0, W)),
-                        int(std::clamp(std::ceil(hi.y) + 1.0, 0.0, H))};
-    } else {
-        S.screenRect = {0, 0, 0, 0};
-    }
-    if (S.screenRect.x >= S.screenRect.z || S.screenRect.y >= S.screenRect.w)
-        S.cull = CullReason::OffScreen;
+    setScreenRect(S, {at(kLo), at(kLo + 1)}, {at(kHi), at(kHi + 1)}, cam);
 }
 
 void SetupSprites(std::span<const SpriteSetupJob> jobs, const CameraFrame& cam,
