@@ -5,6 +5,7 @@
 #include "test_models.hpp"
 #include "view_sweeps.hpp"
 #include "volumetric/atlas_packer.hpp"
+#include "volumetric/voxel_residency.hpp"
 #include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
@@ -161,6 +162,48 @@ TEST_F(NearResidency, AnimationFramesBecomeResidentOnFirstUse) {
     const Frame again = renderFrame(nearRenderer(), v.scene);
     EXPECT_EQ(again.stats.bytesUploaded, 0u);
     EXPECT_EQ(test::describeDifference(again.near, again.reference), "");
+}
+
+// The per-frame table of placements the near tier reads for every sprite gives what entry() and
+// brickBase() give for each resident (model, frame), in the scene's model order, and refuses a
+// frame no sprite has shown yet.
+TEST_F(NearResidency, PlacementsTableAgreesWithTheLookupsOfEachResidentFrame) {
+    VoxelGrid a({4, 4, 4}), b({3, 5, 2});
+    for (auto& x : a.data()) x = 1;
+    for (auto& x : b.data()) x = 2;
+    auto animated =
+        std::make_shared<VoxelModel>("anim2", proceduralPalette(), std::vector<VoxelGrid>{a, b});
+    auto v = test::viewAlong(animated, glm::dvec3(1, 2, 3), 2.0, 3);
+    auto box = test::solidBox({5, 6, 7});
+    v.scene.models.insert(v.scene.models.begin(), box); // the animated model is index 1 now
+    v.scene.entities[0].model = 1;
+    Entity second = v.scene.entities[0];
+    second.model = 0;
+    second.position += glm::dvec3(0.0, 0.0, -1.0);
+    v.scene.entities.push_back(second);
+    renderFrame(nearRenderer(), v.scene);
+    const VoxelResidency& residency = nearRenderer().passes().residency();
+    VoxelResidency::Placements table;
+    residency.placements(v.scene.models, table);
+    const auto agrees = [&](std::size_t m, int f) {
+        const VoxelResidency::Placements::Frame& p = table.at(m, f);
+        EXPECT_EQ(p.atlas, residency.entry(*v.scene.models[m], f))
+            << "model " << m << " frame " << f;
+        EXPECT_EQ(p.brickBase, residency.brickBase(*v.scene.models[m], f))
+            << "model " << m << " frame " << f;
+    };
+    agrees(0, 0);
+    agrees(1, 0);
+    EXPECT_NE(table.at(0, 0).atlas, table.at(1, 0).atlas) << "two models, two blocks";
+    EXPECT_THROW(table.at(1, 1), std::logic_error) << "frame 1 is not shown yet";
+    EXPECT_THROW(table.at(1, 2), std::logic_error) << "no such frame";
+    EXPECT_THROW(table.at(2, 0), std::logic_error) << "no such model";
+    v.scene.entities[0].frame = 1;
+    renderFrame(nearRenderer(), v.scene);
+    residency.placements(v.scene.models, table);
+    agrees(1, 1);
+    agrees(1, 0);
+    agrees(0, 0);
 }
 
 // A block deeper than what is left makes the atlas grow: the new image is a GPU copy of the old

@@ -201,6 +201,38 @@ std::uint32_t VoxelResidency::brickBase(const VoxelModel& model, int frame) cons
     return it->second.brickBase[std::size_t(frame)];
 }
 
+void VoxelResidency::placements(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                                Placements& out) const {
+    out.first.assign(1, 0);
+    out.frames.clear();
+    for (const std::shared_ptr<VoxelModel>& model : models) {
+        const int frames = model ? model->frameCount() : 0;
+        const auto it = model ? residents_.find(model->uid()) : residents_.end();
+        for (int f = 0; f < frames; ++f) {
+            Placements::Frame p;
+            if (it != residents_.end() && it->second.present[std::size_t(f)]) {
+                const glm::ivec3 o = it->second.origin[std::size_t(f)];
+                p = {{std::uint32_t(o.x), std::uint32_t(o.y), std::uint32_t(o.z),
+                      it->second.paletteBase},
+                     it->second.brickBase[std::size_t(f)],
+                     true};
+            }
+            out.frames.push_back(p);
+        }
+        out.first.push_back(out.frames.size());
+    }
+}
+
+const VoxelResidency::Placements::Frame& VoxelResidency::Placements::at(std::size_t model,
+                                                                        int frame) const {
+    if (model + 1 >= first.size() || frame < 0 ||
+        std::size_t(frame) >= first[model + 1] - first[model] ||
+        !frames[first[model] + std::size_t(frame)].present)
+        throw std::logic_error(
+            "VoxelResidency::placements: frame not resident (call update first)");
+    return frames[first[model] + std::size_t(frame)];
+}
+
 glm::uvec4 VoxelResidency::entry(const VoxelModel& model, int frame) const {
     const auto it = residents_.find(model.uid());
     if (it == residents_.end() || frame < 0 || std::size_t(frame) >= it->second.present.size() ||

@@ -59,6 +59,8 @@ struct NearPasses::Impl {
 
     // The frame being recorded (host scratch, reused from frame to frame).
     std::vector<const SpriteSetup*> visible;
+    /// Where each resident model frame lies, looked up once a frame (kept for its storage).
+    VoxelResidency::Placements placements;
     /// Per sprite of `visible`, gathered where the sprites are written (in parallel): its depth,
     /// screen rectangle and rate wish. The ranking, the rate plan and the work lists read these
     /// arrays and not each sprite's record again (at 100,000 sprites a record read is a cache
