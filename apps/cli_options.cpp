@@ -226,6 +226,11 @@ void addFrameFlags(CLI::App& cmd, FrameOptions& options, const FrameFlagHelp& he
                     "of their rectangles in a compute pass), raster (their proxies rasterised, "
                     "the kernel in the fragment shader) or auto (default: compute on a GPU, "
                     "raster on a CPU device such as lavapipe); same image");
+    addChoiceOption(cmd, "--far-tiles", options.farTiles, kFarTilesNames, "far tiles",
+                    "The Vulkan far pass's tiles: coarse (32x32 pixels a workgroup, fewest steps "
+                    "per sprite), fine (8x8: a crowd of small far sprites spread over 16 times "
+                    "as many workgroups) or auto (default: coarse on a CPU device such as "
+                    "lavapipe, fine on a GPU); same image");
     addChoiceOption(cmd, "--far-blit", options.farBlit.kernel, kFarBlitNames, "far blit",
                     "The far blit's kernel: simd (spans of pixels on the widest SIMD unit "
                     "of this CPU) or scalar (one pixel at a time, the reference); same "

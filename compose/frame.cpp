@@ -221,7 +221,7 @@ const VulkanProbe& FrameRenderer::vulkanProbe() {
 
 FarPass& FrameRenderer::farPass() {
     // Created on first use, on the near tier's device and frames: one frame draws both tiers.
-    if (!farPass_) farPass_ = std::make_unique<FarPass>(nearRenderer().frames());
+    if (!farPass_) farPass_ = std::make_unique<FarPass>(nearRenderer().frames(), options_.farTiles);
     return *farPass_;
 }
 

@@ -16,6 +16,7 @@
 #include "core/view_set.hpp"
 #include "core/work_progress.hpp"
 #include "device/vulkan_options.hpp"
+#include "impostor_cache/far_batch.hpp"
 #include "impostor_cache/far_blit.hpp"
 #include "impostor_cache/far_stats.hpp"
 #include "lod/frame_planner.hpp"
@@ -115,6 +116,13 @@ inline constexpr std::array<std::pair<const char*, NearPixels>, 3> kNearPixelsNa
 }};
 const char* toString(NearPixels p);
 
+/// The one table of names of the Vulkan far pass's tiles (FarTiles).
+inline constexpr std::array<std::pair<const char*, FarTiles>, 3> kFarTilesNames{{
+    {"auto", FarTiles::Auto},
+    {"coarse", FarTiles::Coarse},
+    {"fine", FarTiles::Fine},
+}};
+
 struct FrameOptions {
     /// Of hybrid and far frames (reference frames use the CPU tracer, near frames Vulkan).
     NearBackend nearBackend = NearBackend::Auto;
@@ -124,6 +132,9 @@ struct FrameOptions {
     NearPixels nearPixels = NearPixels::Auto;
     /// Of hybrid and far frames: the CPU blit or the Vulkan far pass (same image).
     FarBackend farBackend = FarBackend::Auto;
+    /// The Vulkan far pass's tiles: 32 or 8 pixels a side (same image;
+    /// impostor_cache/far_pass.hpp).
+    FarTiles farTiles = FarTiles::Auto;
     /// The far blit's kernel: SIMD (default) or the scalar reference (same image, for measuring).
     FarBlitOptions farBlit;
     VulkanDeviceOptions vulkan;                  ///< device options when Vulkan is used

@@ -13,6 +13,17 @@
 
 namespace voxtier {
 
+/// The far pass's tiles (far_shared.h), each a workgroup that passes the tile's far sprites over
+/// its pixels: the same image either way. Coarse: 32 x 32 pixels, the fewest steps per sprite,
+/// what a CPU device such as lavapipe runs fastest. Fine: 8 x 8 pixels, 16 times as many
+/// workgroups, each with a 16th of a crowd's small sprites to pass one after another, its list
+/// read in batches through shared memory: what a GPU, which runs thousands of workgroups at once,
+/// needs where far sprites crowd a few coarse tiles (on the H200 the coarse pass took 2.56 ms for
+/// 9,900 far tanks, ~260 ns a sprite; lavapipe runs the fine pass 2.5-3 times slower). Auto:
+/// coarse on a CPU device, fine on a GPU (chosen from the H200's per-sprite figure; the fine
+/// tiles' own GPU figure is still to be taken).
+enum class FarTiles : std::uint8_t { Auto, Coarse, Fine };
+
 /// Snapshot cell codes as a far pass reads them (impostor_cache/snapshot.hpp's snapshot_code,
 /// which static_asserts that it says the same): 0 empty, 1 + f solid through entered face f,
 /// 7 outline.

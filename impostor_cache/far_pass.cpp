@@ -12,7 +12,8 @@
 #include <vector>
 
 // SPIR-V generated at build time by glslangValidator (impostor_cache/CMakeLists.txt).
-#include "shaders/far_blit_comp.h"
+#include "shaders/far_blit_coarse_comp.h"
+#include "shaders/far_blit_fine_comp.h"
 
 namespace voxtier {
 
@@ -24,6 +25,8 @@ constexpr std::uint32_t kNotDrawn = std::numeric_limits<std::uint32_t>::max();
 struct FarPass::Impl {
     GpuFrames& frames;
     VulkanDevice& device;
+    FarTiles tiles;
+    int side; ///< pixels per side of a tile
     FarResidency residency;
     VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
     VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
@@ -40,14 +43,19 @@ struct FarPass::Impl {
     // The frame being recorded (host scratch, reused from frame to frame).
     std::vector<far_gpu::FarInstanceGpu> instances;
     std::vector<std::uint32_t> palettes, perTile, start, list;
-    std::vector<far_gpu::FarTile> tiles;
+    std::vector<far_gpu::FarTile> tileRecords;
     std::unordered_map<const Palette*, std::uint32_t> paletteBase;
     /// Per instance of the batch: its rectangle within the image (empty where it draws nothing),
     /// its place among the drawn instances (kNotDrawn where none) and its palette's base.
     std::vector<glm::ivec4> rects;
     std::vector<std::uint32_t> at, paletteOf;
 
-    explicit Impl(GpuFrames& f) : frames(f), device(f.device()), residency(f.device()) {
+    Impl(GpuFrames& f, FarTiles t)
+        : frames(f), device(f.device()), tiles(t != FarTiles::Auto  ? t
+                                               : f.device().isCpu() ? FarTiles::Coarse
+                                                                    : FarTiles::Fine),
+          side(int(tiles == FarTiles::Coarse ? far_gpu::FAR_TILE_COARSE : far_gpu::FAR_TILE_FINE)),
+          residency(f.device()) {
         if (!FarPass::supported(device))
             throw VulkanError("far pass: " + device.name() +
                               " lacks shaderFloat64, which the far pass needs (--far-backend cpu)");
@@ -99,7 +107,10 @@ void FarPass::Impl::create() {
         for (VulkanBuffer* b : {&s.instances, &s.palettes, &s.tiles, &s.tileList}) ensure(*b, 4096);
     }
 
-    pipeline = createComputePipeline(dev, pipelineLayout, far_blit_comp);
+    pipeline = createComputePipeline(dev, pipelineLayout,
+                                     tiles == FarTiles::Coarse
+                                         ? std::span<const std::uint32_t>(far_blit_coarse_comp)
+                                         : std::span<const std::uint32_t>(far_blit_fine_comp));
 }
 
 void FarPass::Impl::destroy() noexcept {
@@ -127,11 +138,10 @@ void FarPass::Impl::ensure(VulkanBuffer& b, VkDeviceSize bytes) {
 std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
                                      const std::vector<std::uint32_t>& offsets, int width,
                                      int height) {
-    using far_gpu::FAR_TILE;
     paletteBase.clear();
     palettes.clear();
     instances.clear();
-    const int block = int(FAR_TILE);
+    const int block = side;
     const int tilesX = (width + block - 1) / block, tilesY = (height + block - 1) / block;
     perTile.assign(std::size_t(tilesX) * std::size_t(tilesY) + 1, 0);
     const auto tileSpan = [&](const glm::ivec4& r) {
@@ -159,7 +169,7 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
         const glm::ivec4 r = rects[i];
         if (r.z <= r.x || r.w <= r.y) continue;
         const FarInstance& f = batch.instances[i];
-        const auto [it, added] = paletteBase.emplace(f.palette, std::uint32_t(palettes.size()));
+        const auto [it, added] = paletteBase.try_emplace(f.palette, std::uint32_t(palettes.size()));
         if (added)
             for (const Rgba8 c : f.palette->colors) palettes.push_back(std::uint32_t(c));
         paletteOf[i] = it->second;
@@ -187,7 +197,7 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
     });
     // Tiles with far sprites, and each one's sprites (in instance order; the rule makes the
     // order irrelevant).
-    tiles.clear();
+    tileRecords.clear();
     start.assign(perTile.size(), 0);
     std::uint32_t total = 0;
     for (std::size_t k = 0; k + 1 < perTile.size(); ++k) {
@@ -195,7 +205,8 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
         if (perTile[k] == 0) continue;
         const std::uint32_t tx = std::uint32_t(k % std::size_t(tilesX)),
                             ty = std::uint32_t(k / std::size_t(tilesX));
-        tiles.push_back({tx * FAR_TILE | (ty * FAR_TILE) << 16, total, perTile[k], 0});
+        const auto px = std::uint32_t(block);
+        tileRecords.push_back({tx * px | (ty * px) << 16, total, perTile[k], 0});
         total += perTile[k];
     }
     list.assign(total, 0);
@@ -205,7 +216,7 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
             for (int tx = t.x; tx <= t.z; ++tx)
                 list[start[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)]++] = i;
     }
-    return std::uint32_t(tiles.size());
+    return std::uint32_t(tileRecords.size());
 }
 
 void FarPass::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
@@ -233,8 +244,13 @@ void FarPass::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
     vkUpdateDescriptorSets(device.device(), std::uint32_t(kBuffers), w, 0, nullptr);
 }
 
-FarPass::FarPass(GpuFrames& frames) : impl_(std::make_unique<Impl>(frames)) {}
+FarPass::FarPass(GpuFrames& frames, FarTiles tiles)
+    : impl_(std::make_unique<Impl>(frames, tiles)) {}
 FarPass::~FarPass() = default;
+
+FarTiles FarPass::tiles() const {
+    return impl_->tiles;
+}
 
 std::uint64_t FarPass::residentBytes() const {
     return impl_->residency.residentBytes();
@@ -266,7 +282,7 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
     };
     upload(slot.instances, m.instances);
     upload(slot.palettes, m.palettes);
-    upload(slot.tiles, m.tiles);
+    upload(slot.tiles, m.tileRecords);
     upload(slot.tileList, m.list);
     m.writeDescriptors(frame, slot);
     frame.ring().recordBarrier(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);

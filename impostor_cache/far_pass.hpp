@@ -17,7 +17,7 @@ namespace voxtier {
 class FarPass {
   public:
     /// Throws VulkanError when the device lacks shaderFloat64 (supported() says so first).
-    explicit FarPass(GpuFrames& frames);
+    explicit FarPass(GpuFrames& frames, FarTiles tiles = FarTiles::Auto);
     ~FarPass();
     FarPass(const FarPass&) = delete;
     FarPass& operator=(const FarPass&) = delete;
@@ -28,6 +28,9 @@ class FarPass {
     /// snapshots uploaded, then the pass (timed as "far_upload" and "far_blit"). The planes must
     /// hold all three planes (colour, id, depth).
     void record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats);
+
+    /// The tiles this pass runs (never Auto).
+    FarTiles tiles() const;
 
     /// Bytes of snapshot cells resident on the device, and how many snapshots.
     std::uint64_t residentBytes() const;

@@ -39,31 +39,39 @@ class VulkanFar : public test::VulkanTest {
     static std::shared_ptr<NearRenderer> shared() {
         return std::shared_ptr<NearRenderer>(&nearRenderer(), [](NearRenderer*) {});
     }
-    /// The suite's far pass, on the shared renderer's frames (its residency persists across the
-    /// suite's tests, as a renderer's does across frames).
-    static FarPass& farPass() {
-        if (!farPass_) farPass_ = std::make_unique<FarPass>(nearRenderer().frames());
-        return *farPass_;
+    /// The suite's far passes, one per tile size, on the shared renderer's frames (their
+    /// residencies persist across the suite's tests, as a renderer's does across frames).
+    static FarPass& farPass(FarTiles tiles = FarTiles::Coarse) {
+        std::unique_ptr<FarPass>& pass = tiles == FarTiles::Fine ? fine_ : coarse_;
+        if (!pass) pass = std::make_unique<FarPass>(nearRenderer().frames(), tiles);
+        return *pass;
     }
-    static void TearDownTestSuite() { farPass_.reset(); }
+    static void TearDownTestSuite() {
+        coarse_.reset();
+        fine_.reset();
+    }
     /// `near` sprites and `batch` in one Vulkan frame (compose/vulkan_frame.hpp).
     static Image drawBoth(const CameraFrame& cam, const Scene& scene,
                           std::span<const SpriteSetup* const> near, const FarBatch& batch,
-                          FarPassStats* stats = nullptr, Rgba8 clear = 0) {
+                          FarPassStats* stats = nullptr, Rgba8 clear = 0,
+                          FarTiles tiles = FarTiles::Coarse) {
         VulkanFrameRequest request;
         request.camera = &cam;
         request.models = &scene.models;
         request.nearSprites = near;
         request.far = &batch;
         request.clear = clear;
-        VulkanFrameResult r = drawVulkanFrame(nearRenderer(), &farPass(), request);
+        VulkanFrameResult r = drawVulkanFrame(nearRenderer(), &farPass(tiles), request);
         if (stats) *stats = r.far;
         return std::move(r.image);
     }
-    inline static std::unique_ptr<FarPass> farPass_;
+    inline static std::unique_ptr<FarPass> coarse_, fine_;
+    static constexpr FarTiles kBothTiles[] = {FarTiles::Coarse, FarTiles::Fine};
 
-    static FrameOptions options(FarBackend far, NearBackend near = NearBackend::Vulkan) {
+    static FrameOptions options(FarBackend far, NearBackend near = NearBackend::Vulkan,
+                                FarTiles tiles = FarTiles::Coarse) {
         FrameOptions o;
+        o.farTiles = tiles;
         o.sharedNear = shared();
         o.nearBackend = near;
         o.nearPixels = NearPixels::Compute; // a GPU's default (Auto draws on lavapipe)
@@ -73,8 +81,8 @@ class VulkanFar : public test::VulkanTest {
     }
 
     /// One frame of `scene` drawn as `plan` says, near sprites on Vulkan, far sprites once by
-    /// the CPU blit and once by the Vulkan far pass, through one snapshot cache: the two images
-    /// are identical. Returns the CPU image's far-drawn pixel count (the test must draw).
+    /// the CPU blit and by the Vulkan far pass in each tile size, through one snapshot cache: the
+    /// images are identical. Returns the CPU image's far-drawn pixel count (the test must draw).
     std::size_t expectSame(const Scene& scene, const std::vector<SpriteSetup>& sprites,
                            const std::vector<EntityPlan>& plan, const std::string& what) {
         const CameraFrame cam = makeCameraFrame(scene.camera);
@@ -101,14 +109,18 @@ class VulkanFar : public test::VulkanTest {
         const Image nearOnly = cpu;
         drawFarSprites(scene.models, requests, cache_, set, cpu);
         const FarBatch batch = prepareFarBatch(scene.models, requests, cache_, set);
-        FarPassStats fs;
-        const Image gpu = drawBoth(cam, scene, nearSprites, batch, &fs, scene.render.background);
-        EXPECT_EQ(describeDifference(gpu, cpu, "vulkan far", "cpu far"), "") << what;
         std::size_t farPixels = 0;
         for (std::size_t p = 0; p < cpu.pixelCount(); ++p)
             farPixels += cpu.id[p] != nearOnly.id[p] || cpu.color[p] != nearOnly.color[p];
-        if (farPixels) {
-            EXPECT_GT(fs.tiles, 0u) << what; // the far pass really ran
+        for (const FarTiles tiles : kBothTiles) {
+            const std::string how = what + (tiles == FarTiles::Fine ? ", fine" : ", coarse");
+            FarPassStats fs;
+            const Image gpu =
+                drawBoth(cam, scene, nearSprites, batch, &fs, scene.render.background, tiles);
+            EXPECT_EQ(describeDifference(gpu, cpu, "vulkan far", "cpu far"), "") << how;
+            if (farPixels) {
+                EXPECT_GT(fs.tiles, 0u) << how; // the far pass really ran
+            }
         }
         return farPixels;
     }
@@ -128,21 +140,30 @@ TEST_F(VulkanFar, GoldenScenesEqualTheCpuBlitThroughTheFrame) {
     for (const char* file :
          {"scenes/golden/arrows.json", "scenes/golden/crowd.json", "scenes/golden/equal_depth.json",
           "scenes/golden/far_origin.json", "scenes/golden/topdown.json", "scenes/default.json"}) {
-        Scene a = loadScene(sourcePath(file)), b = a;
-        FrameRenderer cpu(a, options(FarBackend::Cpu)), gpu(b, options(FarBackend::Vulkan));
+        // The fine tiles (a GPU's) too, over the all-far frame and the path's first frames.
+        Scene a = loadScene(sourcePath(file)), b = a, c = a;
+        FrameRenderer cpu(a, options(FarBackend::Cpu)), gpu(b, options(FarBackend::Vulkan)),
+            fine(c, options(FarBackend::Vulkan, NearBackend::Vulkan, FarTiles::Fine));
         const FrameResult fc = cpu.render(0.0, RenderMode::Far),
-                          fg = gpu.render(0.0, RenderMode::Far);
+                          fg = gpu.render(0.0, RenderMode::Far),
+                          ff = fine.render(0.0, RenderMode::Far);
         EXPECT_EQ(describeDifference(fg.image, fc.image, "vulkan far", "cpu far"), "")
+            << file << " all far";
+        EXPECT_EQ(describeDifference(ff.image, fc.image, "vulkan far, fine", "cpu far"), "")
             << file << " all far";
         EXPECT_GT(fc.stats.farDrawn, 0) << file;
         EXPECT_EQ(fg.stats.farOnVulkan, 1) << file;
+        EXPECT_EQ(ff.stats.farOnVulkan, 1) << file;
         EXPECT_EQ(fc.stats.farOnVulkan, 0) << file;
         const double fps = a.path ? a.path->fps : 30.0;
         for (int f = 0; f < 4; ++f) {
             const double t = f * 4 / fps;
             const FrameResult hc = cpu.render(t, RenderMode::Hybrid, f);
             const FrameResult hg = gpu.render(t, RenderMode::Hybrid, f);
+            const FrameResult hf = fine.render(t, RenderMode::Hybrid, f);
             EXPECT_EQ(describeDifference(hg.image, hc.image, "vulkan far", "cpu far"), "")
+                << file << " hybrid frame " << f;
+            EXPECT_EQ(describeDifference(hf.image, hc.image, "vulkan far, fine", "cpu far"), "")
                 << file << " hybrid frame " << f;
             EXPECT_EQ(hg.plan, hc.plan) << file << " hybrid frame " << f;
         }
@@ -283,6 +304,57 @@ TEST_F(VulkanFar, PartlyOffScreenEqualDepthPairsAndFarFromTheOrigin) {
     std::vector<EntityPlan> mixed = allFar(ds.size());
     mixed[1].tier = mixed[3].tier = Tier::Near;
     expectSame(distant, ds, mixed, "10^6 m, mixed tiers");
+}
+
+// A crowd of 300 far sprites heaped on one spot of the image: one coarse tile and one fine
+// tile each list more far sprites than a workgroup reads in one batch (64), so the pass runs
+// several batches per tile in both sizes, and the depth rule decides among many sprites per pixel.
+TEST_F(VulkanFar, CrowdedTilesOfManySmallSpritesEqualTheCpuBlit) {
+    Scene s = test::hardCaseWorld(glm::dvec3(0.0));
+    s.render.sigma = 1.0;
+    s.camera.width = 160;
+    s.camera.height = 100;
+    const std::vector<Entity> kinds = s.entities;
+    s.entities.clear();
+    SplitMix64 rng{35};
+    for (int i = 0; i < 300; ++i) {
+        Entity e = kinds[std::size_t(i) % kinds.size()];
+        e.position = {rng.uniform(-1.0, 1.0), rng.uniform(-0.6, 0.6), rng.uniform(-16.0, -8.0)};
+        e.rotation = glm::angleAxis(rng.uniform(0.0, 6.28), glm::dvec3(0.0, 1.0, 0.0));
+        s.entities.push_back(e);
+    }
+    const CameraFrame cam = makeCameraFrame(s.camera);
+    const auto sprites = setupSprites(s, cam, 0.0);
+    // The most far rectangles any tile of each size holds, counted here from the sprites.
+    const auto mostInOneTile = [&](int side) {
+        std::vector<int> count(std::size_t((cam.width + side - 1) / side) *
+                               std::size_t((cam.height + side - 1) / side));
+        const int columns = (cam.width + side - 1) / side;
+        for (const SpriteSetup& sp : sprites) {
+            if (!sp.visible()) continue;
+            const glm::ivec4 r =
+                glm::clamp(sp.screenRect, glm::ivec4(0),
+                           glm::ivec4(cam.width, cam.height, cam.width, cam.height));
+            if (r.z <= r.x || r.w <= r.y) continue;
+            for (int ty = r.y / side; ty <= (r.w - 1) / side; ++ty)
+                for (int tx = r.x / side; tx <= (r.z - 1) / side; ++tx)
+                    ++count[std::size_t(ty * columns + tx)];
+        }
+        return *std::max_element(count.begin(), count.end());
+    };
+    ASSERT_GT(mostInOneTile(32), 128) << "a coarse tile reads three batches or more";
+    ASSERT_GT(mostInOneTile(8), 64) << "a fine tile reads two batches or more";
+    EXPECT_GT(expectSame(s, sprites, allFar(sprites.size()), "crowded tiles"), 500u);
+    std::vector<EntityPlan> mixed = allFar(sprites.size());
+    for (std::size_t i = 0; i < mixed.size(); i += 3) mixed[i].tier = Tier::Near;
+    expectSame(s, sprites, mixed, "crowded tiles, every third near");
+}
+
+TEST_F(VulkanFar, AutoTilesAreCoarseOnACpuDeviceAndFineOnAGpu) {
+    const FarPass automatic(nearRenderer().frames());
+    EXPECT_EQ(automatic.tiles(), nearRenderer().deviceIsCpu() ? FarTiles::Coarse : FarTiles::Fine);
+    EXPECT_EQ(farPass(FarTiles::Fine).tiles(), FarTiles::Fine);
+    EXPECT_EQ(farPass(FarTiles::Coarse).tiles(), FarTiles::Coarse);
 }
 
 TEST_F(VulkanFar, SnapshotsAreUploadedOnceAndFreedWhenTheCacheDropsThem) {

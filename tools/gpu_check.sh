@@ -20,7 +20,8 @@
 #   --profile also where each frame's time goes, pass by pass (the device's timestamps and the
 #             host's parts: the gpu_*_ms and host_*_ms figures): for the bench scenes in motion,
 #             and the tank army at 2,000, 20,000 and 100,000 entities (VOXTIER_PROFILE_COUNTS
-#             overrides them), in report.md and results.csv
+#             overrides them), in report.md and results.csv; and the far pass's coarse and
+#             fine tiles (--far-tiles) on the moving 100,000-tank hybrid, their images compared
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 short=0
@@ -37,7 +38,7 @@ while [[ $# -gt 0 ]]; do
         shift
         ;;
     -h | --help)
-        sed -n '2,23p' "$0"
+        sed -n '2,24p' "$0"
         exit 0
         ;;
     -*)
@@ -194,6 +195,29 @@ if ((profile)); then
         fi
         rm -f "$out/in_flight/$s"_*.pam
     done
+    # The far pass's two tile sizes (--far-tiles, the same image) on the moving 100,000-tank army
+    # in flight, the hybrid with the far pass on Vulkan: frames 0:23, the last one compared.
+    phase far_tiles
+    mkdir -p "$out/far_tiles"
+    sed 's/"count": 2000,/"count": 100000,/' "$scenes/bench/tank_army.json" >"$out/far_tiles/tank_army_100000.json"
+    for t in coarse fine; do
+        if ! "$bin" render "$out/far_tiles/tank_army_100000.json" --mode hybrid --far-backend vulkan \
+            --far-tiles "$t" --frames 0:23 --csv "$out/far_tiles/$t.csv" -o "$out/far_tiles/$t.pam" \
+            >>"$out/logs/far_tiles.log" 2>&1; then
+            echo "gpu_check: the far-tiles render ($t) failed: $(tail -1 "$out/logs/far_tiles.log")" >&2
+            failed=1
+        fi
+    done
+    if [[ -f "$out/far_tiles/coarse_0023.pam" && -f "$out/far_tiles/fine_0023.pam" ]]; then
+        if cmp -s "$out/far_tiles/coarse_0023.pam" "$out/far_tiles/fine_0023.pam"; then
+            echo identical >"$out/far_tiles/identity.txt"
+        else
+            echo DIFFERENT >"$out/far_tiles/identity.txt"
+            echo "gpu_check: the far pass's coarse and fine tiles drew different images" >&2
+            failed=1
+        fi
+    fi
+    rm -f "$out/far_tiles/"*_00*.pam
 fi
 phase end
 [[ -n "$clocks_pid" ]] && kill "$clocks_pid" 2>/dev/null
@@ -351,6 +375,33 @@ if os.environ.get("GC_PROFILE") == "1":
             lines.append(f"| {s} | {n} | {fmt(fr)} | {fmt(wait)} | {fmt(gpu)} | {fmt(serial)} |")
     else:
         lines.append("No in-flight rows: see logs/in_flight.log.")
+    # The far pass's tiles: medians of frames 6-23 of each render.
+    tiles_rows = []
+    for t in ("coarse", "fine"):
+        path = os.path.join(out, "far_tiles", t + ".csv")
+        if not os.path.exists(path):
+            continue
+        with open(path) as f:
+            frames = list(csv.DictReader(f))[6:]
+        if not frames:
+            continue
+        values = [middle([float(r[c]) for r in frames])
+                  for c in ("frame_ms", "gpu_frame_ms", "gpu_far_ms", "far_entities", "host_record_ms")]
+        tiles_rows.append((t, len(frames), values))
+        for c, v in zip(("frame_ms", "gpu_frame_ms", "gpu_far_ms"), values):
+            rows.append(("far_tiles", "tank_army_100000", f"hybrid_gpu_far {t} {c}", v, "ms"))
+    identity_txt = os.path.join(out, "far_tiles", "identity.txt")
+    same = open(identity_txt).read().strip() if os.path.exists(identity_txt) else "not compared"
+    lines += ["", "## The far pass's tiles: 100,000 tanks, hybrid, far pass on Vulkan, in flight (ms, medians)", "",
+              "`voxtier render tank_army_100000.json --mode hybrid --far-backend vulkan --far-tiles T --frames 0:23 --csv`: "
+              f"frames 6-23. Frame 23, coarse against fine: {same}.", ""]
+    if tiles_rows:
+        lines += ["| tiles | frames | frame in flight | GPU frame | GPU far pass | far entities | host record |",
+                  "|---|---|---|---|---|---|---|"]
+        for t, n, v in tiles_rows:
+            lines.append(f"| {t} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
+    else:
+        lines.append("No far-tiles rows: see logs/far_tiles.log.")
 # The GPU's SM clock in each phase (nvidia-smi every 100 ms; logs/clocks.csv), in every run:
 # it explains the bench's Vulkan figures with or without --profile.
 clocks_csv, phases_txt = os.path.join(out, "logs", "clocks.csv"), os.path.join(out, "logs", "phases.txt")

@@ -7,10 +7,16 @@
 // sprite whose rectangle holds it: the near lattice cell (vtPixelCell, dither included), the
 // snapshot cell under that cell's centre (the SnapshotCellMap, in double like the CPU's), and the
 // cell's colour (vtLit of the palette entry by the entered face's light, or the outline). A
-// workgroup is one 32x32 tile of the image that some far rectangle touches, 32 x 2 invocations,
-// each owning every other pixel of one column: it keeps its 16 pixels in registers while the
-// tile's far sprites pass over them, so nothing races and the sprites' order does not matter
-// (the rule decides).
+// workgroup is one FAR_SIDE x FAR_SIDE tile of the image that some far rectangle touches,
+// FAR_SIDE x FAR_LANES_Y invocations (built as 32 x 2 and as 8 x 8, far_shared.h), each owning
+// every FAR_LANES_Y-th pixel of one column: it keeps its pixels in registers while the tile's
+// far sprites pass over them, so nothing races and the sprites' order does not matter (the rule
+// decides). Built with FAR_BATCHED (the fine tiles, a GPU's), the tile's sprite list is read a
+// workgroup's width at a time into shared memory, one entry and its rectangle per invocation, so
+// that a sprite that misses an invocation's pixels costs it a shared-memory read, not a chain of
+// two dependent global reads; the coarse tiles, a CPU device's, read the list directly (on
+// lavapipe the barriers cost more than the reads they save: 100,000 tanks' far pass 209-230 ->
+// 245-273 ms).
 #extension GL_GOOGLE_include_directive : require
 
 // The kernel header needs a voxel source to compile; this pass never traces.
@@ -18,7 +24,11 @@ uint vtFetchVoxel(ivec3 cell);
 #include "core/sprite_kernel.h"
 #include "impostor_cache/shaders/far_shared.h"
 
-layout(local_size_x = FAR_TILE, local_size_y = 2) in;
+#if !defined(FAR_SIDE) || !defined(FAR_LANES_Y) || !defined(FAR_BATCHED) || \
+    FAR_SIDE * FAR_LANES_Y != 64
+#error "build with FAR_SIDE x FAR_LANES_Y = FAR_WORKGROUP invocations (impostor_cache/CMakeLists.txt)"
+#endif
+layout(local_size_x = FAR_SIDE, local_size_y = FAR_LANES_Y) in;
 
 layout(std430, set = 0, binding = FAR_BINDING_INSTANCES) readonly buffer Instances {
     FarInstanceGpu vtFar[];
@@ -45,75 +55,101 @@ layout(push_constant) uniform Push {
 const uint FAR_EMPTY = 0u;
 const uint FAR_SOLID0 = 1u;
 const uint FAR_OUTLINE = 7u;
-const int FAR_ROWS = int(FAR_TILE) / 2; // rows of a tile per invocation
+const int FAR_ROWS = FAR_SIDE / FAR_LANES_Y; // rows of a tile per invocation
+
+#if FAR_BATCHED
+// One batch of the tile's sprite list: entries and their rectangles.
+shared uint batchSprite[FAR_WORKGROUP];
+shared ivec4 batchRect[FAR_WORKGROUP];
+#endif
 
 void main() {
     uint tile = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
-    if (tile >= vtPush.count) return;
+    if (tile >= vtPush.count) return; // the whole workgroup: no barrier is skipped
     uint origin = vtTiles[tile].origin;
     uint first = vtTiles[tile].first;
     uint count = vtTiles[tile].count;
     int x = int((origin & 0xFFFFu) + gl_LocalInvocationID.x);
-    if (x >= int(vtPush.width)) return;
-    // This invocation's pixels: column x, rows y0, y0 + 2, ... below yEnd (at most 16), kept in
-    // registers while the tile's sprites pass over them, sprite by sprite: each sprite's
-    // constants are read once, and only its rectangle's rows are visited.
+    // This invocation's pixels: column x, rows y0, y0 + FAR_LANES_Y, ... below yEnd (at most
+    // FAR_ROWS), kept in registers while the tile's sprites pass over them, sprite by sprite:
+    // each sprite's constants are read once, and only its rectangle's rows are visited. An
+    // invocation past the image's right edge owns no pixel but still loads its share of each
+    // batch.
     int y0 = int(origin >> 16) + int(gl_LocalInvocationID.y);
-    int yEnd = min(int(vtPush.height), int(origin >> 16) + int(FAR_TILE));
-    int rows = yEnd > y0 ? (yEnd - y0 + 1) / 2 : 0;
+    int yEnd = min(int(vtPush.height), int(origin >> 16) + FAR_SIDE);
+    int rows = x < int(vtPush.width) && yEnd > y0 ? (yEnd - y0 + FAR_LANES_Y - 1) / FAR_LANES_Y : 0;
     uint plane = vtPush.width * vtPush.height;
     uint colors[FAR_ROWS];
     uint ids[FAR_ROWS];
     float depths[FAR_ROWS];
     for (int k = 0; k < rows; ++k) {
-        uint p = uint(y0 + 2 * k) * vtPush.width + uint(x);
+        uint p = uint(y0 + FAR_LANES_Y * k) * vtPush.width + uint(x);
         colors[k] = vtPlanes[p];
         ids[k] = vtPlanes[plane + p];
         depths[k] = uintBitsToFloat(vtPlanes[2u * plane + p]);
     }
     uint changed = 0u;
     float px = float(x) + 0.5f;
-    for (uint e = first; e < first + count; ++e) {
-        uint f = vtTileList[e];
-        ivec4 r = vtFar[f].rect;
-        if (x < r.x || x >= r.z) continue;
-        // Rows y0 + 2k inside [r.y, r.w).
-        int kFrom = r.y > y0 ? (r.y - y0 + 1) / 2 : 0;
-        int kTo = min(rows, r.w > y0 ? (r.w - y0 + 1) / 2 : 0);
-        if (kFrom >= kTo) continue;
-        SpriteGpu s = vtFar[f].sprite;
-        float d = s.depth;
-        uint entity = s.dims.w;
-        for (int k = kFrom; k < kTo; ++k) {
-            // Only a pixel this sprite would win can change (the rule does not depend on order).
-            if (!(d > depths[k] || (d == depths[k] && entity < ids[k]))) continue;
-            ivec2 cell;
-            if (!vtPixelCell(s, vec2(px, float(y0 + 2 * k) + 0.5f), cell)) continue;
-            precise double u =
-                vtFar[f].u0 + vtFar[f].ui * double(cell.x) + vtFar[f].uj * double(cell.y);
-            precise double v =
-                vtFar[f].v0 + vtFar[f].vi * double(cell.x) + vtFar[f].vj * double(cell.y);
-            int si = int(floor(u)) - int(vtFar[f].snap.w);
-            int sj = int(floor(v)) - vtFar[f].extra.x;
-            if (si < 0 || si >= int(vtFar[f].snap.y) || sj < 0 || sj >= int(vtFar[f].snap.z))
-                continue;
-            uint slot = uint(sj) * vtFar[f].snap.y + uint(si);
-            uint bits =
-                (vtSnapshotWords[vtFar[f].snap.x + (slot >> 1)] >> ((slot & 1u) * 16u)) & 0xFFFFu;
-            uint code = bits >> 8;
-            if (code == FAR_EMPTY) continue;
-            colors[k] = code == FAR_OUTLINE
-                            ? VT_OUTLINE_RGBA
-                            : vtLit(vtFarPalettes[uint(vtFar[f].extra.y) + (bits & 255u)],
-                                    vtFaceLight(s, code - FAR_SOLID0));
-            depths[k] = d;
-            ids[k] = entity;
-            changed |= 1u << uint(k);
+#if FAR_BATCHED
+    for (uint b = 0u; b < count; b += FAR_WORKGROUP) {
+        barrier(); // the previous batch is read by every invocation
+        uint lane = gl_LocalInvocationIndex;
+        if (b + lane < count) {
+            uint f = vtTileList[first + b + lane];
+            batchSprite[lane] = f;
+            batchRect[lane] = vtFar[f].rect;
+        }
+        barrier();
+        uint batch = min(FAR_WORKGROUP, count - b);
+        for (uint e = 0u; e < batch; ++e) {
+            uint f = batchSprite[e];
+            ivec4 r = batchRect[e];
+#else
+    {
+        for (uint e = first; e < first + count; ++e) {
+            uint f = vtTileList[e];
+            ivec4 r = vtFar[f].rect;
+#endif
+            if (x < r.x || x >= r.z) continue;
+            // Rows y0 + FAR_LANES_Y k inside [r.y, r.w).
+            int kFrom = r.y > y0 ? (r.y - y0 + FAR_LANES_Y - 1) / FAR_LANES_Y : 0;
+            int kTo = min(rows, r.w > y0 ? (r.w - y0 + FAR_LANES_Y - 1) / FAR_LANES_Y : 0);
+            if (kFrom >= kTo) continue;
+            SpriteGpu s = vtFar[f].sprite;
+            float d = s.depth;
+            uint entity = s.dims.w;
+            for (int k = kFrom; k < kTo; ++k) {
+                // Only a pixel this sprite would win can change (the rule does not depend on
+                // order).
+                if (!(d > depths[k] || (d == depths[k] && entity < ids[k]))) continue;
+                ivec2 cell;
+                if (!vtPixelCell(s, vec2(px, float(y0 + FAR_LANES_Y * k) + 0.5f), cell)) continue;
+                precise double u =
+                    vtFar[f].u0 + vtFar[f].ui * double(cell.x) + vtFar[f].uj * double(cell.y);
+                precise double v =
+                    vtFar[f].v0 + vtFar[f].vi * double(cell.x) + vtFar[f].vj * double(cell.y);
+                int si = int(floor(u)) - int(vtFar[f].snap.w);
+                int sj = int(floor(v)) - vtFar[f].extra.x;
+                if (si < 0 || si >= int(vtFar[f].snap.y) || sj < 0 || sj >= int(vtFar[f].snap.z))
+                    continue;
+                uint slot = uint(sj) * vtFar[f].snap.y + uint(si);
+                uint bits = (vtSnapshotWords[vtFar[f].snap.x + (slot >> 1)] >> ((slot & 1u) * 16u)) &
+                            0xFFFFu;
+                uint code = bits >> 8;
+                if (code == FAR_EMPTY) continue;
+                colors[k] = code == FAR_OUTLINE
+                                ? VT_OUTLINE_RGBA
+                                : vtLit(vtFarPalettes[uint(vtFar[f].extra.y) + (bits & 255u)],
+                                        vtFaceLight(s, code - FAR_SOLID0));
+                depths[k] = d;
+                ids[k] = entity;
+                changed |= 1u << uint(k);
+            }
         }
     }
     for (int k = 0; k < rows; ++k) {
         if ((changed & (1u << uint(k))) == 0u) continue;
-        uint p = uint(y0 + 2 * k) * vtPush.width + uint(x);
+        uint p = uint(y0 + FAR_LANES_Y * k) * vtPush.width + uint(x);
         vtPlanes[p] = colors[k];
         vtPlanes[plane + p] = ids[k];
         vtPlanes[2u * plane + p] = floatBitsToUint(depths[k]);

@@ -27,8 +27,14 @@ VT_FAR_CONST uint FAR_BINDING_PALETTES = 2u;  // uint[]: the frame's far palette
 VT_FAR_CONST uint FAR_BINDING_TILES = 3u;     // FarTile[]: the image tiles far sprites touch
 VT_FAR_CONST uint FAR_BINDING_TILE_LIST = 4u; // uint[]: per tile, the far sprites touching it
 VT_FAR_CONST uint FAR_BINDING_PLANES = 5u;    // uint[]: the frame's colour, id, depth planes
-// Pixels per side of a tile: one workgroup of 32 x 2 invocations.
-VT_FAR_CONST uint FAR_TILE = 32u;
+// Pixels per side of a tile, one workgroup of FAR_WORKGROUP invocations each. Coarse: 32 x 2
+// invocations, each owning 16 pixels of a column (the fewest invocation steps per sprite: what a
+// CPU device runs fastest). Fine: 8 x 8 invocations, a pixel each; a tile lists only the sprites
+// within its 8 x 8 pixels, so on a GPU, where a tile's sprites pass one after another through
+// its workgroup, a crowd of small far sprites is spread over 16 times as many workgroups.
+VT_FAR_CONST uint FAR_TILE_COARSE = 32u;
+VT_FAR_CONST uint FAR_TILE_FINE = 8u;
+VT_FAR_CONST uint FAR_WORKGROUP = 64u;
 
 // One far sprite. `sprite` is the near tier's SpriteGpu (vtPixelCell, vtFaceLight, depth, id in
 // dims.w); the snapshot cell of near cell (i, j) is (floor(u0 + ui i + uj j), floor(v0 + vi i +
