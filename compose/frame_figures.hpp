@@ -79,6 +79,8 @@ struct FrameFigureTable {
         {"near_ms",                   [](const S& s) { return s.nearMs; },                          Ms,    Mean, TimeStep},
         {"near_upload_ms",            [](const S& s) { return s.vulkanNear.uploadMs; },             Ms,    Mean},
         {"host_record_ms",            [](const S& s) { return s.vulkan.hostRecordMs; },             Ms,    Mean},
+        {"host_record_sprites_ms",    [](const S& s) { return s.vulkanNear.recordSpritesMs; },      Ms,    Mean},
+        {"host_record_lists_ms",      [](const S& s) { return s.vulkanNear.recordListsMs; },        Ms,    Mean},
         {"host_wait_ms",              [](const S& s) { return s.vulkan.hostWaitMs; },               Ms,    Mean},
         {"host_readback_ms",          [](const S& s) { return s.vulkan.hostReadbackMs; },           Ms,    Mean},
         {"gpu_frame_ms",              [](const S& s) { return s.vulkan.gpuFrameMs; },               Ms,    Mean},

@@ -314,7 +314,8 @@ else:
 # timed frames: the host's parts, then the device's named passes).
 if os.environ.get("GC_PROFILE") == "1":
     parts = [("frame_ms", "frame"), ("host_setup_ms", "set-up"), ("host_select_ms", "select"),
-             ("host_record_ms", "record"), ("host_wait_ms", "wait"), ("host_readback_ms", "readback"),
+             ("host_record_ms", "record"), ("host_record_sprites_ms", "of which sprite records"),
+             ("host_record_lists_ms", "of which lists"), ("host_wait_ms", "wait"), ("host_readback_ms", "readback"),
              ("gpu_frame_ms", "GPU frame"), ("gpu_upload_ms", "GPU upload"), ("gpu_cells_ms", "GPU cells"),
              ("gpu_splat_ms", "GPU splat"), ("gpu_draw_ms", "GPU trace or draw"), ("gpu_resolve_ms", "GPU resolve"),
              ("gpu_far_ms", "GPU far"), ("gpu_copy_ms", "GPU copies")]

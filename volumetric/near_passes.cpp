@@ -3,6 +3,7 @@
 #include "volumetric/near_passes.hpp"
 
 #include "core/occlusion.hpp"
+#include "core/stopwatch.hpp"
 #include "volumetric/detail/near_passes_impl.hpp"
 
 #include <tbb/blocked_range.h>
@@ -12,6 +13,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <map>
 #include <utility>
@@ -522,7 +524,10 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
     const bool resolvable =
         3 * frame.planeBytes() <= m.device.properties().limits.maxStorageBufferRange;
     const NearRate rate = resolvable ? opt.rate : NearRate::Fragment;
+    const auto tSprites = std::chrono::steady_clock::now();
     m.writeSprites(frame, slot, models, sprites, opt, rate, stats);
+    stats.recordSpritesMs = msSince(tSprites);
+    const auto tLists = std::chrono::steady_clock::now();
     // Auto: llvmpipe rasterises a crowd under the early depth test faster than it runs the
     // trace's workgroups over every rectangle (100,000 tanks: 2.7 s against 8.0 s); a GPU the
     // other way round (docs/decisions/near-pixels-in-compute.md).
@@ -546,6 +551,7 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
     const Impl::CellWork work = m.writeCells(frame, slot, plan, opt.cellBudgetBytes, tracePixels);
     m.frameCells = std::uint32_t(plan.cells);
     m.writeDescriptors(frame, slot);
+    stats.recordListsMs = msSince(tLists);
     frame.ring().recordBarrier(cb,
                                VK_PIPELINE_STAGE_VERTEX_SHADER_BIT |
                                    VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT |

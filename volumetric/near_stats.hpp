@@ -35,6 +35,11 @@ struct NearStats : CellRateCounts {
     std::uint64_t uploadRegions = 0;
     std::uint64_t atlasGrowths = 0; ///< the atlas was re-created larger this frame
     double uploadMs = 0.0;          ///< residency on the host: pack + copy + wait
+    /// Host time of the recording's two halves (both within the frame's host_record_ms): the
+    /// sprite records (draw order, residency, each record gathered and written where the
+    /// shaders read it), and the lists the passes walk (proxies, the rate plan, the cell store,
+    /// the work lists and their uploads, the descriptors).
+    double recordSpritesMs = 0.0, recordListsMs = 0.0;
     /// Sprites rasterised flat at their depth, with the early depth test (earlyDepthTest).
     std::uint64_t earlyDepthSprites = 0;
     /// The per-pixel sprites were traced by the compute pass (NearPixels::Compute), not drawn.
