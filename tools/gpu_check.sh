@@ -21,7 +21,8 @@
 #             host's parts: the gpu_*_ms and host_*_ms figures): for the bench scenes in motion,
 #             and the tank army at 2,000, 20,000 and 100,000 entities (VOXTIER_PROFILE_COUNTS
 #             overrides them), in report.md and results.csv; and the far pass's coarse and
-#             fine tiles (--far-tiles) on the moving 100,000-tank hybrid, their images compared
+#             fine tiles (--far-tiles) on the moving 100,000-tank hybrid, and direct writes
+#             against staged uploads on its all-near frames, their images compared
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 short=0
@@ -38,7 +39,7 @@ while [[ $# -gt 0 ]]; do
         shift
         ;;
     -h | --help)
-        sed -n '2,24p' "$0"
+        sed -n '2,25p' "$0"
         exit 0
         ;;
     -*)
@@ -216,6 +217,25 @@ if ((profile)); then
             echo "gpu_check: the far pass's coarse and fine tiles drew different images" >&2
             failed=1
         fi
+    fi
+    rm -f "$out/far_tiles/"*_00*.pam
+    # Where the host writes what the shaders read: directly into device-local memory through the
+    # BAR where the device offers it (the policy's choice), or staged and copied by the device
+    # (VOXTIER_FORCE_STAGING=1): the 100,000-tank army all-near in flight, frames 0:23 each.
+    phase placement
+    for p in direct staged; do
+        if ! env $([[ $p == staged ]] && echo VOXTIER_FORCE_STAGING=1) "$bin" render \
+            "$out/far_tiles/tank_army_100000.json" --mode near --near-backend vulkan --frames 0:23 \
+            --csv "$out/far_tiles/near_$p.csv" -o "$out/far_tiles/near_$p.pam" \
+            >>"$out/logs/placement.log" 2>&1; then
+            echo "gpu_check: the placement render ($p) failed: $(tail -1 "$out/logs/placement.log")" >&2
+            failed=1
+        fi
+    done
+    if [[ -f "$out/far_tiles/near_direct_0023.pam" && -f "$out/far_tiles/near_staged_0023.pam" ]]; then
+        cmp -s "$out/far_tiles/near_direct_0023.pam" "$out/far_tiles/near_staged_0023.pam" &&
+            echo identical >"$out/far_tiles/placement_identity.txt" ||
+            { echo DIFFERENT >"$out/far_tiles/placement_identity.txt"; failed=1; }
     fi
     rm -f "$out/far_tiles/"*_00*.pam
 fi
@@ -403,6 +423,35 @@ if os.environ.get("GC_PROFILE") == "1":
             lines.append(f"| {t} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
     else:
         lines.append("No far-tiles rows: see logs/far_tiles.log.")
+    # Direct writes against staged uploads: medians of frames 6-23 of each render.
+    placed = []
+    for p in ("direct", "staged"):
+        path = os.path.join(out, "far_tiles", f"near_{p}.csv")
+        if not os.path.exists(path):
+            continue
+        with open(path) as f:
+            frames = list(csv.DictReader(f))[6:]
+        if not frames:
+            continue
+        cols = ("frame_ms", "host_record_ms", "host_record_sprites_ms", "host_record_lists_ms",
+                "gpu_upload_ms", "gpu_frame_ms")
+        values = [middle([float(r.get(c) or 0) for r in frames]) for c in cols]
+        placed.append((p, len(frames), values))
+        for c, v in zip(cols, values):
+            rows.append(("placement", "tank_army_100000", f"near_vulkan {p} {c}", v, "ms"))
+    identity_txt = os.path.join(out, "far_tiles", "placement_identity.txt")
+    same = open(identity_txt).read().strip() if os.path.exists(identity_txt) else "not compared"
+    lines += ["", "## Direct writes or staged uploads: 100,000 tanks, all-near Vulkan, in flight (ms, medians)", "",
+              "`voxtier render tank_army_100000.json --mode near --near-backend vulkan --frames 0:23 --csv`, "
+              "as the memory policy places the buffers (direct: written through the BAR where the device offers "
+              f"it) and with `VOXTIER_FORCE_STAGING=1`; frames 6-23. Frame 23, direct against staged: {same}.", ""]
+    if placed:
+        lines += ["| uploads | frames | frame in flight | host record | of which sprite records | of which lists "
+                  "| GPU upload | GPU frame |", "|---|---|---|---|---|---|---|---|"]
+        for p, n, v in placed:
+            lines.append(f"| {p} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
+    else:
+        lines.append("No placement rows: see logs/placement.log.")
 # The GPU's SM clock in each phase (nvidia-smi every 100 ms; logs/clocks.csv), in every run:
 # it explains the bench's Vulkan figures with or without --profile.
 clocks_csv, phases_txt = os.path.join(out, "logs", "clocks.csv"), os.path.join(out, "logs", "phases.txt")
