@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # tools/gpu_check.sh --short --profile against this build: it must pass its identity check, name
 # the Vulkan device, and write report.md and results.csv with the identity rows (0 differing
-# pixels), the bench's rows and the profile's pass-by-pass rows (a small tank army curve here).
+# pixels), the bench's rows and the profile's pass-by-pass rows (a small tank army curve here), and
+# the far-tiles and placement comparisons on the curve's largest army.
 # Usage: gpu_check_test.sh VOXTIER SOURCE_DIR
 set -euo pipefail
 work="$(mktemp -d)"
@@ -32,4 +33,15 @@ grep -q "^## Where the time goes, pass by pass" "$work/out/report.md" || fail "r
 # gpu_draw_ms in the profile rows of near_vulkan.
 grep -q "^profile,tank_army (80 entities),near_vulkan gpu_draw_ms,[0-9.]*[1-9][0-9.]*,ms" \
     "$work/out/results.csv" || fail "results.csv lacks a timed near draw in the profile"
+# The far pass's coarse and fine tiles, and direct writes against staged uploads, on the curve's
+# largest army: both drew the same last frame, and both have their rows.
+grep -q "^## The far pass's tiles: 80 tanks" "$work/out/report.md" || fail "report.md has no far-tiles table"
+grep -q "Frame 23, coarse against fine: identical." "$work/out/report.md" ||
+    fail "the far pass's coarse and fine tiles were not found identical"
+grep -q "^far_tiles,tank_army_80,hybrid_gpu_far fine gpu_far_ms,[0-9.]*[1-9][0-9.]*,ms" "$work/out/results.csv" ||
+    fail "results.csv lacks a timed fine far pass"
+grep -q "Frame 23, direct against staged: identical." "$work/out/report.md" ||
+    fail "direct writes and staged uploads were not found identical"
+grep -q "^placement,tank_army_80,near_vulkan staged host_record_sprites_ms,[0-9.]*[1-9][0-9.]*,ms" \
+    "$work/out/results.csv" || fail "results.csv lacks the staged run's sprite records"
 echo "gpu_check_test: ok"

@@ -21,8 +21,8 @@
 #             host's parts: the gpu_*_ms and host_*_ms figures): for the bench scenes in motion,
 #             and the tank army at 2,000, 20,000 and 100,000 entities (VOXTIER_PROFILE_COUNTS
 #             overrides them), in report.md and results.csv; and the far pass's coarse and
-#             fine tiles (--far-tiles) on the moving 100,000-tank hybrid, and direct writes
-#             against staged uploads on its all-near frames, their images compared
+#             fine tiles (--far-tiles) on the moving tank army's hybrid at the largest count,
+#             and direct writes against staged uploads on its all-near frames, images compared
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 short=0
@@ -196,13 +196,16 @@ if ((profile)); then
         fi
         rm -f "$out/in_flight/$s"_*.pam
     done
-    # The far pass's two tile sizes (--far-tiles, the same image) on the moving 100,000-tank army
-    # in flight, the hybrid with the far pass on Vulkan: frames 0:23, the last one compared.
+    # The far pass's two tile sizes (--far-tiles, the same image) on the moving tank army at the
+    # curve's largest count (100,000 by default) in flight, the hybrid with the far pass on
+    # Vulkan: frames 0:23, the last one compared.
     phase far_tiles
     mkdir -p "$out/far_tiles"
-    sed 's/"count": 2000,/"count": 100000,/' "$scenes/bench/tank_army.json" >"$out/far_tiles/tank_army_100000.json"
+    big=$(tr ',' '\n' <<<"${VOXTIER_PROFILE_COUNTS:-2000,20000,100000}" | sort -n | tail -1)
+    army="$out/far_tiles/tank_army_$big.json"
+    sed "s/\"count\": 2000,/\"count\": $big,/" "$scenes/bench/tank_army.json" >"$army"
     for t in coarse fine; do
-        if ! "$bin" render "$out/far_tiles/tank_army_100000.json" --mode hybrid --far-backend vulkan \
+        if ! "$bin" render "$army" --mode hybrid --far-backend vulkan \
             --far-tiles "$t" --frames 0:23 --csv "$out/far_tiles/$t.csv" -o "$out/far_tiles/$t.pam" \
             >>"$out/logs/far_tiles.log" 2>&1; then
             echo "gpu_check: the far-tiles render ($t) failed: $(tail -1 "$out/logs/far_tiles.log")" >&2
@@ -221,11 +224,11 @@ if ((profile)); then
     rm -f "$out/far_tiles/"*_00*.pam
     # Where the host writes what the shaders read: directly into device-local memory through the
     # BAR where the device offers it (the policy's choice), or staged and copied by the device
-    # (VOXTIER_FORCE_STAGING=1): the 100,000-tank army all-near in flight, frames 0:23 each.
+    # (VOXTIER_FORCE_STAGING=1): the same army all-near in flight, frames 0:23 each.
     phase placement
     for p in direct staged; do
         if ! env $([[ $p == staged ]] && echo VOXTIER_FORCE_STAGING=1) "$bin" render \
-            "$out/far_tiles/tank_army_100000.json" --mode near --near-backend vulkan --frames 0:23 \
+            "$army" --mode near --near-backend vulkan --frames 0:23 \
             --csv "$out/far_tiles/near_$p.csv" -o "$out/far_tiles/near_$p.pam" \
             >>"$out/logs/placement.log" 2>&1; then
             echo "gpu_check: the placement render ($p) failed: $(tail -1 "$out/logs/placement.log")" >&2
@@ -246,7 +249,7 @@ total_s=$(($(date +%s) - start))
 # --- report.md and results.csv -------------------------------------------------------------
 export GC_OUT="$out" GC_DEVICE="$device" GC_VERSION="$version" GC_FAR_ROWS="$far_rows"
 export GC_TOTAL_S="$total_s" GC_BENCH_S="$bench_s" GC_SHORT="$short" GC_FAILED="$failed"
-export GC_PROFILE="$profile"
+export GC_PROFILE="$profile" GC_BIG="${big:-}"
 export GC_BENCH_CMD="voxtier bench ${bench_args[*]//$scenes\//scenes/}"
 if command -v python3 >/dev/null; then
     python3 - <<'PY'
@@ -397,6 +400,7 @@ if os.environ.get("GC_PROFILE") == "1":
     else:
         lines.append("No in-flight rows: see logs/in_flight.log.")
     # The far pass's tiles: medians of frames 6-23 of each render.
+    big = os.environ.get("GC_BIG") or "0"
     tiles_rows = []
     for t in ("coarse", "fine"):
         path = os.path.join(out, "far_tiles", t + ".csv")
@@ -410,11 +414,11 @@ if os.environ.get("GC_PROFILE") == "1":
                   for c in ("frame_ms", "gpu_frame_ms", "gpu_far_ms", "far_entities", "host_record_ms")]
         tiles_rows.append((t, len(frames), values))
         for c, v in zip(("frame_ms", "gpu_frame_ms", "gpu_far_ms"), values):
-            rows.append(("far_tiles", "tank_army_100000", f"hybrid_gpu_far {t} {c}", v, "ms"))
+            rows.append(("far_tiles", f"tank_army_{big}", f"hybrid_gpu_far {t} {c}", v, "ms"))
     identity_txt = os.path.join(out, "far_tiles", "identity.txt")
     same = open(identity_txt).read().strip() if os.path.exists(identity_txt) else "not compared"
-    lines += ["", "## The far pass's tiles: 100,000 tanks, hybrid, far pass on Vulkan, in flight (ms, medians)", "",
-              "`voxtier render tank_army_100000.json --mode hybrid --far-backend vulkan --far-tiles T --frames 0:23 --csv`: "
+    lines += ["", f"## The far pass's tiles: {int(big):,} tanks, hybrid, far pass on Vulkan, in flight (ms, medians)", "",
+              f"`voxtier render tank_army_{big}.json --mode hybrid --far-backend vulkan --far-tiles T --frames 0:23 --csv`: "
               f"frames 6-23. Frame 23, coarse against fine: {same}.", ""]
     if tiles_rows:
         lines += ["| tiles | frames | frame in flight | GPU frame | GPU far pass | far entities | host record |",
@@ -438,11 +442,11 @@ if os.environ.get("GC_PROFILE") == "1":
         values = [middle([float(r.get(c) or 0) for r in frames]) for c in cols]
         placed.append((p, len(frames), values))
         for c, v in zip(cols, values):
-            rows.append(("placement", "tank_army_100000", f"near_vulkan {p} {c}", v, "ms"))
+            rows.append(("placement", f"tank_army_{big}", f"near_vulkan {p} {c}", v, "ms"))
     identity_txt = os.path.join(out, "far_tiles", "placement_identity.txt")
     same = open(identity_txt).read().strip() if os.path.exists(identity_txt) else "not compared"
-    lines += ["", "## Direct writes or staged uploads: 100,000 tanks, all-near Vulkan, in flight (ms, medians)", "",
-              "`voxtier render tank_army_100000.json --mode near --near-backend vulkan --frames 0:23 --csv`, "
+    lines += ["", f"## Direct writes or staged uploads: {int(big):,} tanks, all-near Vulkan, in flight (ms, medians)", "",
+              f"`voxtier render tank_army_{big}.json --mode near --near-backend vulkan --frames 0:23 --csv`, "
               "as the memory policy places the buffers (direct: written through the BAR where the device offers "
               f"it) and with `VOXTIER_FORCE_STAGING=1`; frames 6-23. Frame 23, direct against staged: {same}.", ""]
     if placed:
