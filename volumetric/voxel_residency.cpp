@@ -210,7 +210,8 @@ void VoxelResidency::placements(const std::vector<std::shared_ptr<VoxelModel>>& 
         const auto it = model ? residents_.find(model->uid()) : residents_.end();
         for (int f = 0; f < frames; ++f) {
             Placements::Frame p;
-            if (it != residents_.end() && it->second.present[std::size_t(f)]) {
+            if (it != residents_.end() && std::size_t(f) < it->second.present.size() &&
+                it->second.present[std::size_t(f)]) {
                 const glm::ivec3 o = it->second.origin[std::size_t(f)];
                 p = {{std::uint32_t(o.x), std::uint32_t(o.y), std::uint32_t(o.z),
                       it->second.paletteBase},
