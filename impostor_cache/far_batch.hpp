@@ -19,7 +19,7 @@ namespace voxtier {
 /// workgroups, each with a 16th of a crowd's small sprites to pass one after another, its list
 /// read in batches through shared memory: what a GPU, which runs thousands of workgroups at once,
 /// needs where far sprites crowd a few coarse tiles (on the H200 the coarse pass took 2.56 ms for
-/// 9,900 far tanks, ~260 ns a sprite; lavapipe runs the fine pass 2.5-3 times slower). Auto:
+/// 9,900 far tanks, ~260 ns a sprite; lavapipe runs the fine pass 2.3-5 times slower). Auto:
 /// coarse on a CPU device, fine on a GPU (chosen from the H200's per-sprite figure; the fine
 /// tiles' own GPU figure is still to be taken).
 enum class FarTiles : std::uint8_t { Auto, Coarse, Fine };
