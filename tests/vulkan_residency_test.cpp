@@ -12,6 +12,7 @@
 
 #include <random>
 #include <stdexcept>
+#include <string>
 
 namespace voxtier {
 namespace {
@@ -144,13 +145,18 @@ TEST_F(NearResidency, EditLogOverflowReuploadsTheWholeFrame) {
     EXPECT_EQ(test::describeDifference(f.near, f.reference), "");
 }
 
-// Animation frames are separate blocks; each is uploaded the first time a sprite shows it.
-TEST_F(NearResidency, AnimationFramesBecomeResidentOnFirstUse) {
+/// A model of two animation frames the residency has never seen: a solid 4x4x4 block of index 1
+/// (64 voxels), then a solid 3x5x2 block of index 2 (30 voxels).
+std::shared_ptr<VoxelModel> twoFrameModel(const std::string& name) {
     VoxelGrid a({4, 4, 4}), b({3, 5, 2});
     for (auto& x : a.data()) x = 1;
     for (auto& x : b.data()) x = 2;
-    auto model =
-        std::make_shared<VoxelModel>("anim", proceduralPalette(), std::vector<VoxelGrid>{a, b});
+    return std::make_shared<VoxelModel>(name, proceduralPalette(), std::vector<VoxelGrid>{a, b});
+}
+
+// Animation frames are separate blocks; each is uploaded the first time a sprite shows it.
+TEST_F(NearResidency, AnimationFramesBecomeResidentOnFirstUse) {
+    auto model = twoFrameModel("anim");
     auto v = test::viewAlong(model, glm::dvec3(1, 2, 3), 2.0, 3);
     const Frame f0 = renderFrame(nearRenderer(), v.scene);
     EXPECT_EQ(f0.stats.bytesUploaded, 64u);
@@ -168,11 +174,7 @@ TEST_F(NearResidency, AnimationFramesBecomeResidentOnFirstUse) {
 // brickBase() give for each resident (model, frame), in the scene's model order, and refuses a
 // frame no sprite has shown yet.
 TEST_F(NearResidency, PlacementsTableAgreesWithTheLookupsOfEachResidentFrame) {
-    VoxelGrid a({4, 4, 4}), b({3, 5, 2});
-    for (auto& x : a.data()) x = 1;
-    for (auto& x : b.data()) x = 2;
-    auto animated =
-        std::make_shared<VoxelModel>("anim2", proceduralPalette(), std::vector<VoxelGrid>{a, b});
+    auto animated = twoFrameModel("anim2");
     auto v = test::viewAlong(animated, glm::dvec3(1, 2, 3), 2.0, 3);
     auto box = test::solidBox({5, 6, 7});
     v.scene.models.insert(v.scene.models.begin(), box); // the animated model is index 1 now

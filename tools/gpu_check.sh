@@ -201,6 +201,22 @@ if ((profile)); then
     # Vulkan: frames 0:23, the last one compared.
     phase far_tiles
     mkdir -p "$out/far_tiles"
+    # Frame 23 of the renders far_tiles/A and far_tiles/B, compared byte for byte: "identical" or
+    # "DIFFERENT" into far_tiles/RESULT (a failed check), nothing where a render is missing; then
+    # the frames are removed.
+    same_last_frame() {
+        local a="$out/far_tiles/${1}_0023.pam" b="$out/far_tiles/${2}_0023.pam"
+        if [[ -f "$a" && -f "$b" ]]; then
+            if cmp -s "$a" "$b"; then
+                echo identical >"$out/far_tiles/$3"
+            else
+                echo DIFFERENT >"$out/far_tiles/$3"
+                echo "gpu_check: $4 drew different images" >&2
+                failed=1
+            fi
+        fi
+        rm -f "$out/far_tiles/"*_00*.pam
+    }
     big=$(tr ',' '\n' <<<"${VOXTIER_PROFILE_COUNTS:-2000,20000,100000}" | sort -n | tail -1)
     army="$out/far_tiles/tank_army_$big.json"
     sed "s/\"count\": 2000,/\"count\": $big,/" "$scenes/bench/tank_army.json" >"$army"
@@ -212,16 +228,7 @@ if ((profile)); then
             failed=1
         fi
     done
-    if [[ -f "$out/far_tiles/coarse_0023.pam" && -f "$out/far_tiles/fine_0023.pam" ]]; then
-        if cmp -s "$out/far_tiles/coarse_0023.pam" "$out/far_tiles/fine_0023.pam"; then
-            echo identical >"$out/far_tiles/identity.txt"
-        else
-            echo DIFFERENT >"$out/far_tiles/identity.txt"
-            echo "gpu_check: the far pass's coarse and fine tiles drew different images" >&2
-            failed=1
-        fi
-    fi
-    rm -f "$out/far_tiles/"*_00*.pam
+    same_last_frame coarse fine identity.txt "the far pass's coarse and fine tiles"
     # Where the host writes what the shaders read: directly into device-local memory through the
     # BAR where the device offers it (the policy's choice), or staged and copied by the device
     # (VOXTIER_FORCE_STAGING=1): the same army all-near in flight, frames 0:23 each.
@@ -235,12 +242,7 @@ if ((profile)); then
             failed=1
         fi
     done
-    if [[ -f "$out/far_tiles/near_direct_0023.pam" && -f "$out/far_tiles/near_staged_0023.pam" ]]; then
-        cmp -s "$out/far_tiles/near_direct_0023.pam" "$out/far_tiles/near_staged_0023.pam" &&
-            echo identical >"$out/far_tiles/placement_identity.txt" ||
-            { echo DIFFERENT >"$out/far_tiles/placement_identity.txt"; failed=1; }
-    fi
-    rm -f "$out/far_tiles/"*_00*.pam
+    same_last_frame near_direct near_staged placement_identity.txt "direct writes and staged uploads"
 fi
 phase end
 [[ -n "$clocks_pid" ]] && kill "$clocks_pid" 2>/dev/null
@@ -399,24 +401,32 @@ if os.environ.get("GC_PROFILE") == "1":
             lines.append(f"| {s} | {n} | {fmt(fr)} | {fmt(wait)} | {fmt(gpu)} | {fmt(serial)} |")
     else:
         lines.append("No in-flight rows: see logs/in_flight.log.")
-    # The far pass's tiles: medians of frames 6-23 of each render.
+    # The far pass's tiles, then direct writes against staged uploads: medians of frames 6-23 of
+    # each render of the curve's largest army.
     big = os.environ.get("GC_BIG") or "0"
-    tiles_rows = []
-    for t in ("coarse", "fine"):
-        path = os.path.join(out, "far_tiles", t + ".csv")
+    def army_medians(name, cols):
+        """(frames, medians of `cols`) of far_tiles/NAME.csv past its first six frames, or None."""
+        path = os.path.join(out, "far_tiles", name + ".csv")
         if not os.path.exists(path):
-            continue
+            return None
         with open(path) as f:
             frames = list(csv.DictReader(f))[6:]
         if not frames:
+            return None
+        return len(frames), [middle([float(r.get(c) or 0) for r in frames]) for c in cols]
+    def last_frames(result):
+        """What same_last_frame wrote into far_tiles/RESULT."""
+        path = os.path.join(out, "far_tiles", result)
+        return open(path).read().strip() if os.path.exists(path) else "not compared"
+    tiles_rows = []
+    for t in ("coarse", "fine"):
+        got = army_medians(t, ("frame_ms", "gpu_frame_ms", "gpu_far_ms", "far_entities", "host_record_ms"))
+        if not got:
             continue
-        values = [middle([float(r[c]) for r in frames])
-                  for c in ("frame_ms", "gpu_frame_ms", "gpu_far_ms", "far_entities", "host_record_ms")]
-        tiles_rows.append((t, len(frames), values))
-        for c, v in zip(("frame_ms", "gpu_frame_ms", "gpu_far_ms"), values):
+        tiles_rows.append((t, *got))
+        for c, v in zip(("frame_ms", "gpu_frame_ms", "gpu_far_ms"), got[1]):
             rows.append(("far_tiles", f"tank_army_{big}", f"hybrid_gpu_far {t} {c}", v, "ms"))
-    identity_txt = os.path.join(out, "far_tiles", "identity.txt")
-    same = open(identity_txt).read().strip() if os.path.exists(identity_txt) else "not compared"
+    same = last_frames("identity.txt")
     lines += ["", f"## The far pass's tiles: {int(big):,} tanks, hybrid, far pass on Vulkan, in flight (ms, medians)", "",
               f"`voxtier render tank_army_{big}.json --mode hybrid --far-backend vulkan --far-tiles T --frames 0:23 --csv`: "
               f"frames 6-23. Frame 23, coarse against fine: {same}.", ""]
@@ -427,24 +437,17 @@ if os.environ.get("GC_PROFILE") == "1":
             lines.append(f"| {t} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
     else:
         lines.append("No far-tiles rows: see logs/far_tiles.log.")
-    # Direct writes against staged uploads: medians of frames 6-23 of each render.
     placed = []
+    cols = ("frame_ms", "host_record_ms", "host_record_sprites_ms", "host_record_lists_ms",
+            "gpu_upload_ms", "gpu_frame_ms")
     for p in ("direct", "staged"):
-        path = os.path.join(out, "far_tiles", f"near_{p}.csv")
-        if not os.path.exists(path):
+        got = army_medians(f"near_{p}", cols)
+        if not got:
             continue
-        with open(path) as f:
-            frames = list(csv.DictReader(f))[6:]
-        if not frames:
-            continue
-        cols = ("frame_ms", "host_record_ms", "host_record_sprites_ms", "host_record_lists_ms",
-                "gpu_upload_ms", "gpu_frame_ms")
-        values = [middle([float(r.get(c) or 0) for r in frames]) for c in cols]
-        placed.append((p, len(frames), values))
-        for c, v in zip(cols, values):
+        placed.append((p, *got))
+        for c, v in zip(cols, got[1]):
             rows.append(("placement", f"tank_army_{big}", f"near_vulkan {p} {c}", v, "ms"))
-    identity_txt = os.path.join(out, "far_tiles", "placement_identity.txt")
-    same = open(identity_txt).read().strip() if os.path.exists(identity_txt) else "not compared"
+    same = last_frames("placement_identity.txt")
     lines += ["", f"## Direct writes or staged uploads: {int(big):,} tanks, all-near Vulkan, in flight (ms, medians)", "",
               f"`voxtier render tank_army_{big}.json --mode near --near-backend vulkan --frames 0:23 --csv`, "
               "as the memory policy places the buffers (direct: written through the BAR where the device offers "
