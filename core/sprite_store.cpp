@@ -148,8 +148,20 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                 const bool entityChanged =
                     !constantsKept || !(keys_[i] == key) || constants_[i].skipEmpty != skipEmpty;
                 if (entityChanged) {
+                    // An animation step alone (the same entity, another frame of the same size)
+                    // leaves the pose and the face lights as they are: both depend on the frame
+                    // only through its size. An animated crowd steps every entity a few times a
+                    // second; each step recomputed both (a rotation matrix, six light factors).
+                    SpriteConstants& k = constants_[i];
+                    EntityKey stepped = keys_[i];
+                    stepped.frame = frame;
+                    if (constantsKept && stepped == key && model.frame(frame).dims() == k.dims) {
+                        k.frame = frame;
+                        k.skipEmpty = skipEmpty;
+                    } else {
+                        k = spriteConstants(e, model, frame, scene.render, scene.light);
+                    }
                     keys_[i] = key;
-                    constants_[i] = spriteConstants(e, model, frame, scene.render, scene.light);
                     ++c.entitiesChanged;
                 }
                 if (entityChanged) changedAt_[i] = now;

@@ -3,6 +3,7 @@
 // still camera, the entities that stepped to another animation frame or moved, everything when
 // the camera or the light moves. A frame's share of the sprites stays as it was.
 #include "core/model_view.hpp"
+#include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
 #include "core/sprite_store.hpp"
 #include "source_tree.hpp"
@@ -116,6 +117,42 @@ TEST(SpriteStore, AShareOfTheSpritesKeepsItsFrame) {
     ASSERT_EQ(kept.size(), fresh.size());
     for (std::size_t i = 0; i < fresh.size(); ++i) ASSERT_TRUE(sameSprite(kept[i], fresh[i]));
     expectFresh(store, s, second, later);
+}
+
+// An animation step keeps the entity's pose and face lights only where the new frame has the old
+// one's size: the default anchor is the frame's bottom centre, so a step to a frame of another
+// size moves the model. Frames 0 and 1 are 4x4x4, frame 2 is 6x4x2; entities step at 3 frames a
+// second from different start frames, one with an anchor of its own, one also moving.
+TEST(SpriteStore, AnAnimationStepKeepsThePoseOnlyBetweenFramesOfOneSize) {
+    VoxelGrid a({4, 4, 4}), b({4, 4, 4}), c({6, 4, 2});
+    for (auto& x : a.data()) x = 1;
+    for (std::size_t k = 0; k < b.data().size(); k += 2) b.data()[k] = 2;
+    for (auto& x : c.data()) x = 3;
+    auto model =
+        std::make_shared<VoxelModel>("steps", proceduralPalette(), std::vector<VoxelGrid>{a, b, c});
+    Scene s = sceneForModel(model, test::viewToward({1, 2, 3}, 2.0, 96, 64));
+    const Entity base = s.entities.at(0);
+    s.entities.clear();
+    for (int k = 0; k < 6; ++k) {
+        Entity e = base;
+        e.frame = k % 3;
+        e.fps = 3.0;
+        e.position += glm::dvec3(0.3 * k, 0.0, -0.2 * k);
+        e.rotation = glm::angleAxis(0.4 * k, glm::dvec3(0.0, 1.0, 0.0));
+        if (k == 4) e.anchor = glm::dvec3(1.0, 2.0, 0.5);
+        s.entities.push_back(e);
+    }
+    const CameraFrame cam = makeCameraFrame(s.cameraAt(0.0));
+    SpriteStore store;
+    store.update(s, cam, 0.0);
+    expectFresh(store, s, cam, 0.0);
+    for (int step = 1; step <= 7; ++step) {
+        const double t = step / 3.0 + 0.01; // one frame on for every entity
+        s.entities[5].position.x += 0.125;  // a move and a step at once
+        const SpriteStore::Update u = store.update(s, cam, t);
+        EXPECT_EQ(u.entitiesChanged, 6) << "every entity stepped at t " << t;
+        expectFresh(store, s, cam, t);
+    }
 }
 
 // An edit that changes whether a model's rays skip empty space (SpriteGpu::skipEmpty, from the
