@@ -1,6 +1,7 @@
 // The snapshot cache (CONTRACT.md §4): lazy, shared by every entity of a model, one bake under
 // concurrent requests, LRU eviction within a byte budget, a model edit (version bump) misses.
 #include "core/procedural.hpp"
+#include "core/splitmix64.hpp"
 #include "far_test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -8,7 +9,9 @@
 
 #include <algorithm>
 #include <atomic>
+#include <map>
 #include <set>
+#include <tuple>
 
 namespace voxtier {
 namespace {
@@ -205,6 +208,57 @@ TEST(SnapshotCache, OneSnapshotServesEverySetHoldingItsDirection) {
                   std::find(viewLatticePoints(ViewSet::Cube26).begin(),
                             viewLatticePoints(ViewSet::Cube26).end(), glm::ivec3(1, 1, 0)) -
                   viewLatticePoints(ViewSet::Cube26).begin())]);
+}
+
+// A frame's far batch holds each distinct snapshot its requests show once, in the order the
+// requests first show them, and each drawn instance points at its own: two models at all 98
+// views (the batch's table of snapshots grows several times), each asked for three times in a
+// shuffled order, and a culled sprite's requests, which draw nothing.
+TEST(FarBatch, EachDistinctSnapshotOnceInTheOrderFirstShown) {
+    Scene s = test::hundredEntityWall(makeSphere(4), -20.0);
+    s.models.push_back(test::arrowThenSphere());
+    s.entities[1].model = 1;
+    s.entities[1].frame = 1;
+    s.entities[2].position.z = 20.0; // behind the camera
+    const CameraFrame cam = makeCameraFrame(s.camera);
+    const std::vector<SpriteSetup> sprites = setupSprites(s, cam, 0.0);
+    ASSERT_TRUE(sprites[0].visible() && sprites[1].visible());
+    ASSERT_FALSE(sprites[2].visible());
+    std::vector<FarRequest> requests;
+    for (int round = 0; round < 3; ++round)
+        for (int v = 0; v < 98; ++v)
+            for (int e : {0, 1, 2}) requests.push_back({&sprites[e], viewIdOf(ViewSet::Cube98, v)});
+    SplitMix64 rng{47};
+    for (std::size_t k = requests.size() - 1; k > 0; --k)
+        std::swap(requests[k], requests[std::size_t(rng.next() % (k + 1))]);
+
+    SnapshotCache cache;
+    const FarBatch batch = prepareFarBatch(s.models, requests, cache, ViewSet::Cube98);
+    ASSERT_EQ(batch.snapshots.size(), 2u * 98u);
+    ASSERT_EQ(batch.instances.size(), 2u * 3u * 98u);
+    std::map<std::pair<const SpriteSetup*, glm::ivec3>, std::uint32_t,
+             bool (*)(const std::pair<const SpriteSetup*, glm::ivec3>&,
+                      const std::pair<const SpriteSetup*, glm::ivec3>&)>
+        firstShown([](const auto& a, const auto& b) {
+            return std::tie(a.first, a.second.x, a.second.y, a.second.z) <
+                   std::tie(b.first, b.second.x, b.second.y, b.second.z);
+        });
+    std::size_t drawn = 0;
+    for (const FarRequest& r : requests) {
+        if (!r.sprite->visible()) continue;
+        const FarInstance& f = batch.instances.at(drawn++);
+        ASSERT_EQ(f.sprite, r.sprite);
+        const auto [it, added] =
+            firstShown.try_emplace({r.sprite, r.view->lattice}, std::uint32_t(firstShown.size()));
+        ASSERT_EQ(f.snapshot, it->second) << "request " << drawn - 1;
+        const SpriteSetup& sp = *r.sprite;
+        EXPECT_EQ(batch.snapshots[f.snapshot].owner.get(),
+                  cache
+                      .get(*s.models[std::size_t(sp.model)], sp.frame, *r.view,
+                           sp.lattice.sigma * cache.snapshotScale())
+                      .get());
+    }
+    EXPECT_EQ(firstShown.size(), batch.snapshots.size());
 }
 
 } // namespace
