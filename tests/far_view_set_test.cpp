@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <set>
 
 namespace voxtier {
@@ -60,6 +62,54 @@ TEST(ViewSets, NearestViewOfAViewIsItselfAndOfANeighbourhoodToo) {
             EXPECT_EQ(nearestView(set, nudged), i);
         }
     }
+}
+
+// nearestView compares only the views in the direction's octant where it can (core/view_set.cpp):
+// the same index as comparing every view, the first of equal dots included, over random
+// directions of any length, directions with components exactly 0, tiny, subnormal or of either
+// zero's sign, ties between views (the diagonals, the edges), every view and its neighbours,
+// and the zero, infinite and NaN vectors.
+TEST(ViewSets, NearestViewEqualsComparingEveryView) {
+    const auto everyView = [](ViewSet set, glm::dvec3 t) {
+        const auto& dirs = viewDirections(set);
+        int best = 0;
+        double bestDot = glm::dot(dirs[0], t);
+        for (int i = 1; i < int(dirs.size()); ++i) {
+            const double d = glm::dot(dirs[std::size_t(i)], t);
+            if (d > bestDot) bestDot = d, best = i;
+        }
+        return best;
+    };
+    std::vector<glm::dvec3> ts;
+    std::uint64_t state = 12345;
+    const auto uniform = [&] { // xorshift64*, in [-1, 1)
+        state ^= state >> 12, state ^= state << 25, state ^= state >> 27;
+        return double((state * 2685821657736338717ull) >> 11) * 0x1p-52 - 1.0;
+    };
+    for (int k = 0; k < 200000; ++k) {
+        const glm::dvec3 r{uniform(), uniform(), uniform()};
+        ts.push_back(r);
+        ts.push_back(r * 1e-150);
+        ts.push_back(r * 1e150);
+    }
+    const double specials[] = {0.0,   -0.0,  1e-300, -1e-300, 4.9e-324, 1e-17, -1e-12,
+                               1e-10, -1e-9, 1e-8,   0.5,     -1.0,     1.0};
+    for (double a : specials)
+        for (double b : specials)
+            for (double c : {0.0, -0.0, 1.0, -1.0, 1e-9, 0.7071067811865476})
+                ts.push_back({a, b, c}), ts.push_back({c, a, b}), ts.push_back({b, c, a});
+    for (ViewSet set : {ViewSet::Cube26, ViewSet::Cube98, ViewSet::Cube218})
+        for (const glm::dvec3 w : viewDirections(set))
+            for (double e : {0.0, 1e-15, 1e-9, 1e-3})
+                for (const glm::dvec3 n : {glm::dvec3(e, -e, e), glm::dvec3(-e, 2 * e, e)})
+                    ts.push_back(w + n), ts.push_back((w + n) * 3.0);
+    const double inf = std::numeric_limits<double>::infinity();
+    ts.push_back({inf, 1.0, 0.5}), ts.push_back({-inf, inf, 1.0});
+    ts.push_back({std::nan(""), 1.0, 1.0}), ts.push_back({0.0, 0.0, 0.0});
+    for (ViewSet set : {ViewSet::Cube26, ViewSet::Cube98, ViewSet::Cube218})
+        for (const glm::dvec3 t : ts)
+            ASSERT_EQ(nearestView(set, t), everyView(set, t))
+                << viewCount(set) << " views, t = (" << t.x << ", " << t.y << ", " << t.z << ")";
 }
 
 // CONTRACT.md §4: worst gap to the nearest of the 26 is about 27.5 degrees, mean about 15.5; the
