@@ -40,6 +40,12 @@ grep -q "Frame 23, coarse against fine: identical." "$work/out/report.md" ||
     fail "the far pass's coarse and fine tiles were not found identical"
 grep -q "^far_tiles,tank_army_80,hybrid_gpu_far fine gpu_far_ms,[0-9.]*[1-9][0-9.]*,ms" "$work/out/results.csv" ||
     fail "results.csv lacks a timed fine far pass"
+for c in host_setup_ms host_select_ms far_ms; do
+    grep -q "^far_tiles,tank_army_80,hybrid_gpu_far coarse $c,[0-9.]*[1-9][0-9.]*,ms" "$work/out/results.csv" ||
+        fail "results.csv lacks the far-tiles render's $c"
+done
+grep -q "| tiles | frames | frame in flight | set-up | select | far tier | of which lookups and bakes" \
+    "$work/out/report.md" || fail "the far-tiles table lacks the frame's host parts"
 grep -q "Frame 23, direct against staged: identical." "$work/out/report.md" ||
     fail "direct writes and staged uploads were not found identical"
 grep -q "^placement,tank_army_80,near_vulkan staged host_record_sprites_ms,[0-9.]*[1-9][0-9.]*,ms" \
