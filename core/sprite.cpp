@@ -271,6 +271,14 @@ void markCulled(SpriteSetup& S, CullReason why) {
     S.gpu = kernel::SpriteGpu{};
 }
 
+void restepSprite(SpriteSetup& S, const SpriteConstants& constants) {
+    S.frame = constants.frame;
+    // The record is filled past the culling before the lattice: visible, or culled only by the
+    // rectangle (setScreenRect comes last).
+    if (S.cull == CullReason::None || S.cull == CullReason::OffScreen)
+        S.gpu.skipEmpty = constants.skipEmpty;
+}
+
 void setScreenRect(SpriteSetup& S, glm::dvec2 lo, glm::dvec2 hi, const CameraFrame& cam) {
     if (hi.x >= lo.x) {
         // Clamp in double first: a huge quad must not overflow the int conversion.

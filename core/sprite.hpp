@@ -156,6 +156,12 @@ CullReason cullBeforeLattice(glm::dvec3 eyeVoxel, glm::ivec3 dims, double sigma,
                              double radiusPx, double zNear);
 /// A culled sprite's lattice, rectangle and GPU record: the defaults a fresh SpriteSetup holds.
 void markCulled(SpriteSetup& sprite, CullReason why);
+/// A sprite that setupSpriteInto set up from `constants` as they were but for their frame and
+/// skip rule (SpriteConstants::frame, skipEmpty), brought to them in place: the only fields that
+/// depend on either are the sprite's frame and its GPU record's skipEmpty, which a sprite culled
+/// before its lattice leaves at the default (markCulled). What an animation step to a frame of
+/// the same size changes (SpriteStore: two fields, where a set-up writes 640 bytes).
+void restepSprite(SpriteSetup& sprite, const SpriteConstants& constants);
 /// §3.10: the screen rectangle from the pixel bounds [lo, hi] of the proxy quad's part beyond
 /// zNear (hi.x < lo.x: no such part), one pixel of margin, clamped to the image; OffScreen where
 /// it is empty.

@@ -66,8 +66,10 @@ void SpriteStore::clear() {
     arrays_.clear();
     current_ = 0;
     changedAt_.clear();
+    posedAt_.clear();
     allChangedAt_ = 0;
     changed_.clear();
+    reposed_.clear();
     visible_.clear();
     visibleIds_.writable().clear();
     valid_ = false;
@@ -82,7 +84,9 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
         keys_.assign(n, EntityKey{});
         constants_.resize(n);
         changedAt_.assign(n, 0);
+        posedAt_.assign(n, 0);
         changed_.resize(n);
+        reposed_.resize(n);
         visible_.resize(n);
         valid_ = false;
     }
@@ -148,10 +152,11 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                 const bool entityChanged =
                     !constantsKept || !(keys_[i] == key) || constants_[i].skipEmpty != skipEmpty;
                 if (entityChanged) {
-                    // An animation step alone (the same entity, another frame of the same size)
-                    // leaves the pose and the face lights as they are: both depend on the frame
-                    // only through its size. An animated crowd steps every entity a few times a
-                    // second; each step recomputed both (a rotation matrix, six light factors).
+                    // An animation step alone (the same entity, another frame of the same size),
+                    // or a new answer of the skip rule, leaves the pose and the face lights as
+                    // they are: both depend on the frame only through its size. An animated crowd
+                    // steps every entity a few times a second; each step recomputed both (a
+                    // rotation matrix, six light factors) and set the whole sprite up again.
                     SpriteConstants& k = constants_[i];
                     EntityKey stepped = keys_[i];
                     stepped.frame = frame;
@@ -160,14 +165,20 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                         k.skipEmpty = skipEmpty;
                     } else {
                         k = spriteConstants(e, model, frame, scene.render, scene.light);
+                        posedAt_[i] = now;
                     }
                     keys_[i] = key;
+                    changedAt_[i] = now;
                     ++c.entitiesChanged;
                 }
-                if (entityChanged) changedAt_[i] = now;
-                // This array is as of update asOf: set up again what changed since.
+                // This array is as of update asOf: set up again what changed since. A sprite whose
+                // pose and camera are as they were then changed only its frame and skip rule:
+                // those two fields (with a still camera, the animated crowd's steps, and their
+                // copies into the arrays that frames in flight held, cost 64 MB each at 100,000).
                 if (std::max(changedAt_[i], allChangedAt_) > asOf) {
-                    if (copyFrom && changedAt_[i] < now) {
+                    if (std::max(posedAt_[i], allChangedAt_) <= asOf) {
+                        restepSprite(sprites[i], constants_[i]);
+                    } else if (copyFrom && changedAt_[i] < now) {
                         sprites[i] = (*copyFrom)[i];
                     } else {
                         jobs[queued++] = {&sprites[i], &constants_[i], std::uint32_t(i)};
@@ -177,6 +188,7 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                 const bool recompute = entityChanged || !spritesKept;
                 c.recomputed += recompute;
                 changed_[i] = recompute;
+                reposed_[i] = !spritesKept || (entityChanged && posedAt_[i] == now);
             }
             setUpQueued();
             for (std::size_t i = range.begin(); i != range.end(); ++i) {

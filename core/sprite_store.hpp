@@ -57,6 +57,11 @@ class SpriteStore {
     /// Per entity id: 1 where the last update set the sprite up afresh, 0 where it is the one
     /// before (what a consumer that mirrors the sprites elsewhere has to refresh).
     std::span<const std::uint8_t> changed() const { return changed_; }
+    /// Per entity id: 1 where the last update changed the sprite in more than its animation frame
+    /// and skip rule (restepSprite), 0 where only those or nothing changed: what a consumer that
+    /// reads neither has to refresh (the frame planner: a still crowd's animation step changes
+    /// every sprite and no plan).
+    std::span<const std::uint8_t> reposed() const { return reposed_; }
 
   private:
     /// What a sprite's constants depend on, besides the light and the render parameters.
@@ -89,8 +94,12 @@ class SpriteStore {
     /// Per entity, the update that last changed its sprite; every sprite's, for the camera,
     /// sigma, view mode, light or entity count.
     std::vector<std::uint64_t> changedAt_;
+    /// Per entity, the update that last changed more of it than its animation frame and skip rule
+    /// (its pose, size or light): a sprite set up since, and since the camera last moved, needs
+    /// only those two fields brought up to date (restepSprite).
+    std::vector<std::uint64_t> posedAt_;
     std::uint64_t allChangedAt_ = 0;
-    std::vector<std::uint8_t> changed_, visible_;
+    std::vector<std::uint8_t> changed_, reposed_, visible_;
     SharedVectorOwner<std::uint32_t> visibleIds_;
     /// What every sprite of the last update was set up with.
     bool valid_ = false;

@@ -155,6 +155,54 @@ TEST(SpriteStore, AnAnimationStepKeepsThePoseOnlyBetweenFramesOfOneSize) {
     }
 }
 
+// With a still camera an animation step changes only a sprite's frame and its record's skip rule
+// (restepSprite); the store brings those two fields up to date in the array it writes, whatever
+// update that array is as of, while frames in flight hold the newer ones. Frame 0 is a solid
+// 64^3 box (its rays do not skip), frame 1 the same size with most bricks empty (they skip);
+// entities visible, off the screen but in front (their records are filled), behind the camera
+// and too far to cover half a pixel (both culled before the lattice), stepping at different rates.
+TEST(SpriteStore, StepsUnderAStillCameraWithFramesInFlightEqualAFreshSetUp) {
+    VoxelGrid solid({64, 64, 64}), shell({64, 64, 64});
+    for (auto& x : solid.data()) x = 1;
+    for (int z = 0; z < 64; ++z)
+        for (int y = 0; y < 64; ++y) shell.set({0, y, z}, 2);
+    auto model = std::make_shared<VoxelModel>("skips", proceduralPalette(),
+                                              std::vector<VoxelGrid>{solid, shell});
+    ASSERT_NE(model->bricks(0).worthSkipping(), model->bricks(1).worthSkipping());
+    Scene s = sceneForModel(model, test::viewToward({1, 2, 3}, 1.0, 96, 64));
+    const Entity base = s.entities.at(0);
+    const CameraFrame cam = makeCameraFrame(s.cameraAt(0.0));
+    s.entities.clear();
+    for (int k = 0; k < 12; ++k) {
+        Entity e = base;
+        e.frame = k % 2;
+        e.fps = 1.0 + k % 3;                               // steps at 1, 2 and 3 frames a second
+        if (k % 4 == 1) e.position += 40.0 * cam.right;    // in front, off the screen
+        if (k % 4 == 2) e.position -= 200.0 * cam.forward; // behind the camera
+        if (k % 4 == 3) e.position += 1e5 * cam.forward;   // below half a pixel
+        s.entities.push_back(e);
+    }
+    SpriteStore store;
+    std::vector<SharedVector<SpriteSetup>> inFlight(2);
+    bool offScreen = false, behind = false, subPixel = false, skips = false, solidSeen = false;
+    for (int f = 0; f < 14; ++f) {
+        const double t = f / 6.0;
+        store.update(s, cam, t);
+        expectFresh(store, s, cam, t);
+        inFlight[std::size_t(f) % 2] =
+            store.shareSprites(); // two frames held, as a path render does
+        for (const SpriteSetup& sp : store.sprites()) {
+            offScreen = offScreen || sp.cull == CullReason::OffScreen;
+            behind = behind || sp.cull == CullReason::BehindCamera;
+            subPixel = subPixel || sp.cull == CullReason::SubPixel;
+            skips = skips || (sp.visible() && sp.gpu.skipEmpty == 1u);
+            solidSeen = solidSeen || (sp.visible() && sp.gpu.skipEmpty == 0u);
+        }
+    }
+    EXPECT_TRUE(offScreen && behind && subPixel && skips && solidSeen)
+        << "the scene shows every case: off the screen, behind, too small, skipping and not";
+}
+
 // An edit that changes whether a model's rays skip empty space (SpriteGpu::skipEmpty, from the
 // frame's brick occupancy) sets its entities up afresh, camera and entities still; an edit that
 // leaves the answer as it was sets nothing up.
