@@ -436,7 +436,7 @@ SharedVector<EntityPlan> FrameRenderer::planEntities(RenderMode mode, FrameStats
     PlanStats ps;
     SharedVector<EntityPlan> plan =
         planner_.plan(sprites_.sprites(), sprites_.visibleIds(), scene_.selector, settings, ps,
-                      sprites_.changed());
+                      sprites_.reposed());
     st.plan = ps;
     return plan;
 }

@@ -112,8 +112,9 @@ class FramePlanner {
     /// steps run in parallel, into arrays the planner keeps: a frame allocates nothing once the
     /// entity count is known. The result stays as it is when later frames are planned.
     /// `changed` (optional) marks per entity id the sprites that differ from those of this
-    /// planner's previous call (SpriteStore::changed): given it, a frame that follows a planned
-    /// frame of the same mode and config plans only those entities and the ones inside a
+    /// planner's previous call in what a plan reads, which is all but their animation frame and
+    /// skip rule (SpriteStore::reposed; SpriteStore::changed too): given it, a frame that follows a
+    /// planned frame of the same mode and config plans only those entities and the ones inside a
     /// cross-fade, and keeps every other entity's plan (the same plan a whole frame gives).
     SharedVector<EntityPlan> plan(std::span<const SpriteSetup> sprites,
                                   std::span<const std::uint32_t> visible,

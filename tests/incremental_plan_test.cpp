@@ -1,9 +1,10 @@
-// Planning what changed (FramePlanner::plan with SpriteStore::changed): along a sequence of
-// frames in which a few entities move, animated ones step to other frames, the camera now and
-// then moves and cross-fades run, a planner told what changed gives the plan and the figures of
-// a planner that plans every entity every frame, while planning only the changed and fading
-// entities on a still camera. A frame of another mode or config, or one the selector did not
-// see, makes the next frame plan everything again.
+// Planning what changed (FramePlanner::plan with SpriteStore::reposed, as FrameRenderer plans):
+// along a sequence of frames in which a few entities move, animated ones step to other frames,
+// the camera now and then moves and cross-fades run, a planner told what changed gives the plan
+// and the figures of a planner that plans every entity every frame, while planning only the
+// moved and fading entities on a still camera: an animation step alone changes a sprite's frame
+// and skip rule, which no plan reads. A frame of another mode or config, or one the selector did
+// not see, makes the next frame plan everything again.
 #include "core/scene_loader.hpp"
 #include "core/sprite_store.hpp"
 #include "lod/frame_planner.hpp"
@@ -32,8 +33,10 @@ struct Step {
 };
 
 /// Runs `steps` through two planners on the same sprites: `told` is given the store's changes,
-/// `whole` plans every entity. Returns the entities `told` planned, frame by frame.
-std::vector<int> compare(Scene s, const std::vector<Step>& steps) {
+/// `whole` plans every entity. Returns the entities `told` planned, frame by frame; `steppedOnly`
+/// (optional) gets, frame by frame, the sprites that changed only by an animation step.
+std::vector<int> compare(Scene s, const std::vector<Step>& steps,
+                         std::vector<int>* steppedOnly = nullptr) {
     SpriteStore store;
     FramePlanner told(s.selector), whole(s.selector);
     std::mt19937 rng(7);
@@ -51,7 +54,11 @@ std::vector<int> compare(Scene s, const std::vector<Step>& steps) {
         settings.mode = steps[f].mode;
         PlanStats a, b;
         const SharedVector<EntityPlan> pa = told.plan(store.sprites(), store.visibleIds(),
-                                                      s.selector, settings, a, store.changed());
+                                                      s.selector, settings, a, store.reposed());
+        int stepped = 0;
+        for (std::size_t i = 0; i < s.entities.size(); ++i)
+            stepped += store.changed()[i] && !store.reposed()[i];
+        if (steppedOnly) steppedOnly->push_back(stepped);
         const SharedVector<EntityPlan> pb =
             whole.plan(store.sprites(), store.visibleIds(), s.selector, settings, b);
         EXPECT_EQ(b.planned, steps[f].mode == PlanMode::AllNear ? 0 : int(s.entities.size()));
@@ -74,12 +81,16 @@ std::vector<Step> hybridSteps(int frames) {
 }
 
 TEST(IncrementalPlan, HybridDistanceFramesEqualWholePlansAndPlanOnlyWhatChanged) {
-    const std::vector<int> planned = compare(crowd(SelectorMetric::Distance), hybridSteps(48));
+    std::vector<int> steppedOnly;
+    const std::vector<int> planned =
+        compare(crowd(SelectorMetric::Distance), hybridSteps(48), &steppedOnly);
     EXPECT_EQ(planned[0], 800) << "the first frame plans everything";
     EXPECT_EQ(planned[12], 800) << "a moved camera changes every sprite";
-    int fewest = 800;
+    int fewest = 800, stepped = 0;
     for (std::size_t f = 1; f < 12; ++f) fewest = std::min(fewest, planned[f]);
-    EXPECT_LT(fewest, 100) << "a still camera plans the moved, animated and fading entities";
+    for (std::size_t f = 1; f < planned.size(); ++f) stepped += f % 12 ? steppedOnly[f] : 0;
+    EXPECT_LT(fewest, 100) << "a still camera plans the moved and fading entities";
+    EXPECT_GT(stepped, 0) << "animated entities stepped on still-camera frames, unplanned";
 }
 
 TEST(IncrementalPlan, ErrorPxViewsAndAllFarFramesEqualWholePlans) {
