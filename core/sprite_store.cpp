@@ -109,8 +109,9 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
     // An array a few updates old (frames in flight held the newer ones) takes the sprites that
     // changed since its stamp from the last update's array, where they are already set up as
     // they are now: those of entities this update leaves as they were, when nothing else changed
-    // this update. A copy of 640 bytes in place of a set-up (with a still camera and an animated
-    // crowd, every step of the animation was set up once per array kept).
+    // this update. A copy of 640 bytes in place of a set-up (with a still camera and a moving
+    // entity, it was set up once per array kept); an animation step alone is cheaper still
+    // (restepSprite, below).
     const std::vector<SpriteSetup>* copyFrom = last && last != into.array.get() &&
                                                        lastAsOf + 1 == now && allChangedAt_ < now &&
                                                        last->size() == n

@@ -1,12 +1,14 @@
 #pragma once
 // The frame's sprites, kept from one frame to the next (the set-up step of the frame recipe).
 // A frame asks for every entity's SpriteSetup; most of it does not change between frames:
-// the entity's pose and face lights change only when the entity moves, turns or steps to another
-// animation frame (or the light changes), and nothing of a sprite changes while neither its
-// entity nor the camera does. So the store keeps, per entity, what set-up derives from the entity
-// alone (SpriteConstants) and the sprite itself, and an update recomputes only what changed:
-// the constants of the entities that changed, and the sprites of those entities, or of every
-// entity when the camera moved. The arrays grow with the entity count and are reused: an update
+// the entity's pose and face lights change only when the entity moves, turns or steps to an
+// animation frame of another size (or the light changes), and nothing of a sprite changes while
+// neither its entity nor the camera does. So the store keeps, per entity, what set-up derives from
+// the entity alone (SpriteConstants) and the sprite itself, and an update recomputes only what
+// changed: the constants of the entities that changed, and the sprites of those entities, or of
+// every entity when the camera moved. An animation step to a frame of the same size, or a new
+// answer of the skip rule, changes two fields of a sprite, and only those are written
+// (restepSprite). The arrays grow with the entity count and are reused: an update
 // allocates nothing once the scene's entities are known, and runs in parallel (TBB).
 //
 // A frame's result shares the sprites it drew (shareSprites), and a path render keeps frames in
