@@ -59,7 +59,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         }
         nearest_[i] = nearestView(set, towardViewer(s));
         const glm::dvec3 w = views[std::size_t(nearest_[i])];
-        inputs_[i].viewAngleRad = std::acos(std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0));
+        inputs_[i].viewCos = std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0);
     };
     // At most 128 entities a task: a few thousand still spread over 16 cores.
     const auto forEach = [&](auto&& f) {

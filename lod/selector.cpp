@@ -22,7 +22,7 @@ double selectorMetric(SelectorMetric metric, const SelectorInput& in) {
     case SelectorMetric::RadiusPx:
         return in.radiusPx;
     case SelectorMetric::ErrorPx:
-        return in.radiusPx * std::sin(in.viewAngleRad);
+        return in.radiusPx * std::sin(std::acos(in.viewCos));
     case SelectorMetric::ErrorBudget:
         return in.budgetShare;
     }
@@ -36,12 +36,33 @@ void TierSelector::reset() {
     initialised_ = false;
 }
 
-bool TierSelector::pastFar(double m) const {
-    return config_.metric == SelectorMetric::Distance ? m > config_.farAt : m < config_.farAt;
+int metricSideFast(const SelectorInput& in, double threshold) {
+    const double c = in.viewCos, r = in.radiusPx;
+    // Outside these ranges the bound's premises fail (1 - c inexact, theta * cot(theta) > 1, a
+    // subnormal or overflowing product): the IEEE value decides.
+    if (!(c >= 0.5 && c <= 1.0) || !(r >= 1e-200 && r <= 1e200) ||
+        !(threshold > 0.0 && threshold <= 1e200))
+        return 0;
+    const double bound = r * std::sqrt((1.0 - c) * (1.0 + c));
+    const double slack = kErrorPxSlack * threshold;
+    return bound > threshold + slack ? 1 : bound < threshold - slack ? -1 : 0;
 }
 
-bool TierSelector::pastNear(double m) const {
-    return config_.metric == SelectorMetric::Distance ? m < config_.nearAt : m > config_.nearAt;
+int metricSide(SelectorMetric metric, const SelectorInput& in, double threshold) {
+    if (metric == SelectorMetric::ErrorPx)
+        if (const int side = metricSideFast(in, threshold)) return side;
+    const double m = selectorMetric(metric, in);
+    return m > threshold ? 1 : m < threshold ? -1 : 0; // a NaN metric is past no threshold
+}
+
+bool TierSelector::pastFar(const SelectorInput& in) const {
+    const int side = metricSide(config_.metric, in, config_.farAt);
+    return config_.metric == SelectorMetric::Distance ? side > 0 : side < 0;
+}
+
+bool TierSelector::pastNear(const SelectorInput& in) const {
+    const int side = metricSide(config_.metric, in, config_.nearAt);
+    return config_.metric == SelectorMetric::Distance ? side < 0 : side > 0;
 }
 
 namespace {
@@ -59,17 +80,18 @@ SelectorStats add(SelectorStats a, const SelectorStats& b) {
 
 void TierSelector::step(std::size_t i, const SelectorInput& in, bool first, SelectorStats& st) {
     State& s = state_[i];
-    const double m = selectorMetric(config_.metric, in);
+    // One comparison an entity (its tier decides which): error_px's rarely needs the metric's
+    // IEEE value (metricSideFast).
     if (first) {
         // The first frame assigns tiers without counting switches.
-        s.tier = pastFar(m) ? Tier::Far : Tier::Near;
+        s.tier = pastFar(in) ? Tier::Far : Tier::Near;
     } else {
         if (s.fadeLeft > 0) --s.fadeLeft;
         const Tier before = s.tier;
-        if (s.tier == Tier::Near && pastFar(m)) {
+        if (s.tier == Tier::Near && pastFar(in)) {
             s.tier = Tier::Far;
             ++st.switchesToFar;
-        } else if (s.tier == Tier::Far && pastNear(m)) {
+        } else if (s.tier == Tier::Far && pastNear(in)) {
             s.tier = Tier::Near;
             s.view = -1; // a later return to far starts from the nearest view again
             ++st.switchesToNear;

@@ -21,16 +21,33 @@ const char* toString(Tier t);
 struct SelectorInput {
     double distance = 0.0; ///< metres, eye to model centre
     double radiusPx = 0.0; ///< projected bounding-sphere radius in pixels
-    double viewAngleRad =
-        0.0; ///< angle from the entity's view direction to the nearest snapshot view
+    /// Cosine of the angle theta from the entity's view direction to the nearest snapshot view,
+    /// in [-1, 1]: error_px's theta is std::acos of it. The cosine, not the angle, since most
+    /// entities' comparisons are decided without it (TierSelector::step).
+    double viewCos = 1.0;
     /// ErrorBudget: the predicted far displacement from the best view allowed, over the budget
     /// (lod/error_budget.hpp computes it; the selector only compares it).
     double budgetShare = 0.0;
 };
 
 /// The value compared against near_at / far_at for `metric`.
-/// ErrorPx is the predicted view-quantisation error r_px * sin(theta) (CONTRACT.md §5).
+/// ErrorPx is the predicted view-quantisation error r_px * sin(theta) (CONTRACT.md §5), with
+/// theta = std::acos(viewCos).
 double selectorMetric(SelectorMetric metric, const SelectorInput& in);
+
+/// Where selectorMetric(metric, in) lies against `threshold`: -1 below it, 0 equal, +1 above,
+/// always the sign of the IEEE value's difference. Under error_px it is found, where it can be,
+/// without computing that value (metricSideFast); elsewhere by computing it.
+int metricSide(SelectorMetric metric, const SelectorInput& in, double threshold);
+/// error_px's side of `threshold` where a bound decides it without std::acos and std::sin: for a
+/// cosine c in [0.5, 1] (the nearest of a view set's views is never 60 degrees away),
+/// r * sqrt((1 - c)(1 + c)) is r * sin(acos(c)) to within a few units in the last place of each
+/// rounding (1 - c is exact there, and theta * cot(theta) <= 1 carries acos's error through sin
+/// unenlarged). More than kErrorPxSlack (relative) from a positive, finite threshold, both values
+/// lie on the same side of it. -1 or +1 when decided, 0 when only the IEEE value can tell.
+int metricSideFast(const SelectorInput& in, double threshold);
+/// The decided region's relative distance from a threshold: ~10^6 times the bound above.
+inline constexpr double kErrorPxSlack = 1e-9;
 
 struct SelectorStats {
     int nearCount = 0, farCount = 0;
@@ -92,8 +109,10 @@ class TierSelector {
         int fadeLeft = 0; ///< frames of cross-fade still to show
         int view = -1;
     };
-    bool pastFar(double m) const;
-    bool pastNear(double m) const;
+    /// Whether the metric is past far_at (near_at) in the direction that sends an entity far
+    /// (near): strictly, so that a metric exactly at a threshold does not switch.
+    bool pastFar(const SelectorInput& in) const;
+    bool pastNear(const SelectorInput& in) const;
     /// One entity's frame (`first`: the tier from the metric alone, nothing counted).
     void step(std::size_t i, const SelectorInput& in, bool first, SelectorStats& st);
 

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <vector>
 
 namespace voxtier {
@@ -102,9 +103,115 @@ TEST(Hysteresis, PixelMetricsUseTheMirroredBand) {
 TEST(Metric, ErrorMetricIsRadiusTimesSineOfViewAngle) {
     SelectorInput in;
     in.radiusPx = 40;
-    in.viewAngleRad = glm::radians(30.0);
+    in.viewCos = std::cos(glm::radians(30.0));
     EXPECT_NEAR(selectorMetric(SelectorMetric::ErrorPx, in), 20.0, 1e-12);
     EXPECT_EQ(selectorMetric(SelectorMetric::RadiusPx, in), 40.0);
+}
+
+// The side of a threshold, written here from the IEEE value, as the selector compared before it
+// skipped std::acos and std::sin where a bound decides.
+int ieeeSide(const SelectorInput& in, double threshold) {
+    const double m = in.radiusPx * std::sin(std::acos(in.viewCos));
+    return m > threshold ? 1 : m < threshold ? -1 : 0;
+}
+
+// error_px's comparisons are the IEEE value's, bit for bit, on thresholds anywhere and at the
+// value itself, a unit in the last place or a few either side (where only the IEEE value can
+// tell); and far from the threshold the bound decides without it. With no slack in the bound,
+// the thresholds next to the value fail; deciding nothing fails the last count.
+TEST(Metric, ErrorPxSideEqualsTheIeeeComparison) {
+    std::mt19937_64 rng(35);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    int compared = 0, decidedFar = 0, farCases = 0;
+    const auto check = [&](const SelectorInput& in, double t) {
+        ++compared;
+        ASSERT_EQ(metricSide(SelectorMetric::ErrorPx, in, t), ieeeSide(in, t))
+            << "viewCos " << in.viewCos << " radiusPx " << in.radiusPx << " threshold " << t;
+    };
+    for (int k = 0; k < 200000; ++k) {
+        SelectorInput in;
+        // Cosines from -1 to 1, most between the nearest view's 0.5 and 1 and many next to 1
+        // (an entity looking almost along a view).
+        const double u = unit(rng);
+        in.viewCos = k % 4 == 0   ? 2.0 * u - 1.0
+                     : k % 4 == 1 ? 1.0 - std::ldexp(u, -int(unit(rng) * 60.0))
+                                  : 0.5 + 0.5 * u;
+        in.radiusPx = std::ldexp(0.5 + unit(rng), int(unit(rng) * 40.0) - 20);
+        const double m = in.radiusPx * std::sin(std::acos(in.viewCos));
+        double t = m;
+        for (int step = 0; step < 4; ++step) { // the value and three ulps up, then down
+            check(in, t);
+            t = std::nextafter(t, HUGE_VAL);
+        }
+        t = m;
+        for (int step = 0; step < 4; ++step) {
+            check(in, t);
+            t = std::nextafter(t, -HUGE_VAL);
+        }
+        for (const double rel : {1e-15, 1e-12, 1e-10, 2e-9, 1e-6, 0.01, 0.5})
+            for (const double sign : {-1.0, 1.0}) check(in, m * (1.0 + sign * rel));
+        if (in.viewCos >= 0.5 && m > 1e-150)
+            for (const double sign : {-1.0, 1.0}) {
+                ++farCases;
+                decidedFar += metricSideFast(in, m * (1.0 + sign * 1e-6)) == -int(sign);
+            }
+        if (::testing::Test::HasFatalFailure()) return;
+    }
+    // What the bound must leave to the IEEE value: cosines outside [0.5, 1], radii and
+    // thresholds that are not positive, finite and normal, NaNs.
+    const double nan = std::nan(""), inf = HUGE_VAL;
+    for (const double c : {-1.0, -0.0, 0.0, 0.25, std::nextafter(0.5, 0.0), 0.5, 1.0,
+                           std::nextafter(1.0, 0.0), inf, nan})
+        for (const double r : {0.0, 4.9e-324, 1e-300, 1e-200, 1.0, 40.0, 1e200, 1e300, inf, nan})
+            for (const double t : {-1.0, 0.0, 4.9e-324, 1e-250, 0.5, 1.0, 1e250, inf, nan}) {
+                SelectorInput in;
+                in.viewCos = c, in.radiusPx = r;
+                check(in, t);
+                if (::testing::Test::HasFatalFailure()) return;
+            }
+    EXPECT_GT(compared, 3000000);
+    EXPECT_EQ(decidedFar, farCases) << "a millionth from the threshold, the bound decides";
+}
+
+// The selector's tiers under error_px equal a selector written here from the IEEE metric, over
+// frames whose metrics sit on, a unit in the last place beside, and far from both thresholds.
+TEST(Metric, ErrorPxTiersEqualTheIeeeSelector) {
+    SelectorConfig c;
+    c.metric = SelectorMetric::ErrorPx;
+    c.nearAt = 1.0;
+    c.farAt = 0.5;
+    const int n = 4096;
+    TierSelector sel(c);
+    std::vector<Tier> expected(std::size_t(n), Tier::Near);
+    std::vector<SelectorInput> in{std::size_t(n)};
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (int frame = 0; frame < 24; ++frame) {
+        for (int i = 0; i < n; ++i) {
+            SelectorInput& e = in[std::size_t(i)];
+            e.viewCos = 0.5 + 0.5 * unit(rng);
+            const double sine = std::sin(std::acos(e.viewCos));
+            // A radius that puts the metric on a threshold (to the ulp), next to it, or anywhere.
+            const double t = (i + frame) % 2 ? c.nearAt : c.farAt;
+            const int kind = int(unit(rng) * 4.0);
+            e.radiusPx = kind == 3 ? unit(rng) * 4.0 / sine : t / sine;
+            if (kind == 1) e.radiusPx = std::nextafter(e.radiusPx, HUGE_VAL);
+            if (kind == 2) e.radiusPx = std::nextafter(e.radiusPx, 0.0);
+        }
+        sel.update(in);
+        for (int i = 0; i < n; ++i) {
+            const SelectorInput& e = in[std::size_t(i)];
+            const double m = e.radiusPx * std::sin(std::acos(e.viewCos));
+            Tier& t = expected[std::size_t(i)];
+            if (frame == 0)
+                t = m < c.farAt ? Tier::Far : Tier::Near;
+            else if (t == Tier::Near && m < c.farAt)
+                t = Tier::Far;
+            else if (t == Tier::Far && m > c.nearAt)
+                t = Tier::Near;
+            ASSERT_EQ(sel.tier(std::size_t(i)), t) << "entity " << i << " frame " << frame;
+        }
+    }
 }
 
 // View choice: without hysteresis the nearest view wins (switching exactly at the bisector);
