@@ -16,9 +16,8 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                                             const PlanSettings& settings, PlanStats& st,
                                             std::span<const std::uint8_t> changed) {
     const std::size_t n = sprites.size();
-    std::vector<EntityPlan>& plan = plan_.writable();
     if (settings.mode == PlanMode::AllNear) {
-        plan.assign(n, EntityPlan{});
+        plan_.fresh().assign(n, EntityPlan{});
         st.planned = 0;
         chained_ = false; // the selector does not see this frame: the next one starts afresh
         return plan_.share();
@@ -34,9 +33,12 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     // state, tier and view, are last frame's (TierSelector::settled). Not under the error
     // budget, whose views share a bake bound and depend on what the cache holds.
     const bool incremental = !budget && chained_ && changed.size() == n && selector_.size() == n &&
-                             plan.size() == n && settings.mode == lastMode_ &&
+                             plan_.read().size() == n && settings.mode == lastMode_ &&
                              config == lastConfig_;
     chained_ = true, lastMode_ = settings.mode, lastConfig_ = config;
+    // A frame that plans every entity reads nothing of the last plan: not copied, were a frame
+    // in flight still holding it.
+    std::vector<EntityPlan>& plan = incremental ? plan_.writable() : plan_.fresh();
     if (!incremental) plan.assign(n, EntityPlan{});
     predicted_.resize(n);
     work_.clear();
@@ -93,7 +95,9 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     // that plans a few entities updates only theirs; the frame's worst is over all of them.
     const auto predict = [&](std::size_t i) {
         const EntityPlan& p = plan[i];
-        predicted_[i] = sprites[i].visible() && p.drawsFar() && p.view
+        // The plan first: a far view is only ever given to a visible sprite, and the sprites
+        // drawn near (most of a hybrid frame) are then not read again.
+        predicted_[i] = p.drawsFar() && p.view && sprites[i].visible()
                             ? predictedBudgetUnits(sprites[i], *p.view)
                             : 0.0;
     };
