@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 
 namespace voxtier {
 
@@ -29,6 +30,16 @@ bool sameLight(const Light& a, const Light& b) {
 constexpr std::size_t kSpriteArrays = 3;
 
 } // namespace
+
+std::uint64_t SpriteStore::newStoreId() {
+    static std::atomic<std::uint64_t> last{0};
+    return ++last;
+}
+
+SpriteHistory SpriteStore::history() const {
+    if (arrays_.empty() || !valid_) return {};
+    return {id_, updates_, sprites(), changedAt_, posedAt_, allChangedAt_};
+}
 
 std::span<const SpriteSetup> SpriteStore::sprites() const {
     if (arrays_.empty()) return {};

@@ -26,12 +26,46 @@
 #include "core/shared_vector.hpp"
 #include "core/sprite.hpp"
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
 namespace voxtier {
+
+/// What a consumer that keeps something of the sprites between frames (the Vulkan near tier's
+/// records, its draw order) needs to tell which sprites are as they were: one update's array of
+/// one store, and per entity the updates that last changed its sprite (SpriteStore::history).
+/// A copy made from this array at update T is still current for an entity whose sprite changed
+/// at T or before.
+struct SpriteHistory {
+    std::uint64_t store = 0;              ///< which store: unique in the process (0: no history)
+    std::uint64_t now = 0;                ///< this update
+    std::span<const SpriteSetup> sprites; ///< this update's array, by entity id
+    /// Per entity id, the update that last changed its sprite in any field, and in more than its
+    /// animation frame and skip rule (its depth, rectangle, visibility...); allChangedAt: every
+    /// sprite's (the camera, the render parameters, the light, the entity count).
+    std::span<const std::uint64_t> changedAt, posedAt;
+    std::uint64_t allChangedAt = 0;
+
+    /// The entity whose sprite `s` is, when `s` points into `sprites` (not at a copy).
+    std::optional<std::uint32_t> entityOf(const SpriteSetup* s) const {
+        const auto at = reinterpret_cast<std::uintptr_t>(s),
+                   begin = reinterpret_cast<std::uintptr_t>(sprites.data());
+        if (store == 0 || at < begin || at >= begin + sprites.size_bytes()) return std::nullopt;
+        return std::uint32_t((at - begin) / sizeof(SpriteSetup));
+    }
+    /// The update that last changed any field of entity `e`'s sprite.
+    std::uint64_t spriteChangedAt(std::uint32_t e) const {
+        return std::max(changedAt[e], allChangedAt);
+    }
+    /// The update that last changed more of it than its animation frame and skip rule.
+    std::uint64_t spritePosedAt(std::uint32_t e) const {
+        return std::max(posedAt[e], allChangedAt);
+    }
+};
 
 class SpriteStore {
   public:
@@ -64,6 +98,15 @@ class SpriteStore {
     /// reads neither has to refresh (the frame planner: a still crowd's animation step changes
     /// every sprite and no plan).
     std::span<const std::uint8_t> reposed() const { return reposed_; }
+    /// The last update's sprites with the updates that changed each (SpriteHistory): valid until
+    /// the next update.
+    SpriteHistory history() const;
+
+    SpriteStore() = default;
+    /// Not copied or moved: a history names its store (SpriteHistory::store), and two stores
+    /// under one name would pass each other's sprites off as current.
+    SpriteStore(const SpriteStore&) = delete;
+    SpriteStore& operator=(const SpriteStore&) = delete;
 
   private:
     /// What a sprite's constants depend on, besides the light and the render parameters.
@@ -93,6 +136,9 @@ class SpriteStore {
     std::vector<Sprites> arrays_;
     std::size_t current_ = 0;
     std::uint64_t updates_ = 0; ///< updates so far: the stamp of the last one
+    /// Which store this is, for SpriteHistory (a copy takes a new one).
+    std::uint64_t id_ = newStoreId();
+    static std::uint64_t newStoreId();
     /// Per entity, the update that last changed its sprite; every sprite's, for the camera,
     /// sigma, view mode, light or entity count.
     std::vector<std::uint64_t> changedAt_;

@@ -225,5 +225,70 @@ TEST(SpriteStore, AnEditThatTurnsEmptySpaceSkippingSetsItsEntitiesUpAfresh) {
     expectFresh(store, s, cam, 0.0);
 }
 
+// A history's stamps say which sprites are as an earlier update left them, which is what a
+// consumer that keeps copies (the Vulkan near tier's records and draw order) relies on: at every
+// update, for every earlier update T with a copy kept, each entity whose sprite changed at T or
+// before has the copy's sprite bit for bit, and each one not set up anew since T the copy's but
+// for its animation frame and skip rule. Animation steps, moved entities, camera moves and a light
+// change, with frames in flight holding arrays; a copy's pointer is no entity's, and two stores
+// have two names. Stamps that lag a change fail the first check; a history whose posed stamps
+// were the animation steps' would pass it, and fails the count of kept sprites below.
+TEST(SpriteStore, AHistoryNamesTheSpritesThatChangedSinceAnyEarlierUpdate) {
+    Scene s = crowd();
+    s.path.reset(); // a still camera, but where the test moves it
+    SpriteStore store;
+    struct Copy {
+        std::uint64_t asOf = 0;
+        std::vector<SpriteSetup> sprites;
+    };
+    std::vector<Copy> copies;
+    std::vector<SharedVector<SpriteSetup>> inFlight;
+    std::size_t keptWhole = 0, keptPose = 0;
+    CameraFrame cam = makeCameraFrame(s.cameraAt(0.0));
+    for (int u = 0; u < 24; ++u) {
+        const double t = 0.25 * u; // the animated entities step at 2 frames a second
+        if (u == 7 || u == 15) s.entities[std::size_t(u) * 11].position.x += 0.3;
+        if (u == 10) {
+            s.camera.position += glm::dvec3(0.1, 0.0, 0.05);
+            cam = makeCameraFrame(s.cameraAt(t));
+        }
+        if (u == 19) s.light.direction = {0.3, 1.0, -0.2};
+        store.update(s, cam, t);
+        inFlight.push_back(store.shareSprites());
+        if (inFlight.size() > 2) inFlight.erase(inFlight.begin());
+        const SpriteHistory h = store.history();
+        ASSERT_NE(h.store, 0u);
+        ASSERT_EQ(h.sprites.data(), store.sprites().data());
+        for (const Copy& c : copies)
+            for (std::uint32_t e = 0; e < h.sprites.size(); ++e) {
+                const SpriteSetup& now = h.sprites[e];
+                const SpriteSetup& then = c.sprites[e];
+                if (h.spriteChangedAt(e) <= c.asOf) {
+                    ASSERT_TRUE(test::sameSprite(now, then))
+                        << "update " << u << " copy " << c.asOf;
+                    ++keptWhole;
+                }
+                if (h.spritePosedAt(e) <= c.asOf) {
+                    // Everything but the animation frame and the skip rule (restepSprite).
+                    SpriteSetup stepped = then;
+                    stepped.frame = now.frame;
+                    stepped.gpu.skipEmpty = now.gpu.skipEmpty;
+                    ASSERT_TRUE(test::sameSprite(now, stepped))
+                        << "update " << u << " copy " << c.asOf;
+                    keptPose += h.spriteChangedAt(e) > c.asOf;
+                }
+                ASSERT_EQ(h.entityOf(&now), std::optional<std::uint32_t>(e));
+            }
+        copies.push_back({h.now, std::vector<SpriteSetup>(h.sprites.begin(), h.sprites.end())});
+        ASSERT_FALSE(h.entityOf(&copies.back().sprites[3]).has_value()) << "a copy is no entity";
+    }
+    // Most sprites outlive most copies; the animated ones that stepped keep their pose.
+    EXPECT_GT(keptWhole, std::size_t(s.entities.size()) * 24);
+    EXPECT_GT(keptPose, 0u);
+    SpriteStore other;
+    other.update(s, cam, 0.0);
+    EXPECT_NE(other.history().store, store.history().store);
+}
+
 } // namespace
 } // namespace voxtier
