@@ -357,8 +357,9 @@ FrameRenderer::PendingFrame FrameRenderer::submit(double time, RenderMode mode, 
     // wholly on Vulkan, submitted here and read back by finish().
     pending->cam = cam;
     pending->cacheBefore = cache_->counters();
+    const SpriteHistory history = sprites_.history();
     out.image = drawWith(nearBackendFor(mode, options_.nearBackend), cam, out.sprites, out.plan, st,
-                         std::nullopt, sprites_.visibleIds(), pending.get());
+                         std::nullopt, sprites_.visibleIds(), pending.get(), &history);
     pending->cacheAfter = cache_->counters();
     pending->hostMs = msSince(t0);
     return pending;
@@ -477,7 +478,7 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
                               std::span<const SpriteSetup> sprites,
                               std::span<const EntityPlan> plan, FrameStats& st,
                               std::optional<Tier> onlyTier, std::span<const std::uint32_t> visible,
-                              Pending* pending) {
+                              Pending* pending, const SpriteHistory* history) {
     std::vector<std::uint32_t> found;
     if (visible.empty()) {
         for (std::size_t i = 0; i < sprites.size(); ++i)
@@ -501,7 +502,7 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         st.farMs += msSince(t0);
         st.farOnVulkan = 1;
         if (nearSprites.empty() || resolved(nearBackend) == NearBackend::Vulkan)
-            return drawOnVulkan(cam, nearSprites, &batch, colourOnly(), st, pending);
+            return drawOnVulkan(cam, nearSprites, &batch, colourOnly(), st, pending, history);
         Image image = drawNearCpu(cam, nearSprites, st);
         const Image far = drawOnVulkan(cam, {}, &batch, false, st);
         composeMinZ(image, far);
@@ -513,7 +514,7 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
     const bool onVulkan = !nearSprites.empty() && resolved(nearBackend) == NearBackend::Vulkan;
     Pending* const unread = shares.far.empty() ? pending : nullptr;
     Image image = onVulkan ? drawOnVulkan(cam, nearSprites, nullptr,
-                                          shares.far.empty() && colourOnly(), st, unread)
+                                          shares.far.empty() && colourOnly(), st, unread, history)
                            : drawNearCpu(cam, nearSprites, st);
     // 4-5. Far tier: make sure every needed snapshot exists (lazy bakes, parallel over distinct
     // snapshots), then blit into the same image; the blit writes with the shared min-z/id rule,
@@ -525,11 +526,12 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
 Image FrameRenderer::drawOnVulkan(const CameraFrame& cam,
                                   const std::vector<const SpriteSetup*>& sprites,
                                   const FarBatch* far, bool colourOnly, FrameStats& st,
-                                  Pending* pending) {
+                                  Pending* pending, const SpriteHistory* history) {
     VulkanFrameRequest request;
     request.camera = &cam;
     request.models = &scene_.models;
     request.nearSprites = sprites;
+    request.history = history;
     request.far = far;
     request.clear = scene_.render.background;
     request.near.countSteps = options_.nearCountSteps;

@@ -314,17 +314,20 @@ class FrameRenderer {
     /// `visible`: the visible sprites' ids, ascending (empty: found from `sprites`). With
     /// `pending`, a frame drawn wholly on Vulkan is only submitted (into *pending), and the image
     /// returned is empty until finish().
+    /// `history`: where `sprites` are the store's this update (what changed when, for the near
+    /// tier's records).
     Image drawWith(NearBackend nearBackend, const CameraFrame& camera,
                    std::span<const SpriteSetup> sprites, std::span<const EntityPlan> plan,
                    FrameStats& stats, std::optional<Tier> onlyTier = std::nullopt,
-                   std::span<const std::uint32_t> visible = {}, Pending* pending = nullptr);
+                   std::span<const std::uint32_t> visible = {}, Pending* pending = nullptr,
+                   const SpriteHistory* history = nullptr);
     /// `b`, with Auto resolved (nearBackend()).
     NearBackend resolved(NearBackend b) { return b == NearBackend::Auto ? nearBackend() : b; }
     /// One Vulkan frame (compose/vulkan_frame.hpp): `sprites` by the near passes, then `far`
     /// (may be null) by the far pass; colour alone read back when `colourOnly`.
     Image drawOnVulkan(const CameraFrame& camera, const std::vector<const SpriteSetup*>& sprites,
                        const FarBatch* far, bool colourOnly, FrameStats& stats,
-                       Pending* pending = nullptr);
+                       Pending* pending = nullptr, const SpriteHistory* history = nullptr);
     /// finish() of a Vulkan frame: read back, its figures into `stats`.
     Image finishOnVulkan(VulkanFrameInFlight&& frame, bool hasFar, FrameStats& stats);
     /// The near sprites by the CPU reference.

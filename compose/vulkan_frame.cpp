@@ -23,7 +23,7 @@ VulkanFrameInFlight submitVulkanFrame(NearRenderer& near, FarPass* farPass,
     out.nearOptions.readDepthAndIds = request.depthAndIds || request.far;
     out.depthAndIds = request.depthAndIds;
     near.passes().record(frame, cam, *request.models, request.nearSprites, request.clear,
-                         out.nearOptions, out.result.near);
+                         out.nearOptions, out.result.near, request.history);
     if (request.far) {
         const auto tFar = Clock::now();
         farPass->record(frame, *request.far, out.result.far);

@@ -21,6 +21,9 @@ struct VulkanFrameRequest {
     const CameraFrame* camera = nullptr;
     const std::vector<std::shared_ptr<VoxelModel>>* models = nullptr;
     std::span<const SpriteSetup* const> nearSprites;
+    /// Where the near sprites are a SpriteStore's (copies aside): what changed when, so that the
+    /// near tier writes only what changed (NearPasses::record). Null: everything is written.
+    const SpriteHistory* history = nullptr;
     /// Far sprites drawn by the far pass after the near ones (null: none). Needs a FarPass.
     const FarBatch* far = nullptr;
     Rgba8 clear = 0; ///< what the planes start as (the background, or a transparent one)

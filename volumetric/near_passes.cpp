@@ -42,19 +42,57 @@ constexpr std::size_t kGatherAhead = 8;
 // ---------------------------------------------------------------------------------------------
 // The host's part of a frame: what the passes read, written straight where they read it
 
-void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
-                                    const std::vector<std::shared_ptr<VoxelModel>>& models,
-                                    std::span<const SpriteSetup* const> all, const NearOptions& opt,
-                                    NearRate rate, NearStats& stats) {
+bool NearPasses::Impl::orderSprites(std::span<const SpriteSetup* const> all, const NearOptions& opt,
+                                    const SpriteHistory* history) {
+    constexpr std::uint32_t kNoEntity = KeptRecords::kNoEntity;
+    const auto entityAt = [&](std::size_t k) {
+        return history ? history->entityOf(all[k]).value_or(kNoEntity) : kNoEntity;
+    };
+    // Last frame's order, while the sprites given are the same entities' and none of them was set
+    // up anew since (an animation step changes neither depth nor visibility). Else a parallel
+    // sort of every sprite's depth, each sprite a cache miss: 5 ms of a still camera's frame at
+    // 100,000 tanks on two cores.
+    KeptOrder& kept = keptOrder;
+    const bool same = history && history->store != 0 && opt.earlyDepthTest &&
+                      kept.store == history->store && kept.entity.size() == all.size() &&
+                      tbb::parallel_reduce(
+                          tbb::blocked_range<std::size_t>(0, all.size(), 4096), true,
+                          [&](const auto& r, bool ok) {
+                              for (std::size_t k = r.begin(); ok && k != r.end(); ++k) {
+                                  const std::uint32_t e = entityAt(k);
+                                  ok = e != kNoEntity && kept.entity[k] == e &&
+                                       history->spritePosedAt(e) <= kept.asOf;
+                              }
+                              return ok;
+                          },
+                          [](bool a, bool b) { return a && b; });
+    visible.clear();
+    if (same) {
+        for (const std::uint32_t k : kept.order) visible.push_back(all[k]);
+        kept.asOf = history->now;
+        return true;
+    }
     // §6: front to back with equal depths in ascending id under the early depth test, which
     // keeps every pixel the same (the depth test alone decides unequal depths, whatever their
     // order); else ascending entity id, so that depth GREATER resolves ties to the lower id.
-    visible.clear();
-    for (const std::uint32_t i : drawOrder(all, opt.earlyDepthTest)) visible.push_back(all[i]);
+    kept.order = drawOrder(all, opt.earlyDepthTest);
+    for (const std::uint32_t i : kept.order) visible.push_back(all[i]);
     if (!opt.earlyDepthTest)
         std::stable_sort(
             visible.begin(), visible.end(),
             [](const SpriteSetup* a, const SpriteSetup* b) { return a->entityId < b->entityId; });
+    kept.store = history && opt.earlyDepthTest ? history->store : 0;
+    kept.asOf = history ? history->now : 0;
+    kept.entity.resize(all.size());
+    for (std::size_t k = 0; k < all.size(); ++k) kept.entity[k] = entityAt(k);
+    return false;
+}
+
+void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
+                                    const std::vector<std::shared_ptr<VoxelModel>>& models,
+                                    std::span<const SpriteSetup* const> all, const NearOptions& opt,
+                                    NearRate rate, NearStats& stats, const SpriteHistory* history) {
+    stats.drawOrderKept = orderSprites(all, opt, history);
     stats.sprites = visible.size();
 
     const ResidencyStats up = residency.update(models, visible);
@@ -71,34 +109,96 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
     ensure(slot.sprites, std::max<VkDeviceSize>(bytes, 4));
     if (!n) return;
     residency.placements(models, placements);
+    // What the slot's buffer holds that is still current: a record stays where the same entity's
+    // sprite sat when the slot was last written and has not changed since, in a buffer the host
+    // writes in place (a staged buffer is copied whole from the staging ring), with the same
+    // placements and rate. A still camera's frame then writes the sprites that changed, where it
+    // wrote and gathered every record (100,000 tanks: 27 MB, each record a cache miss).
+    KeptRecords& kept = slot.kept;
+    const bool direct = slot.sprites.placement().hostWrite == HostWrite::Direct;
+    const bool keep = history && history->store != 0 && direct && kept.store == history->store &&
+                      kept.rate == rate && kept.buffer == slot.sprites.handle() &&
+                      kept.placements == placements;
+    kept.store = 0; // until every record below is as `kept` says (an exception leaves it so)
+    constexpr std::uint32_t kNoEntity = KeptRecords::kNoEntity;
+    kept.entity.resize(n, kNoEntity);
     auto* gpu = static_cast<kernel::SpriteGpu*>(frame.hostWrite(slot.sprites, 0, bytes));
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), [&](const auto& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            // `visible` is in draw order, so each record read is a jump through the sprite
-            // store: its lines are asked for a few sprites ahead, while this one is copied
-            // (100,000 tanks on this 2-core host: the loop 10.5-12.7 -> 7.6-9.2 ms, medians).
-            if (i + kGatherAhead < n) {
-                const auto* ahead = reinterpret_cast<const char*>(&visible[i + kGatherAhead]->gpu);
-                for (std::size_t b = 0; b < sizeof(kernel::SpriteGpu); b += 64)
-                    __builtin_prefetch(ahead + b);
+    using Counts = std::pair<std::uint64_t, std::uint64_t>; // records kept, records patched
+    // What each place does with its record: written whole, patched (an animation step since
+    // the slot's write) or kept.
+    enum class Keeps { Nothing, AllButTheFrame, Everything };
+    const auto keeps = [&](std::size_t i, std::uint32_t e) {
+        if (!keep || e == kNoEntity || kept.entity[i] != e || history->spritePosedAt(e) > kept.asOf)
+            return Keeps::Nothing;
+        return history->spriteChangedAt(e) <= kept.asOf ? Keeps::Everything : Keeps::AllButTheFrame;
+    };
+    const auto entityAt = [&](std::size_t i) {
+        return history ? history->entityOf(visible[i]).value_or(kNoEntity) : kNoEntity;
+    };
+    const Counts counts = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), Counts{0, 0},
+        [&](const auto& r, Counts c) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                // `visible` is in draw order, so each record read is a jump through the sprite
+                // store: the lines of a record to be written are asked for a few sprites ahead,
+                // while this one is copied (100,000 tanks on this 2-core host: the loop
+                // 10.5-12.7 -> 7.6-9.2 ms, medians).
+                if (const std::size_t a = i + kGatherAhead; a < n) {
+                    const auto* ahead = reinterpret_cast<const char*>(&visible[a]->gpu);
+                    if (keeps(a, entityAt(a)) == Keeps::Nothing)
+                        for (std::size_t b = 0; b < sizeof(kernel::SpriteGpu); b += 64)
+                            __builtin_prefetch(ahead + b);
+                }
+                const std::uint32_t e = entityAt(i);
+                if (const Keeps k = keeps(i, e); k != Keeps::Nothing) {
+                    // The record holds this entity's sprite as it is now, or as it was before an
+                    // animation step (restepSprite): then only the fields that follow the frame
+                    // are written, the voxels' and occupancy's places and the skip rule (a crowd
+                    // steps every sprite at once, a few times a second). The lists' figures
+                    // depend on neither, and the slot's arrays hold them (lent as depths...).
+                    if (k == Keeps::Everything) {
+                        ++c.first;
+                        continue;
+                    }
+                    const SpriteSetup& s = *visible[i];
+                    const VoxelResidency::Placements::Frame& at =
+                        placements.at(std::size_t(s.model), s.frame);
+                    gpu[i].atlas = at.atlas;
+                    gpu[i].brickBase = at.brickBase;
+                    gpu[i].skipEmpty = s.gpu.skipEmpty;
+                    ++c.second;
+                    continue;
+                }
+                const SpriteSetup& s = *visible[i];
+                // The only fields the near tier adds to what core computed: where the voxels and
+                // their brick occupancy are. Composed here and stored once: the destination may
+                // be write-combined device memory (resizable BAR, written directly), where
+                // patching a record after storing it writes its lines twice across the bus.
+                kernel::SpriteGpu g = s.gpu;
+                const VoxelResidency::Placements::Frame& at =
+                    placements.at(std::size_t(s.model), s.frame);
+                g.atlas = at.atlas;
+                g.brickBase = at.brickBase;
+                gpu[i] = g;
+                // What the rate plan and the work lists read, gathered while the record is at
+                // hand (into the slot's arrays: the frames that keep the record keep these).
+                depths[i] = g.depth;
+                rects[i] = s.screenRect;
+                wishes[i] = cellRateWish(s, rate);
+                kept.entity[i] = e;
             }
-            const SpriteSetup& s = *visible[i];
-            // The only fields the near tier adds to what core computed: where the voxels and
-            // their brick occupancy are. Composed here and stored once: the destination may be
-            // write-combined device memory (resizable BAR, written directly), where patching a
-            // record after storing it writes its lines twice across the bus.
-            kernel::SpriteGpu g = s.gpu;
-            const VoxelResidency::Placements::Frame& at =
-                placements.at(std::size_t(s.model), s.frame);
-            g.atlas = at.atlas;
-            g.brickBase = at.brickBase;
-            gpu[i] = g;
-            // What the rate plan and the work lists read, gathered while the record is at hand.
-            depths[i] = g.depth;
-            rects[i] = s.screenRect;
-            wishes[i] = cellRateWish(s, rate);
-        }
-    });
+            return c;
+        },
+        [](Counts a, const Counts& b) {
+            return Counts{a.first + b.first, a.second + b.second};
+        });
+    stats.recordsKept = counts.first;
+    stats.recordsPatched = counts.second;
+    kept.store = history && direct ? history->store : 0;
+    kept.asOf = history ? history->now : 0;
+    kept.rate = rate;
+    kept.buffer = slot.sprites.handle();
+    kept.placements = placements;
 }
 
 void NearPasses::Impl::writeProxies(GpuFrame& frame, Slot& slot, const CameraFrame& cam,
@@ -510,7 +610,7 @@ const VoxelResidency& NearPasses::residency() const {
 void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
                         const std::vector<std::shared_ptr<VoxelModel>>& models,
                         std::span<const SpriteSetup* const> sprites, Rgba8 clear,
-                        const NearOptions& opt, NearStats& stats) {
+                        const NearOptions& opt, NearStats& stats, const SpriteHistory* history) {
     Impl& m = *impl_;
     Impl::Slot& slot = m.slots.at(std::size_t(frame.slot()));
     slot.queried = false; // the draw's statistics query, when the frame draws
@@ -525,7 +625,19 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
         3 * frame.planeBytes() <= m.device.properties().limits.maxStorageBufferRange;
     const NearRate rate = resolvable ? opt.rate : NearRate::Fragment;
     const auto tSprites = std::chrono::steady_clock::now();
-    m.writeSprites(frame, slot, models, sprites, opt, rate, stats);
+    // The per-sprite figures the lists read describe the slot's records: the slot's arrays are
+    // lent to this recording (a record kept keeps its figures in place), and taken back after.
+    const auto lend = [&m, &slot] {
+        m.depths.swap(slot.kept.depths);
+        m.rects.swap(slot.kept.rects);
+        m.wishes.swap(slot.kept.wishes);
+    };
+    lend();
+    struct TakeBack {
+        const decltype(lend)& give;
+        ~TakeBack() { give(); }
+    } takeBack{lend};
+    m.writeSprites(frame, slot, models, sprites, opt, rate, stats, history);
     stats.recordSpritesMs = msSince(tSprites);
     const auto tLists = std::chrono::steady_clock::now();
     // Auto: llvmpipe rasterises a crowd under the early depth test faster than it runs the

@@ -21,6 +21,7 @@
 #include "core/image.hpp"
 #include "core/near_rate.hpp"
 #include "core/sprite.hpp"
+#include "core/sprite_store.hpp"
 #include "core/voxel_model.hpp"
 #include "device/gpu_frame.hpp"
 #include "volumetric/near_proxy.hpp"
@@ -91,10 +92,16 @@ class NearPasses {
     /// Records the near tier's passes for `sprites` into `frame` (see the file comment); the
     /// frame's planes hold the near image afterwards. `clear` is the colour the planes start as.
     /// Sprite order does not matter: equal depths keep the lower entity id.
+    /// `history` (optional): where the sprites are a SpriteStore's, what changed when. A slot's
+    /// sprite record that holds the same entity's unchanged sprite is then not written again, or
+    /// only its animation frame's fields after a step (where the host writes the slot's buffer
+    /// directly), and the draw order is last frame's while no sprite was set up anew: a still
+    /// camera's frame writes what changed.
     void record(GpuFrame& frame, const CameraFrame& camera,
                 const std::vector<std::shared_ptr<VoxelModel>>& models,
                 std::span<const SpriteSetup* const> sprites, Rgba8 clear,
-                const NearOptions& options, NearStats& stats);
+                const NearOptions& options, NearStats& stats,
+                const SpriteHistory* history = nullptr);
     /// After the frame's fence: what the device counted (fragment invocations, voxel reads).
     void collect(GpuFrame& frame, const NearOptions& options, NearStats& stats);
 

@@ -40,6 +40,14 @@ struct NearStats : CellRateCounts {
     /// shaders read it), and the lists the passes walk (proxies, the rate plan, the cell store,
     /// the work lists and their uploads, the descriptors).
     double recordSpritesMs = 0.0, recordListsMs = 0.0;
+    /// Sprite records left as the frame's slot last held them (unchanged since, in the same
+    /// place: not written again), and whether the draw order was last frame's (no sprite set up
+    /// anew since). Only where the sprites came with their history (NearPasses::record).
+    std::uint64_t recordsKept = 0;
+    /// Of the others, records left but for their animation frame's fields (an animation step
+    /// since: the voxels' and occupancy's places and the skip rule written).
+    std::uint64_t recordsPatched = 0;
+    bool drawOrderKept = false;
     /// Sprites rasterised flat at their depth, with the early depth test (earlyDepthTest).
     std::uint64_t earlyDepthSprites = 0;
     /// The per-pixel sprites were traced by the compute pass (NearPixels::Compute), not drawn.

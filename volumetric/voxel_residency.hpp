@@ -55,9 +55,11 @@ class VoxelResidency {
             glm::uvec4 atlas{0};
             std::uint32_t brickBase = 0;
             bool present = false;
+            bool operator==(const Frame&) const = default;
         };
         std::vector<std::size_t> first; ///< per model index, its frame 0 in `frames`; one past
         std::vector<Frame> frames;
+        bool operator==(const Placements&) const = default;
         /// The placement of (model index, frame); throws std::logic_error where that frame is
         /// not resident (update() has not seen a sprite of it), as entry() does.
         const Frame& at(std::size_t model, int frame) const;

@@ -47,6 +47,22 @@ struct NearPasses::Impl {
     VkImageView framebufferColor = VK_NULL_HANDLE;
     VulkanBuffer cells, pixelWords;
 
+    /// What a slot's sprite buffer holds, where it was written from a store's sprites: as of
+    /// which update of which store, with which rate and placements, and per place the entity
+    /// whose record it is (kNoEntity: a copy's, or unknown) with what the lists read of it (lent
+    /// to the recording of the slot's frames as Impl::depths, rects and wishes).
+    struct KeptRecords {
+        static constexpr std::uint32_t kNoEntity = 0xFFFFFFFFu;
+        std::uint64_t store = 0, asOf = 0; ///< store 0: nothing kept
+        NearRate rate = NearRate::Auto;
+        VkBuffer buffer = VK_NULL_HANDLE; ///< a grown buffer holds nothing
+        VoxelResidency::Placements placements;
+        std::vector<std::uint32_t> entity;
+        std::vector<float> depths;
+        std::vector<glm::ivec4> rects;
+        std::vector<CellRateWish> wishes;
+    };
+
     /// Per frame in flight: what the host writes for a frame, its descriptor set and queries.
     struct Slot {
         VulkanBuffer sprites, boxes, hulls, cellBases, cellTiles, splatBlocks, rankSprites;
@@ -54,11 +70,18 @@ struct NearPasses::Impl {
         VkDescriptorSet set = VK_NULL_HANDLE;
         VkQueryPool statsPool = VK_NULL_HANDLE;
         bool queried = false; ///< this slot's last frame ran the statistics query
+        KeptRecords kept;
     };
     std::vector<Slot> slots;
 
     // The frame being recorded (host scratch, reused from frame to frame).
     std::vector<const SpriteSetup*> visible;
+    /// The last draw order from a store's sprites (the early depth test's front to back): each
+    /// sprite's entity in the order given (kNoEntity: a copy), and the order as places in it.
+    struct KeptOrder {
+        std::uint64_t store = 0, asOf = 0; ///< store 0: nothing kept
+        std::vector<std::uint32_t> entity, order;
+    } keptOrder;
     /// Where each resident model frame lies, looked up once a frame (kept for its storage).
     VoxelResidency::Placements placements;
     /// Per sprite of `visible`, gathered where the sprites are written (in parallel): its depth,
@@ -108,11 +131,16 @@ struct NearPasses::Impl {
     /// Grows `b` (a ShaderRead buffer of the slot) to hold `bytes`, doubling.
     void ensure(VulkanBuffer& b, VkDeviceSize bytes, BufferClass c = BufferClass::ShaderRead);
 
-    /// The sprites in draw order, their residency, their per-sprite data written for the frame.
+    /// The sprites in draw order, their residency, their per-sprite data written for the frame
+    /// (what `history` shows the slot holds as it is now, left as it is).
     void writeSprites(GpuFrame& frame, Slot& slot,
                       const std::vector<std::shared_ptr<VoxelModel>>& models,
                       std::span<const SpriteSetup* const> all, const NearOptions& opt,
-                      NearRate rate, NearStats& stats);
+                      NearRate rate, NearStats& stats, const SpriteHistory* history);
+    /// `visible` in draw order: last frame's, where `all` are the same entities' sprites and
+    /// none was set up anew since (true), else sorted afresh.
+    bool orderSprites(std::span<const SpriteSetup* const> all, const NearOptions& opt,
+                      const SpriteHistory* history);
     void writeProxies(GpuFrame& frame, Slot& slot, const CameraFrame& cam, const NearOptions& opt,
                       NearStats& stats);
     /// The compute passes' work; with `tracePixels` the per-pixel sprites' blocks too, and every

@@ -1,0 +1,114 @@
+// The Vulkan near tier keeps what a frame's slot already holds (NearPasses::record with a
+// SpriteStore's history): a sprite record that holds the same entity's unchanged sprite is not
+// written again (one that changed only its animation frame has that frame's fields written), and
+// the draw order is last frame's while no sprite was set up anew. Each frame
+// of a renderer that keeps them equals the same sprites and plan drawn by a renderer with Vulkan
+// objects of its own that writes everything, pixel for pixel (colour, depth bits, id). The frames
+// bring what changes records: animation steps, moved entities, a camera move, a voxel edit,
+// cross-fades between the tiers (copies of sprites, no store's), and another renderer's frames
+// of the same entities at another time written into the same slots (its stamps past this
+// store's); both ways of tracing the per-pixel sprites. Keeping nothing would pass the images:
+// the counts of kept records and orders fail it.
+#include "compose/frame.hpp"
+#include "core/scene_loader.hpp"
+#include "image_checks.hpp"
+#include "source_tree.hpp"
+#include "vulkan_test_env.hpp"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <vector>
+
+namespace voxtier {
+namespace {
+
+const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRendererEnvironment);
+
+class NearRecordsKept : public test::VulkanTest {
+  protected:
+    /// The bench's tank army, 240 tanks stepping their 8 animation frames at 8 frames a second,
+    /// under a still camera, a quarter of the pixels (lavapipe is the device here), cross-fading
+    /// over 3 frames between tiers by distance.
+    static Scene army() {
+        Scene s = loadScene(test::sourcePath("scenes/bench/tank_army.json"));
+        s.path.reset();
+        s.entities.resize(240);
+        s.camera.width = 320;
+        s.camera.height = 180;
+        s.selector.metric = SelectorMetric::Distance;
+        s.selector.nearAt = 100.0;
+        s.selector.farAt = 110.0;
+        s.selector.crossfadeFrames = 3;
+        return s;
+    }
+    static FrameOptions options(NearPixels pixels, bool shared) {
+        FrameOptions o;
+        if (shared) o.sharedNear = std::shared_ptr<NearRenderer>(&nearRenderer(), [](NearRenderer*) {});
+        o.nearBackend = NearBackend::Vulkan;
+        o.nearPixels = pixels;
+        o.farBackend = FarBackend::Cpu;
+        o.costAwareBakes = false; // images must not depend on timing
+        o.depthAndIds = true;     // compare every plane
+        return o;
+    }
+};
+
+TEST_F(NearRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
+    for (const NearPixels pixels : {NearPixels::Compute, NearPixels::Raster}) {
+        SCOPED_TRACE(pixels == NearPixels::Compute ? "traced in compute" : "rasterised");
+        Scene s = army();
+        Scene other = s; // its own entities and camera, the same models
+        FrameRenderer renderer(s, options(pixels, true));
+        FrameRenderer everything(s, options(pixels, false));
+        // The same entities of the same models, on the same slots, 40 updates ahead of
+        // `renderer`'s store.
+        FrameRenderer intruder(other, options(pixels, true));
+        for (int k = 0; k < 40; ++k) (void)intruder.render(0.31 + k / 30.0, RenderMode::Near, k);
+
+        std::uint64_t keptRecords = 0, patchedRecords = 0, records = 0;
+        int keptOrders = 0, keptWhole = 0, drawnFrames = 0, fadingFrames = 0;
+        for (int k = 0; k < 28; ++k) {
+            const double t = k / 30.0;
+            if (k == 5 || k == 13)
+                for (const std::size_t e : {3u, 50u, 120u}) s.entities[e].position.x += 0.2;
+            if (k == 9) s.camera.position += glm::dvec3(0.2, 0.0, 0.1);
+            if (k == 11) s.models[0]->clearBox(0, Box3i{{0, 0, 8}, {32, 32, 16}});
+            if (k == 16) (void)intruder.render(t + 0.4, RenderMode::Near, 16);
+            // Tanks sent past far_at and back: tier switches, cross-faded by copies.
+            if (k == 20 || k == 24)
+                for (std::size_t e = 0; e < 240; e += 7) s.entities[e].position.z += k == 20 ? -60.0 : 60.0;
+            const RenderMode mode = k >= 18 ? RenderMode::Hybrid : RenderMode::Near;
+            const FrameResult r = renderer.render(t, mode, k);
+            FrameStats full;
+            const Image expected =
+                everything.draw(makeCameraFrame(s.cameraAt(t)), r.sprites, r.plan, &full);
+            ASSERT_EQ(test::describeDifference(r.image, expected, "kept", "written"), "")
+                << "frame " << k;
+            drawnFrames += test::drawnPixels(expected) > 0;
+            fadingFrames += r.stats.plan.fading > 0;
+            const NearStats& near = r.stats.vulkanNear;
+            EXPECT_EQ(full.vulkanNear.recordsKept + full.vulkanNear.recordsPatched, 0u)
+                << "frame " << k << ": nothing to keep";
+            keptRecords += near.recordsKept;
+            patchedRecords += near.recordsPatched;
+            records += near.sprites;
+            keptOrders += near.drawOrderKept;
+            keptWhole += near.sprites > 0 && near.recordsKept == near.sprites;
+            if (k == 9) {
+                EXPECT_EQ(near.recordsKept + near.recordsPatched, 0u)
+                    << "the camera moved: every record changed";
+                EXPECT_FALSE(near.drawOrderKept) << "the camera moved: every depth changed";
+            }
+        }
+        EXPECT_EQ(drawnFrames, 28);
+        EXPECT_GT(fadingFrames, 0) << "no cross-fade: no copy of a sprite was drawn";
+        EXPECT_GT(keptWhole, 3) << "frames between animation steps keep every record";
+        EXPECT_GT(keptOrders, 10) << "animation steps keep the draw order";
+        EXPECT_GT(keptRecords * 4, records) << "a quarter of the records at least are kept";
+        EXPECT_GT(patchedRecords, 240u) << "animation steps patch the records they find";
+    }
+}
+
+} // namespace
+} // namespace voxtier
