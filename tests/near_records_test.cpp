@@ -44,7 +44,8 @@ class NearRecordsKept : public test::VulkanTest {
     }
     static FrameOptions options(NearPixels pixels, bool shared) {
         FrameOptions o;
-        if (shared) o.sharedNear = std::shared_ptr<NearRenderer>(&nearRenderer(), [](NearRenderer*) {});
+        if (shared)
+            o.sharedNear = std::shared_ptr<NearRenderer>(&nearRenderer(), [](NearRenderer*) {});
         o.nearBackend = NearBackend::Vulkan;
         o.nearPixels = pixels;
         o.farBackend = FarBackend::Cpu;
@@ -77,7 +78,8 @@ TEST_F(NearRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
             if (k == 16) (void)intruder.render(t + 0.4, RenderMode::Near, 16);
             // Tanks sent past far_at and back: tier switches, cross-faded by copies.
             if (k == 20 || k == 24)
-                for (std::size_t e = 0; e < 240; e += 7) s.entities[e].position.z += k == 20 ? -60.0 : 60.0;
+                for (std::size_t e = 0; e < 240; e += 7)
+                    s.entities[e].position.z += k == 20 ? -60.0 : 60.0;
             const RenderMode mode = k >= 18 ? RenderMode::Hybrid : RenderMode::Near;
             const FrameResult r = renderer.render(t, mode, k);
             FrameStats full;
