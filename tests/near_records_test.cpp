@@ -1,14 +1,15 @@
 // The Vulkan near tier keeps what a frame's slot already holds (NearPasses::record with a
 // SpriteStore's history): a sprite record that holds the same entity's unchanged sprite is not
-// written again (one that changed only its animation frame has that frame's fields written), and
-// the draw order is last frame's while no sprite was set up anew. Each frame
-// of a renderer that keeps them equals the same sprites and plan drawn by a renderer with Vulkan
-// objects of its own that writes everything, pixel for pixel (colour, depth bits, id). The frames
+// written again (one that changed only its animation frame has that frame's fields written), the
+// draw order is last frame's while no sprite was set up anew, and the residency's first showing
+// of each model frame while no sprite changed at all. Each frame of a renderer that keeps them
+// equals the same sprites and plan drawn by a renderer with Vulkan objects of its own that
+// writes everything, pixel for pixel (colour, depth bits, id). The frames
 // bring what changes records: animation steps, moved entities, a camera move, a voxel edit,
 // cross-fades between the tiers (copies of sprites, no store's), and another renderer's frames
 // of the same entities at another time written into the same slots (its stamps past this
 // store's); both ways of tracing the per-pixel sprites. Keeping nothing would pass the images:
-// the counts of kept records and orders fail it.
+// the counts of kept records, orders and first showings fail it.
 #include "compose/frame.hpp"
 #include "core/scene_loader.hpp"
 #include "image_checks.hpp"
@@ -27,13 +28,19 @@ const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRende
 
 class NearRecordsKept : public test::VulkanTest {
   protected:
-    /// The bench's tank army, 240 tanks stepping their 8 animation frames at 8 frames a second,
-    /// under a still camera, a quarter of the pixels (lavapipe is the device here), cross-fading
-    /// over 3 frames between tiers by distance.
+    /// The bench's tank army, 240 tanks, half of them stepping their 8 animation frames at 8
+    /// frames a second, under a still camera, a quarter of the pixels (lavapipe is the device
+    /// here), cross-fading over 3 frames between tiers by distance.
     static Scene army() {
         Scene s = loadScene(test::sourcePath("scenes/bench/tank_army.json"));
         s.path.reset();
         s.entities.resize(240);
+        // Every tank from frame 0, every other one still: a step brings frames of a model that
+        // no sprite showed before, first shown where no sprite of that model was first before.
+        for (std::size_t e = 0; e < s.entities.size(); ++e) {
+            s.entities[e].frame = 0;
+            if (e % 2) s.entities[e].fps = 0.0;
+        }
         s.camera.width = 320;
         s.camera.height = 180;
         s.selector.metric = SelectorMetric::Distance;
@@ -65,10 +72,11 @@ TEST_F(NearRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
         // The same entities of the same models, on the same slots, 40 updates ahead of
         // `renderer`'s store.
         FrameRenderer intruder(other, options(pixels, true));
-        for (int k = 0; k < 40; ++k) (void)intruder.render(0.31 + k / 30.0, RenderMode::Near, k);
+        // At time 0 (frame 0 alone resident, as for `renderer`'s first frame).
+        for (int k = 0; k < 40; ++k) (void)intruder.render(0.0, RenderMode::Near, k);
 
         std::uint64_t keptRecords = 0, patchedRecords = 0, records = 0;
-        int keptOrders = 0, keptWhole = 0, drawnFrames = 0, fadingFrames = 0;
+        int keptOrders = 0, keptFirsts = 0, keptWhole = 0, drawnFrames = 0, fadingFrames = 0;
         for (int k = 0; k < 28; ++k) {
             const double t = k / 30.0;
             if (k == 5 || k == 13)
@@ -96,17 +104,20 @@ TEST_F(NearRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
             patchedRecords += near.recordsPatched;
             records += near.sprites;
             keptOrders += near.drawOrderKept;
+            keptFirsts += near.firstShowingsKept;
             keptWhole += near.sprites > 0 && near.recordsKept == near.sprites;
             if (k == 9) {
                 EXPECT_EQ(near.recordsKept + near.recordsPatched, 0u)
                     << "the camera moved: every record changed";
                 EXPECT_FALSE(near.drawOrderKept) << "the camera moved: every depth changed";
+                EXPECT_FALSE(near.firstShowingsKept) << "the camera moved: the order changed";
             }
         }
         EXPECT_EQ(drawnFrames, 28);
         EXPECT_GT(fadingFrames, 0) << "no cross-fade: no copy of a sprite was drawn";
         EXPECT_GT(keptWhole, 3) << "frames between animation steps keep every record";
         EXPECT_GT(keptOrders, 10) << "animation steps keep the draw order";
+        EXPECT_GT(keptFirsts, 5) << "frames between steps keep the residency's first showings";
         EXPECT_GT(keptRecords * 4, records) << "a quarter of the records at least are kept";
         EXPECT_GT(patchedRecords, 240u) << "animation steps patch the records they find";
     }

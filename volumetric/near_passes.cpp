@@ -37,13 +37,23 @@ constexpr std::size_t kSpriteGrain = 64;
 /// arrive from memory while the records between are copied.
 constexpr std::size_t kGatherAhead = 8;
 
+/// Whether every frame placed in `before` lies where it did (frames placed since may be added):
+/// a record written then still names its voxels and occupancy.
+bool placedAsBefore(const VoxelResidency::Placements& before,
+                    const VoxelResidency::Placements& now) {
+    if (before.first != now.first || before.frames.size() != now.frames.size()) return false;
+    for (std::size_t f = 0; f < before.frames.size(); ++f)
+        if (before.frames[f].present && !(before.frames[f] == now.frames[f])) return false;
+    return true;
+}
+
 } // namespace
 
 // ---------------------------------------------------------------------------------------------
 // The host's part of a frame: what the passes read, written straight where they read it
 
 bool NearPasses::Impl::orderSprites(std::span<const SpriteSetup* const> all, const NearOptions& opt,
-                                    const SpriteHistory* history) {
+                                    const SpriteHistory* history, bool& unchanged) {
     constexpr std::uint32_t kNoEntity = KeptRecords::kNoEntity;
     const auto entityAt = [&](std::size_t k) {
         return history ? history->entityOf(all[k]).value_or(kNoEntity) : kNoEntity;
@@ -53,21 +63,29 @@ bool NearPasses::Impl::orderSprites(std::span<const SpriteSetup* const> all, con
     // sort of every sprite's depth, each sprite a cache miss: 5 ms of a still camera's frame at
     // 100,000 tanks on two cores.
     KeptOrder& kept = keptOrder;
-    const bool same = history && history->store != 0 && opt.earlyDepthTest &&
-                      kept.store == history->store && kept.entity.size() == all.size() &&
-                      tbb::parallel_reduce(
-                          tbb::blocked_range<std::size_t>(0, all.size(), 4096), true,
-                          [&](const auto& r, bool ok) {
-                              for (std::size_t k = r.begin(); ok && k != r.end(); ++k) {
+    using Same = std::pair<bool, bool>; // the order; the order and the animation frames
+    const bool comparable = history && history->store != 0 && opt.earlyDepthTest &&
+                            kept.store == history->store && kept.entity.size() == all.size();
+    const Same same =
+        !comparable ? Same{false, false}
+                    : tbb::parallel_reduce(
+                          tbb::blocked_range<std::size_t>(0, all.size(), 4096), Same{true, true},
+                          [&](const auto& r, Same ok) {
+                              for (std::size_t k = r.begin(); ok.first && k != r.end(); ++k) {
                                   const std::uint32_t e = entityAt(k);
-                                  ok = e != kNoEntity && kept.entity[k] == e &&
-                                       history->spritePosedAt(e) <= kept.asOf;
+                                  ok.first = e != kNoEntity && kept.entity[k] == e &&
+                                             history->spritePosedAt(e) <= kept.asOf;
+                                  ok.second = ok.second && ok.first &&
+                                              history->spriteChangedAt(e) <= kept.asOf;
                               }
-                              return ok;
+                              return Same{ok.first, ok.first && ok.second};
                           },
-                          [](bool a, bool b) { return a && b; });
+                          [](Same x, Same y) {
+                              return Same{x.first && y.first, x.second && y.second};
+                          });
+    unchanged = same.second;
     visible.clear();
-    if (same) {
+    if (same.first) {
         for (const std::uint32_t k : kept.order) visible.push_back(all[k]);
         kept.asOf = history->now;
         return true;
@@ -92,10 +110,15 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
                                     const std::vector<std::shared_ptr<VoxelModel>>& models,
                                     std::span<const SpriteSetup* const> all, const NearOptions& opt,
                                     NearRate rate, NearStats& stats, const SpriteHistory* history) {
-    stats.drawOrderKept = orderSprites(all, opt, history);
+    bool unchanged = false;
+    stats.drawOrderKept = orderSprites(all, opt, history, unchanged);
     stats.sprites = visible.size();
 
-    const ResidencyStats up = residency.update(models, visible);
+    // The residency walks every sprite for the first showing of each model frame: not where the
+    // same sprites show the same frames in the same order as last frame.
+    firstShowings.valid = firstShowings.valid && unchanged;
+    stats.firstShowingsKept = firstShowings.valid;
+    const ResidencyStats up = residency.update(models, visible, &firstShowings);
     stats.bytesUploaded = up.bytesUploaded;
     stats.uploadRegions = up.regions;
     stats.atlasGrowths = up.atlasGrowths;
@@ -111,14 +134,15 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
     residency.placements(models, placements);
     // What the slot's buffer holds that is still current: a record stays where the same entity's
     // sprite sat when the slot was last written and has not changed since, in a buffer the host
-    // writes in place (a staged buffer is copied whole from the staging ring), with the same
-    // placements and rate. A still camera's frame then writes the sprites that changed, where it
-    // wrote and gathered every record (100,000 tanks: 27 MB, each record a cache miss).
+    // writes in place (a staged buffer is copied whole from the staging ring), with the frames it
+    // placed where they were and the same rate. A still camera's frame then writes the sprites that
+    // changed, where it wrote and gathered every record (100,000 tanks: 27 MB, each record a cache
+    // miss).
     KeptRecords& kept = slot.kept;
     const bool direct = slot.sprites.placement().hostWrite == HostWrite::Direct;
     const bool keep = history && history->store != 0 && direct && kept.store == history->store &&
                       kept.rate == rate && kept.buffer == slot.sprites.handle() &&
-                      kept.placements == placements;
+                      placedAsBefore(kept.placements, placements);
     kept.store = 0; // until every record below is as `kept` says (an exception leaves it so)
     constexpr std::uint32_t kNoEntity = KeptRecords::kNoEntity;
     kept.entity.resize(n, kNoEntity);

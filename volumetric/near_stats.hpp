@@ -48,6 +48,8 @@ struct NearStats : CellRateCounts {
     /// since: the voxels' and occupancy's places and the skip rule written).
     std::uint64_t recordsPatched = 0;
     bool drawOrderKept = false;
+    /// And the residency's first showing of each model frame (the same frames as well).
+    bool firstShowingsKept = false;
     /// Sprites rasterised flat at their depth, with the early depth test (earlyDepthTest).
     std::uint64_t earlyDepthSprites = 0;
     /// The per-pixel sprites were traced by the compute pass (NearPixels::Compute), not drawn.

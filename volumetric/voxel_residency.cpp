@@ -244,10 +244,11 @@ glm::uvec4 VoxelResidency::entry(const VoxelModel& model, int frame) const {
 }
 
 ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelModel>>& models,
-                                      std::span<const SpriteSetup* const> sprites) {
+                                      std::span<const SpriteSetup* const> sprites,
+                                      FirstShowings* firsts) {
     const auto t0 = std::chrono::steady_clock::now();
     ResidencyStats stats;
-    const std::vector<Upload> uploads = placeFrames(models, sprites, stats);
+    const std::vector<Upload> uploads = placeFrames(models, sprites, stats, firsts);
     const bool grow = std::uint32_t(packer_.usedDepth()) > atlas_.extent().depth;
     if (uploads.empty() && !grow && !palettes_.staged && !bricks_.staged) return stats;
     submitUploads(uploads, grow, stats);
@@ -258,13 +259,19 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
 
 std::vector<VoxelResidency::Upload>
 VoxelResidency::placeFrames(const std::vector<std::shared_ptr<VoxelModel>>& models,
-                            std::span<const SpriteSetup* const> sprites, ResidencyStats& stats) {
+                            std::span<const SpriteSetup* const> sprites, ResidencyStats& stats,
+                            FirstShowings* firsts) {
+    FirstShowings found;
+    FirstShowings& shown = firsts ? *firsts : found;
+    if (shown.valid && !shown.firsts.empty() && shown.firsts.back() >= sprites.size())
+        shown.valid = false; // not these sprites' (firsts ascend)
+    if (!shown.valid) shown = {true, firstShowings(models, sprites)};
     std::vector<Upload> uploads;
     // Undo list: if placing a block fails (atlas full), nothing recorded here was uploaded.
     std::vector<std::pair<Resident*, int>> placed;
     std::vector<std::pair<Resident*, std::uint64_t>> synced;
     try {
-        for (const std::uint32_t k : firstShowings(models, sprites)) {
+        for (const std::uint32_t k : shown.firsts) {
             const SpriteSetup* sp = sprites[k];
             const VoxelModel& model = *models.at(std::size_t(sp->model));
             auto [it, inserted] = residents_.try_emplace(model.uid());

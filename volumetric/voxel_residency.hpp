@@ -39,10 +39,20 @@ class VoxelResidency {
     VoxelResidency(const VoxelResidency&) = delete;
     VoxelResidency& operator=(const VoxelResidency&) = delete;
 
+    /// The sprites that show each model and each model frame first, in the order given: what
+    /// update() walks every visible sprite to find (each a cache miss at 100,000 sprites). A
+    /// caller that knows its sprites show the same (model, frame)s in the same order as at the
+    /// update that filled it keeps `valid`, and that update's answer is used again.
+    struct FirstShowings {
+        bool valid = false;
+        std::vector<std::uint32_t> firsts;
+    };
     /// Makes the (model, frame) of every visible sprite resident and current: new frames are
     /// uploaded whole, edited frames only in their dirty box. Blocks until the copies are done.
+    /// `firsts` (optional): used where valid, else found and kept there.
     ResidencyStats update(const std::vector<std::shared_ptr<VoxelModel>>& models,
-                          std::span<const SpriteSetup* const> sprites);
+                          std::span<const SpriteSetup* const> sprites,
+                          FirstShowings* firsts = nullptr);
     /// SpriteGpu::atlas for a resident frame: xyz = atlas origin, w = palette base index.
     glm::uvec4 entry(const VoxelModel& model, int frame) const;
     /// SpriteGpu::brickBase for a resident frame: its first word in brickBuffer().
@@ -97,7 +107,7 @@ class VoxelResidency {
     /// edited frames' dirty boxes included; on an atlas overflow nothing of it stays.
     std::vector<Upload> placeFrames(const std::vector<std::shared_ptr<VoxelModel>>& models,
                                     std::span<const SpriteSetup* const> sprites,
-                                    ResidencyStats& stats);
+                                    ResidencyStats& stats, FirstShowings* firsts = nullptr);
     /// Its second half: packs `uploads` (and the staged mirrors) into the staging buffer, grows
     /// the atlas when `grow`, records the copies and waits for them.
     void submitUploads(const std::vector<Upload>& uploads, bool grow, ResidencyStats& stats);

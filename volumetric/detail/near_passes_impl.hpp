@@ -82,6 +82,9 @@ struct NearPasses::Impl {
         std::uint64_t store = 0, asOf = 0; ///< store 0: nothing kept
         std::vector<std::uint32_t> entity, order;
     } keptOrder;
+    /// The residency's first showings of last frame's `visible`: kept while its sprites are the
+    /// same entities', in the same order, at the same animation frames.
+    VoxelResidency::FirstShowings firstShowings;
     /// Where each resident model frame lies, looked up once a frame (kept for its storage).
     VoxelResidency::Placements placements;
     /// Per sprite of `visible`, gathered where the sprites are written (in parallel): its depth,
@@ -138,9 +141,10 @@ struct NearPasses::Impl {
                       std::span<const SpriteSetup* const> all, const NearOptions& opt,
                       NearRate rate, NearStats& stats, const SpriteHistory* history);
     /// `visible` in draw order: last frame's, where `all` are the same entities' sprites and
-    /// none was set up anew since (true), else sorted afresh.
+    /// none was set up anew since (true), else sorted afresh. `unchanged`: whether, besides,
+    /// none changed at all since (the same animation frames too).
     bool orderSprites(std::span<const SpriteSetup* const> all, const NearOptions& opt,
-                      const SpriteHistory* history);
+                      const SpriteHistory* history, bool& unchanged);
     void writeProxies(GpuFrame& frame, Slot& slot, const CameraFrame& cam, const NearOptions& opt,
                       NearStats& stats);
     /// The compute passes' work; with `tracePixels` the per-pixel sprites' blocks too, and every
