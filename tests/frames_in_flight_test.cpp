@@ -32,7 +32,7 @@ class FramesInFlight : public test::VulkanTest {
     static FrameOptions options(FarBackend far) {
         FrameOptions o;
         // The test process's validated renderer, not owned by the FrameRenderers.
-        o.sharedNear = std::shared_ptr<NearRenderer>(&nearRenderer(), [](NearRenderer*) {});
+        o.sharedNear = sharedNearRenderer();
         o.nearBackend = NearBackend::Vulkan;
         o.nearPixels = NearPixels::Compute; // a GPU's default (Auto draws on lavapipe)
         o.farBackend = far;

@@ -51,8 +51,7 @@ class NearRecordsKept : public test::VulkanTest {
     }
     static FrameOptions options(NearPixels pixels, bool shared) {
         FrameOptions o;
-        if (shared)
-            o.sharedNear = std::shared_ptr<NearRenderer>(&nearRenderer(), [](NearRenderer*) {});
+        if (shared) o.sharedNear = sharedNearRenderer();
         o.nearBackend = NearBackend::Vulkan;
         o.nearPixels = pixels;
         o.farBackend = FarBackend::Cpu;

@@ -35,10 +35,6 @@ using test::sourcePath;
 
 class VulkanFar : public test::VulkanTest {
   protected:
-    /// The test process's validated renderer, shared with FrameRenderers (not owned by them).
-    static std::shared_ptr<NearRenderer> shared() {
-        return std::shared_ptr<NearRenderer>(&nearRenderer(), [](NearRenderer*) {});
-    }
     /// The suite's far passes, one per tile size, on the shared renderer's frames (their
     /// residencies persist across the suite's tests, as a renderer's does across frames).
     static FarPass& farPass(FarTiles tiles = FarTiles::Coarse) {
@@ -72,7 +68,7 @@ class VulkanFar : public test::VulkanTest {
                                 FarTiles tiles = FarTiles::Coarse) {
         FrameOptions o;
         o.farTiles = tiles;
-        o.sharedNear = shared();
+        o.sharedNear = sharedNearRenderer();
         o.nearBackend = near;
         o.nearPixels = NearPixels::Compute; // a GPU's default (Auto draws on lavapipe)
         o.farBackend = far;

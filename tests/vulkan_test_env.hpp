@@ -56,6 +56,10 @@ class NearRendererEnvironment : public ::testing::Environment {
 class VulkanTest : public ::testing::Test {
   protected:
     static NearRenderer& nearRenderer() { return NearRendererEnvironment::renderer(); }
+    /// The same renderer for FrameOptions::sharedNear: shared with FrameRenderers, not owned.
+    static std::shared_ptr<NearRenderer> sharedNearRenderer() {
+        return std::shared_ptr<NearRenderer>(&nearRenderer(), [](NearRenderer*) {});
+    }
     void TearDown() override {
         const auto& log = NearRendererEnvironment::log();
         EXPECT_EQ(log->count(), 0u) << "Vulkan validation messages:\n" << log->joined();
