@@ -136,6 +136,9 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
     // above TBB's overhead): the 2,000 tanks of the bench are 32 tasks, enough for 16 cores
     // (chunks of 1024 were 2 tasks, and on the H200's host set-up took 0.52 ms, two cores'
     // worth). The auto partitioner splits no finer than it must, so 100,000 stay a few dozen.
+    // The stamps read as a consumer of the history reads them (SpriteHistory): one rule for
+    // when a sprite last changed, here and there.
+    const SpriteHistory stamps{id_, now, {}, changedAt_, posedAt_, allChangedAt_};
     const Counts counts = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, n, 64), Counts{},
         [&](const tbb::blocked_range<std::size_t>& range, Counts c) {
@@ -187,8 +190,8 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                 // pose and camera are as they were then changed only its frame and skip rule:
                 // those two fields (with a still camera, the animated crowd's steps, and their
                 // copies into the arrays that frames in flight held, cost 64 MB each at 100,000).
-                if (std::max(changedAt_[i], allChangedAt_) > asOf) {
-                    if (std::max(posedAt_[i], allChangedAt_) <= asOf) {
+                if (stamps.spriteChangedAt(std::uint32_t(i)) > asOf) {
+                    if (stamps.spritePosedAt(std::uint32_t(i)) <= asOf) {
                         restepSprite(sprites[i], constants_[i]);
                     } else if (copyFrom && changedAt_[i] < now) {
                         sprites[i] = (*copyFrom)[i];

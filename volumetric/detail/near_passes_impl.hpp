@@ -62,6 +62,9 @@ struct NearPasses::Impl {
         std::vector<glm::ivec4> rects;
         std::vector<CellRateWish> wishes;
     };
+    /// The entity whose store sprite `s` is (SpriteHistory::entityOf), or kNoEntity: a copy, or
+    /// no history at all.
+    static std::uint32_t keptEntityOf(const SpriteHistory* history, const SpriteSetup* s);
 
     /// Per frame in flight: what the host writes for a frame, its descriptor set and queries.
     struct Slot {
