@@ -6,7 +6,10 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
+#include <bit>
+#include <cmath>
 #include <limits>
 #include <unordered_map>
 #include <vector>
@@ -20,6 +23,21 @@ namespace voxtier {
 namespace {
 /// FarPass::Impl::at of an instance the frame does not draw.
 constexpr std::uint32_t kNotDrawn = std::numeric_limits<std::uint32_t>::max();
+
+/// A far sprite's place in the order the far pass draws in: ascending keys are the depth-and-id
+/// rule's order (winsDepthTest), nearest first (the greater reversed-Z depth), equal depths by
+/// ascending entity id. Floats compared as numbers: -0 is 0, and a NaN depth, which wins no
+/// pixel, goes last.
+std::uint64_t farOrderKey(float depth, std::uint32_t entityId) {
+    std::uint32_t ordered; // ascending with the depth
+    if (std::isnan(depth)) {
+        ordered = 0;
+    } else {
+        const std::uint32_t bits = std::bit_cast<std::uint32_t>(depth == 0.0f ? 0.0f : depth);
+        ordered = (bits & 0x80000000u) ? ~bits : bits | 0x80000000u;
+    }
+    return (std::uint64_t(~ordered) << 32) | entityId;
+}
 } // namespace
 
 struct FarPass::Impl {
@@ -49,6 +67,10 @@ struct FarPass::Impl {
     /// its place among the drawn instances (kNotDrawn where none) and its palette's base.
     std::vector<glm::ivec4> rects;
     std::vector<std::uint32_t> at, paletteOf;
+    /// Per instance, its key in the draw order (farOrderKey); the drawn instances' keys with
+    /// their instance index, sorted.
+    std::vector<std::uint64_t> keys;
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
 
     Impl(GpuFrames& f, FarTiles t)
         : frames(f), device(f.device()), tiles(t != FarTiles::Auto  ? t
@@ -153,6 +175,7 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
     // those arrays; then each drawn instance's record, in parallel, at its place.
     const std::size_t n = batch.instances.size();
     rects.resize(n);
+    keys.resize(n);
     at.assign(n, kNotDrawn);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& range) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
@@ -161,10 +184,11 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
             rects[i] = s.visible() ? glm::clamp(s.screenRect, glm::ivec4(0),
                                                 glm::ivec4(width, height, width, height))
                                    : glm::ivec4(0);
+            keys[i] = farOrderKey(s.gpu.depth, s.entityId);
         }
     });
     paletteOf.assign(n, 0);
-    std::uint32_t drawn = 0;
+    order.clear();
     for (std::size_t i = 0; i < n; ++i) {
         const glm::ivec4 r = rects[i];
         if (r.z <= r.x || r.w <= r.y) continue;
@@ -173,12 +197,19 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
         if (added)
             for (const Rgba8 c : f.palette->colors) palettes.push_back(std::uint32_t(c));
         paletteOf[i] = it->second;
-        at[i] = drawn++;
+        order.push_back({keys[i], std::uint32_t(i)});
         const glm::ivec4 t = tileSpan(r);
         for (int ty = t.y; ty <= t.w; ++ty)
             for (int tx = t.x; tx <= t.z; ++tx)
                 ++perTile[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)];
     }
+    // The drawn instances take their places in the rule's order, nearest first (far_shared.h:
+    // the shader stops passing a tile's sprites over a pixel once the pixel would refuse the next
+    // one, which is then true of every later one). The (key, index) pairs are distinct, so the
+    // parallel sort has one answer.
+    tbb::parallel_sort(order.begin(), order.end());
+    const std::uint32_t drawn = std::uint32_t(order.size());
+    for (std::uint32_t k = 0; k < drawn; ++k) at[order[k].second] = k;
     instances.resize(drawn);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& range) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
@@ -191,12 +222,12 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
             g.rect = rects[i];
             g.snap = {offsets[f.snapshot], std::uint32_t(snap.width()),
                       std::uint32_t(snap.height()), std::uint32_t(snap.cellRange.x)};
-            g.extra = {snap.cellRange.z, int(paletteOf[i]), 0, 0};
+            g.extra = {snap.cellRange.z, int(paletteOf[i]), std::bit_cast<int>(f.sprite->gpu.depth),
+                       int(f.sprite->entityId)};
             instances[at[i]] = g;
         }
     });
-    // Tiles with far sprites, and each one's sprites (in instance order; the rule makes the
-    // order irrelevant).
+    // Tiles with far sprites, and each one's sprites in the instances' order: nearest first.
     tileRecords.clear();
     start.assign(perTile.size(), 0);
     std::uint32_t total = 0;

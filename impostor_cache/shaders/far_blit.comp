@@ -10,8 +10,8 @@
 // workgroup is one FAR_SIDE x FAR_SIDE tile of the image that some far rectangle touches,
 // FAR_SIDE x FAR_LANES_Y invocations (built as 32 x 2 and as 8 x 8, far_shared.h), each owning
 // every FAR_LANES_Y-th pixel of one column: it keeps its pixels in registers while the tile's
-// far sprites pass over them, so nothing races and the sprites' order does not matter (the rule
-// decides). Built with FAR_BATCHED (the fine tiles, a GPU's), the tile's sprite list is read a
+// far sprites pass over them, so nothing races and the image does not depend on the sprites'
+// order (the rule decides); the order, nearest first, only lets an invocation stop early. Built with FAR_BATCHED (the fine tiles, a GPU's), the tile's sprite list is read a
 // workgroup's width at a time into shared memory, one entry and its rectangle per invocation, so
 // that a sprite that misses an invocation's pixels costs it a shared-memory read, not a chain of
 // two dependent global reads; the coarse tiles, a CPU device's, read the list directly (on
@@ -58,10 +58,28 @@ const uint FAR_OUTLINE = 7u;
 const int FAR_ROWS = FAR_SIDE / FAR_LANES_Y; // rows of a tile per invocation
 
 #if FAR_BATCHED
-// One batch of the tile's sprite list: entries and their rectangles.
+// One batch of the tile's sprite list: entries, their rectangles and their depth bits and ids.
 shared uint batchSprite[FAR_WORKGROUP];
 shared ivec4 batchRect[FAR_WORKGROUP];
+shared uvec2 batchOrder[FAR_WORKGROUP];
+// Invocations whose pixels no later sprite of the tile can change.
+shared uint finished;
 #endif
+
+// Of an invocation's pixels, the one a sprite wins most easily (the shallowest; of equal depths,
+// the greatest id): a sprite that pixel refuses, every one of them refuses. No pixel: +infinity,
+// which every sprite is refused by.
+void weakestPixel(int rows, float depths[FAR_ROWS], uint ids[FAR_ROWS], out float weakDepth,
+                  out uint weakId) {
+    weakDepth = uintBitsToFloat(0x7F800000u);
+    weakId = 0u;
+    for (int k = 0; k < rows; ++k) {
+        if (depths[k] < weakDepth || (depths[k] == weakDepth && ids[k] > weakId)) {
+            weakDepth = depths[k];
+            weakId = ids[k];
+        }
+    }
+}
 
 void main() {
     uint tile = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
@@ -90,34 +108,58 @@ void main() {
     }
     uint changed = 0u;
     float px = float(x) + 0.5f;
+    // The tile's sprites come nearest first, in the rule's order (far_pass.cpp), so once this
+    // invocation's weakest pixel refuses a sprite, every later sprite is refused by all its pixels:
+    // it stops there (at 100,000 tanks a crowded tile lists thousands of sprites, most behind the
+    // first few that cover it).
+    float weakDepth;
+    uint weakId;
+    weakestPixel(rows, depths, ids, weakDepth, weakId);
+    bool done = false;
 #if FAR_BATCHED
+    if (gl_LocalInvocationIndex == 0u) finished = 0u;
     for (uint b = 0u; b < count; b += FAR_WORKGROUP) {
-        barrier(); // the previous batch is read by every invocation
+        barrier(); // the previous batch is read by every invocation; `finished` is settled
+        // The same value in every invocation (written only between the next two barriers), so
+        // the whole workgroup leaves together.
+        if (finished == FAR_WORKGROUP) break;
         uint lane = gl_LocalInvocationIndex;
         if (b + lane < count) {
             uint f = vtTileList[first + b + lane];
             batchSprite[lane] = f;
             batchRect[lane] = vtFar[f].rect;
+            batchOrder[lane] = uvec2(vtFar[f].extra.zw);
         }
         barrier();
         uint batch = min(FAR_WORKGROUP, count - b);
-        for (uint e = 0u; e < batch; ++e) {
+        for (uint e = 0u; e < batch && !done; ++e) {
             uint f = batchSprite[e];
             ivec4 r = batchRect[e];
+            float d = uintBitsToFloat(batchOrder[e].x);
+            uint entity = batchOrder[e].y;
 #else
     {
         for (uint e = first; e < first + count; ++e) {
             uint f = vtTileList[e];
             ivec4 r = vtFar[f].rect;
+            ivec2 order = vtFar[f].extra.zw;
+            float d = intBitsToFloat(order.x);
+            uint entity = uint(order.y);
 #endif
+            if (d < weakDepth || (d == weakDepth && entity >= weakId)) {
+                done = true;
+#if FAR_BATCHED
+                atomicAdd(finished, 1u);
+#endif
+                break;
+            }
             if (x < r.x || x >= r.z) continue;
             // Rows y0 + FAR_LANES_Y k inside [r.y, r.w).
             int kFrom = r.y > y0 ? (r.y - y0 + FAR_LANES_Y - 1) / FAR_LANES_Y : 0;
             int kTo = min(rows, r.w > y0 ? (r.w - y0 + FAR_LANES_Y - 1) / FAR_LANES_Y : 0);
             if (kFrom >= kTo) continue;
             SpriteGpu s = vtFar[f].sprite;
-            float d = s.depth;
-            uint entity = s.dims.w;
+            uint wrote = 0u;
             for (int k = kFrom; k < kTo; ++k) {
                 // Only a pixel this sprite would win can change (the rule does not depend on
                 // order).
@@ -143,7 +185,11 @@ void main() {
                                         vtFaceLight(s, code - FAR_SOLID0));
                 depths[k] = d;
                 ids[k] = entity;
-                changed |= 1u << uint(k);
+                wrote |= 1u << uint(k);
+            }
+            if (wrote != 0u) {
+                changed |= wrote;
+                weakestPixel(rows, depths, ids, weakDepth, weakId);
             }
         }
     }

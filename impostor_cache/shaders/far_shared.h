@@ -41,6 +41,9 @@ VT_FAR_CONST uint FAR_WORKGROUP = 64u;
 // vj j)) in double, the far blit's SnapshotCellMap; the snapshot's cells (two bytes each: palette
 // index, code; two per word) start at word snap.x of the snapshot buffer, snap.y cells a row,
 // snap.z rows, its first cell is lattice cell (snap.w, extra.x); its palette starts at extra.y.
+// extra.z and extra.w repeat the sprite's depth (its bits) and entity id, beside its rectangle,
+// for the order test: the instances are in the depth-and-id rule's order, nearest first, and so
+// is every tile's list (the shader stops at the first sprite a pixel refuses).
 struct FarInstanceGpu {
     SpriteGpu sprite;
     double u0;
@@ -51,7 +54,7 @@ struct FarInstanceGpu {
     double vj;
     ivec4 rect;  // screen rectangle x0, y0, x1, y1 (half-open), clipped to the image
     uvec4 snap;  // word offset, width, height, first cell i
-    ivec4 extra; // first cell j, palette base, unused, unused
+    ivec4 extra; // first cell j, palette base, depth bits, entity id
 };
 
 // Push constants: the tiles to run, and the image size.
