@@ -10,7 +10,6 @@
 
 #include <bit>
 #include <cmath>
-#include <limits>
 #include <unordered_map>
 #include <vector>
 
@@ -21,9 +20,6 @@
 namespace voxtier {
 
 namespace {
-/// FarPass::Impl::at of an instance the frame does not draw.
-constexpr std::uint32_t kNotDrawn = std::numeric_limits<std::uint32_t>::max();
-
 /// A far sprite's place in the order the far pass draws in: ascending keys are the depth-and-id
 /// rule's order (winsDepthTest), nearest first (the greater reversed-Z depth), equal depths by
 /// ascending entity id. Floats compared as numbers: -0 is 0, and a NaN depth, which wins no
@@ -59,17 +55,15 @@ struct FarPass::Impl {
     std::vector<Slot> slots;
 
     // The frame being recorded (host scratch, reused from frame to frame).
-    std::vector<far_gpu::FarInstanceGpu> instances;
     std::vector<std::uint32_t> palettes, perTile, start, list;
     std::vector<far_gpu::FarTile> tileRecords;
     std::unordered_map<const Palette*, std::uint32_t> paletteBase;
     /// Per instance of the batch: its rectangle within the image (empty where it draws nothing),
-    /// its place among the drawn instances (kNotDrawn where none) and its palette's base.
+    /// its palette's base and its key in the draw order (farOrderKey).
     std::vector<glm::ivec4> rects;
-    std::vector<std::uint32_t> at, paletteOf;
-    /// Per instance, its key in the draw order (farOrderKey); the drawn instances' keys with
-    /// their instance index, sorted.
+    std::vector<std::uint32_t> paletteOf;
     std::vector<std::uint64_t> keys;
+    /// The drawn instances in draw order: their keys and instance indices, sorted.
     std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
 
     Impl(GpuFrames& f, FarTiles t)
@@ -93,10 +87,13 @@ struct FarPass::Impl {
     void create();
     void destroy() noexcept;
     void ensure(VulkanBuffer& b, VkDeviceSize bytes);
-    /// The frame's instances, palettes, tiles and tile lists, from `batch` (offsets: each
-    /// snapshot's word offset on the device). Returns the tiles to dispatch.
-    std::uint32_t prepare(const FarBatch& batch, const std::vector<std::uint32_t>& offsets,
-                          int width, int height);
+    /// The frame's draw order, palettes, tiles and tile lists, from `batch`. Returns the tiles
+    /// to dispatch.
+    std::uint32_t prepare(const FarBatch& batch, int width, int height);
+    /// The drawn instances' records, in draw order, into the slot's buffer (offsets: each
+    /// snapshot's word offset on the device).
+    void writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
+                        const std::vector<std::uint32_t>& offsets);
     void writeDescriptors(GpuFrame& frame, Slot& slot);
 };
 
@@ -157,26 +154,22 @@ void FarPass::Impl::ensure(VulkanBuffer& b, VkDeviceSize bytes) {
     b = VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::ShaderRead);
 }
 
-std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
-                                     const std::vector<std::uint32_t>& offsets, int width,
-                                     int height) {
+std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int height) {
     paletteBase.clear();
     palettes.clear();
-    instances.clear();
     const int block = side;
     const int tilesX = (width + block - 1) / block, tilesY = (height + block - 1) / block;
     perTile.assign(std::size_t(tilesX) * std::size_t(tilesY) + 1, 0);
     const auto tileSpan = [&](const glm::ivec4& r) {
         return glm::ivec4(r.x / block, r.y / block, (r.z - 1) / block, (r.w - 1) / block);
     };
-    // Each instance's rectangle, read in parallel (a sprite's record is a cache miss apiece: at
-    // 100,000 tanks one core walking ten thousand far sprites cost milliseconds of recording);
-    // then, serially and in instance order, the drawn ones' places, palettes and tile counts from
-    // those arrays; then each drawn instance's record, in parallel, at its place.
+    // Each instance's rectangle and order key, read in parallel (a sprite's record is a cache
+    // miss apiece: at 100,000 tanks one core walking ten thousand far sprites cost milliseconds
+    // of recording); then, serially and in instance order, the drawn ones' palettes and tile
+    // counts from those arrays.
     const std::size_t n = batch.instances.size();
     rects.resize(n);
     keys.resize(n);
-    at.assign(n, kNotDrawn);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& range) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
             const SpriteSetup& s = *batch.instances[i].sprite;
@@ -208,26 +201,7 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
     // one, which is then true of every later one). The (key, index) pairs are distinct, so the
     // parallel sort has one answer.
     tbb::parallel_sort(order.begin(), order.end());
-    const std::uint32_t drawn = std::uint32_t(order.size());
-    for (std::uint32_t k = 0; k < drawn; ++k) at[order[k].second] = k;
-    instances.resize(drawn);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i != range.end(); ++i) {
-            if (at[i] == kNotDrawn) continue;
-            const FarInstance& f = batch.instances[i];
-            const FarSnapshotCells& snap = batch.snapshots.at(f.snapshot);
-            far_gpu::FarInstanceGpu g{};
-            g.sprite = f.sprite->gpu;
-            g.u0 = f.u0, g.ui = f.ui, g.uj = f.uj, g.v0 = f.v0, g.vi = f.vi, g.vj = f.vj;
-            g.rect = rects[i];
-            g.snap = {offsets[f.snapshot], std::uint32_t(snap.width()),
-                      std::uint32_t(snap.height()), std::uint32_t(snap.cellRange.x)};
-            g.extra = {snap.cellRange.z, int(paletteOf[i]), std::bit_cast<int>(f.sprite->gpu.depth),
-                       int(f.sprite->entityId)};
-            instances[at[i]] = g;
-        }
-    });
-    // Tiles with far sprites, and each one's sprites in the instances' order: nearest first.
+    // Tiles with far sprites, and each one's sprites in draw order: nearest first.
     tileRecords.clear();
     start.assign(perTile.size(), 0);
     std::uint32_t total = 0;
@@ -241,13 +215,41 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch,
         total += perTile[k];
     }
     list.assign(total, 0);
-    for (std::uint32_t i = 0; i < instances.size(); ++i) {
-        const glm::ivec4 t = tileSpan(instances[i].rect);
+    for (std::uint32_t k = 0; k < order.size(); ++k) {
+        const glm::ivec4 t = tileSpan(rects[order[k].second]);
         for (int ty = t.y; ty <= t.w; ++ty)
             for (int tx = t.x; tx <= t.z; ++tx)
-                list[start[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)]++] = i;
+                list[start[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)]++] = k;
     }
     return std::uint32_t(tileRecords.size());
+}
+
+void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
+                                   const std::vector<std::uint32_t>& offsets) {
+    const std::size_t drawn = order.size();
+    const VkDeviceSize bytes = VkDeviceSize(drawn) * sizeof(far_gpu::FarInstanceGpu);
+    ensure(slot.instances, std::max<VkDeviceSize>(bytes, 4));
+    if (!drawn) return;
+    // Straight into the buffer (mapped, or the staging ring's space for it), each record composed
+    // first and stored once, in order: the destination may be write-combined device memory, and
+    // a copy through a host array wrote 368 bytes a sprite twice (32 MB at 88,000 far tanks).
+    auto* out = static_cast<far_gpu::FarInstanceGpu*>(frame.hostWrite(slot.instances, 0, bytes));
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, drawn, 64), [&](const auto& range) {
+        for (std::size_t k = range.begin(); k != range.end(); ++k) {
+            const std::uint32_t i = order[k].second;
+            const FarInstance& f = batch.instances[i];
+            const FarSnapshotCells& snap = batch.snapshots.at(f.snapshot);
+            far_gpu::FarInstanceGpu g{};
+            g.sprite = f.sprite->gpu;
+            g.u0 = f.u0, g.ui = f.ui, g.uj = f.uj, g.v0 = f.v0, g.vi = f.vi, g.vj = f.vj;
+            g.rect = rects[i];
+            g.snap = {offsets[f.snapshot], std::uint32_t(snap.width()),
+                      std::uint32_t(snap.height()), std::uint32_t(snap.cellRange.x)};
+            g.extra = {snap.cellRange.z, int(paletteOf[i]), std::bit_cast<int>(f.sprite->gpu.depth),
+                       int(f.sprite->entityId)};
+            out[k] = g;
+        }
+    });
 }
 
 void FarPass::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
@@ -300,8 +302,8 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
     const std::vector<std::uint32_t> offsets = m.residency.update(batch, &rs);
     stats.snapshotsUploaded = rs.snapshotsUploaded;
     stats.bytesUploaded = rs.bytesUploaded;
-    const std::uint32_t tileCount = m.prepare(batch, offsets, frame.width(), frame.height());
-    stats.sprites = m.instances.size();
+    const std::uint32_t tileCount = m.prepare(batch, frame.width(), frame.height());
+    stats.sprites = m.order.size();
     stats.tiles = tileCount;
 
     frame.timer().begin(cb, "far_upload");
@@ -311,7 +313,7 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
         m.ensure(b, std::max<VkDeviceSize>(bytes, 4));
         frame.hostCopy(b, v.data(), bytes);
     };
-    upload(slot.instances, m.instances);
+    m.writeInstances(frame, slot, batch, offsets);
     upload(slot.palettes, m.palettes);
     upload(slot.tiles, m.tileRecords);
     upload(slot.tileList, m.list);
