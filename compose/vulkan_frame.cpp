@@ -26,7 +26,7 @@ VulkanFrameInFlight submitVulkanFrame(NearRenderer& near, FarPass* farPass,
                          out.nearOptions, out.result.near, request.history);
     if (request.far) {
         const auto tFar = Clock::now();
-        farPass->record(frame, *request.far, out.result.far);
+        farPass->record(frame, *request.far, out.result.far, request.history);
         out.result.farRecordMs = msSince(tFar);
     }
     if (request.readBack) frame.recordReadback(request.depthAndIds);

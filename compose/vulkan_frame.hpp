@@ -21,8 +21,9 @@ struct VulkanFrameRequest {
     const CameraFrame* camera = nullptr;
     const std::vector<std::shared_ptr<VoxelModel>>* models = nullptr;
     std::span<const SpriteSetup* const> nearSprites;
-    /// Where the near sprites are a SpriteStore's (copies aside): what changed when, so that the
-    /// near tier writes only what changed (NearPasses::record). Null: everything is written.
+    /// Where the sprites, near and far, are a SpriteStore's (copies aside): what changed when, so
+    /// that both tiers write only what changed (NearPasses::record, FarPass::record). Null:
+    /// everything is written.
     const SpriteHistory* history = nullptr;
     /// Far sprites drawn by the far pass after the near ones (null: none). Needs a FarPass.
     const FarBatch* far = nullptr;

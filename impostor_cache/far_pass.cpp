@@ -6,10 +6,12 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
 #include <bit>
 #include <cmath>
+#include <functional>
 #include <unordered_map>
 #include <vector>
 
@@ -47,10 +49,28 @@ struct FarPass::Impl {
     VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
     VkPipeline pipeline = VK_NULL_HANDLE;
 
+    /// What a slot's instance buffer holds (writeInstances): per place, the instance whose
+    /// record it is, as of update `asOf` of the sprite store `store` (0: nothing known).
+    struct KeptRecords {
+        static constexpr std::uint32_t kNoEntity = 0xFFFFFFFFu;
+        /// Everything a record is made from besides its sprite: the entity (kNoEntity: a copy of
+        /// a sprite, a cross-fade's), its snapshot, the snapshot's place on the device and the
+        /// palette's in the frame's palette buffer.
+        struct Place {
+            std::uint32_t entity = kNoEntity, offset = 0, palette = 0;
+            const void* snapshot = nullptr;
+            bool operator==(const Place&) const = default;
+        };
+        std::uint64_t store = 0, asOf = 0;
+        VkBuffer buffer = VK_NULL_HANDLE;
+        int width = 0, height = 0;
+        std::vector<Place> places;
+    };
     /// Per frame in flight: what the host writes for a frame, and its descriptor set.
     struct Slot {
         VulkanBuffer instances, palettes, tiles, tileList;
         VkDescriptorSet set = VK_NULL_HANDLE;
+        KeptRecords kept;
     };
     std::vector<Slot> slots;
 
@@ -65,6 +85,13 @@ struct FarPass::Impl {
     std::vector<std::uint64_t> keys;
     /// The drawn instances in draw order: their keys and instance indices, sorted.
     std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
+    /// What the order and tile lists above were made from: per instance its entity (kNoEntity
+    /// where a copy), the sprites of store `store` as of update `asOf`, the image size.
+    struct OrderSource {
+        std::uint64_t store = 0, asOf = 0;
+        int width = 0, height = 0;
+        std::vector<std::uint32_t> entities;
+    } orderSource;
 
     Impl(GpuFrames& f, FarTiles t)
         : frames(f), device(f.device()), tiles(t != FarTiles::Auto  ? t
@@ -87,13 +114,20 @@ struct FarPass::Impl {
     void create();
     void destroy() noexcept;
     void ensure(VulkanBuffer& b, VkDeviceSize bytes);
-    /// The frame's draw order, palettes, tiles and tile lists, from `batch`. Returns the tiles
-    /// to dispatch.
-    std::uint32_t prepare(const FarBatch& batch, int width, int height);
+    /// The frame's draw order, palettes, tiles and tile lists, from `batch` (last frame's order
+    /// and lists where `history` says they stand). Returns the tiles to dispatch.
+    std::uint32_t prepare(const FarBatch& batch, int width, int height,
+                          const SpriteHistory* history, FarPassStats& stats);
     /// The drawn instances' records, in draw order, into the slot's buffer (offsets: each
-    /// snapshot's word offset on the device).
+    /// snapshot's word offset on the device), but for those the buffer already holds.
     void writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
-                        const std::vector<std::uint32_t>& offsets);
+                        const std::vector<std::uint32_t>& offsets, const SpriteHistory* history,
+                        FarPassStats& stats);
+    /// The entity whose store sprite instance `f` draws; kNoEntity for a copy or no history.
+    static std::uint32_t entityOf(const SpriteHistory* history, const FarInstance& f) {
+        if (!history) return KeptRecords::kNoEntity;
+        return history->entityOf(f.sprite).value_or(KeptRecords::kNoEntity);
+    }
     void writeDescriptors(GpuFrame& frame, Slot& slot);
 };
 
@@ -154,102 +188,179 @@ void FarPass::Impl::ensure(VulkanBuffer& b, VkDeviceSize bytes) {
     b = VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::ShaderRead);
 }
 
-std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int height) {
+std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int height,
+                                     const SpriteHistory* history, FarPassStats& stats) {
     paletteBase.clear();
     palettes.clear();
-    const int block = side;
-    const int tilesX = (width + block - 1) / block, tilesY = (height + block - 1) / block;
-    perTile.assign(std::size_t(tilesX) * std::size_t(tilesY) + 1, 0);
-    const auto tileSpan = [&](const glm::ivec4& r) {
-        return glm::ivec4(r.x / block, r.y / block, (r.z - 1) / block, (r.w - 1) / block);
-    };
-    // Each instance's rectangle and order key, read in parallel (a sprite's record is a cache
-    // miss apiece: at 100,000 tanks one core walking ten thousand far sprites cost milliseconds
-    // of recording); then, serially and in instance order, the drawn ones' palettes and tile
-    // counts from those arrays.
     const std::size_t n = batch.instances.size();
-    rects.resize(n);
-    keys.resize(n);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i != range.end(); ++i) {
-            const SpriteSetup& s = *batch.instances[i].sprite;
-            // The far blit's rectangle: the sprite's screen rectangle within the image.
-            rects[i] = s.visible() ? glm::clamp(s.screenRect, glm::ivec4(0),
-                                                glm::ivec4(width, height, width, height))
-                                   : glm::ivec4(0);
-            keys[i] = farOrderKey(s.gpu.depth, s.entityId);
-        }
-    });
+    constexpr std::uint32_t kNoEntity = KeptRecords::kNoEntity;
+    // Last frame's order and tile lists stand where the same store's sprites of the same
+    // entities, in the same sequence, drew this frame's instances, none of them moved on screen
+    // since (its depth and rectangle: SpriteHistory::spritePosedAt), and the image has its size:
+    // a still camera's frame, animation steps included (100,000 far tanks: the keys, the sort
+    // and the lists cost ~8 ms of a 2-core host's recording).
+    OrderSource& src = orderSource;
+    bool same = history && history->store != 0 && src.store == history->store &&
+                src.width == width && src.height == height && src.entities.size() == n;
+    if (same)
+        same = tbb::parallel_reduce(
+            tbb::blocked_range<std::size_t>(0, n, 1024), true,
+            [&](const auto& range, bool ok) {
+                for (std::size_t i = range.begin(); ok && i != range.end(); ++i) {
+                    const std::uint32_t e = entityOf(history, batch.instances[i]);
+                    ok = e != kNoEntity && e == src.entities[i] &&
+                         history->spritePosedAt(e) <= src.asOf;
+                }
+                return ok;
+            },
+            [](bool a, bool b) { return a && b; });
+    stats.orderKept = same;
+    src.store = 0; // until the order below is as `src` says
     paletteOf.assign(n, 0);
-    order.clear();
-    for (std::size_t i = 0; i < n; ++i) {
-        const glm::ivec4 r = rects[i];
-        if (r.z <= r.x || r.w <= r.y) continue;
+    // The palettes, in instance order, the drawn instances' (rects: from the sprites).
+    const auto placePalette = [&](std::size_t i) {
         const FarInstance& f = batch.instances[i];
         const auto [it, added] = paletteBase.try_emplace(f.palette, std::uint32_t(palettes.size()));
         if (added)
             for (const Rgba8 c : f.palette->colors) palettes.push_back(std::uint32_t(c));
         paletteOf[i] = it->second;
-        order.push_back({keys[i], std::uint32_t(i)});
-        const glm::ivec4 t = tileSpan(r);
-        for (int ty = t.y; ty <= t.w; ++ty)
-            for (int tx = t.x; tx <= t.z; ++tx)
-                ++perTile[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)];
+    };
+    const auto drawn = [&](std::size_t i) {
+        const glm::ivec4 r = rects[i];
+        return r.z > r.x && r.w > r.y;
+    };
+    if (same) {
+        for (std::size_t i = 0; i < n; ++i)
+            if (drawn(i)) placePalette(i);
+    } else {
+        const int block = side;
+        const int tilesX = (width + block - 1) / block, tilesY = (height + block - 1) / block;
+        perTile.assign(std::size_t(tilesX) * std::size_t(tilesY) + 1, 0);
+        const auto tileSpan = [&](const glm::ivec4& r) {
+            return glm::ivec4(r.x / block, r.y / block, (r.z - 1) / block, (r.w - 1) / block);
+        };
+        // Each instance's rectangle and order key, read in parallel (a sprite's record is a cache
+        // miss apiece: at 100,000 tanks one core walking ten thousand far sprites cost
+        // milliseconds of recording); then, serially and in instance order, the drawn ones'
+        // palettes and tile counts from those arrays.
+        rects.resize(n);
+        keys.resize(n);
+        src.entities.resize(n);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& range) {
+            for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                const SpriteSetup& s = *batch.instances[i].sprite;
+                // The far blit's rectangle: the sprite's screen rectangle within the image.
+                rects[i] = s.visible() ? glm::clamp(s.screenRect, glm::ivec4(0),
+                                                    glm::ivec4(width, height, width, height))
+                                       : glm::ivec4(0);
+                keys[i] = farOrderKey(s.gpu.depth, s.entityId);
+                src.entities[i] = entityOf(history, batch.instances[i]);
+            }
+        });
+        order.clear();
+        for (std::size_t i = 0; i < n; ++i) {
+            if (!drawn(i)) continue;
+            placePalette(i);
+            order.push_back({keys[i], std::uint32_t(i)});
+            const glm::ivec4 t = tileSpan(rects[i]);
+            for (int ty = t.y; ty <= t.w; ++ty)
+                for (int tx = t.x; tx <= t.z; ++tx)
+                    ++perTile[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)];
+        }
+        // The drawn instances take their places in the rule's order, nearest first (far_shared.h:
+        // the shader stops passing a tile's sprites over a pixel once the pixel would refuse the
+        // next one, which is then true of every later one). The (key, index) pairs are distinct,
+        // so the parallel sort has one answer.
+        tbb::parallel_sort(order.begin(), order.end());
+        // Tiles with far sprites, and each one's sprites in draw order: nearest first.
+        tileRecords.clear();
+        start.assign(perTile.size(), 0);
+        std::uint32_t total = 0;
+        for (std::size_t k = 0; k + 1 < perTile.size(); ++k) {
+            start[k] = total;
+            if (perTile[k] == 0) continue;
+            const std::uint32_t tx = std::uint32_t(k % std::size_t(tilesX)),
+                                ty = std::uint32_t(k / std::size_t(tilesX));
+            const auto px = std::uint32_t(block);
+            tileRecords.push_back({tx * px | (ty * px) << 16, total, perTile[k], 0});
+            total += perTile[k];
+        }
+        list.assign(total, 0);
+        for (std::uint32_t k = 0; k < order.size(); ++k) {
+            const glm::ivec4 t = tileSpan(rects[order[k].second]);
+            for (int ty = t.y; ty <= t.w; ++ty)
+                for (int tx = t.x; tx <= t.z; ++tx)
+                    list[start[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)]++] = k;
+        }
     }
-    // The drawn instances take their places in the rule's order, nearest first (far_shared.h:
-    // the shader stops passing a tile's sprites over a pixel once the pixel would refuse the next
-    // one, which is then true of every later one). The (key, index) pairs are distinct, so the
-    // parallel sort has one answer.
-    tbb::parallel_sort(order.begin(), order.end());
-    // Tiles with far sprites, and each one's sprites in draw order: nearest first.
-    tileRecords.clear();
-    start.assign(perTile.size(), 0);
-    std::uint32_t total = 0;
-    for (std::size_t k = 0; k + 1 < perTile.size(); ++k) {
-        start[k] = total;
-        if (perTile[k] == 0) continue;
-        const std::uint32_t tx = std::uint32_t(k % std::size_t(tilesX)),
-                            ty = std::uint32_t(k / std::size_t(tilesX));
-        const auto px = std::uint32_t(block);
-        tileRecords.push_back({tx * px | (ty * px) << 16, total, perTile[k], 0});
-        total += perTile[k];
-    }
-    list.assign(total, 0);
-    for (std::uint32_t k = 0; k < order.size(); ++k) {
-        const glm::ivec4 t = tileSpan(rects[order[k].second]);
-        for (int ty = t.y; ty <= t.w; ++ty)
-            for (int tx = t.x; tx <= t.z; ++tx)
-                list[start[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)]++] = k;
+    if (history && history->store != 0) {
+        src.store = history->store;
+        src.asOf = history->now;
+        src.width = width;
+        src.height = height;
     }
     return std::uint32_t(tileRecords.size());
 }
 
 void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
-                                   const std::vector<std::uint32_t>& offsets) {
+                                   const std::vector<std::uint32_t>& offsets,
+                                   const SpriteHistory* history, FarPassStats& stats) {
     const std::size_t drawn = order.size();
     const VkDeviceSize bytes = VkDeviceSize(drawn) * sizeof(far_gpu::FarInstanceGpu);
     ensure(slot.instances, std::max<VkDeviceSize>(bytes, 4));
     if (!drawn) return;
+    // What the slot's buffer holds that is still current: a record whose place holds the same
+    // instance (entity, snapshot and its device place, palette place) of a sprite that has not
+    // changed since, in a buffer the host writes in place (a staged buffer is copied whole from
+    // the staging ring). A still camera's frame then writes the records that changed, where it
+    // wrote every one (100,000 far tanks: 32 MB, 10-17 ms of a 2-core host).
+    KeptRecords& kept = slot.kept;
+    const bool direct = slot.instances.placement().hostWrite == HostWrite::Direct;
+    const int width = frame.width(), height = frame.height();
+    const bool keep = history && history->store != 0 && direct && kept.store == history->store &&
+                      kept.buffer == slot.instances.handle() && kept.width == width &&
+                      kept.height == height;
+    kept.store = 0; // until every place below is as `kept` says (an exception leaves it so)
+    kept.places.resize(drawn);
     // Straight into the buffer (mapped, or the staging ring's space for it), each record composed
     // first and stored once, in order: the destination may be write-combined device memory, and
     // a copy through a host array wrote 368 bytes a sprite twice (32 MB at 88,000 far tanks).
     auto* out = static_cast<far_gpu::FarInstanceGpu*>(frame.hostWrite(slot.instances, 0, bytes));
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, drawn, 64), [&](const auto& range) {
-        for (std::size_t k = range.begin(); k != range.end(); ++k) {
-            const std::uint32_t i = order[k].second;
-            const FarInstance& f = batch.instances[i];
-            const FarSnapshotCells& snap = batch.snapshots.at(f.snapshot);
-            far_gpu::FarInstanceGpu g{};
-            g.sprite = f.sprite->gpu;
-            g.u0 = f.u0, g.ui = f.ui, g.uj = f.uj, g.v0 = f.v0, g.vi = f.vi, g.vj = f.vj;
-            g.rect = rects[i];
-            g.snap = {offsets[f.snapshot], std::uint32_t(snap.width()),
-                      std::uint32_t(snap.height()), std::uint32_t(snap.cellRange.x)};
-            g.extra = {snap.cellRange.z, int(paletteOf[i]), std::bit_cast<int>(f.sprite->gpu.depth),
-                       int(f.sprite->entityId)};
-            out[k] = g;
-        }
-    });
+    stats.recordsKept = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, drawn, 64), std::uint64_t(0),
+        [&](const auto& range, std::uint64_t keptHere) {
+            for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                const std::uint32_t i = order[k].second;
+                const FarInstance& f = batch.instances[i];
+                const FarSnapshotCells& snap = batch.snapshots.at(f.snapshot);
+                const KeptRecords::Place place{entityOf(history, f), offsets[f.snapshot],
+                                               paletteOf[i], snap.owner.get()};
+                if (keep && place.entity != KeptRecords::kNoEntity && kept.places[k] == place &&
+                    history->spriteChangedAt(place.entity) <= kept.asOf) {
+                    ++keptHere;
+                    continue;
+                }
+                far_gpu::FarInstanceGpu g{};
+                g.sprite = f.sprite->gpu;
+                g.u0 = f.u0, g.ui = f.ui, g.uj = f.uj, g.v0 = f.v0, g.vi = f.vi, g.vj = f.vj;
+                g.rect = rects[i];
+                g.snap = {offsets[f.snapshot], std::uint32_t(snap.width()),
+                          std::uint32_t(snap.height()), std::uint32_t(snap.cellRange.x)};
+                g.extra = {snap.cellRange.z, int(paletteOf[i]),
+                           std::bit_cast<int>(f.sprite->gpu.depth), int(f.sprite->entityId)};
+                out[k] = g;
+                kept.places[k] = place;
+            }
+            return keptHere;
+        },
+        std::plus<>());
+    if (history && history->store != 0 && direct) {
+        kept.store = history->store;
+        kept.asOf = history->now;
+        kept.buffer = slot.instances.handle();
+        kept.width = width;
+        kept.height = height;
+    }
 }
 
 void FarPass::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
@@ -292,7 +403,8 @@ std::size_t FarPass::residentSnapshots() const {
     return impl_->residency.residentSnapshots();
 }
 
-void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats) {
+void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats,
+                     const SpriteHistory* history) {
     Impl& m = *impl_;
     if (3 * frame.planeBytes() > m.device.properties().limits.maxStorageBufferRange)
         throw VulkanError("far pass: the image is larger than the device's storage buffer range");
@@ -302,7 +414,7 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
     const std::vector<std::uint32_t> offsets = m.residency.update(batch, &rs);
     stats.snapshotsUploaded = rs.snapshotsUploaded;
     stats.bytesUploaded = rs.bytesUploaded;
-    const std::uint32_t tileCount = m.prepare(batch, frame.width(), frame.height());
+    const std::uint32_t tileCount = m.prepare(batch, frame.width(), frame.height(), history, stats);
     stats.sprites = m.order.size();
     stats.tiles = tileCount;
 
@@ -313,7 +425,7 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
         m.ensure(b, std::max<VkDeviceSize>(bytes, 4));
         frame.hostCopy(b, v.data(), bytes);
     };
-    m.writeInstances(frame, slot, batch, offsets);
+    m.writeInstances(frame, slot, batch, offsets, history, stats);
     upload(slot.palettes, m.palettes);
     upload(slot.tiles, m.tileRecords);
     upload(slot.tileList, m.list);

@@ -5,6 +5,7 @@
 // image equals the CPU blit into the near image bit for bit. Its snapshots stay on the device
 // between frames (far_residency.hpp). Needs shaderFloat64 (the snapshot cell map is evaluated in
 // double, as on the CPU).
+#include "core/sprite_store.hpp"
 #include "device/gpu_frame.hpp"
 #include "impostor_cache/far_batch.hpp"
 #include "impostor_cache/far_stats.hpp"
@@ -26,8 +27,12 @@ class FarPass {
 
     /// Records the far sprites of `batch` into `frame`, after whatever drew its planes: their new
     /// snapshots uploaded, then the pass (timed as "far_upload" and "far_blit"). The planes must
-    /// hold all three planes (colour, id, depth).
-    void record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats);
+    /// hold all three planes (colour, id, depth). With the sprite store's `history` of the
+    /// batch's sprites, what the frame's slot holds of an earlier frame of the same store and is
+    /// still current is not written again: an instance's record, and the draw order with the
+    /// tile lists (FarPassStats::recordsKept, orderKept).
+    void record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats,
+                const SpriteHistory* history = nullptr);
 
     /// The tiles this pass runs (never Auto).
     FarTiles tiles() const;

@@ -38,6 +38,10 @@ struct FarFrameStats {
 struct FarPassStats {
     /// Far sprites drawn, image tiles walked, snapshots (and their bytes) uploaded this frame.
     std::uint64_t sprites = 0, tiles = 0, snapshotsUploaded = 0, bytesUploaded = 0;
+    /// Of the sprites, those whose record the frame's slot already held (FarPass::record with a
+    /// history); whether the draw order and tile lists were last frame's.
+    std::uint64_t recordsKept = 0;
+    bool orderKept = false;
 };
 
 } // namespace voxtier
