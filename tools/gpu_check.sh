@@ -21,7 +21,8 @@
 #             host's parts: the gpu_*_ms and host_*_ms figures): for the bench scenes in motion,
 #             and the tank army at 2,000, 20,000 and 100,000 entities (VOXTIER_PROFILE_COUNTS
 #             overrides them), in report.md and results.csv; and the far pass's coarse and
-#             fine tiles (--far-tiles) on the moving tank army's hybrid at the largest count,
+#             fine tiles (--far-tiles) on the moving tank army's hybrid and all far at the
+#             largest count, all far under a still camera too,
 #             and direct writes against staged uploads on its all-near frames, images compared
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -229,6 +230,31 @@ if ((profile)); then
         fi
     done
     same_last_frame coarse fine identity.txt "the far pass's coarse and fine tiles"
+    # The same army all far, moving, in both tile sizes: every tank through the far pass, whose
+    # crowded tiles a pixel's walk over nearest-first sprites cuts short (stop 49); then under a
+    # still camera (its camera path removed), where a frame keeps the far pass's records, order
+    # and tile lists that still hold (the device's default tiles).
+    for t in coarse fine; do
+        if ! "$bin" render "$army" --mode far --far-backend vulkan \
+            --far-tiles "$t" --frames 0:23 --csv "$out/far_tiles/far_$t.csv" \
+            -o "$out/far_tiles/far_$t.pam" >>"$out/logs/far_tiles.log" 2>&1; then
+            echo "gpu_check: the all-far render ($t) failed: $(tail -1 "$out/logs/far_tiles.log")" >&2
+            failed=1
+        fi
+    done
+    same_last_frame far_coarse far_fine far_identity.txt "the all-far coarse and fine tiles"
+    still="$out/far_tiles/tank_army_${big}_still.json"
+    if command -v python3 >/dev/null &&
+        python3 -c 'import json, sys; d = json.load(open(sys.argv[1])); d.pop("camera_path", None); json.dump(d, open(sys.argv[2], "w"))' \
+            "$army" "$still"; then
+        if ! "$bin" render "$still" --mode far --far-backend vulkan --frames 0:23 \
+            --csv "$out/far_tiles/far_still.csv" -o "$out/far_tiles/far_still.pam" \
+            >>"$out/logs/far_tiles.log" 2>&1; then
+            echo "gpu_check: the still all-far render failed: $(tail -1 "$out/logs/far_tiles.log")" >&2
+            failed=1
+        fi
+        rm -f "$out/far_tiles/"far_still_00*.pam
+    fi
     # Where the host writes what the shaders read: directly into device-local memory through the
     # BAR where the device offers it (the policy's choice), or staged and copied by the device
     # (VOXTIER_FORCE_STAGING=1): the same army all-near in flight, frames 0:23 each.
@@ -424,26 +450,33 @@ if os.environ.get("GC_PROFILE") == "1":
                   "far_bakes", "host_record_ms", "host_record_sprites_ms", "host_record_lists_ms",
                   "gpu_frame_ms", "gpu_far_ms", "far_entities")
     tiles_rows = []
-    for t in ("coarse", "fine"):
-        got = army_medians(t, tiles_cols)
+    renders = (("hybrid, coarse", "coarse", "hybrid_gpu_far coarse"),
+               ("hybrid, fine", "fine", "hybrid_gpu_far fine"),
+               ("all far, coarse", "far_coarse", "far coarse"),
+               ("all far, fine", "far_fine", "far fine"),
+               ("all far, still camera", "far_still", "far still"))
+    for label, name, item in renders:
+        got = army_medians(name, tiles_cols)
         if not got:
             continue
-        tiles_rows.append((t, *got))
+        tiles_rows.append((label, *got))
         for c, v in zip(tiles_cols, got[1]):
             if c.endswith("_ms"):
-                rows.append(("far_tiles", f"tank_army_{big}", f"hybrid_gpu_far {t} {c}", v, "ms"))
-    same = last_frames("identity.txt")
-    lines += ["", f"## The far pass's tiles: {int(big):,} tanks, hybrid, far pass on Vulkan, in flight (ms, medians)", "",
-              f"`voxtier render tank_army_{big}.json --mode hybrid --far-backend vulkan --far-tiles T --frames 0:23 --csv`: "
-              f"frames 6-23. Frame 23, coarse against fine: {same}. The far tier's share (`far_ms`) is its "
-              "snapshot lookups and bakes (`far_lookup_bake_ms`, `far_bakes` of them), its recording (within "
-              "`host_record_ms`, beside the near tier's sprite records and lists) and its device time.", ""]
+                rows.append(("far_tiles", f"tank_army_{big}", f"{item} {c}", v, "ms"))
+    same, same_far = last_frames("identity.txt"), last_frames("far_identity.txt")
+    lines += ["", f"## The far pass: {int(big):,} tanks, hybrid and all far, its tiles, in flight (ms, medians)", "",
+              f"`voxtier render tank_army_{big}.json --mode hybrid|far --far-backend vulkan --far-tiles T --frames 0:23 --csv`, "
+              "and all far under a still camera (the path removed, the device's default tiles): "
+              f"frames 6-23. Frame 23, coarse against fine: {same}; all far, coarse against fine: {same_far}. "
+              "The far tier's share (`far_ms`) is its snapshot lookups and bakes (`far_lookup_bake_ms`, "
+              "`far_bakes` of them), its recording (within `host_record_ms`, beside the near tier's sprite "
+              "records and lists) and its device time.", ""]
     if tiles_rows:
-        lines += ["| tiles | frames | frame in flight | set-up | select | far tier | of which lookups and bakes "
+        lines += ["| render | frames | frame in flight | set-up | select | far tier | of which lookups and bakes "
                   "| bakes | host record | of which near sprite records | of which near lists | GPU frame "
                   "| GPU far pass | far entities |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
-        for t, n, v in tiles_rows:
-            lines.append(f"| {t} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
+        for label, n, v in tiles_rows:
+            lines.append(f"| {label} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
     else:
         lines.append("No far-tiles rows: see logs/far_tiles.log.")
     placed = []
