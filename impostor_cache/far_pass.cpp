@@ -22,6 +22,9 @@
 namespace voxtier {
 
 namespace {
+/// How many instances ahead the records' loop asks for the lines it will read.
+constexpr std::size_t kReadAhead = 8;
+
 /// A far sprite's place in the order the far pass draws in: ascending keys are the depth-and-id
 /// rule's order (winsDepthTest), nearest first (the greater reversed-Z depth), equal depths by
 /// ascending entity id. Floats compared as numbers: -0 is 0, and a NaN depth, which wins no
@@ -83,8 +86,10 @@ struct FarPass::Impl {
     std::vector<glm::ivec4> rects;
     std::vector<std::uint32_t> paletteOf;
     std::vector<std::uint64_t> keys;
-    /// The drawn instances in draw order: their keys and instance indices, sorted.
+    /// The drawn instances in draw order: their keys and instance indices, sorted; and their
+    /// rectangles in that order.
     std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
+    std::vector<glm::ivec4> sortedRects;
     /// What the order and tile lists above were made from: per instance its entity (kNoEntity
     /// where a copy), the sprites of store `store` as of update `asOf`, the image size.
     struct OrderSource {
@@ -217,13 +222,22 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
     stats.orderKept = same;
     src.store = 0; // until the order below is as `src` says
     paletteOf.assign(n, 0);
-    // The palettes, in instance order, the drawn instances' (rects: from the sprites).
+    // The palettes, in instance order, the drawn instances' (rects: from the sprites). Neighbours
+    // mostly share their model's palette: the last one found is tried before the map (a crowd of
+    // one model: 88,000 hash lookups on one core, ~1.5 ms).
+    const Palette* lastPalette = nullptr;
+    std::uint32_t lastBase = 0;
     const auto placePalette = [&](std::size_t i) {
         const FarInstance& f = batch.instances[i];
-        const auto [it, added] = paletteBase.try_emplace(f.palette, std::uint32_t(palettes.size()));
-        if (added)
-            for (const Rgba8 c : f.palette->colors) palettes.push_back(std::uint32_t(c));
-        paletteOf[i] = it->second;
+        if (f.palette != lastPalette) {
+            const auto [it, added] =
+                paletteBase.try_emplace(f.palette, std::uint32_t(palettes.size()));
+            if (added)
+                for (const Rgba8 c : f.palette->colors) palettes.push_back(std::uint32_t(c));
+            lastPalette = f.palette;
+            lastBase = it->second;
+        }
+        paletteOf[i] = lastBase;
     };
     const auto drawn = [&](std::size_t i) {
         const glm::ivec4 r = rects[i];
@@ -285,9 +299,17 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
             tileRecords.push_back({tx * px | (ty * px) << 16, total, perTile[k], 0});
             total += perTile[k];
         }
+        // The rectangles in draw order, gathered on every core, so that the serial walk below
+        // reads them in sequence (through `order` each was a jump: ~3 ms at 88,000 on one core).
+        sortedRects.resize(order.size());
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, order.size(), 1024),
+                          [&](const auto& range) {
+                              for (std::size_t k = range.begin(); k != range.end(); ++k)
+                                  sortedRects[k] = rects[order[k].second];
+                          });
         list.assign(total, 0);
         for (std::uint32_t k = 0; k < order.size(); ++k) {
-            const glm::ivec4 t = tileSpan(rects[order[k].second]);
+            const glm::ivec4 t = tileSpan(sortedRects[k]);
             for (int ty = t.y; ty <= t.w; ++ty)
                 for (int tx = t.x; tx <= t.z; ++tx)
                     list[start[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)]++] = k;
@@ -330,6 +352,18 @@ void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& 
         tbb::blocked_range<std::size_t>(0, drawn, 64), std::uint64_t(0),
         [&](const auto& range, std::uint64_t keptHere) {
             for (std::size_t k = range.begin(); k != range.end(); ++k) {
+                // In draw order each instance, and its sprite's record, is a jump through memory
+                // (in instance order they were read in sequence): their lines are asked for ahead,
+                // the instance's first, then, once it is at hand, its sprite's (100,000 far tanks
+                // moving: 7-9 ms of this 2-core host's recording without).
+                if (k + 2 * kReadAhead < drawn)
+                    __builtin_prefetch(&batch.instances[order[k + 2 * kReadAhead].second]);
+                if (k + kReadAhead < drawn) {
+                    const auto* ahead = reinterpret_cast<const char*>(
+                        &batch.instances[order[k + kReadAhead].second].sprite->gpu);
+                    for (std::size_t b = 0; b < sizeof(kernel::SpriteGpu); b += 64)
+                        __builtin_prefetch(ahead + b);
+                }
                 const std::uint32_t i = order[k].second;
                 const FarInstance& f = batch.instances[i];
                 const FarSnapshotCells& snap = batch.snapshots.at(f.snapshot);
