@@ -9,6 +9,7 @@
 #include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
+#include <array>
 #include <bit>
 #include <cmath>
 #include <functional>
@@ -56,12 +57,16 @@ struct FarPass::Impl {
     /// record it is, as of update `asOf` of the sprite store `store` (0: nothing known).
     struct KeptRecords {
         static constexpr std::uint32_t kNoEntity = 0xFFFFFFFFu;
-        /// Everything a record is made from besides its sprite: the entity (kNoEntity: a copy of
-        /// a sprite, a cross-fade's), its snapshot, the snapshot's place on the device and the
-        /// palette's in the frame's palette buffer.
+        /// Everything a record is made from besides its sprite (and the sprite's rectangle in
+        /// an image of the slot's size): the entity (kNoEntity: a copy of a sprite, a
+        /// cross-fade's), and the record's fields that are not the sprite's, as values (not the
+        /// snapshot's address, which a later snapshot may take): the snapshot's device offset,
+        /// size and first cell, the palette's place, the cell map's bits.
         struct Place {
-            std::uint32_t entity = kNoEntity, offset = 0, palette = 0;
-            const void* snapshot = nullptr;
+            std::uint32_t entity = kNoEntity;
+            glm::uvec4 snap{0u};
+            std::int32_t firstCellJ = 0, palette = 0;
+            std::array<std::uint64_t, 6> map{};
             bool operator==(const Place&) const = default;
         };
         std::uint64_t store = 0, asOf = 0;
@@ -367,8 +372,14 @@ void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& 
                 const std::uint32_t i = order[k].second;
                 const FarInstance& f = batch.instances[i];
                 const FarSnapshotCells& snap = batch.snapshots.at(f.snapshot);
-                const KeptRecords::Place place{entityOf(history, f), offsets[f.snapshot],
-                                               paletteOf[i], snap.owner.get()};
+                const auto bits = [](double v) { return std::bit_cast<std::uint64_t>(v); };
+                const KeptRecords::Place place{
+                    entityOf(history, f),
+                    {offsets[f.snapshot], std::uint32_t(snap.width()), std::uint32_t(snap.height()),
+                     std::uint32_t(snap.cellRange.x)},
+                    snap.cellRange.z,
+                    std::int32_t(paletteOf[i]),
+                    {bits(f.u0), bits(f.ui), bits(f.uj), bits(f.v0), bits(f.vi), bits(f.vj)}};
                 if (keep && place.entity != KeptRecords::kNoEntity && kept.places[k] == place &&
                     history->spriteChangedAt(place.entity) <= kept.asOf) {
                     ++keptHere;
@@ -378,10 +389,9 @@ void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& 
                 g.sprite = f.sprite->gpu;
                 g.u0 = f.u0, g.ui = f.ui, g.uj = f.uj, g.v0 = f.v0, g.vi = f.vi, g.vj = f.vj;
                 g.rect = rects[i];
-                g.snap = {offsets[f.snapshot], std::uint32_t(snap.width()),
-                          std::uint32_t(snap.height()), std::uint32_t(snap.cellRange.x)};
-                g.extra = {snap.cellRange.z, int(paletteOf[i]),
-                           std::bit_cast<int>(f.sprite->gpu.depth), int(f.sprite->entityId)};
+                g.snap = place.snap;
+                g.extra = {place.firstCellJ, place.palette, std::bit_cast<int>(f.sprite->gpu.depth),
+                           int(f.sprite->entityId)};
                 out[k] = g;
                 kept.places[k] = place;
             }
