@@ -11,8 +11,9 @@
 // FAR_SIDE x FAR_LANES_Y invocations (built as 32 x 2 and as 8 x 8, far_shared.h), each owning
 // every FAR_LANES_Y-th pixel of one column: it keeps its pixels in registers while the tile's
 // far sprites pass over them, so nothing races and the image does not depend on the sprites'
-// order (the rule decides); the order, nearest first, only lets an invocation stop early. Built with FAR_BATCHED (the fine tiles, a GPU's), the tile's sprite list is read a
-// workgroup's width at a time into shared memory, one entry and its rectangle per invocation, so
+// order (the rule decides); the order, nearest first, only lets an invocation stop early. Built
+// with FAR_BATCHED (the fine tiles, a GPU's), the tile's sprite list is read a workgroup's width
+// at a time into shared memory, one entry and its rectangle per invocation, so
 // that a sprite that misses an invocation's pixels costs it a shared-memory read, not a chain of
 // two dependent global reads; the coarse tiles, a CPU device's, read the list directly (on
 // lavapipe the barriers cost more than the reads they save: 100,000 tanks' far pass 209-230 ->
