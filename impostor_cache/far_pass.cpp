@@ -9,6 +9,7 @@
 #include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
@@ -83,7 +84,10 @@ struct FarPass::Impl {
     std::vector<Slot> slots;
 
     // The frame being recorded (host scratch, reused from frame to frame).
-    std::vector<std::uint32_t> palettes, perTile, start, list;
+    std::vector<std::uint32_t> palettes, list;
+    /// Per run of drawn instances and tile: its entries, then where they start (prepare's
+    /// binning).
+    std::vector<std::uint32_t> runOffsets;
     std::vector<far_gpu::FarTile> tileRecords;
     std::unordered_map<const Palette*, std::uint32_t> paletteBase;
     /// Per instance of the batch: its rectangle within the image (empty where it draws nothing),
@@ -254,14 +258,13 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
     } else {
         const int block = side;
         const int tilesX = (width + block - 1) / block, tilesY = (height + block - 1) / block;
-        perTile.assign(std::size_t(tilesX) * std::size_t(tilesY) + 1, 0);
         const auto tileSpan = [&](const glm::ivec4& r) {
             return glm::ivec4(r.x / block, r.y / block, (r.z - 1) / block, (r.w - 1) / block);
         };
         // Each instance's rectangle and order key, read in parallel (a sprite's record is a cache
         // miss apiece: at 100,000 tanks one core walking ten thousand far sprites cost
         // milliseconds of recording); then, serially and in instance order, the drawn ones'
-        // palettes and tile counts from those arrays.
+        // palettes and keys from those arrays.
         rects.resize(n);
         keys.resize(n);
         src.entities.resize(n);
@@ -281,44 +284,64 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
             if (!drawn(i)) continue;
             placePalette(i);
             order.push_back({keys[i], std::uint32_t(i)});
-            const glm::ivec4 t = tileSpan(rects[i]);
-            for (int ty = t.y; ty <= t.w; ++ty)
-                for (int tx = t.x; tx <= t.z; ++tx)
-                    ++perTile[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)];
         }
         // The drawn instances take their places in the rule's order, nearest first (far_shared.h:
         // the shader stops passing a tile's sprites over a pixel once the pixel would refuse the
         // next one, which is then true of every later one). The (key, index) pairs are distinct,
         // so the parallel sort has one answer.
         tbb::parallel_sort(order.begin(), order.end());
-        // Tiles with far sprites, and each one's sprites in draw order: nearest first.
-        tileRecords.clear();
-        start.assign(perTile.size(), 0);
-        std::uint32_t total = 0;
-        for (std::size_t k = 0; k + 1 < perTile.size(); ++k) {
-            start[k] = total;
-            if (perTile[k] == 0) continue;
-            const std::uint32_t tx = std::uint32_t(k % std::size_t(tilesX)),
-                                ty = std::uint32_t(k / std::size_t(tilesX));
-            const auto px = std::uint32_t(block);
-            tileRecords.push_back({tx * px | (ty * px) << 16, total, perTile[k], 0});
-            total += perTile[k];
-        }
-        // The rectangles in draw order, gathered on every core, so that the serial walk below
-        // reads them in sequence (through `order` each was a jump: ~3 ms at 88,000 on one core).
-        sortedRects.resize(order.size());
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, order.size(), 1024),
-                          [&](const auto& range) {
-                              for (std::size_t k = range.begin(); k != range.end(); ++k)
-                                  sortedRects[k] = rects[order[k].second];
-                          });
-        list.assign(total, 0);
-        for (std::uint32_t k = 0; k < order.size(); ++k) {
+        // The rectangles in draw order, gathered on every core: the binning below reads them in
+        // sequence (through `order` each was a jump: ~3 ms at 88,000 on one core).
+        const std::size_t count = order.size();
+        sortedRects.resize(count);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1024), [&](const auto& range) {
+            for (std::size_t k = range.begin(); k != range.end(); ++k)
+                sortedRects[k] = rects[order[k].second];
+        });
+        // Each tile's sprites in draw order (nearest first), binned on every core: the drawn
+        // instances in runs, each run counting its entries per tile, then writing them from the
+        // offsets the runs before it leave, so every tile's list keeps the draw order. As many
+        // runs as keep the per-run counters within a few times the entries (one run, serial as
+        // before, for an image of many tiles and few sprites).
+        const std::size_t tileCount = std::size_t(tilesX) * std::size_t(tilesY);
+        const std::size_t runs =
+            std::clamp<std::size_t>(count / std::max<std::size_t>(tileCount, 4096), 1, 64);
+        const std::size_t runLength = (count + runs - 1) / runs;
+        runOffsets.assign(runs * tileCount, 0);
+        const auto eachTileOf = [&](std::size_t k, auto&& visit) {
             const glm::ivec4 t = tileSpan(sortedRects[k]);
             for (int ty = t.y; ty <= t.w; ++ty)
                 for (int tx = t.x; tx <= t.z; ++tx)
-                    list[start[std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx)]++] = k;
+                    visit(std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx));
+        };
+        tbb::parallel_for(std::size_t(0), runs, [&](std::size_t r) {
+            std::uint32_t* counts = runOffsets.data() + r * tileCount;
+            for (std::size_t k = r * runLength; k < std::min(count, (r + 1) * runLength); ++k)
+                eachTileOf(k, [&](std::size_t tile) { ++counts[tile]; });
+        });
+        // Tiles with far sprites; each run's first entry in each tile.
+        tileRecords.clear();
+        std::uint32_t total = 0;
+        for (std::size_t tile = 0; tile < tileCount; ++tile) {
+            const std::uint32_t first = total;
+            for (std::size_t r = 0; r < runs; ++r) {
+                std::uint32_t& c = runOffsets[r * tileCount + tile];
+                const std::uint32_t entries = c;
+                c = total;
+                total += entries;
+            }
+            if (total == first) continue;
+            const std::uint32_t tx = std::uint32_t(tile % std::size_t(tilesX)),
+                                ty = std::uint32_t(tile / std::size_t(tilesX));
+            const auto px = std::uint32_t(block);
+            tileRecords.push_back({tx * px | (ty * px) << 16, first, total - first, 0});
         }
+        list.assign(total, 0);
+        tbb::parallel_for(std::size_t(0), runs, [&](std::size_t r) {
+            std::uint32_t* next = runOffsets.data() + r * tileCount;
+            for (std::size_t k = r * runLength; k < std::min(count, (r + 1) * runLength); ++k)
+                eachTileOf(k, [&](std::size_t tile) { list[next[tile]++] = std::uint32_t(k); });
+        });
     }
     if (history && history->store != 0) {
         src.store = history->store;

@@ -346,6 +346,35 @@ TEST_F(VulkanFar, CrowdedTilesOfManySmallSpritesEqualTheCpuBlit) {
     expectSame(s, sprites, mixed, "crowded tiles, every third near");
 }
 
+// More far sprites than the host bins in one run (FarPass: 4,096 entries a run at least, each
+// tile's list assembled from the runs in draw order): 9,000 small sprites on a 160 x 100 image,
+// so every tile of both sizes lists hundreds, read from several runs.
+TEST_F(VulkanFar, ThousandsOfSpritesBinnedInRunsEqualTheCpuBlit) {
+    Scene s = test::hardCaseWorld(glm::dvec3(0.0));
+    s.render.sigma = 1.0;
+    s.camera.width = 160;
+    s.camera.height = 100;
+    const std::vector<Entity> kinds = s.entities;
+    s.entities.clear();
+    SplitMix64 rng{4096};
+    for (int i = 0; i < 9000; ++i) {
+        Entity e = kinds[std::size_t(i) % kinds.size()];
+        e.position = {rng.uniform(-6.0, 6.0), rng.uniform(-3.5, 3.5), rng.uniform(-40.0, -12.0)};
+        e.rotation = glm::angleAxis(rng.uniform(0.0, 6.28), glm::dvec3(0.0, 1.0, 0.0));
+        s.entities.push_back(e);
+    }
+    const CameraFrame cam = makeCameraFrame(s.camera);
+    const auto sprites = setupSprites(s, cam, 0.0);
+    std::size_t onScreen = 0;
+    for (const SpriteSetup& sp : sprites) {
+        const glm::ivec4 r = glm::clamp(sp.screenRect, glm::ivec4(0),
+                                        glm::ivec4(cam.width, cam.height, cam.width, cam.height));
+        onScreen += sp.visible() && r.z > r.x && r.w > r.y;
+    }
+    ASSERT_GT(onScreen, 2u * 4096u) << "at least two runs of the binning";
+    EXPECT_GT(expectSame(s, sprites, allFar(sprites.size()), "9,000 far sprites"), 2000u);
+}
+
 // The far pass draws each tile's sprites nearest first and stops passing them over a pixel at
 // the first one the pixel refuses (far_blit.comp): exact only if its order is the rule's, equal
 // depths by ascending id. Groups of coincident entities (one position, so one depth: the id
