@@ -1,6 +1,7 @@
 #pragma once
 // The scenes the occlusion suites (tests/occlusion_cull_test.cpp for the CPU tiers,
-// tests/vulkan_cull_test.cpp for the Vulkan near tier) both draw with and without culling.
+// tests/vulkan_cull_test.cpp for the Vulkan near tier) both draw with and without culling, and the
+// one the suites of kept records (near_records_test, far_records_test) both draw frame by frame.
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
 #include "source_tree.hpp"
@@ -82,6 +83,28 @@ inline Scene tankArmy(int entities, int width, int height) {
     }
     doc["camera"]["size"] = {width, height};
     return loadSceneJson(doc, "tank_army_" + std::to_string(entities), sourcePath("scenes/bench"));
+}
+
+/// The bench's tank army, 240 tanks, half of them stepping their 8 animation frames at 8 frames a
+/// second, under a still camera, a quarter of the pixels (lavapipe is the device in CI),
+/// cross-fading over 3 frames between tiers by distance (near at 100 m, far beyond 110 m). Every
+/// tank starts at frame 0 and every other one stays there: a step brings frames of a model that
+/// no sprite showed before, first shown where no sprite of that model was first before.
+inline Scene stillSteppingArmy() {
+    Scene s = loadScene(sourcePath("scenes/bench/tank_army.json"));
+    s.path.reset();
+    s.entities.resize(240);
+    for (std::size_t e = 0; e < s.entities.size(); ++e) {
+        s.entities[e].frame = 0;
+        if (e % 2) s.entities[e].fps = 0.0;
+    }
+    s.camera.width = 320;
+    s.camera.height = 180;
+    s.selector.metric = SelectorMetric::Distance;
+    s.selector.nearAt = 100.0;
+    s.selector.farAt = 110.0;
+    s.selector.crossfadeFrames = 3;
+    return s;
 }
 
 } // namespace voxtier::test

@@ -12,13 +12,12 @@
 // the images: the counts of kept records and orders fail it.
 #include "compose/frame.hpp"
 #include "compose/vulkan_frame.hpp"
-#include "core/scene_loader.hpp"
 #include "core/sprite_store.hpp"
+#include "crowd_scenes.hpp"
 #include "image_checks.hpp"
 #include "impostor_cache/far_frame.hpp"
 #include "impostor_cache/far_pass.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
-#include "source_tree.hpp"
 #include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
@@ -34,25 +33,6 @@ const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRende
 
 class FarRecordsKept : public test::VulkanTest {
   protected:
-    /// The bench's tank army, 240 tanks, half of them stepping their 8 animation frames at 8
-    /// frames a second, under a still camera, a quarter of the pixels (lavapipe is the device
-    /// here); in hybrid frames the tanks beyond 110 m far, cross-fading over 3 frames.
-    static Scene army() {
-        Scene s = loadScene(test::sourcePath("scenes/bench/tank_army.json"));
-        s.path.reset();
-        s.entities.resize(240);
-        for (std::size_t e = 0; e < s.entities.size(); ++e) {
-            s.entities[e].frame = 0;
-            if (e % 2) s.entities[e].fps = 0.0;
-        }
-        s.camera.width = 320;
-        s.camera.height = 180;
-        s.selector.metric = SelectorMetric::Distance;
-        s.selector.nearAt = 100.0;
-        s.selector.farAt = 110.0;
-        s.selector.crossfadeFrames = 3;
-        return s;
-    }
     static FrameOptions options(bool shared) {
         FrameOptions o;
         if (shared) o.sharedNear = sharedNearRenderer();
@@ -66,7 +46,7 @@ class FarRecordsKept : public test::VulkanTest {
 };
 
 TEST_F(FarRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
-    Scene s = army();
+    Scene s = test::stillSteppingArmy();
     FrameRenderer renderer(s, options(true));
     FrameRenderer everything(s, options(false));
     std::uint64_t keptRecords = 0, records = 0;
@@ -117,7 +97,7 @@ TEST_F(FarRecordsKept, OneFarPassFedByTwoStoresInTurnEqualsTheCpuBlit) {
     // tanks in view, the same instances in the same sequence, but their records, rectangles and
     // depths differ (with no store in the check, either the records or the order of the other
     // store's frame are taken, and the images differ).
-    Scene a = army(), b = army();
+    Scene a = test::stillSteppingArmy(), b = test::stillSteppingArmy();
     for (Entity& e : b.entities) e.position += glm::dvec3(1.0, 0.0, 0.0);
     b.models = a.models;
     {

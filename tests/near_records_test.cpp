@@ -11,9 +11,8 @@
 // store's); both ways of tracing the per-pixel sprites. Keeping nothing would pass the images:
 // the counts of kept records, orders and first showings fail it.
 #include "compose/frame.hpp"
-#include "core/scene_loader.hpp"
+#include "crowd_scenes.hpp"
 #include "image_checks.hpp"
-#include "source_tree.hpp"
 #include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
@@ -28,27 +27,6 @@ const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRende
 
 class NearRecordsKept : public test::VulkanTest {
   protected:
-    /// The bench's tank army, 240 tanks, half of them stepping their 8 animation frames at 8
-    /// frames a second, under a still camera, a quarter of the pixels (lavapipe is the device
-    /// here), cross-fading over 3 frames between tiers by distance.
-    static Scene army() {
-        Scene s = loadScene(test::sourcePath("scenes/bench/tank_army.json"));
-        s.path.reset();
-        s.entities.resize(240);
-        // Every tank from frame 0, every other one still: a step brings frames of a model that
-        // no sprite showed before, first shown where no sprite of that model was first before.
-        for (std::size_t e = 0; e < s.entities.size(); ++e) {
-            s.entities[e].frame = 0;
-            if (e % 2) s.entities[e].fps = 0.0;
-        }
-        s.camera.width = 320;
-        s.camera.height = 180;
-        s.selector.metric = SelectorMetric::Distance;
-        s.selector.nearAt = 100.0;
-        s.selector.farAt = 110.0;
-        s.selector.crossfadeFrames = 3;
-        return s;
-    }
     static FrameOptions options(NearPixels pixels, bool shared) {
         FrameOptions o;
         if (shared) o.sharedNear = sharedNearRenderer();
@@ -64,7 +42,7 @@ class NearRecordsKept : public test::VulkanTest {
 TEST_F(NearRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
     for (const NearPixels pixels : {NearPixels::Compute, NearPixels::Raster}) {
         SCOPED_TRACE(pixels == NearPixels::Compute ? "traced in compute" : "rasterised");
-        Scene s = army();
+        Scene s = test::stillSteppingArmy();
         Scene other = s; // its own entities and camera, the same models
         FrameRenderer renderer(s, options(pixels, true));
         FrameRenderer everything(s, options(pixels, false));

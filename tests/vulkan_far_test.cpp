@@ -76,6 +76,39 @@ class VulkanFar : public test::VulkanTest {
         return o;
     }
 
+    /// The hard-case world on a 160 x 100 image at sigma 1, its entities taken out into `kinds`
+    /// (one of each, for the crowd tests to place copies of).
+    static Scene smallImage(std::vector<Entity>& kinds) {
+        Scene s = test::hardCaseWorld(glm::dvec3(0.0));
+        s.render.sigma = 1.0;
+        s.camera.width = 160;
+        s.camera.height = 100;
+        kinds = std::move(s.entities);
+        s.entities.clear();
+        return s;
+    }
+    /// `count` entities of the hard-case kinds in turn, heaped in the box [lo, hi] in front of
+    /// the camera of smallImage, each turned at random about +Y (seeded).
+    static Scene heapOfKinds(int count, std::uint64_t seed, glm::dvec3 lo, glm::dvec3 hi) {
+        std::vector<Entity> kinds;
+        Scene s = smallImage(kinds);
+        SplitMix64 rng{seed};
+        for (int i = 0; i < count; ++i) {
+            Entity e = kinds[std::size_t(i) % kinds.size()];
+            e.position = {rng.uniform(lo.x, hi.x), rng.uniform(lo.y, hi.y),
+                          rng.uniform(lo.z, hi.z)};
+            e.rotation = glm::angleAxis(rng.uniform(0.0, 6.28), glm::dvec3(0.0, 1.0, 0.0));
+            s.entities.push_back(e);
+        }
+        return s;
+    }
+    /// Where a sprite can draw: its screen rectangle within the image (empty: nowhere).
+    static glm::ivec4 rectInImage(const SpriteSetup& sp, const CameraFrame& cam) {
+        if (!sp.visible()) return glm::ivec4(0);
+        return glm::clamp(sp.screenRect, glm::ivec4(0),
+                          glm::ivec4(cam.width, cam.height, cam.width, cam.height));
+    }
+
     /// One frame of `scene` drawn as `plan` says, near sprites on Vulkan, far sprites once by
     /// the CPU blit and by the Vulkan far pass in each tile size, through one snapshot cache: the
     /// images are identical. Returns the CPU image's far-drawn pixel count (the test must draw).
@@ -306,19 +339,7 @@ TEST_F(VulkanFar, PartlyOffScreenEqualDepthPairsAndFarFromTheOrigin) {
 // tile each list more far sprites than a workgroup reads in one batch (64), so the pass runs
 // several batches per tile in both sizes, and the depth rule decides among many sprites per pixel.
 TEST_F(VulkanFar, CrowdedTilesOfManySmallSpritesEqualTheCpuBlit) {
-    Scene s = test::hardCaseWorld(glm::dvec3(0.0));
-    s.render.sigma = 1.0;
-    s.camera.width = 160;
-    s.camera.height = 100;
-    const std::vector<Entity> kinds = s.entities;
-    s.entities.clear();
-    SplitMix64 rng{35};
-    for (int i = 0; i < 300; ++i) {
-        Entity e = kinds[std::size_t(i) % kinds.size()];
-        e.position = {rng.uniform(-1.0, 1.0), rng.uniform(-0.6, 0.6), rng.uniform(-16.0, -8.0)};
-        e.rotation = glm::angleAxis(rng.uniform(0.0, 6.28), glm::dvec3(0.0, 1.0, 0.0));
-        s.entities.push_back(e);
-    }
+    const Scene s = heapOfKinds(300, 35, {-1.0, -0.6, -16.0}, {1.0, 0.6, -8.0});
     const CameraFrame cam = makeCameraFrame(s.camera);
     const auto sprites = setupSprites(s, cam, 0.0);
     // The most far rectangles any tile of each size holds, counted here from the sprites.
@@ -327,10 +348,7 @@ TEST_F(VulkanFar, CrowdedTilesOfManySmallSpritesEqualTheCpuBlit) {
                                std::size_t((cam.height + side - 1) / side));
         const int columns = (cam.width + side - 1) / side;
         for (const SpriteSetup& sp : sprites) {
-            if (!sp.visible()) continue;
-            const glm::ivec4 r =
-                glm::clamp(sp.screenRect, glm::ivec4(0),
-                           glm::ivec4(cam.width, cam.height, cam.width, cam.height));
+            const glm::ivec4 r = rectInImage(sp, cam);
             if (r.z <= r.x || r.w <= r.y) continue;
             for (int ty = r.y / side; ty <= (r.w - 1) / side; ++ty)
                 for (int tx = r.x / side; tx <= (r.z - 1) / side; ++tx)
@@ -350,26 +368,13 @@ TEST_F(VulkanFar, CrowdedTilesOfManySmallSpritesEqualTheCpuBlit) {
 // tile's list assembled from the runs in draw order): 9,000 small sprites on a 160 x 100 image,
 // so every tile of both sizes lists hundreds, read from several runs.
 TEST_F(VulkanFar, ThousandsOfSpritesBinnedInRunsEqualTheCpuBlit) {
-    Scene s = test::hardCaseWorld(glm::dvec3(0.0));
-    s.render.sigma = 1.0;
-    s.camera.width = 160;
-    s.camera.height = 100;
-    const std::vector<Entity> kinds = s.entities;
-    s.entities.clear();
-    SplitMix64 rng{4096};
-    for (int i = 0; i < 9000; ++i) {
-        Entity e = kinds[std::size_t(i) % kinds.size()];
-        e.position = {rng.uniform(-6.0, 6.0), rng.uniform(-3.5, 3.5), rng.uniform(-40.0, -12.0)};
-        e.rotation = glm::angleAxis(rng.uniform(0.0, 6.28), glm::dvec3(0.0, 1.0, 0.0));
-        s.entities.push_back(e);
-    }
+    const Scene s = heapOfKinds(9000, 4096, {-6.0, -3.5, -40.0}, {6.0, 3.5, -12.0});
     const CameraFrame cam = makeCameraFrame(s.camera);
     const auto sprites = setupSprites(s, cam, 0.0);
     std::size_t onScreen = 0;
     for (const SpriteSetup& sp : sprites) {
-        const glm::ivec4 r = glm::clamp(sp.screenRect, glm::ivec4(0),
-                                        glm::ivec4(cam.width, cam.height, cam.width, cam.height));
-        onScreen += sp.visible() && r.z > r.x && r.w > r.y;
+        const glm::ivec4 r = rectInImage(sp, cam);
+        onScreen += r.z > r.x && r.w > r.y;
     }
     ASSERT_GT(onScreen, 2u * 4096u) << "at least two runs of the binning";
     EXPECT_GT(expectSame(s, sprites, allFar(sprites.size()), "9,000 far sprites"), 2000u);
@@ -381,12 +386,8 @@ TEST_F(VulkanFar, ThousandsOfSpritesBinnedInRunsEqualTheCpuBlit) {
 // decides) of differing models and turns, heaped over a few tiles, some cross-fading between two
 // views (the same entity twice, at one depth), or drawn near in the middle of a group.
 TEST_F(VulkanFar, CoincidentCrowdsStopInTheRulesOrder) {
-    Scene s = test::hardCaseWorld(glm::dvec3(0.0));
-    s.render.sigma = 1.0;
-    s.camera.width = 160;
-    s.camera.height = 100;
-    const std::vector<Entity> kinds = s.entities;
-    s.entities.clear();
+    std::vector<Entity> kinds;
+    Scene s = smallImage(kinds);
     SplitMix64 rng{49};
     for (int group = 0; group < 60; ++group) {
         const glm::dvec3 at{rng.uniform(-0.8, 0.8), rng.uniform(-0.5, 0.5),
