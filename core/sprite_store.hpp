@@ -50,6 +50,14 @@ struct SpriteHistory {
     std::span<const std::uint64_t> changedAt, posedAt;
     std::uint64_t allChangedAt = 0;
 
+    /// What a consumer that keeps things per entity records for a sprite that is no store's (a
+    /// copy, a cross-fade's) or drawn with no history.
+    static constexpr std::uint32_t kNoEntity = 0xFFFFFFFFu;
+    /// entityOf through a history that may be absent: kNoEntity for none, or for a copy.
+    static std::uint32_t entityIn(const SpriteHistory* history, const SpriteSetup* s) {
+        return history ? history->entityOf(s).value_or(kNoEntity) : kNoEntity;
+    }
+
     /// The entity whose sprite `s` is, when `s` points into `sprites` (not at a copy).
     std::optional<std::uint32_t> entityOf(const SpriteSetup* s) const {
         const auto at = reinterpret_cast<std::uintptr_t>(s),

@@ -57,7 +57,7 @@ struct FarPass::Impl {
     /// What a slot's instance buffer holds (writeInstances): per place, the instance whose
     /// record it is, as of update `asOf` of the sprite store `store` (0: nothing known).
     struct KeptRecords {
-        static constexpr std::uint32_t kNoEntity = 0xFFFFFFFFu;
+        static constexpr std::uint32_t kNoEntity = SpriteHistory::kNoEntity;
         /// Everything a record is made from besides its sprite (and the sprite's rectangle in
         /// an image of the slot's size): the entity (kNoEntity: a copy of a sprite, a
         /// cross-fade's), and the record's fields that are not the sprite's, as values (not the
@@ -137,11 +137,6 @@ struct FarPass::Impl {
     void writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
                         const std::vector<std::uint32_t>& offsets, const SpriteHistory* history,
                         FarPassStats& stats);
-    /// The entity whose store sprite instance `f` draws; kNoEntity for a copy or no history.
-    static std::uint32_t entityOf(const SpriteHistory* history, const FarInstance& f) {
-        if (!history) return KeptRecords::kNoEntity;
-        return history->entityOf(f.sprite).value_or(KeptRecords::kNoEntity);
-    }
     void writeDescriptors(GpuFrame& frame, Slot& slot);
 };
 
@@ -221,7 +216,8 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
             tbb::blocked_range<std::size_t>(0, n, 1024), true,
             [&](const auto& range, bool ok) {
                 for (std::size_t i = range.begin(); ok && i != range.end(); ++i) {
-                    const std::uint32_t e = entityOf(history, batch.instances[i]);
+                    const std::uint32_t e =
+                        SpriteHistory::entityIn(history, batch.instances[i].sprite);
                     ok = e != kNoEntity && e == src.entities[i] &&
                          history->spritePosedAt(e) <= src.asOf;
                 }
@@ -276,7 +272,7 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
                                                     glm::ivec4(width, height, width, height))
                                        : glm::ivec4(0);
                 keys[i] = farOrderKey(s.gpu.depth, s.entityId);
-                src.entities[i] = entityOf(history, batch.instances[i]);
+                src.entities[i] = SpriteHistory::entityIn(history, batch.instances[i].sprite);
             }
         });
         order.clear();
@@ -397,7 +393,7 @@ void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& 
                 const FarSnapshotCells& snap = batch.snapshots.at(f.snapshot);
                 const auto bits = [](double v) { return std::bit_cast<std::uint64_t>(v); };
                 const KeptRecords::Place place{
-                    entityOf(history, f),
+                    SpriteHistory::entityIn(history, f.sprite),
                     {offsets[f.snapshot], std::uint32_t(snap.width()), std::uint32_t(snap.height()),
                      std::uint32_t(snap.cellRange.x)},
                     snap.cellRange.z,

@@ -52,15 +52,10 @@ bool placedAsBefore(const VoxelResidency::Placements& before,
 // ---------------------------------------------------------------------------------------------
 // The host's part of a frame: what the passes read, written straight where they read it
 
-std::uint32_t NearPasses::Impl::keptEntityOf(const SpriteHistory* history, const SpriteSetup* s) {
-    constexpr std::uint32_t kNoEntity = KeptRecords::kNoEntity;
-    return history ? history->entityOf(s).value_or(kNoEntity) : kNoEntity;
-}
-
 bool NearPasses::Impl::orderSprites(std::span<const SpriteSetup* const> all, const NearOptions& opt,
                                     const SpriteHistory* history, bool& unchanged) {
     constexpr std::uint32_t kNoEntity = KeptRecords::kNoEntity;
-    const auto entityAt = [&](std::size_t k) { return keptEntityOf(history, all[k]); };
+    const auto entityAt = [&](std::size_t k) { return SpriteHistory::entityIn(history, all[k]); };
     // Last frame's order, while the sprites given are the same entities' and none of them was set
     // up anew since (an animation step changes neither depth nor visibility). Else a parallel
     // sort of every sprite's depth, each sprite a cache miss: 5 ms of a still camera's frame at
@@ -159,7 +154,9 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
             return Keeps::Nothing;
         return history->spriteChangedAt(e) <= kept.asOf ? Keeps::Everything : Keeps::AllButTheFrame;
     };
-    const auto entityAt = [&](std::size_t i) { return keptEntityOf(history, visible[i]); };
+    const auto entityAt = [&](std::size_t i) {
+        return SpriteHistory::entityIn(history, visible[i]);
+    };
     const Counts counts = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), Counts{0, 0},
         [&](const auto& r, Counts c) {

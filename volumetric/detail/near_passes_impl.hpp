@@ -52,7 +52,7 @@ struct NearPasses::Impl {
     /// whose record it is (kNoEntity: a copy's, or unknown) with what the lists read of it (lent
     /// to the recording of the slot's frames as Impl::depths, rects and wishes).
     struct KeptRecords {
-        static constexpr std::uint32_t kNoEntity = 0xFFFFFFFFu;
+        static constexpr std::uint32_t kNoEntity = SpriteHistory::kNoEntity;
         std::uint64_t store = 0, asOf = 0; ///< store 0: nothing kept
         NearRate rate = NearRate::Auto;
         VkBuffer buffer = VK_NULL_HANDLE; ///< a grown buffer holds nothing
@@ -62,10 +62,6 @@ struct NearPasses::Impl {
         std::vector<glm::ivec4> rects;
         std::vector<CellRateWish> wishes;
     };
-    /// The entity whose store sprite `s` is (SpriteHistory::entityOf), or kNoEntity: a copy, or
-    /// no history at all.
-    static std::uint32_t keptEntityOf(const SpriteHistory* history, const SpriteSetup* s);
-
     /// Per frame in flight: what the host writes for a frame, its descriptor set and queries.
     struct Slot {
         VulkanBuffer sprites, boxes, hulls, cellBases, cellTiles, splatBlocks, rankSprites;
