@@ -363,11 +363,13 @@ void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& 
     KeptRecords& kept = slot.kept;
     const bool direct = slot.instances.placement().hostWrite == HostWrite::Direct;
     const int width = frame.width(), height = frame.height();
-    const bool keep = history && history->store != 0 && direct && kept.store == history->store &&
+    // What this frame writes can be kept by a later frame of the same store only in place.
+    const bool remember = history && history->store != 0 && direct;
+    const bool keep = remember && kept.store == history->store &&
                       kept.buffer == slot.instances.handle() && kept.width == width &&
                       kept.height == height;
     kept.store = 0; // until every place below is as `kept` says (an exception leaves it so)
-    kept.places.resize(drawn);
+    kept.places.resize(remember ? drawn : 0);
     // Straight into the buffer (mapped, or the staging ring's space for it), each record composed
     // first and stored once, in order: the destination may be write-combined device memory, and
     // a copy through a host array wrote 368 bytes a sprite twice (32 MB at 88,000 far tanks).
@@ -412,12 +414,12 @@ void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& 
                 g.extra = {place.firstCellJ, place.palette, std::bit_cast<int>(f.sprite->gpu.depth),
                            int(f.sprite->entityId)};
                 out[k] = g;
-                kept.places[k] = place;
+                if (remember) kept.places[k] = place;
             }
             return keptHere;
         },
         std::plus<>());
-    if (history && history->store != 0 && direct) {
+    if (remember) {
         kept.store = history->store;
         kept.asOf = history->now;
         kept.buffer = slot.instances.handle();
