@@ -31,15 +31,7 @@ uint vtFetchVoxel(ivec3 cell);
 #endif
 layout(local_size_x = FAR_SIDE, local_size_y = FAR_LANES_Y) in;
 
-layout(std430, set = 0, binding = FAR_BINDING_INSTANCES) readonly buffer Instances {
-    FarInstanceGpu vtFar[];
-};
-layout(std430, set = 0, binding = FAR_BINDING_SNAPSHOTS) readonly buffer Snapshots {
-    uint vtSnapshotWords[];
-};
-layout(std430, set = 0, binding = FAR_BINDING_PALETTES) readonly buffer FarPalettes {
-    uint vtFarPalettes[];
-};
+#include "impostor_cache/shaders/far_pixel.glsl"
 layout(std430, set = 0, binding = FAR_BINDING_TILES) readonly buffer Tiles {
     FarTile vtTiles[];
 };
@@ -49,13 +41,7 @@ layout(std430, set = 0, binding = FAR_BINDING_TILE_LIST) readonly buffer TileLis
 layout(std430, set = 0, binding = FAR_BINDING_PLANES) buffer Planes {
     uint vtPlanes[]; // colour, then entity id, then depth bits: width * height each
 };
-layout(push_constant) uniform Push {
-    FarPush vtPush; // count: tiles
-};
 
-const uint FAR_EMPTY = 0u;
-const uint FAR_SOLID0 = 1u;
-const uint FAR_OUTLINE = 7u;
 const int FAR_ROWS = FAR_SIDE / FAR_LANES_Y; // rows of a tile per invocation
 
 #if FAR_BATCHED
@@ -165,25 +151,10 @@ void main() {
                 // Only a pixel this sprite would win can change (the rule does not depend on
                 // order).
                 if (!(d > depths[k] || (d == depths[k] && entity < ids[k]))) continue;
-                ivec2 cell;
-                if (!vtPixelCell(s, vec2(px, float(y0 + FAR_LANES_Y * k) + 0.5f), cell)) continue;
-                precise double u =
-                    vtFar[f].u0 + vtFar[f].ui * double(cell.x) + vtFar[f].uj * double(cell.y);
-                precise double v =
-                    vtFar[f].v0 + vtFar[f].vi * double(cell.x) + vtFar[f].vj * double(cell.y);
-                int si = int(floor(u)) - int(vtFar[f].snap.w);
-                int sj = int(floor(v)) - vtFar[f].extra.x;
-                if (si < 0 || si >= int(vtFar[f].snap.y) || sj < 0 || sj >= int(vtFar[f].snap.z))
+                uint colour;
+                if (!farPixelColour(f, s, vec2(px, float(y0 + FAR_LANES_Y * k) + 0.5f), colour))
                     continue;
-                uint slot = uint(sj) * vtFar[f].snap.y + uint(si);
-                uint bits = (vtSnapshotWords[vtFar[f].snap.x + (slot >> 1)] >> ((slot & 1u) * 16u)) &
-                            0xFFFFu;
-                uint code = bits >> 8;
-                if (code == FAR_EMPTY) continue;
-                colors[k] = code == FAR_OUTLINE
-                                ? VT_OUTLINE_RGBA
-                                : vtLit(vtFarPalettes[uint(vtFar[f].extra.y) + (bits & 255u)],
-                                        vtFaceLight(s, code - FAR_SOLID0));
+                colors[k] = colour;
                 depths[k] = d;
                 ids[k] = entity;
                 wrote |= 1u << uint(k);
