@@ -117,10 +117,11 @@ inline constexpr std::array<std::pair<const char*, NearPixels>, 3> kNearPixelsNa
 const char* toString(NearPixels p);
 
 /// The one table of names of the Vulkan far pass's tiles (FarTiles).
-inline constexpr std::array<std::pair<const char*, FarTiles>, 3> kFarTilesNames{{
+inline constexpr std::array<std::pair<const char*, FarTiles>, 4> kFarTilesNames{{
     {"auto", FarTiles::Auto},
     {"coarse", FarTiles::Coarse},
     {"fine", FarTiles::Fine},
+    {"sprites", FarTiles::Sprites},
 }};
 
 struct FrameOptions {

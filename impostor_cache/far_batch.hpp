@@ -21,8 +21,11 @@ namespace voxtier {
 /// needs where far sprites crowd a few coarse tiles (on the H200 the coarse pass took 2.56 ms for
 /// 9,900 far tanks, ~260 ns a sprite; lavapipe runs the fine pass 2.3-5 times slower). Auto:
 /// coarse on a CPU device, fine on a GPU (chosen from the H200's per-sprite figure; the fine
-/// tiles' own GPU figure is still to be taken).
-enum class FarTiles : std::uint8_t { Auto, Coarse, Fine };
+/// tiles' own GPU figure is still to be taken). Sprites: no tiles; a workgroup per far sprite
+/// covers its rectangle and each pixel it would draw and win takes the least such sprite's index
+/// by an atomic minimum, then a pass over the image writes the winners (far_splat.comp): the
+/// work is the rectangles' pixels once, however a crowd piles up over a few tiles.
+enum class FarTiles : std::uint8_t { Auto, Coarse, Fine, Sprites };
 
 /// Snapshot cell codes as a far pass reads them (impostor_cache/snapshot.hpp's snapshot_code,
 /// which static_asserts that it says the same): 0 empty, 1 + f solid through entered face f,

@@ -20,6 +20,8 @@
 // SPIR-V generated at build time by glslangValidator (impostor_cache/CMakeLists.txt).
 #include "shaders/far_blit_coarse_comp.h"
 #include "shaders/far_blit_fine_comp.h"
+#include "shaders/far_resolve_comp.h"
+#include "shaders/far_splat_comp.h"
 
 namespace voxtier {
 
@@ -53,6 +55,8 @@ struct FarPass::Impl {
     VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
     VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
     VkPipeline pipeline = VK_NULL_HANDLE;
+    /// FarTiles::Sprites: the resolve after the splat (`pipeline`).
+    VkPipeline resolvePipeline = VK_NULL_HANDLE;
 
     /// What a slot's instance buffer holds (writeInstances): per place, the instance whose
     /// record it is, as of update `asOf` of the sprite store `store` (0: nothing known).
@@ -78,6 +82,8 @@ struct FarPass::Impl {
     /// Per frame in flight: what the host writes for a frame, and its descriptor set.
     struct Slot {
         VulkanBuffer instances, palettes, tiles, tileList;
+        /// FarTiles::Sprites: a word per pixel, the splat's winner (written on the device only).
+        VulkanBuffer winners;
         VkDescriptorSet set = VK_NULL_HANDLE;
         KeptRecords kept;
     };
@@ -111,7 +117,7 @@ struct FarPass::Impl {
         : frames(f), device(f.device()), tiles(t != FarTiles::Auto  ? t
                                                : f.device().isCpu() ? FarTiles::Coarse
                                                                     : FarTiles::Fine),
-          side(int(tiles == FarTiles::Coarse ? far_gpu::FAR_TILE_COARSE : far_gpu::FAR_TILE_FINE)),
+          side(int(tiles == FarTiles::Fine ? far_gpu::FAR_TILE_FINE : far_gpu::FAR_TILE_COARSE)),
           residency(f.device()) {
         if (!FarPass::supported(device))
             throw VulkanError("far pass: " + device.name() +
@@ -128,10 +134,13 @@ struct FarPass::Impl {
     void create();
     void destroy() noexcept;
     void ensure(VulkanBuffer& b, VkDeviceSize bytes);
+    void ensureWinners(Slot& slot, VkDeviceSize bytes);
     /// The frame's draw order, palettes, tiles and tile lists, from `batch` (last frame's order
     /// and lists where `history` says they stand). Returns the tiles to dispatch.
     std::uint32_t prepare(const FarBatch& batch, int width, int height,
                           const SpriteHistory* history, FarPassStats& stats);
+    /// Every tile's list of the drawn instances over it, in draw order (`order`).
+    void binTiles(int width, int height);
     /// The drawn instances' records, in draw order, into the slot's buffer (offsets: each
     /// snapshot's word offset on the device), but for those the buffer already holds.
     void writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
@@ -149,6 +158,7 @@ void FarPass::Impl::create() {
         {FAR_BINDING_INSTANCES, sb, 1, c, nullptr}, {FAR_BINDING_SNAPSHOTS, sb, 1, c, nullptr},
         {FAR_BINDING_PALETTES, sb, 1, c, nullptr},  {FAR_BINDING_TILES, sb, 1, c, nullptr},
         {FAR_BINDING_TILE_LIST, sb, 1, c, nullptr}, {FAR_BINDING_PLANES, sb, 1, c, nullptr},
+        {FAR_BINDING_WINNERS, sb, 1, c, nullptr},
     };
     createPassLayouts(dev, bindings, sizeof(FarPush), setLayout, pipelineLayout);
 
@@ -167,12 +177,18 @@ void FarPass::Impl::create() {
         dsa.pSetLayouts = &setLayout;
         VK_CHECK(vkAllocateDescriptorSets(dev, &dsa, &s.set));
         for (VulkanBuffer* b : {&s.instances, &s.palettes, &s.tiles, &s.tileList}) ensure(*b, 4096);
+        ensureWinners(s, 4096);
     }
 
-    pipeline = createComputePipeline(dev, pipelineLayout,
-                                     tiles == FarTiles::Coarse
-                                         ? std::span<const std::uint32_t>(far_blit_coarse_comp)
-                                         : std::span<const std::uint32_t>(far_blit_fine_comp));
+    if (tiles == FarTiles::Sprites) {
+        pipeline = createComputePipeline(dev, pipelineLayout, far_splat_comp);
+        resolvePipeline = createComputePipeline(dev, pipelineLayout, far_resolve_comp);
+    } else {
+        pipeline = createComputePipeline(dev, pipelineLayout,
+                                         tiles == FarTiles::Coarse
+                                             ? std::span<const std::uint32_t>(far_blit_coarse_comp)
+                                             : std::span<const std::uint32_t>(far_blit_fine_comp));
+    }
 }
 
 void FarPass::Impl::destroy() noexcept {
@@ -181,10 +197,12 @@ void FarPass::Impl::destroy() noexcept {
     frames.waitAll();
     slots.clear();
     if (pipeline) vkDestroyPipeline(dev, pipeline, nullptr);
+    if (resolvePipeline) vkDestroyPipeline(dev, resolvePipeline, nullptr);
     if (descriptorPool) vkDestroyDescriptorPool(dev, descriptorPool, nullptr); // frees the sets
     if (pipelineLayout) vkDestroyPipelineLayout(dev, pipelineLayout, nullptr);
     if (setLayout) vkDestroyDescriptorSetLayout(dev, setLayout, nullptr);
     pipeline = VK_NULL_HANDLE;
+    resolvePipeline = VK_NULL_HANDLE;
     descriptorPool = VK_NULL_HANDLE;
     pipelineLayout = VK_NULL_HANDLE;
     setLayout = VK_NULL_HANDLE;
@@ -195,6 +213,13 @@ void FarPass::Impl::ensure(VulkanBuffer& b, VkDeviceSize bytes) {
     VkDeviceSize size = b ? b.size() : 4096;
     while (size < bytes) size *= 2;
     b = VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::ShaderRead);
+}
+
+void FarPass::Impl::ensureWinners(Slot& slot, VkDeviceSize bytes) {
+    if (slot.winners && slot.winners.size() >= bytes) return;
+    slot.winners = VulkanBuffer(
+        device, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+        BufferClass::DeviceOnly);
 }
 
 std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int height,
@@ -252,11 +277,6 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         for (std::size_t i = 0; i < n; ++i)
             if (drawn(i)) placePalette(i);
     } else {
-        const int block = side;
-        const int tilesX = (width + block - 1) / block, tilesY = (height + block - 1) / block;
-        const auto tileSpan = [&](const glm::ivec4& r) {
-            return glm::ivec4(r.x / block, r.y / block, (r.z - 1) / block, (r.w - 1) / block);
-        };
         // Each instance's rectangle and order key, read in parallel (a sprite's record is a cache
         // miss apiece: at 100,000 tanks one core walking ten thousand far sprites cost
         // milliseconds of recording); then, serially and in instance order, the drawn ones'
@@ -286,58 +306,12 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         // next one, which is then true of every later one). The (key, index) pairs are distinct,
         // so the parallel sort has one answer.
         tbb::parallel_sort(order.begin(), order.end());
-        // The rectangles in draw order, gathered on every core: the binning below reads them in
-        // sequence (through `order` each was a jump: ~3 ms at 88,000 on one core).
-        const std::size_t count = order.size();
-        sortedRects.resize(count);
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1024), [&](const auto& range) {
-            for (std::size_t k = range.begin(); k != range.end(); ++k)
-                sortedRects[k] = rects[order[k].second];
-        });
-        // Each tile's sprites in draw order (nearest first), binned on every core: the drawn
-        // instances in runs, each run counting its entries per tile, then writing them from the
-        // offsets the runs before it leave, so every tile's list keeps the draw order. As many
-        // runs as keep the per-run counters within a few times the entries (one run, serial as
-        // before, for an image of many tiles and few sprites).
-        const std::size_t tileCount = std::size_t(tilesX) * std::size_t(tilesY);
-        const std::size_t runs =
-            std::clamp<std::size_t>(count / std::max<std::size_t>(tileCount, 4096), 1, 64);
-        const std::size_t runLength = (count + runs - 1) / runs;
-        runOffsets.assign(runs * tileCount, 0);
-        const auto eachTileOf = [&](std::size_t k, auto&& visit) {
-            const glm::ivec4 t = tileSpan(sortedRects[k]);
-            for (int ty = t.y; ty <= t.w; ++ty)
-                for (int tx = t.x; tx <= t.z; ++tx)
-                    visit(std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx));
-        };
-        tbb::parallel_for(std::size_t(0), runs, [&](std::size_t r) {
-            std::uint32_t* counts = runOffsets.data() + r * tileCount;
-            for (std::size_t k = r * runLength; k < std::min(count, (r + 1) * runLength); ++k)
-                eachTileOf(k, [&](std::size_t tile) { ++counts[tile]; });
-        });
-        // Tiles with far sprites; each run's first entry in each tile.
-        tileRecords.clear();
-        std::uint32_t total = 0;
-        for (std::size_t tile = 0; tile < tileCount; ++tile) {
-            const std::uint32_t first = total;
-            for (std::size_t r = 0; r < runs; ++r) {
-                std::uint32_t& c = runOffsets[r * tileCount + tile];
-                const std::uint32_t entries = c;
-                c = total;
-                total += entries;
-            }
-            if (total == first) continue;
-            const std::uint32_t tx = std::uint32_t(tile % std::size_t(tilesX)),
-                                ty = std::uint32_t(tile / std::size_t(tilesX));
-            const auto px = std::uint32_t(block);
-            tileRecords.push_back({tx * px | (ty * px) << 16, first, total - first, 0});
+        if (tiles == FarTiles::Sprites) {
+            tileRecords.clear(); // no tiles: a workgroup per drawn instance
+            list.clear();
+        } else {
+            binTiles(width, height);
         }
-        list.assign(total, 0);
-        tbb::parallel_for(std::size_t(0), runs, [&](std::size_t r) {
-            std::uint32_t* next = runOffsets.data() + r * tileCount;
-            for (std::size_t k = r * runLength; k < std::min(count, (r + 1) * runLength); ++k)
-                eachTileOf(k, [&](std::size_t tile) { list[next[tile]++] = std::uint32_t(k); });
-        });
     }
     if (history && history->store != 0) {
         src.store = history->store;
@@ -346,6 +320,66 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         src.height = height;
     }
     return std::uint32_t(tileRecords.size());
+}
+
+void FarPass::Impl::binTiles(int width, int height) {
+    const int block = side;
+    const int tilesX = (width + block - 1) / block, tilesY = (height + block - 1) / block;
+    const auto tileSpan = [&](const glm::ivec4& r) {
+        return glm::ivec4(r.x / block, r.y / block, (r.z - 1) / block, (r.w - 1) / block);
+    };
+    // The rectangles in draw order, gathered on every core: the binning below reads them in
+    // sequence (through `order` each was a jump: ~3 ms at 88,000 on one core).
+    const std::size_t count = order.size();
+    sortedRects.resize(count);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1024), [&](const auto& range) {
+        for (std::size_t k = range.begin(); k != range.end(); ++k)
+            sortedRects[k] = rects[order[k].second];
+    });
+    // Each tile's sprites in draw order (nearest first), binned on every core: the drawn
+    // instances in runs, each run counting its entries per tile, then writing them from the
+    // offsets the runs before it leave, so every tile's list keeps the draw order. As many
+    // runs as keep the per-run counters within a few times the entries (one run, serial as
+    // before, for an image of many tiles and few sprites).
+    const std::size_t tileCount = std::size_t(tilesX) * std::size_t(tilesY);
+    const std::size_t runs =
+        std::clamp<std::size_t>(count / std::max<std::size_t>(tileCount, 4096), 1, 64);
+    const std::size_t runLength = (count + runs - 1) / runs;
+    runOffsets.assign(runs * tileCount, 0);
+    const auto eachTileOf = [&](std::size_t k, auto&& visit) {
+        const glm::ivec4 t = tileSpan(sortedRects[k]);
+        for (int ty = t.y; ty <= t.w; ++ty)
+            for (int tx = t.x; tx <= t.z; ++tx)
+                visit(std::size_t(ty) * std::size_t(tilesX) + std::size_t(tx));
+    };
+    tbb::parallel_for(std::size_t(0), runs, [&](std::size_t r) {
+        std::uint32_t* counts = runOffsets.data() + r * tileCount;
+        for (std::size_t k = r * runLength; k < std::min(count, (r + 1) * runLength); ++k)
+            eachTileOf(k, [&](std::size_t tile) { ++counts[tile]; });
+    });
+    // Tiles with far sprites; each run's first entry in each tile.
+    tileRecords.clear();
+    std::uint32_t total = 0;
+    for (std::size_t tile = 0; tile < tileCount; ++tile) {
+        const std::uint32_t first = total;
+        for (std::size_t r = 0; r < runs; ++r) {
+            std::uint32_t& c = runOffsets[r * tileCount + tile];
+            const std::uint32_t entries = c;
+            c = total;
+            total += entries;
+        }
+        if (total == first) continue;
+        const std::uint32_t tx = std::uint32_t(tile % std::size_t(tilesX)),
+                            ty = std::uint32_t(tile / std::size_t(tilesX));
+        const auto px = std::uint32_t(block);
+        tileRecords.push_back({tx * px | (ty * px) << 16, first, total - first, 0});
+    }
+    list.assign(total, 0);
+    tbb::parallel_for(std::size_t(0), runs, [&](std::size_t r) {
+        std::uint32_t* next = runOffsets.data() + r * tileCount;
+        for (std::size_t k = r * runLength; k < std::min(count, (r + 1) * runLength); ++k)
+            eachTileOf(k, [&](std::size_t tile) { list[next[tile]++] = std::uint32_t(k); });
+    });
 }
 
 void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
@@ -437,6 +471,7 @@ void FarPass::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
         {FAR_BINDING_TILES, slot.tiles.handle()},
         {FAR_BINDING_TILE_LIST, slot.tileList.handle()},
         {FAR_BINDING_PLANES, frame.planes()},
+        {FAR_BINDING_WINNERS, slot.winners.handle()},
     };
     constexpr std::size_t kBuffers = std::size(buffers);
     VkDescriptorBufferInfo infos[kBuffers];
@@ -494,12 +529,28 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
     upload(slot.palettes, m.palettes);
     upload(slot.tiles, m.tileRecords);
     upload(slot.tileList, m.list);
+    if (m.tiles == FarTiles::Sprites)
+        m.ensureWinners(slot, VkDeviceSize(frame.width()) * VkDeviceSize(frame.height()) *
+                                  sizeof(std::uint32_t));
     m.writeDescriptors(frame, slot);
     frame.ring().recordBarrier(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
     frame.timer().end(cb);
-    if (!tileCount) return;
+    const bool bySprite = m.tiles == FarTiles::Sprites;
+    // Workgroups: one per tile, or one per drawn instance.
+    const std::uint32_t groups = bySprite ? std::uint32_t(m.order.size()) : tileCount;
+    if (!groups) return;
 
     frame.timer().begin(cb, "far_blit");
+    const std::uint32_t width = std::uint32_t(frame.width()),
+                        height = std::uint32_t(frame.height());
+    if (bySprite) {
+        // Every pixel starts with no winner (after the last frame's resolve read this slot's).
+        const VkDeviceSize bytes = VkDeviceSize(width) * height * sizeof(std::uint32_t);
+        vkCmdFillBuffer(cb, slot.winners.handle(), 0, bytes, far_gpu::FAR_NO_WINNER);
+        bufferBarrier(cb, slot.winners.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
+                      VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    }
     // After the near tier's writes to the planes (copies and compute).
     bufferBarrier(cb, frame.planes(),
                   VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
@@ -507,14 +558,24 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
                   VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     const std::uint32_t maxX = m.device.properties().limits.maxComputeWorkGroupCount[0];
-    const std::uint32_t groupsX = std::min(tileCount, maxX);
+    const std::uint32_t groupsX = std::min(groups, maxX);
     vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, m.pipeline);
     vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, m.pipelineLayout, 0, 1, &slot.set,
                             0, nullptr);
-    const far_gpu::FarPush push{tileCount, std::uint32_t(frame.width()),
-                                std::uint32_t(frame.height())};
+    const far_gpu::FarPush push{groups, width, height};
     vkCmdPushConstants(cb, m.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-    vkCmdDispatch(cb, groupsX, (tileCount + groupsX - 1) / groupsX, 1);
+    vkCmdDispatch(cb, groupsX, (groups + groupsX - 1) / groupsX, 1);
+    if (bySprite) {
+        // The winners complete, and the planes read by the splat, before the resolve writes them.
+        const VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER, nullptr,
+                                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT,
+                                 VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT};
+        vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                             VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &mb, 0, nullptr, 0,
+                             nullptr);
+        vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, m.resolvePipeline);
+        vkCmdDispatch(cb, (width + 7) / 8, (height + 7) / 8, 1);
+    }
     frame.timer().end(cb);
     bufferBarrier(
         cb, frame.planes(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,

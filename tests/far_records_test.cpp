@@ -33,8 +33,12 @@ const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRende
 
 class FarRecordsKept : public test::VulkanTest {
   protected:
-    static FrameOptions options(bool shared) {
+    /// Both ways of cutting the far pass that a device's auto choice may take: the tiles keep
+    /// their lists with the order, the pass cut by sprite keeps the order alone.
+    static constexpr FarTiles kCuts[] = {FarTiles::Coarse, FarTiles::Sprites};
+    static FrameOptions options(bool shared, FarTiles tiles) {
         FrameOptions o;
+        o.farTiles = tiles;
         if (shared) o.sharedNear = sharedNearRenderer();
         o.nearBackend = NearBackend::Vulkan;
         o.nearPixels = NearPixels::Compute;
@@ -46,50 +50,54 @@ class FarRecordsKept : public test::VulkanTest {
 };
 
 TEST_F(FarRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
-    Scene s = test::stillSteppingArmy();
-    FrameRenderer renderer(s, options(true));
-    FrameRenderer everything(s, options(false));
-    std::uint64_t keptRecords = 0, records = 0;
-    int keptOrders = 0, keptWhole = 0, fadingFrames = 0, nearFrames = 0;
-    for (int k = 0; k < 28; ++k) {
-        const double t = k / 30.0;
-        if (k == 5 || k == 13)
-            for (const std::size_t e : {3u, 50u, 120u}) s.entities[e].position.x += 0.2;
-        if (k == 9) s.camera.position += glm::dvec3(0.2, 0.0, 0.1);
-        if (k == 11) s.models[0]->clearBox(0, Box3i{{0, 0, 8}, {32, 32, 16}});
-        // Tanks sent past far_at and back in the hybrid frames: tier switches, cross-faded by
-        // copies.
-        if (k == 20 || k == 24)
-            for (std::size_t e = 0; e < 240; e += 7) s.entities[e].position.z += k == 20 ? -60 : 60;
-        const RenderMode mode = k >= 18 ? RenderMode::Hybrid : RenderMode::Far;
-        const FrameResult r = renderer.render(t, mode, k);
-        FrameStats full;
-        const Image expected =
-            everything.draw(makeCameraFrame(s.cameraAt(t)), r.sprites, r.plan, &full);
-        ASSERT_EQ(test::describeDifference(r.image, expected, "kept", "written"), "")
-            << "frame " << k;
-        ASSERT_GT(test::drawnPixels(expected), 0u) << "frame " << k;
-        const FarPassStats& far = r.stats.vulkanFar;
-        ASSERT_GT(far.sprites, 0u) << "frame " << k << ": the far pass drew";
-        EXPECT_EQ(full.vulkanFar.recordsKept, 0u) << "frame " << k << ": nothing to keep";
-        EXPECT_FALSE(full.vulkanFar.orderKept) << "frame " << k << ": nothing to keep";
-        fadingFrames += r.stats.plan.fading > 0;
-        nearFrames += r.stats.nearDrawn > 0;
-        keptRecords += far.recordsKept;
-        records += far.sprites;
-        keptOrders += far.orderKept;
-        keptWhole += far.recordsKept == far.sprites;
-        if (k == 9) {
-            EXPECT_EQ(far.recordsKept, 0u) << "the camera moved: every record changed";
-            EXPECT_FALSE(far.orderKept) << "the camera moved: every depth changed";
+    for (const FarTiles tiles : kCuts) {
+        SCOPED_TRACE(tiles == FarTiles::Sprites ? "cut by sprite" : "coarse tiles");
+        Scene s = test::stillSteppingArmy();
+        FrameRenderer renderer(s, options(true, tiles));
+        FrameRenderer everything(s, options(false, tiles));
+        std::uint64_t keptRecords = 0, records = 0;
+        int keptOrders = 0, keptWhole = 0, fadingFrames = 0, nearFrames = 0;
+        for (int k = 0; k < 28; ++k) {
+            const double t = k / 30.0;
+            if (k == 5 || k == 13)
+                for (const std::size_t e : {3u, 50u, 120u}) s.entities[e].position.x += 0.2;
+            if (k == 9) s.camera.position += glm::dvec3(0.2, 0.0, 0.1);
+            if (k == 11) s.models[0]->clearBox(0, Box3i{{0, 0, 8}, {32, 32, 16}});
+            // Tanks sent past far_at and back in the hybrid frames: tier switches, cross-faded by
+            // copies.
+            if (k == 20 || k == 24)
+                for (std::size_t e = 0; e < 240; e += 7)
+                    s.entities[e].position.z += k == 20 ? -60 : 60;
+            const RenderMode mode = k >= 18 ? RenderMode::Hybrid : RenderMode::Far;
+            const FrameResult r = renderer.render(t, mode, k);
+            FrameStats full;
+            const Image expected =
+                everything.draw(makeCameraFrame(s.cameraAt(t)), r.sprites, r.plan, &full);
+            ASSERT_EQ(test::describeDifference(r.image, expected, "kept", "written"), "")
+                << "frame " << k;
+            ASSERT_GT(test::drawnPixels(expected), 0u) << "frame " << k;
+            const FarPassStats& far = r.stats.vulkanFar;
+            ASSERT_GT(far.sprites, 0u) << "frame " << k << ": the far pass drew";
+            EXPECT_EQ(full.vulkanFar.recordsKept, 0u) << "frame " << k << ": nothing to keep";
+            EXPECT_FALSE(full.vulkanFar.orderKept) << "frame " << k << ": nothing to keep";
+            fadingFrames += r.stats.plan.fading > 0;
+            nearFrames += r.stats.nearDrawn > 0;
+            keptRecords += far.recordsKept;
+            records += far.sprites;
+            keptOrders += far.orderKept;
+            keptWhole += far.recordsKept == far.sprites;
+            if (k == 9) {
+                EXPECT_EQ(far.recordsKept, 0u) << "the camera moved: every record changed";
+                EXPECT_FALSE(far.orderKept) << "the camera moved: every depth changed";
+            }
+            if (k == 5 || k == 13) EXPECT_FALSE(far.orderKept) << "frame " << k << ": tanks moved";
         }
-        if (k == 5 || k == 13) EXPECT_FALSE(far.orderKept) << "frame " << k << ": tanks moved";
+        EXPECT_GT(fadingFrames, 0) << "no cross-fade: no copy of a sprite was drawn";
+        EXPECT_GT(nearFrames, 5) << "no near sprite beside the far ones";
+        EXPECT_GT(keptWhole, 3) << "frames between animation steps keep every record";
+        EXPECT_GT(keptOrders, 10) << "animation steps keep the draw order";
+        EXPECT_GT(keptRecords * 4, records) << "a quarter of the records at least are kept";
     }
-    EXPECT_GT(fadingFrames, 0) << "no cross-fade: no copy of a sprite was drawn";
-    EXPECT_GT(nearFrames, 5) << "no near sprite beside the far ones";
-    EXPECT_GT(keptWhole, 3) << "frames between animation steps keep every record";
-    EXPECT_GT(keptOrders, 10) << "animation steps keep the draw order";
-    EXPECT_GT(keptRecords * 4, records) << "a quarter of the records at least are kept";
 }
 
 TEST_F(FarRecordsKept, OneFarPassFedByTwoStoresInTurnEqualsTheCpuBlit) {
@@ -108,36 +116,39 @@ TEST_F(FarRecordsKept, OneFarPassFedByTwoStoresInTurnEqualsTheCpuBlit) {
         ASSERT_TRUE(std::equal(va.begin(), va.end(), vb.begin(), vb.end()))
             << "the same tanks in view";
     }
-    FarPass pass(nearRenderer().frames(), FarTiles::Coarse);
-    SnapshotCache cache;
-    SpriteStore storeA, storeB;
-    std::uint64_t kept = 0;
-    // Turns that hand each slot (two or three frames in flight) frames of both stores.
-    const char turns[] = "AABABBAAABBBAB";
-    for (int k = 0; turns[k]; ++k) {
-        const Scene& s = turns[k] == 'A' ? a : b;
-        SpriteStore& store = turns[k] == 'A' ? storeA : storeB;
-        const CameraFrame cam = makeCameraFrame(s.camera);
-        (void)store.update(s, cam, 0.0); // still tanks at time 0: nothing changes after
-        const std::span<const SpriteSetup> sprites = store.sprites();
-        std::vector<FarRequest> requests;
-        for (const std::uint32_t i : store.visibleIds()) requests.push_back({&sprites[i], {}});
-        const FarBatch batch = prepareFarBatch(s.models, requests, cache, ViewSet::Cube26);
-        const SpriteHistory history = store.history();
-        VulkanFrameRequest request;
-        request.camera = &cam;
-        request.models = &s.models;
-        request.far = &batch;
-        request.history = &history;
-        const VulkanFrameResult r = drawVulkanFrame(nearRenderer(), &pass, request);
-        Image cpu(cam.width, cam.height, 0);
-        drawFarSprites(s.models, requests, cache, ViewSet::Cube26, cpu);
-        ASSERT_EQ(test::describeDifference(r.image, cpu, "vulkan far", "cpu far"), "")
-            << "frame " << k << " (" << turns[k] << ")";
-        ASSERT_GT(r.far.sprites, 0u);
-        kept += r.far.recordsKept;
+    for (const FarTiles tiles : kCuts) {
+        SCOPED_TRACE(tiles == FarTiles::Sprites ? "cut by sprite" : "coarse tiles");
+        FarPass pass(nearRenderer().frames(), tiles);
+        SnapshotCache cache;
+        SpriteStore storeA, storeB;
+        std::uint64_t kept = 0;
+        // Turns that hand each slot (two or three frames in flight) frames of both stores.
+        const char turns[] = "AABABBAAABBBAB";
+        for (int k = 0; turns[k]; ++k) {
+            const Scene& s = turns[k] == 'A' ? a : b;
+            SpriteStore& store = turns[k] == 'A' ? storeA : storeB;
+            const CameraFrame cam = makeCameraFrame(s.camera);
+            (void)store.update(s, cam, 0.0); // still tanks at time 0: nothing changes after
+            const std::span<const SpriteSetup> sprites = store.sprites();
+            std::vector<FarRequest> requests;
+            for (const std::uint32_t i : store.visibleIds()) requests.push_back({&sprites[i], {}});
+            const FarBatch batch = prepareFarBatch(s.models, requests, cache, ViewSet::Cube26);
+            const SpriteHistory history = store.history();
+            VulkanFrameRequest request;
+            request.camera = &cam;
+            request.models = &s.models;
+            request.far = &batch;
+            request.history = &history;
+            const VulkanFrameResult r = drawVulkanFrame(nearRenderer(), &pass, request);
+            Image cpu(cam.width, cam.height, 0);
+            drawFarSprites(s.models, requests, cache, ViewSet::Cube26, cpu);
+            ASSERT_EQ(test::describeDifference(r.image, cpu, "vulkan far", "cpu far"), "")
+                << "frame " << k << " (" << turns[k] << ")";
+            ASSERT_GT(r.far.sprites, 0u);
+            kept += r.far.recordsKept;
+        }
+        EXPECT_GT(kept, 0u) << "a store's own records are kept";
     }
-    EXPECT_GT(kept, 0u) << "a store's own records are kept";
 }
 
 } // namespace

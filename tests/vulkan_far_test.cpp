@@ -21,6 +21,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <memory>
 #include <set>
 #include <string>
@@ -35,16 +36,19 @@ using test::sourcePath;
 
 class VulkanFar : public test::VulkanTest {
   protected:
-    /// The suite's far passes, one per tile size, on the shared renderer's frames (their
-    /// residencies persist across the suite's tests, as a renderer's does across frames).
+    /// The suite's far passes, one per way of cutting the pass (FarTiles), on the shared
+    /// renderer's frames (their residencies persist across the suite's tests, as a renderer's
+    /// does across frames).
     static FarPass& farPass(FarTiles tiles = FarTiles::Coarse) {
-        std::unique_ptr<FarPass>& pass = tiles == FarTiles::Fine ? fine_ : coarse_;
+        std::unique_ptr<FarPass>& pass = passes_[std::size_t(tiles)];
         if (!pass) pass = std::make_unique<FarPass>(nearRenderer().frames(), tiles);
         return *pass;
     }
     static void TearDownTestSuite() {
-        coarse_.reset();
-        fine_.reset();
+        for (auto& pass : passes_) pass.reset();
+    }
+    static std::string nameOf(FarTiles tiles) {
+        return tiles == FarTiles::Fine ? "fine" : tiles == FarTiles::Sprites ? "sprites" : "coarse";
     }
     /// `near` sprites and `batch` in one Vulkan frame (compose/vulkan_frame.hpp).
     static Image drawBoth(const CameraFrame& cam, const Scene& scene,
@@ -61,8 +65,8 @@ class VulkanFar : public test::VulkanTest {
         if (stats) *stats = r.far;
         return std::move(r.image);
     }
-    inline static std::unique_ptr<FarPass> coarse_, fine_;
-    static constexpr FarTiles kBothTiles[] = {FarTiles::Coarse, FarTiles::Fine};
+    inline static std::array<std::unique_ptr<FarPass>, 4> passes_; // by FarTiles
+    static constexpr FarTiles kEveryCut[] = {FarTiles::Coarse, FarTiles::Fine, FarTiles::Sprites};
 
     static FrameOptions options(FarBackend far, NearBackend near = NearBackend::Vulkan,
                                 FarTiles tiles = FarTiles::Coarse) {
@@ -110,7 +114,7 @@ class VulkanFar : public test::VulkanTest {
     }
 
     /// One frame of `scene` drawn as `plan` says, near sprites on Vulkan, far sprites once by
-    /// the CPU blit and by the Vulkan far pass in each tile size, through one snapshot cache: the
+    /// the CPU blit and by the Vulkan far pass cut each way, through one snapshot cache: the
     /// images are identical. Returns the CPU image's far-drawn pixel count (the test must draw).
     std::size_t expectSame(const Scene& scene, const std::vector<SpriteSetup>& sprites,
                            const std::vector<EntityPlan>& plan, const std::string& what) {
@@ -141,14 +145,15 @@ class VulkanFar : public test::VulkanTest {
         std::size_t farPixels = 0;
         for (std::size_t p = 0; p < cpu.pixelCount(); ++p)
             farPixels += cpu.id[p] != nearOnly.id[p] || cpu.color[p] != nearOnly.color[p];
-        for (const FarTiles tiles : kBothTiles) {
-            const std::string how = what + (tiles == FarTiles::Fine ? ", fine" : ", coarse");
+        for (const FarTiles tiles : kEveryCut) {
+            const std::string how = what + ", " + nameOf(tiles);
             FarPassStats fs;
             const Image gpu =
                 drawBoth(cam, scene, nearSprites, batch, &fs, scene.render.background, tiles);
             EXPECT_EQ(describeDifference(gpu, cpu, "vulkan far", "cpu far"), "") << how;
-            if (farPixels) {
-                EXPECT_GT(fs.tiles, 0u) << how; // the far pass really ran
+            if (farPixels) { // the far pass really ran
+                EXPECT_GT(fs.sprites, 0u) << how;
+                EXPECT_EQ(fs.tiles > 0u, tiles != FarTiles::Sprites) << how;
             }
         }
         return farPixels;
@@ -169,20 +174,26 @@ TEST_F(VulkanFar, GoldenScenesEqualTheCpuBlitThroughTheFrame) {
     for (const char* file :
          {"scenes/golden/arrows.json", "scenes/golden/crowd.json", "scenes/golden/equal_depth.json",
           "scenes/golden/far_origin.json", "scenes/golden/topdown.json", "scenes/default.json"}) {
-        // The fine tiles (a GPU's) too, over the all-far frame and the path's first frames.
-        Scene a = loadScene(sourcePath(file)), b = a, c = a;
+        // The fine tiles and the pass cut by sprite too, over the all-far frame and the path's
+        // first frames.
+        Scene a = loadScene(sourcePath(file)), b = a, c = a, d = a;
         FrameRenderer cpu(a, options(FarBackend::Cpu)), gpu(b, options(FarBackend::Vulkan)),
-            fine(c, options(FarBackend::Vulkan, NearBackend::Vulkan, FarTiles::Fine));
+            fine(c, options(FarBackend::Vulkan, NearBackend::Vulkan, FarTiles::Fine)),
+            bySprite(d, options(FarBackend::Vulkan, NearBackend::Vulkan, FarTiles::Sprites));
         const FrameResult fc = cpu.render(0.0, RenderMode::Far),
                           fg = gpu.render(0.0, RenderMode::Far),
-                          ff = fine.render(0.0, RenderMode::Far);
+                          ff = fine.render(0.0, RenderMode::Far),
+                          fs = bySprite.render(0.0, RenderMode::Far);
         EXPECT_EQ(describeDifference(fg.image, fc.image, "vulkan far", "cpu far"), "")
             << file << " all far";
         EXPECT_EQ(describeDifference(ff.image, fc.image, "vulkan far, fine", "cpu far"), "")
             << file << " all far";
+        EXPECT_EQ(describeDifference(fs.image, fc.image, "vulkan far, sprites", "cpu far"), "")
+            << file << " all far";
         EXPECT_GT(fc.stats.farDrawn, 0) << file;
         EXPECT_EQ(fg.stats.farOnVulkan, 1) << file;
         EXPECT_EQ(ff.stats.farOnVulkan, 1) << file;
+        EXPECT_EQ(fs.stats.farOnVulkan, 1) << file;
         EXPECT_EQ(fc.stats.farOnVulkan, 0) << file;
         const double fps = a.path ? a.path->fps : 30.0;
         for (int f = 0; f < 4; ++f) {
@@ -190,9 +201,12 @@ TEST_F(VulkanFar, GoldenScenesEqualTheCpuBlitThroughTheFrame) {
             const FrameResult hc = cpu.render(t, RenderMode::Hybrid, f);
             const FrameResult hg = gpu.render(t, RenderMode::Hybrid, f);
             const FrameResult hf = fine.render(t, RenderMode::Hybrid, f);
+            const FrameResult hs = bySprite.render(t, RenderMode::Hybrid, f);
             EXPECT_EQ(describeDifference(hg.image, hc.image, "vulkan far", "cpu far"), "")
                 << file << " hybrid frame " << f;
             EXPECT_EQ(describeDifference(hf.image, hc.image, "vulkan far, fine", "cpu far"), "")
+                << file << " hybrid frame " << f;
+            EXPECT_EQ(describeDifference(hs.image, hc.image, "vulkan far, sprites", "cpu far"), "")
                 << file << " hybrid frame " << f;
             EXPECT_EQ(hg.plan, hc.plan) << file << " hybrid frame " << f;
         }
@@ -429,15 +443,16 @@ TEST_F(VulkanFar, CoincidentCrowdsStopInTheRulesOrder) {
 TEST_F(VulkanFar, AutoTilesAreCoarseOnACpuDeviceAndFineOnAGpu) {
     const FarPass automatic(nearRenderer().frames());
     EXPECT_EQ(automatic.tiles(), nearRenderer().deviceIsCpu() ? FarTiles::Coarse : FarTiles::Fine);
-    EXPECT_EQ(farPass(FarTiles::Fine).tiles(), FarTiles::Fine);
-    EXPECT_EQ(farPass(FarTiles::Coarse).tiles(), FarTiles::Coarse);
+    for (const FarTiles tiles : kEveryCut) EXPECT_EQ(farPass(tiles).tiles(), tiles);
 }
 
 TEST_F(VulkanFar, SnapshotsAreUploadedOnceAndFreedWhenTheCacheDropsThem) {
-    // The fine tiles' pass of earlier tests in this process holds their snapshots too (a device
-    // copy is freed once nobody else holds its cells): gone, so that only this test's coarse pass
-    // holds any (ctest runs each test alone; the binary run whole failed here).
-    fine_.reset();
+    // The fine tiles' and the sprites' passes of earlier tests in this process hold their
+    // snapshots too (a device copy is freed once nobody else holds its cells): gone, so that only
+    // this test's coarse pass holds any (ctest runs each test alone; the binary run whole failed
+    // here).
+    passes_[std::size_t(FarTiles::Fine)].reset();
+    passes_[std::size_t(FarTiles::Sprites)].reset();
     Scene s = test::hardCaseWorld(glm::dvec3(0.0));
     const CameraFrame cam = makeCameraFrame(s.camera);
     const auto sprites = setupSprites(s, cam, 0.0);

@@ -1,5 +1,5 @@
-// What every far pass shader (far_blit.comp) reads, and the one function that says what a far
-// sprite draws at a pixel: the far blit of impostor_cache/far_blit.cpp, pixel for
+// What every far pass shader (far_blit.comp, far_splat.comp) reads, and the one function that
+// says what a far sprite draws at a pixel: the far blit of impostor_cache/far_blit.cpp, pixel for
 // pixel. Included after core/sprite_kernel.h and far_shared.h; the including shader declares
 // the planes (read-only where it only reads them).
 
@@ -13,7 +13,7 @@ layout(std430, set = 0, binding = FAR_BINDING_PALETTES) readonly buffer FarPalet
     uint vtFarPalettes[];
 };
 layout(push_constant) uniform Push {
-    FarPush vtPush; // count: tiles
+    FarPush vtPush; // count: tiles (far_blit.comp) or instances (far_splat.comp)
 };
 
 const uint FAR_EMPTY = 0u;

@@ -27,6 +27,9 @@ VT_FAR_CONST uint FAR_BINDING_PALETTES = 2u;  // uint[]: the frame's far palette
 VT_FAR_CONST uint FAR_BINDING_TILES = 3u;     // FarTile[]: the image tiles far sprites touch
 VT_FAR_CONST uint FAR_BINDING_TILE_LIST = 4u; // uint[]: per tile, the far sprites touching it
 VT_FAR_CONST uint FAR_BINDING_PLANES = 5u;    // uint[]: the frame's colour, id, depth planes
+VT_FAR_CONST uint FAR_BINDING_WINNERS = 6u;   // uint[]: per pixel, far_splat.comp's winner
+// A pixel no far instance draws and wins (far_splat.comp).
+VT_FAR_CONST uint FAR_NO_WINNER = 0xFFFFFFFFu;
 // Pixels per side of a tile, one workgroup of FAR_WORKGROUP invocations each. Coarse: 32 x 2
 // invocations, each owning 16 pixels of a column (the fewest invocation steps per sprite: what a
 // CPU device runs fastest). Fine: 8 x 8 invocations, a pixel each; a tile lists only the sprites
@@ -57,7 +60,7 @@ struct FarInstanceGpu {
     ivec4 extra; // first cell j, palette base, depth bits, entity id
 };
 
-// Push constants: the tiles to run, and the image size.
+// Push constants: the tiles (or instances) to run, and the image size.
 struct FarPush {
     uint count;
     uint width;

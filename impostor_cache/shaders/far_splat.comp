@@ -1,0 +1,78 @@
+#version 450
+// The far pass cut by sprite (FarTiles::Sprites; far_blit.comp cuts it by image tile): the same
+// image, found in two dispatches with no list of sprites per tile and no walk through one.
+// FAR_SPLAT=1: a workgroup per far instance covers its rectangle, FAR_WORKGROUP pixels at a time;
+// each pixel the instance would win against what the near tier left there (the depth-and-id rule)
+// and draws (farPixelColour) takes the instance's index by atomicMin into the pixel's winner word.
+// The instances are in the rule's order (far_pass.cpp: nearer first, equal depths by ascending
+// id), so the least index among them is the one the rule picks whatever the atomics' order.
+// FAR_SPLAT=0: per pixel, its winner (if any) writes colour, id and depth into the planes.
+// A pixel's work is its own rectangle's pixels once, wherever the crowd is thick: a tile's
+// workgroup in far_blit.comp passes every sprite over the tile one after another.
+#extension GL_GOOGLE_include_directive : require
+
+// The kernel header needs a voxel source to compile; this pass never traces.
+uint vtFetchVoxel(ivec3 cell);
+#include "core/sprite_kernel.h"
+#include "impostor_cache/shaders/far_shared.h"
+
+#if !defined(FAR_SPLAT)
+#error "build with FAR_SPLAT=1 (the splat) or 0 (the resolve) (impostor_cache/CMakeLists.txt)"
+#endif
+
+#include "impostor_cache/shaders/far_pixel.glsl"
+layout(std430, set = 0, binding = FAR_BINDING_PLANES) buffer Planes {
+    uint vtPlanes[]; // colour, then entity id, then depth bits: width * height each
+};
+// Per pixel: the least index of the instances that draw it and win it against the near tier,
+// FAR_NO_WINNER where none (filled before the splat).
+layout(std430, set = 0, binding = FAR_BINDING_WINNERS) coherent buffer Winners {
+    uint vtWinners[];
+};
+
+#if FAR_SPLAT
+layout(local_size_x = FAR_WORKGROUP) in;
+
+void main() {
+    uint f = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (f >= vtPush.count) return;
+    ivec4 r = vtFar[f].rect;
+    uint w = uint(r.z - r.x);
+    uint pixels = w * uint(r.w - r.y);
+    float d = intBitsToFloat(vtFar[f].extra.z);
+    uint entity = uint(vtFar[f].extra.w);
+    uint plane = vtPush.width * vtPush.height;
+    SpriteGpu s = vtFar[f].sprite;
+    for (uint i = gl_LocalInvocationIndex; i < pixels; i += FAR_WORKGROUP) {
+        int x = r.x + int(i % w);
+        int y = r.y + int(i / w);
+        uint p = uint(y) * vtPush.width + uint(x);
+        float depth = uintBitsToFloat(vtPlanes[2u * plane + p]);
+        if (!(d > depth || (d == depth && entity < vtPlanes[plane + p]))) continue;
+        // A nearer instance (a lesser index) that already won the pixel settles it: winners only
+        // fall, so whatever value this reads, a lesser one stands at the end. The nearest come
+        // first in the dispatch, so in a crowd most pixels are settled before the rest arrive.
+        if (vtWinners[p] < f) continue;
+        uint colour;
+        if (!farPixelColour(f, s, vec2(float(x) + 0.5f, float(y) + 0.5f), colour))
+            continue;
+        atomicMin(vtWinners[p], f);
+    }
+}
+#else
+layout(local_size_x = 8, local_size_y = 8) in;
+
+void main() {
+    uvec2 xy = gl_GlobalInvocationID.xy;
+    if (xy.x >= vtPush.width || xy.y >= vtPush.height) return;
+    uint p = xy.y * vtPush.width + xy.x;
+    uint f = vtWinners[p];
+    if (f == FAR_NO_WINNER) return;
+    uint colour;
+    farPixelColour(f, vtFar[f].sprite, vec2(xy) + 0.5f, colour);
+    uint plane = vtPush.width * vtPush.height;
+    vtPlanes[p] = colour;
+    vtPlanes[plane + p] = uint(vtFar[f].extra.w);
+    vtPlanes[2u * plane + p] = uint(vtFar[f].extra.z);
+}
+#endif
