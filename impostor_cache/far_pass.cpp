@@ -141,6 +141,10 @@ struct FarPass::Impl {
                           const SpriteHistory* history, FarPassStats& stats);
     /// Every tile's list of the drawn instances over it, in draw order (`order`).
     void binTiles(int width, int height);
+    /// Dispatches of the tile pass that walk the longest list (FAR_LIST_STEP_*), and workgroups
+    /// of the pass cut by sprite that share the largest rectangle (FAR_SPLAT_STEPS).
+    std::uint32_t listParts() const;
+    std::uint32_t splatParts() const;
     /// The drawn instances' records, in draw order, into the slot's buffer (offsets: each
     /// snapshot's word offset on the device), but for those the buffer already holds.
     void writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
@@ -382,6 +386,24 @@ void FarPass::Impl::binTiles(int width, int height) {
     });
 }
 
+std::uint32_t FarPass::Impl::listParts() const {
+    std::uint32_t longest = 0;
+    for (const far_gpu::FarTile& t : tileRecords) longest = std::max(longest, t.count);
+    const std::uint32_t step =
+        tiles == FarTiles::Fine ? far_gpu::FAR_LIST_STEP_FINE : far_gpu::FAR_LIST_STEP_COARSE;
+    return std::max(1u, (longest + step - 1) / step);
+}
+
+std::uint32_t FarPass::Impl::splatParts() const {
+    std::uint64_t largest = 0;
+    for (const auto& [key, i] : order) {
+        const glm::ivec4 r = rects[i];
+        largest = std::max(largest, std::uint64_t(r.z - r.x) * std::uint64_t(r.w - r.y));
+    }
+    const std::uint64_t perGroup = std::uint64_t(far_gpu::FAR_WORKGROUP) * far_gpu::FAR_SPLAT_STEPS;
+    return std::uint32_t(std::max<std::uint64_t>(1, (largest + perGroup - 1) / perGroup));
+}
+
 void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
                                    const std::vector<std::uint32_t>& offsets,
                                    const SpriteHistory* history, FarPassStats& stats) {
@@ -562,9 +584,19 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
     vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, m.pipeline);
     vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, m.pipelineLayout, 0, 1, &slot.set,
                             0, nullptr);
-    const far_gpu::FarPush push{groups, width, height};
-    vkCmdPushConstants(cb, m.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-    vkCmdDispatch(cb, groupsX, (groups + groupsX - 1) / groupsX, 1);
+    // No invocation loops past lavapipe's limit (far_shared.h): a tile's list is walked in parts,
+    // a dispatch each, and a large rectangle is split between workgroups.
+    const std::uint32_t parts = bySprite ? m.splatParts() : m.listParts();
+    for (std::uint32_t part = 0; part < (bySprite ? 1u : parts); ++part) {
+        if (part > 0) // the last part's writes to the planes before this part reads them
+            bufferBarrier(cb, frame.planes(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                          VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                          VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        const far_gpu::FarPush push{groups, width, height, part};
+        vkCmdPushConstants(cb, m.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push,
+                           &push);
+        vkCmdDispatch(cb, groupsX, (groups + groupsX - 1) / groupsX, bySprite ? parts : 1u);
+    }
     if (bySprite) {
         // The winners complete, and the planes read by the splat, before the resolve writes them.
         const VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER, nullptr,

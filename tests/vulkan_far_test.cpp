@@ -12,6 +12,7 @@
 #include "hard_case_scenes.hpp"
 #include "image_checks.hpp"
 #include "impostor_cache/far_frame.hpp"
+#include "impostor_cache/shaders/far_shared.h"
 #include "impostor_cache/snapshot_cache.hpp"
 #include "source_tree.hpp"
 #include "test_models.hpp"
@@ -440,10 +441,60 @@ TEST_F(VulkanFar, CoincidentCrowdsStopInTheRulesOrder) {
     EXPECT_GT(expectSame(s, sprites, plan, "coincident crowds, middles near"), 200u);
 }
 
+// A far sprite of more pixels than one workgroup of the pass cut by sprite takes on lavapipe
+// (far_shared.h: FAR_WORKGROUP * FAR_SPLAT_STEPS): its rectangle is shared between workgroups.
+TEST_F(VulkanFar, ASpriteLargerThanOneWorkgroupsShareEqualsTheCpuBlit) {
+    const test::ViewSetup v =
+        test::viewAlong(test::solidBox({40, 40, 40}), glm::dvec3(1, 1, 2), 1.0, 20);
+    const CameraFrame cam = makeCameraFrame(v.scene.camera);
+    const auto sprites = setupSprites(v.scene, cam, 0.0);
+    const glm::ivec4 r = rectInImage(sprites[0], cam);
+    ASSERT_GT(std::int64_t(r.z - r.x) * (r.w - r.y),
+              std::int64_t(far_gpu::FAR_WORKGROUP) * far_gpu::FAR_SPLAT_STEPS)
+        << "the rectangle takes two workgroups";
+    EXPECT_GT(expectSame(v.scene, sprites, allFar(1), "one large far sprite"), 500000u);
+}
+
 TEST_F(VulkanFar, AutoTilesAreCoarseOnACpuDeviceAndFineOnAGpu) {
     const FarPass automatic(nearRenderer().frames());
     EXPECT_EQ(automatic.tiles(), nearRenderer().deviceIsCpu() ? FarTiles::Coarse : FarTiles::Fine);
     for (const FarTiles tiles : kEveryCut) EXPECT_EQ(farPass(tiles).tiles(), tiles);
+}
+
+// More far sprites than a dispatch holds workgroups along x (65,535 on lavapipe, the least the
+// standard allows): the pass cut by sprite runs a workgroup per sprite, so its dispatch wraps
+// into rows (far_splat.comp: instance = row * row length + column). The instances go nearest
+// first, so the farthest sprites are those past the first row: a heap on the left half of the
+// image, and beyond all of it a few thousand on the right half that nothing hides. The heap's
+// tiles list tens of thousands of sprites each, more than one walk takes on lavapipe (far_shared.h:
+// its loop limit), so the tiles' pass runs in parts.
+TEST_F(VulkanFar, MoreSpritesThanADispatchRowOrATileWalkHoldsEqualTheCpuBlit) {
+    const std::uint32_t rowOfGroups =
+        nearRenderer().frames().device().properties().limits.maxComputeWorkGroupCount[0];
+    const int nearer = int(std::min<std::uint32_t>(rowOfGroups, 200000));
+    Scene s = heapOfKinds(nearer, 65535, {-7.0, -3.0, -30.0}, {-1.5, 3.0, -12.0});
+    const Scene beyond = heapOfKinds(3000, 65536, {4.0, -6.0, -60.0}, {16.0, 6.0, -40.0});
+    s.entities.insert(s.entities.end(), beyond.entities.begin(), beyond.entities.end());
+    const CameraFrame cam = makeCameraFrame(s.camera);
+    const auto sprites = setupSprites(s, cam, 0.0);
+    std::size_t onScreen = 0, beyondOnScreen = 0;
+    int nearRight = 0, beyondLeft = cam.width; // the heaps' rectangles do not meet
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        const glm::ivec4 r = rectInImage(sprites[i], cam);
+        if (r.z <= r.x || r.w <= r.y) continue;
+        ++onScreen;
+        if (i >= std::size_t(nearer)) {
+            ++beyondOnScreen;
+            beyondLeft = std::min(beyondLeft, r.x);
+            ASSERT_LT(sprites[i].gpu.depth, sprites[0].gpu.depth) << "behind the near heap";
+        } else {
+            nearRight = std::max(nearRight, r.z);
+        }
+    }
+    ASSERT_LE(nearRight, beyondLeft) << "nothing of the near heap hides the far one";
+    ASSERT_GT(onScreen, std::size_t(rowOfGroups) + 1000) << "the dispatch takes two rows";
+    ASSERT_GT(beyondOnScreen, 1000u);
+    EXPECT_GT(expectSame(s, sprites, allFar(sprites.size()), "more sprites than a row"), 2000u);
 }
 
 TEST_F(VulkanFar, SnapshotsAreUploadedOnceAndFreedWhenTheCacheDropsThem) {

@@ -43,6 +43,7 @@ layout(std430, set = 0, binding = FAR_BINDING_PLANES) buffer Planes {
 };
 
 const int FAR_ROWS = FAR_SIDE / FAR_LANES_Y; // rows of a tile per invocation
+const uint FAR_LIST_STEP = FAR_BATCHED != 0 ? FAR_LIST_STEP_FINE : FAR_LIST_STEP_COARSE;
 
 #if FAR_BATCHED
 // One batch of the tile's sprite list: entries, their rectangles and their depth bits and ids.
@@ -71,9 +72,13 @@ void weakestPixel(int rows, float depths[FAR_ROWS], uint ids[FAR_ROWS], out floa
 void main() {
     uint tile = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
     if (tile >= vtPush.count) return; // the whole workgroup: no barrier is skipped
+    // This dispatch's part of the tile's list (far_shared.h: lavapipe's loop limit).
+    uint listed = vtTiles[tile].count;
+    uint skipped = min(listed, vtPush.part * FAR_LIST_STEP);
+    uint count = min(listed - skipped, FAR_LIST_STEP);
+    if (count == 0u) return; // the whole workgroup
     uint origin = vtTiles[tile].origin;
-    uint first = vtTiles[tile].first;
-    uint count = vtTiles[tile].count;
+    uint first = vtTiles[tile].first + skipped;
     int x = int((origin & 0xFFFFu) + gl_LocalInvocationID.x);
     // This invocation's pixels: column x, rows y0, y0 + FAR_LANES_Y, ... below yEnd (at most
     // FAR_ROWS), kept in registers while the tile's sprites pass over them, sprite by sprite:

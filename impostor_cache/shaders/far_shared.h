@@ -38,6 +38,18 @@ VT_FAR_CONST uint FAR_NO_WINNER = 0xFFFFFFFFu;
 VT_FAR_CONST uint FAR_TILE_COARSE = 32u;
 VT_FAR_CONST uint FAR_TILE_FINE = 8u;
 VT_FAR_CONST uint FAR_WORKGROUP = 64u;
+// Lavapipe (llvmpipe) ends an invocation's loops once they have run 65,535 iterations between
+// them, all loops of the shader counted together, and says nothing: a longer walk leaves pixels
+// undrawn. So no invocation of the far pass loops more than a part of that. A tile's workgroup
+// walks at most FAR_LIST_STEP_* entries of its list per dispatch (the host dispatches the tiles
+// again for the rest, FarPush::part; the pixels are read from the planes each time, and the rule
+// does not depend on order): coarse, an entry costs up to 33 iterations (the entry, 16 rows, 16
+// rows again for the weakest pixel); fine, up to 3 (and one per batch of 64). The pass cut by
+// sprite splits a rectangle of more than FAR_WORKGROUP * FAR_SPLAT_STEPS pixels between
+// workgroups (gl_WorkGroupID.z).
+VT_FAR_CONST uint FAR_LIST_STEP_COARSE = 1024u;
+VT_FAR_CONST uint FAR_LIST_STEP_FINE = 8192u;
+VT_FAR_CONST uint FAR_SPLAT_STEPS = 16384u;
 
 // One far sprite. `sprite` is the near tier's SpriteGpu (vtPixelCell, vtFaceLight, depth, id in
 // dims.w); the snapshot cell of near cell (i, j) is (floor(u0 + ui i + uj j), floor(v0 + vi i +
@@ -60,11 +72,13 @@ struct FarInstanceGpu {
     ivec4 extra; // first cell j, palette base, depth bits, entity id
 };
 
-// Push constants: the tiles (or instances) to run, and the image size.
+// Push constants: the tiles (or instances) to run, the image size, and which part of each
+// tile's list this dispatch walks (FAR_LIST_STEP_* entries from part * FAR_LIST_STEP_*).
 struct FarPush {
     uint count;
     uint width;
     uint height;
+    uint part;
 };
 
 // One 32x32 tile of the image that far sprites touch: its first pixel (x low 16 bits, y high 16)
@@ -80,7 +94,7 @@ struct FarTile {
 static_assert(sizeof(FarInstanceGpu) == 368 && offsetof(FarInstanceGpu, u0) == 272 &&
                   offsetof(FarInstanceGpu, rect) == 320 && offsetof(FarInstanceGpu, extra) == 352,
               "FarInstanceGpu must match the std430 layout in GLSL");
-static_assert(sizeof(FarTile) == 16 && sizeof(FarPush) == 12);
+static_assert(sizeof(FarTile) == 16 && sizeof(FarPush) == 16);
 } // namespace voxtier::far_gpu
 #endif
 

@@ -39,11 +39,15 @@ void main() {
     ivec4 r = vtFar[f].rect;
     uint w = uint(r.z - r.x);
     uint pixels = w * uint(r.w - r.y);
+    // This workgroup's part of the rectangle (far_shared.h: lavapipe's loop limit).
+    uint share = (pixels + gl_NumWorkGroups.z - 1u) / gl_NumWorkGroups.z;
+    uint begin = gl_WorkGroupID.z * share;
+    uint end = min(pixels, begin + share);
     float d = intBitsToFloat(vtFar[f].extra.z);
     uint entity = uint(vtFar[f].extra.w);
     uint plane = vtPush.width * vtPush.height;
     SpriteGpu s = vtFar[f].sprite;
-    for (uint i = gl_LocalInvocationIndex; i < pixels; i += FAR_WORKGROUP) {
+    for (uint i = begin + gl_LocalInvocationIndex; i < end; i += FAR_WORKGROUP) {
         int x = r.x + int(i % w);
         int y = r.y + int(i / w);
         uint p = uint(y) * vtPush.width + uint(x);
