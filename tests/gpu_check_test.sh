@@ -2,8 +2,8 @@
 # tools/gpu_check.sh --short --profile against this build: it must pass its identity check, name
 # the Vulkan device, and write report.md and results.csv with the identity rows (0 differing
 # pixels), the bench's rows and the profile's pass-by-pass rows (a small tank army curve here), and
-# the far-tiles (hybrid and all far, moving and still) and placement comparisons on the curve's
-# largest army.
+# the far pass cut three ways (hybrid and all far, moving and still) and placement comparisons on
+# the curve's largest army.
 # Usage: gpu_check_test.sh VOXTIER SOURCE_DIR
 set -euo pipefail
 work="$(mktemp -d)"
@@ -34,18 +34,20 @@ grep -q "^## Where the time goes, pass by pass" "$work/out/report.md" || fail "r
 # gpu_draw_ms in the profile rows of near_vulkan.
 grep -q "^profile,tank_army (80 entities),near_vulkan gpu_draw_ms,[0-9.]*[1-9][0-9.]*,ms" \
     "$work/out/results.csv" || fail "results.csv lacks a timed near draw in the profile"
-# The far pass's coarse and fine tiles, and direct writes against staged uploads, on the curve's
-# largest army: both drew the same last frame, and both have their rows.
+# The far pass's coarse and fine tiles and the pass cut by sprite, and direct writes against
+# staged uploads, on the curve's largest army: each drew the same last frame, and each has its rows.
 grep -q "^## The far pass: 80 tanks" "$work/out/report.md" || fail "report.md has no far-tiles table"
-grep -q "Frame 23, coarse against fine: identical; all far, coarse against fine: identical." \
-    "$work/out/report.md" || fail "the far pass's coarse and fine tiles were not found identical"
-# All far, both tile sizes moving and the default ones under a still camera: timed far passes.
-for item in "far coarse" "far fine" "far still"; do
+grep -q "Frame 23, coarse against fine: identical; coarse against sprites: identical; all far, coarse against fine: identical; all far, coarse against sprites: identical." \
+    "$work/out/report.md" || fail "the far pass cut three ways was not found identical"
+# All far, cut each way moving and the default cut under a still camera: timed far passes.
+for item in "far coarse" "far fine" "far sprites" "far still"; do
     grep -q "^far_tiles,tank_army_80,$item gpu_far_ms,[0-9.]*[1-9][0-9.]*,ms" "$work/out/results.csv" ||
         fail "results.csv lacks the far pass of the render '$item'"
 done
-grep -q "^far_tiles,tank_army_80,hybrid_gpu_far fine gpu_far_ms,[0-9.]*[1-9][0-9.]*,ms" "$work/out/results.csv" ||
-    fail "results.csv lacks a timed fine far pass"
+for item in "hybrid_gpu_far fine" "hybrid_gpu_far sprites"; do
+    grep -q "^far_tiles,tank_army_80,$item gpu_far_ms,[0-9.]*[1-9][0-9.]*,ms" "$work/out/results.csv" ||
+        fail "results.csv lacks the far pass of the render '$item'"
+done
 for c in host_setup_ms host_select_ms far_ms; do
     grep -q "^far_tiles,tank_army_80,hybrid_gpu_far coarse $c,[0-9.]*[1-9][0-9.]*,ms" "$work/out/results.csv" ||
         fail "results.csv lacks the far-tiles render's $c"

@@ -20,9 +20,9 @@
 #   --profile also where each frame's time goes, pass by pass (the device's timestamps and the
 #             host's parts: the gpu_*_ms and host_*_ms figures): for the bench scenes in motion,
 #             and the tank army at 2,000, 20,000 and 100,000 entities (VOXTIER_PROFILE_COUNTS
-#             overrides them), in report.md and results.csv; and the far pass's coarse and
-#             fine tiles (--far-tiles) on the moving tank army's hybrid and all far at the
-#             largest count, all far under a still camera too,
+#             overrides them), in report.md and results.csv; and the far pass cut three ways
+#             (--far-tiles coarse, fine, sprites) on the moving tank army's hybrid and all far
+#             at the largest count, all far under a still camera too,
 #             and direct writes against staged uploads on its all-near frames, images compared
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -197,14 +197,13 @@ if ((profile)); then
         fi
         rm -f "$out/in_flight/$s"_*.pam
     done
-    # The far pass's two tile sizes (--far-tiles, the same image) on the moving tank army at the
-    # curve's largest count (100,000 by default) in flight, the hybrid with the far pass on
-    # Vulkan: frames 0:23, the last one compared.
+    # The far pass cut three ways (--far-tiles: coarse and fine tiles, or by sprite; the same
+    # image) on the moving tank army at the curve's largest count (100,000 by default) in flight,
+    # the hybrid with the far pass on Vulkan: frames 0:23, the last one compared.
     phase far_tiles
     mkdir -p "$out/far_tiles"
     # Frame 23 of the renders far_tiles/A and far_tiles/B, compared byte for byte: "identical" or
-    # "DIFFERENT" into far_tiles/RESULT (a failed check), nothing where a render is missing; then
-    # the frames are removed.
+    # "DIFFERENT" into far_tiles/RESULT (a failed check), nothing where a render is missing.
     same_last_frame() {
         local a="$out/far_tiles/${1}_0023.pam" b="$out/far_tiles/${2}_0023.pam"
         if [[ -f "$a" && -f "$b" ]]; then
@@ -216,12 +215,11 @@ if ((profile)); then
                 failed=1
             fi
         fi
-        rm -f "$out/far_tiles/"*_00*.pam
     }
     big=$(tr ',' '\n' <<<"${VOXTIER_PROFILE_COUNTS:-2000,20000,100000}" | sort -n | tail -1)
     army="$out/far_tiles/tank_army_$big.json"
     sed "s/\"count\": 2000,/\"count\": $big,/" "$scenes/bench/tank_army.json" >"$army"
-    for t in coarse fine; do
+    for t in coarse fine sprites; do
         if ! "$bin" render "$army" --mode hybrid --far-backend vulkan \
             --far-tiles "$t" --frames 0:23 --csv "$out/far_tiles/$t.csv" -o "$out/far_tiles/$t.pam" \
             >>"$out/logs/far_tiles.log" 2>&1; then
@@ -230,11 +228,14 @@ if ((profile)); then
         fi
     done
     same_last_frame coarse fine identity.txt "the far pass's coarse and fine tiles"
-    # The same army all far, moving, in both tile sizes: every tank through the far pass, whose
-    # crowded tiles a pixel's walk over nearest-first sprites cuts short (stop 49); then under a
-    # still camera (its camera path removed), where a frame keeps the far pass's records, order
-    # and tile lists that still hold (the device's default tiles).
-    for t in coarse fine; do
+    same_last_frame coarse sprites sprites_identity.txt "the far pass's coarse tiles and sprites"
+    rm -f "$out/far_tiles/"*_00*.pam
+    # The same army all far, moving, cut each way: every tank through the far pass, whose
+    # crowded tiles a pixel's walk over nearest-first sprites cuts short (stop 49) and the pass
+    # cut by sprite covers rectangle by rectangle (stop 50); then under a still camera (its camera
+    # path removed), where a frame keeps the far pass's records, order and tile lists that still
+    # hold (the device's default cut).
+    for t in coarse fine sprites; do
         if ! "$bin" render "$army" --mode far --far-backend vulkan \
             --far-tiles "$t" --frames 0:23 --csv "$out/far_tiles/far_$t.csv" \
             -o "$out/far_tiles/far_$t.pam" >>"$out/logs/far_tiles.log" 2>&1; then
@@ -243,6 +244,9 @@ if ((profile)); then
         fi
     done
     same_last_frame far_coarse far_fine far_identity.txt "the all-far coarse and fine tiles"
+    same_last_frame far_coarse far_sprites far_sprites_identity.txt \
+        "the all-far coarse tiles and sprites"
+    rm -f "$out/far_tiles/"*_00*.pam
     still="$out/far_tiles/tank_army_${big}_still.json"
     if command -v python3 >/dev/null &&
         python3 -c 'import json, sys; d = json.load(open(sys.argv[1])); d.pop("camera_path", None); json.dump(d, open(sys.argv[2], "w"))' \
@@ -452,8 +456,10 @@ if os.environ.get("GC_PROFILE") == "1":
     tiles_rows = []
     renders = (("hybrid, coarse", "coarse", "hybrid_gpu_far coarse"),
                ("hybrid, fine", "fine", "hybrid_gpu_far fine"),
+               ("hybrid, sprites", "sprites", "hybrid_gpu_far sprites"),
                ("all far, coarse", "far_coarse", "far coarse"),
                ("all far, fine", "far_fine", "far fine"),
+               ("all far, sprites", "far_sprites", "far sprites"),
                ("all far, still camera", "far_still", "far still"))
     for label, name, item in renders:
         got = army_medians(name, tiles_cols)
@@ -464,10 +470,12 @@ if os.environ.get("GC_PROFILE") == "1":
             if c.endswith("_ms"):
                 rows.append(("far_tiles", f"tank_army_{big}", f"{item} {c}", v, "ms"))
     same, same_far = last_frames("identity.txt"), last_frames("far_identity.txt")
+    by_sprite, by_sprite_far = last_frames("sprites_identity.txt"), last_frames("far_sprites_identity.txt")
     lines += ["", f"## The far pass: {int(big):,} tanks, hybrid and all far, its tiles, in flight (ms, medians)", "",
               f"`voxtier render tank_army_{big}.json --mode hybrid|far --far-backend vulkan --far-tiles T --frames 0:23 --csv`, "
-              "and all far under a still camera (the path removed, the device's default tiles): "
-              f"frames 6-23. Frame 23, coarse against fine: {same}; all far, coarse against fine: {same_far}. "
+              "and all far under a still camera (the path removed, the device's default cut): "
+              f"frames 6-23. Frame 23, coarse against fine: {same}; coarse against sprites: {by_sprite}; "
+              f"all far, coarse against fine: {same_far}; all far, coarse against sprites: {by_sprite_far}. "
               "The far tier's share (`far_ms`) is its snapshot lookups and bakes (`far_lookup_bake_ms`, "
               "`far_bakes` of them), its recording (within `host_record_ms`, beside the near tier's sprite "
               "records and lists) and its device time.", ""]
