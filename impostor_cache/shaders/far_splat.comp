@@ -47,16 +47,27 @@ void main() {
     uint entity = uint(vtFar[f].extra.w);
     uint plane = vtPush.width * vtPush.height;
     SpriteGpu s = vtFar[f].sprite;
-    for (uint i = begin + gl_LocalInvocationIndex; i < end; i += FAR_WORKGROUP) {
-        int x = r.x + int(i % w);
-        int y = r.y + int(i / w);
+    // Pixel i of the rectangle is column i % w, row i / w: divided once, then stepped (a CPU
+    // device divides lane by lane).
+    uint first = begin + gl_LocalInvocationIndex;
+    uint column = first % w, row = first / w;
+    uint stepColumns = FAR_WORKGROUP % w, stepRows = FAR_WORKGROUP / w;
+    for (uint i = first; i < end; i += FAR_WORKGROUP) {
+        int x = r.x + int(column);
+        int y = r.y + int(row);
+        column += stepColumns;
+        row += stepRows;
+        if (column >= w) {
+            column -= w;
+            row += 1u;
+        }
         uint p = uint(y) * vtPush.width + uint(x);
-        float depth = uintBitsToFloat(vtPlanes[2u * plane + p]);
-        if (!(d > depth || (d == depth && entity < vtPlanes[plane + p]))) continue;
         // A nearer instance (a lesser index) that already won the pixel settles it: winners only
         // fall, so whatever value this reads, a lesser one stands at the end. The nearest come
         // first in the dispatch, so in a crowd most pixels are settled before the rest arrive.
         if (vtWinners[p] < f) continue;
+        float depth = uintBitsToFloat(vtPlanes[2u * plane + p]);
+        if (!(d > depth || (d == depth && entity < vtPlanes[plane + p]))) continue;
         uint colour;
         if (!farPixelColour(f, s, vec2(float(x) + 0.5f, float(y) + 0.5f), colour))
             continue;
