@@ -227,10 +227,11 @@ void addFrameFlags(CLI::App& cmd, FrameOptions& options, const FrameFlagHelp& he
                     "the kernel in the fragment shader) or auto (default: compute on a GPU, "
                     "raster on a CPU device such as lavapipe); same image");
     addChoiceOption(cmd, "--far-tiles", options.farTiles, kFarTilesNames, "far tiles",
-                    "The Vulkan far pass's tiles: coarse (32x32 pixels a workgroup, fewest steps "
-                    "per sprite), fine (8x8: a crowd of small far sprites spread over 16 times "
-                    "as many workgroups) or auto (default: coarse on a CPU device such as "
-                    "lavapipe, fine on a GPU); same image");
+                    "How the Vulkan far pass is cut into workgroups: coarse (a 32x32-pixel tile "
+                    "a workgroup, its far sprites passed over its pixels one after another), "
+                    "fine (8x8 tiles: 16 times as many workgroups), sprites (a far sprite a "
+                    "workgroup, each pixel's winner by an atomic minimum, then resolved) or "
+                    "auto (default: sprites); same image");
     addChoiceOption(cmd, "--far-blit", options.farBlit.kernel, kFarBlitNames, "far blit",
                     "The far blit's kernel: simd (spans of pixels on the widest SIMD unit "
                     "of this CPU) or scalar (one pixel at a time, the reference); same "

@@ -116,7 +116,7 @@ inline constexpr std::array<std::pair<const char*, NearPixels>, 3> kNearPixelsNa
 }};
 const char* toString(NearPixels p);
 
-/// The one table of names of the Vulkan far pass's tiles (FarTiles).
+/// The one table of names of the ways the Vulkan far pass is cut (FarTiles).
 inline constexpr std::array<std::pair<const char*, FarTiles>, 4> kFarTilesNames{{
     {"auto", FarTiles::Auto},
     {"coarse", FarTiles::Coarse},

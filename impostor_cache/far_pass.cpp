@@ -114,9 +114,7 @@ struct FarPass::Impl {
     } orderSource;
 
     Impl(GpuFrames& f, FarTiles t)
-        : frames(f), device(f.device()), tiles(t != FarTiles::Auto  ? t
-                                               : f.device().isCpu() ? FarTiles::Coarse
-                                                                    : FarTiles::Fine),
+        : frames(f), device(f.device()), tiles(t != FarTiles::Auto ? t : FarTiles::Sprites),
           side(int(tiles == FarTiles::Fine ? far_gpu::FAR_TILE_FINE : far_gpu::FAR_TILE_COARSE)),
           residency(f.device()) {
         if (!FarPass::supported(device))

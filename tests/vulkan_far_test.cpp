@@ -455,9 +455,9 @@ TEST_F(VulkanFar, ASpriteLargerThanOneWorkgroupsShareEqualsTheCpuBlit) {
     EXPECT_GT(expectSame(v.scene, sprites, allFar(1), "one large far sprite"), 500000u);
 }
 
-TEST_F(VulkanFar, AutoTilesAreCoarseOnACpuDeviceAndFineOnAGpu) {
+TEST_F(VulkanFar, AutoCutsThePassBySprite) {
     const FarPass automatic(nearRenderer().frames());
-    EXPECT_EQ(automatic.tiles(), nearRenderer().deviceIsCpu() ? FarTiles::Coarse : FarTiles::Fine);
+    EXPECT_EQ(automatic.tiles(), FarTiles::Sprites);
     for (const FarTiles tiles : kEveryCut) EXPECT_EQ(farPass(tiles).tiles(), tiles);
 }
 
