@@ -142,7 +142,13 @@ struct FarPass::Impl {
     /// Dispatches of the tile pass that walk the longest list (FAR_LIST_STEP_*), and workgroups
     /// of the pass cut by sprite that share the largest rectangle (FAR_SPLAT_STEPS).
     std::uint32_t listParts() const;
-    std::uint32_t splatParts() const;
+    /// The pass cut by sprite: workgroups per instance (FAR_SPLAT_STEPS), and the rows of the
+    /// image its rectangles cover (from y0, whole rows of the resolve's workgroups, within the
+    /// image) and the columns from x0.
+    struct SplatShape {
+        std::uint32_t parts = 1, x0 = 0, y0 = 0, columns = 0, rows = 0;
+    };
+    SplatShape splatShape(int width, int height) const;
     /// The drawn instances' records, in draw order, into the slot's buffer (offsets: each
     /// snapshot's word offset on the device), but for those the buffer already holds.
     void writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
@@ -392,14 +398,26 @@ std::uint32_t FarPass::Impl::listParts() const {
     return std::max(1u, (longest + step - 1) / step);
 }
 
-std::uint32_t FarPass::Impl::splatParts() const {
+FarPass::Impl::SplatShape FarPass::Impl::splatShape(int width, int height) const {
     std::uint64_t largest = 0;
+    glm::ivec4 bounds(width, height, 0, 0);
     for (const auto& [key, i] : order) {
         const glm::ivec4 r = rects[i];
         largest = std::max(largest, std::uint64_t(r.z - r.x) * std::uint64_t(r.w - r.y));
+        bounds = glm::ivec4(glm::min(glm::ivec2(bounds), glm::ivec2(r)),
+                            glm::max(glm::ivec2(bounds.z, bounds.w), glm::ivec2(r.z, r.w)));
     }
     const std::uint64_t perGroup = std::uint64_t(far_gpu::FAR_WORKGROUP) * far_gpu::FAR_SPLAT_STEPS;
-    return std::uint32_t(std::max<std::uint64_t>(1, (largest + perGroup - 1) / perGroup));
+    SplatShape shape;
+    shape.parts = std::uint32_t(std::max<std::uint64_t>(1, (largest + perGroup - 1) / perGroup));
+    // Whole rows of the resolve's 8 x 8 workgroups from the rectangles' first row: every word
+    // the resolve reads is filled this frame.
+    shape.x0 = std::uint32_t(std::max(bounds.x, 0));
+    shape.y0 = std::uint32_t(std::max(bounds.y, 0));
+    shape.columns = std::uint32_t(std::max(bounds.z - bounds.x, 0));
+    shape.rows = std::min(std::uint32_t(height) - std::min(shape.y0, std::uint32_t(height)),
+                          (std::uint32_t(std::max(bounds.w - bounds.y, 0)) + 7u) / 8u * 8u);
+    return shape;
 }
 
 void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
@@ -563,10 +581,13 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
     frame.timer().begin(cb, "far_blit");
     const std::uint32_t width = std::uint32_t(frame.width()),
                         height = std::uint32_t(frame.height());
+    const Impl::SplatShape shape =
+        bySprite ? m.splatShape(int(width), int(height)) : Impl::SplatShape{};
     if (bySprite) {
-        // Every pixel starts with no winner (after the last frame's resolve read this slot's).
-        const VkDeviceSize bytes = VkDeviceSize(width) * height * sizeof(std::uint32_t);
-        vkCmdFillBuffer(cb, slot.winners.handle(), 0, bytes, far_gpu::FAR_NO_WINNER);
+        // Every pixel the resolve reads starts with no winner: the rows the rectangles cover, in
+        // whole rows of its workgroups (after the last frame's resolve read this slot's).
+        vkCmdFillBuffer(cb, slot.winners.handle(), VkDeviceSize(shape.y0) * width * 4u,
+                        VkDeviceSize(shape.rows) * width * 4u, far_gpu::FAR_NO_WINNER);
         bufferBarrier(cb, slot.winners.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
                       VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
@@ -584,13 +605,13 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
                             0, nullptr);
     // No invocation loops past lavapipe's limit (far_shared.h): a tile's list is walked in parts,
     // a dispatch each, and a large rectangle is split between workgroups.
-    const std::uint32_t parts = bySprite ? m.splatParts() : m.listParts();
+    const std::uint32_t parts = bySprite ? shape.parts : m.listParts();
     for (std::uint32_t part = 0; part < (bySprite ? 1u : parts); ++part) {
         if (part > 0) // the last part's writes to the planes before this part reads them
             bufferBarrier(cb, frame.planes(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                           VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                           VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-        const far_gpu::FarPush push{groups, width, height, part};
+        const far_gpu::FarPush push{groups, width, height, part, 0u};
         vkCmdPushConstants(cb, m.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push,
                            &push);
         vkCmdDispatch(cb, groupsX, (groups + groupsX - 1) / groupsX, bySprite ? parts : 1u);
@@ -603,8 +624,12 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
         vkCmdPipelineBarrier(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                              VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &mb, 0, nullptr, 0,
                              nullptr);
+        // Over the rectangles' bounds only (the hybrid's far tanks: a band of the horizon).
         vkCmdBindPipeline(cb, VK_PIPELINE_BIND_POINT_COMPUTE, m.resolvePipeline);
-        vkCmdDispatch(cb, (width + 7) / 8, (height + 7) / 8, 1);
+        const far_gpu::FarPush push{groups, width, height, 0u, shape.x0 | shape.y0 << 16};
+        vkCmdPushConstants(cb, m.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push,
+                           &push);
+        vkCmdDispatch(cb, (shape.columns + 7) / 8, (shape.rows + 7) / 8, 1);
     }
     frame.timer().end(cb);
     bufferBarrier(

@@ -72,13 +72,15 @@ struct FarInstanceGpu {
     ivec4 extra; // first cell j, palette base, depth bits, entity id
 };
 
-// Push constants: the tiles (or instances) to run, the image size, and which part of each
-// tile's list this dispatch walks (FAR_LIST_STEP_* entries from part * FAR_LIST_STEP_*).
+// Push constants: the tiles (or instances) to run, the image size, which part of each tile's
+// list this dispatch walks (FAR_LIST_STEP_* entries from part * FAR_LIST_STEP_*), and the
+// resolve's first pixel (far_splat.comp: x low 16 bits, y high 16).
 struct FarPush {
     uint count;
     uint width;
     uint height;
     uint part;
+    uint origin;
 };
 
 // One 32x32 tile of the image that far sprites touch: its first pixel (x low 16 bits, y high 16)
@@ -94,7 +96,7 @@ struct FarTile {
 static_assert(sizeof(FarInstanceGpu) == 368 && offsetof(FarInstanceGpu, u0) == 272 &&
                   offsetof(FarInstanceGpu, rect) == 320 && offsetof(FarInstanceGpu, extra) == 352,
               "FarInstanceGpu must match the std430 layout in GLSL");
-static_assert(sizeof(FarTile) == 16 && sizeof(FarPush) == 16);
+static_assert(sizeof(FarTile) == 16 && sizeof(FarPush) == 20);
 } // namespace voxtier::far_gpu
 #endif
 

@@ -6,7 +6,8 @@
 // and draws (farPixelColour) takes the instance's index by atomicMin into the pixel's winner word.
 // The instances are in the rule's order (far_pass.cpp: nearer first, equal depths by ascending
 // id), so the least index among them is the one the rule picks whatever the atomics' order.
-// FAR_SPLAT=0: per pixel, its winner (if any) writes colour, id and depth into the planes.
+// FAR_SPLAT=0: per pixel of the rectangles' bounds, its winner (if any) writes colour, id and
+// depth into the planes.
 // A pixel's work is its own rectangle's pixels once, wherever the crowd is thick: a tile's
 // workgroup in far_blit.comp passes every sprite over the tile one after another.
 #extension GL_GOOGLE_include_directive : require
@@ -78,7 +79,8 @@ void main() {
 layout(local_size_x = 8, local_size_y = 8) in;
 
 void main() {
-    uvec2 xy = gl_GlobalInvocationID.xy;
+    // Over the far rectangles' bounds, from their first pixel (whole rows of workgroups there).
+    uvec2 xy = gl_GlobalInvocationID.xy + uvec2(vtPush.origin & 0xFFFFu, vtPush.origin >> 16);
     if (xy.x >= vtPush.width || xy.y >= vtPush.height) return;
     uint p = xy.y * vtPush.width + xy.x;
     uint f = vtWinners[p];
