@@ -21,7 +21,7 @@ namespace voxtier {
 /// covers its rectangle, and each pixel it would draw and win takes the least such sprite's index
 /// by an atomic minimum, then a pass over the image writes the winners (far_splat.comp): the work
 /// is the rectangles' pixels once, however a crowd piles up over a few tiles. Auto: sprites. On
-/// lavapipe the 100,000-tank hybrid's far pass takes 45-46 ms cut by sprite against 72-75 coarse
+/// lavapipe the 100,000-tank hybrid's far pass takes 39-40 ms cut by sprite against 70-76 coarse
 /// and all far 1,488-1,546 against 1,480-1,504 (fine: 2.5 times the coarse); on a GPU, where a
 /// tile's walk runs one sprite after another while the rest of the device waits (the H200's
 /// coarse pass: 7.7 ms for 9,700 far tanks), none of the three is measured against the others

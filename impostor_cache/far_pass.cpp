@@ -133,8 +133,9 @@ struct FarPass::Impl {
     void destroy() noexcept;
     void ensure(VulkanBuffer& b, VkDeviceSize bytes);
     void ensureWinners(Slot& slot, VkDeviceSize bytes);
-    /// The frame's draw order, palettes, tiles and tile lists, from `batch` (last frame's order
-    /// and lists where `history` says they stand). Returns the tiles to dispatch.
+    /// The frame's draw order, palettes, tiles and tile lists (none when cut by sprite), from
+    /// `batch` (last frame's order and lists where `history` says they stand). Returns the tiles
+    /// to dispatch.
     std::uint32_t prepare(const FarBatch& batch, int width, int height,
                           const SpriteHistory* history, FarPassStats& stats);
     /// Every tile's list of the drawn instances over it, in draw order (`order`).
