@@ -107,4 +107,17 @@ inline Scene stillSteppingArmy() {
     return s;
 }
 
+/// What frame k of the kept-records tests changes in a stillSteppingArmy() (28 frames: k from 18
+/// on are drawn hybrid): three tanks moved at frames 5 and 13, the camera at 9, a voxel edit of
+/// model 0 at 11, and every 7th tank sent past far_at at 20 and back at 24 (tier switches,
+/// cross-faded by copies). The near and far records tests run the same script.
+inline void changeSteppingArmy(Scene& s, int k) {
+    if (k == 5 || k == 13)
+        for (const std::size_t e : {3u, 50u, 120u}) s.entities[e].position.x += 0.2;
+    if (k == 9) s.camera.position += glm::dvec3(0.2, 0.0, 0.1);
+    if (k == 11) s.models[0]->clearBox(0, Box3i{{0, 0, 8}, {32, 32, 16}});
+    if (k == 20 || k == 24)
+        for (std::size_t e = 0; e < 240; e += 7) s.entities[e].position.z += k == 20 ? -60.0 : 60.0;
+}
+
 } // namespace voxtier::test

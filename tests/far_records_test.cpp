@@ -59,15 +59,7 @@ TEST_F(FarRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
         int keptOrders = 0, keptWhole = 0, fadingFrames = 0, nearFrames = 0;
         for (int k = 0; k < 28; ++k) {
             const double t = k / 30.0;
-            if (k == 5 || k == 13)
-                for (const std::size_t e : {3u, 50u, 120u}) s.entities[e].position.x += 0.2;
-            if (k == 9) s.camera.position += glm::dvec3(0.2, 0.0, 0.1);
-            if (k == 11) s.models[0]->clearBox(0, Box3i{{0, 0, 8}, {32, 32, 16}});
-            // Tanks sent past far_at and back in the hybrid frames: tier switches, cross-faded by
-            // copies.
-            if (k == 20 || k == 24)
-                for (std::size_t e = 0; e < 240; e += 7)
-                    s.entities[e].position.z += k == 20 ? -60 : 60;
+            test::changeSteppingArmy(s, k);
             const RenderMode mode = k >= 18 ? RenderMode::Hybrid : RenderMode::Far;
             const FrameResult r = renderer.render(t, mode, k);
             FrameStats full;

@@ -56,15 +56,8 @@ TEST_F(NearRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
         int keptOrders = 0, keptFirsts = 0, keptWhole = 0, drawnFrames = 0, fadingFrames = 0;
         for (int k = 0; k < 28; ++k) {
             const double t = k / 30.0;
-            if (k == 5 || k == 13)
-                for (const std::size_t e : {3u, 50u, 120u}) s.entities[e].position.x += 0.2;
-            if (k == 9) s.camera.position += glm::dvec3(0.2, 0.0, 0.1);
-            if (k == 11) s.models[0]->clearBox(0, Box3i{{0, 0, 8}, {32, 32, 16}});
+            test::changeSteppingArmy(s, k);
             if (k == 16) (void)intruder.render(t + 0.4, RenderMode::Near, 16);
-            // Tanks sent past far_at and back: tier switches, cross-faded by copies.
-            if (k == 20 || k == 24)
-                for (std::size_t e = 0; e < 240; e += 7)
-                    s.entities[e].position.z += k == 20 ? -60.0 : 60.0;
             const RenderMode mode = k >= 18 ? RenderMode::Hybrid : RenderMode::Near;
             const FrameResult r = renderer.render(t, mode, k);
             FrameStats full;
