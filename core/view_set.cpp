@@ -251,26 +251,40 @@ SurfaceDirections& surfaceDirections() {
 glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
     const glm::dvec3 a = glm::abs(towardViewer);
     const int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
-    // The point where the ray along towardViewer leaves the cube [-n, n]^3, rounded.
+    // The point where the ray along towardViewer leaves the cube [-n, n]^3, and the lattice
+    // points within 1.5 steps of it in each coordinate (the gnomonic map stretches angles at most
+    // sqrt(3)-fold across a face, so the nearest view lies within 1.3 steps of it): 3 x 3 on its
+    // face, and the next faces' points where it is that near an edge.
     const glm::dvec3 onFace = towardViewer * (double(n) / a[axis]);
-    const glm::ivec3 centre(glm::round(onFace));
-    constexpr int kReach = 2;
+    constexpr double kReach = 1.5;
+    glm::ivec3 lo, hi;
+    for (int c = 0; c < 3; ++c) {
+        lo[c] = std::max(-n, int(std::ceil(onFace[c] - kReach)));
+        hi[c] = std::min(n, int(std::floor(onFace[c] + kReach)));
+    }
     const glm::dvec3* directions = surfaceDirections().table(n);
     glm::ivec3 best(0);
     double bestDot = -2.0;
-    // Lexicographic scan of the small box, strict '>' : the first of equal dots wins, as in a
-    // brute-force scan of the whole lattice in the same order.
-    for (int x = std::max(-n, centre.x - kReach); x <= std::min(n, centre.x + kReach); ++x)
-        for (int y = std::max(-n, centre.y - kReach); y <= std::min(n, centre.y + kReach); ++y)
-            for (int z = std::max(-n, centre.z - kReach); z <= std::min(n, centre.z + kReach);
-                 ++z) {
-                if (std::max({std::abs(x), std::abs(y), std::abs(z)}) != n) continue;
-                const glm::ivec3 p{x, y, z};
-                const glm::dvec3 w = directions ? directions[SurfaceDirections::index(n, p)]
-                                                : viewDirection(viewIdOf(p));
-                const double d = glm::dot(w, towardViewer);
-                if (d > bestDot) bestDot = d, best = p;
+    const auto consider = [&](const glm::ivec3& p) {
+        const glm::dvec3 w =
+            directions ? directions[SurfaceDirections::index(n, p)] : viewDirection(viewIdOf(p));
+        const double d = glm::dot(w, towardViewer);
+        if (d > bestDot) bestDot = d, best = p;
+    };
+    // Lexicographic scan of the box's surface points, strict '>': the first of equal dots wins,
+    // as in a brute-force scan of the whole lattice in the same order. Where neither x nor y is
+    // at +-n, only z = -n and z = n are on the surface: the box's other points are skipped
+    // without a test (the error-budget planner calls this for every far entity and ladder level
+    // each frame: a box of 5^3 points tested one by one was most of its inputs' time).
+    for (int x = lo.x; x <= hi.x; ++x)
+        for (int y = lo.y; y <= hi.y; ++y) {
+            if (std::abs(x) == n || std::abs(y) == n) {
+                for (int z = lo.z; z <= hi.z; ++z) consider({x, y, z});
+            } else {
+                if (lo.z == -n) consider({x, y, -n});
+                if (hi.z == n) consider({x, y, n});
             }
+        }
     return best;
 }
 

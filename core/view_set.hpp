@@ -67,12 +67,12 @@ long long cubeSurfaceCount(int n);
 std::vector<ViewId> cubeSurfaceViews(int n);
 
 /// The view of the cube-surface lattice of size n (any n >= 1) maximising
-/// viewDirection(p) . towardViewer, in O(1): towardViewer is projected onto its dominant cube face
-/// and rounded, and only the surface points within 2 lattice steps of that point are compared
-/// (the gnomonic map stretches angles at most sqrt(3)-fold across a face, so the nearest view
-/// lies within 1.3 steps of the projection). Ties go to the lexicographically smallest (x, y, z)
-/// lattice point, so the result equals a brute-force scan in that order. towardViewer need not be
-/// normalised but must not be zero.
+/// viewDirection(p) . towardViewer, in O(1): towardViewer is projected onto its dominant cube face,
+/// and only the surface points within 1.5 lattice steps of that point in each coordinate are
+/// compared (the gnomonic map stretches angles at most sqrt(3)-fold across a face, so the nearest
+/// view lies within 1.3 steps of the projection; the tests find none beyond 0.9). Ties go to the
+/// lexicographically smallest (x, y, z) lattice point, so the result equals a brute-force scan in
+/// that order. towardViewer need not be normalised but must not be zero.
 glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer);
 /// CONTRACT.md §5: how far (virtual pixels, before quantisation) the far tier moves a silhouette
 /// when it draws a model with half extents `halfExtent` (voxels) from the snapshot of `view` while
