@@ -82,7 +82,9 @@ TEST_F(FarRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
                 EXPECT_EQ(far.recordsKept, 0u) << "the camera moved: every record changed";
                 EXPECT_FALSE(far.orderKept) << "the camera moved: every depth changed";
             }
-            if (k == 5 || k == 13) EXPECT_FALSE(far.orderKept) << "frame " << k << ": tanks moved";
+            if (k == 5 || k == 13) {
+                EXPECT_FALSE(far.orderKept) << "frame " << k << ": tanks moved";
+            }
         }
         EXPECT_GT(fadingFrames, 0) << "no cross-fade: no copy of a sprite was drawn";
         EXPECT_GT(nearFrames, 5) << "no near sprite beside the far ones";
