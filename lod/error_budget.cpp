@@ -124,7 +124,8 @@ ErrorBudgetViews::Prepared ErrorBudgetViews::prepare(std::size_t entity, const S
                                                      const IsCached& isCached) const {
     Prepared p;
     const std::optional<ViewId>& current = current_.at(entity);
-    p.currentWithin = current && predictedBudgetUnits(sprite, *current) <= config.budgetVpx;
+    p.currentUnits = current ? predictedBudgetUnits(sprite, *current) : 0.0;
+    p.currentWithin = current && p.currentUnits <= config.budgetVpx;
     p.currentCached = p.currentWithin && isCached(sprite, *current);
     // A current view within the budget is kept unless it needs a bake that neither another
     // entity nor the bound gives it: choose() scans only then (many entities of one model,

@@ -83,7 +83,12 @@ class ErrorBudgetViews {
     /// const, and thread-safe where `isCached` is (SnapshotCache's is).
     struct Prepared {
         bool currentWithin = false, currentCached = false;
+        /// predictedBudgetUnits of the current view (0 without one)
+        double currentUnits = 0.0;
         LevelScan scan; ///< where the current view is not within the budget (else choose's)
+        /// The current view is within the budget and cached: choose() keeps it and changes
+        /// nothing shared (no bake, no view change), so such entities need no serial pass.
+        bool settled() const { return currentWithin && currentCached; }
     };
     Prepared prepare(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                      const IsCached& isCached) const;
@@ -92,12 +97,17 @@ class ErrorBudgetViews {
     std::optional<ViewId> choose(std::size_t entity, const SpriteSetup& sprite,
                                  const SelectorConfig& config, const Prepared& prepared,
                                  const IsCached& isCached, const IsCached& withoutBake = {});
-    /// The entity is drawn near: the next far frame picks its view afresh.
+    /// choose() for an entity whose prepare() was settled(): its current view. Reads and writes
+    /// nothing another entity's choice does, so settled entities may be kept in parallel.
+    ViewId keep(std::size_t entity) const { return *current_.at(entity); }
+    /// The entity is drawn near: the next far frame picks its view afresh. Changes only this
+    /// entity's state (may run in parallel over distinct entities).
     void drop(std::size_t entity);
     /// After choose(): whether the entity is inside a view switch's cross-fade
     /// (config.crossfadeFrames > 0), with the share of pixels already showing the new view and
     /// the old view. The old view must still be within the budget and cached; else the switch
-    /// is instant (a cross-fade never shows a view past the budget, nor bakes one).
+    /// is instant (a cross-fade never shows a view past the budget, nor bakes one). Changes only
+    /// this entity's state (may run in parallel over distinct entities).
     bool viewFade(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                   const IsCached& isCached, float* share, ViewId* from);
     /// Ends the frame's choices under the cost bound (CONTRACT.md §5): while the frame's bakes and

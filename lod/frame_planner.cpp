@@ -104,17 +104,41 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     if (budget) {
         // The budget's views share the frame's bake bound, given out in entity order; what
         // each far entity's choice reads of no other entity (its tier, its levels' views and
-        // predictions, the cache's answers) is found first, in parallel.
+        // predictions, the cache's answers) is found first, in parallel. An entity whose current
+        // view is within the budget and cached keeps it there too (most far entities, most
+        // frames): only the others are handed views in entity order. At 100,000 tanks a serial
+        // pass over every entity read each one's sprite and cost 5-10 ms on two cores.
         prepared_.resize(n);
+        budgetStep_.resize(n);
         forEach([&](std::size_t i) {
             tierOf(i);
-            if (plan[i].drawsFar() && sprites[i].visible())
-                prepared_[i] = budgetViews_.prepare(i, sprites[i], config, settings.inMemory);
+            EntityPlan& p = plan[i];
+            if (!p.drawsFar() || !sprites[i].visible()) {
+                budgetViews_.drop(i);
+                budgetStep_[i] = BudgetStep::Near;
+                return;
+            }
+            prepared_[i] = budgetViews_.prepare(i, sprites[i], config, settings.inMemory);
+            if (!prepared_[i].settled()) {
+                budgetStep_[i] = BudgetStep::Choose;
+                return;
+            }
+            p.view = budgetViews_.keep(i);
+            fadeBudgetView(i, sprites[i], config, settings, p);
+            budgetStep_[i] = BudgetStep::Kept;
         });
         for (std::size_t i = 0; i < n; ++i)
-            planBudgetView(i, sprites[i], config, settings, prepared_[i], plan[i]);
+            if (budgetStep_[i] == BudgetStep::Choose)
+                planBudgetView(i, sprites[i], config, settings, prepared_[i], plan[i]);
         st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
-        forEach(predict); // after the bakes given up, which send their entities near
+        // After the bakes given up, which send their entities near (never a kept one: its view
+        // is cached, so no bake is asked for it). A kept view's prediction is prepare()'s.
+        forEach([&](std::size_t i) {
+            if (budgetStep_[i] == BudgetStep::Kept && plan[i].drawsFar())
+                predicted_[i] = prepared_[i].currentUnits;
+            else
+                predict(i);
+        });
     } else {
         // Every entity's tier, view and prediction on its own: in parallel.
         forEach([&](std::size_t i) {
@@ -154,10 +178,6 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
 void FramePlanner::planBudgetView(std::size_t entity, const SpriteSetup& sprite,
                                   const SelectorConfig& config, const PlanSettings& settings,
                                   const ErrorBudgetViews::Prepared& prepared, EntityPlan& p) {
-    if (!p.drawsFar() || !sprite.visible()) {
-        budgetViews_.drop(entity);
-        return;
-    }
     // In memory: preferred. On disk (--cache-dir): not a bake either, but never preferred, since
     // what a shared directory holds is up to other processes (ErrorBudgetViews::choose).
     p.view = budgetViews_.choose(entity, sprite, config, prepared, settings.inMemory,
@@ -165,6 +185,12 @@ void FramePlanner::planBudgetView(std::size_t entity, const SpriteSetup& sprite,
     // No view within the budget without passing this frame's bake bound: near this frame (the
     // selector keeps its far state, so the entity goes far as soon as a view can be had).
     if (!p.view) p = EntityPlan{};
+    fadeBudgetView(entity, sprite, config, settings, p);
+}
+
+void FramePlanner::fadeBudgetView(std::size_t entity, const SpriteSetup& sprite,
+                                  const SelectorConfig& config, const PlanSettings& settings,
+                                  EntityPlan& p) {
     // A view switch cross-fades like a tier switch (not on top of one).
     float share = 0.0f;
     ViewId from;

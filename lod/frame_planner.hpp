@@ -13,6 +13,7 @@
 #include "lod/selector.hpp"
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <span>
@@ -135,11 +136,15 @@ class FramePlanner {
     const CostModel& costModel() const { return costs_; }
 
   private:
-    /// Metric error_budget: the view within the budget (plan.view), or the entity drawn near.
-    /// `prepared`: budgetViews_.prepare() for this entity, this frame.
+    /// Metric error_budget, for a visible entity the selector draws far: the view within the
+    /// budget (plan.view), or the entity drawn near. `prepared`: budgetViews_.prepare() for this
+    /// entity, this frame. In entity order: the views share the frame's bake bound.
     void planBudgetView(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                         const PlanSettings& settings, const ErrorBudgetViews::Prepared& prepared,
                         EntityPlan& plan);
+    /// After the entity's view: the view switch's cross-fade, if it is inside one.
+    void fadeBudgetView(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
+                        const PlanSettings& settings, EntityPlan& plan);
     /// Metric error_budget, after every entity's view: the bakes the frame can afford.
     /// Returns the bakes given up.
     int keepAffordableBakes(std::span<const SpriteSetup> sprites,
@@ -158,6 +163,10 @@ class FramePlanner {
     std::vector<double> predicted_; ///< predictedBudgetUnits of each far-drawn visible entity
     /// error_budget: what each far entity's view choice reads of no other entity, this frame
     std::vector<ErrorBudgetViews::Prepared> prepared_;
+    /// error_budget: what each entity's view took this frame (not far: none; a view kept in the
+    /// parallel pass; one chosen in the serial pass)
+    enum class BudgetStep : std::uint8_t { Near, Kept, Choose };
+    std::vector<BudgetStep> budgetStep_;
     std::vector<std::uint32_t> work_; ///< the entities a frame plans afresh
     /// The previous call went through the selector, with this mode and config: a frame with
     /// the sprites' changes since then may plan only what changed.
