@@ -1,9 +1,12 @@
 #include "lod/error_budget.hpp"
 
+#include "core/splitmix64.hpp"
 #include "core/sprite.hpp"
 
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <cstring>
 #include <unordered_map>
 
 namespace voxtier {
@@ -28,6 +31,64 @@ double predictedBudgetUnits(const SpriteSetup& sprite, ViewId view) {
 
 double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config) {
     return predictedBudgetUnits(sprite, nearestLadderView(config.ladderCap, -sprite.lattice.dir));
+}
+
+namespace {
+constexpr std::size_t kAnswerSlots = std::size_t(1) << 15; // 1 MB
+constexpr int kMaxProbes = 64;
+/// A slot's state word: its generation above, and below it one of these.
+enum : std::uint32_t { kAsking = 1, kNotCached = 2, kCached = 3 };
+} // namespace
+
+struct SharedCacheAnswers::Slot {
+    std::atomic<std::uint32_t> state{0}; ///< generation << 2 | kAsking / kNotCached / kCached
+    int model = 0, frame = 0;
+    glm::ivec3 view{0};
+    double sigma = 0.0; ///< written before the state's release, read after its acquire
+};
+
+SharedCacheAnswers::SharedCacheAnswers() = default;
+SharedCacheAnswers::~SharedCacheAnswers() = default;
+
+void SharedCacheAnswers::begin() {
+    if (!slots_) slots_ = std::make_unique<Slot[]>(kAnswerSlots);
+    if (++generation_ >= (1u << 30)) { // the state word's generation would wrap: empty them all
+        for (std::size_t k = 0; k < kAnswerSlots; ++k) slots_[k].state.store(0);
+        generation_ = 1;
+    }
+}
+
+bool SharedCacheAnswers::ask(const SpriteSetup& sprite, ViewId view,
+                             const std::function<bool(const SpriteSetup&, ViewId)>& isCached) {
+    if (!slots_) return isCached(sprite, view);
+    const glm::ivec3 l = view.lattice;
+    std::uint64_t sigmaBits;
+    std::memcpy(&sigmaBits, &sprite.lattice.sigma, sizeof sigmaBits);
+    std::uint64_t h = splitmix64Mix(std::uint64_t(std::uint32_t(sprite.model)) << 32 |
+                                    std::uint32_t(sprite.frame));
+    h = splitmix64Mix(h ^ (std::uint64_t(std::uint32_t(l.x)) << 42 ^
+                           std::uint64_t(std::uint32_t(l.y)) << 21 ^ std::uint32_t(l.z)));
+    h = splitmix64Mix(h ^ sigmaBits);
+    const std::uint32_t g = generation_;
+    for (int probe = 0; probe < kMaxProbes; ++probe) {
+        Slot& s = slots_[(h + std::uint64_t(probe)) & (kAnswerSlots - 1)];
+        std::uint32_t st = s.state.load(std::memory_order_acquire);
+        if (st >> 2 != g) {
+            // Empty this plan: claim it and ask (or, if another thread claimed it first, read on).
+            if (s.state.compare_exchange_strong(st, g << 2 | kAsking, std::memory_order_acquire)) {
+                s.model = sprite.model, s.frame = sprite.frame, s.view = l;
+                s.sigma = sprite.lattice.sigma;
+                const bool cached = isCached(sprite, view);
+                s.state.store(g << 2 | (cached ? kCached : kNotCached), std::memory_order_release);
+                return cached;
+            }
+        }
+        while ((st & 3u) == kAsking) st = s.state.load(std::memory_order_acquire);
+        if (s.model == sprite.model && s.frame == sprite.frame && s.view == l &&
+            s.sigma == sprite.lattice.sigma)
+            return (st & 3u) == kCached;
+    }
+    return isCached(sprite, view);
 }
 
 double BakeCosts::farSavingMs(const SpriteSetup& sprite) const {

@@ -13,6 +13,7 @@
 #include <array>
 #include <cstddef>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <unordered_set>
@@ -46,6 +47,35 @@ struct BakeCosts {
     bool known() const { return msPerBake > 0.0 && nearMsPerUnit > 0.0; }
     /// What drawing `sprite` far instead of near saves this frame (ms; negative if nothing).
     double farSavingMs(const SpriteSetup& sprite) const;
+};
+
+/// The answers of an ErrorBudgetViews::IsCached for one frame's plan, shared by the threads that
+/// plan it: each distinct question (the sprite's model, animation frame and sigma, and the view)
+/// goes to the cache once. At 100,000 tanks the far entities ask ~90,000 times a frame about
+/// ~10,000 snapshots, and the snapshot cache answers each under one lock every core contends for,
+/// through a hash map and a version map in memory far from the core (~250 ns an answer, the
+/// largest part of the planning). The cache must not change while a plan asks; answers are
+/// forgotten at begin(). Lock-free: a question is claimed by one thread, which asks the cache;
+/// a thread with the same question waits for that answer.
+class SharedCacheAnswers {
+  public:
+    SharedCacheAnswers();
+    ~SharedCacheAnswers();
+    SharedCacheAnswers(const SharedCacheAnswers&) = delete;
+    SharedCacheAnswers& operator=(const SharedCacheAnswers&) = delete;
+
+    /// Forgets every answer: a new plan (the cache may have changed since the last).
+    void begin();
+    /// isCached(sprite, view), asked of `isCached` only the first time this plan.
+    bool ask(const SpriteSetup& sprite, ViewId view,
+             const std::function<bool(const SpriteSetup&, ViewId)>& isCached);
+
+  private:
+    struct Slot;
+    /// A power of two; past kMaxProbes slots taken around a question's place, the cache is
+    /// asked directly (a plan about more snapshots than the table holds stays correct).
+    std::unique_ptr<Slot[]> slots_;
+    std::uint32_t generation_ = 0; ///< begin()'s count: a slot of another generation is empty
 };
 
 /// Per-entity far views under the budget.

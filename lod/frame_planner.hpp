@@ -163,6 +163,7 @@ class FramePlanner {
     std::vector<double> predicted_; ///< predictedBudgetUnits of each far-drawn visible entity
     /// error_budget: what each far entity's view choice reads of no other entity, this frame
     std::vector<ErrorBudgetViews::Prepared> prepared_;
+    SharedCacheAnswers cacheAnswers_; ///< error_budget: the cache's answers, per plan
     /// error_budget: what each entity's view took this frame (not far: none; a view kept in the
     /// parallel pass; one chosen in the serial pass)
     enum class BudgetStep : std::uint8_t { Near, Kept, Choose };
