@@ -17,6 +17,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -762,6 +763,52 @@ TEST(ErrorBudget, ThePlannersBudgetFramesEqualOneSerialWalkOfTheSelectorAndViews
     std::printf("%d far entities kept a cached view, %d view cross-fades, %d waited for a bake, %d "
                 "view changes\n",
                 keptFar, viewFades, waiting, changes);
+}
+
+// The plan's shared table of the cache's answers: asked from many threads at once, every answer is
+// the cache's own, each distinct question reaches the cache once, begin() forgets them all, and
+// more distinct questions than the table holds are still answered right (asked directly).
+TEST(ErrorBudget, SharedCacheAnswersAskEachQuestionOnceAndAnswerAsTheCache) {
+    const auto question = [](std::size_t k) {
+        SpriteSetup s;
+        s.model = int(k % 7);
+        s.frame = int(k / 7 % 5);
+        s.lattice.sigma = 1.0 / double(1 + k % 3);
+        const int v = int(k / 105);
+        return std::make_pair(s, ViewId{{v % 17 - 8, v / 17 % 17 - 8, v / 289}});
+    };
+    std::atomic<int> calls{0};
+    int flip = 0; // which answer the "cache" gives
+    const ErrorBudgetViews::IsCached cache = [&](const SpriteSetup& s, ViewId v) {
+        ++calls;
+        return (s.model + s.frame + v.lattice.x + v.lattice.y * 3 + v.lattice.z + flip +
+                int(s.lattice.sigma * 6)) %
+                   3 ==
+               0;
+    };
+    SharedCacheAnswers answers;
+    for (const std::size_t distinct : {std::size_t(6000), std::size_t(120000)}) {
+        for (int round = 0; round < 2; ++round) {
+            answers.begin();
+            flip = round;
+            calls = 0;
+            std::atomic<int> wrong{0};
+            // Each question asked 20 times, interleaved, from every core.
+            tbb::parallel_for(std::size_t(0), distinct * 20, [&](std::size_t a) {
+                const auto [s, v] = question(a % distinct);
+                const bool expected = (s.model + s.frame + v.lattice.x + v.lattice.y * 3 +
+                                       v.lattice.z + flip + int(s.lattice.sigma * 6)) %
+                                          3 ==
+                                      0;
+                if (answers.ask(s, v, cache) != expected) ++wrong;
+            });
+            EXPECT_EQ(wrong.load(), 0) << distinct << " questions, round " << round;
+            if (distinct <= 6000)
+                EXPECT_EQ(calls.load(), int(distinct)) << "round " << round;
+            else // past the table: some questions go to the cache each time
+                EXPECT_GT(calls.load(), int(distinct));
+        }
+    }
 }
 
 // The cost model's sums over a frame's visible sprites (read in parallel): the near sprites' cost
