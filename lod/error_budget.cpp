@@ -3,6 +3,9 @@
 #include "core/splitmix64.hpp"
 #include "core/sprite.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -257,15 +260,27 @@ ErrorBudgetViews::keepAffordableBakes(std::span<const SpriteSetup> sprites,
     for (std::size_t k = 0; k < baking_.size(); ++k) index[baking_[k]] = k;
     std::vector<double> saving(baking_.size(), 0.0);
     std::vector<std::vector<std::size_t>> users(baking_.size());
+    // What each far sprite saves and which bake it uses, found in parallel (each sprite read is a
+    // cache miss: 4-5 ms of every frame at 100,000 tanks on one core), then summed in entity
+    // order as one walk would: the same sums, whatever the threads.
+    const std::size_t n = std::min(sprites.size(), drawnFrom.size());
+    savingOf_.resize(n);
+    bakeOf_.resize(n);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            if (!drawnFrom[i]) continue;
+            savingOf_[i] = costs.farSavingMs(sprites[i]);
+            const auto b = index.find(keyOf(sprites[i], *drawnFrom[i]));
+            bakeOf_[i] = b == index.end() ? kNoBake : b->second;
+        }
+    });
     double savedMs = 0.0;
-    for (std::size_t i = 0; i < sprites.size() && i < drawnFrom.size(); ++i) {
+    for (std::size_t i = 0; i < n; ++i) {
         if (!drawnFrom[i]) continue;
-        const double s = costs.farSavingMs(sprites[i]);
-        savedMs += s;
-        const auto b = index.find(keyOf(sprites[i], *drawnFrom[i]));
-        if (b == index.end()) continue;
-        saving[b->second] += s;
-        users[b->second].push_back(i);
+        savedMs += savingOf_[i];
+        if (bakeOf_[i] == kNoBake) continue;
+        saving[bakeOf_[i]] += savingOf_[i];
+        users[bakeOf_[i]].push_back(i);
     }
     std::vector<std::size_t> order(baking_.size());
     for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;

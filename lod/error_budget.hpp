@@ -182,6 +182,11 @@ class ErrorBudgetViews {
     std::unordered_set<BakeKey, BakeKeyHash> bakingSet_;
     int bakesLeft_ = 0;
     int viewChanges_ = 0;
+    /// keepAffordableBakes, per entity: what drawing it far saves, and the index of the bake it
+    /// uses in baking_ (kNoBake: none). Kept between frames: a frame allocates nothing of them.
+    static constexpr std::size_t kNoBake = ~std::size_t(0);
+    std::vector<double> savingOf_;
+    std::vector<std::size_t> bakeOf_;
 };
 
 } // namespace voxtier
