@@ -22,8 +22,9 @@
 #             and the tank army at 2,000, 20,000 and 100,000 entities (VOXTIER_PROFILE_COUNTS
 #             overrides them), in report.md and results.csv; and the far pass cut three ways
 #             (--far-tiles coarse, fine, sprites) on the moving tank army's hybrid and all far
-#             at the largest count, all far under a still camera too,
-#             and direct writes against staged uploads on its all-near frames, images compared
+#             at the largest count, all far under a still camera too, the same army's hybrid
+#             under the error budget (1 vpx: most tanks far) beside its all-near frames,
+#             and direct writes against staged uploads on those all-near frames, images compared
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 short=0
@@ -258,6 +259,22 @@ if ((profile)); then
             failed=1
         fi
         rm -f "$out/far_tiles/"far_still_00*.pam
+    fi
+    # The same army under the error budget (selector metric error_budget, 1 vpx, the view
+    # ladder), hybrid with the far pass on Vulkan, moving: most tanks go far (on the 2-core
+    # development machine, 81,657 of 85,875), where the bench's error_px sends ~10 %; beside
+    # the all-near renders below, what the hybrid gains on this device.
+    budget="$out/far_tiles/tank_army_${big}_budget.json"
+    if command -v python3 >/dev/null &&
+        python3 -c 'import json, sys; d = json.load(open(sys.argv[1])); d["selector"] = {"metric": "error_budget", "budget_vpx": 1.0}; json.dump(d, open(sys.argv[2], "w"))' \
+            "$army" "$budget"; then
+        if ! "$bin" render "$budget" --mode hybrid --far-backend vulkan --frames 0:23 \
+            --csv "$out/far_tiles/budget.csv" -o "$out/far_tiles/budget.pam" \
+            >>"$out/logs/far_tiles.log" 2>&1; then
+            echo "gpu_check: the error-budget render failed: $(tail -1 "$out/logs/far_tiles.log")" >&2
+            failed=1
+        fi
+        rm -f "$out/far_tiles/"budget_00*.pam
     fi
     # Where the host writes what the shaders read: directly into device-local memory through the
     # BAR where the device offers it (the policy's choice), or staged and copied by the device
@@ -509,6 +526,39 @@ if os.environ.get("GC_PROFILE") == "1":
             lines.append(f"| {p} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
     else:
         lines.append("No placement rows: see logs/placement.log.")
+    # The error budget's hybrid against all-near Vulkan (the direct-write render above), the
+    # same army and frames: issue 35's aim at 100,000 is <= 10 ms and >= 3x all-near.
+    budget_cols = ("frame_ms", "host_setup_ms", "host_select_ms", "far_ms", "far_bakes",
+                   "host_record_ms", "gpu_frame_ms", "gpu_far_ms", "far_entities")
+    budget_rows = []
+    for label, name, item in (("hybrid, error budget 1 vpx", "budget", "hybrid_budget"),
+                              ("all near", "near_direct", "near_vulkan")):
+        got = army_medians(name, budget_cols)
+        if not got:
+            continue
+        budget_rows.append((label, *got))
+        for c, v in zip(budget_cols, got[1]):
+            if c.endswith("_ms"):
+                rows.append(("error_budget", f"tank_army_{big}", f"{item} {c}", v, "ms"))
+    lines += ["", f"## The error budget: {int(big):,} tanks, hybrid against all-near Vulkan, in flight (ms, medians)", "",
+              f"`voxtier render tank_army_{big}_budget.json --mode hybrid --far-backend vulkan --frames 0:23 --csv` "
+              "(the army with `\"selector\": {\"metric\": \"error_budget\", \"budget_vpx\": 1}`: most tanks far, "
+              "each within 1 vpx by prediction) beside the all-near render above; frames 6-23, the snapshot cache "
+              "filling as the camera moves.", ""]
+    if budget_rows:
+        lines += ["| render | frames | frame in flight | set-up | select | far tier | bakes | host record "
+                  "| GPU frame | GPU far pass | far entities |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+        for label, n, v in budget_rows:
+            lines.append(f"| {label} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
+        if len(budget_rows) == 2:
+            hybrid_ms, near_ms = budget_rows[0][2][0], budget_rows[1][2][0]
+            x = near_ms / hybrid_ms if hybrid_ms > 0 else 0.0
+            rows.append(("error_budget", f"tank_army_{big}", "hybrid_budget speedup_vs_all_near_vulkan", f"{x:.3g}", "x"))
+            met = hybrid_ms <= 10 and x >= 3
+            lines += ["", f"Aim (issue 35, at 100,000 tanks; this army has {int(big):,}): the hybrid <= 10 ms "
+                      f"and >= 3x all-near Vulkan: {fmt(hybrid_ms)} ms, {x:.2f}x: {'met' if met else 'not met'}."]
+    else:
+        lines.append("No error-budget rows: see logs/far_tiles.log.")
 # The GPU's SM clock in each phase (nvidia-smi every 100 ms; logs/clocks.csv), in every run:
 # it explains the bench's Vulkan figures with or without --profile.
 clocks_csv, phases_txt = os.path.join(out, "logs", "clocks.csv"), os.path.join(out, "logs", "phases.txt")
