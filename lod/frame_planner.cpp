@@ -107,8 +107,8 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         // predictions, the cache's answers) is found first, in parallel. An entity whose current
         // view is within the budget and cached keeps it there too (most far entities, most
         // frames): only the others are handed views in entity order. At 100,000 tanks a serial
-        // pass over every entity read each one's sprite and cost 5-10 ms on two cores.
-        // Each distinct question to the cache asked once (SharedCacheAnswers).
+        // pass over every entity read each one's sprite and cost 5-10 ms on two cores. Each
+        // distinct question to the cache is asked of it once this frame (SharedCacheAnswers).
         cacheAnswers_.begin();
         PlanSettings asking = settings;
         asking.inMemory = [&](const SpriteSetup& s, ViewId v) {
