@@ -248,34 +248,32 @@ if ((profile)); then
     same_last_frame far_coarse far_sprites far_sprites_identity.txt \
         "the all-far coarse tiles and sprites"
     rm -f "$out/far_tiles/"*_00*.pam
-    still="$out/far_tiles/tank_army_${big}_still.json"
-    if command -v python3 >/dev/null &&
-        python3 -c 'import json, sys; d = json.load(open(sys.argv[1])); d.pop("camera_path", None); json.dump(d, open(sys.argv[2], "w"))' \
-            "$army" "$still"; then
-        if ! "$bin" render "$still" --mode far --far-backend vulkan --frames 0:23 \
-            --csv "$out/far_tiles/far_still.csv" -o "$out/far_tiles/far_still.pam" \
-            >>"$out/logs/far_tiles.log" 2>&1; then
-            echo "gpu_check: the still all-far render failed: $(tail -1 "$out/logs/far_tiles.log")" >&2
+    # A variant of the army, its JSON changed by the Python statement EDIT on `d`, rendered
+    # with OPTIONS over frames 0:23 into far_tiles/NAME.csv; skipped without python3.
+    # Usage: render_army_variant NAME LABEL EDIT OPTIONS...
+    render_army_variant() {
+        local name=$1 label=$2 edit=$3
+        shift 3
+        local scene="$out/far_tiles/tank_army_${big}_$name.json"
+        command -v python3 >/dev/null &&
+            python3 -c "import json, sys; d = json.load(open(sys.argv[1])); $edit; json.dump(d, open(sys.argv[2], 'w'))" \
+                "$army" "$scene" || return 0
+        if ! "$bin" render "$scene" "$@" --frames 0:23 --csv "$out/far_tiles/$name.csv" \
+            -o "$out/far_tiles/$name.pam" >>"$out/logs/far_tiles.log" 2>&1; then
+            echo "gpu_check: the $label render failed: $(tail -1 "$out/logs/far_tiles.log")" >&2
             failed=1
         fi
-        rm -f "$out/far_tiles/"far_still_00*.pam
-    fi
+        rm -f "$out/far_tiles/${name}"_00*.pam
+    }
+    render_army_variant far_still "still all-far" 'd.pop("camera_path", None)' \
+        --mode far --far-backend vulkan
     # The same army under the error budget (selector metric error_budget, 1 vpx, the view
     # ladder), hybrid with the far pass on Vulkan, moving: most tanks go far (on the 2-core
     # development machine, 81,657 of 85,875), where the bench's error_px sends ~10 %; beside
     # the all-near renders below, what the hybrid gains on this device.
-    budget="$out/far_tiles/tank_army_${big}_budget.json"
-    if command -v python3 >/dev/null &&
-        python3 -c 'import json, sys; d = json.load(open(sys.argv[1])); d["selector"] = {"metric": "error_budget", "budget_vpx": 1.0}; json.dump(d, open(sys.argv[2], "w"))' \
-            "$army" "$budget"; then
-        if ! "$bin" render "$budget" --mode hybrid --far-backend vulkan --frames 0:23 \
-            --csv "$out/far_tiles/budget.csv" -o "$out/far_tiles/budget.pam" \
-            >>"$out/logs/far_tiles.log" 2>&1; then
-            echo "gpu_check: the error-budget render failed: $(tail -1 "$out/logs/far_tiles.log")" >&2
-            failed=1
-        fi
-        rm -f "$out/far_tiles/"budget_00*.pam
-    fi
+    render_army_variant budget error-budget \
+        'd["selector"] = {"metric": "error_budget", "budget_vpx": 1.0}' \
+        --mode hybrid --far-backend vulkan
     # Where the host writes what the shaders read: directly into device-local memory through the
     # BAR where the device offers it (the policy's choice), or staged and copied by the device
     # (VOXTIER_FORCE_STAGING=1): the same army all-near in flight, frames 0:23 each.
