@@ -445,7 +445,8 @@ void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& 
     kept.places.resize(remember ? drawn : 0);
     // Straight into the buffer (mapped, or the staging ring's space for it), each record composed
     // first and stored once, in order: the destination may be write-combined device memory, and
-    // a copy through a host array wrote 368 bytes a sprite twice (32 MB at 88,000 far tanks).
+    // a copy through a host array wrote each record twice (368 bytes a sprite then, 32 MB at
+    // 88,000 far tanks; 192 since a record holds only what the pass reads of its sprite).
     auto* out = static_cast<far_gpu::FarInstanceGpu*>(frame.hostWrite(slot.instances, 0, bytes));
     stats.recordsKept = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, drawn, 64), std::uint64_t(0),
@@ -480,7 +481,7 @@ void FarPass::Impl::writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& 
                     continue;
                 }
                 far_gpu::FarInstanceGpu g{};
-                g.sprite = f.sprite->gpu;
+                g.sprite = far_gpu::farSpriteOf(f.sprite->gpu);
                 g.u0 = f.u0, g.ui = f.ui, g.uj = f.uj, g.v0 = f.v0, g.vi = f.vi, g.vj = f.vj;
                 g.rect = rects[i];
                 g.snap = place.snap;

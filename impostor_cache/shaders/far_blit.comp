@@ -150,7 +150,7 @@ void main() {
             int kFrom = r.y > y0 ? (r.y - y0 + FAR_LANES_Y - 1) / FAR_LANES_Y : 0;
             int kTo = min(rows, r.w > y0 ? (r.w - y0 + FAR_LANES_Y - 1) / FAR_LANES_Y : 0);
             if (kFrom >= kTo) continue;
-            SpriteGpu s = vtFar[f].sprite;
+            SpriteGpu s = vtSpriteOfFar(vtFar[f].sprite);
             uint wrote = 0u;
             for (int k = kFrom; k < kTo; ++k) {
                 // Only a pixel this sprite would win can change (the rule does not depend on

@@ -1,7 +1,7 @@
 // The far pass's bindings, per-sprite and per-tile records and push constants (far_blit.comp and
 // its C++ host, impostor_cache/far_pass.cpp), in the common subset of GLSL 4.50 and C++ like
 // core/sprite_kernel.h, so a binding number or a field offset exists exactly once. Included after
-// core/sprite_kernel.h (it holds a SpriteGpu).
+// core/sprite_kernel.h (a far sprite carries fields of its SpriteGpu).
 #ifndef VOXTIER_FAR_SHARED_H
 #define VOXTIER_FAR_SHARED_H
 
@@ -15,6 +15,7 @@ using kernel::ivec4;
 using kernel::SpriteGpu;
 using kernel::uint;
 using kernel::uvec4;
+using kernel::vec3;
 #define VT_FAR_CONST inline constexpr
 #else
 #define VT_FAR_CONST const
@@ -51,16 +52,60 @@ VT_FAR_CONST uint FAR_LIST_STEP_COARSE = 1024u;
 VT_FAR_CONST uint FAR_LIST_STEP_FINE = 8192u;
 VT_FAR_CONST uint FAR_SPLAT_STEPS = 16384u;
 
-// One far sprite. `sprite` is the near tier's SpriteGpu (vtPixelCell, vtFaceLight, depth, id in
-// dims.w); the snapshot cell of near cell (i, j) is (floor(u0 + ui i + uj j), floor(v0 + vi i +
-// vj j)) in double, the far blit's SnapshotCellMap; the snapshot's cells (two bytes each: palette
-// index, code; two per word) start at word snap.x of the snapshot buffer, snap.y cells a row,
-// snap.z rows, its first cell is lattice cell (snap.w, extra.x); its palette starts at extra.y.
-// extra.z and extra.w repeat the sprite's depth (its bits) and entity id, beside its rectangle,
-// for the order test: the instances are in the depth-and-id rule's order, nearest first, and so
-// is every tile's list (the shader stops at the first sprite a pixel refuses).
+// What the far pass reads of a far sprite's SpriteGpu (vtPixelCell's map, range and dither,
+// vtFaceLight's factors), copied field for field: 96 bytes of its 272. The host writes one a
+// far sprite every frame the camera moves (100,000 tanks under the error budget: ~80,000 far),
+// and the rest of a SpriteGpu (the ray's set-up, the atlas, the proxy quad) only the near tier
+// reads.
+struct FarSpriteGpu {
+    vec3 mapI;
+    float depth;
+    vec3 mapJ;
+    float denMax;
+    vec3 mapDen;
+    float fade;
+    ivec4 cellRange;
+    uvec4 faceLight0;
+    uint faceLight4; // faceLight1.x
+    uint faceLight5; // faceLight1.y
+    float fadeSide;
+    uint unused;
+};
+
+#ifdef __cplusplus
+inline FarSpriteGpu farSpriteOf(const SpriteGpu& s) {
+    return {s.mapI,      s.depth,      s.mapJ,         s.denMax,       s.mapDen,   s.fade,
+            s.cellRange, s.faceLight0, s.faceLight1.x, s.faceLight1.y, s.fadeSide, 0u};
+}
+#else
+// The SpriteGpu that vtPixelCell and vtFaceLight read, from the far sprite's copy of those fields
+// (the others are never read here).
+SpriteGpu vtSpriteOfFar(FarSpriteGpu f) {
+    SpriteGpu s;
+    s.mapI = f.mapI;
+    s.depth = f.depth;
+    s.mapJ = f.mapJ;
+    s.denMax = f.denMax;
+    s.mapDen = f.mapDen;
+    s.fade = f.fade;
+    s.fadeSide = f.fadeSide;
+    s.cellRange = f.cellRange;
+    s.faceLight0 = f.faceLight0;
+    s.faceLight1 = uvec4(f.faceLight4, f.faceLight5, 0u, 0u);
+    return s;
+}
+#endif
+
+// One far sprite: `sprite` holds what the far pass reads of its SpriteGpu; the snapshot cell of
+// near cell (i, j) is (floor(u0 + ui i + uj j), floor(v0 + vi i + vj j)) in double, the far
+// blit's SnapshotCellMap; the snapshot's cells (two bytes each: palette index, code; two per
+// word) start at word snap.x of the snapshot buffer, snap.y cells a row, snap.z rows, its first
+// cell is lattice cell (snap.w, extra.x); its palette starts at extra.y. extra.z and extra.w are
+// the sprite's depth (its bits) and entity id, beside its rectangle, for the order test: the
+// instances are in the depth-and-id rule's order, nearest first, and so is every tile's list
+// (the shader stops at the first sprite a pixel refuses).
 struct FarInstanceGpu {
-    SpriteGpu sprite;
+    FarSpriteGpu sprite;
     double u0;
     double ui;
     double uj;
@@ -93,8 +138,12 @@ struct FarTile {
 };
 
 #ifdef __cplusplus
-static_assert(sizeof(FarInstanceGpu) == 368 && offsetof(FarInstanceGpu, u0) == 272 &&
-                  offsetof(FarInstanceGpu, rect) == 320 && offsetof(FarInstanceGpu, extra) == 352,
+static_assert(sizeof(FarSpriteGpu) == 96 && offsetof(FarSpriteGpu, cellRange) == 48 &&
+                  offsetof(FarSpriteGpu, faceLight4) == 80 &&
+                  offsetof(FarSpriteGpu, fadeSide) == 88,
+              "FarSpriteGpu must match the std430 layout in GLSL");
+static_assert(sizeof(FarInstanceGpu) == 192 && offsetof(FarInstanceGpu, u0) == 96 &&
+                  offsetof(FarInstanceGpu, rect) == 144 && offsetof(FarInstanceGpu, extra) == 176,
               "FarInstanceGpu must match the std430 layout in GLSL");
 static_assert(sizeof(FarTile) == 16 && sizeof(FarPush) == 20);
 } // namespace voxtier::far_gpu

@@ -47,7 +47,7 @@ void main() {
     float d = intBitsToFloat(vtFar[f].extra.z);
     uint entity = uint(vtFar[f].extra.w);
     uint plane = vtPush.width * vtPush.height;
-    SpriteGpu s = vtFar[f].sprite;
+    SpriteGpu s = vtSpriteOfFar(vtFar[f].sprite);
     // Pixel i of the rectangle is column i % w, row i / w: divided once, then stepped (a CPU
     // device divides lane by lane).
     uint first = begin + gl_LocalInvocationIndex;
@@ -86,7 +86,7 @@ void main() {
     uint f = vtWinners[p];
     if (f == FAR_NO_WINNER) return;
     uint colour;
-    farPixelColour(f, vtFar[f].sprite, vec2(xy) + 0.5f, colour);
+    farPixelColour(f, vtSpriteOfFar(vtFar[f].sprite), vec2(xy) + 0.5f, colour);
     uint plane = vtPush.width * vtPush.height;
     vtPlanes[p] = colour;
     vtPlanes[plane + p] = uint(vtFar[f].extra.w);
