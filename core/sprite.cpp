@@ -225,8 +225,8 @@ void setupSpriteInto(SpriteSetup& S, const CameraFrame& cam, const SpriteConstan
     for (int i = 0; i < 4; ++i) {
         const glm::dvec3 P = C + k * (corners[i].x * rW + corners[i].y * uW);
         clip[i] = clipFromCameraRelative(cam, P);
-        g.quad[i] = glm::vec4(toGpuFloat(clip[i].x), toGpuFloat(clip[i].y), toGpuFloat(clip[i].z),
-                              toGpuFloat(clip[i].w));
+        S.quad[std::size_t(i)] = glm::vec4(toGpuFloat(clip[i].x), toGpuFloat(clip[i].y),
+                                           toGpuFloat(clip[i].z), toGpuFloat(clip[i].w));
     }
     // The screen rectangle: the bounds of the quad's part at view depth >= zNear (the kernel
     // draws only where the pixel ray meets the plane at >= 2 zNear, vtPixelCell's denMax), the
@@ -269,6 +269,7 @@ void markCulled(SpriteSetup& S, CullReason why) {
     S.lattice = SpriteLattice{};
     S.screenRect = glm::ivec4(0);
     S.gpu = kernel::SpriteGpu{};
+    S.quad = {};
 }
 
 void restepSprite(SpriteSetup& S, const SpriteConstants& constants) {

@@ -108,6 +108,10 @@ struct SpriteSetup {
     double radiusPx = 0.0;     ///< projected bounding-sphere radius in pixels
     glm::ivec4 screenRect{0};  ///< x0, y0, x1, y1 (half-open), clamped to the image
     kernel::SpriteGpu gpu{};   ///< atlas / palette fields are filled in by the near tier
+    /// Clip-space corners of the proxy quad on the sprite plane (triangle strip). Not in `gpu`:
+    /// only the quad proxy draws it (from the hull buffer) and the hull's fallback reads it, while
+    /// the near tier writes every visible sprite's record to the device each frame it moves.
+    std::array<glm::vec4, 4> quad{};
     bool visible() const { return cull == CullReason::None; }
 };
 

@@ -83,7 +83,6 @@ struct SpriteGpu {
     uvec4 atlas;      // xyz: offset of this model frame in the voxel atlas; w: palette base
     uvec4 faceLight0; // 16.16 light factor per entered-face code 0..3
     uvec4 faceLight1; // face codes 4, 5; z, w unused
-    vec4 quad[4];     // clip-space corners of the proxy quad on the sprite plane (triangle strip)
 };
 
 // CONTRACT.md §5 cross-fade: ordered-dither threshold of a pixel (4x4 Bayer matrix, built from
@@ -571,12 +570,11 @@ uint vtFetchBrickWord(uint word);
 #undef VT_FETCH_BRICK_WORD
 };
 
-static_assert(sizeof(SpriteGpu) == 272, "SpriteGpu must match the std430 layout in GLSL");
+static_assert(sizeof(SpriteGpu) == 208, "SpriteGpu must match the std430 layout in GLSL");
 static_assert(offsetof(SpriteGpu, depth) == 12 && offsetof(SpriteGpu, denMax) == 28);
 static_assert(offsetof(SpriteGpu, brickBase) == 76 && offsetof(SpriteGpu, skipEmpty) == 92);
 static_assert(offsetof(SpriteGpu, cellRange) == 128 && offsetof(SpriteGpu, dims) == 144);
 static_assert(offsetof(SpriteGpu, atlas) == 160 && offsetof(SpriteGpu, faceLight1) == 192);
-static_assert(offsetof(SpriteGpu, quad) == 208);
 } // namespace voxtier::kernel
 #endif
 

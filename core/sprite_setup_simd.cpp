@@ -379,8 +379,8 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
     g.faceLight1 = {k.light[4], k.light[5], 0u, 0u};
     const float zNear = toGpuFloat(cam.zNear);
     for (int i = 0; i < 4; ++i)
-        g.quad[i] = glm::vec4(atFloat(kFQuad + 3 * i), atFloat(kFQuad + 3 * i + 1), zNear,
-                              atFloat(kFQuad + 3 * i + 2));
+        S.quad[std::size_t(i)] = glm::vec4(atFloat(kFQuad + 3 * i), atFloat(kFQuad + 3 * i + 1),
+                                           zNear, atFloat(kFQuad + 3 * i + 2));
     setScreenRect(S, {at(kLo), at(kLo + 1)}, {at(kHi), at(kHi + 1)}, cam);
 }
 

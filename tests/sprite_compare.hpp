@@ -9,7 +9,8 @@
 
 namespace voxtier::test {
 
-/// Field by field (SpriteSetup has padding; its SpriteGpu has none and is compared bytewise).
+/// Field by field (SpriteSetup has padding; its SpriteGpu and quad have none and are compared
+/// bytewise).
 inline ::testing::AssertionResult sameSprite(const SpriteSetup& a, const SpriteSetup& b) {
     const auto& la = a.lattice;
     const auto& lb = b.lattice;
@@ -22,7 +23,8 @@ inline ::testing::AssertionResult sameSprite(const SpriteSetup& a, const SpriteS
         la.gV == lb.gV && la.sigma == lb.sigma && la.maxDim == lb.maxDim && la.dims == lb.dims &&
         la.cellRange == lb.cellRange && a.centreRel == b.centreRel && a.viewDepth == b.viewDepth &&
         a.distance == b.distance && a.radiusPx == b.radiusPx && a.screenRect == b.screenRect &&
-        std::memcmp(&a.gpu, &b.gpu, sizeof a.gpu) == 0;
+        std::memcmp(&a.gpu, &b.gpu, sizeof a.gpu) == 0 &&
+        std::memcmp(&a.quad, &b.quad, sizeof a.quad) == 0;
     if (same) return ::testing::AssertionSuccess();
     return ::testing::AssertionFailure()
            << "entity " << a.entityId << " differs from entity " << b.entityId << "'s fresh set-up";

@@ -104,7 +104,7 @@ TEST_F(VulkanCellRate, QuadsCrossingTheNearPlaneGetClippedRectangles) {
     for (std::size_t i = 0; i < sprites.size(); ++i) {
         if (sprites[i].visible()) rects += rectPixels(sprites[i]);
         bool behind = false;
-        for (const glm::vec4& q : sprites[i].gpu.quad) behind |= !(double(q.w) > cam.zNear);
+        for (const glm::vec4& q : sprites[i].quad) behind |= !(double(q.w) > cam.zNear);
         if (!behind || !(sprites[i].visible() || sprites[i].cull == CullReason::OffScreen))
             continue;
         ++crossing;

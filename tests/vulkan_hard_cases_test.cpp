@@ -164,7 +164,7 @@ TEST_P(NearHardCases, QuadCrossingTheNearPlaneIsClippedWithoutChangingPixels) {
             const auto r = renderBoth(s);
             if (!r.sprites[0].visible()) continue;
             bool behind = false;
-            for (const auto& q : r.sprites[0].gpu.quad) behind |= !(q.w > float(s.camera.zNear));
+            for (const auto& q : r.sprites[0].quad) behind |= !(q.w > float(s.camera.zNear));
             crossingAndDrawn += behind && r.near.countEntity(0) > 0;
             EXPECT_EQ(test::describeDifference(r.near, r.reference), "")
                 << "camera z " << off << " angle " << angleDeg;

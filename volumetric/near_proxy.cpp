@@ -57,7 +57,7 @@ int proxyHullClipCorners(const CameraFrame& cam, const SpriteSetup& s,
         // Cannot happen for a box (hexagon + square: at most 10 corners), but never draw less
         // than the quad: its corners in fan order.
         int n = 0;
-        for (int i : {0, 1, 3, 2}) out[std::size_t(n++)] = glm::dvec4(s.gpu.quad[i]);
+        for (int i : {0, 1, 3, 2}) out[std::size_t(n++)] = glm::dvec4(s.quad[std::size_t(i)]);
         return n;
     }
     const glm::dvec3 rW = s.pose.worldDirection(L.right), uW = s.pose.worldDirection(L.up);

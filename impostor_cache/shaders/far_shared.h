@@ -53,10 +53,9 @@ VT_FAR_CONST uint FAR_LIST_STEP_FINE = 8192u;
 VT_FAR_CONST uint FAR_SPLAT_STEPS = 16384u;
 
 // What the far pass reads of a far sprite's SpriteGpu (vtPixelCell's map, range and dither,
-// vtFaceLight's factors), copied field for field: 96 bytes of its 272. The host writes one a
+// vtFaceLight's factors), copied field for field: 96 bytes of its 208. The host writes one a
 // far sprite every frame the camera moves (100,000 tanks under the error budget: ~80,000 far),
-// and the rest of a SpriteGpu (the ray's set-up, the atlas, the proxy quad) only the near tier
-// reads.
+// and the rest of a SpriteGpu (the ray's set-up, the atlas) only the near tier reads.
 struct FarSpriteGpu {
     vec3 mapI;
     float depth;

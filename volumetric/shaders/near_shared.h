@@ -90,7 +90,7 @@ struct NearBox {
 // as clip-space corners of a convex polygon in fan order, computed on the CPU in double.
 struct NearHull {
     vec4 corner[NEAR_HULL_MAX_VERTICES];
-    uint count; // 3..NEAR_HULL_MAX_VERTICES
+    uint count; // 3..NEAR_HULL_MAX_VERTICES (the quad proxy: its 4 corners in strip order)
     uint pad0;
     uint pad1;
     uint pad2;
