@@ -10,7 +10,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
+#include <set>
 #include <stdexcept>
 #include <string>
 
@@ -168,6 +170,55 @@ TEST_F(NearResidency, AnimationFramesBecomeResidentOnFirstUse) {
     const Frame again = renderFrame(nearRenderer(), v.scene);
     EXPECT_EQ(again.stats.bytesUploaded, 0u);
     EXPECT_EQ(test::describeDifference(again.near, again.reference), "");
+}
+
+// The first showings of a drawn order, found from the sprites in another order and their places
+// in the drawn one (what a moving camera's frame does), are those of a walk along the drawn order:
+// the first place of each model, of each of its frames and of the first sprite whose model or
+// frame is out of range; culled sprites and sprites not drawn show nothing.
+TEST(FirstShowings, FromPlacesEqualAWalkOfTheDrawnOrder) {
+    const std::vector<std::shared_ptr<VoxelModel>> models{
+        twoFrameModel("a"), test::solidBox({2, 2, 2}), nullptr, twoFrameModel("c")};
+    std::mt19937 rng(7);
+    for (const std::size_t n : {0u, 1u, 2u, 7u, 300u, 5000u}) {
+        std::vector<SpriteSetup> store(n);
+        for (SpriteSetup& s : store) {
+            s.model = int(rng() % 5);     // 2: no model, 4: past the list
+            s.frame = int(rng() % 4) - 1; // -1 and 2: past every model's frames
+            if (rng() % 10 == 0) s.cull = CullReason::OffScreen;
+        }
+        std::vector<const SpriteSetup*> sprites;
+        for (const SpriteSetup& s : store) sprites.push_back(&s);
+        std::vector<std::uint32_t> drawn;
+        for (std::uint32_t k = 0; k < n; ++k)
+            if (rng() % 5 != 0) drawn.push_back(k);
+        std::shuffle(drawn.begin(), drawn.end(), rng);
+        std::vector<std::uint32_t> places(n, VoxelResidency::kNotShown);
+        for (std::size_t p = 0; p < drawn.size(); ++p) places[drawn[p]] = std::uint32_t(p);
+
+        std::vector<std::uint32_t> expected;
+        std::set<int> modelsSeen;
+        std::set<std::pair<int, int>> framesSeen;
+        bool outOfRangeSeen = false;
+        for (std::size_t p = 0; p < drawn.size(); ++p) {
+            const SpriteSetup& s = *sprites[drawn[p]];
+            if (!s.visible()) continue;
+            const bool known = s.model < int(models.size()) && models[std::size_t(s.model)] &&
+                               s.frame >= 0 && s.frame < models[std::size_t(s.model)]->frameCount();
+            if (!known) {
+                if (!outOfRangeSeen) expected.push_back(std::uint32_t(p));
+                outOfRangeSeen = true;
+                continue;
+            }
+            const bool first = modelsSeen.insert(s.model).second;
+            if (framesSeen.insert({s.model, s.frame}).second || first)
+                expected.push_back(std::uint32_t(p));
+        }
+        EXPECT_EQ(VoxelResidency::firstShowingsAt(models, sprites, places), expected) << n;
+    }
+    const SpriteSetup one;
+    const std::vector<const SpriteSetup*> sprites{&one};
+    EXPECT_THROW(VoxelResidency::firstShowingsAt(models, sprites, {}), std::invalid_argument);
 }
 
 // The per-frame table of placements the near tier reads for every sprite gives what entry() and

@@ -113,9 +113,23 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
     stats.sprites = visible.size();
 
     // The residency walks every sprite for the first showing of each model frame: not where the
-    // same sprites show the same frames in the same order as last frame.
+    // same sprites show the same frames in the same order as last frame. Else, where the drawn
+    // sprites are the given ones in the kept order (under the early depth test), the first
+    // showings are found from the given sprites in their own order and their places in the drawn
+    // one: a moving camera's frame reads them in sequence instead of a cache miss each (100,000
+    // tanks moving, 2-core host: residency 2.4-3.6 -> 1.2-1.9 ms).
     firstShowings.valid = firstShowings.valid && unchanged;
     stats.firstShowingsKept = firstShowings.valid;
+    if (!firstShowings.valid && opt.earlyDepthTest) {
+        places.assign(all.size(), VoxelResidency::kNotShown);
+        const std::vector<std::uint32_t>& drawn = keptOrder.order;
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, drawn.size(), 4096),
+                          [&](const auto& r) {
+                              for (std::size_t p = r.begin(); p != r.end(); ++p)
+                                  places[drawn[p]] = std::uint32_t(p);
+                          });
+        firstShowings = {true, VoxelResidency::firstShowingsAt(models, all, places)};
+    }
     const ResidencyStats up = residency.update(models, visible, &firstShowings);
     stats.bytesUploaded = up.bytesUploaded;
     stats.uploadRegions = up.regions;

@@ -29,14 +29,15 @@ VkDeviceSize roundUp4(VkDeviceSize v) {
 constexpr VkDeviceSize kInitialPaletteBytes = 64 * 256 * sizeof(std::uint32_t);
 constexpr VkDeviceSize kInitialBrickBytes = 1 << 16;
 
-/// The sprites, by index, that first show a model or a frame of one, in order. Placing frames
-/// sprite by sprite does something only at these: every later sprite of the same frame finds it
-/// resident and current. Found in parallel (at 100,000 sprites the serial walk over every sprite
-/// was a cache miss apiece, 5-7 ms on two cores), each task keeping the least index per model
-/// and per frame of a model.
-std::vector<std::uint32_t> firstShowings(const std::vector<std::shared_ptr<VoxelModel>>& models,
-                                         std::span<const SpriteSetup* const> sprites) {
-    constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+/// The least place of a sprite per model and per frame of a model (and of the first sprite whose
+/// model or frame is out of range), sorted: sprite k of `sprites` is drawn at place(k), or not at
+/// all (VoxelResidency::kNotShown). Found in parallel (at 100,000 sprites the serial walk over
+/// every sprite was a cache miss apiece, 5-7 ms on two cores), each task keeping the least place
+/// per model and per frame of a model.
+template <class Place>
+std::vector<std::uint32_t> leastPlaces(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                                       std::span<const SpriteSetup* const> sprites, Place place) {
+    constexpr std::uint32_t kNone = VoxelResidency::kNotShown;
     // Slot layout: one per model, then one per frame of each model, then one for the first sprite
     // whose model or frame is out of range (left to the serial walk, which names it).
     std::vector<std::uint32_t> frameSlot(models.size() + 1, std::uint32_t(models.size()));
@@ -49,17 +50,19 @@ std::vector<std::uint32_t> firstShowings(const std::vector<std::shared_ptr<Voxel
         [&](const auto& r, Least local) {
             if (local.empty()) local.assign(slots, kNone);
             for (std::uint32_t k = r.begin(); k != r.end(); ++k) {
+                const std::uint32_t p = place(k);
+                if (p == kNone) continue;
                 const SpriteSetup* sp = sprites[k];
                 if (!sp->visible()) continue;
                 const auto m = std::size_t(sp->model);
                 if (m >= models.size() || sp->frame < 0 ||
                     frameSlot[m] + std::uint32_t(sp->frame) >= frameSlot[m + 1]) {
-                    local[slots - 1] = std::min(local[slots - 1], k);
+                    local[slots - 1] = std::min(local[slots - 1], p);
                     continue;
                 }
-                local[m] = std::min(local[m], k);
+                local[m] = std::min(local[m], p);
                 const std::size_t f = frameSlot[m] + std::size_t(sp->frame);
-                local[f] = std::min(local[f], k);
+                local[f] = std::min(local[f], p);
             }
             return local;
         },
@@ -257,6 +260,15 @@ ResidencyStats VoxelResidency::update(const std::vector<std::shared_ptr<VoxelMod
     return stats;
 }
 
+std::vector<std::uint32_t>
+VoxelResidency::firstShowingsAt(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                                std::span<const SpriteSetup* const> sprites,
+                                std::span<const std::uint32_t> places) {
+    if (places.size() != sprites.size())
+        throw std::invalid_argument("firstShowingsAt: one place per sprite");
+    return leastPlaces(models, sprites, [&](std::uint32_t k) { return places[k]; });
+}
+
 std::vector<VoxelResidency::Upload>
 VoxelResidency::placeFrames(const std::vector<std::shared_ptr<VoxelModel>>& models,
                             std::span<const SpriteSetup* const> sprites, ResidencyStats& stats,
@@ -265,7 +277,8 @@ VoxelResidency::placeFrames(const std::vector<std::shared_ptr<VoxelModel>>& mode
     FirstShowings& shown = firsts ? *firsts : found;
     if (shown.valid && !shown.firsts.empty() && shown.firsts.back() >= sprites.size())
         shown.valid = false; // not these sprites' (firsts ascend)
-    if (!shown.valid) shown = {true, firstShowings(models, sprites)};
+    if (!shown.valid)
+        shown = {true, leastPlaces(models, sprites, [](std::uint32_t k) { return k; })};
     std::vector<Upload> uploads;
     // Undo list: if placing a block fails (atlas full), nothing recorded here was uploaded.
     std::vector<std::pair<Resident*, int>> placed;

@@ -47,6 +47,14 @@ class VoxelResidency {
         bool valid = false;
         std::vector<std::uint32_t> firsts;
     };
+    static constexpr std::uint32_t kNotShown = 0xFFFFFFFFu;
+    /// FirstShowings::firsts of a drawn order, found from sprites in another order (a store's,
+    /// read in sequence) and each one's place in the drawn order (kNotShown: not drawn): what
+    /// update() finds by walking the drawn order, without its cache miss a sprite.
+    static std::vector<std::uint32_t>
+    firstShowingsAt(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                    std::span<const SpriteSetup* const> sprites,
+                    std::span<const std::uint32_t> places);
     /// Makes the (model, frame) of every visible sprite resident and current: new frames are
     /// uploaded whole, edited frames only in their dirty box. Blocks until the copies are done.
     /// `firsts` (optional): used where valid, else found and kept there.

@@ -84,6 +84,9 @@ struct NearPasses::Impl {
     /// The residency's first showings of last frame's `visible`: kept while its sprites are the
     /// same entities', in the same order, at the same animation frames.
     VoxelResidency::FirstShowings firstShowings;
+    /// Per sprite given, its place in `visible` (VoxelResidency::kNotShown: not drawn), from which
+    /// a frame whose order changed finds its first showings (kept for its storage).
+    std::vector<std::uint32_t> places;
     /// Where each resident model frame lies, looked up once a frame (kept for its storage).
     VoxelResidency::Placements placements;
     /// Per sprite of `visible`, gathered where the sprites are written (in parallel): its depth,
