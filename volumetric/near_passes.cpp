@@ -242,31 +242,30 @@ void NearPasses::Impl::writeProxies(GpuFrame& frame, Slot& slot, const CameraFra
     const std::size_t n = visible.size();
     flat.assign(n, 0);
     if (!n) return;
-    if (opt.proxy == NearProxy::Box) {
-        const VkDeviceSize bytes = VkDeviceSize(n) * sizeof(near_gpu::NearBox);
-        ensure(slot.boxes, bytes);
-        auto* box = static_cast<near_gpu::NearBox*>(frame.hostWrite(slot.boxes, 0, bytes));
+    // One record a sprite, composed by make(i) and stored once (as the sprites are).
+    const auto writeEach = [&](VulkanBuffer& buffer, auto make) {
+        using Record = decltype(make(std::size_t(0)));
+        const VkDeviceSize bytes = VkDeviceSize(n) * sizeof(Record);
+        ensure(buffer, bytes);
+        auto* out = static_cast<Record*>(frame.hostWrite(buffer, 0, bytes));
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), [&](const auto& r) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                const auto corners = proxyBoxClipCorners(cam, *visible[i]);
-                near_gpu::NearBox b;
-                for (int k = 0; k < 8; ++k) b.corner[k] = glm::vec4(corners[std::size_t(k)]);
-                box[i] = b;
-            }
+            for (std::size_t i = r.begin(); i != r.end(); ++i) out[i] = make(i);
         });
-    }
+    };
+    if (opt.proxy == NearProxy::Box)
+        writeEach(slot.boxes, [&](std::size_t i) {
+            const auto corners = proxyBoxClipCorners(cam, *visible[i]);
+            near_gpu::NearBox b;
+            for (int k = 0; k < 8; ++k) b.corner[k] = glm::vec4(corners[std::size_t(k)]);
+            return b;
+        });
     if (opt.proxy == NearProxy::Quad) {
         // The quad's four corners, as set-up computed them, in the hull buffer (strip order).
-        const VkDeviceSize bytes = VkDeviceSize(n) * sizeof(near_gpu::NearHull);
-        ensure(slot.hulls, bytes);
-        auto* hull = static_cast<near_gpu::NearHull*>(frame.hostWrite(slot.hulls, 0, bytes));
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), [&](const auto& r) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                near_gpu::NearHull h{};
-                h.count = 4;
-                for (std::size_t k = 0; k < 4; ++k) h.corner[k] = visible[i]->quad[k];
-                hull[i] = h;
-            }
+        writeEach(slot.hulls, [&](std::size_t i) {
+            near_gpu::NearHull h{};
+            h.count = 4;
+            for (std::size_t k = 0; k < 4; ++k) h.corner[k] = visible[i]->quad[k];
+            return h;
         });
         return;
     }
