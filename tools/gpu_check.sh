@@ -459,6 +459,19 @@ if os.environ.get("GC_PROFILE") == "1":
         if not frames:
             return None
         return len(frames), [middle([float(r.get(c) or 0) for r in frames]) for c in cols]
+    def army_table(group, renders, cols):
+        """Per (label, NAME, item) of `renders` with a far_tiles/NAME.csv: (label, frames, medians),
+        each medians' _ms column also a results.csv row GROUP, tank_army_BIG, "item column"."""
+        table = []
+        for label, name, item in renders:
+            got = army_medians(name, cols)
+            if not got:
+                continue
+            table.append((label, *got))
+            for c, v in zip(cols, got[1]):
+                if c.endswith("_ms"):
+                    rows.append((group, f"tank_army_{big}", f"{item} {c}", v, "ms"))
+        return table
     def last_frames(result):
         """What same_last_frame wrote into far_tiles/RESULT."""
         path = os.path.join(out, "far_tiles", result)
@@ -468,7 +481,6 @@ if os.environ.get("GC_PROFILE") == "1":
     tiles_cols = ("frame_ms", "host_setup_ms", "host_select_ms", "far_ms", "far_lookup_bake_ms",
                   "far_bakes", "host_record_ms", "host_record_sprites_ms", "host_record_lists_ms",
                   "gpu_frame_ms", "gpu_far_ms", "far_entities")
-    tiles_rows = []
     renders = (("hybrid, coarse", "coarse", "hybrid_gpu_far coarse"),
                ("hybrid, fine", "fine", "hybrid_gpu_far fine"),
                ("hybrid, sprites", "sprites", "hybrid_gpu_far sprites"),
@@ -476,14 +488,7 @@ if os.environ.get("GC_PROFILE") == "1":
                ("all far, fine", "far_fine", "far fine"),
                ("all far, sprites", "far_sprites", "far sprites"),
                ("all far, still camera", "far_still", "far still"))
-    for label, name, item in renders:
-        got = army_medians(name, tiles_cols)
-        if not got:
-            continue
-        tiles_rows.append((label, *got))
-        for c, v in zip(tiles_cols, got[1]):
-            if c.endswith("_ms"):
-                rows.append(("far_tiles", f"tank_army_{big}", f"{item} {c}", v, "ms"))
+    tiles_rows = army_table("far_tiles", renders, tiles_cols)
     same, same_far = last_frames("identity.txt"), last_frames("far_identity.txt")
     by_sprite, by_sprite_far = last_frames("sprites_identity.txt"), last_frames("far_sprites_identity.txt")
     lines += ["", f"## The far pass: {int(big):,} tanks, hybrid and all far, its tiles, in flight (ms, medians)", "",
@@ -502,16 +507,10 @@ if os.environ.get("GC_PROFILE") == "1":
             lines.append(f"| {label} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
     else:
         lines.append("No far-tiles rows: see logs/far_tiles.log.")
-    placed = []
     cols = ("frame_ms", "host_record_ms", "host_record_sprites_ms", "host_record_lists_ms",
             "gpu_upload_ms", "gpu_frame_ms")
-    for p in ("direct", "staged"):
-        got = army_medians(f"near_{p}", cols)
-        if not got:
-            continue
-        placed.append((p, *got))
-        for c, v in zip(cols, got[1]):
-            rows.append(("placement", f"tank_army_{big}", f"near_vulkan {p} {c}", v, "ms"))
+    placed = army_table("placement", [(p, f"near_{p}", f"near_vulkan {p}") for p in ("direct", "staged")],
+                        cols)
     same = last_frames("placement_identity.txt")
     lines += ["", f"## Direct writes or staged uploads: {int(big):,} tanks, all-near Vulkan, in flight (ms, medians)", "",
               f"`voxtier render tank_army_{big}.json --mode near --near-backend vulkan --frames 0:23 --csv`, "
@@ -528,16 +527,8 @@ if os.environ.get("GC_PROFILE") == "1":
     # same army and frames: issue 35's aim at 100,000 is <= 10 ms and >= 3x all-near.
     budget_cols = ("frame_ms", "host_setup_ms", "host_select_ms", "far_ms", "far_bakes",
                    "host_record_ms", "gpu_frame_ms", "gpu_far_ms", "far_entities")
-    budget_rows = []
-    for label, name, item in (("hybrid, error budget 1 vpx", "budget", "hybrid_budget"),
-                              ("all near", "near_direct", "near_vulkan")):
-        got = army_medians(name, budget_cols)
-        if not got:
-            continue
-        budget_rows.append((label, *got))
-        for c, v in zip(budget_cols, got[1]):
-            if c.endswith("_ms"):
-                rows.append(("error_budget", f"tank_army_{big}", f"{item} {c}", v, "ms"))
+    budget_rows = army_table("error_budget", (("hybrid, error budget 1 vpx", "budget", "hybrid_budget"),
+                                              ("all near", "near_direct", "near_vulkan")), budget_cols)
     lines += ["", f"## The error budget: {int(big):,} tanks, hybrid against all-near Vulkan, in flight (ms, medians)", "",
               f"`voxtier render tank_army_{big}_budget.json --mode hybrid --far-backend vulkan --frames 0:23 --csv` "
               "(the army with `\"selector\": {\"metric\": \"error_budget\", \"budget_vpx\": 1}`: most tanks far, "
