@@ -1,8 +1,9 @@
 #include "core/occlusion.hpp"
 
+#include "core/key_sort.hpp"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <bit>
@@ -73,49 +74,62 @@ bool OcclusionTiles::hides(glm::ivec4 rect, float depth) {
     return true;
 }
 
-std::vector<std::uint32_t> frontToBack(std::span<const SpriteSetup* const> sprites) {
+void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& buffers,
+                 std::vector<std::uint32_t>& order) {
     // One 64-bit key per sprite: the depth's bits inverted (positive floats order like their
     // bits, so this puts nearer first), then the entity id; the index rides along. The keys are
     // read in parallel: at 100,000 sprites reading each one's depth is a cache miss apiece, which
     // one core paid serially (a third of the near tier's host recording). Hidden sprites get the
     // greatest key and are cut from the end after the sort.
     constexpr std::uint64_t kHidden = std::numeric_limits<std::uint64_t>::max();
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(sprites.size());
-    std::vector<std::uint8_t> shown(sprites.size(), 0);
-    tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, std::uint32_t(sprites.size()), 256),
-                      [&](const auto& r) {
-                          for (std::uint32_t i = r.begin(); i != r.end(); ++i) {
-                              const SpriteSetup* s = sprites[i];
-                              if (!s || !s->visible()) {
-                                  keyed[i] = {kHidden, i};
-                                  continue;
-                              }
-                              const std::uint32_t depthBits =
-                                  std::bit_cast<std::uint32_t>(std::max(s->gpu.depth, 0.0f));
-                              keyed[i] = {(std::uint64_t(~depthBits) << 32) | s->entityId, i};
-                              shown[i] = 1;
-                          }
-                      });
-    // (key, index) pairs are distinct, so the parallel sort has one answer.
-    tbb::parallel_sort(keyed.begin(), keyed.end());
+    const auto shown = [&](std::uint32_t i) { return sprites[i] && sprites[i]->visible(); };
+    std::vector<KeyIndex>& keyed = buffers.keyed;
+    keyed.resize(sprites.size());
+    tbb::parallel_for(
+        tbb::blocked_range<std::uint32_t>(0, std::uint32_t(sprites.size()), 256),
+        [&](const auto& r) {
+            for (std::uint32_t i = r.begin(); i != r.end(); ++i) {
+                if (!shown(i)) {
+                    keyed[i] = {kHidden, i};
+                    continue;
+                }
+                const std::uint32_t depthBits =
+                    std::bit_cast<std::uint32_t>(std::max(sprites[i]->gpu.depth, 0.0f));
+                keyed[i] = {(std::uint64_t(~depthBits) << 32) | sprites[i]->entityId, i};
+            }
+        });
+    // (key, index) pairs are distinct, so the order has one answer, whichever sort finds it.
+    sortKeyIndexPairs(keyed, buffers.scratch);
     // The hidden sort last, after any visible sprite whose key is the greatest too (depth 0 and
     // the greatest id), which stays in its place among them.
-    const auto tail = std::lower_bound(keyed.begin(), keyed.end(),
-                                       std::pair<std::uint64_t, std::uint32_t>(kHidden, 0));
-    std::vector<std::uint32_t> order(std::size_t(tail - keyed.begin()));
+    const auto tail = std::lower_bound(keyed.begin(), keyed.end(), KeyIndex(kHidden, 0));
+    order.resize(std::size_t(tail - keyed.begin()));
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, order.size(), 4096), [&](const auto& r) {
         for (std::size_t k = r.begin(); k != r.end(); ++k) order[k] = keyed[k].second;
     });
     for (auto it = tail; it != keyed.end(); ++it)
-        if (shown[it->second]) order.push_back(it->second);
+        if (shown(it->second)) order.push_back(it->second);
+}
+
+void drawOrder(std::span<const SpriteSetup* const> sprites, bool cull, DrawOrderBuffers& buffers,
+               std::vector<std::uint32_t>& order) {
+    if (cull) return frontToBack(sprites, buffers, order);
+    order.clear();
+    for (std::uint32_t i = 0; i < sprites.size(); ++i)
+        if (sprites[i] && sprites[i]->visible()) order.push_back(i);
+}
+
+std::vector<std::uint32_t> frontToBack(std::span<const SpriteSetup* const> sprites) {
+    DrawOrderBuffers buffers;
+    std::vector<std::uint32_t> order;
+    frontToBack(sprites, buffers, order);
     return order;
 }
 
 std::vector<std::uint32_t> drawOrder(std::span<const SpriteSetup* const> sprites, bool cull) {
-    if (cull) return frontToBack(sprites);
+    DrawOrderBuffers buffers;
     std::vector<std::uint32_t> order;
-    for (std::uint32_t i = 0; i < sprites.size(); ++i)
-        if (sprites[i] && sprites[i]->visible()) order.push_back(i);
+    drawOrder(sprites, cull, buffers, order);
     return order;
 }
 

@@ -91,7 +91,7 @@ bool NearPasses::Impl::orderSprites(std::span<const SpriteSetup* const> all, con
     // §6: front to back with equal depths in ascending id under the early depth test, which
     // keeps every pixel the same (the depth test alone decides unequal depths, whatever their
     // order); else ascending entity id, so that depth GREATER resolves ties to the lower id.
-    kept.order = drawOrder(all, opt.earlyDepthTest);
+    drawOrder(all, opt.earlyDepthTest, kept.buffers, kept.order);
     for (const std::uint32_t i : kept.order) visible.push_back(all[i]);
     if (!opt.earlyDepthTest)
         std::stable_sort(

@@ -3,6 +3,7 @@
 // its Vulkan objects (near_passes_create.cpp) and the one that records a frame's passes
 // (near_passes.cpp).
 #include "core/near_rate.hpp"
+#include "core/occlusion.hpp"
 #include "volumetric/near_passes.hpp"
 #include "volumetric/near_pipelines.hpp"
 #include "volumetric/shaders/near_shared.h"
@@ -80,6 +81,7 @@ struct NearPasses::Impl {
     struct KeptOrder {
         std::uint64_t store = 0, asOf = 0; ///< store 0: nothing kept
         std::vector<std::uint32_t> entity, order;
+        DrawOrderBuffers buffers; ///< the order's working arrays (kept for their storage)
     } keptOrder;
     /// The residency's first showings of last frame's `visible`: kept while its sprites are the
     /// same entities', in the same order, at the same animation frames.
