@@ -1,5 +1,6 @@
 #include "impostor_cache/far_pass.hpp"
 
+#include "core/key_sort.hpp"
 #include "core/sprite_kernel.h"
 #include "impostor_cache/far_residency.hpp"
 #include "impostor_cache/shaders/far_shared.h"
@@ -7,7 +8,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
@@ -103,7 +103,7 @@ struct FarPass::Impl {
     std::vector<std::uint64_t> keys;
     /// The drawn instances in draw order: their keys and instance indices, sorted; and their
     /// rectangles in that order.
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
+    std::vector<KeyIndex> order, orderScratch;
     std::vector<glm::ivec4> sortedRects;
     /// What the order and tile lists above were made from: per instance its entity (kNoEntity
     /// where a copy), the sprites of store `store` as of update `asOf`, the image size.
@@ -313,8 +313,8 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         // The drawn instances take their places in the rule's order, nearest first (far_shared.h:
         // the shader stops passing a tile's sprites over a pixel once the pixel would refuse the
         // next one, which is then true of every later one). The (key, index) pairs are distinct,
-        // so the parallel sort has one answer.
-        tbb::parallel_sort(order.begin(), order.end());
+        // so the order has one answer, whichever sort finds it.
+        sortKeyIndexPairs(order, orderScratch);
         if (tiles == FarTiles::Sprites) {
             tileRecords.clear(); // no tiles: a workgroup per drawn instance
             list.clear();
