@@ -579,6 +579,7 @@ Image FrameRenderer::finishOnVulkan(VulkanFrameInFlight&& inFlight, bool hasFar,
     st.vulkanFar = r.far;
     st.vulkan = timesOf(r.report);
     st.vulkan.farPassMs = farShare;
+    st.vulkan.hostRecordFarMs = hasFar ? r.farRecordMs : 0.0;
     return std::move(r.image);
 }
 

@@ -202,6 +202,8 @@ struct VulkanFrameTimes {
            gpuResolveMs = 0.0, gpuFarMs = 0.0, gpuCopyMs = 0.0;
     /// The far pass's share of the frame: its recording, its upload and its device time.
     double farPassMs = 0.0;
+    /// Of hostRecordMs, the far pass's recording (its order, palettes, tiles and instances).
+    double hostRecordFarMs = 0.0;
 };
 
 /// What a frame did. The frame's own figures (its steps on the host, what each tier drew; the

@@ -357,7 +357,11 @@ TEST_F(BenchSmoke, FarBackendIsTheCpuBlitBesideTheVulkanFarPass) {
         EXPECT_EQ(gpu["far_backend"], "vulkan");
         if (num(gpu, "far_entities") > 0) {
             EXPECT_GT(num(gpu, "far_on_vulkan"), 0.0) << scene;
+            // Its recording is timed apart, within the frame's.
+            EXPECT_GT(num(gpu, "host_record_far_ms"), 0.0) << scene;
+            EXPECT_LE(num(gpu, "host_record_far_ms"), num(gpu, "host_record_ms")) << scene;
         }
+        EXPECT_EQ(num(modeRow(scene, "hybrid"), "host_record_far_ms"), 0.0) << scene;
     }
 }
 
@@ -406,8 +410,9 @@ TEST_F(BenchSmoke, DeviceSplitHasTheHostPartAndEveryGpuPassOfEachModeOnVulkan) {
         if ((name.starts_with("host_") && !f.timeStep) || name.starts_with("gpu_"))
             names.push_back(name), header += " " + name + " |";
     }
-    // record (and its two near halves), wait, readback; the frame and seven passes
-    EXPECT_EQ(names.size(), 13u);
+    // record (its two near halves, the near records' order and residency, the far pass), wait,
+    // readback; the frame and seven passes
+    EXPECT_EQ(names.size(), 16u);
     const auto at = run().report.find(header + "\n");
     ASSERT_NE(at, std::string::npos) << header;
     const std::string table = run().report.substr(at, run().report.find("\n\n", at) - at);
@@ -432,6 +437,13 @@ TEST_F(BenchSmoke, DeviceSplitHasTheHostPartAndEveryGpuPassOfEachModeOnVulkan) {
         EXPECT_GT(num(nearVulkan, part), 0.0) << part;
         EXPECT_LE(num(nearVulkan, part), num(nearVulkan, "host_record_ms")) << part;
     }
+    // And the sprite records' draw order and residency are parts of those; all-near records no
+    // far pass.
+    for (const char* part : {"host_record_order_ms", "host_record_residency_ms"}) {
+        EXPECT_GT(num(nearVulkan, part), 0.0) << part;
+        EXPECT_LE(num(nearVulkan, part), num(nearVulkan, "host_record_sprites_ms")) << part;
+    }
+    EXPECT_EQ(num(nearVulkan, "host_record_far_ms"), 0.0);
 }
 
 TEST_F(BenchSmoke, TruthHasNoErrorAndEveryOtherModeHasOne) {

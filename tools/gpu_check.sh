@@ -385,7 +385,9 @@ else:
 if os.environ.get("GC_PROFILE") == "1":
     parts = [("frame_ms", "frame"), ("host_setup_ms", "set-up"), ("host_select_ms", "select"),
              ("host_record_ms", "record"), ("host_record_sprites_ms", "of which sprite records"),
-             ("host_record_lists_ms", "of which lists"), ("host_wait_ms", "wait"), ("host_readback_ms", "readback"),
+             ("host_record_lists_ms", "of which lists"), ("host_record_order_ms", "of which draw order"),
+             ("host_record_residency_ms", "of which residency"), ("host_record_far_ms", "of which far pass"),
+             ("host_wait_ms", "wait"), ("host_readback_ms", "readback"),
              ("gpu_frame_ms", "GPU frame"), ("gpu_upload_ms", "GPU upload"), ("gpu_cells_ms", "GPU cells"),
              ("gpu_splat_ms", "GPU splat"), ("gpu_draw_ms", "GPU trace or draw"), ("gpu_resolve_ms", "GPU resolve"),
              ("gpu_far_ms", "GPU far"), ("gpu_copy_ms", "GPU copies")]
@@ -480,6 +482,7 @@ if os.environ.get("GC_PROFILE") == "1":
     # recording with its device time, at 8-10 ms of a 19-23 ms frame, and said no more).
     tiles_cols = ("frame_ms", "host_setup_ms", "host_select_ms", "far_ms", "far_lookup_bake_ms",
                   "far_bakes", "host_record_ms", "host_record_sprites_ms", "host_record_lists_ms",
+                  "host_record_order_ms", "host_record_residency_ms", "host_record_far_ms",
                   "gpu_frame_ms", "gpu_far_ms", "far_entities")
     renders = (("hybrid, coarse", "coarse", "hybrid_gpu_far coarse"),
                ("hybrid, fine", "fine", "hybrid_gpu_far fine"),
@@ -501,14 +504,15 @@ if os.environ.get("GC_PROFILE") == "1":
               "records and lists) and its device time.", ""]
     if tiles_rows:
         lines += ["| render | frames | frame in flight | set-up | select | far tier | of which lookups and bakes "
-                  "| bakes | host record | of which near sprite records | of which near lists | GPU frame "
-                  "| GPU far pass | far entities |", "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "| bakes | host record | of which near sprite records | of which near lists "
+                  "| of which near draw order | of which residency | of which far pass | GPU frame "
+                  "| GPU far pass | far entities |", "|---" * 17 + "|"]
         for label, n, v in tiles_rows:
             lines.append(f"| {label} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
     else:
         lines.append("No far-tiles rows: see logs/far_tiles.log.")
     cols = ("frame_ms", "host_record_ms", "host_record_sprites_ms", "host_record_lists_ms",
-            "gpu_upload_ms", "gpu_frame_ms")
+            "host_record_order_ms", "host_record_residency_ms", "gpu_upload_ms", "gpu_frame_ms")
     placed = army_table("placement", [(p, f"near_{p}", f"near_vulkan {p}") for p in ("direct", "staged")],
                         cols)
     same = last_frames("placement_identity.txt")
@@ -518,7 +522,7 @@ if os.environ.get("GC_PROFILE") == "1":
               f"it) and with `VOXTIER_FORCE_STAGING=1`; frames 6-23. Frame 23, direct against staged: {same}.", ""]
     if placed:
         lines += ["| uploads | frames | frame in flight | host record | of which sprite records | of which lists "
-                  "| GPU upload | GPU frame |", "|---|---|---|---|---|---|---|---|"]
+                  "| of which draw order | of which residency | GPU upload | GPU frame |", "|---" * 10 + "|"]
         for p, n, v in placed:
             lines.append(f"| {p} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
     else:

@@ -109,8 +109,11 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
                                     std::span<const SpriteSetup* const> all, const NearOptions& opt,
                                     NearRate rate, NearStats& stats, const SpriteHistory* history) {
     bool unchanged = false;
+    const auto tOrder = std::chrono::steady_clock::now();
     stats.drawOrderKept = orderSprites(all, opt, history, unchanged);
     stats.sprites = visible.size();
+    stats.recordOrderMs = msSince(tOrder);
+    const auto tResidency = std::chrono::steady_clock::now();
 
     // The residency walks every sprite for the first showing of each model frame: not where the
     // same sprites show the same frames in the same order as last frame. Else, where the drawn
@@ -142,8 +145,12 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
     wishes.resize(n);
     const VkDeviceSize bytes = VkDeviceSize(n) * sizeof(kernel::SpriteGpu);
     ensure(slot.sprites, std::max<VkDeviceSize>(bytes, 4));
-    if (!n) return;
+    if (!n) {
+        stats.recordResidencyMs = msSince(tResidency);
+        return;
+    }
     residency.placements(models, placements);
+    stats.recordResidencyMs = msSince(tResidency);
     // What the slot's buffer holds that is still current: a record stays where the same entity's
     // sprite sat when the slot was last written and has not changed since, in a buffer the host
     // writes in place (a staged buffer is copied whole from the staging ring), with the frames it

@@ -40,6 +40,11 @@ struct NearStats : CellRateCounts {
     /// shaders read it), and the lists the passes walk (proxies, the rate plan, the cell store,
     /// the work lists and their uploads, the descriptors).
     double recordSpritesMs = 0.0, recordListsMs = 0.0;
+    /// Of recordSpritesMs: the draw order (sorted, or last frame's kept), and the voxel
+    /// residency (each model frame's first showing, the atlas's uploads, where each frame lies).
+    /// The rest is the records' loop. Which of the three bounds a frame differs by host: a moving
+    /// camera reorders every sprite, and the loop writes where the device reads.
+    double recordOrderMs = 0.0, recordResidencyMs = 0.0;
     /// Sprite records left as the frame's slot last held them (unchanged since, in the same
     /// place: not written again), and whether the draw order was last frame's (no sprite set up
     /// anew since). Only where the sprites came with their history (NearPasses::record).
