@@ -13,6 +13,7 @@ namespace {
 
 constexpr int kDigitBits = 8;
 constexpr std::size_t kBuckets = std::size_t(1) << kDigitBits;
+static_assert(std::tuple_size_v<KeyIndexScratch::Buckets> == kBuckets);
 /// Below this a comparison sort is as fast, and one thread does it.
 constexpr std::size_t kRadixFrom = 4096;
 /// Pairs a chunk: each chunk counts and scatters its own part of a pass, so that the parallel
@@ -38,7 +39,7 @@ struct Digit {
 
 } // namespace
 
-void sortKeyIndexPairs(std::vector<KeyIndex>& pairs, std::vector<KeyIndex>& scratch) {
+void sortKeyIndexPairs(std::vector<KeyIndex>& pairs, KeyIndexScratch& scratch) {
     const std::size_t n = pairs.size();
     if (n < kRadixFrom) {
         std::sort(pairs.begin(), pairs.end());
@@ -68,23 +69,26 @@ void sortKeyIndexPairs(std::vector<KeyIndex>& pairs, std::vector<KeyIndex>& scra
     // The passes, least significant digit first; a digit every pair shares leaves the order as it
     // is. Ascending indices are already in their final order among equal keys (the key passes are
     // stable), so their digits need no pass either.
-    std::vector<Digit> digits;
+    // At most 12 passes: 4 digits of the index, 8 of the key.
+    std::array<Digit, 12> digits;
+    std::size_t passes = 0;
     const auto varies = [](std::uint64_t all, std::uint64_t any, int shift) {
         return ((all ^ any) >> shift & (kBuckets - 1)) != 0;
     };
     if (!shared.ascending)
         for (int shift = 0; shift < 32; shift += kDigitBits)
-            if (varies(shared.indexAnd, shared.indexOr, shift)) digits.push_back({false, shift});
+            if (varies(shared.indexAnd, shared.indexOr, shift)) digits[passes++] = {false, shift};
     for (int shift = 0; shift < 64; shift += kDigitBits)
-        if (varies(shared.keyAnd, shared.keyOr, shift)) digits.push_back({true, shift});
-    if (digits.empty()) return; // every pair equal
+        if (varies(shared.keyAnd, shared.keyOr, shift)) digits[passes++] = {true, shift};
+    if (passes == 0) return; // every pair equal
 
-    scratch.resize(n);
+    scratch.pairs.resize(n);
     std::vector<KeyIndex>* from = &pairs;
-    std::vector<KeyIndex>* to = &scratch;
-    // Per chunk, its count in each bucket, then where its next pair of the bucket goes.
-    std::vector<std::array<std::size_t, kBuckets>> at(chunks);
-    for (const Digit digit : digits) {
+    std::vector<KeyIndex>* to = &scratch.pairs;
+    std::vector<std::array<std::size_t, kBuckets>>& at = scratch.buckets;
+    at.resize(chunks);
+    for (std::size_t pass = 0; pass < passes; ++pass) {
+        const Digit digit = digits[pass];
         const std::vector<KeyIndex>& src = *from;
         std::vector<KeyIndex>& dst = *to;
         tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
@@ -108,7 +112,7 @@ void sortKeyIndexPairs(std::vector<KeyIndex>& pairs, std::vector<KeyIndex>& scra
         });
         std::swap(from, to);
     }
-    if (from != &pairs) pairs.swap(scratch);
+    if (from != &pairs) pairs.swap(scratch.pairs);
 }
 
 } // namespace voxtier

@@ -73,7 +73,8 @@ std::vector<std::uint32_t> drawOrder(std::span<const SpriteSetup* const> sprites
 /// its sprites every frame: the forms below allocate nothing once they have grown (at 100,000
 /// sprites the arrays above were 3 MB allocated and filled afresh each frame).
 struct DrawOrderBuffers {
-    std::vector<KeyIndex> keyed, scratch;
+    std::vector<KeyIndex> keyed;
+    KeyIndexScratch scratch;
 };
 /// frontToBack and drawOrder into `order`, with the working arrays of `buffers`.
 void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& buffers,

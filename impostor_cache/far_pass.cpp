@@ -103,7 +103,8 @@ struct FarPass::Impl {
     std::vector<std::uint64_t> keys;
     /// The drawn instances in draw order: their keys and instance indices, sorted; and their
     /// rectangles in that order.
-    std::vector<KeyIndex> order, orderScratch;
+    std::vector<KeyIndex> order;
+    KeyIndexScratch orderScratch;
     std::vector<glm::ivec4> sortedRects;
     /// What the order and tile lists above were made from: per instance its entity (kNoEntity
     /// where a copy), the sprites of store `store` as of update `asOf`, the image size.

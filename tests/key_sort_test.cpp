@@ -14,7 +14,7 @@ namespace voxtier {
 namespace {
 
 // The sort under test on a copy, against std::sort on another: the same pairs in the same order.
-void expectSortedAsStdSort(const std::vector<KeyIndex>& input, std::vector<KeyIndex>& scratch,
+void expectSortedAsStdSort(const std::vector<KeyIndex>& input, KeyIndexScratch& scratch,
                            const char* what) {
     std::vector<KeyIndex> expected = input, got = input;
     std::sort(expected.begin(), expected.end());
@@ -34,7 +34,7 @@ TEST(KeyIndexSort, EqualsStdSortOnDepthAndIdKeysWithAscendingIndices) {
     // frontToBack's keys: a float depth's bits inverted over an entity id; the far pass's
     // ordered depth likewise. Depths within a narrow range share their high bits.
     std::mt19937_64 rng(7);
-    std::vector<KeyIndex> scratch;
+    KeyIndexScratch scratch;
     for (const std::size_t n : kSizes) {
         std::vector<KeyIndex> pairs(n);
         std::uniform_real_distribution<float> depth(1e-4f, 2e-3f);
@@ -49,7 +49,7 @@ TEST(KeyIndexSort, EqualsStdSortOnDepthAndIdKeysWithAscendingIndices) {
 
 TEST(KeyIndexSort, EqualsStdSortWithTiesAndIndicesInAnyOrder) {
     std::mt19937_64 rng(11);
-    std::vector<KeyIndex> scratch;
+    KeyIndexScratch scratch;
     for (const std::size_t n : kSizes) {
         for (const int distinctKeys : {1, 2, 7, 300}) {
             // Few distinct keys, so most pairs tie on the key and the index decides; indices
@@ -73,7 +73,7 @@ TEST(KeyIndexSort, EqualsStdSortOnKeysThatDifferInAnyByte) {
     // Every digit of the key and of the index in turn the only one that varies (a pass each, the
     // others spared), then all of them (every pass).
     std::mt19937_64 rng(13);
-    std::vector<KeyIndex> scratch;
+    KeyIndexScratch scratch;
     const std::size_t n = 40000;
     for (int shift = 0; shift < 64; shift += 8) {
         std::vector<KeyIndex> pairs(n);
@@ -102,7 +102,7 @@ TEST(KeyIndexSort, EqualsStdSortOnKeysThatDifferInAnyByte) {
 TEST(KeyIndexSort, ScratchKeptBetweenSortsOfOtherSizes) {
     // A frame's sort reuses the last frame's scratch, larger or smaller than it needs.
     std::mt19937_64 rng(17);
-    std::vector<KeyIndex> scratch;
+    KeyIndexScratch scratch;
     for (const std::size_t n : {100000u, 5000u, 70000u, 4096u, 100001u}) {
         std::vector<KeyIndex> pairs(n);
         for (std::uint32_t i = 0; i < n; ++i) pairs[i] = {rng() >> 20, i};
