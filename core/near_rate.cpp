@@ -50,6 +50,15 @@ CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate 
 CellRatePlan planCellRate(std::span<const CellRateWish> wishes, std::uint64_t budgetBytes,
                           std::uint64_t maxCellSprites) {
     CellRatePlan plan;
+    planCellRate(wishes, plan, budgetBytes, maxCellSprites);
+    return plan;
+}
+
+void planCellRate(std::span<const CellRateWish> wishes, CellRatePlan& plan,
+                  std::uint64_t budgetBytes, std::uint64_t maxCellSprites) {
+    std::vector<std::uint32_t> cellBase = std::move(plan.cellBase);
+    plan = CellRatePlan{};
+    plan.cellBase = std::move(cellBase);
     plan.cellBase.assign(wishes.size(), kNoCells);
     // Offsets (up to twice the cell count: the outcomes follow the primaries) are uint32 on the
     // GPU; kNoCells stays out of reach.
@@ -73,7 +82,6 @@ CellRatePlan planCellRate(std::span<const CellRateWish> wishes, std::uint64_t bu
         ++plan.cellSprites;
         plan.pixelsLookedUp += pixels;
     }
-    return plan;
 }
 
 } // namespace voxtier

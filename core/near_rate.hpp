@@ -107,5 +107,10 @@ CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate 
 CellRatePlan planCellRate(std::span<const CellRateWish> wishes,
                           std::uint64_t budgetBytes = kDefaultCellBudgetBytes,
                           std::uint64_t maxCellSprites = kMaxCellSprites);
+/// The same into `plan`, whose arrays are reused: a tier that plans every frame keeps one and
+/// allocates nothing once it has grown.
+void planCellRate(std::span<const CellRateWish> wishes, CellRatePlan& plan,
+                  std::uint64_t budgetBytes = kDefaultCellBudgetBytes,
+                  std::uint64_t maxCellSprites = kMaxCellSprites);
 
 } // namespace voxtier

@@ -721,7 +721,8 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
         throw VulkanError("near tier: counting DDA steps needs fragmentStoresAndAtomics, which " +
                           m.device.name() + " lacks");
     if (!tracePixels) m.writeProxies(frame, slot, cam, opt, stats);
-    const CellRatePlan plan = planCellRate(m.wishes, opt.cellBudgetBytes);
+    CellRatePlan& plan = m.ratePlan;
+    planCellRate(m.wishes, plan, opt.cellBudgetBytes);
     stats.cellsTraced = plan.cells;
     stats.cellSprites = plan.cellSprites;
     stats.cellOverBudget = plan.overBudget;

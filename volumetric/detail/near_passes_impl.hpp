@@ -98,6 +98,8 @@ struct NearPasses::Impl {
     std::vector<float> depths;
     std::vector<glm::ivec4> rects;
     std::vector<CellRateWish> wishes;
+    /// This frame's cell-rate plan (kept for its storage).
+    CellRatePlan ratePlan;
     std::vector<std::uint8_t> flat;
     std::vector<glm::uvec2> tiles;
     std::vector<near_gpu::NearSplatBlock> blocks;
