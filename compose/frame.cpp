@@ -45,51 +45,6 @@ NearBackend nearBackendFor(RenderMode mode, NearBackend configured) {
                                          : configured;
 }
 
-/// Which sprites each tier draws. A cross-fading sprite is drawn by both tiers, each with a copy
-/// that keeps the complementary half of the dither pattern (the new tier takes the pixels below
-/// the share). The lists hold indices into the frame's sprites followed by `faded`.
-struct TierShares {
-    std::vector<SpriteSetup> faded;
-    std::vector<std::size_t> near;
-    std::vector<std::pair<std::size_t, std::optional<ViewId>>> far; ///< sprite, view override
-
-    /// `visible`: the visible sprites' ids, ascending.
-    TierShares(std::span<const SpriteSetup> sprites, std::span<const EntityPlan> plan,
-               std::span<const std::uint32_t> visible, std::optional<Tier> onlyTier)
-        : sprites_(sprites) {
-        for (const std::uint32_t i : visible) {
-            const EntityPlan& p = plan[i];
-            if (p.drawsNear() && onlyTier != Tier::Far)
-                near.push_back(share(i, p, /*keepBelow=*/p.tier == Tier::Near));
-            if (p.drawsFar() && onlyTier != Tier::Near)
-                far.emplace_back(share(i, p, /*keepBelow=*/p.tier == Tier::Far), p.view);
-            if (p.fadeFromView && p.fade > 0.0f && onlyTier != Tier::Near)
-                far.emplace_back(share(i, p, /*keepBelow=*/false), p.fadeFromView);
-        }
-    }
-    std::vector<const SpriteSetup*> nearSprites() const {
-        std::vector<const SpriteSetup*> out;
-        for (std::size_t k : near) out.push_back(&at(k));
-        return out;
-    }
-    std::vector<FarRequest> farRequests() const {
-        std::vector<FarRequest> out;
-        for (const auto& [k, view] : far) out.push_back({&at(k), view});
-        return out;
-    }
-
-  private:
-    std::span<const SpriteSetup> sprites_;
-    std::size_t share(std::size_t i, const EntityPlan& p, bool keepBelow) {
-        if (p.fade <= 0.0f) return i;
-        faded.push_back(fadedCopy(sprites_[i], p.fade, keepBelow));
-        return sprites_.size() + faded.size() - 1;
-    }
-    const SpriteSetup& at(std::size_t k) const {
-        return k < sprites_.size() ? sprites_[k] : faded[k - sprites_.size()];
-    }
-};
-
 /// The value `name` stands for in a name table, else InputError naming `field` and the names.
 template <class E, std::size_t N>
 E fromName(const std::array<std::pair<const char*, E>, N>& names, const std::string& name,
@@ -187,6 +142,102 @@ VulkanFrameTimes timesOf(const GpuFrameReport& g) {
 }
 
 } // namespace
+
+/// Which sprites each tier draws. A cross-fading sprite is drawn by both tiers, each with a copy
+/// that keeps the complementary half of the dither pattern (the new tier takes the pixels below
+/// the share). The lists hold indices into the frame's sprites followed by `faded`, in the
+/// order of the visible ids. Kept by the renderer and filled on every core: at 100,000 tanks
+/// one core built the lists by appending, growing each array afresh every frame (a megabyte
+/// and more a frame, before the near tier's recording began).
+struct FrameRenderer::TierShares {
+    std::vector<SpriteSetup> faded;
+    std::vector<std::size_t> near;
+    std::vector<std::pair<std::size_t, std::optional<ViewId>>> far; ///< sprite, view override
+    /// The sprites `near` lists.
+    std::vector<const SpriteSetup*> nearSprites;
+
+    /// `visible`: the visible sprites' ids, ascending.
+    void fill(std::span<const SpriteSetup> sprites, std::span<const EntityPlan> plan,
+              std::span<const std::uint32_t> visible, std::optional<Tier> onlyTier) {
+        sprites_ = sprites;
+        // Whether an entity is drawn near, far, and far in the view it fades from.
+        struct Draws {
+            bool near, far, fromView;
+        };
+        const auto drawsOf = [&](const EntityPlan& p) {
+            return Draws{p.drawsNear() && onlyTier != Tier::Far,
+                         p.drawsFar() && onlyTier != Tier::Near,
+                         p.fadeFromView && p.fade > 0.0f && onlyTier != Tier::Near};
+        };
+        // What each visible entity adds to each list (a fading one's shares are copies): counted
+        // per chunk of them in parallel, then each chunk fills its lists from its offsets, in the
+        // order of `visible`.
+        const auto countsOf = [&](const EntityPlan& p) {
+            const Draws d = drawsOf(p);
+            const std::size_t shares = std::size_t(d.near) + d.far + d.fromView;
+            return Counts{d.near, std::size_t(d.far) + d.fromView, p.fade > 0.0f ? shares : 0};
+        };
+        constexpr std::size_t kChunk = 4096;
+        const std::size_t chunks = (visible.size() + kChunk - 1) / kChunk;
+        at_.assign(chunks + 1, Counts{});
+        tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+            Counts& sum = at_[c + 1];
+            for (std::size_t j = c * kChunk; j != std::min(visible.size(), (c + 1) * kChunk); ++j) {
+                const Counts k = countsOf(plan[visible[j]]);
+                sum.near += k.near, sum.far += k.far, sum.faded += k.faded;
+            }
+        });
+        for (std::size_t c = 0; c < chunks; ++c) {
+            at_[c + 1].near += at_[c].near;
+            at_[c + 1].far += at_[c].far;
+            at_[c + 1].faded += at_[c].faded;
+        }
+        near.resize(at_[chunks].near);
+        far.resize(at_[chunks].far);
+        faded.resize(at_[chunks].faded);
+        tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+            Counts next = at_[c];
+            // The sprite a tier draws: the entity's own, or a copy with its share of the fade.
+            const auto share = [&](std::uint32_t i, const EntityPlan& p, bool keepBelow) {
+                if (p.fade <= 0.0f) return std::size_t(i);
+                faded[next.faded] = fadedCopy(sprites_[i], p.fade, keepBelow);
+                return sprites_.size() + next.faded++;
+            };
+            for (std::size_t j = c * kChunk; j != std::min(visible.size(), (c + 1) * kChunk); ++j) {
+                const std::uint32_t i = visible[j];
+                const EntityPlan& p = plan[i];
+                const Draws d = drawsOf(p);
+                if (d.near) near[next.near++] = share(i, p, /*keepBelow=*/p.tier == Tier::Near);
+                if (d.far)
+                    far[next.far++] = {share(i, p, /*keepBelow=*/p.tier == Tier::Far), p.view};
+                if (d.fromView)
+                    far[next.far++] = {share(i, p, /*keepBelow=*/false), p.fadeFromView};
+            }
+        });
+        nearSprites.resize(near.size());
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, near.size(), 4096),
+                          [&](const auto& r) {
+                              for (std::size_t k = r.begin(); k != r.end(); ++k)
+                                  nearSprites[k] = &at(near[k]);
+                          });
+    }
+    std::vector<FarRequest> farRequests() const {
+        std::vector<FarRequest> out;
+        for (const auto& [k, view] : far) out.push_back({&at(k), view});
+        return out;
+    }
+
+  private:
+    std::span<const SpriteSetup> sprites_;
+    struct Counts {
+        std::size_t near = 0, far = 0, faded = 0;
+    };
+    /// Per chunk of the visible ids, where its entries of each list begin (the last: the sizes).
+    std::vector<Counts> at_;
+    const SpriteSetup& at(std::size_t k) const {
+        return k < sprites_.size() ? sprites_[k] : faded[k - sprites_.size()];
+    }
+};
 
 FrameRenderer::FrameRenderer(Scene& scene, FrameOptions options)
     : scene_(scene), options_(options), planner_(scene.selector),
@@ -489,10 +540,12 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
             if (sprites[i].visible()) found.push_back(std::uint32_t(i));
         visible = found;
     }
-    const TierShares shares(sprites, plan, visible, onlyTier);
+    if (!shares_) shares_ = std::make_unique<TierShares>();
+    TierShares& shares = *shares_;
+    shares.fill(sprites, plan, visible, onlyTier);
     st.nearDrawn = int(shares.near.size());
     st.farDrawn = int(shares.far.size());
-    const std::vector<const SpriteSetup*> nearSprites = shares.nearSprites();
+    const std::vector<const SpriteSetup*>& nearSprites = shares.nearSprites;
     if (!shares.far.empty() && farBackend() == FarBackend::Vulkan) {
         // 4 before 3 on Vulkan: make sure every needed snapshot exists (lazy bakes, parallel
         // over distinct snapshots), then one Vulkan frame draws the near sprites and, after

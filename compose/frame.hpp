@@ -364,7 +364,10 @@ class FrameRenderer {
     std::unique_ptr<SnapshotCache> cache_;
     std::shared_ptr<NearRenderer>
         near_; ///< options.sharedNear, or created by the first frame that draws near on Vulkan
-    std::unique_ptr<FarPass> farPass_;      ///< on near_'s frames, created by the first far pass
+    std::unique_ptr<FarPass> farPass_; ///< on near_'s frames, created by the first far pass
+    /// Which sprites each tier draws this frame (drawWith), its arrays kept between frames.
+    struct TierShares;
+    std::unique_ptr<TierShares> shares_;
     SharedVector<EntityPlan> previousPlan_; ///< kept with FrameOptions::measurePops only
     int editsApplied_ = 0;                  ///< scene.edits are applied in order of atFrame
 };

@@ -6,12 +6,16 @@
 #include "compose/frame.hpp"
 #include "core/procedural.hpp"
 #include "core/view_set.hpp"
+#include "crowd_scenes.hpp"
 #include "frame_test_support.hpp"
+#include "impostor_cache/far_frame.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
+#include "volumetric/reference_renderer.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <set>
 
 namespace voxtier {
@@ -284,6 +288,77 @@ TEST(HybridFrame, CrossFadeMakesTheLargestSwitchChangeSmaller) {
     std::printf("[ pops     ] largest change at a switch: instant %zu px, cross-fade %zu px (%zu / "
                 "%zu tier events, %zu view events)\n",
                 a.largestChange, b.largestChange, a.tierEvents, b.tierEvents, a.viewEvents);
+}
+
+// Thousands of entities in every kind of share at once (near, far, fading either way, a far view
+// fading into another), so that the frame's tier lists are built in many parallel chunks: the
+// frame equals its two halves drawn from lists written here serially, each fading entity's half a
+// copy that keeps its side of the dither, near by the CPU reference and far by the CPU blit,
+// composed by the depth/id rule.
+TEST(HybridFrame, TierSharesOfThousandsOfEntitiesEqualTheSharesListedOneByOne) {
+    Scene s = test::tankArmy(6000, 320, 180);
+    const double t = s.timeOfFrame(3);
+    const CameraFrame cam = makeCameraFrame(s.cameraAt(t));
+    const std::vector<SpriteSetup> sprites = setupSprites(s, cam, t);
+    std::vector<EntityPlan> plan(sprites.size());
+    std::mt19937 rng(5);
+    int kinds[5] = {};
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        if (!sprites[i].visible()) continue;
+        const int nearest = nearestView(ViewSet::Cube26, -sprites[i].lattice.dir);
+        const ViewId view = viewIdOf(ViewSet::Cube26, nearest);
+        const float share = 0.25f * float(1 + rng() % 3);
+        EntityPlan& p = plan[i];
+        const int kind = int(rng() % 5);
+        ++kinds[kind];
+        if (kind == 0) continue; // near
+        p.view = view;
+        if (kind == 1) p.tier = Tier::Far;
+        if (kind == 2) p.tier = Tier::Far, p.fadeFrom = Tier::Near, p.fade = share;
+        if (kind == 3) p.tier = Tier::Near, p.fadeFrom = Tier::Far, p.fade = share;
+        if (kind == 4) { // a far view fading into the nearest one
+            p.tier = Tier::Far, p.fadeFrom = Tier::Far, p.fade = share;
+            p.fadeFromView = viewIdOf(ViewSet::Cube26, (nearest + 1) % 26);
+        }
+    }
+    for (const int k : kinds) EXPECT_GT(k, 500);
+
+    // The shares, one entity after another.
+    std::vector<SpriteSetup> copies;
+    copies.reserve(3 * sprites.size()); // no reallocation: the lists point into it
+    const auto share = [&](std::size_t i, const EntityPlan& p, bool keepBelow) {
+        if (p.fade <= 0.0f) return &sprites[i];
+        SpriteSetup c = sprites[i];
+        c.gpu.fade = p.fade;
+        c.gpu.fadeSide = keepBelow ? 1.0f : -1.0f;
+        copies.push_back(c);
+        return static_cast<const SpriteSetup*>(&copies.back());
+    };
+    std::vector<const SpriteSetup*> nearSprites;
+    std::vector<FarRequest> farRequests;
+    for (std::size_t i = 0; i < sprites.size(); ++i) {
+        if (!sprites[i].visible()) continue;
+        const EntityPlan& p = plan[i];
+        if (p.drawsNear()) nearSprites.push_back(share(i, p, p.tier == Tier::Near));
+        if (p.drawsFar()) farRequests.push_back({share(i, p, p.tier == Tier::Far), p.view});
+        if (p.fadeFromView && p.fade > 0.0f)
+            farRequests.push_back({share(i, p, false), p.fadeFromView});
+    }
+    Image nearHalf(cam.width, cam.height, s.render.background);
+    renderReference(s.models, nearSprites, nearHalf);
+    Image farHalf(cam.width, cam.height, s.render.background);
+    SnapshotCache cache;
+    drawFarSprites(s.models, farRequests, cache, ViewSet::Cube26, farHalf);
+    composeMinZ(nearHalf, farHalf);
+
+    FrameRenderer r(s, cpuNear());
+    FrameStats stats;
+    const Image frame = r.draw(cam, sprites, plan, &stats);
+    EXPECT_EQ(stats.nearDrawn, int(nearSprites.size()));
+    EXPECT_EQ(stats.farDrawn, int(farRequests.size()));
+    const ImageDiff d = diffImages(nearHalf, frame);
+    EXPECT_TRUE(d.identical()) << d.pixelDiffs << " pixels differ, the first at " << d.firstX << ","
+                               << d.firstY;
 }
 
 // The hybrid frame's far half comes from the cache: a second identical frame bakes nothing.
