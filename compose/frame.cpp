@@ -153,8 +153,9 @@ struct FrameRenderer::TierShares {
     std::vector<SpriteSetup> faded;
     std::vector<std::size_t> near;
     std::vector<std::pair<std::size_t, std::optional<ViewId>>> far; ///< sprite, view override
-    /// The sprites `near` lists.
+    /// The sprites `near` lists, and what the far tier is asked for those `far` lists.
     std::vector<const SpriteSetup*> nearSprites;
+    std::vector<FarRequest> farRequests;
 
     /// `visible`: the visible sprites' ids, ascending.
     void fill(std::span<const SpriteSetup> sprites, std::span<const EntityPlan> plan,
@@ -220,11 +221,11 @@ struct FrameRenderer::TierShares {
                               for (std::size_t k = r.begin(); k != r.end(); ++k)
                                   nearSprites[k] = &at(near[k]);
                           });
-    }
-    std::vector<FarRequest> farRequests() const {
-        std::vector<FarRequest> out;
-        for (const auto& [k, view] : far) out.push_back({&at(k), view});
-        return out;
+        farRequests.resize(far.size());
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, far.size(), 4096), [&](const auto& r) {
+            for (std::size_t k = r.begin(); k != r.end(); ++k)
+                farRequests[k] = {&at(far[k].first), far[k].second};
+        });
     }
 
   private:
@@ -553,7 +554,7 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         // the CPU reference are composed with the Vulkan far image by the same rule.
         const auto t0 = Clock::now();
         FarFrameStats fs;
-        const FarBatch batch = prepareFarBatch(scene_.models, shares.farRequests(), *cache_,
+        const FarBatch batch = prepareFarBatch(scene_.models, shares.farRequests, *cache_,
                                                viewSetFromSize(scene_.selector.viewSetSize), &fs);
         st.far = fs;
         st.farMs += msSince(t0);
@@ -576,7 +577,7 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
     // 4-5. Far tier: make sure every needed snapshot exists (lazy bakes, parallel over distinct
     // snapshots), then blit into the same image; the blit writes with the shared min-z/id rule,
     // which is the composition (composeMinZ is the same rule for two finished images).
-    if (!shares.far.empty()) drawFar(shares.farRequests(), image, st);
+    if (!shares.far.empty()) drawFar(shares.farRequests, image, st);
     return image;
 }
 
