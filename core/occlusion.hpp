@@ -70,8 +70,8 @@ std::vector<std::uint32_t> frontToBack(std::span<const SpriteSetup* const> sprit
 std::vector<std::uint32_t> drawOrder(std::span<const SpriteSetup* const> sprites, bool cull);
 
 /// The working arrays of an order (the keys and the sort's scratch), kept by a tier that orders
-/// its sprites every frame: the forms below allocate nothing once they have grown (at 100,000
-/// sprites the arrays above were 3 MB allocated and filled afresh each frame).
+/// its sprites every frame: the forms below allocate nothing once they have grown, where the
+/// forms above allocate and fill their arrays afresh each call (3 MB at 100,000 sprites).
 struct DrawOrderBuffers {
     std::vector<KeyIndex> keyed;
     KeyIndexScratch scratch;
