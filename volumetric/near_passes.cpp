@@ -294,36 +294,26 @@ void NearPasses::Impl::writeProxies(GpuFrame& frame, Slot& slot, const CameraFra
     // sprite's depth, so every fragment's depth is that float exactly (a triangle of equal z has
     // zero depth slope). The rest (sprites through the near plane) keep the perspective proxy
     // and the shader's depth.
-    const VkDeviceSize bytes = VkDeviceSize(n) * sizeof(near_gpu::NearHull);
-    ensure(slot.hulls, bytes);
-    auto* hull = static_cast<near_gpu::NearHull*>(frame.hostWrite(slot.hulls, 0, bytes));
-    stats.earlyDepthSprites = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), std::uint64_t(0),
-        [&](const auto& r, std::uint64_t flattened) {
-            std::array<glm::dvec4, kMaxHullCorners> corners;
-            for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                const int count = proxyHullClipCorners(cam, *visible[i], corners);
-                // Composed here and stored once, as the sprites are (writeSprites).
-                near_gpu::NearHull h{};
-                h.count = std::uint32_t(count);
-                bool flatten = opt.earlyDepthTest;
-                for (int k = 0; k < count; ++k) {
-                    const glm::dvec4& c = corners[std::size_t(k)];
-                    flatten = flatten && c.w > 0.0 && c.z >= 0.0 && c.z <= c.w;
-                }
-                flat[i] = flatten;
-                flattened += flatten;
-                for (int k = 0; k < count; ++k) {
-                    const glm::dvec4& c = corners[std::size_t(k)];
-                    h.corner[k] = flatten ? glm::vec4(float(c.x / c.w), float(c.y / c.w),
-                                                      visible[i]->gpu.depth, 1.0f)
-                                          : glm::vec4(c);
-                }
-                hull[i] = h;
-            }
-            return flattened;
-        },
-        std::plus<>());
+    writeEach(slot.hulls, [&](std::size_t i) {
+        std::array<glm::dvec4, kMaxHullCorners> corners;
+        const int count = proxyHullClipCorners(cam, *visible[i], corners);
+        near_gpu::NearHull h{};
+        h.count = std::uint32_t(count);
+        bool flatten = opt.earlyDepthTest;
+        for (int k = 0; k < count; ++k) {
+            const glm::dvec4& c = corners[std::size_t(k)];
+            flatten = flatten && c.w > 0.0 && c.z >= 0.0 && c.z <= c.w;
+        }
+        flat[i] = flatten;
+        for (int k = 0; k < count; ++k) {
+            const glm::dvec4& c = corners[std::size_t(k)];
+            h.corner[k] =
+                flatten ? glm::vec4(float(c.x / c.w), float(c.y / c.w), visible[i]->gpu.depth, 1.0f)
+                        : glm::vec4(c);
+        }
+        return h;
+    });
+    stats.earlyDepthSprites = std::uint64_t(std::count(flat.begin(), flat.end(), std::uint8_t(1)));
 }
 
 NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& slot,
