@@ -2,9 +2,13 @@
 
 #include "core/stopwatch.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <chrono>
 #include <functional>
 #include <optional>
+#include <stdexcept>
+#include <utility>
 
 namespace voxtier {
 
@@ -118,6 +122,22 @@ std::shared_ptr<const Snapshot> SnapshotCache::get(const VoxelModel& model, int 
             }
         }
         return snap;
+    });
+}
+
+void SnapshotCache::getAll(std::span<const Ask> asks,
+                           std::span<std::shared_ptr<const Snapshot>> out) {
+    if (out.size() != asks.size())
+        throw std::invalid_argument("SnapshotCache::getAll: one result per ask");
+    snapshots_.takeReady(
+        asks.size(),
+        [&](std::size_t i) {
+            const Ask& a = asks[i];
+            return std::pair{ViewKey{a.model->uid(), a.frame, a.view, a.sigma}, a.model->version()};
+        },
+        out.data());
+    tbb::parallel_for(std::size_t(0), asks.size(), [&](std::size_t i) {
+        if (!out[i]) out[i] = get(*asks[i].model, asks[i].frame, asks[i].view, asks[i].sigma);
     });
 }
 

@@ -27,6 +27,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <unordered_map>
 
 namespace voxtier {
@@ -96,6 +97,17 @@ class SnapshotCache {
     /// help with that bake's parallel work). The returned pointer stays valid after eviction.
     std::shared_ptr<const Snapshot> get(const VoxelModel& model, int frame, ViewId view,
                                         double sigma);
+    /// One snapshot for getAll: get()'s arguments.
+    struct Ask {
+        const VoxelModel* model = nullptr;
+        int frame = 0;
+        ViewId view;
+        double sigma = 0.0;
+    };
+    /// get() of each ask into out[i] (`out` as long as `asks`): the cached ones in one pass under
+    /// the cache's lock, each made the most recent in ask order, then the rest baked (or loaded)
+    /// in parallel as get() does. The same snapshots and counters as a get() per ask.
+    void getAll(std::span<const Ask> asks, std::span<std::shared_ptr<const Snapshot>> out);
     /// View `index` of `set`.
     std::shared_ptr<const Snapshot> get(const VoxelModel& model, int frame, ViewSet set, int index,
                                         double sigma) {

@@ -106,6 +106,26 @@ template <class StableKey, class T, class Hash = std::hash<StableKey>> class Ver
         return e->value;
     }
 
+    /// get() of each (key, version) that `keyAt(i)` gives for i < count whose value is ready,
+    /// under one lock and in order: each is returned in out[i], becomes the most recent in turn
+    /// and counts as a hit, as in get(). The others (missing, or being produced) are left null
+    /// for get(), and not counted here. A frame asking for thousands of listed snapshots takes
+    /// the lock once, where a get() apiece had every core queue on it.
+    template <class KeyAt> void takeReady(std::size_t count, KeyAt&& keyAt, Value* out) {
+        std::lock_guard lock(mutex_);
+        for (std::size_t i = 0; i < count; ++i) {
+            const auto& [key, version] = keyAt(i);
+            Entry* e = const_cast<Entry*>(entryLocked({key, version}));
+            if (!e || !e->value) {
+                out[i] = nullptr;
+                continue;
+            }
+            ++stats_.hits;
+            if (e->listed) lru_.splice(lru_.begin(), lru_, e->lruPos);
+            out[i] = e->value;
+        }
+    }
+
     /// Whether (key, version) is listed; as find(), without taking a share of the value (the
     /// planner asks from every core at once, and shares would contend on one count).
     bool contains(const StableKey& key, std::uint64_t version) const {

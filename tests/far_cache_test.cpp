@@ -6,11 +6,13 @@
 
 #include <gtest/gtest.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <tuple>
 
 namespace voxtier {
@@ -259,6 +261,46 @@ TEST(FarBatch, EachDistinctSnapshotOnceInTheOrderFirstShown) {
                       .get());
     }
     EXPECT_EQ(firstShown.size(), batch.snapshots.size());
+}
+
+// getAll gives each ask what get() gives it, and makes the cached ones the most recent in the
+// order asked, before the missing ones are baked: a budget of three snapshots holding views 0, 1
+// and 2 (2 the most recent), asked for 1, 0, 3 and 1 again, keeps 1, 0 and 3 and drops 2.
+TEST(SnapshotCache, GetAllGivesWhatGetGivesAndTouchesTheCachedInTheOrderAsked) {
+    const auto m = makeBox({8, 8, 8});
+    SnapshotCache probe;
+    const std::size_t one = probe.get(*m, 0, ViewSet::Cube26, 0, 1.0)->bytes();
+    SnapshotCacheConfig cfg;
+    cfg.budgetBytes = 3 * one + one / 2;
+    SnapshotCache cache(cfg);
+    const auto view = [](int v) { return viewIdOf(ViewSet::Cube26, v); };
+    const auto key = [&](int v) { return SnapshotKey{m->uid(), 0, m->version(), view(v), 1.0}; };
+    for (int v : {0, 1, 2}) cache.get(*m, 0, view(v), 1.0);
+    const SnapshotCacheCounters before = cache.counters();
+    const std::vector<SnapshotCache::Ask> asks{{m.get(), 0, view(1), 1.0},
+                                               {m.get(), 0, view(0), 1.0},
+                                               {m.get(), 0, view(3), 1.0},
+                                               {m.get(), 0, view(1), 1.0}};
+    std::vector<std::shared_ptr<const Snapshot>> out(asks.size());
+    cache.getAll(asks, out);
+    const SnapshotCacheCounters after = cache.counters();
+    EXPECT_EQ(after.bakes - before.bakes, 1u);
+    EXPECT_EQ(after.hits - before.hits, 3u);
+    EXPECT_EQ(after.misses - before.misses, 1u);
+    EXPECT_EQ(after.evictions - before.evictions, 1u);
+    EXPECT_EQ(cache.find(key(2)), nullptr);
+    for (int v : {0, 1, 3}) EXPECT_NE(cache.find(key(v)), nullptr) << "view " << v;
+    EXPECT_EQ(out[0], cache.find(key(1)));
+    EXPECT_EQ(out[1], cache.find(key(0)));
+    EXPECT_EQ(out[2], cache.find(key(3)));
+    EXPECT_EQ(out[3], out[0]);
+    EXPECT_EQ(out[2]->view, view(3));
+    // Each ask as get() answers it, from a cache that never saw this one's.
+    SnapshotCache fresh;
+    for (std::size_t i = 0; i < asks.size(); ++i)
+        EXPECT_EQ(test::firstSnapshotDifference(*out[i], *fresh.get(*m, 0, asks[i].view, 1.0)), "");
+    std::vector<std::shared_ptr<const Snapshot>> short_(1);
+    EXPECT_THROW(cache.getAll(asks, short_), std::invalid_argument);
 }
 
 } // namespace
