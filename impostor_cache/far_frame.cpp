@@ -7,8 +7,10 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstddef>
+#include <memory>
 #include <optional>
 #include <tuple>
 #include <unordered_map>
@@ -140,56 +142,189 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
 FarBatch prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,
                          std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
                          FarFrameStats* stats) {
+    FarBatch batch;
+    FarBatchScratch scratch;
+    prepareFarBatch(models, requests, cache, set, batch, scratch, stats);
+    return batch;
+}
+
+struct FarBatchScratch::Impl {
+    static constexpr std::uint32_t kHidden = ~0u; ///< places[k] of a request drawing nothing
+    std::vector<Need> keys;                       ///< per request, its snapshot (if drawn)
+    std::vector<std::uint64_t> hashes;            ///< NeedHash of keys[k]
+    std::vector<std::uint32_t> places;            ///< per request, its table position or kHidden
+    std::vector<std::uint32_t> drawnBefore, firstsBefore; ///< per chunk of requests
+    std::vector<std::uint32_t> needFirst; ///< per distinct snapshot, the first request showing it
+    std::vector<std::uint32_t> needAt;    ///< per table position claimed this frame, its snapshot
+    /// Open addressing over the distinct snapshots: generation << 32 | (least request + 1), a
+    /// position of another generation empty (nothing cleared between frames).
+    std::unique_ptr<std::atomic<std::uint64_t>[]> table;
+    std::size_t tableSize = 0;
+    std::uint32_t generation = 0;
+    std::vector<SnapshotCache::Ask> asks;                 ///< per distinct snapshot
+    std::vector<std::shared_ptr<const Snapshot>> fetched; ///< moved into the batch
+    std::vector<const Snapshot*> snapshots; ///< per distinct snapshot; the batch holds them
+};
+
+FarBatchScratch::FarBatchScratch() : impl_(std::make_unique<Impl>()) {}
+FarBatchScratch::~FarBatchScratch() = default;
+FarBatchScratch::FarBatchScratch(FarBatchScratch&&) noexcept = default;
+FarBatchScratch& FarBatchScratch::operator=(FarBatchScratch&&) noexcept = default;
+
+void prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                     std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
+                     FarBatch& batch, FarBatchScratch& scratch, FarFrameStats* stats) {
     static_assert(far_cell::kEmpty == snapshot_code::kEmpty &&
                   far_cell::kSolid0 == snapshot_code::kSolid0 &&
                   far_cell::kOutline == snapshot_code::kOutline);
     static_assert(sizeof(SnapshotCell) == 2 && offsetof(SnapshotCell, code) == 1);
     const SnapshotCacheCounters before = cache.counters();
     const auto t0 = std::chrono::steady_clock::now();
-    SnapshotNeeds needs(cache.snapshotScale());
-    std::vector<std::uint32_t> slotOf;
-    std::vector<const SpriteSetup*> drawn;
-    for (const FarRequest& r : requests) {
-        if (!r.sprite || !r.sprite->visible()) continue;
-        slotOf.push_back(std::uint32_t(needs.slotOf(r, set)));
-        drawn.push_back(r.sprite);
+    FarBatchScratch::Impl& w = *scratch.impl_;
+    constexpr std::uint32_t kHidden = FarBatchScratch::Impl::kHidden;
+    const std::size_t n = requests.size();
+    const double scale = cache.snapshotScale();
+    // The requests in chunks: each chunk's drawn requests and first showings are counted on
+    // every core, then written from the offsets of the chunks before it, so the snapshots and
+    // instances come out in the order one core walking the requests gives them.
+    constexpr std::size_t kChunk = 4096;
+    const std::size_t chunks = (n + kChunk - 1) / kChunk;
+    const auto chunkEnd = [&](std::size_t c) { return std::min(n, (c + 1) * kChunk); };
+    w.keys.resize(n);
+    w.hashes.resize(n);
+    w.places.resize(n);
+    w.drawnBefore.assign(chunks + 1, 0);
+    w.firstsBefore.assign(chunks + 1, 0);
+    // 1. Each drawn request's snapshot: its view (the planner's, or the nearest of the set).
+    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+        std::uint32_t drawn = 0;
+        for (std::size_t k = c * kChunk; k != chunkEnd(c); ++k) {
+            const FarRequest& r = requests[k];
+            if (!r.sprite || !r.sprite->visible()) {
+                w.places[k] = kHidden;
+                continue;
+            }
+            const SpriteSetup& sp = *r.sprite;
+            const glm::ivec3 view =
+                (r.view ? *r.view : viewIdOf(set, chooseFarView(sp, set))).lattice;
+            w.keys[k] = Need{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma * scale};
+            w.hashes[k] = NeedHash{}(w.keys[k]);
+            w.places[k] = 0;
+            ++drawn;
+        }
+        w.drawnBefore[c + 1] = drawn;
+    });
+    for (std::size_t c = 0; c < chunks; ++c) w.drawnBefore[c + 1] += w.drawnBefore[c];
+    const std::size_t drawn = w.drawnBefore[chunks];
+    // 2. Each distinct snapshot's table position, holding the least request that shows it. At
+    // most half the table is taken, so every probe ends.
+    std::size_t size = 64;
+    while (size < 2 * drawn) size *= 2;
+    if (size > w.tableSize) {
+        w.table = std::make_unique<std::atomic<std::uint64_t>[]>(size); // zero: generation 0
+        w.tableSize = size;
+        w.generation = 0;
+        w.needAt.resize(size);
     }
-    needs.fetchNew(models, cache);
-    FarBatch batch;
-    batch.snapshots.reserve(needs.size());
-    for (std::size_t i = 0; i < needs.size(); ++i) {
-        const auto [m, f, x, y, z, sigma] = needs.need(i);
-        const std::shared_ptr<const Snapshot>& snap = needs.snapshot(i);
-        // Every version of this view of this model frame shares a lineage: the need with the
-        // model's uid in place of its index (a collision only costs a row comparison).
-        const std::uint64_t uid = models.at(std::size_t(m))->uid();
-        const std::uint64_t lineage = NeedHash{}(Need{int(uid ^ (uid >> 32)), f, x, y, z, sigma});
-        batch.snapshots.push_back({snap, lineage | 1u,
-                                   reinterpret_cast<const std::uint8_t*>(snap->cells.data()),
-                                   snap->lattice.cellRange});
+    if (++w.generation == 0) { // wrapped: positions of an old generation could read as current
+        for (std::size_t i = 0; i < w.tableSize; ++i) w.table[i].store(0);
+        w.generation = 1;
     }
-    // Each instance's cell map (in double) on every core, as a frame's other per-sprite loops
-    // are: ~10,000 far sprites at 100,000 tanks. Same instances, same order.
-    batch.instances.resize(drawn.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, drawn.size(), 256),
-                      [&](const tbb::blocked_range<std::size_t>& range) {
-                          for (std::size_t k = range.begin(); k != range.end(); ++k) {
-                              const SpriteSetup& sp = *drawn[k];
-                              const SnapshotCellMap m =
-                                  snapshotCellMap(sp.lattice, needs.snapshot(slotOf[k])->lattice);
-                              batch.instances[k] = {
-                                  &sp,  slotOf[k], &models.at(std::size_t(sp.model))->palette(),
-                                  m.u0, m.ui,      m.uj,
-                                  m.v0, m.vi,      m.vj};
-                          }
-                      });
+    const std::uint64_t generation = w.generation;
+    const std::size_t mask = w.tableSize - 1;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& range) {
+        for (std::size_t k = range.begin(); k != range.end(); ++k) {
+            if (w.places[k] == kHidden) continue;
+            const std::uint64_t mine = generation << 32 | std::uint64_t(k + 1);
+            for (std::size_t pos = w.hashes[k] & mask;; pos = (pos + 1) & mask) {
+                std::atomic<std::uint64_t>& slot = w.table[pos];
+                std::uint64_t held = slot.load(std::memory_order_relaxed);
+                if (held >> 32 != generation) {
+                    if (slot.compare_exchange_strong(held, mine, std::memory_order_relaxed)) {
+                        w.places[k] = std::uint32_t(pos);
+                        break;
+                    }
+                    // Claimed meanwhile: `held` is this frame's now, and read on below.
+                }
+                // A position claimed this frame keeps its snapshot: compare the keys (all written
+                // in step 1); the same one: the least request stays.
+                if (!(w.keys[std::uint32_t(held) - 1] == w.keys[k])) continue;
+                while (std::uint32_t(held) > k + 1 &&
+                       !slot.compare_exchange_weak(held, mine, std::memory_order_relaxed)) {
+                }
+                w.places[k] = std::uint32_t(pos);
+                break;
+            }
+        }
+    });
+    // 3. The distinct snapshots in the order of their first showing: each chunk counts the
+    // requests that hold their position, then numbers them from the chunks' offsets.
+    const auto isFirst = [&](std::size_t k) {
+        return w.places[k] != kHidden &&
+               std::uint32_t(w.table[w.places[k]].load(std::memory_order_relaxed)) == k + 1;
+    };
+    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+        std::uint32_t firsts = 0;
+        for (std::size_t k = c * kChunk; k != chunkEnd(c); ++k) firsts += isFirst(k);
+        w.firstsBefore[c + 1] = firsts;
+    });
+    for (std::size_t c = 0; c < chunks; ++c) w.firstsBefore[c + 1] += w.firstsBefore[c];
+    const std::size_t distinct = w.firstsBefore[chunks];
+    w.needFirst.resize(distinct);
+    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+        std::uint32_t next = w.firstsBefore[c];
+        for (std::size_t k = c * kChunk; k != chunkEnd(c); ++k)
+            if (isFirst(k)) {
+                w.needFirst[next] = std::uint32_t(k);
+                w.needAt[w.places[k]] = next++;
+            }
+    });
+    // 4. The snapshots: the cached ones under one lock, the others baked in parallel.
+    w.asks.resize(distinct);
+    w.fetched.resize(distinct);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, distinct, 256), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+            const auto [m, f, x, y, z, sigma] = w.keys[w.needFirst[i]];
+            w.asks[i] = {models.at(std::size_t(m)).get(), f, ViewId{{x, y, z}}, sigma};
+        }
+    });
+    cache.getAll(w.asks, w.fetched);
+    batch.snapshots.resize(distinct);
+    w.snapshots.resize(distinct);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, distinct, 256), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+            const auto [m, f, x, y, z, sigma] = w.keys[w.needFirst[i]];
+            // Every version of this view of this model frame shares a lineage: the need with
+            // the model's uid in place of its index (a collision only costs a row comparison).
+            const std::uint64_t uid = models.at(std::size_t(m))->uid();
+            const std::uint64_t lineage =
+                NeedHash{}(Need{int(uid ^ (uid >> 32)), f, x, y, z, sigma});
+            const Snapshot* snap = w.snapshots[i] = w.fetched[i].get();
+            batch.snapshots[i] = {std::move(w.fetched[i]), lineage | 1u,
+                                  reinterpret_cast<const std::uint8_t*>(snap->cells.data()),
+                                  snap->lattice.cellRange};
+        }
+    });
+    // 5. Each drawn request's instance and cell map (in double), in request order.
+    batch.instances.resize(drawn);
+    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+        std::uint32_t next = w.drawnBefore[c];
+        for (std::size_t k = c * kChunk; k != chunkEnd(c); ++k) {
+            if (w.places[k] == kHidden) continue;
+            const SpriteSetup& sp = *requests[k].sprite;
+            const std::uint32_t slot = w.needAt[w.places[k]];
+            const SnapshotCellMap m = snapshotCellMap(sp.lattice, w.snapshots[slot]->lattice);
+            batch.instances[next++] = {&sp,  slot, &models.at(std::size_t(sp.model))->palette(),
+                                       m.u0, m.ui, m.uj,
+                                       m.v0, m.vi, m.vj};
+        }
+    });
     if (stats) {
-        stats->sprites += drawn.size();
-        stats->snapshotsUsed += needs.size();
+        stats->sprites += drawn;
+        stats->snapshotsUsed += distinct;
         addCacheWork(*stats, before, cache.counters());
         stats->ensureMs += msSince(t0);
     }
-    return batch;
 }
 
 } // namespace voxtier

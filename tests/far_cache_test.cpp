@@ -263,6 +263,78 @@ TEST(FarBatch, EachDistinctSnapshotOnceInTheOrderFirstShown) {
     EXPECT_EQ(firstShown.size(), batch.snapshots.size());
 }
 
+// A renderer keeps one batch and its scratch from frame to frame: the batch of each frame is the
+// one a single core walking its requests gives (written out below), however many requests (over
+// several of the scratch's chunks of 4,096), however many threads, and whatever the frames before
+// left in the scratch (frames of 20,000, 3,000 and 30,000 requests, the table grown in between).
+// Each request shows one of three model frames in one of 218 views, given or the set's nearest,
+// and a tenth of them a culled sprite.
+TEST(FarBatch, KeptScratchGivesTheBatchOneCoreWalkingTheRequestsGives) {
+    Scene s = test::hundredEntityWall(makeSphere(4), -20.0);
+    s.models.push_back(test::arrowThenSphere());
+    for (int e = 0; e < 100; ++e) {
+        s.entities[std::size_t(e)].model = e % 3 == 0 ? 0 : 1;
+        s.entities[std::size_t(e)].frame = e % 3 == 2 ? 1 : 0;
+        if (e % 10 == 9) s.entities[std::size_t(e)].position.z = 20.0; // behind the camera
+    }
+    const CameraFrame cam = makeCameraFrame(s.camera);
+    const std::vector<SpriteSetup> sprites = setupSprites(s, cam, 0.0);
+    ASSERT_FALSE(sprites[9].visible());
+    ASSERT_TRUE(sprites[0].visible() && sprites[1].visible() && sprites[2].visible());
+    const ViewSet set = ViewSet::Cube218;
+    SnapshotCache cache;
+    FarBatch batch;
+    FarBatchScratch scratch;
+    SplitMix64 rng{2026};
+    int frame = 0;
+    for (const std::size_t count : {20000u, 3000u, 30000u, 20000u}) {
+        std::vector<FarRequest> requests(count);
+        for (FarRequest& r : requests) {
+            r.sprite = &sprites[std::size_t(rng.next() % sprites.size())];
+            const int v = int(rng.next() % 219); // 218: the nearest view of the set
+            if (v < 218) r.view = viewIdOf(set, v);
+        }
+        tbb::task_arena arena(frame % 2 == 0 ? 4 : 1);
+        arena.execute([&] { prepareFarBatch(s.models, requests, cache, set, batch, scratch); });
+        // One core's walk: the distinct (model, frame, view, sigma) in the order first shown.
+        using Key = std::tuple<int, int, int, int, int, double>;
+        std::map<Key, std::uint32_t> firstShown;
+        std::size_t drawn = 0;
+        for (std::size_t k = 0; k < requests.size(); ++k) {
+            const SpriteSetup& sp = *requests[k].sprite;
+            if (!sp.visible()) continue;
+            const ViewId view =
+                requests[k].view ? *requests[k].view : viewIdOf(set, chooseFarView(sp, set));
+            const double sigma = sp.lattice.sigma * cache.snapshotScale();
+            const auto [it, added] = firstShown.try_emplace(
+                Key{sp.model, sp.frame, view.lattice.x, view.lattice.y, view.lattice.z, sigma},
+                std::uint32_t(firstShown.size()));
+            ASSERT_LT(drawn, batch.instances.size()) << "frame " << frame;
+            const FarInstance& f = batch.instances[drawn++];
+            ASSERT_EQ(f.sprite, &sp) << "frame " << frame << ", request " << k;
+            ASSERT_EQ(f.snapshot, it->second) << "frame " << frame << ", request " << k;
+            ASSERT_EQ(f.palette, &s.models[std::size_t(sp.model)]->palette());
+            const std::shared_ptr<const Snapshot> snap =
+                cache.get(*s.models[std::size_t(sp.model)], sp.frame, view, sigma);
+            ASSERT_EQ(batch.snapshots.at(f.snapshot).owner.get(), snap.get());
+            if (added) {
+                const FarSnapshotCells& cells = batch.snapshots[f.snapshot];
+                EXPECT_EQ(cells.cells, reinterpret_cast<const std::uint8_t*>(snap->cells.data()));
+                EXPECT_EQ(cells.cellRange, snap->lattice.cellRange);
+                EXPECT_NE(cells.lineage, 0u);
+            }
+            const SnapshotCellMap m = snapshotCellMap(sp.lattice, snap->lattice);
+            ASSERT_EQ(std::tie(f.u0, f.ui, f.uj, f.v0, f.vi, f.vj),
+                      std::tie(m.u0, m.ui, m.uj, m.v0, m.vi, m.vj));
+        }
+        EXPECT_EQ(batch.instances.size(), drawn) << "frame " << frame;
+        EXPECT_EQ(batch.snapshots.size(), firstShown.size()) << "frame " << frame;
+        EXPECT_GT(firstShown.size(), 400u);
+        EXPECT_GT(drawn, count * 8 / 10);
+        ++frame;
+    }
+}
+
 // getAll gives each ask what get() gives it, and makes the cached ones the most recent in the
 // order asked, before the missing ones are baked: a budget of three snapshots holding views 0, 1
 // and 2 (2 the most recent), asked for 1, 0, 3 and 1 again, keeps 1, 0 and 3 and drops 2.
