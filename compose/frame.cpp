@@ -156,6 +156,10 @@ struct FrameRenderer::TierShares {
     /// The sprites `near` lists, and what the far tier is asked for those `far` lists.
     std::vector<const SpriteSetup*> nearSprites;
     std::vector<FarRequest> farRequests;
+    /// The far pass's batch of `farRequests` (drawWith, far pass on Vulkan), and its scratch:
+    /// arrays kept; the batch's snapshots are let go once the frame is recorded.
+    FarBatch farBatch;
+    FarBatchScratch farScratch;
 
     /// `visible`: the visible sprites' ids, ascending.
     void fill(std::span<const SpriteSetup> sprites, std::span<const EntityPlan> plan,
@@ -554,8 +558,16 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         // the CPU reference are composed with the Vulkan far image by the same rule.
         const auto t0 = Clock::now();
         FarFrameStats fs;
-        const FarBatch batch = prepareFarBatch(scene_.models, shares.farRequests, *cache_,
-                                               viewSetFromSize(scene_.selector.viewSetSize), &fs);
+        FarBatch& batch = shares.farBatch;
+        prepareFarBatch(scene_.models, shares.farRequests, *cache_,
+                        viewSetFromSize(scene_.selector.viewSetSize), batch, shares.farScratch,
+                        &fs);
+        // Nothing holds this frame's snapshots past it but the cache and the device's copies
+        // (FarSnapshotCells::owner: a device copy goes once nobody else holds its snapshot).
+        struct LetGo {
+            FarBatch& batch;
+            ~LetGo() { batch.snapshots.clear(); }
+        } letGo{batch};
         st.far = fs;
         st.farMs += msSince(t0);
         st.farOnVulkan = 1;
