@@ -141,8 +141,7 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
                                                const SelectorConfig& config,
                                                const IsCached& isCached,
                                                const IsCached& withoutBake) {
-    return choose(entity, sprite, config, prepare(entity, sprite, config, isCached), isCached,
-                  withoutBake);
+    return choose(entity, sprite, config, prepare(entity, sprite, config, isCached), withoutBake);
 }
 
 namespace {
@@ -191,16 +190,19 @@ ErrorBudgetViews::Prepared ErrorBudgetViews::prepare(std::size_t entity, const S
     p.currentUnits = current ? predictedBudgetUnits(sprite, *current) : 0.0;
     p.currentWithin = current && p.currentUnits <= config.budgetVpx;
     p.currentCached = p.currentWithin && isCached(sprite, *current);
-    // A current view within the budget is kept unless it needs a bake that neither another
-    // entity nor the bound gives it: choose() scans only then (many entities of one model,
-    // frame and view wait for one bake each frame, and would scan for nothing).
-    if (!p.currentWithin) p.scan = scanLevels(sprite, config, isCached);
+    // A current view within the budget and cached is kept: no scan. Else choose() reads the
+    // scan where the current view is not within the budget, and where it is but needs a bake that
+    // neither another entity nor the bound gives it; which of those it is only the serial pass
+    // knows, so every such entity is scanned here, on every core (at 100,000 tanks under the
+    // error budget ~5,000 entities a frame wait for a bake, and the serial pass scanned most of
+    // them once the bound was spent).
+    if (!p.settled()) p.scan = scanLevels(sprite, config, isCached);
     return p;
 }
 
 std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteSetup& sprite,
                                                const SelectorConfig& config,
-                                               const Prepared& prepared, const IsCached& isCached,
+                                               const Prepared& prepared,
                                                const IsCached& withoutBake) {
     std::optional<ViewId>& current = current_.at(entity);
     const auto baking = [&](ViewId v) { return bakingSet_.count(keyOf(sprite, v)) > 0; };
@@ -219,8 +221,7 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
         if (prepared.currentCached || baking(*current) || onDisk(*current)) return current;
         if (bakesLeft_ > 0) return bake(*current);
     }
-    const LevelScan scan =
-        prepared.currentWithin ? scanLevels(sprite, config, isCached) : prepared.scan;
+    const LevelScan& scan = prepared.scan;
     // No cached view within the budget: the first the scan met needs a bake, unless another
     // entity bakes one of them this frame. A view another entity bakes is not preferred to the
     // coarsest one (so that a frame picks the same views whether its snapshots were baked before

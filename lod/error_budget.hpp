@@ -108,14 +108,14 @@ class ErrorBudgetViews {
         int metCount = 0;
     };
     /// What choose() reads that no other entity's choice changes: whether the current view is
-    /// within the budget and cached, and (when it is not within) the level scan. Only the bake
+    /// within the budget and cached, and (when it is not both) the level scan. Only the bake
     /// hand-out is left to the serial pass, so a frame prepares its far entities in parallel;
     /// const, and thread-safe where `isCached` is (SnapshotCache's is).
     struct Prepared {
         bool currentWithin = false, currentCached = false;
         /// predictedBudgetUnits of the current view (0 without one)
         double currentUnits = 0.0;
-        LevelScan scan; ///< where the current view is not within the budget (else choose's)
+        LevelScan scan; ///< where not settled()
         /// The current view is within the budget and cached: choose() keeps it and changes
         /// nothing shared (no bake, no view change), so such entities need no serial pass.
         bool settled() const { return currentWithin && currentCached; }
@@ -123,10 +123,10 @@ class ErrorBudgetViews {
     Prepared prepare(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                      const IsCached& isCached) const;
     /// choose() given prepare()'s result for this entity, computed this frame before any
-    /// choice: the same view.
+    /// choice and with the `isCached` choose() would be given: the same view.
     std::optional<ViewId> choose(std::size_t entity, const SpriteSetup& sprite,
                                  const SelectorConfig& config, const Prepared& prepared,
-                                 const IsCached& isCached, const IsCached& withoutBake = {});
+                                 const IsCached& withoutBake = {});
     /// choose() for an entity whose prepare() was settled(): its current view. Reads and writes
     /// nothing another entity's choice does, so settled entities may be kept in parallel.
     ViewId keep(std::size_t entity) const { return *current_.at(entity); }

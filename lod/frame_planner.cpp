@@ -186,8 +186,7 @@ void FramePlanner::planBudgetView(std::size_t entity, const SpriteSetup& sprite,
                                   const ErrorBudgetViews::Prepared& prepared, EntityPlan& p) {
     // In memory: preferred. On disk (--cache-dir): not a bake either, but never preferred, since
     // what a shared directory holds is up to other processes (ErrorBudgetViews::choose).
-    p.view = budgetViews_.choose(entity, sprite, config, prepared, settings.inMemory,
-                                 settings.withoutBake);
+    p.view = budgetViews_.choose(entity, sprite, config, prepared, settings.withoutBake);
     // No view within the budget without passing this frame's bake bound: near this frame (the
     // selector keeps its far state, so the entity goes far as soon as a view can be had).
     if (!p.view) p = EntityPlan{};

@@ -337,9 +337,8 @@ TEST(ErrorBudget, PreparedInParallelTheViewsAreThoseOfOneScanPerEntity) {
         for (std::size_t i = 0; i < kEntities; ++i) {
             const std::optional<ViewId> before = scan.current[i];
             const std::optional<ViewId> want = scan.choose(i, sprites[i], c, cached, onDisk);
-            const std::optional<ViewId> got =
-                views.choose(i, sprites[i], c, prepared[i], cached,
-                             disk ? onDisk : ErrorBudgetViews::IsCached{});
+            const std::optional<ViewId> got = views.choose(
+                i, sprites[i], c, prepared[i], disk ? onDisk : ErrorBudgetViews::IsCached{});
             ASSERT_EQ(got.has_value(), want.has_value()) << "frame " << frame << " entity " << i;
             if (want) {
                 ASSERT_EQ(got->lattice, want->lattice) << "frame " << frame << " entity " << i;
