@@ -96,6 +96,10 @@ struct FarPass::Impl {
     std::vector<std::uint32_t> runOffsets;
     std::vector<far_gpu::FarTile> tileRecords;
     std::unordered_map<const Palette*, std::uint32_t> paletteBase;
+    /// Per chunk of instances (prepare): its drawn instances' distinct palettes in the order
+    /// shown, and the drawn instances of the chunks before it.
+    std::vector<std::vector<const Palette*>> chunkPalettes;
+    std::vector<std::uint32_t> drawnBefore;
     /// Per instance of the batch: its rectangle within the image (empty where it draws nothing),
     /// its palette's base and its key in the draw order (farOrderKey).
     std::vector<glm::ivec4> rects;
@@ -261,36 +265,14 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
             [](bool a, bool b) { return a && b; });
     stats.orderKept = same;
     src.store = 0; // until the order below is as `src` says
-    paletteOf.assign(n, 0);
-    // The palettes, in instance order, the drawn instances' (rects: from the sprites). Neighbours
-    // mostly share their model's palette: the last one found is tried before the map (a crowd of
-    // one model: 88,000 hash lookups on one core, ~1.5 ms).
-    const Palette* lastPalette = nullptr;
-    std::uint32_t lastBase = 0;
-    const auto placePalette = [&](std::size_t i) {
-        const FarInstance& f = batch.instances[i];
-        if (f.palette != lastPalette) {
-            const auto [it, added] =
-                paletteBase.try_emplace(f.palette, std::uint32_t(palettes.size()));
-            if (added)
-                for (const Rgba8 c : f.palette->colors) palettes.push_back(std::uint32_t(c));
-            lastPalette = f.palette;
-            lastBase = it->second;
-        }
-        paletteOf[i] = lastBase;
-    };
     const auto drawn = [&](std::size_t i) {
         const glm::ivec4 r = rects[i];
         return r.z > r.x && r.w > r.y;
     };
-    if (same) {
-        for (std::size_t i = 0; i < n; ++i)
-            if (drawn(i)) placePalette(i);
-    } else {
+    if (!same) {
         // Each instance's rectangle and order key, read in parallel (a sprite's record is a cache
         // miss apiece: at 100,000 tanks one core walking ten thousand far sprites cost
-        // milliseconds of recording); then, serially and in instance order, the drawn ones'
-        // palettes and keys from those arrays.
+        // milliseconds of recording).
         rects.resize(n);
         keys.resize(n);
         src.entities.resize(n);
@@ -305,16 +287,57 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
                 src.entities[i] = SpriteHistory::entityIn(history, batch.instances[i].sprite);
             }
         });
-        order.clear();
-        for (std::size_t i = 0; i < n; ++i) {
+    }
+    // The drawn instances' palettes, each placed where the first drawn instance showing it puts
+    // it, and (unless kept) their (key, index) pairs in instance order: each chunk of instances
+    // lists its palettes and counts its drawn instances on every core, the lists are merged in
+    // chunk order, then each chunk writes from its offsets. Neighbours mostly share their model's
+    // palette: the last one found is tried first (one core walking 76,000 far tanks' palettes
+    // and pairs cost ~1 ms of a frame; on 16 cores it would be most of the far pass's host side).
+    constexpr std::size_t kChunk = 4096;
+    const std::size_t chunks = (n + kChunk - 1) / kChunk;
+    const auto chunkEnd = [&](std::size_t c) { return std::min(n, (c + 1) * kChunk); };
+    chunkPalettes.resize(std::max(chunkPalettes.size(), chunks));
+    drawnBefore.assign(chunks + 1, 0);
+    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+        std::vector<const Palette*>& mine = chunkPalettes[c];
+        mine.clear();
+        const Palette* last = nullptr;
+        std::uint32_t count = 0;
+        for (std::size_t i = c * kChunk; i != chunkEnd(c); ++i) {
             if (!drawn(i)) continue;
-            placePalette(i);
-            order.push_back({keys[i], std::uint32_t(i)});
+            ++count;
+            const Palette* p = batch.instances[i].palette;
+            if (p == last) continue;
+            last = p;
+            if (std::find(mine.begin(), mine.end(), p) == mine.end()) mine.push_back(p);
         }
-        // The drawn instances take their places in the rule's order, nearest first (far_shared.h:
-        // the shader stops passing a tile's sprites over a pixel once the pixel would refuse the
-        // next one, which is then true of every later one). The (key, index) pairs are distinct,
-        // so the order has one answer, whichever sort finds it.
+        drawnBefore[c + 1] = count;
+    });
+    for (std::size_t c = 0; c < chunks; ++c) {
+        drawnBefore[c + 1] += drawnBefore[c];
+        for (const Palette* p : chunkPalettes[c])
+            if (paletteBase.try_emplace(p, std::uint32_t(palettes.size())).second)
+                for (const Rgba8 colour : p->colors) palettes.push_back(std::uint32_t(colour));
+    }
+    paletteOf.resize(n);
+    if (!same) order.resize(drawnBefore[chunks]);
+    tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+        const Palette* last = nullptr;
+        std::uint32_t base = 0;
+        std::size_t next = drawnBefore[c];
+        for (std::size_t i = c * kChunk; i != chunkEnd(c); ++i) {
+            if (!drawn(i)) {
+                paletteOf[i] = 0;
+                continue;
+            }
+            const Palette* p = batch.instances[i].palette;
+            if (p != last) last = p, base = paletteBase.find(p)->second;
+            paletteOf[i] = base;
+            if (!same) order[next++] = {keys[i], std::uint32_t(i)};
+        }
+    });
+    if (!same) {
         sortKeyIndexPairs(order, orderScratch);
         if (tiles == FarTiles::Sprites) {
             tileRecords.clear(); // no tiles: a workgroup per drawn instance

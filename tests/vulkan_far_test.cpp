@@ -7,6 +7,7 @@
 // from the origin. Snapshots are uploaded to the device once and freed when the cache drops them.
 #include "compose/frame.hpp"
 #include "compose/vulkan_frame.hpp"
+#include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
 #include "core/splitmix64.hpp"
 #include "hard_case_scenes.hpp"
@@ -393,6 +394,47 @@ TEST_F(VulkanFar, ThousandsOfSpritesBinnedInRunsEqualTheCpuBlit) {
     }
     ASSERT_GT(onScreen, 2u * 4096u) << "at least two runs of the binning";
     EXPECT_GT(expectSame(s, sprites, allFar(sprites.size()), "9,000 far sprites"), 2000u);
+}
+
+// Every far instance reads its own model's palette, though the host finds the frame's palettes
+// per chunk of 4,096 instances on every core and merges them: 10,000 far boxes of four models,
+// each with its own colours, the first chunk showing two of them, the next one first showing the
+// other two, some instances off-screen (drawn nowhere): every pixel equals the CPU blit's, which
+// reads each sprite's palette itself.
+TEST_F(VulkanFar, PalettesFirstShownInLaterChunksEqualTheCpuBlit) {
+    std::vector<Entity> kinds;
+    Scene s = smallImage(kinds);
+    s.models.clear();
+    for (int k = 0; k < 4; ++k) {
+        Palette palette = makeBox({4, 4, 4})->palette();
+        for (int i = 1; i < 256; ++i)
+            palette.colors[std::size_t(i)] =
+                packRgba(unsigned(40 + 60 * k), unsigned(i), unsigned(255 - 50 * k));
+        s.models.push_back(std::make_shared<VoxelModel>(
+            "box " + std::to_string(k), palette,
+            std::vector<VoxelGrid>{makeBox({4 + k, 5, 4}, std::uint8_t(20 + 40 * k))->frame(0)}));
+    }
+    SplitMix64 rng{2029};
+    for (int i = 0; i < 10000; ++i) {
+        Entity e;
+        // Chunk 0: models 1 and 0; chunk 1 first shows 3, then 2; chunk 2 all four.
+        e.model = i < 4096 ? 1 - i % 2 : (i < 8192 ? 3 - i % 4 : i % 4);
+        e.position = {rng.uniform(-6.0, 6.0), rng.uniform(-3.5, 3.5), rng.uniform(-40.0, -12.0)};
+        if (i % 7 == 3) e.position.x += 40.0; // off-screen
+        e.rotation = glm::angleAxis(rng.uniform(0.0, 6.28), glm::dvec3(0.0, 1.0, 0.0));
+        s.entities.push_back(e);
+    }
+    const CameraFrame cam = makeCameraFrame(s.camera);
+    const auto sprites = setupSprites(s, cam, 0.0);
+    EXPECT_GT(expectSame(s, sprites, allFar(sprites.size()), "four palettes"), 2000u);
+    Image cpu(cam.width, cam.height, s.render.background);
+    std::vector<FarRequest> requests;
+    for (const SpriteSetup& sp : sprites) requests.push_back({&sp, std::nullopt});
+    drawFarSprites(s.models, requests, cache_, ViewSet::Cube26, cpu);
+    std::set<unsigned> shown; // each model's colours have their own red channel
+    for (std::size_t p = 0; p < cpu.pixelCount(); ++p)
+        if (cpu.id[p] != kernel::VT_NO_ENTITY) shown.insert(channel(cpu.color[p], 0));
+    EXPECT_GE(shown.size(), 4u) << "every model's colours are on screen";
 }
 
 // The far pass draws each tile's sprites nearest first and stops passing them over a pixel at
