@@ -90,14 +90,21 @@ TEST(SnapshotCache, ConcurrentRequestsAcrossModelsAndViewsBakeEachKeyOnce) {
     EXPECT_EQ(cache.counters().scenesBuilt, 3u);
 }
 
-// Face views of a cube have equal sizes: a budget of three holds three; the least recently used
-// goes first, a touched one stays, and the bytes never exceed the budget.
-TEST(SnapshotCache, LruEvictionKeepsTheBudgetAndDropsTheLeastRecentlyUsed) {
-    const auto m = makeBox({8, 8, 8});
+/// A byte budget of three and a half face views of `cube` at sigma 1 (face views of a cube have
+/// equal sizes): three fit, a fourth evicts one.
+SnapshotCacheConfig budgetOfThreeFaceViews(const VoxelModel& cube) {
     SnapshotCache probe;
-    const std::size_t one = probe.get(*m, 0, ViewSet::Cube26, 0, 1.0)->bytes();
+    const std::size_t one = probe.get(cube, 0, ViewSet::Cube26, 0, 1.0)->bytes();
     SnapshotCacheConfig cfg;
     cfg.budgetBytes = 3 * one + one / 2;
+    return cfg;
+}
+
+// A budget of three holds three; the least recently used goes first, a touched one stays, and the
+// bytes never exceed the budget.
+TEST(SnapshotCache, LruEvictionKeepsTheBudgetAndDropsTheLeastRecentlyUsed) {
+    const auto m = makeBox({8, 8, 8});
+    const SnapshotCacheConfig cfg = budgetOfThreeFaceViews(*m);
     SnapshotCache cache(cfg);
     auto key = [&](int v) {
         return SnapshotKey{m->uid(), 0, m->version(), viewIdOf(ViewSet::Cube26, v), 1.0};
@@ -340,11 +347,7 @@ TEST(FarBatch, KeptScratchGivesTheBatchOneCoreWalkingTheRequestsGives) {
 // and 2 (2 the most recent), asked for 1, 0, 3 and 1 again, keeps 1, 0 and 3 and drops 2.
 TEST(SnapshotCache, GetAllGivesWhatGetGivesAndTouchesTheCachedInTheOrderAsked) {
     const auto m = makeBox({8, 8, 8});
-    SnapshotCache probe;
-    const std::size_t one = probe.get(*m, 0, ViewSet::Cube26, 0, 1.0)->bytes();
-    SnapshotCacheConfig cfg;
-    cfg.budgetBytes = 3 * one + one / 2;
-    SnapshotCache cache(cfg);
+    SnapshotCache cache(budgetOfThreeFaceViews(*m));
     const auto view = [](int v) { return viewIdOf(ViewSet::Cube26, v); };
     const auto key = [&](int v) { return SnapshotKey{m->uid(), 0, m->version(), view(v), 1.0}; };
     for (int v : {0, 1, 2}) cache.get(*m, 0, view(v), 1.0);
