@@ -2,6 +2,9 @@
 
 #include "device/vulkan_check.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cstring>
 #include <iterator>
@@ -86,20 +89,37 @@ void FarResidency::release(std::uint32_t offset, std::uint32_t words) {
     free_.emplace(offset, words);
 }
 
+void FarResidency::freeEntry(const void* key, FarResidencyStats& st) {
+    const auto it = entries_.find(key);
+    if (it == entries_.end()) return;
+    release(it->second.offset, it->second.words);
+    usedWords_ -= it->second.words;
+    ++st.snapshotsFreed;
+    if (const auto l = byLineage_.find(it->second.cells.lineage);
+        l != byLineage_.end() && l->second == it->first)
+        byLineage_.erase(l);
+    entries_.erase(it);
+}
+
 template <class Keep> void FarResidency::freeUnless(Keep&& keep, FarResidencyStats& st) {
-    for (auto it = entries_.begin(); it != entries_.end();) {
-        if (keep(*it)) {
-            ++it;
-            continue;
-        }
-        release(it->second.offset, it->second.words);
-        usedWords_ -= it->second.words;
-        ++st.snapshotsFreed;
-        if (const auto l = byLineage_.find(it->second.cells.lineage);
-            l != byLineage_.end() && l->second == it->first)
-            byLineage_.erase(l);
-        it = entries_.erase(it);
-    }
+    // Which entries go, found on every core over ranges of the map's buckets (each entry's owner
+    // count is a cache miss apiece, and a moving camera under the error budget keeps ~10,000
+    // snapshots resident), then freed here. The free ranges coalesce, so the buffer's layout is
+    // the same whatever order they are freed in.
+    constexpr std::size_t kBucketsPerTask = 1024;
+    const std::size_t buckets = entries_.bucket_count();
+    const std::size_t tasks = (buckets + kBucketsPerTask - 1) / kBucketsPerTask;
+    doomed_.resize(std::max(doomed_.size(), tasks));
+    tbb::parallel_for(std::size_t(0), tasks, [&](std::size_t t) {
+        std::vector<const void*>& mine = doomed_[t];
+        mine.clear();
+        for (std::size_t b = t * kBucketsPerTask; b < std::min(buckets, (t + 1) * kBucketsPerTask);
+             ++b)
+            for (auto it = entries_.cbegin(b); it != entries_.cend(b); ++it)
+                if (!keep(*it)) mine.push_back(it->first);
+    });
+    for (std::size_t t = 0; t < tasks; ++t)
+        for (const void* key : doomed_[t]) freeEntry(key, st);
 }
 
 void FarResidency::sweep(const std::unordered_set<const void*>& keep, FarResidencyStats& st) {
@@ -123,24 +143,33 @@ void FarResidency::stage(const std::uint8_t* from, std::size_t bytes, VkDeviceSi
 std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarResidencyStats* stats) {
     FarResidencyStats st;
     copies_.clear();
+    // Where each snapshot already resident lies, looked up on every core (most of a frame's
+    // snapshots: a still camera's all). The sweeps below never free one of them: the batch holds
+    // it, and a freed range is the only thing that moves (a grown buffer keeps every offset).
+    constexpr std::uint32_t kNew = ~0u;
+    const std::size_t count = batch.snapshots.size();
+    std::vector<std::uint32_t> offsets(count);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 256), [&](const auto& range) {
+        for (std::size_t k = range.begin(); k != range.end(); ++k) {
+            const auto it = entries_.find(batch.snapshots[k].owner.get());
+            offsets[k] = it != entries_.end() ? it->second.offset : kNew;
+        }
+    });
     // A snapshot new to the device whose predecessor (same lineage) nobody else holds any more
     // may take over its range: the predecessor is kept through the sweep for that.
     std::unordered_set<const void*> predecessors;
-    for (const FarSnapshotCells& s : batch.snapshots) {
-        if (!s.lineage || entries_.count(s.owner.get())) continue;
+    for (std::size_t k = 0; k < count; ++k) {
+        const FarSnapshotCells& s = batch.snapshots[k];
+        if (offsets[k] != kNew || !s.lineage) continue;
         if (const auto l = byLineage_.find(s.lineage); l != byLineage_.end())
             predecessors.insert(l->second);
     }
     sweep(predecessors, st);
 
-    std::vector<std::uint32_t> offsets(batch.snapshots.size());
-    for (std::size_t k = 0; k < batch.snapshots.size(); ++k) {
+    for (std::size_t k = 0; k < count; ++k) {
+        if (offsets[k] != kNew) continue;
         const FarSnapshotCells& s = batch.snapshots[k];
         const void* key = s.owner.get();
-        if (auto it = entries_.find(key); it != entries_.end()) {
-            offsets[k] = it->second.offset;
-            continue;
-        }
         const std::size_t rowBytes = std::size_t(s.width()) * 2, rows = std::size_t(s.height());
         // A refresh: the rows that differ from what the device holds, into the same range.
         if (const auto l = s.lineage ? byLineage_.find(s.lineage) : byLineage_.end();
@@ -202,8 +231,13 @@ std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarReside
         st.bytesUploaded += rowBytes * rows;
         ++st.snapshotsUploaded;
     }
-    // Predecessors no refresh took over (another cell range) go now.
-    sweep({}, st);
+    // Predecessors no refresh took over (another cell range) go now. Nothing else can: every
+    // other entry only this object held went in the sweep above, and every one added since holds
+    // a snapshot of the batch.
+    for (const void* key : predecessors)
+        if (const auto it = entries_.find(key);
+            it != entries_.end() && it->second.cells.owner.use_count() <= 1)
+            freeEntry(key, st);
     totals_.snapshotsUploaded += st.snapshotsUploaded;
     totals_.bytesUploaded += st.bytesUploaded;
     totals_.refreshesInPlace += st.refreshesInPlace;

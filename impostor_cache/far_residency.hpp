@@ -60,8 +60,11 @@ class FarResidency {
     void sweep(const std::unordered_set<const void*>& keep, FarResidencyStats& stats);
     /// Frees every resident snapshot not in `needed`, held elsewhere or not.
     void evictUnneeded(const std::unordered_set<const void*>& needed, FarResidencyStats& stats);
-    /// Frees every resident snapshot (an entries_ element) for which keep(element) is false.
+    /// Frees every resident snapshot (an entries_ element) for which keep(element) is false;
+    /// `keep` is asked from every core at once.
     template <class Keep> void freeUnless(Keep&& keep, FarResidencyStats& stats);
+    /// Frees the entry of `key`, if resident.
+    void freeEntry(const void* key, FarResidencyStats& stats);
     /// Notes `bytes` bytes of `from` for a copy to byte `deviceByte` of the buffer.
     void stage(const std::uint8_t* from, std::size_t bytes, VkDeviceSize deviceByte);
 
@@ -75,8 +78,9 @@ class FarResidency {
         const std::uint8_t* from; ///< held by the entry's owner until recordUploads
         VkDeviceSize bytes, deviceByte;
     };
-    std::vector<Copy> copies_;       ///< this update's, recorded by recordUploads
-    std::uint64_t retiredWords_ = 0; ///< words of retired_ to copy into buffer_ first
+    std::vector<Copy> copies_;                     ///< this update's, recorded by recordUploads
+    std::vector<std::vector<const void*>> doomed_; ///< freeUnless's, per range of buckets
+    std::uint64_t retiredWords_ = 0;               ///< words of retired_ to copy into buffer_ first
     FarResidencyStats totals_;
 };
 

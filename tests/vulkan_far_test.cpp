@@ -13,6 +13,7 @@
 #include "hard_case_scenes.hpp"
 #include "image_checks.hpp"
 #include "impostor_cache/far_frame.hpp"
+#include "impostor_cache/far_residency.hpp"
 #include "impostor_cache/shaders/far_shared.h"
 #include "impostor_cache/snapshot_cache.hpp"
 #include "source_tree.hpp"
@@ -601,6 +602,74 @@ TEST_F(VulkanFar, SnapshotsAreUploadedOnceAndFreedWhenTheCacheDropsThem) {
     const FarBatch one = prepareFarBatch(other.models, otherRequests, otherCache, ViewSet::Cube26);
     (void)drawBoth(oc, other, {}, one);
     EXPECT_EQ(farPass().residentSnapshots(), one.snapshots.size());
+}
+
+// The device copies follow the snapshots' owners (FarResidency): a new version of a snapshot
+// takes over its predecessor's range when the predecessor has the same cell range and nobody else
+// holds it; one of another size is uploaded apart and the predecessor freed in the same update;
+// a snapshot somebody still holds stays resident though no frame draws it, and goes in the first
+// update after it is let go.
+TEST_F(VulkanFar, ResidencyFreesWhatNobodyHoldsAndKeepsWhatSomebodyDoes) {
+    FarResidency residency(nearRenderer().device());
+    const auto cells = [](glm::ivec4 range, std::uint64_t lineage) {
+        const auto bytes = std::make_shared<std::vector<std::uint8_t>>(
+            std::size_t((range.y - range.x + 1) * (range.w - range.z + 1) * 2), 7);
+        return FarSnapshotCells{bytes, lineage, bytes->data(), range};
+    };
+    const auto update = [&](std::vector<FarSnapshotCells> snapshots) {
+        FarBatch batch;
+        batch.snapshots = std::move(snapshots);
+        FarResidencyStats st;
+        const std::vector<std::uint32_t> offsets = residency.update(batch, &st);
+        return std::pair{st, offsets};
+    };
+    const glm::ivec4 small{0, 3, 0, 3}, large{0, 5, 0, 7};
+    {
+        const auto [st, offsets] = update({cells(small, 11)});
+        EXPECT_EQ(st.snapshotsUploaded, 1u);
+        EXPECT_EQ(residency.residentSnapshots(), 1u);
+    }
+    // Lineage 11 again, larger: uploaded apart, the predecessor freed.
+    FarSnapshotCells held = cells(large, 11);
+    std::uint32_t largeAt = 0;
+    {
+        const auto [st, offsets] = update({held});
+        EXPECT_EQ(st.snapshotsUploaded, 1u);
+        EXPECT_EQ(st.refreshesInPlace, 0u);
+        EXPECT_EQ(st.snapshotsFreed, 1u);
+        EXPECT_EQ(residency.residentSnapshots(), 1u);
+        largeAt = offsets.at(0);
+    }
+    // Lineage 11 again, the same size, its predecessor held here: not taken over, and kept
+    // (another owner); lineage 12 new.
+    {
+        const auto [st, offsets] = update({cells(large, 11), cells(small, 12)});
+        EXPECT_EQ(st.snapshotsUploaded, 2u);
+        EXPECT_EQ(st.refreshesInPlace, 0u);
+        EXPECT_EQ(st.snapshotsFreed, 0u);
+        EXPECT_EQ(residency.residentSnapshots(), 3u);
+        EXPECT_NE(offsets.at(0), largeAt);
+    }
+    // Let go: the next update frees it (and the two that frame drew, which nobody holds either).
+    held = FarSnapshotCells{};
+    {
+        const FarSnapshotCells next = cells(small, 13);
+        const auto [st, offsets] = update({next});
+        EXPECT_EQ(st.snapshotsFreed, 3u);
+        EXPECT_EQ(residency.residentSnapshots(), 1u);
+        // Drawn again by the next frame: resident already, nothing uploaded, nothing freed.
+        const auto [again, same] = update({next});
+        EXPECT_EQ(again.snapshotsUploaded, 0u);
+        EXPECT_EQ(again.snapshotsFreed, 0u);
+        EXPECT_EQ(same, offsets);
+    }
+    // A refresh in place: lineage 13, same size, the predecessor held by nobody but the device.
+    {
+        const auto [st, offsets] = update({cells(small, 13)});
+        EXPECT_EQ(st.refreshesInPlace, 1u);
+        EXPECT_EQ(st.snapshotsFreed, 0u);
+        EXPECT_EQ(residency.residentSnapshots(), 1u);
+    }
 }
 
 } // namespace
