@@ -115,7 +115,7 @@ template <class StableKey, class T, class Hash = std::hash<StableKey>> class Ver
         std::lock_guard lock(mutex_);
         for (std::size_t i = 0; i < count; ++i) {
             const auto& [key, version] = keyAt(i);
-            Entry* e = const_cast<Entry*>(entryLocked({key, version}));
+            const Entry* e = entryLocked({key, version});
             if (!e || !e->value) {
                 out[i] = nullptr;
                 continue;
