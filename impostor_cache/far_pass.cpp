@@ -15,6 +15,7 @@
 #include <cmath>
 #include <functional>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 // SPIR-V generated at build time by glslangValidator (impostor_cache/CMakeLists.txt).
@@ -302,6 +303,16 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
     tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
         std::vector<const Palette*>& mine = chunkPalettes[c];
         mine.clear();
+        // A few palettes a chunk are compared one by one; a scene of many models interleaved
+        // gets a set, so a chunk never costs its instances times its palettes.
+        constexpr std::size_t kCompared = 16;
+        std::unordered_set<const Palette*> seen;
+        const auto isNew = [&](const Palette* p) {
+            if (mine.size() <= kCompared)
+                return std::find(mine.begin(), mine.end(), p) == mine.end();
+            if (seen.empty()) seen.insert(mine.begin(), mine.end());
+            return seen.insert(p).second;
+        };
         const Palette* last = nullptr;
         std::uint32_t count = 0;
         for (std::size_t i = c * kChunk; i != chunkEnd(c); ++i) {
@@ -310,7 +321,7 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
             const Palette* p = batch.instances[i].palette;
             if (p == last) continue;
             last = p;
-            if (std::find(mine.begin(), mine.end(), p) == mine.end()) mine.push_back(p);
+            if (isNew(p)) mine.push_back(p);
         }
         drawnBefore[c + 1] = count;
     });
@@ -338,6 +349,10 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         }
     });
     if (!same) {
+        // The drawn instances take their places in the rule's order, nearest first (far_shared.h:
+        // the shader stops passing a tile's sprites over a pixel once the pixel would refuse the
+        // next one, which is then true of every later one). The (key, index) pairs are distinct,
+        // so the order has one answer, whichever sort finds it.
         sortKeyIndexPairs(order, orderScratch);
         if (tiles == FarTiles::Sprites) {
             tileRecords.clear(); // no tiles: a workgroup per drawn instance
