@@ -241,7 +241,8 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
         pick = bake(*pickNeedingBake);
     if (!pick) pick = pickBaking;
     if (pick && current && !(*pick == *current)) {
-        ++viewChanges_;
+        // Entities past the spent bake bound choose on every core (FramePlanner::plan).
+        std::atomic_ref<int>(viewChanges_).fetch_add(1, std::memory_order_relaxed);
         if (config.crossfadeFrames > 0) fades_.at(entity) = {*current, config.crossfadeFrames};
     }
     current = pick;

@@ -123,7 +123,9 @@ class ErrorBudgetViews {
     Prepared prepare(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                      const IsCached& isCached) const;
     /// choose() given prepare()'s result for this entity, computed this frame before any
-    /// choice and with the `isCached` choose() would be given: the same view.
+    /// choice and with the `isCached` choose() would be given: the same view. Once bakesLeft()
+    /// is 0 no call adds a bake, and a call changes nothing another entity's reads: such calls
+    /// may run in parallel over distinct entities.
     std::optional<ViewId> choose(std::size_t entity, const SpriteSetup& sprite,
                                  const SelectorConfig& config, const Prepared& prepared,
                                  const IsCached& withoutBake = {});
@@ -181,7 +183,8 @@ class ErrorBudgetViews {
     std::vector<BakeKey> baking_;
     std::unordered_set<BakeKey, BakeKeyHash> bakingSet_;
     int bakesLeft_ = 0;
-    int viewChanges_ = 0;
+    int viewChanges_ =
+        0; ///< counted through std::atomic_ref: choices past the bound run in parallel
     /// keepAffordableBakes, per entity: what drawing it far saves, and the index of the bake it
     /// uses in baking_ (kNoBake: none). Kept between frames: a frame allocates nothing of them.
     static constexpr std::size_t kNoBake = ~std::size_t(0);

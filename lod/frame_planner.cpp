@@ -133,9 +133,21 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
             fadeBudgetView(i, sprites[i], config, asking, p);
             budgetStep_[i] = BudgetStep::Kept;
         });
-        for (std::size_t i = 0; i < n; ++i)
-            if (budgetStep_[i] == BudgetStep::Choose)
-                planBudgetView(i, sprites[i], config, asking, prepared_[i], plan[i]);
+        // The bake bound goes out in entity order, one entity after another while bakes are left.
+        // Once it is spent, the views baking this frame are fixed, and an entity's choice reads
+        // nothing another's changes (each writes its own view and fade; the view changes are
+        // counted atomically): the rest choose on every core. On the H200's 16 cores a moving
+        // 100,000-tank army under a budget whose bakes the cost bound gives up had ~50,000
+        // entities a frame waiting in this walk, 27-36 ms of selection (run 12).
+        std::size_t next = 0;
+        for (; next < n && budgetViews_.bakesLeft() > 0; ++next)
+            if (budgetStep_[next] == BudgetStep::Choose)
+                planBudgetView(next, sprites[next], config, asking, prepared_[next], plan[next]);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(next, n, 128), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i)
+                if (budgetStep_[i] == BudgetStep::Choose)
+                    planBudgetView(i, sprites[i], config, asking, prepared_[i], plan[i]);
+        });
         st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
         // After the bakes given up, which send their entities near (never a kept one: its view
         // is cached, so no bake is asked for it). A kept view's prediction is prepare()'s.
