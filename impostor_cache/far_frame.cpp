@@ -47,6 +47,24 @@ struct NeedHash {
     }
 };
 
+/// The snapshot a far request's (visible) sprite shows: its view (the planner's, or the nearest
+/// of `set`) at the sprite's sigma times the cache's snapshot scale.
+Need needOf(const FarRequest& r, ViewSet set, double snapshotScale) {
+    const SpriteSetup& sp = *r.sprite;
+    // Not value_or: its argument, a nearest-view search over the set, would run for every
+    // sprite, though the planner gives almost every one its view (a loop over 9,700 far sprites of
+    // 100,000 tanks took 3.0-7.8 ms a frame here with that search and emplace's allocations,
+    // 1.2-1.4 ms without).
+    const glm::ivec3 view = (r.view ? *r.view : viewIdOf(set, chooseFarView(sp, set))).lattice;
+    return {sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma * snapshotScale};
+}
+
+/// What SnapshotCache::get is asked for `need`.
+SnapshotCache::Ask askOf(const Need& need, const std::vector<std::shared_ptr<VoxelModel>>& models) {
+    const auto [m, f, x, y, z, sigma] = need;
+    return {models.at(std::size_t(m)).get(), f, ViewId{{x, y, z}}, sigma};
+}
+
 /// The distinct snapshots a frame's far sprites show, each looked up (and baked) once, in
 /// parallel, then shared by every sprite that shows it.
 class SnapshotNeeds {
@@ -55,26 +73,21 @@ class SnapshotNeeds {
     /// added if new.
     explicit SnapshotNeeds(int snapshotScale) : scale_(snapshotScale) {}
     std::size_t slotOf(const FarRequest& r, ViewSet set) {
-        const SpriteSetup& sp = *r.sprite;
-        // Not value_or: its argument, a nearest-view search over the set, would run for every
-        // sprite, though the planner gives almost every one its view (this loop over 9,700 far
-        // sprites of 100,000 tanks took 3.0-7.8 ms a frame here with that search and emplace's
-        // allocations, 1.2-1.4 ms without).
-        const glm::ivec3 view = (r.view ? *r.view : viewIdOf(set, chooseFarView(sp, set))).lattice;
-        const Need n{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma * scale_};
+        const Need n = needOf(r, set, scale_);
         // try_emplace: emplace would allocate a node for every sprite before finding its key.
         auto [it, inserted] = slot_.try_emplace(n, needs_.size());
         if (inserted) needs_.push_back(n);
         return it->second;
     }
-    /// Looks up, baking where missing, every snapshot added since the last call.
+    /// Looks up, baking where missing, every snapshot added since the last call (the cached ones
+    /// under one lock: SnapshotCache::getAll).
     void fetchNew(const std::vector<std::shared_ptr<VoxelModel>>& models, SnapshotCache& cache) {
         const std::size_t from = snaps_.size();
+        asks_.resize(needs_.size() - from);
+        for (std::size_t i = from; i < needs_.size(); ++i)
+            asks_[i - from] = askOf(needs_[i], models);
         snaps_.resize(needs_.size());
-        tbb::parallel_for(from, needs_.size(), [&](std::size_t i) {
-            const auto [m, f, x, y, z, sigma] = needs_[i];
-            snaps_[i] = cache.get(*models.at(std::size_t(m)), f, ViewId{{x, y, z}}, sigma);
-        });
+        cache.getAll(asks_, std::span(snaps_).subspan(from));
     }
     std::size_t size() const { return needs_.size(); }
     const Need& need(std::size_t i) const { return needs_[i]; }
@@ -84,6 +97,7 @@ class SnapshotNeeds {
     double scale_ = 1.0;
     std::unordered_map<Need, std::size_t, NeedHash> slot_;
     std::vector<Need> needs_;
+    std::vector<SnapshotCache::Ask> asks_; ///< fetchNew's
     std::vector<std::shared_ptr<const Snapshot>> snaps_;
 };
 
@@ -204,10 +218,7 @@ void prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,
                 w.places[k] = kHidden;
                 continue;
             }
-            const SpriteSetup& sp = *r.sprite;
-            const glm::ivec3 view =
-                (r.view ? *r.view : viewIdOf(set, chooseFarView(sp, set))).lattice;
-            w.keys[k] = Need{sp.model, sp.frame, view.x, view.y, view.z, sp.lattice.sigma * scale};
+            w.keys[k] = needOf(r, set, scale);
             w.hashes[k] = NeedHash{}(w.keys[k]);
             w.places[k] = 0;
             ++drawn;
@@ -283,10 +294,8 @@ void prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,
     w.asks.resize(distinct);
     w.fetched.resize(distinct);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, distinct, 256), [&](const auto& range) {
-        for (std::size_t i = range.begin(); i != range.end(); ++i) {
-            const auto [m, f, x, y, z, sigma] = w.keys[w.needFirst[i]];
-            w.asks[i] = {models.at(std::size_t(m)).get(), f, ViewId{{x, y, z}}, sigma};
-        }
+        for (std::size_t i = range.begin(); i != range.end(); ++i)
+            w.asks[i] = askOf(w.keys[w.needFirst[i]], models);
     });
     cache.getAll(w.asks, w.fetched);
     batch.snapshots.resize(distinct);

@@ -183,8 +183,8 @@ class ErrorBudgetViews {
     std::vector<BakeKey> baking_;
     std::unordered_set<BakeKey, BakeKeyHash> bakingSet_;
     int bakesLeft_ = 0;
-    int viewChanges_ =
-        0; ///< counted through std::atomic_ref: choices past the bound run in parallel
+    /// Counted through std::atomic_ref: the choices past the spent bound run in parallel.
+    int viewChanges_ = 0;
     /// keepAffordableBakes, per entity: what drawing it far saves, and the index of the bake it
     /// uses in baking_ (kNoBake: none). Kept between frames: a frame allocates nothing of them.
     static constexpr std::size_t kNoBake = ~std::size_t(0);
