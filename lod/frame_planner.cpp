@@ -5,10 +5,23 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <utility>
 
 namespace voxtier {
+
+namespace {
+
+/// Milliseconds since `from`, and `from` moved to now: the plan's steps timed one after another.
+double lap(std::chrono::steady_clock::time_point& from) {
+    const auto now = std::chrono::steady_clock::now();
+    const double ms = std::chrono::duration<double, std::milli>(now - from).count();
+    from = now;
+    return ms;
+}
+
+} // namespace
 
 SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites,
                                             std::span<const std::uint32_t> visible,
@@ -75,10 +88,13 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                 for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
             });
     };
+    auto step = std::chrono::steady_clock::now();
     forEach(input);
+    st.ms.inputs = lap(step);
     const SelectorStats ss =
         incremental ? selector_.update(inputs_, work_) : selector_.update(inputs_);
     budgetViews_.beginFrame(n, config.maxBakesPerFrame);
+    st.ms.tiers = lap(step);
     st.switchesToFar = ss.switchesToFar;
     st.switchesToNear = ss.switchesToNear;
     const auto tierOf = [&](std::size_t i) {
@@ -133,6 +149,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
             fadeBudgetView(i, sprites[i], config, asking, p);
             budgetStep_[i] = BudgetStep::Kept;
         });
+        st.ms.views = lap(step);
         // The bake bound goes out in entity order, one entity after another while bakes are left.
         // Once it is spent, the views baking this frame are fixed, and an entity's choice reads
         // nothing another's changes (each writes its own view and fade; the view changes are
@@ -148,7 +165,9 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                 if (budgetStep_[i] == BudgetStep::Choose)
                     planBudgetView(i, sprites[i], config, asking, prepared_[i], plan[i]);
         });
+        st.ms.choices = lap(step);
         st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
+        st.ms.costBound = lap(step);
         // After the bakes given up, which send their entities near (never a kept one: its view
         // is cached, so no bake is asked for it). A kept view's prediction is prepare()'s.
         forEach([&](std::size_t i) {
@@ -166,6 +185,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                     set, selector_.chooseView(i, towardViewer(sprites[i]), views, nearest_[i]));
             predict(i);
         });
+        st.ms.views = lap(step);
     }
     st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
     // Entities outside the work list are settled, so none of them fades.
@@ -181,6 +201,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
             return worst;
         },
         [](double a, double b) { return std::max(a, b); });
+    st.ms.predictions = lap(step);
     return plan_.share();
 }
 

@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -787,6 +788,62 @@ TEST(ErrorBudget, ChoicesPastTheSpentBakeBoundOnEveryCoreEqualTheSerialWalk) {
     arena.execute([&] { w = walkPlannerAgainstSerialWalk(20000, 6); });
     EXPECT_GT(w.waiting, 2000);
     EXPECT_GT(w.changes, 10);
+}
+
+// The plan's steps are timed apart (PlanStats::ms, the CSV's host_select_* columns): under
+// error_px the budget's steps take no time, under the error budget each runs, and together they
+// never exceed the plan's own time around the call.
+TEST(ErrorBudget, ThePlansStepsAreTimedApartAndAddUpToAtMostThePlan) {
+    constexpr std::size_t n = 3000;
+    std::vector<SpriteSetup> sprites(n);
+    std::vector<std::uint32_t> visible;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double a = 0.37 * double(i % 50);
+        sprites[i] = syntheticSprite({std::cos(a), 0.3, std::sin(a)}, 0.05 + 0.01 * double(i % 9));
+        sprites[i].model = int(i % 3);
+        sprites[i].distance = 10.0 + double(i);
+        visible.push_back(std::uint32_t(i));
+    }
+    std::set<std::tuple<int, int, int, int, int>> baked;
+    for (const bool budget : {false, true}) {
+        SelectorConfig c = budget ? budgetSelector(1.0) : SelectorConfig{};
+        c.maxBakesPerFrame = 16;
+        FramePlanner planner(c);
+        PlanSettings settings;
+        settings.mode = PlanMode::Hybrid;
+        settings.inMemory = [&](const SpriteSetup& s, ViewId v) {
+            return baked.count({s.model, s.frame, v.lattice.x, v.lattice.y, v.lattice.z}) > 0;
+        };
+        for (int f = 0; f < 3; ++f) {
+            PlanStats st;
+            const auto t0 = std::chrono::steady_clock::now();
+            const SharedVector<EntityPlan> plan = planner.plan(sprites, visible, c, settings, st);
+            const double wallMs =
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                    .count();
+            const PlanStats::PhaseMs& ms = st.ms;
+            for (const double part :
+                 {ms.inputs, ms.tiers, ms.views, ms.choices, ms.costBound, ms.predictions})
+                EXPECT_GE(part, 0.0);
+            EXPECT_LE(ms.inputs + ms.tiers + ms.views + ms.choices + ms.costBound + ms.predictions,
+                      wallMs);
+            EXPECT_GT(ms.inputs, 0.0);
+            EXPECT_GT(ms.views, 0.0);
+            if (budget) {
+                EXPECT_GT(ms.choices, 0.0) << "frame " << f;
+                EXPECT_GT(ms.costBound, 0.0) << "frame " << f;
+            } else {
+                EXPECT_EQ(ms.choices, 0.0);
+                EXPECT_EQ(ms.costBound, 0.0);
+            }
+            for (std::size_t i = 0; i < n; ++i)
+                if (plan[i].drawsFar() && plan[i].view) {
+                    const ViewId v = *plan[i].view;
+                    baked.insert({sprites[i].model, sprites[i].frame, v.lattice.x, v.lattice.y,
+                                  v.lattice.z});
+                }
+        }
+    }
 }
 
 // The plan's shared table of the cache's answers: asked from many threads at once, every answer is

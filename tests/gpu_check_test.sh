@@ -65,6 +65,13 @@ for item in "hybrid_budget host_select_ms" "hybrid_budget frame_ms" "near_vulkan
     grep -q "^error_budget,tank_army_80,$item,[0-9.]*[1-9][0-9.]*,ms" "$work/out/results.csv" ||
         fail "results.csv lacks the error-budget row '$item'"
 done
+# The selection's parts beside it, each a row (a few entities' steps may round to 0).
+grep -q "| select | of which inputs | of which tiers | of which views | of which choices" \
+    "$work/out/report.md" || fail "the error-budget table lacks the selection's parts"
+for c in inputs tiers views choices cost_bound predictions; do
+    grep -q "^error_budget,tank_army_80,hybrid_budget host_select_${c}_ms,[0-9.e+-]*,ms" \
+        "$work/out/results.csv" || fail "results.csv lacks the error budget's selection part $c"
+done
 grep -q "^error_budget,tank_army_80,hybrid_budget speedup_vs_all_near_vulkan,[0-9.]*[1-9][0-9.]*,x" \
     "$work/out/results.csv" || fail "results.csv lacks the error budget's speed-up"
 echo "gpu_check_test: ok"

@@ -86,11 +86,15 @@ json stepsContext(const SuiteResults& r) {
 
 /// The Vulkan frame's columns, from the table: the host's part of it that is no time step
 /// (host_record_ms, host_wait_ms, host_readback_ms) and the device's own pass times (gpu_*).
+/// Not the selection's parts (host_select_*_ms): they split a time step the CPU takes before the
+/// Vulkan frame.
 std::vector<std::size_t> deviceColumns() {
     std::vector<std::size_t> cols;
     for (std::size_t i = 0; i < kFrameFigureCount; ++i) {
         const std::string name = kFrameFigures[i].name;
-        if ((name.starts_with("host_") && !kFrameFigures[i].timeStep) || name.starts_with("gpu_"))
+        if ((name.starts_with("host_") && !name.starts_with("host_select_") &&
+             !kFrameFigures[i].timeStep) ||
+            name.starts_with("gpu_"))
             cols.push_back(i);
     }
     return cols;
