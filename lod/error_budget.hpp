@@ -146,11 +146,14 @@ class ErrorBudgetViews {
     /// planning cost more than the near time all its far sprites save, the bake that saves least
     /// (its users' farSavingMs, summed) is given up if it saves less than it costs, and its users
     /// are drawn near this frame. `drawnFrom[i]` is the view entity i is drawn far from (nullopt:
-    /// near). Returns the entities given up, in ascending order (their views are dropped).
+    /// near). `mayUseABake[i]`, where given, is 0 for an entity whose view is certainly no bake of
+    /// this frame (a view kept because it is cached: no entity asks to bake a view the frame's
+    /// cache answers hold cached), whose bake is then not looked up. Returns the entities given
+    /// up, in ascending order (their views are dropped).
     std::vector<std::size_t>
     keepAffordableBakes(std::span<const SpriteSetup> sprites,
-                        const std::vector<std::optional<ViewId>>& drawnFrom,
-                        const BakeCosts& costs);
+                        const std::vector<std::optional<ViewId>>& drawnFrom, const BakeCosts& costs,
+                        std::span<const std::uint8_t> mayUseABake = {});
     int viewChangesThisFrame() const { return viewChanges_; }
     int bakesLeft() const { return bakesLeft_; }
     /// Views this frame asks to bake (after keepAffordableBakes: the ones it kept).

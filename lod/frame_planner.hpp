@@ -181,7 +181,8 @@ class FramePlanner {
     /// parallel pass; one chosen in the serial pass)
     enum class BudgetStep : std::uint8_t { Near, Kept, Choose };
     std::vector<BudgetStep> budgetStep_;
-    std::vector<std::uint32_t> work_; ///< the entities a frame plans afresh
+    std::vector<std::uint8_t> mayUseABake_; ///< error_budget: 1 where budgetStep_ is Choose
+    std::vector<std::uint32_t> work_;       ///< the entities a frame plans afresh
     /// The previous call went through the selector, with this mode and config: a frame with
     /// the sprites' changes since then may plan only what changed.
     bool chained_ = false;
