@@ -190,8 +190,8 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     }
     st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
     // The cross-fades counted and the worst prediction found in one parallel pass (one core
-    // counting 100,000 plans was a third of this step on two cores, and does not shrink with
-    // more). Entities outside the work list are settled, so none of them fades.
+    // counted 100,000 plans, which more cores do not shrink). Entities outside the work list are
+    // settled, so none of them fades.
     using FadingWorst = std::pair<int, double>;
     const FadingWorst fw = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, n, 4096), FadingWorst{0, 0.0},
@@ -256,8 +256,8 @@ int FramePlanner::keepAffordableBakes(std::span<const SpriteSetup> sprites,
                                       const PlanSettings& settings, std::vector<EntityPlan>& plan) {
     if (!settings.costAwareBakes) return 0;
     const std::size_t asked = budgetViews_.bakesAsked();
-    // Filled on every core: one core writing 100,000 entries and reading each visible entity's
-    // plan was half of the cost bound's time on two cores, and does not shrink with more.
+    // Filled on every core: one core wrote 100,000 entries and read each visible entity's plan,
+    // work that more cores do not shrink (on two cores it measured within noise either way).
     drawnFrom_.resize(plan.size());
     mayUseABake_.resize(plan.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, plan.size(), 4096), [&](const auto& r) {
