@@ -1,5 +1,7 @@
 #include "lod/frame_planner.hpp"
 
+#include "core/stopwatch.hpp"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
@@ -11,18 +13,6 @@
 #include <utility>
 
 namespace voxtier {
-
-namespace {
-
-/// Milliseconds since `from`, and `from` moved to now: the plan's steps timed one after another.
-double lap(std::chrono::steady_clock::time_point& from) {
-    const auto now = std::chrono::steady_clock::now();
-    const double ms = std::chrono::duration<double, std::milli>(now - from).count();
-    from = now;
-    return ms;
-}
-
-} // namespace
 
 SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites,
                                             std::span<const std::uint32_t> visible,
@@ -91,11 +81,11 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     };
     auto step = std::chrono::steady_clock::now();
     forEach(input);
-    st.ms.inputs = lap(step);
+    st.ms.inputs = lapMs(step);
     const SelectorStats ss =
         incremental ? selector_.update(inputs_, work_) : selector_.update(inputs_);
     budgetViews_.beginFrame(n, config.maxBakesPerFrame);
-    st.ms.tiers = lap(step);
+    st.ms.tiers = lapMs(step);
     st.switchesToFar = ss.switchesToFar;
     st.switchesToNear = ss.switchesToNear;
     const auto tierOf = [&](std::size_t i) {
@@ -150,7 +140,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
             fadeBudgetView(i, sprites[i], config, asking, p);
             budgetStep_[i] = BudgetStep::Kept;
         });
-        st.ms.views = lap(step);
+        st.ms.views = lapMs(step);
         // The bake bound goes out in entity order, one entity after another while bakes are left.
         // Once it is spent, the views baking this frame are fixed, and an entity's choice reads
         // nothing another's changes (each writes its own view and fade; the view changes are
@@ -166,9 +156,9 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                 if (budgetStep_[i] == BudgetStep::Choose)
                     planBudgetView(i, sprites[i], config, asking, prepared_[i], plan[i]);
         });
-        st.ms.choices = lap(step);
+        st.ms.choices = lapMs(step);
         st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
-        st.ms.costBound = lap(step);
+        st.ms.costBound = lapMs(step);
         // After the bakes given up, which send their entities near (never a kept one: its view
         // is cached, so no bake is asked for it). A kept view's prediction is prepare()'s.
         forEach([&](std::size_t i) {
@@ -186,7 +176,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                     set, selector_.chooseView(i, towardViewer(sprites[i]), views, nearest_[i]));
             predict(i);
         });
-        st.ms.views = lap(step);
+        st.ms.views = lapMs(step);
     }
     st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
     // The cross-fades counted and the worst prediction found in one parallel pass (one core
@@ -215,7 +205,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                                     },
                                     std::plus<int>());
     st.worstVpx = fw.second;
-    st.ms.predictions = lap(step);
+    st.ms.predictions = lapMs(step);
     return plan_.share();
 }
 
