@@ -177,6 +177,18 @@ bool SnapshotCache::inMemory(const VoxelModel& model, int frame, ViewId view, do
     return snapshots_.contains({model.uid(), frame, view, sigma}, model.version());
 }
 
+std::optional<std::uint64_t>
+SnapshotCache::inMemoryChangesSince(std::uint64_t since,
+                                    const std::function<void(const SnapshotKey&)>& changed) const {
+    return snapshots_.changesSince(since, [&](const ViewKey& k, std::uint64_t version) {
+        changed(SnapshotKey{k.modelUid, k.frame, version, k.view, k.sigma});
+    });
+}
+
+std::uint64_t SnapshotCache::inMemoryChangeCount() const {
+    return snapshots_.changeCount();
+}
+
 SnapshotCacheCounters SnapshotCache::counters() const {
     SnapshotCacheCounters c;
     {

@@ -24,9 +24,11 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <unordered_map>
 
@@ -127,6 +129,17 @@ class SnapshotCache {
     /// Unlike availableWithoutBake, this depends only on what this process asked for, never on
     /// what other processes or earlier runs left in the directory: what a planner may prefer.
     bool inMemory(const VoxelModel& model, int frame, ViewId view, double sigma) const;
+    /// Every snapshot whose inMemory() answer may differ from what it was after the first `since`
+    /// changes of what memory holds (a snapshot baked, loaded, evicted or superseded), passed to
+    /// `changed` as its key; returns the count of such changes so far (the next call's `since`),
+    /// or nullopt when that is too long ago to tell (VersionedLru::changesSince). Edits are not
+    /// changes: a model's new version answers for keys of that version. What lets a planner keep
+    /// the answers of frames before.
+    std::optional<std::uint64_t>
+    inMemoryChangesSince(std::uint64_t since,
+                         const std::function<void(const SnapshotKey&)>& changed) const;
+    /// The count of those changes so far.
+    std::uint64_t inMemoryChangeCount() const;
     /// The Embree scene of the model's current version of `frame` (built once, shared).
     std::shared_ptr<const VoxelScene> scene(const VoxelModel& model, int frame);
 

@@ -17,6 +17,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <limits>
 #include <list>
@@ -97,6 +98,7 @@ template <class StableKey, class T, class Hash = std::hash<StableKey>> class Ver
                 lru_.push_front({key, version});
                 e->lruPos = lru_.begin();
                 e->listed = true;
+                logChangeLocked({key, version});
                 e->bytes = value->bytes();
                 stats_.bytes += e->bytes;
                 ++stats_.entries;
@@ -153,6 +155,29 @@ template <class StableKey, class T, class Hash = std::hash<StableKey>> class Ver
         return stats_;
     }
 
+    /// What contains() answers differently now than after the first `since` changes: each
+    /// (key, version) listed or unlisted since then (in order; one may appear more than once) is
+    /// passed to `changed`, and the count of changes so far is returned (`since` for the next
+    /// call). nullopt when the log no longer reaches back that far (it keeps the last
+    /// kChangeLogLength), or `since` is later than now. A planner that keeps contains()'s answers
+    /// across frames asks again only about these, where a frame's thousands of repeated
+    /// questions each took the lock and walked the two maps.
+    template <class Changed>
+    std::optional<std::uint64_t> changesSince(std::uint64_t since, Changed&& changed) const {
+        std::shared_lock lock(mutex_);
+        if (since > changes_ || changes_ - since > log_.size()) return std::nullopt;
+        for (std::size_t k = log_.size() - std::size_t(changes_ - since); k < log_.size(); ++k)
+            changed(std::as_const(log_[k].key), log_[k].version);
+        return changes_;
+    }
+    /// The count of changes of what contains() answers so far (changesSince()'s return).
+    std::uint64_t changeCount() const {
+        std::shared_lock lock(mutex_);
+        return changes_;
+    }
+    /// The changes changesSince() keeps.
+    static constexpr std::size_t kChangeLogLength = std::size_t(1) << 16;
+
   private:
     struct Slot {
         StableKey key;
@@ -198,12 +223,20 @@ template <class StableKey, class T, class Hash = std::hash<StableKey>> class Ver
         if (e.listed) {
             lru_.erase(e.lruPos);
             e.listed = false;
+            logChangeLocked(s);
             stats_.bytes -= e.bytes;
             --stats_.entries;
         }
         k->second.erase(v);
         if (k->second.empty()) entries_.erase(k);
         return true;
+    }
+
+    /// (key, version) was listed or unlisted: the newest of the log's kChangeLogLength entries.
+    void logChangeLocked(const Slot& s) {
+        if (log_.size() == kChangeLogLength) log_.pop_front();
+        log_.push_back(s);
+        ++changes_;
     }
 
     void evictLocked() {
@@ -219,6 +252,8 @@ template <class StableKey, class T, class Hash = std::hash<StableKey>> class Ver
     std::unordered_map<StableKey, Versions, Hash> entries_;
     std::list<Slot> lru_; ///< listed entries, most recent first
     LruStats stats_;
+    std::deque<Slot> log_;      ///< the last changes of `listed`, oldest first
+    std::uint64_t changes_ = 0; ///< changes of `listed` ever made
 };
 
 } // namespace voxtier

@@ -6,8 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -223,6 +225,71 @@ TEST(VersionedLru, FailedProductionReachesTheCallerAndIsRetried) {
     EXPECT_EQ(calls, 1);
     EXPECT_EQ(lru.stats().misses, 1u);
     EXPECT_EQ(lru.stats().hits, 1u) << "the retry found the failed entry";
+}
+
+// changesSince() names every (key, version) whose contains() answer differs from what it was
+// after the count it is given: random requests over a small budget list, evict and supersede
+// entries, and each answer that changed between two checkpoints must be among the changes named
+// (written out here by asking contains() of every key at each checkpoint). Past the log's length,
+// or from a count not reached yet, it cannot tell.
+TEST(VersionedLru, ChangesSinceNameEveryEntryWhoseAnswerChanged) {
+    Lru lru(LruBudget{.entries = 6});
+    std::vector<std::pair<std::string, std::uint64_t>> universe;
+    for (int k = 0; k < 12; ++k)
+        for (std::uint64_t v = 1; v <= 3; ++v) universe.push_back({"k" + std::to_string(k), v});
+    const auto answers = [&] {
+        std::vector<bool> a;
+        for (const auto& [key, version] : universe) a.push_back(lru.contains(key, version));
+        return a;
+    };
+    std::uint64_t since = lru.changeCount();
+    EXPECT_EQ(since, 0u);
+    std::vector<bool> before = answers();
+    unsigned seed = 12345;
+    int changedAnswers = 0;
+    for (int round = 0; round < 200; ++round) {
+        const int requests = 1 + round % 4;
+        for (int r = 0; r < requests; ++r) {
+            seed = seed * 1103515245u + 12345u;
+            const auto& [key, version] = universe[(seed >> 8) % universe.size()];
+            request(lru, key, version); // may list it, evict another, supersede an older one
+        }
+        std::set<std::pair<std::string, std::uint64_t>> named;
+        const std::optional<std::uint64_t> now =
+            lru.changesSince(since, [&](const std::string& key, std::uint64_t version) {
+                named.insert({key, version});
+            });
+        ASSERT_TRUE(now.has_value()) << "round " << round;
+        EXPECT_EQ(*now, lru.changeCount());
+        const std::vector<bool> after = answers();
+        for (std::size_t u = 0; u < universe.size(); ++u)
+            if (after[u] != before[u]) {
+                ++changedAnswers;
+                EXPECT_TRUE(named.count(universe[u]))
+                    << universe[u].first << "@" << universe[u].second << ", round " << round;
+            }
+        // Nothing is named that was not listed or dropped: each name is a (key, version) asked.
+        for (const auto& n : named)
+            EXPECT_NE(std::find(universe.begin(), universe.end(), n), universe.end());
+        since = *now, before = after;
+    }
+    EXPECT_GT(changedAnswers, 200); // the rounds did change answers (lists, evictions, supersedes)
+    // Nothing changed since the last count: nothing named, the same count.
+    int calls = 0;
+    EXPECT_EQ(lru.changesSince(since, [&](const std::string&, std::uint64_t) { ++calls; }), since);
+    EXPECT_EQ(calls, 0);
+    EXPECT_FALSE(lru.changesSince(since + 1, [](const std::string&, std::uint64_t) {}));
+    // More changes than the log keeps: an old count can no longer be answered, a recent one can.
+    for (std::size_t k = 0; k < Lru::kChangeLogLength / 2 + 8; ++k)
+        request(lru, "w" + std::to_string(k)); // each listed, and another evicted
+    EXPECT_FALSE(lru.changesSince(since, [](const std::string&, std::uint64_t) {}));
+    const std::uint64_t recent = lru.changeCount();
+    request(lru, "last");
+    std::vector<std::string> named;
+    EXPECT_EQ(lru.changesSince(
+                  recent, [&](const std::string& key, std::uint64_t) { named.push_back(key); }),
+              recent + 2);
+    EXPECT_EQ(named.size(), 2u); // "last" listed and the least recent "w..." evicted
 }
 
 } // namespace
