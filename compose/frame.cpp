@@ -494,6 +494,33 @@ SharedVector<EntityPlan> FrameRenderer::planEntities(RenderMode mode, FrameStats
             return cache_->availableWithoutBake(*scene_.models.at(std::size_t(s.model)), s.frame, v,
                                                 s.lattice.sigma * cache_->snapshotScale());
         };
+    // The planner keeps the cache's answers from frame to frame and asks again about the
+    // snapshots the cache baked, loaded or dropped since (most of a moving frame's ~25,000
+    // questions at 100,000 tanks are the frame before's). An edit or a new model answers for
+    // other keys: a new epoch, every answer asked afresh.
+    bool modelsChanged = answeredModels_.size() != scene_.models.size();
+    answeredModels_.resize(scene_.models.size());
+    for (std::size_t m = 0; m < scene_.models.size(); ++m) {
+        const std::pair model{scene_.models[m]->uid(), scene_.models[m]->version()};
+        modelsChanged = modelsChanged || answeredModels_[m] != model;
+        answeredModels_[m] = model;
+    }
+    if (modelsChanged) ++answersEpoch_;
+    settings.inMemoryEpoch = answersEpoch_;
+    if (options_.keepCacheAnswers)
+        settings.inMemoryChangesSince = [&](std::optional<std::uint64_t> since,
+                                            std::vector<CachedView>& changed) {
+            if (since) {
+                const auto count = cache_->inMemoryChangesSince(*since, [&](const SnapshotKey& k) {
+                    // Only the models' current versions are asked about.
+                    for (std::size_t m = 0; m < answeredModels_.size(); ++m)
+                        if (answeredModels_[m] == std::pair{k.modelUid, k.version})
+                            changed.push_back({int(m), k.frame, k.view});
+                });
+                if (count) return PlanSettings::InMemoryChanges{*count, true};
+            }
+            return PlanSettings::InMemoryChanges{cache_->inMemoryChangeCount(), false};
+        };
     PlanStats ps;
     SharedVector<EntityPlan> plan =
         planner_.plan(sprites_.sprites(), sprites_.visibleIds(), scene_.selector, settings, ps,

@@ -161,6 +161,11 @@ struct FrameOptions {
     /// only SelectorConfig::maxBakesPerFrame bounds the bakes.
     bool costAwareBakes = true;
     std::optional<BakeCosts> bakeCosts;
+    /// Metric error_budget: the planner keeps the snapshot cache's answers from frame to frame
+    /// and asks again only about the snapshots the cache baked, loaded or dropped since
+    /// (PlanSettings::inMemoryChangesSince). false: every frame asks afresh (the same plans; for
+    /// comparing the two).
+    bool keepCacheAnswers = true;
     /// Exact occlusion culling in the CPU tiers (the far blit and the CPU reference near tier;
     /// core/occlusion.hpp): the same image, bit for bit, with whole hidden sprites dropped before
     /// any bake or trace. Off by default (--cull turns it on): with earlyDepthTest on it costs
@@ -370,6 +375,10 @@ class FrameRenderer {
     std::unique_ptr<TierShares> shares_;
     SharedVector<EntityPlan> previousPlan_; ///< kept with FrameOptions::measurePops only
     int editsApplied_ = 0;                  ///< scene.edits are applied in order of atFrame
+    /// The models' (uid, version) the planner's kept cache answers are about, and the epoch
+    /// that names them (PlanSettings::inMemoryEpoch): a new epoch when any of them changes.
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> answeredModels_;
+    std::uint64_t answersEpoch_ = 0;
 };
 
 /// Composes `far` into `near` by the shared depth/id rule (core/sprite.hpp winsDepthTest).

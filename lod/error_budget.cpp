@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <cstring>
 #include <unordered_map>
 
 namespace voxtier {
@@ -37,14 +36,26 @@ double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config) 
 }
 
 namespace {
-constexpr std::size_t kAnswerSlots = std::size_t(1) << 15; // 1 MB
+/// 4 MB: a moving 100,000-tank army asks about 20,000-30,000 snapshots a frame, and answers kept
+/// across frames fill it by ~1,500 new questions a frame until it is half full.
+constexpr std::size_t kAnswerSlots = std::size_t(1) << 17;
 constexpr int kMaxProbes = 64;
-/// A slot's state word: its generation above, and below it one of these.
-enum : std::uint32_t { kAsking = 1, kNotCached = 2, kCached = 3 };
+/// A slot's state word: its generation above, and below it one of these. kForgotten: the
+/// question is here, its answer to be asked again (its snapshot changed since).
+enum : std::uint32_t { kForgotten = 0, kAsking = 1, kNotCached = 2, kCached = 3 };
+
+/// Where a question's probes start. Not by sigma: the snapshots that changed are named without
+/// it (CachedView), so that every sigma's question about them is found where they start.
+std::uint64_t placeOf(int model, int frame, glm::ivec3 l) {
+    const std::uint64_t h =
+        splitmix64Mix(std::uint64_t(std::uint32_t(model)) << 32 | std::uint32_t(frame));
+    return splitmix64Mix(h ^ (std::uint64_t(std::uint32_t(l.x)) << 42 ^
+                              std::uint64_t(std::uint32_t(l.y)) << 21 ^ std::uint32_t(l.z)));
+}
 } // namespace
 
 struct SharedCacheAnswers::Slot {
-    std::atomic<std::uint32_t> state{0}; ///< generation << 2 | kAsking / kNotCached / kCached
+    std::atomic<std::uint32_t> state{0}; ///< generation << 2 | kForgotten / kAsking / ...
     int model = 0, frame = 0;
     glm::ivec3 view{0};
     double sigma = 0.0; ///< written before the state's release, read after its acquire
@@ -59,37 +70,62 @@ void SharedCacheAnswers::begin() {
         for (std::size_t k = 0; k < kAnswerSlots; ++k) slots_[k].state.store(0);
         generation_ = 1;
     }
+    used_ = 0;
+}
+
+void SharedCacheAnswers::beginKeeping(std::span<const CachedView> changed) {
+    if (!slots_ || used_ > kAnswerSlots / 2) return begin();
+    const std::uint32_t g = generation_;
+    for (const CachedView& c : changed) {
+        // A question is never placed past the first slot still empty from where its probes start
+        // (slots are not emptied within a generation), nor past kMaxProbes.
+        const std::uint64_t h = placeOf(c.model, c.frame, c.view.lattice);
+        for (int probe = 0; probe < kMaxProbes; ++probe) {
+            Slot& s = slots_[(h + std::uint64_t(probe)) & (kAnswerSlots - 1)];
+            if (s.state.load(std::memory_order_relaxed) >> 2 != g) break;
+            if (s.model == c.model && s.frame == c.frame && s.view == c.view.lattice)
+                s.state.store(g << 2 | kForgotten, std::memory_order_relaxed);
+        }
+    }
 }
 
 bool SharedCacheAnswers::ask(const SpriteSetup& sprite, ViewId view,
                              const std::function<bool(const SpriteSetup&, ViewId)>& isCached) {
     if (!slots_) return isCached(sprite, view);
     const glm::ivec3 l = view.lattice;
-    std::uint64_t sigmaBits;
-    std::memcpy(&sigmaBits, &sprite.lattice.sigma, sizeof sigmaBits);
-    std::uint64_t h = splitmix64Mix(std::uint64_t(std::uint32_t(sprite.model)) << 32 |
-                                    std::uint32_t(sprite.frame));
-    h = splitmix64Mix(h ^ (std::uint64_t(std::uint32_t(l.x)) << 42 ^
-                           std::uint64_t(std::uint32_t(l.y)) << 21 ^ std::uint32_t(l.z)));
-    h = splitmix64Mix(h ^ sigmaBits);
+    const std::uint64_t h = placeOf(sprite.model, sprite.frame, l);
     const std::uint32_t g = generation_;
+    // The slot is this thread's (kAsking): the cache's answer goes in it.
+    const auto answer = [&](Slot& s) {
+        const bool cached = isCached(sprite, view);
+        s.state.store(g << 2 | (cached ? kCached : kNotCached), std::memory_order_release);
+        return cached;
+    };
     for (int probe = 0; probe < kMaxProbes; ++probe) {
         Slot& s = slots_[(h + std::uint64_t(probe)) & (kAnswerSlots - 1)];
         std::uint32_t st = s.state.load(std::memory_order_acquire);
-        if (st >> 2 != g) {
-            // Empty this plan: claim it and ask (or, if another thread claimed it first, read on).
-            if (s.state.compare_exchange_strong(st, g << 2 | kAsking, std::memory_order_acquire)) {
-                s.model = sprite.model, s.frame = sprite.frame, s.view = l;
-                s.sigma = sprite.lattice.sigma;
-                const bool cached = isCached(sprite, view);
-                s.state.store(g << 2 | (cached ? kCached : kNotCached), std::memory_order_release);
-                return cached;
+        for (;;) {
+            if (st >> 2 != g) {
+                // Empty this generation: claim it and ask (or, if another thread claimed it
+                // first, read on: st holds its state).
+                if (s.state.compare_exchange_strong(st, g << 2 | kAsking,
+                                                    std::memory_order_acquire)) {
+                    s.model = sprite.model, s.frame = sprite.frame, s.view = l;
+                    s.sigma = sprite.lattice.sigma;
+                    used_.fetch_add(1, std::memory_order_relaxed);
+                    return answer(s);
+                }
+                continue;
             }
+            while ((st & 3u) == kAsking) st = s.state.load(std::memory_order_acquire);
+            if (s.model != sprite.model || s.frame != sprite.frame || s.view != l ||
+                s.sigma != sprite.lattice.sigma)
+                break; // another question: the next slot
+            if ((st & 3u) != kForgotten) return (st & 3u) == kCached;
+            // Forgotten since it was answered: asked again by the thread that claims it back.
+            if (s.state.compare_exchange_strong(st, g << 2 | kAsking, std::memory_order_acquire))
+                return answer(s);
         }
-        while ((st & 3u) == kAsking) st = s.state.load(std::memory_order_acquire);
-        if (s.model == sprite.model && s.frame == sprite.frame && s.view == l &&
-            s.sigma == sprite.lattice.sigma)
-            return (st & 3u) == kCached;
     }
     return isCached(sprite, view);
 }

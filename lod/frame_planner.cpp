@@ -115,8 +115,9 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         // view is within the budget and cached keeps it there too (most far entities, most
         // frames): only the others are handed views in entity order. At 100,000 tanks a serial
         // pass over every entity read each one's sprite and cost 5-10 ms on two cores. Each
-        // distinct question to the cache is asked of it once this frame (SharedCacheAnswers).
-        cacheAnswers_.begin();
+        // distinct question to the cache is asked of it once, and kept for the next frames while
+        // the cache can tell what changed (SharedCacheAnswers).
+        beginCacheAnswers(settings);
         PlanSettings asking = settings;
         asking.inMemory = [&](const SpriteSetup& s, ViewId v) {
             return cacheAnswers_.ask(s, v, settings.inMemory);
@@ -216,6 +217,24 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     for (std::size_t i = 0; i < sprites.size(); ++i)
         if (sprites[i].visible()) visible.push_back(std::uint32_t(i));
     return plan(sprites, visible, config, settings, stats);
+}
+
+void FramePlanner::beginCacheAnswers(const PlanSettings& settings) {
+    if (!settings.inMemoryChangesSince) {
+        answersThrough_.reset();
+        return cacheAnswers_.begin();
+    }
+    answersChanged_.clear();
+    const std::optional<std::uint64_t> since =
+        settings.inMemoryEpoch == answersEpoch_ ? answersThrough_ : std::nullopt;
+    const PlanSettings::InMemoryChanges changes =
+        settings.inMemoryChangesSince(since, answersChanged_);
+    if (since && changes.complete)
+        cacheAnswers_.beginKeeping(answersChanged_);
+    else
+        cacheAnswers_.begin();
+    answersThrough_ = changes.count;
+    answersEpoch_ = settings.inMemoryEpoch;
 }
 
 void FramePlanner::planBudgetView(std::size_t entity, const SpriteSetup& sprite,

@@ -76,6 +76,21 @@ struct PlanSettings {
     /// What the snapshot cache can give without a bake: in memory (preferred), and without a
     /// bake at all (also a file in the on-disk store; may be empty). ErrorBudgetViews::choose.
     ErrorBudgetViews::IsCached inMemory, withoutBake;
+    /// What `inMemory` answers changed since the count `since` of its changes (nullopt: none
+    /// known): the views about which it may answer otherwise now appended to `changed`
+    /// (`complete` true), or `complete` false when that cannot be told; and the count now.
+    struct InMemoryChanges {
+        std::uint64_t count = 0;
+        bool complete = false;
+    };
+    using InMemoryChangesSince = std::function<InMemoryChanges(std::optional<std::uint64_t> since,
+                                                               std::vector<CachedView>& changed)>;
+    /// Where set, the error budget's plans keep `inMemory`'s answers from one plan to the next
+    /// while `inMemoryEpoch` stays the same (it names everything else they depend on: the
+    /// models' versions, the cache) and asks again only about the views this names. Empty:
+    /// each plan asks afresh.
+    InMemoryChangesSince inMemoryChangesSince;
+    std::uint64_t inMemoryEpoch = 0;
 };
 
 /// What drawing one frame measured, for the cost model (FrameStats' figures of the same names).
@@ -158,6 +173,9 @@ class FramePlanner {
     /// After the entity's view: the view switch's cross-fade, if it is inside one.
     void fadeBudgetView(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                         const PlanSettings& settings, EntityPlan& plan);
+    /// Metric error_budget: starts the plan's shared answers of the cache, kept from the plan
+    /// before where the settings tell what changed since.
+    void beginCacheAnswers(const PlanSettings& settings);
     /// Metric error_budget, after every entity's view: the bakes the frame can afford.
     /// Returns the bakes given up.
     int keepAffordableBakes(std::span<const SpriteSetup> sprites,
@@ -177,6 +195,11 @@ class FramePlanner {
     /// error_budget: what each far entity's view choice reads of no other entity, this frame
     std::vector<ErrorBudgetViews::Prepared> prepared_;
     SharedCacheAnswers cacheAnswers_; ///< error_budget: the cache's answers, per plan
+    /// The count of the cache's changes the answers were kept through, and under which epoch
+    /// (PlanSettings::inMemoryChangesSince); the views changed since, this plan.
+    std::optional<std::uint64_t> answersThrough_;
+    std::uint64_t answersEpoch_ = 0;
+    std::vector<CachedView> answersChanged_;
     /// error_budget: what each entity's view took this frame (not far: none; a view kept in the
     /// parallel pass; one chosen in the serial pass)
     enum class BudgetStep : std::uint8_t { Near, Kept, Choose };

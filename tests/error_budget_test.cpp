@@ -383,6 +383,59 @@ TEST(ErrorBudget, OnlyTheViewsDrawnAreBakedAndBakesPerFrameAreBounded) {
     EXPECT_EQ(r.snapshotCache().counters().bakes, drawn.size());
 }
 
+// The renderer's planner keeps the cache's answers from frame to frame (SnapshotCache::
+// inMemoryChangesSince): a cache too small for the path evicts snapshots every frame and edits
+// make every snapshot of a model stale, yet every frame plans, bakes and draws as a renderer that
+// asks the cache afresh each frame. An answer kept past its snapshot's bake, eviction or model's
+// edit would plan otherwise (or have the far tier bake outside the bound).
+TEST(ErrorBudget, KeptCacheAnswersFollowTheCachesEvictionsAndTheModelsEdits) {
+    Scene s = benchScene("scenes/bench/tank_army.json", 400);
+    s.selector = budgetSelector(1.0);
+    s.selector.maxBakesPerFrame = 6;
+    for (int f = 3; f < 30; f += 3) { // an edit of one of the ten tank models every 3 frames
+        ScriptedEdit e;
+        e.atFrame = f;
+        e.model = (f / 3) % int(s.models.size());
+        e.op = ScriptedEdit::Op::Fill;
+        e.box = {{f % 20, 2, 2}, {f % 20 + 6, 20, 10}};
+        e.index = 5;
+        s.edits.push_back(e);
+    }
+    Scene fresh = s; // its own models: each renderer edits its own
+    for (auto& m : fresh.models) m = std::make_shared<VoxelModel>(*m);
+    FrameOptions o = cpuNear();
+    o.costAwareBakes = false;                   // no timing in the plans
+    o.cacheBudgetBytes = std::size_t(40) << 10; // a few dozen snapshots
+    FrameOptions askingAfresh = o;
+    askingAfresh.keepCacheAnswers = false;
+    FrameRenderer keeping(s, o), asking(fresh, askingAfresh);
+    int far = 0, bakes = 0;
+    for (int f = 0; f < 30; ++f) {
+        keeping.applyEditsThrough(f);
+        asking.applyEditsThrough(f);
+        const FrameResult a = keeping.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
+        const FrameResult b = asking.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
+        EXPECT_LE(a.stats.far.bakes, 6) << "frame " << f;
+        EXPECT_EQ(a.stats.far.bakes, b.stats.far.bakes) << "frame " << f;
+        ASSERT_EQ(a.plan.size(), b.plan.size());
+        int differ = 0;
+        for (std::size_t i = 0; i < a.plan.size(); ++i) {
+            differ += !(a.plan[i] == b.plan[i]);
+            far += a.plan[i].drawsFar() && a.sprites[i].visible();
+        }
+        EXPECT_EQ(differ, 0) << "frame " << f;
+        EXPECT_EQ(test::describeDifference(b.image, a.image, "asking afresh", "keeping"), "")
+            << "frame " << f;
+        bakes += a.stats.far.bakes;
+    }
+    const SnapshotCacheCounters c = keeping.snapshotCache().counters();
+    EXPECT_GT(c.evictions, 20u);
+    EXPECT_GT(c.refreshes, 0u) << "edited models' snapshots baked again";
+    EXPECT_GT(far, 400); // 541 when written
+    std::printf("%d far sprites drawn, %d bakes, %llu evictions, %llu refreshes\n", far, bakes,
+                (unsigned long long)c.evictions, (unsigned long long)c.refreshes);
+}
+
 // A snapshot in the on-disk store is not a bake: with a directory pre-baked by an earlier run, the
 // first frame of a fresh renderer draws far every entity the earlier run drew far, from the same
 // views and pixel for pixel, loading them from disk under a bake bound of 0 or 1 with no bake;
@@ -676,10 +729,16 @@ TEST(ErrorBudget, AViewSwitchCrossFadesBetweenTheTwoSnapshots) {
 /// What walkPlannerAgainstSerialWalk met.
 struct WalkCounts {
     int keptFar = 0, viewFades = 0, waiting = 0, changes = 0;
+    long plannerQuestions = 0; ///< the planner's questions to the "cache"
 };
 /// `frames` frames of `n` entities planned by FramePlanner under a bound of 64 bakes a frame,
 /// each plan asserted equal to one serial walk of the selector and the views written out here.
-WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames) {
+/// `evict`: the cache drops a share of its snapshots every frame (a budget's evictions).
+/// `keepAnswers`: the planner keeps the cache's answers from frame to frame, told what the cache
+/// listed and dropped since (PlanSettings::inMemoryChangesSince), with a new epoch (every answer
+/// asked afresh) every 15 frames.
+WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = false,
+                                        bool keepAnswers = false) {
     SelectorConfig c = budgetSelector(1.0);
     c.crossfadeFrames = 3;
     c.maxBakesPerFrame = 64;
@@ -690,11 +749,28 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames) {
     const ErrorBudgetViews::IsCached cached = [&](const SpriteSetup& s, ViewId v) {
         return baked.count(keyOf(s, v)) > 0;
     };
+    std::vector<CachedView> log; // every snapshot listed or dropped, in order
+    std::atomic<long> plannerQuestions{0};
+    const ErrorBudgetViews::IsCached plannerCached = [&](const SpriteSetup& s, ViewId v) {
+        ++plannerQuestions;
+        return cached(s, v);
+    };
     FramePlanner planner(c);
     TierSelector selector(c);
     ErrorBudgetViews views;
     int keptFar = 0, viewFades = 0, waiting = 0, changes = 0;
     for (int f = 0; f < frames; ++f) {
+        if (evict && f > 0) { // evictions: every 7th snapshot, a different share each frame
+            std::size_t k = 0;
+            for (auto b = baked.begin(); b != baked.end(); ++k)
+                if ((k + std::size_t(f)) % 7 == 0) {
+                    const auto [m, fr, x, y, z] = *b;
+                    log.push_back({m, fr, ViewId{{x, y, z}}});
+                    b = baked.erase(b);
+                } else {
+                    ++b;
+                }
+        }
         std::vector<SpriteSetup> sprites(n);
         std::vector<std::uint32_t> visible;
         for (std::size_t i = 0; i < n; ++i) {
@@ -713,7 +789,16 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames) {
         }
         PlanSettings settings;
         settings.mode = PlanMode::Hybrid;
-        settings.inMemory = cached;
+        settings.inMemory = plannerCached;
+        if (keepAnswers) {
+            settings.inMemoryEpoch = std::uint64_t(f / 15);
+            settings.inMemoryChangesSince = [&](std::optional<std::uint64_t> since,
+                                                std::vector<CachedView>& changed) {
+                if (!since || *since > log.size()) return PlanSettings::InMemoryChanges{log.size()};
+                changed.insert(changed.end(), log.begin() + std::ptrdiff_t(*since), log.end());
+                return PlanSettings::InMemoryChanges{log.size(), true};
+            };
+        }
         PlanStats st;
         const SharedVector<EntityPlan> got = planner.plan(sprites, visible, c, settings, st);
 
@@ -760,9 +845,11 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames) {
         changes += st.viewChanges;
         // The far tier bakes what the frame draws.
         for (std::size_t i = 0; i < n; ++i)
-            if (got[i].drawsFar() && got[i].view) baked.insert(keyOf(sprites[i], *got[i].view));
+            if (got[i].drawsFar() && got[i].view &&
+                baked.insert(keyOf(sprites[i], *got[i].view)).second)
+                log.push_back({sprites[i].model, sprites[i].frame, *got[i].view});
     }
-    return {keptFar, viewFades, waiting, changes};
+    return {keptFar, viewFades, waiting, changes, plannerQuestions.load()};
 }
 
 TEST(ErrorBudget, ThePlannersBudgetFramesEqualOneSerialWalkOfTheSelectorAndViews) {
@@ -777,6 +864,22 @@ TEST(ErrorBudget, ThePlannersBudgetFramesEqualOneSerialWalkOfTheSelectorAndViews
     std::printf("%d far entities kept a cached view, %d view cross-fades, %d waited for a bake, %d "
                 "view changes\n",
                 w.keptFar, w.viewFades, w.waiting, w.changes);
+}
+
+// The cache's answers kept from frame to frame (what the renderer does, told by the snapshot cache
+// what it listed and dropped): the same plans as the serial walk, which asks the cache every
+// time, though the cache drops snapshots every frame and a new epoch comes every 15 frames; and
+// far fewer questions reach the cache than when each plan asks afresh.
+TEST(ErrorBudget, AnswersKeptAcrossFramesGiveTheSerialWalksPlans) {
+    const WalkCounts kept = walkPlannerAgainstSerialWalk(400, 40, true, true);
+    const WalkCounts fresh = walkPlannerAgainstSerialWalk(400, 40, true, false);
+    EXPECT_EQ(kept.keptFar, fresh.keptFar); // the same plans, the same counts
+    EXPECT_GT(kept.keptFar, 1000);
+    EXPECT_GT(kept.waiting, 10);
+    EXPECT_GT(kept.changes, 10);
+    EXPECT_LT(kept.plannerQuestions * 3, fresh.plannerQuestions * 2); // 0.52 when written
+    std::printf("the planner asked the cache %ld times keeping its answers, %ld asking afresh\n",
+                kept.plannerQuestions, fresh.plannerQuestions);
 }
 
 // Past the spent bake bound the planner's choices run on every core: 20,000 entities a frame, most
@@ -889,6 +992,102 @@ TEST(ErrorBudget, SharedCacheAnswersAskEachQuestionOnceAndAnswerAsTheCache) {
             else // past the table: some questions go to the cache each time
                 EXPECT_GT(calls.load(), int(distinct));
         }
+    }
+}
+
+// Answers kept from plan to plan (beginKeeping): a question is asked of the cache again only when
+// its snapshot is named as changed (at every sigma: the change names a model, frame and view),
+// every answer stays the cache's own, begin() forgets them all, and so does beginKeeping once the
+// table is half full (more questions would make the probes long).
+TEST(ErrorBudget, SharedCacheAnswersKeptAcrossPlansAskAgainOnlyAboutChangedSnapshots) {
+    const auto question = [](std::size_t k) {
+        SpriteSetup s;
+        s.model = int(k % 7);
+        s.frame = int(k / 7 % 5);
+        s.lattice.sigma = 1.0 / double(1 + k / 35 % 3);
+        const int v = int(k / 105);
+        return std::make_pair(s, ViewId{{v % 17 - 8, v / 17 % 17 - 8, v / 289}});
+    };
+    // The "cache": which (model, frame, view) are cached, at every sigma; changed between plans.
+    std::set<std::tuple<int, int, int, int, int>> cached;
+    const auto keyOf = [](const SpriteSetup& s, ViewId v) {
+        return std::make_tuple(s.model, s.frame, v.lattice.x, v.lattice.y, v.lattice.z);
+    };
+    std::atomic<int> calls{0};
+    const ErrorBudgetViews::IsCached cache = [&](const SpriteSetup& s, ViewId v) {
+        ++calls;
+        return cached.count(keyOf(s, v)) > 0;
+    };
+    const std::size_t distinct = 6300; // 60 views x 7 models x 5 frames x 3 sigmas
+    for (std::size_t k = 0; k < distinct; k += 2) {
+        const auto [s, v] = question(k);
+        cached.insert(keyOf(s, v));
+    }
+    SharedCacheAnswers answers;
+    const auto askAll = [&] {
+        calls = 0;
+        std::atomic<int> wrong{0};
+        tbb::parallel_for(std::size_t(0), distinct * 5, [&](std::size_t a) {
+            const auto [s, v] = question(a % distinct);
+            if (answers.ask(s, v, cache) != (cached.count(keyOf(s, v)) > 0)) ++wrong;
+        });
+        EXPECT_EQ(wrong.load(), 0);
+        return calls.load();
+    };
+    answers.begin();
+    EXPECT_EQ(askAll(), int(distinct));
+    answers.beginKeeping({});
+    EXPECT_EQ(askAll(), 0) << "nothing changed: every answer kept";
+    // Change some snapshots (listed and dropped), name them, and a few that nobody asked about.
+    std::vector<CachedView> changed;
+    std::set<std::tuple<int, int, int, int, int>> changedKeys;
+    for (std::size_t k = 0; k < distinct; k += 11) {
+        const auto [s, v] = question(k);
+        const auto key = keyOf(s, v);
+        if (!changedKeys.insert(key).second) continue;
+        if (cached.count(key))
+            cached.erase(key);
+        else
+            cached.insert(key);
+        changed.push_back({s.model, s.frame, v});
+    }
+    changed.push_back({6, 4, ViewId{{64, 1, 1}}});
+    int askedAgain = 0; // the questions about a changed snapshot, every sigma
+    for (std::size_t k = 0; k < distinct; ++k) {
+        const auto [s, v] = question(k);
+        askedAgain += changedKeys.count(keyOf(s, v)) ? 1 : 0;
+    }
+    ASSERT_GT(askedAgain, int(changedKeys.size())); // several sigmas per changed snapshot
+    answers.beginKeeping(changed);
+    EXPECT_EQ(askAll(), askedAgain);
+    answers.beginKeeping({});
+    EXPECT_EQ(askAll(), 0);
+    answers.begin();
+    EXPECT_EQ(askAll(), int(distinct)) << "begin() forgets every answer";
+    // A table past half full is emptied by beginKeeping too.
+    const std::size_t many = 100000;
+    std::atomic<int> manyCalls{0};
+    const ErrorBudgetViews::IsCached never = [&](const SpriteSetup&, ViewId) {
+        ++manyCalls;
+        return false;
+    };
+    const auto manyQuestion = [](std::size_t k) {
+        SpriteSetup s;
+        s.model = int(k % 10);
+        s.frame = int(k / 10 % 10);
+        return std::make_pair(s, ViewId{{int(k / 100 % 40) - 20, int(k / 4000) - 20, 64}});
+    };
+    for (int round = 0; round < 2; ++round) {
+        if (round == 0)
+            answers.begin();
+        else
+            answers.beginKeeping({});
+        manyCalls = 0;
+        tbb::parallel_for(std::size_t(0), many, [&](std::size_t k) {
+            const auto [s, v] = manyQuestion(k);
+            EXPECT_FALSE(answers.ask(s, v, never));
+        });
+        EXPECT_GE(manyCalls.load(), int(many)) << "round " << round;
     }
 }
 
