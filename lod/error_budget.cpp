@@ -71,10 +71,12 @@ void SharedCacheAnswers::begin() {
         generation_ = 1;
     }
     used_ = 0;
+    asked_ = 0;
 }
 
 void SharedCacheAnswers::beginKeeping(std::span<const CachedView> changed) {
     if (!slots_ || used_ > kAnswerSlots / 2) return begin();
+    asked_ = 0;
     const std::uint32_t g = generation_;
     for (const CachedView& c : changed) {
         // A question is never placed past the first slot still empty from where its probes start
@@ -97,6 +99,7 @@ bool SharedCacheAnswers::ask(const SpriteSetup& sprite, ViewId view,
     const std::uint32_t g = generation_;
     // The slot is this thread's (kAsking): the cache's answer goes in it.
     const auto answer = [&](Slot& s) {
+        asked_.fetch_add(1, std::memory_order_relaxed);
         const bool cached = isCached(sprite, view);
         s.state.store(g << 2 | (cached ? kCached : kNotCached), std::memory_order_release);
         return cached;
@@ -127,6 +130,7 @@ bool SharedCacheAnswers::ask(const SpriteSetup& sprite, ViewId view,
                 return answer(s);
         }
     }
+    asked_.fetch_add(1, std::memory_order_relaxed);
     return isCached(sprite, view);
 }
 

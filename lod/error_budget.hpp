@@ -84,14 +84,17 @@ class SharedCacheAnswers {
     /// isCached(sprite, view), asked of `isCached` only the first time since it was forgotten.
     bool ask(const SpriteSetup& sprite, ViewId view,
              const std::function<bool(const SpriteSetup&, ViewId)>& isCached);
+    /// The questions ask() passed on to the cache since the plan began.
+    std::size_t askedOfTheCache() const { return asked_.load(std::memory_order_relaxed); }
 
   private:
     struct Slot;
     /// A power of two; past kMaxProbes slots taken around a question's place, the cache is
     /// asked directly (a plan about more snapshots than the table holds stays correct).
     std::unique_ptr<Slot[]> slots_;
-    std::uint32_t generation_ = 0;     ///< begin()'s count: a slot of another generation is empty
-    std::atomic<std::size_t> used_{0}; ///< slots taken in this generation
+    std::uint32_t generation_ = 0;      ///< begin()'s count: a slot of another generation is empty
+    std::atomic<std::size_t> used_{0};  ///< slots taken in this generation
+    std::atomic<std::size_t> asked_{0}; ///< askedOfTheCache()
 };
 
 /// Per-entity far views under the budget.

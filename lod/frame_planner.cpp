@@ -158,6 +158,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                     planBudgetView(i, sprites[i], config, asking, prepared_[i], plan[i]);
         });
         st.ms.choices = lapMs(step);
+        st.cacheQuestions = int(cacheAnswers_.askedOfTheCache()); // no later step asks
         st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
         st.ms.costBound = lapMs(step);
         // After the bakes given up, which send their entities near (never a kept one: its view

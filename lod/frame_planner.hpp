@@ -44,8 +44,11 @@ enum class PlanMode { AllNear, AllFar, Hybrid };
 /// The planner's share of a frame's figures (FrameStats has a field for each).
 struct PlanStats {
     int switchesToFar = 0, switchesToNear = 0, viewChanges = 0;
-    int fading = 0;        ///< entities drawn by both tiers (cross-fade)
-    int bakesGivenUp = 0;  ///< metric error_budget: bakes given up under the cost bound
+    int fading = 0;       ///< entities drawn by both tiers (cross-fade)
+    int bakesGivenUp = 0; ///< metric error_budget: bakes given up under the cost bound
+    /// Metric error_budget: the plan's questions that reached the snapshot cache (the rest were
+    /// answered by SharedCacheAnswers, this plan's or kept from the plans before).
+    int cacheQuestions = 0;
     double worstVpx = 0.0; ///< largest predictedBudgetUnits of a far-drawn entity
     /// Entities planned afresh: every one, or, planning what changed, the entities whose sprite
     /// changed and those inside a cross-fade (FramePlanner::plan's `changed`).

@@ -729,7 +729,8 @@ TEST(ErrorBudget, AViewSwitchCrossFadesBetweenTheTwoSnapshots) {
 /// What walkPlannerAgainstSerialWalk met.
 struct WalkCounts {
     int keptFar = 0, viewFades = 0, waiting = 0, changes = 0;
-    long plannerQuestions = 0; ///< the planner's questions to the "cache"
+    long plannerQuestions = 0;  ///< the planner's questions to the "cache"
+    long reportedQuestions = 0; ///< what its plans reported of them (PlanStats::cacheQuestions)
 };
 /// `frames` frames of `n` entities planned by FramePlanner under a bound of 64 bakes a frame,
 /// each plan asserted equal to one serial walk of the selector and the views written out here.
@@ -759,6 +760,7 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
     TierSelector selector(c);
     ErrorBudgetViews views;
     int keptFar = 0, viewFades = 0, waiting = 0, changes = 0;
+    long reportedQuestions = 0;
     for (int f = 0; f < frames; ++f) {
         if (evict && f > 0) { // evictions: every 7th snapshot, a different share each frame
             std::size_t k = 0;
@@ -801,6 +803,7 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
         }
         PlanStats st;
         const SharedVector<EntityPlan> got = planner.plan(sprites, visible, c, settings, st);
+        reportedQuestions += st.cacheQuestions;
 
         std::vector<SelectorInput> inputs(n);
         for (std::size_t i = 0; i < n; ++i) {
@@ -849,7 +852,7 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
                 baked.insert(keyOf(sprites[i], *got[i].view)).second)
                 log.push_back({sprites[i].model, sprites[i].frame, *got[i].view});
     }
-    return {keptFar, viewFades, waiting, changes, plannerQuestions.load()};
+    return {keptFar, viewFades, waiting, changes, plannerQuestions.load(), reportedQuestions};
 }
 
 TEST(ErrorBudget, ThePlannersBudgetFramesEqualOneSerialWalkOfTheSelectorAndViews) {
@@ -878,6 +881,9 @@ TEST(ErrorBudget, AnswersKeptAcrossFramesGiveTheSerialWalksPlans) {
     EXPECT_GT(kept.waiting, 10);
     EXPECT_GT(kept.changes, 10);
     EXPECT_LT(kept.plannerQuestions * 3, fresh.plannerQuestions * 2); // 0.52 when written
+    // Each plan reports the questions that reached the cache (the CSV's cache_questions).
+    EXPECT_EQ(kept.reportedQuestions, kept.plannerQuestions);
+    EXPECT_EQ(fresh.reportedQuestions, fresh.plannerQuestions);
     std::printf("the planner asked the cache %ld times keeping its answers, %ld asking afresh\n",
                 kept.plannerQuestions, fresh.plannerQuestions);
 }

@@ -66,7 +66,7 @@ for item in "hybrid_budget host_select_ms" "hybrid_budget frame_ms" "near_vulkan
         fail "results.csv lacks the error-budget row '$item'"
 done
 # The selection's parts beside it, each a row (a few entities' steps may round to 0).
-grep -q "| select | of which inputs | of which tiers | of which views | of which choices" \
+grep -q "| select | of which inputs | of which tiers | of which views | of which choices.*| cache questions |" \
     "$work/out/report.md" || fail "the error-budget table lacks the selection's parts"
 for c in inputs tiers views choices cost_bound predictions; do
     grep -q "^error_budget,tank_army_80,hybrid_budget host_select_${c}_ms,[0-9.e+-]*,ms" \

@@ -533,7 +533,8 @@ if os.environ.get("GC_PROFILE") == "1":
     # cores take, and the total could not say which step does not shrink with the cores.
     budget_cols = ("frame_ms", "host_setup_ms", "host_select_ms", "host_select_inputs_ms",
                    "host_select_tiers_ms", "host_select_views_ms", "host_select_choices_ms",
-                   "host_select_cost_bound_ms", "host_select_predictions_ms", "far_ms", "far_bakes",
+                   "host_select_cost_bound_ms", "host_select_predictions_ms", "cache_questions",
+                   "far_ms", "far_bakes",
                    "host_record_ms", "gpu_frame_ms", "gpu_far_ms", "far_entities")
     budget_rows = army_table("error_budget", (("hybrid, error budget 1 vpx", "budget", "hybrid_budget"),
                                               ("all near", "near_direct", "near_vulkan")), budget_cols)
@@ -545,8 +546,9 @@ if os.environ.get("GC_PROFILE") == "1":
     if budget_rows:
         lines += ["| render | frames | frame in flight | set-up | select | of which inputs | of which tiers "
                   "| of which views | of which choices | of which cost bound | of which predictions "
-                  "| far tier | bakes | host record | GPU frame | GPU far pass | far entities |",
-                  "|---" * 17 + "|"]
+                  "| cache questions | far tier | bakes | host record | GPU frame | GPU far pass "
+                  "| far entities |",
+                  "|---" * 18 + "|"]
         for label, n, v in budget_rows:
             lines.append(f"| {label} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
         if len(budget_rows) == 2:
