@@ -173,15 +173,20 @@ int nearestView(ViewSet set, glm::dvec3 towardViewer) {
 
 double predictedDisplacementVpx(glm::dvec3 halfExtent, double sigma, glm::dvec3 towardViewer,
                                 ViewId view) {
-    const glm::dvec3 d = -glm::normalize(towardViewer);
-    const glm::dvec3 w = viewDirection(view);
-    const double cosTheta = std::clamp(-glm::dot(w, d), -1.0, 1.0);
+    return DisplacementPredictor(halfExtent, sigma, towardViewer).vpx(viewDirection(view));
+}
+
+DisplacementPredictor::DisplacementPredictor(glm::dvec3 halfExtent, double sigma,
+                                             glm::dvec3 towardViewer)
+    : d_(-glm::normalize(towardViewer)), sigmaDepth_(sigma * glm::dot(halfExtent, glm::abs(d_))) {}
+
+double DisplacementPredictor::vpx(glm::dvec3 w) const {
+    const double cosTheta = std::clamp(-glm::dot(w, d_), -1.0, 1.0);
     if (cosTheta <= 0.0) return std::numeric_limits<double>::infinity();
     // sin from the cross product: exact 0 at w = -d, and accurate at small angles where
     // sqrt(1 - cos^2) loses digits.
-    const double sinTheta = glm::length(glm::cross(w, d));
-    const double depthExtent = glm::dot(halfExtent, glm::abs(d));
-    return sigma * depthExtent * sinTheta / cosTheta;
+    const double sinTheta = glm::length(glm::cross(w, d_));
+    return sigmaDepth_ * sinTheta / cosTheta;
 }
 
 long long cubeSurfaceCount(int n) {
@@ -211,6 +216,8 @@ class SurfaceDirections {
         std::call_once(built_[std::size_t(n)], [&] { build(n); });
         return table_[std::size_t(n)].data();
     }
+    /// viewIdOf(p) by the same index, once table(n) was asked for.
+    const ViewId* ids(int n) const { return ids_[std::size_t(n)].data(); }
     /// Face (the first axis at +-n, and its sign), then the two other coordinates.
     static std::size_t index(int n, glm::ivec3 p) {
         const int side = 2 * n + 1;
@@ -224,7 +231,9 @@ class SurfaceDirections {
     void build(int n) {
         const int side = 2 * n + 1;
         std::vector<glm::dvec3>& t = table_[std::size_t(n)];
+        std::vector<ViewId>& ids = ids_[std::size_t(n)];
         t.resize(std::size_t(6 * side * side));
+        ids.resize(t.size());
         for (int axis = 0; axis < 3; ++axis)
             for (int sign : {1, -1})
                 for (int u = -n; u <= n; ++u)
@@ -233,12 +242,14 @@ class SurfaceDirections {
                         p[axis] = sign * n;
                         p[(axis + 1) % 3] = u;
                         p[(axis + 2) % 3] = v;
-                        t[index(n, p)] = viewDirection(viewIdOf(p));
+                        ids[index(n, p)] = viewIdOf(p);
+                        t[index(n, p)] = viewDirection(ids[index(n, p)]);
                     }
     }
 
     std::array<std::once_flag, kTabledN + 1> built_;
     std::array<std::vector<glm::dvec3>, kTabledN + 1> table_;
+    std::array<std::vector<ViewId>, kTabledN + 1> ids_;
 };
 
 SurfaceDirections& surfaceDirections() {
@@ -248,7 +259,10 @@ SurfaceDirections& surfaceDirections() {
 
 } // namespace
 
-glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
+namespace {
+
+/// nearestLatticePoint, with its table's direction where n has a table (else null).
+glm::ivec3 nearestSurfacePoint(int n, glm::dvec3 towardViewer, const glm::dvec3** tabled) {
     const glm::dvec3 a = glm::abs(towardViewer);
     const int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
     // The point where the ray along towardViewer leaves the cube [-n, n]^3, and the lattice
@@ -285,7 +299,27 @@ glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
                 if (hi.z == n) consider({x, y, n});
             }
         }
+    // (No point found, for a direction that is not finite: viewIdOf refuses the zero vector.)
+    *tabled = directions && best != glm::ivec3(0) ? &directions[SurfaceDirections::index(n, best)]
+                                                  : nullptr;
     return best;
+}
+
+} // namespace
+
+glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
+    const glm::dvec3* tabled = nullptr;
+    return nearestSurfacePoint(n, towardViewer, &tabled);
+}
+
+DirectedView nearestDirectedLadderView(int n, glm::dvec3 towardViewer) {
+    const glm::dvec3* tabled = nullptr;
+    const glm::ivec3 p = nearestSurfacePoint(n, towardViewer, &tabled);
+    if (!tabled) {
+        const ViewId id = viewIdOf(p);
+        return {id, viewDirection(id)};
+    }
+    return {surfaceDirections().ids(n)[SurfaceDirections::index(n, p)], *tabled};
 }
 
 } // namespace voxtier

@@ -83,10 +83,32 @@ glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer);
 /// virtual pixels. 0 when w = -d, +inf from 90 degrees on.
 double predictedDisplacementVpx(glm::dvec3 halfExtent, double sigma, glm::dvec3 towardViewer,
                                 ViewId view);
+/// predictedDisplacementVpx of one line of sight against several views: what the sprite fixes
+/// (the direction normalised, the box's depth extent along it) computed once. The error budget
+/// predicts every ladder level of each far entity waiting for a view, ~80,000 entities a frame
+/// when bakes are scarce; predictedDisplacementVpx is this, so the two are bit for bit the same.
+class DisplacementPredictor {
+  public:
+    DisplacementPredictor(glm::dvec3 halfExtent, double sigma, glm::dvec3 towardViewer);
+    /// The prediction for the view whose unit vector (viewDirection) is `w`.
+    double vpx(glm::dvec3 w) const;
+
+  private:
+    glm::dvec3 d_;            ///< -normalize(towardViewer)
+    double sigmaDepth_ = 0.0; ///< sigma x the box's half depth along d
+};
 
 /// The same as a snapshot key.
 inline ViewId nearestLadderView(int n, glm::dvec3 towardViewer) {
     return viewIdOf(nearestLatticePoint(n, towardViewer));
 }
+/// A view with its unit vector.
+struct DirectedView {
+    ViewId id;
+    glm::dvec3 direction{0.0, 0.0, 1.0}; ///< viewDirection(id)
+};
+/// nearestLadderView and its viewDirection, both read from the search's table where n has one
+/// (n <= 64: no gcd and no square root per call); the same values.
+DirectedView nearestDirectedLadderView(int n, glm::dvec3 towardViewer);
 
 } // namespace voxtier

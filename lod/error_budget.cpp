@@ -25,14 +25,32 @@ double budgetUnitsPerVpx(const SpriteSetup& sprite) {
     return std::min(1.0, cellSizePx(sprite));
 }
 
+namespace {
+
+/// predictedBudgetUnits of one sprite against several views, what the sprite fixes computed once
+/// (DisplacementPredictor): the level scan predicts up to seven views per entity.
+class BudgetPredictor {
+  public:
+    explicit BudgetPredictor(const SpriteSetup& sprite)
+        : displacement_(halfExtent(sprite), sprite.lattice.sigma, -sprite.lattice.dir),
+          unitsPerVpx_(budgetUnitsPerVpx(sprite)) {}
+    /// The prediction for the view whose unit vector is `w`.
+    double operator()(glm::dvec3 w) const { return displacement_.vpx(w) * unitsPerVpx_; }
+
+  private:
+    DisplacementPredictor displacement_;
+    double unitsPerVpx_;
+};
+
+} // namespace
+
 double predictedBudgetUnits(const SpriteSetup& sprite, ViewId view) {
-    return predictedDisplacementVpx(halfExtent(sprite), sprite.lattice.sigma, -sprite.lattice.dir,
-                                    view) *
-           budgetUnitsPerVpx(sprite);
+    return BudgetPredictor(sprite)(viewDirection(view));
 }
 
 double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config) {
-    return predictedBudgetUnits(sprite, nearestLadderView(config.ladderCap, -sprite.lattice.dir));
+    return BudgetPredictor(sprite)(
+        nearestDirectedLadderView(config.ladderCap, -sprite.lattice.dir).direction);
 }
 
 namespace {
@@ -204,12 +222,15 @@ ErrorBudgetViews::LevelScan scanLevels(const SpriteSetup& sprite, const Selector
     std::array<std::optional<double>, kViewLadder.size()> predicted;
     std::array<ViewId, kViewLadder.size()> views;
     std::array<bool, kViewLadder.size()> met{};
+    const BudgetPredictor predict(sprite);
     const double targets[2] = {budget * std::min(1.0, config.farAt / config.nearAt), budget};
     for (const double target : targets)
         for (std::size_t k = 0; k < count; ++k) {
             if (!predicted[k]) {
-                views[k] = nearestLadderView(kViewLadder[k], -sprite.lattice.dir);
-                predicted[k] = predictedBudgetUnits(sprite, views[k]);
+                const DirectedView v =
+                    nearestDirectedLadderView(kViewLadder[k], -sprite.lattice.dir);
+                views[k] = v.id;
+                predicted[k] = predict(v.direction);
             }
             if (*predicted[k] > target || met[k]) continue;
             met[k] = true;

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <map>
 
 namespace voxtier {
@@ -108,6 +109,47 @@ TEST(ViewLadder, NearestViewEqualsBruteForceAtLatticePointsEdgeMidpointsAndSquar
             }
         }
     }
+}
+
+// What the error budget's level scan calls per level: the nearest view with its direction read
+// from the search's table (and, past the tabled levels, computed), and the prediction with what
+// the sprite fixes hoisted out, are bit for bit the functions they stand for; the prediction is
+// checked against CONTRACT.md section 5's formula written out here, as it read before the split.
+TEST(ViewLadder, DirectedViewsAndTheHoistedPredictionAreTheFunctionsTheyStandFor) {
+    SplitMix64 rng(0x5656u);
+    int infinite = 0;
+    for (int n : {1, 2, 4, 8, 16, 32, 64, 100}) {
+        for (int k = 0; k < 20'000; ++k) {
+            const glm::dvec3 t(rng.uniform(-1.0, 1.0), rng.uniform(-1.0, 1.0),
+                               rng.uniform(-1.0, 1.0));
+            if (glm::length(t) < 1e-3) continue;
+            const DirectedView v = nearestDirectedLadderView(n, t);
+            ASSERT_EQ(v.id, nearestLadderView(n, t)) << "n " << n;
+            const glm::dvec3 w = viewDirection(v.id);
+            ASSERT_TRUE(v.direction.x == w.x && v.direction.y == w.y && v.direction.z == w.z)
+                << "n " << n;
+            // A sprite's box, sigma and line of sight against this view and a random other.
+            const glm::dvec3 half(rng.uniform(0.5, 64.0), rng.uniform(0.5, 64.0),
+                                  rng.uniform(0.5, 32.0));
+            const double sigma = rng.uniform(0.25, 4.0);
+            const DisplacementPredictor predictor(half, sigma, t);
+            const ViewId other =
+                viewIdOf(glm::ivec3(int(rng.next() % 9) - 4, int(rng.next() % 9) - 4, n));
+            for (const ViewId view : {v.id, other}) {
+                const glm::dvec3 d = -glm::normalize(t);
+                const glm::dvec3 u = glm::normalize(glm::dvec3(view.lattice));
+                const double cosTheta = std::clamp(-glm::dot(u, d), -1.0, 1.0);
+                const double expected = cosTheta <= 0.0
+                                            ? std::numeric_limits<double>::infinity()
+                                            : sigma * glm::dot(half, glm::abs(d)) *
+                                                  glm::length(glm::cross(u, d)) / cosTheta;
+                infinite += std::isinf(expected);
+                ASSERT_EQ(predictor.vpx(viewDirection(view)), expected) << "n " << n;
+                ASSERT_EQ(predictedDisplacementVpx(half, sigma, t, view), expected) << "n " << n;
+            }
+        }
+    }
+    EXPECT_GT(infinite, 1000); // views past 90 degrees were met too
 }
 
 TEST(ViewLadder, LookupAgreesWithTheClassicSetsAndGapsShrinkWithTheLevel) {
