@@ -257,10 +257,6 @@ SurfaceDirections& surfaceDirections() {
     return directions;
 }
 
-} // namespace
-
-namespace {
-
 /// nearestLatticePoint, with its table's direction where n has a table (else null).
 glm::ivec3 nearestSurfacePoint(int n, glm::dvec3 towardViewer, const glm::dvec3** tabled) {
     const glm::dvec3 a = glm::abs(towardViewer);

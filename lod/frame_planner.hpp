@@ -197,7 +197,7 @@ class FramePlanner {
     std::vector<double> predicted_; ///< predictedBudgetUnits of each far-drawn visible entity
     /// error_budget: what each far entity's view choice reads of no other entity, this frame
     std::vector<ErrorBudgetViews::Prepared> prepared_;
-    SharedCacheAnswers cacheAnswers_; ///< error_budget: the cache's answers, per plan
+    SharedCacheAnswers cacheAnswers_; ///< error_budget: the cache's answers, kept across plans
     /// The count of the cache's changes the answers were kept through, and under which epoch
     /// (PlanSettings::inMemoryChangesSince); the views changed since, this plan.
     std::optional<std::uint64_t> answersThrough_;

@@ -977,7 +977,8 @@ TEST(ErrorBudget, SharedCacheAnswersAskEachQuestionOnceAndAnswerAsTheCache) {
                0;
     };
     SharedCacheAnswers answers;
-    for (const std::size_t distinct : {std::size_t(6000), std::size_t(120000)}) {
+    // 300,000: more than the table's 131,072 slots.
+    for (const std::size_t distinct : {std::size_t(6000), std::size_t(300000)}) {
         for (int round = 0; round < 2; ++round) {
             answers.begin();
             flip = round;
