@@ -16,7 +16,6 @@
 #include "core/vox_reader.hpp"
 #include "image_files/image_files.hpp"
 #include "impostor_cache/snapshot_cache.hpp"
-#include "lod/error_budget.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -315,19 +314,18 @@ void printStatus(const RenderArgs& a, RenderMode mode, int frame, double time, c
 }
 
 /// Far sprites drawn from a snapshot whose predicted silhouette displacement (CONTRACT.md §5) is
-/// over 1 virtual pixel: where the image is visibly approximate.
+/// over 1 virtual pixel: where the image is visibly approximate. The plan counts them
+/// (PlanStats::farOverOneVpx) from the predictions it made anyway.
 struct Approximation {
     std::size_t sprites = 0; ///< far sprite draws over 1 vpx, all frames together
     double worstVpx = 0.0;
 
     void add(const FrameResult& r) {
-        for (std::size_t i = 0; i < r.plan.size(); ++i) {
-            if (!r.plan[i].drawsFar() || !r.plan[i].view || !r.sprites[i].visible()) continue;
-            const double vpx = predictedBudgetUnits(r.sprites[i], *r.plan[i].view);
-            if (vpx <= 1.0) continue;
-            ++sprites;
-            worstVpx = std::max(worstVpx, vpx);
-        }
+        const PlanStats& plan = r.stats.plan;
+        if (plan.farOverOneVpx == 0) return;
+        sprites += std::size_t(plan.farOverOneVpx);
+        // Some far sprite is over 1 vpx, so the frame's worst is the worst of those.
+        worstVpx = std::max(worstVpx, plan.worstVpx);
     }
 };
 

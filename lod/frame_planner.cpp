@@ -184,20 +184,26 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     // The cross-fades counted and the worst prediction found in one parallel pass (one core
     // counted 100,000 plans, which more cores do not shrink). Entities outside the work list are
     // settled, so none of them fades.
-    using FadingWorst = std::pair<int, double>;
+    struct FadingWorst {
+        int fading = 0;
+        double worst = 0.0;
+        int overOne = 0;
+    };
     const FadingWorst fw = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, n, 4096), FadingWorst{0, 0.0},
+        tbb::blocked_range<std::size_t>(0, n, 4096), FadingWorst{},
         [&](const auto& r, FadingWorst acc) {
             for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                if (!incremental) acc.first += plan[i].fade > 0.0f;
-                acc.second = std::max(acc.second, predicted_[i]);
+                if (!incremental) acc.fading += plan[i].fade > 0.0f;
+                acc.worst = std::max(acc.worst, predicted_[i]);
+                acc.overOne += predicted_[i] > 1.0;
             }
             return acc;
         },
         [](FadingWorst a, const FadingWorst& b) {
-            return FadingWorst{a.first + b.first, std::max(a.second, b.second)};
+            return FadingWorst{a.fading + b.fading, std::max(a.worst, b.worst),
+                               a.overOne + b.overOne};
         });
-    st.fading += !incremental ? fw.first
+    st.fading += !incremental ? fw.fading
                               : tbb::parallel_reduce(
                                     tbb::blocked_range<std::size_t>(0, work_.size(), 4096), 0,
                                     [&](const auto& r, int fading) {
@@ -206,7 +212,8 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                                         return fading;
                                     },
                                     std::plus<int>());
-    st.worstVpx = fw.second;
+    st.worstVpx = fw.worst;
+    st.farOverOneVpx = fw.overOne;
     st.ms.predictions = lapMs(step);
     return plan_.share();
 }

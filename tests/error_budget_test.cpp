@@ -182,6 +182,38 @@ TEST(ErrorBudget, EveryFarEntityStaysWithinTheBudgetAlongTheBenchPaths) {
     }
 }
 
+// The frame's count of far sprites predicted over 1 vpx (what the render command's warning
+// adds up) is the count over the frame's own sprites and plan, under either metric and in the
+// all-far mode, where error_px draws many far sprites past 1 vpx.
+TEST(ErrorBudget, TheFramesFarSpritesOverOneVpxAreCountedFromItsPlan) {
+    int framesOverOne = 0;
+    for (const bool budget : {false, true})
+        for (const RenderMode mode : {RenderMode::Hybrid, RenderMode::Far}) {
+            Scene s = benchScene("scenes/bench/tank_army.json", 60);
+            if (budget) s.selector = budgetSelector(1.0);
+            FrameRenderer r(s, cpuNear());
+            const int frames = s.path->frameCount();
+            for (int f = 0; f < frames; f += std::max(1, frames / 6)) {
+                const FrameResult fr = r.render(s.timeOfFrame(f), mode, f);
+                int over = 0;
+                double worst = 0.0;
+                for (std::size_t i = 0; i < fr.plan.size(); ++i) {
+                    if (!fr.plan[i].drawsFar() || !fr.plan[i].view || !fr.sprites[i].visible())
+                        continue;
+                    const double vpx = predictedBudgetUnits(fr.sprites[i], *fr.plan[i].view);
+                    over += vpx > 1.0;
+                    worst = std::max(worst, vpx);
+                }
+                EXPECT_EQ(fr.stats.plan.farOverOneVpx, over)
+                    << "budget " << budget << " mode " << toString(mode) << " frame " << f;
+                EXPECT_EQ(fr.stats.plan.worstVpx, worst)
+                    << "budget " << budget << " mode " << toString(mode) << " frame " << f;
+                framesOverOne += over > 0;
+            }
+        }
+    EXPECT_GT(framesOverOne, 3); // the count was met above zero, not only at it
+}
+
 // Two level-1 views tie at the edge midpoint between +X and (1, 1, 0): a direction wobbling
 // across it flips the nearest view every frame, but the chosen view stays while it is within the
 // budget; the tier stays inside the selector's band.
@@ -814,6 +846,7 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
         selector.update(inputs);
         views.beginFrame(n, c.maxBakesPerFrame);
         double worst = 0.0;
+        int overOne = 0;
         for (std::size_t i = 0; i < n; ++i) {
             const SpriteSetup& s = sprites[i];
             EntityPlan p;
@@ -832,8 +865,11 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
                     views.viewFade(i, s, c, cached, &share, &fromView))
                     p.fade = share, p.fadeFrom = Tier::Far, p.fadeFromView = fromView, ++viewFades;
                 if (p.view && cached(s, *p.view)) ++keptFar;
-                if (p.drawsFar() && p.view)
-                    worst = std::max(worst, predictedBudgetUnits(s, *p.view));
+                if (p.drawsFar() && p.view) {
+                    const double vpx = predictedBudgetUnits(s, *p.view);
+                    worst = std::max(worst, vpx);
+                    overOne += vpx > 1.0;
+                }
             }
             if (!(got[i] == p)) { // the first difference, told apart, ends the walk
                 EXPECT_EQ(got[i].tier, p.tier) << "frame " << f << " entity " << i;
@@ -844,6 +880,7 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
             }
         }
         EXPECT_EQ(st.worstVpx, worst) << "frame " << f;
+        EXPECT_EQ(st.farOverOneVpx, overOne) << "frame " << f;
         EXPECT_EQ(st.viewChanges, views.viewChangesThisFrame()) << "frame " << f;
         changes += st.viewChanges;
         // The far tier bakes what the frame draws.

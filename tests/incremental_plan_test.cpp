@@ -69,6 +69,7 @@ std::vector<int> compare(Scene s, const std::vector<Step>& steps,
         EXPECT_EQ(a.viewChanges, b.viewChanges) << "frame " << f;
         EXPECT_EQ(a.fading, b.fading) << "frame " << f;
         EXPECT_EQ(a.worstVpx, b.worstVpx) << "frame " << f;
+        EXPECT_EQ(a.farOverOneVpx, b.farOverOneVpx) << "frame " << f;
         planned.push_back(a.planned);
     }
     return planned;
