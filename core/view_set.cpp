@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <limits>
 #include <mutex>
@@ -213,7 +215,13 @@ class SurfaceDirections {
     /// Level n's table, indexed by index(n, p); null past kTabledN.
     const glm::dvec3* table(int n) {
         if (n > kTabledN) return nullptr;
-        std::call_once(built_[std::size_t(n)], [&] { build(n); });
+        // call_once alone costs two thread-local lookups per call in this position-independent
+        // code, on a path the error-budget planner takes ~600,000 times a frame: a load first.
+        if (!ready_[std::size_t(n)].load(std::memory_order_acquire))
+            std::call_once(built_[std::size_t(n)], [&] {
+                build(n);
+                ready_[std::size_t(n)].store(true, std::memory_order_release);
+            });
         return table_[std::size_t(n)].data();
     }
     /// viewIdOf(p) by the same index, once table(n) was asked for.
@@ -248,6 +256,7 @@ class SurfaceDirections {
     }
 
     std::array<std::once_flag, kTabledN + 1> built_;
+    std::array<std::atomic<bool>, kTabledN + 1> ready_{};
     std::array<std::vector<glm::dvec3>, kTabledN + 1> table_;
     std::array<std::vector<ViewId>, kTabledN + 1> ids_;
 };
@@ -257,29 +266,189 @@ SurfaceDirections& surfaceDirections() {
     return directions;
 }
 
-/// nearestLatticePoint, with its table's direction where n has a table (else null).
-glm::ivec3 nearestSurfacePoint(int n, glm::dvec3 towardViewer, const glm::dvec3** tabled) {
+/// Where the nearest view of a level up to kGridN can lie, precomputed: each cube face's square
+/// [-n, n]^2 (the direction's projection onto its dominant face, in lattice steps) cut into
+/// kCellsPerStep x kCellsPerStep cells per step, and each cell listing, in lexicographic order,
+/// the surface points of nearestSurfacePoint's box over the cell that no other point of it beats
+/// by more than kMargin at each of the cell's corners. Which of two views is nearer, w_i . t
+/// against w_j . t, is a linear test in the projection, so a point beaten at every corner is
+/// beaten everywhere in the cell; the margin (against dots of at most sqrt(3) at the corners)
+/// covers the rounding of the corners' dots, of the projection that finds a direction's cell,
+/// and of the search's own dots, which differ from the exact ones by ~1e-15 of |t|. A point left
+/// out is thus never the search's maximum, and every point left in is compared, in the scan's
+/// order, with the same doubles: the same point as the box's scan. The box's scan compares up to
+/// 25 points per call, most of them far from the nearest, at ~45 ns a call in the error-budget
+/// planner, which calls it ~600,000 times a frame where 100,000 tanks wait for bakes; a cell
+/// holds one to four.
+class NearestCandidates {
+  public:
+    static constexpr int kGridN = 16;
+    static constexpr int kCellsPerStep = 2;
+    static constexpr double kMargin = 1e-9;
+    struct Candidate {
+        glm::dvec3 direction; ///< the point's, as tabled (beside the rest: one cache line)
+        std::uint32_t entry;  ///< SurfaceDirections::index of the point
+        std::int8_t x, y, z;  ///< the point
+    };
+    struct Level {
+        int cellsPerSide = 0;
+        std::vector<std::uint32_t> first; ///< per cell (face, b, c), and one past the last
+        std::vector<Candidate> candidates;
+    };
+
+    /// Level n's cells, n <= kGridN.
+    const Level& level(int n, const glm::dvec3* directions) {
+        if (!ready_[std::size_t(n)].load(std::memory_order_acquire))
+            std::call_once(built_[std::size_t(n)], [&] {
+                build(n, directions);
+                ready_[std::size_t(n)].store(true, std::memory_order_release);
+            });
+        return levels_[std::size_t(n)];
+    }
+    /// The cell of `onFace` (nearestSurfacePoint's projection, finite) on the face of `axis`.
+    static std::size_t cell(const Level& level, int n, int axis, glm::dvec3 onFace) {
+        const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+        const auto along = [&](double x) {
+            return std::clamp(int(std::floor((x + double(n)) * kCellsPerStep)), 0,
+                              level.cellsPerSide - 1);
+        };
+        const std::size_t face = std::size_t(axis * 2 + (onFace[axis] < 0.0 ? 1 : 0));
+        return (face * std::size_t(level.cellsPerSide) + std::size_t(along(onFace[b]))) *
+                   std::size_t(level.cellsPerSide) +
+               std::size_t(along(onFace[c]));
+    }
+
+  private:
+    void build(int n, const glm::dvec3* directions) {
+        Level& level = levels_[std::size_t(n)];
+        const int side = 2 * n * kCellsPerStep;
+        level.cellsPerSide = side;
+        level.first.reserve(std::size_t(6 * side * side) + 1);
+        std::vector<glm::ivec3> box;
+        std::vector<std::uint8_t> kept;
+        for (int axis = 0; axis < 3; ++axis)
+            for (int sign : {1, -1}) {
+                const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+                for (int cb = 0; cb < side; ++cb)
+                    for (int cc = 0; cc < side; ++cc) {
+                        // The cell's corners, in lattice steps on the face, and the box of every
+                        // projection within it (nearestSurfacePoint's, over the cell).
+                        const double b0 = -n + double(cb) / kCellsPerStep;
+                        const double c0 = -n + double(cc) / kCellsPerStep;
+                        const double b1 = b0 + 1.0 / kCellsPerStep;
+                        const double c1 = c0 + 1.0 / kCellsPerStep;
+                        glm::ivec3 lo, hi;
+                        lo[axis] = sign > 0 ? n - 1 : -n;
+                        hi[axis] = sign > 0 ? n : -n + 1;
+                        lo[b] = std::max(-n, int(std::ceil(b0 - 1.5)));
+                        hi[b] = std::min(n, int(std::floor(b1 + 1.5)));
+                        lo[c] = std::max(-n, int(std::ceil(c0 - 1.5)));
+                        hi[c] = std::min(n, int(std::floor(c1 + 1.5)));
+                        box.clear();
+                        for (int x = lo.x; x <= hi.x; ++x)
+                            for (int y = lo.y; y <= hi.y; ++y)
+                                for (int z = lo.z; z <= hi.z; ++z)
+                                    if (std::max({std::abs(x), std::abs(y), std::abs(z)}) == n)
+                                        box.push_back({x, y, z});
+                        std::array<glm::dvec3, 4> corners;
+                        for (int k = 0; k < 4; ++k) {
+                            glm::dvec3 t;
+                            t[axis] = double(sign);
+                            t[b] = (k & 1 ? b1 : b0) / n;
+                            t[c] = (k & 2 ? c1 : c0) / n;
+                            corners[std::size_t(k)] = t;
+                        }
+                        const auto w = [&](const glm::ivec3& p) {
+                            return directions[SurfaceDirections::index(n, p)];
+                        };
+                        // The point nearest the cell's centre beats most others at every corner:
+                        // tried first.
+                        const glm::dvec3 centre = (corners[0] + corners[3]) * 0.5;
+                        std::size_t lead = 0;
+                        for (std::size_t i = 1; i < box.size(); ++i)
+                            if (glm::dot(w(box[i]), centre) > glm::dot(w(box[lead]), centre))
+                                lead = i;
+                        const auto beats = [&](std::size_t j, std::size_t i) {
+                            for (const glm::dvec3& t : corners)
+                                if (!(glm::dot(w(box[i]), t) - glm::dot(w(box[j]), t) < -kMargin))
+                                    return false;
+                            return true;
+                        };
+                        level.first.push_back(std::uint32_t(level.candidates.size()));
+                        for (std::size_t i = 0; i < box.size(); ++i) {
+                            bool beaten = i != lead && beats(lead, i);
+                            for (std::size_t j = 0; j < box.size() && !beaten; ++j)
+                                beaten = j != i && beats(j, i);
+                            if (beaten) continue;
+                            const glm::ivec3& p = box[i];
+                            const std::size_t entry = SurfaceDirections::index(n, p);
+                            level.candidates.push_back({directions[entry], std::uint32_t(entry),
+                                                        std::int8_t(p.x), std::int8_t(p.y),
+                                                        std::int8_t(p.z)});
+                        }
+                    }
+            }
+        level.first.push_back(std::uint32_t(level.candidates.size()));
+    }
+
+    std::array<std::once_flag, kGridN + 1> built_;
+    std::array<std::atomic<bool>, kGridN + 1> ready_{};
+    std::array<Level, kGridN + 1> levels_;
+};
+
+NearestCandidates& nearestCandidates() {
+    static NearestCandidates candidates;
+    return candidates;
+}
+
+/// nearestLatticePoint, with its view's direction and id from the tables where n has them.
+struct SurfaceHit {
+    glm::ivec3 point{0};
+    const glm::dvec3* direction = nullptr;
+    const ViewId* id = nullptr;
+};
+
+SurfaceHit nearestSurfacePoint(int n, glm::dvec3 towardViewer) {
     const glm::dvec3 a = glm::abs(towardViewer);
     const int axis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
-    // The point where the ray along towardViewer leaves the cube [-n, n]^3, and the lattice
-    // points within 1.5 steps of it in each coordinate (the gnomonic map stretches angles at most
-    // sqrt(3)-fold across a face, so the nearest view lies within 1.3 steps of it): 3 x 3 on its
-    // face, and the next faces' points where it is that near an edge.
+    // The point where the ray along towardViewer leaves the cube [-n, n]^3.
     const glm::dvec3 onFace = towardViewer * (double(n) / a[axis]);
+    SurfaceDirections& tables = surfaceDirections();
+    const glm::dvec3* directions = tables.table(n);
+    SurfaceHit hit;
+    double bestDot = -2.0;
+    // The cell's candidates where n has cells and the direction is of a size whose dots round
+    // as NearestCandidates assumes (any unit or lattice vector is).
+    if (n <= NearestCandidates::kGridN && a[axis] >= 1e-100 && a[axis] <= 1e100 &&
+        std::isfinite(onFace.x) && std::isfinite(onFace.y) && std::isfinite(onFace.z)) {
+        const NearestCandidates::Level& level = nearestCandidates().level(n, directions);
+        const std::size_t cell = NearestCandidates::cell(level, n, axis, onFace);
+        const NearestCandidates::Candidate* best = nullptr;
+        for (std::uint32_t k = level.first[cell]; k != level.first[cell + 1]; ++k) {
+            const NearestCandidates::Candidate& candidate = level.candidates[k];
+            const double d = glm::dot(candidate.direction, towardViewer);
+            if (d > bestDot) bestDot = d, best = &candidate;
+        }
+        // (A cell lists at least the point nearest its centre.)
+        hit.point = {best->x, best->y, best->z};
+        hit.direction = &best->direction;
+        hit.id = &tables.ids(n)[best->entry];
+        return hit;
+    }
+    // The lattice points within 1.5 steps of the projection in each coordinate (the gnomonic map
+    // stretches angles at most sqrt(3)-fold across a face, so the nearest view lies within 1.3
+    // steps of it): 3 x 3 on its face, and the next faces' points where it is that near an edge.
     constexpr double kReach = 1.5;
     glm::ivec3 lo, hi;
     for (int c = 0; c < 3; ++c) {
         lo[c] = std::max(-n, int(std::ceil(onFace[c] - kReach)));
         hi[c] = std::min(n, int(std::floor(onFace[c] + kReach)));
     }
-    const glm::dvec3* directions = surfaceDirections().table(n);
-    glm::ivec3 best(0);
-    double bestDot = -2.0;
     const auto consider = [&](const glm::ivec3& p) {
         const glm::dvec3 w =
             directions ? directions[SurfaceDirections::index(n, p)] : viewDirection(viewIdOf(p));
         const double d = glm::dot(w, towardViewer);
-        if (d > bestDot) bestDot = d, best = p;
+        if (d > bestDot) bestDot = d, hit.point = p;
     };
     // Lexicographic scan of the box's surface points, strict '>': the first of equal dots wins,
     // as in a brute-force scan of the whole lattice in the same order. Where neither x nor y is
@@ -296,26 +465,27 @@ glm::ivec3 nearestSurfacePoint(int n, glm::dvec3 towardViewer, const glm::dvec3*
             }
         }
     // (No point found, for a direction that is not finite: viewIdOf refuses the zero vector.)
-    *tabled = directions && best != glm::ivec3(0) ? &directions[SurfaceDirections::index(n, best)]
-                                                  : nullptr;
-    return best;
+    if (directions && hit.point != glm::ivec3(0)) {
+        const std::size_t entry = SurfaceDirections::index(n, hit.point);
+        hit.direction = &directions[entry];
+        hit.id = &tables.ids(n)[entry];
+    }
+    return hit;
 }
 
 } // namespace
 
 glm::ivec3 nearestLatticePoint(int n, glm::dvec3 towardViewer) {
-    const glm::dvec3* tabled = nullptr;
-    return nearestSurfacePoint(n, towardViewer, &tabled);
+    return nearestSurfacePoint(n, towardViewer).point;
 }
 
 DirectedView nearestDirectedLadderView(int n, glm::dvec3 towardViewer) {
-    const glm::dvec3* tabled = nullptr;
-    const glm::ivec3 p = nearestSurfacePoint(n, towardViewer, &tabled);
-    if (!tabled) {
-        const ViewId id = viewIdOf(p);
+    const SurfaceHit hit = nearestSurfacePoint(n, towardViewer);
+    if (!hit.direction) {
+        const ViewId id = viewIdOf(hit.point);
         return {id, viewDirection(id)};
     }
-    return {surfaceDirections().ids(n)[SurfaceDirections::index(n, p)], *tabled};
+    return {*hit.id, *hit.direction};
 }
 
 } // namespace voxtier

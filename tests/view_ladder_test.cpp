@@ -111,6 +111,34 @@ TEST(ViewLadder, NearestViewEqualsBruteForceAtLatticePointsEdgeMidpointsAndSquar
     }
 }
 
+// The search looks within a grid of half-step cells on each face (core/view_set.cpp,
+// NearestCandidates): directions whose projection lies on a cell's border or a few ulps to either
+// side, where rounding picks the cell, and directions of every length the planner and the tests
+// use, against the full scan.
+TEST(ViewLadder, NearestViewEqualsBruteForceAcrossTheSearchsCellBorders) {
+    SplitMix64 rng(0x6a11u);
+    for (int n : {1, 2, 4, 8, 16}) {
+        const Level level(n);
+        for (int k = 0; k < 20'000; ++k) {
+            const int axis = int(rng.next() % 3), b = (axis + 1) % 3, c = (axis + 2) % 3;
+            glm::dvec3 t;
+            t[axis] = rng.next() % 2 ? 1.0 : -1.0;
+            // A border in one coordinate (a multiple of half a step, the face's edges included),
+            // anywhere in the other; nudged by up to 4 ulps.
+            const double border = double(int(rng.next() % std::uint64_t(4 * n + 1)) - 2 * n) / 2;
+            double onB = border / n;
+            for (int u = int(rng.next() % 9) - 4; u != 0; u += u > 0 ? -1 : 1)
+                onB = std::nextafter(onB, u > 0 ? 2.0 : -2.0);
+            t[b] = std::clamp(onB, -1.0, 1.0);
+            t[c] = rng.uniform(-1.0, 1.0);
+            if (rng.next() % 2) std::swap(t[b], t[c]);
+            t *= std::exp2(double(int(rng.next() % 41) - 20)); // lengths 2^-20 .. 2^20
+            ASSERT_EQ(nearestLatticePoint(n, t), level.bruteForce(t))
+                << "n " << n << " t " << t.x << " " << t.y << " " << t.z;
+        }
+    }
+}
+
 // What the error budget's level scan calls per level: the nearest view with its direction read
 // from the search's table (and, past the tabled levels, computed), and the prediction with what
 // the sprite fixes hoisted out, are bit for bit the functions they stand for; the prediction is
