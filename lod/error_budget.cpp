@@ -9,7 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <unordered_map>
+#include <bit>
 
 namespace voxtier {
 
@@ -157,11 +157,46 @@ double BakeCosts::farSavingMs(const SpriteSetup& sprite) const {
            double(rectPixels(sprite)) * blitMsPerPx;
 }
 
-std::size_t ErrorBudgetViews::BakeKeyHash::operator()(const BakeKey& k) const {
-    std::size_t h = std::hash<int>{}(k.model) * 31 + std::hash<int>{}(k.frame);
-    h = h * 31 + std::hash<double>{}(k.sigma);
-    for (int c = 0; c < 3; ++c) h = h * 31 + std::hash<int>{}(k.view.lattice[c]);
-    return h;
+std::size_t ErrorBudgetViews::BakeTable::hash(const BakeKey& key) {
+    const std::uint64_t h =
+        splitmix64Mix(std::uint64_t(std::uint32_t(key.model)) << 32 | std::uint32_t(key.frame));
+    const glm::ivec3 l = key.view.lattice;
+    return std::size_t(
+        splitmix64Mix(h ^ std::bit_cast<std::uint64_t>(key.sigma) ^
+                      (std::uint64_t(std::uint32_t(l.x)) << 42 ^
+                       std::uint64_t(std::uint32_t(l.y)) << 21 ^ std::uint32_t(l.z))));
+}
+
+void ErrorBudgetViews::BakeTable::clear() {
+    if (used_ == 0) return;
+    for (Slot& slot : slots_) slot.index = kNone;
+    used_ = 0;
+}
+
+std::size_t ErrorBudgetViews::BakeTable::find(const BakeKey& key) const {
+    if (used_ == 0) return kNone;
+    const std::size_t mask = slots_.size() - 1;
+    for (std::size_t at = hash(key) & mask;; at = (at + 1) & mask) {
+        const Slot& slot = slots_[at];
+        if (slot.index == kNone) return kNone; // never full: at most half
+        if (slot.key == key) return slot.index;
+    }
+}
+
+void ErrorBudgetViews::BakeTable::insert(const BakeKey& key, std::size_t index) {
+    if (2 * (used_ + 1) > slots_.size()) {
+        // Twice the size, every key placed again.
+        std::vector<Slot> old = std::move(slots_);
+        slots_.assign(std::max<std::size_t>(64, 2 * old.size()), Slot{});
+        used_ = 0;
+        for (const Slot& slot : old)
+            if (slot.index != kNone) insert(slot.key, slot.index);
+    }
+    const std::size_t mask = slots_.size() - 1;
+    std::size_t at = hash(key) & mask;
+    while (slots_[at].index != kNone) at = (at + 1) & mask;
+    slots_[at] = {key, index};
+    ++used_;
 }
 
 void ErrorBudgetViews::beginFrame(std::size_t entities, int bakes) {
@@ -172,7 +207,7 @@ void ErrorBudgetViews::beginFrame(std::size_t entities, int bakes) {
             if (fades_[i].left > 0) --fades_[i].left;
     });
     baking_.clear();
-    bakingSet_.clear();
+    bakingIndex_.clear();
     bakesLeft_ = bakes;
     viewChanges_ = 0;
 }
@@ -268,13 +303,15 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
                                                const Prepared& prepared,
                                                const IsCached& withoutBake) {
     std::optional<ViewId>& current = current_.at(entity);
-    const auto baking = [&](ViewId v) { return bakingSet_.count(keyOf(sprite, v)) > 0; };
+    const auto baking = [&](ViewId v) {
+        return bakingIndex_.find(keyOf(sprite, v)) != BakeTable::kNone;
+    };
     const auto onDisk = [&](ViewId v) { return withoutBake && withoutBake(sprite, v); };
     const auto bake = [&](ViewId v) {
         if (baking(v)) return v; // another entity's bake this frame: no second one
         --bakesLeft_;
         baking_.push_back(keyOf(sprite, v));
-        bakingSet_.insert(baking_.back());
+        bakingIndex_.insert(baking_.back(), baking_.size() - 1);
         return v;
     };
     // Hysteresis on the view and level: a view within the budget is kept however the camera
@@ -320,8 +357,6 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
     // What each bake's users save, and what every far sprite saves (cached views included: the
     // sprites already far pay for the bakes of the frame, so the frame is never slower than
     // drawing them all near, as far as the measured costs tell).
-    std::unordered_map<BakeKey, std::size_t, BakeKeyHash> index;
-    for (std::size_t k = 0; k < baking_.size(); ++k) index[baking_[k]] = k;
     std::vector<double> saving(baking_.size(), 0.0);
     std::vector<std::vector<std::size_t>> users(baking_.size());
     // What each far sprite saves and which bake it uses, found in parallel (each sprite read is a
@@ -340,8 +375,8 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
                 bakeOf_[i] = kNoBake;
                 continue;
             }
-            const auto b = index.find(keyOf(sprites[i], *drawnFrom[i]));
-            bakeOf_[i] = b == index.end() ? kNoBake : b->second;
+            const std::size_t b = bakingIndex_.find(keyOf(sprites[i], *drawnFrom[i]));
+            bakeOf_[i] = b == BakeTable::kNone ? kNoBake : b;
         }
     });
     double savedMs = 0.0;
@@ -368,11 +403,12 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
         for (std::size_t i : users[k]) givenUp.push_back(i);
     }
     std::vector<BakeKey> kept;
+    bakingIndex_.clear();
     for (std::size_t k = 0; k < baking_.size(); ++k)
-        if (!dropped[k])
+        if (!dropped[k]) {
             kept.push_back(baking_[k]);
-        else
-            bakingSet_.erase(baking_[k]);
+            bakingIndex_.insert(kept.back(), kept.size() - 1);
+        }
     baking_ = std::move(kept);
     std::sort(givenUp.begin(), givenUp.end());
     for (std::size_t i : givenUp) drop(i);
