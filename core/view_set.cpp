@@ -266,6 +266,19 @@ SurfaceDirections& surfaceDirections() {
     return directions;
 }
 
+/// The search's box along one coordinate: the lattice values within kReach steps of [from, to]
+/// (of a projection, from = to; of every projection in a cell, its sides), clamped to [-n, n].
+/// The gnomonic map stretches angles at most sqrt(3)-fold across a face, so the nearest view
+/// lies within 1.3 steps of the projection. One rule for nearestSurfacePoint's box and for the
+/// cells', whose lists rest on holding every point the box of each of their projections holds.
+constexpr double kReach = 1.5;
+int reachFrom(double from, int n) {
+    return std::max(-n, int(std::ceil(from - kReach)));
+}
+int reachTo(double to, int n) {
+    return std::min(n, int(std::floor(to + kReach)));
+}
+
 /// Where the nearest view of a level up to kGridN can lie, precomputed: each cube face's square
 /// [-n, n]^2 (the direction's projection onto its dominant face, in lattice steps) cut into
 /// kCellsPerStep x kCellsPerStep cells per step, and each cell listing, in lexicographic order,
@@ -337,12 +350,9 @@ class NearestCandidates {
                         const double b1 = b0 + 1.0 / kCellsPerStep;
                         const double c1 = c0 + 1.0 / kCellsPerStep;
                         glm::ivec3 lo, hi;
-                        lo[axis] = sign > 0 ? n - 1 : -n;
-                        hi[axis] = sign > 0 ? n : -n + 1;
-                        lo[b] = std::max(-n, int(std::ceil(b0 - 1.5)));
-                        hi[b] = std::min(n, int(std::floor(b1 + 1.5)));
-                        lo[c] = std::max(-n, int(std::ceil(c0 - 1.5)));
-                        hi[c] = std::min(n, int(std::floor(c1 + 1.5)));
+                        lo[axis] = reachFrom(sign * n, n), hi[axis] = reachTo(sign * n, n);
+                        lo[b] = reachFrom(b0, n), hi[b] = reachTo(b1, n);
+                        lo[c] = reachFrom(c0, n), hi[c] = reachTo(c1, n);
                         box.clear();
                         for (int x = lo.x; x <= hi.x; ++x)
                             for (int y = lo.y; y <= hi.y; ++y)
@@ -434,15 +444,10 @@ SurfaceHit nearestSurfacePoint(int n, glm::dvec3 towardViewer) {
         hit.id = &tables.ids(n)[best->entry];
         return hit;
     }
-    // The lattice points within 1.5 steps of the projection in each coordinate (the gnomonic map
-    // stretches angles at most sqrt(3)-fold across a face, so the nearest view lies within 1.3
-    // steps of it): 3 x 3 on its face, and the next faces' points where it is that near an edge.
-    constexpr double kReach = 1.5;
+    // The lattice points within kReach steps of the projection in each coordinate: 3 x 3 on its
+    // face, and the next faces' points where it is that near an edge.
     glm::ivec3 lo, hi;
-    for (int c = 0; c < 3; ++c) {
-        lo[c] = std::max(-n, int(std::ceil(onFace[c] - kReach)));
-        hi[c] = std::min(n, int(std::floor(onFace[c] + kReach)));
-    }
+    for (int c = 0; c < 3; ++c) lo[c] = reachFrom(onFace[c], n), hi[c] = reachTo(onFace[c], n);
     const auto consider = [&](const glm::ivec3& p) {
         const glm::dvec3 w =
             directions ? directions[SurfaceDirections::index(n, p)] : viewDirection(viewIdOf(p));

@@ -158,13 +158,9 @@ double BakeCosts::farSavingMs(const SpriteSetup& sprite) const {
 }
 
 std::size_t ErrorBudgetViews::BakeTable::hash(const BakeKey& key) {
-    const std::uint64_t h =
-        splitmix64Mix(std::uint64_t(std::uint32_t(key.model)) << 32 | std::uint32_t(key.frame));
-    const glm::ivec3 l = key.view.lattice;
-    return std::size_t(
-        splitmix64Mix(h ^ std::bit_cast<std::uint64_t>(key.sigma) ^
-                      (std::uint64_t(std::uint32_t(l.x)) << 42 ^
-                       std::uint64_t(std::uint32_t(l.y)) << 21 ^ std::uint32_t(l.z))));
+    // The answers' placement of the snapshot, with the sigma the answers leave out.
+    return std::size_t(splitmix64Mix(placeOf(key.model, key.frame, key.view.lattice) ^
+                                     std::bit_cast<std::uint64_t>(key.sigma)));
 }
 
 void ErrorBudgetViews::BakeTable::clear() {
