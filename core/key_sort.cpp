@@ -39,7 +39,7 @@ struct Digit {
 
 } // namespace
 
-void sortKeyIndexPairs(std::vector<KeyIndex>& pairs, KeyIndexScratch& scratch) {
+void sortKeyIndexPairs(std::vector<KeyIndex>& pairs, KeyIndexScratch& scratch, int tieBits) {
     const std::size_t n = pairs.size();
     if (n < kRadixFrom) {
         std::sort(pairs.begin(), pairs.end());
@@ -78,7 +78,9 @@ void sortKeyIndexPairs(std::vector<KeyIndex>& pairs, KeyIndexScratch& scratch) {
     if (!shared.ascending)
         for (int shift = 0; shift < 32; shift += kDigitBits)
             if (varies(shared.indexAnd, shared.indexOr, shift)) digits[passes++] = {false, shift};
-    for (int shift = 0; shift < 64; shift += kDigitBits)
+    // Tie-breaking digits follow the index, which is already in order when it ascends.
+    const int keyFrom = shared.ascending ? tieBits : 0;
+    for (int shift = keyFrom; shift < 64; shift += kDigitBits)
         if (varies(shared.keyAnd, shared.keyOr, shift)) digits[passes++] = {true, shift};
     if (passes == 0) return; // every pair equal
 

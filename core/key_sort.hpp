@@ -23,10 +23,38 @@ struct KeyIndexScratch {
     std::vector<Buckets> buckets;
 };
 
+/// Whether ids ascend strictly, gathered in parallel (tbb::parallel_reduce): each range adds its
+/// ids in order, and adjacent ranges join left to right. What tells a caller that the ids in its
+/// keys follow the index (sortKeyIndexPairs's tieBits).
+struct AscendingIds {
+    bool any = false, ascending = true;
+    std::uint32_t first = 0, last = 0;
+    void add(std::uint32_t id) {
+        ascending = ascending && (!any || last < id);
+        if (!any) first = id;
+        any = true;
+        last = id;
+    }
+    static AscendingIds join(const AscendingIds& left, const AscendingIds& right) {
+        if (!left.any) return right;
+        if (!right.any) return left;
+        return {true, left.ascending && right.ascending && left.last < right.first, left.first,
+                right.last};
+    }
+};
+
 /// Sorts `pairs` ascending, key first, then index: the order std::sort gives them, whatever the
 /// input order (equal pairs are indistinguishable). A least-significant-digit radix sort, 8 bits a
 /// pass, in parallel (TBB); a digit every pair shares costs no pass, and the index's passes are
 /// spared when the indices come ascending (each pass is stable).
-void sortKeyIndexPairs(std::vector<KeyIndex>& pairs, KeyIndexScratch& scratch);
+///
+/// `tieBits` (at most 64) says that the key's low `tieBits` bits only break ties:
+/// of two pairs whose keys agree above them, the one with the lower index has the lower or equal
+/// low bits. When the indices come ascending, those digits then need no pass either (a stable
+/// sort by the high bits leaves such ties in index order, which is their order): the draw order's
+/// keys are a depth over an entity id, and a frame's sprites usually come in ascending id, so the
+/// id's three passes of seven are spared. The result is std::sort's in every case; a `tieBits`
+/// the input does not keep to gives another order.
+void sortKeyIndexPairs(std::vector<KeyIndex>& pairs, KeyIndexScratch& scratch, int tieBits = 0);
 
 } // namespace voxtier

@@ -4,6 +4,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <bit>
@@ -85,9 +86,13 @@ void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& 
     const auto shown = [&](std::uint32_t i) { return sprites[i] && sprites[i]->visible(); };
     std::vector<KeyIndex>& keyed = buffers.keyed;
     keyed.resize(sprites.size());
-    tbb::parallel_for(
-        tbb::blocked_range<std::uint32_t>(0, std::uint32_t(sprites.size()), 256),
-        [&](const auto& r) {
+    // Whether the shown sprites' ids ascend with their index (a frame's sprites usually come in
+    // entity order): then the id in a key only breaks ties the index breaks the same way, and
+    // the sort spares its digits (sortKeyIndexPairs's tieBits). Not where a shown sprite's key
+    // reaches kHidden's depth half (a depth of 0), which the hidden pairs' ids would not follow.
+    const AscendingIds ids = tbb::parallel_reduce(
+        tbb::blocked_range<std::uint32_t>(0, std::uint32_t(sprites.size()), 256), AscendingIds{},
+        [&](const auto& r, AscendingIds seen) {
             for (std::uint32_t i = r.begin(); i != r.end(); ++i) {
                 if (!shown(i)) {
                     keyed[i] = {kHidden, i};
@@ -96,10 +101,14 @@ void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& 
                 const std::uint32_t depthBits =
                     std::bit_cast<std::uint32_t>(std::max(sprites[i]->gpu.depth, 0.0f));
                 keyed[i] = {(std::uint64_t(~depthBits) << 32) | sprites[i]->entityId, i};
+                seen.add(sprites[i]->entityId);
+                seen.ascending = seen.ascending && depthBits != 0;
             }
-        });
+            return seen;
+        },
+        AscendingIds::join);
     // (key, index) pairs are distinct, so the order has one answer, whichever sort finds it.
-    sortKeyIndexPairs(keyed, buffers.scratch);
+    sortKeyIndexPairs(keyed, buffers.scratch, ids.ascending ? 32 : 0);
     // The hidden sort last, after any visible sprite whose key is the greatest too (depth 0 and
     // the greatest id), which stays in its place among them.
     const auto tail = std::lower_bound(keyed.begin(), keyed.end(), KeyIndex(kHidden, 0));

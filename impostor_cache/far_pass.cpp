@@ -270,6 +270,7 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         const glm::ivec4 r = rects[i];
         return r.z > r.x && r.w > r.y;
     };
+    bool idsAscend = false;
     if (!same) {
         // Each instance's rectangle and order key, read in parallel (a sprite's record is a cache
         // miss apiece: at 100,000 tanks one core walking ten thousand far sprites cost
@@ -277,7 +278,10 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         rects.resize(n);
         keys.resize(n);
         src.entities.resize(n);
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 64), [&](const auto& range) {
+        // Whether the instances' ids ascend (they come in entity order): then the sort spares
+        // the id's digits (sortKeyIndexPairs's tieBits), the order's pairs being a subsequence.
+        const auto readRange = [&](const tbb::blocked_range<std::size_t>& range,
+                                   AscendingIds seen) {
             for (std::size_t i = range.begin(); i != range.end(); ++i) {
                 const SpriteSetup& s = *batch.instances[i].sprite;
                 // The far blit's rectangle: the sprite's screen rectangle within the image.
@@ -285,9 +289,14 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
                                                     glm::ivec4(width, height, width, height))
                                        : glm::ivec4(0);
                 keys[i] = farOrderKey(s.gpu.depth, s.entityId);
+                seen.add(s.entityId);
                 src.entities[i] = SpriteHistory::entityIn(history, batch.instances[i].sprite);
             }
-        });
+            return seen;
+        };
+        idsAscend = tbb::parallel_reduce(tbb::blocked_range<std::size_t>(0, n, 64), AscendingIds{},
+                                         readRange, AscendingIds::join)
+                        .ascending;
     }
     // The drawn instances' palettes, each placed where the first drawn instance showing it puts
     // it, and (unless kept) their (key, index) pairs in instance order: each chunk of instances
@@ -353,7 +362,7 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         // the shader stops passing a tile's sprites over a pixel once the pixel would refuse the
         // next one, which is then true of every later one). The (key, index) pairs are distinct,
         // so the order has one answer, whichever sort finds it.
-        sortKeyIndexPairs(order, orderScratch);
+        sortKeyIndexPairs(order, orderScratch, idsAscend ? 32 : 0);
         if (tiles == FarTiles::Sprites) {
             tileRecords.clear(); // no tiles: a workgroup per drawn instance
             list.clear();

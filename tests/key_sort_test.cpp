@@ -3,6 +3,8 @@
 #include "core/key_sort.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -44,6 +46,71 @@ TEST(KeyIndexSort, EqualsStdSortOnDepthAndIdKeysWithAscendingIndices) {
             pairs[i] = {(std::uint64_t(~bits) << 32) | entity, i};
         }
         expectSortedAsStdSort(pairs, scratch, "depth and id");
+    }
+}
+
+TEST(KeyIndexSort, TieBreakingBitsThatFollowTheIndexNeedNoPassYetGiveStdSortsOrder) {
+    // frontToBack's keys when the sprites come in entity order: the id in the low half ascends
+    // with the index, so tieBits = 32 may spare the id's digits. Many equal depths, so the ids
+    // decide often; the answer must be std::sort's. With the same pairs' indices shuffled (the
+    // id no longer follows the index), the sort must not spare them.
+    std::mt19937_64 rng(19);
+    KeyIndexScratch scratch;
+    for (const std::size_t n : kSizes) {
+        std::vector<KeyIndex> pairs(n);
+        std::uint32_t entity = 0;
+        for (std::uint32_t i = 0; i < n; ++i) {
+            entity += 1 + std::uint32_t(rng() % 3); // ascending, with gaps
+            const std::uint32_t bits = std::bit_cast<std::uint32_t>(float(rng() % 64) / 64.0f);
+            pairs[i] = {(std::uint64_t(~bits) << 32) | entity, i};
+        }
+        std::vector<KeyIndex> expected = pairs, got = pairs;
+        std::sort(expected.begin(), expected.end());
+        sortKeyIndexPairs(got, scratch, 32);
+        EXPECT_TRUE(got == expected) << n << " pairs, ids ascending with the index";
+        std::vector<std::uint32_t> index(n);
+        std::iota(index.begin(), index.end(), 0u);
+        std::shuffle(index.begin(), index.end(), rng);
+        for (std::size_t i = 0; i < n; ++i) pairs[i].second = index[i];
+        expected = pairs, got = pairs;
+        std::sort(expected.begin(), expected.end());
+        sortKeyIndexPairs(got, scratch, 32);
+        EXPECT_TRUE(got == expected) << n << " pairs, indices shuffled";
+    }
+}
+
+TEST(KeyIndexSort, AscendingIdsGatheredInParallelAgreeWithOneWalk) {
+    // The callers' test for tieBits: strictly ascending ids, equal neighbours, one id out of
+    // place at each position class (first, inside, at a range border, last), and none at all.
+    std::mt19937_64 rng(23);
+    const auto walk = [](const std::vector<std::uint32_t>& ids) {
+        for (std::size_t i = 1; i < ids.size(); ++i)
+            if (!(ids[i - 1] < ids[i])) return false;
+        return true;
+    };
+    const auto gathered = [](const std::vector<std::uint32_t>& ids) {
+        return tbb::parallel_reduce(
+                   tbb::blocked_range<std::size_t>(0, ids.size(), 64), AscendingIds{},
+                   [&](const auto& r, AscendingIds seen) {
+                       for (std::size_t i = r.begin(); i != r.end(); ++i) seen.add(ids[i]);
+                       return seen;
+                   },
+                   AscendingIds::join)
+            .ascending;
+    };
+    for (const std::size_t n : {0u, 1u, 2u, 63u, 64u, 65u, 4096u, 100000u}) {
+        std::vector<std::uint32_t> ids(n);
+        std::uint32_t id = 0;
+        for (auto& x : ids) x = id += 1 + std::uint32_t(rng() % 4);
+        EXPECT_TRUE(gathered(ids)) << n;
+        for (const std::size_t at : {std::size_t(1), n / 2, std::size_t(64), n - 1}) {
+            if (at == 0 || at >= n) continue;
+            std::vector<std::uint32_t> bent = ids;
+            bent[at] = bent[at - 1]; // equal neighbours: not strictly ascending
+            EXPECT_EQ(gathered(bent), walk(bent)) << n << " equal at " << at;
+            bent[at] = bent[at - 1] - 1;
+            EXPECT_FALSE(gathered(bent)) << n << " falling at " << at;
+        }
     }
 }
 

@@ -118,6 +118,52 @@ TEST(OcclusionTiles, FrontToBackOfManySpritesIsTheSortOfTheVisibleOnes) {
     EXPECT_EQ(order.back(), std::uint32_t(n - 3));
 }
 
+// The usual frame: sprites in entity order (ids ascending with the index, where the sort spares
+// the id's digits), many at equal depths, some hidden or absent; then the same with one visible
+// sprite in four at depth 0 (whose keys reach the hidden marker's depth half: the full sort) and
+// with ids out of order. Each order is the plain sort's.
+TEST(OcclusionTiles, FrontToBackOfSpritesInEntityOrderIsTheSortOfTheVisibleOnes) {
+    const std::size_t n = 60000;
+    std::vector<SpriteSetup> s(n);
+    std::vector<const SpriteSetup*> p(n);
+    std::uint64_t state = 777;
+    const auto next = [&] {
+        return (state = state * 6364136223846793005ull + 1442695040888963407ull) >> 33;
+    };
+    std::uint32_t id = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        s[i].gpu.depth = float(1 + next() % 300) / 300.0f;
+        s[i].entityId = id += 1 + std::uint32_t(next() % 2);
+        if (next() % 9 == 0) s[i].cull = CullReason::OffScreen;
+        p[i] = next() % 60 == 0 ? nullptr : &s[i];
+    }
+    const auto expectPlainSort = [&](const char* what) {
+        std::vector<std::uint32_t> expected;
+        for (std::uint32_t i = 0; i < n; ++i)
+            if (p[i] && p[i]->visible()) expected.push_back(i);
+        std::stable_sort(expected.begin(), expected.end(), [&](std::uint32_t a, std::uint32_t b) {
+            if (s[a].gpu.depth != s[b].gpu.depth) return s[a].gpu.depth > s[b].gpu.depth;
+            return s[a].entityId < s[b].entityId;
+        });
+        EXPECT_TRUE(frontToBack(p) == expected) << what;
+    };
+    expectPlainSort("ids ascending");
+    std::vector<float> depths(n);
+    for (std::size_t i = 0; i < n; ++i) depths[i] = s[i].gpu.depth;
+    for (std::size_t i = 0; i < n; i += 4) s[i].gpu.depth = 0.0f;
+    expectPlainSort("visible sprites at depth 0");
+    for (std::size_t i = 0; i < n; ++i) s[i].gpu.depth = depths[i];
+    std::swap(s[100].entityId, s[50000].entityId);
+    s[100].cull = s[50000].cull = CullReason::None, p[100] = &s[100], p[50000] = &s[50000];
+    s[100].gpu.depth = s[50000].gpu.depth = 0.25f;
+    expectPlainSort("two ids out of order");
+    // Each half ascending, the second below the first: out of order only where the halves meet
+    // (where TBB's first split falls), which the halves' join must see.
+    for (std::size_t i = 0; i < n; ++i)
+        s[i].entityId = std::uint32_t(i < n / 2 ? n + i : i - n / 2);
+    expectPlainSort("halves out of order");
+}
+
 /// Renders the frames of `scene` in `mode` with and without culling (two renderers, the same
 /// frames in order, so the selector and the caches go through the same states) and expects the
 /// images equal in colour, depth and id. Returns the sprites culling dropped whole, all frames.
