@@ -1,6 +1,7 @@
 #include "core/occlusion.hpp"
 
 #include "core/key_sort.hpp"
+#include "core/sprite_store.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -76,7 +77,7 @@ bool OcclusionTiles::hides(glm::ivec4 rect, float depth) {
 }
 
 void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& buffers,
-                 std::vector<std::uint32_t>& order) {
+                 std::vector<std::uint32_t>& order, const SpriteHistory* history) {
     // One 64-bit key per sprite: the depth's bits inverted (positive floats order like their
     // bits, so this puts nearer first), then the entity id; the index rides along. The keys are
     // read in parallel: at 100,000 sprites reading each one's depth is a cache miss apiece, which
@@ -84,6 +85,14 @@ void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& 
     // greatest key and are cut from the end after the sort.
     constexpr std::uint64_t kHidden = std::numeric_limits<std::uint64_t>::max();
     const auto shown = [&](std::uint32_t i) { return sprites[i] && sprites[i]->visible(); };
+    // A sprite's entity in `history` where its arrays describe it (the store's current sprite),
+    // else kNoEntity: its visibility and depth then come from the sprite.
+    const bool kept = history && history->depths.size() == history->sprites.size() &&
+                      history->visible.size() == history->sprites.size();
+    const auto entityOf = [&](std::uint32_t i) {
+        return kept && sprites[i] ? SpriteHistory::entityIn(history, sprites[i])
+                                  : SpriteHistory::kNoEntity;
+    };
     std::vector<KeyIndex>& keyed = buffers.keyed;
     keyed.resize(sprites.size());
     // Whether the shown sprites' ids ascend with their index (a frame's sprites usually come in
@@ -94,14 +103,17 @@ void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& 
         tbb::blocked_range<std::uint32_t>(0, std::uint32_t(sprites.size()), 256), AscendingIds{},
         [&](const auto& r, AscendingIds seen) {
             for (std::uint32_t i = r.begin(); i != r.end(); ++i) {
-                if (!shown(i)) {
+                const std::uint32_t e = entityOf(i);
+                if (e != SpriteHistory::kNoEntity ? !history->visible[e] : !shown(i)) {
                     keyed[i] = {kHidden, i};
                     continue;
                 }
-                const std::uint32_t depthBits =
-                    std::bit_cast<std::uint32_t>(std::max(sprites[i]->gpu.depth, 0.0f));
-                keyed[i] = {(std::uint64_t(~depthBits) << 32) | sprites[i]->entityId, i};
-                seen.add(sprites[i]->entityId);
+                const float depth =
+                    e != SpriteHistory::kNoEntity ? history->depths[e] : sprites[i]->gpu.depth;
+                const std::uint32_t id = e != SpriteHistory::kNoEntity ? e : sprites[i]->entityId;
+                const std::uint32_t depthBits = std::bit_cast<std::uint32_t>(std::max(depth, 0.0f));
+                keyed[i] = {(std::uint64_t(~depthBits) << 32) | id, i};
+                seen.add(id);
                 seen.ascending = seen.ascending && depthBits != 0;
             }
             return seen;
@@ -121,8 +133,8 @@ void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& 
 }
 
 void drawOrder(std::span<const SpriteSetup* const> sprites, bool cull, DrawOrderBuffers& buffers,
-               std::vector<std::uint32_t>& order) {
-    if (cull) return frontToBack(sprites, buffers, order);
+               std::vector<std::uint32_t>& order, const SpriteHistory* history) {
+    if (cull) return frontToBack(sprites, buffers, order, history);
     order.clear();
     for (std::uint32_t i = 0; i < sprites.size(); ++i)
         if (sprites[i] && sprites[i]->visible()) order.push_back(i);

@@ -18,6 +18,8 @@
 
 namespace voxtier {
 
+struct SpriteHistory; // core/sprite_store.hpp
+
 /// Per 16x16 tile of an image, the farthest depth drawn, known only once every pixel of the tile
 /// holds a sprite (an empty pixel is infinitely far). Kept lazily: a tile is re-read from the
 /// image only when enough sprite rectangle has been drawn over it since its last reading to have
@@ -76,11 +78,13 @@ struct DrawOrderBuffers {
     std::vector<KeyIndex> keyed;
     KeyIndexScratch scratch;
 };
-/// frontToBack and drawOrder into `order`, with the working arrays of `buffers`.
+/// frontToBack and drawOrder into `order`, with the working arrays of `buffers`. With `history`,
+/// a sprite of its store's current array has its visibility and depth read from the history's
+/// per-entity arrays (SpriteHistory::visible, depths) instead of from the sprite: the same order.
 void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& buffers,
-                 std::vector<std::uint32_t>& order);
+                 std::vector<std::uint32_t>& order, const SpriteHistory* history = nullptr);
 void drawOrder(std::span<const SpriteSetup* const> sprites, bool cull, DrawOrderBuffers& buffers,
-               std::vector<std::uint32_t>& order);
+               std::vector<std::uint32_t>& order, const SpriteHistory* history = nullptr);
 
 /// The run size the tiers use: half the image in sprite rectangle area. Smaller runs cull more
 /// (each sprite meets tiles filled closer in front of it) and pay more per-run overhead (a

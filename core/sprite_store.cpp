@@ -38,7 +38,7 @@ std::uint64_t SpriteStore::newStoreId() {
 
 SpriteHistory SpriteStore::history() const {
     if (arrays_.empty() || !valid_) return {};
-    return {id_, updates_, sprites(), changedAt_, posedAt_, allChangedAt_};
+    return {id_, updates_, sprites(), changedAt_, posedAt_, allChangedAt_, visible_, depths_};
 }
 
 std::span<const SpriteSetup> SpriteStore::sprites() const {
@@ -82,6 +82,7 @@ void SpriteStore::clear() {
     changed_.clear();
     reposed_.clear();
     visible_.clear();
+    depths_.clear();
     visibleIds_.writable().clear();
     valid_ = false;
 }
@@ -99,6 +100,7 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
         changed_.resize(n);
         reposed_.resize(n);
         visible_.resize(n);
+        depths_.resize(n);
         valid_ = false;
     }
     // Constants depend on the light and the voxel size; sprites on those, sigma, the view mode
@@ -208,6 +210,10 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
             setUpQueued();
             for (std::size_t i = range.begin(); i != range.end(); ++i) {
                 visible_[i] = sprites[i].visible();
+                // A depth changes only with the pose or the camera (reposed): read from the
+                // sprite just set up, and left as it was for the rest (a still camera's update
+                // would read a second line of every sprite).
+                if (reposed_[i]) depths_[i] = sprites[i].gpu.depth;
                 c.culled += !visible_[i];
             }
             return c;

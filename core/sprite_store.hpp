@@ -49,6 +49,12 @@ struct SpriteHistory {
     /// sprite's (the camera, the render parameters, the light, the entity count).
     std::span<const std::uint64_t> changedAt, posedAt;
     std::uint64_t allChangedAt = 0;
+    /// Per entity id, whether this update's sprite is visible (SpriteSetup::visible) and its
+    /// billboard depth (SpriteSetup::gpu.depth): what a draw order reads, 5 bytes an entity in
+    /// place of two cache lines of its 640-byte sprite (at 100,000 moving sprites the reads of
+    /// the sprites were half of the near tier's order). Empty where not kept.
+    std::span<const std::uint8_t> visible;
+    std::span<const float> depths;
 
     /// What a consumer that keeps things per entity records for a sprite that is no store's (a
     /// copy, a cross-fade's) or drawn with no history.
@@ -58,7 +64,8 @@ struct SpriteHistory {
         return history ? history->entityOf(s).value_or(kNoEntity) : kNoEntity;
     }
 
-    /// The entity whose sprite `s` is, when `s` points into `sprites` (not at a copy).
+    /// The entity whose sprite `s` is, when `s` points into `sprites` (not at a copy): its index
+    /// there, which is its SpriteSetup::entityId.
     std::optional<std::uint32_t> entityOf(const SpriteSetup* s) const {
         const auto at = reinterpret_cast<std::uintptr_t>(s),
                    begin = reinterpret_cast<std::uintptr_t>(sprites.data());
@@ -156,6 +163,8 @@ class SpriteStore {
     std::vector<std::uint64_t> posedAt_;
     std::uint64_t allChangedAt_ = 0;
     std::vector<std::uint8_t> changed_, reposed_, visible_;
+    std::vector<float> depths_; ///< SpriteHistory::depths
+
     SharedVectorOwner<std::uint32_t> visibleIds_;
     /// What every sprite of the last update was set up with.
     bool valid_ = false;

@@ -3,6 +3,7 @@
 // still camera, the entities that stepped to another animation frame or moved, everything when
 // the camera or the light moves. A frame's share of the sprites stays as it was.
 #include "core/model_view.hpp"
+#include "core/occlusion.hpp"
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
 #include "core/sprite_store.hpp"
@@ -12,6 +13,8 @@
 #include "view_sweeps.hpp"
 
 #include <gtest/gtest.h>
+
+#include <bit>
 
 namespace voxtier {
 namespace {
@@ -30,6 +33,18 @@ void expectFresh(const SpriteStore& store, const Scene& s, const CameraFrame& ca
     }
     ASSERT_EQ(store.visibleIds().size(), visible);
     for (const std::uint32_t i : store.visibleIds()) EXPECT_TRUE(fresh[i].visible());
+    // The history's per-entity arrays, which a draw order reads in place of the sprites.
+    const SpriteHistory h = store.history();
+    ASSERT_EQ(h.visible.size(), fresh.size());
+    ASSERT_EQ(h.depths.size(), fresh.size());
+    for (std::size_t i = 0; i < fresh.size(); ++i) {
+        ASSERT_EQ(h.visible[i] != 0, fresh[i].visible()) << "entity " << i << " at t " << t;
+        EXPECT_EQ(fresh[i].entityId, i);
+        if (fresh[i].visible())
+            ASSERT_EQ(std::bit_cast<std::uint32_t>(h.depths[i]),
+                      std::bit_cast<std::uint32_t>(fresh[i].gpu.depth))
+                << "entity " << i << " at t " << t;
+    }
 }
 
 /// The bench crowd: 800 entities, 40 of them animated (2 frames a second), a camera path.
@@ -47,6 +62,32 @@ TEST(SpriteStore, EverySpriteEqualsAFreshSetUpAlongAPath) {
         EXPECT_EQ(u.entities, int(s.entities.size()));
         EXPECT_EQ(u.recomputed, u.entities) << "the camera moved: every sprite is new";
         expectFresh(store, s, cam, t);
+    }
+}
+
+// The draw order read through the history (its per-entity visibility and depths) is the order
+// read from the sprites, along a path, under a still camera, and with copies of some sprites
+// (a cross-fade's, at other depths) among the store's: those are read from the copy.
+TEST(SpriteStore, TheDrawOrderFromTheHistoryIsTheOrderFromTheSprites) {
+    const Scene s = crowd();
+    SpriteStore store;
+    DrawOrderBuffers withHistory, without;
+    std::vector<std::uint32_t> a, b;
+    for (const double t : {0.0, 0.1, 0.2, 0.2, 1.3}) {
+        store.update(s, makeCameraFrame(s.cameraAt(t < 1.0 ? t : 0.2)), t);
+        const SpriteHistory h = store.history();
+        std::vector<const SpriteSetup*> all;
+        for (const SpriteSetup& sp : store.sprites()) all.push_back(&sp);
+        std::vector<SpriteSetup> copies(store.sprites().begin(), store.sprites().begin() + 40);
+        for (std::size_t k = 0; k < copies.size(); k += 2) {
+            copies[k].gpu.depth *= 0.5f;
+            all[k] = &copies[k];
+        }
+        all[41] = nullptr;
+        frontToBack(all, withHistory, a, &h);
+        frontToBack(all, without, b);
+        EXPECT_GT(a.size(), 100u);
+        EXPECT_TRUE(a == b) << "at t " << t;
     }
 }
 

@@ -100,7 +100,7 @@ bool NearPasses::Impl::orderSprites(std::span<const SpriteSetup* const> all, con
     // §6: front to back with equal depths in ascending id under the early depth test, which
     // keeps every pixel the same (the depth test alone decides unequal depths, whatever their
     // order); else ascending entity id, so that depth GREATER resolves ties to the lower id.
-    drawOrder(all, opt.earlyDepthTest, kept.buffers, kept.order);
+    drawOrder(all, opt.earlyDepthTest, kept.buffers, kept.order, history);
     gather();
     if (!opt.earlyDepthTest)
         std::stable_sort(
