@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -164,6 +165,23 @@ TEST(KeyIndexSort, EqualsStdSortOnKeysThatDifferInAnyByte) {
     expectSortedAsStdSort(pairs, scratch, "sorted");
     std::reverse(pairs.begin(), pairs.end());
     expectSortedAsStdSort(pairs, scratch, "reversed");
+}
+
+TEST(KeyIndexSort, EqualsStdSortWhateverTheThreadCount) {
+    // The pairs are cut into chunks by the threads at hand (about four a thread, 2,048 to
+    // 16,384 pairs each): one thread, two, and sixteen (more chunks than this host has cores).
+    std::mt19937_64 rng(29);
+    KeyIndexScratch scratch;
+    for (const int threads : {1, 2, 16}) {
+        tbb::task_arena arena(threads);
+        for (const std::size_t n : {4097u, 30000u, 100000u}) {
+            std::vector<KeyIndex> pairs(n);
+            for (std::uint32_t i = 0; i < n; ++i) pairs[i] = {rng() >> 40, i};
+            arena.execute([&] { expectSortedAsStdSort(pairs, scratch, "threads"); });
+            std::reverse(pairs.begin(), pairs.end());
+            arena.execute([&] { expectSortedAsStdSort(pairs, scratch, "threads, reversed"); });
+        }
+    }
 }
 
 TEST(KeyIndexSort, ScratchKeptBetweenSortsOfOtherSizes) {
