@@ -81,17 +81,17 @@ void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& 
     // One 64-bit key per sprite: the depth's bits inverted (positive floats order like their
     // bits, so this puts nearer first), then the entity id; the index rides along. The keys are
     // read in parallel: at 100,000 sprites reading each one's depth is a cache miss apiece, which
-    // one core paid serially (a third of the near tier's host recording). Hidden sprites get the
+    // one core paid serially (a third of the near tier's host recording); with the store's
+    // history they are read from its per-entity arrays, in entity order. Hidden sprites get the
     // greatest key and are cut from the end after the sort.
     constexpr std::uint64_t kHidden = std::numeric_limits<std::uint64_t>::max();
     const auto shown = [&](std::uint32_t i) { return sprites[i] && sprites[i]->visible(); };
     // A sprite's entity in `history` where its arrays describe it (the store's current sprite),
     // else kNoEntity: its visibility and depth then come from the sprite.
-    const bool kept = history && history->depths.size() == history->sprites.size() &&
-                      history->visible.size() == history->sprites.size();
+    const bool arrays = history && history->hasDepths();
     const auto entityOf = [&](std::uint32_t i) {
-        return kept && sprites[i] ? SpriteHistory::entityIn(history, sprites[i])
-                                  : SpriteHistory::kNoEntity;
+        return arrays && sprites[i] ? SpriteHistory::entityIn(history, sprites[i])
+                                    : SpriteHistory::kNoEntity;
     };
     std::vector<KeyIndex>& keyed = buffers.keyed;
     keyed.resize(sprites.size());

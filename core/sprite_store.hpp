@@ -55,6 +55,11 @@ struct SpriteHistory {
     /// the sprites were half of the near tier's order). Empty where not kept.
     std::span<const std::uint8_t> visible;
     std::span<const float> depths;
+    /// Whether `visible` and `depths` describe `sprites` (a store's history does; one built by
+    /// hand may leave them empty).
+    bool hasDepths() const {
+        return visible.size() == sprites.size() && depths.size() == sprites.size();
+    }
 
     /// What a consumer that keeps things per entity records for a sprite that is no store's (a
     /// copy, a cross-fade's) or drawn with no history.
@@ -164,7 +169,6 @@ class SpriteStore {
     std::uint64_t allChangedAt_ = 0;
     std::vector<std::uint8_t> changed_, reposed_, visible_;
     std::vector<float> depths_; ///< SpriteHistory::depths
-
     SharedVectorOwner<std::uint32_t> visibleIds_;
     /// What every sprite of the last update was set up with.
     bool valid_ = false;

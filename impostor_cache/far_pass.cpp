@@ -278,10 +278,10 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         rects.resize(n);
         keys.resize(n);
         src.entities.resize(n);
-        // Whether the instances' ids ascend (they come in entity order): then the sort spares
-        // the id's digits (sortKeyIndexPairs's tieBits), the order's pairs being a subsequence.
-        const bool keptArrays = history && history->depths.size() == history->sprites.size() &&
-                                history->visible.size() == history->sprites.size();
+        const bool keptArrays = history && history->hasDepths();
+        // Also whether the instances' ids ascend (they come in entity order): then the sort
+        // spares the id's digits (sortKeyIndexPairs's tieBits), the order's pairs being a
+        // subsequence of the instances.
         const auto readRange = [&](const tbb::blocked_range<std::size_t>& range,
                                    AscendingIds seen) {
             for (std::size_t i = range.begin(); i != range.end(); ++i) {
