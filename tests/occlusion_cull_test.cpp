@@ -80,6 +80,27 @@ TEST(OcclusionTiles, FrontToBackOrdersByDepthThenId) {
     EXPECT_EQ(frontToBack(p), (std::vector<std::uint32_t>{1, 2, 0}));
 }
 
+/// A seeded generator for the many-sprite orders (the same numbers on every platform).
+struct Lcg {
+    std::uint64_t state;
+    std::uint64_t operator()() {
+        return (state = state * 6364136223846793005ull + 1442695040888963407ull) >> 33;
+    }
+};
+
+/// The order frontToBack must give: the visible sprites of `p` by a plain stable sort, nearer
+/// first, then the lower id (then the lower index).
+std::vector<std::uint32_t> plainOrder(std::span<const SpriteSetup* const> p) {
+    std::vector<std::uint32_t> expected;
+    for (std::uint32_t i = 0; i < p.size(); ++i)
+        if (p[i] && p[i]->visible()) expected.push_back(i);
+    std::stable_sort(expected.begin(), expected.end(), [&](std::uint32_t a, std::uint32_t b) {
+        if (p[a]->gpu.depth != p[b]->gpu.depth) return p[a]->gpu.depth > p[b]->gpu.depth;
+        return p[a]->entityId < p[b]->entityId;
+    });
+    return expected;
+}
+
 // Many sprites (so that the keys are read and sorted in parallel): the order is the one a plain
 // sort of the visible sprites by (nearer first, lower id, lower index) gives, with hidden and
 // absent sprites left out, ties of depth and id broken by index, and a visible sprite at depth 0
@@ -88,10 +109,7 @@ TEST(OcclusionTiles, FrontToBackOfManySpritesIsTheSortOfTheVisibleOnes) {
     const std::size_t n = 50000;
     std::vector<SpriteSetup> s(n);
     std::vector<const SpriteSetup*> p(n);
-    std::uint64_t state = 12345;
-    const auto next = [&] {
-        return (state = state * 6364136223846793005ull + 1442695040888963407ull) >> 33;
-    };
+    Lcg next{12345};
     for (std::size_t i = 0; i < n; ++i) {
         s[i].gpu.depth = float(next() % 500) / 500.0f; // many equal depths, some 0
         s[i].entityId = std::uint32_t(next() % 40000); // some equal ids
@@ -104,13 +122,7 @@ TEST(OcclusionTiles, FrontToBackOfManySpritesIsTheSortOfTheVisibleOnes) {
         s[i].entityId = std::numeric_limits<std::uint32_t>::max();
         p[i] = &s[i];
     }
-    std::vector<std::uint32_t> expected;
-    for (std::uint32_t i = 0; i < n; ++i)
-        if (p[i] && p[i]->visible()) expected.push_back(i);
-    std::stable_sort(expected.begin(), expected.end(), [&](std::uint32_t a, std::uint32_t b) {
-        if (s[a].gpu.depth != s[b].gpu.depth) return s[a].gpu.depth > s[b].gpu.depth;
-        return s[a].entityId < s[b].entityId;
-    });
+    const std::vector<std::uint32_t> expected = plainOrder(p);
     const std::vector<std::uint32_t> order = frontToBack(p);
     ASSERT_EQ(order.size(), expected.size());
     EXPECT_TRUE(order == expected);
@@ -126,10 +138,7 @@ TEST(OcclusionTiles, FrontToBackOfSpritesInEntityOrderIsTheSortOfTheVisibleOnes)
     const std::size_t n = 60000;
     std::vector<SpriteSetup> s(n);
     std::vector<const SpriteSetup*> p(n);
-    std::uint64_t state = 777;
-    const auto next = [&] {
-        return (state = state * 6364136223846793005ull + 1442695040888963407ull) >> 33;
-    };
+    Lcg next{777};
     std::uint32_t id = 0;
     for (std::size_t i = 0; i < n; ++i) {
         s[i].gpu.depth = float(1 + next() % 300) / 300.0f;
@@ -138,14 +147,7 @@ TEST(OcclusionTiles, FrontToBackOfSpritesInEntityOrderIsTheSortOfTheVisibleOnes)
         p[i] = next() % 60 == 0 ? nullptr : &s[i];
     }
     const auto expectPlainSort = [&](const char* what) {
-        std::vector<std::uint32_t> expected;
-        for (std::uint32_t i = 0; i < n; ++i)
-            if (p[i] && p[i]->visible()) expected.push_back(i);
-        std::stable_sort(expected.begin(), expected.end(), [&](std::uint32_t a, std::uint32_t b) {
-            if (s[a].gpu.depth != s[b].gpu.depth) return s[a].gpu.depth > s[b].gpu.depth;
-            return s[a].entityId < s[b].entityId;
-        });
-        EXPECT_TRUE(frontToBack(p) == expected) << what;
+        EXPECT_TRUE(frontToBack(p) == plainOrder(p)) << what;
     };
     expectPlainSort("ids ascending");
     std::vector<float> depths(n);
