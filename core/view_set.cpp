@@ -203,6 +203,31 @@ std::vector<ViewId> cubeSurfaceViews(int n) {
 
 namespace {
 
+/// Something built once, on first use, by the first thread that asks. call_once alone costs two
+/// thread-local lookups per call in this position-independent code, on paths the error-budget
+/// planner takes ~600,000 times a frame: a flag is loaded first, set once the build is done.
+class BuiltOnce {
+  public:
+    template <class Build> void ensure(Build&& build) {
+        if (ready_.load(std::memory_order_acquire)) [[likely]]
+            return;
+        buildOnce(build);
+    }
+
+  private:
+    /// Out of line, so that the caller's fast path is the load alone (inlined, call_once's
+    /// closure was set up on the stack before the flag was tested).
+    template <class Build> [[gnu::noinline, gnu::cold]] void buildOnce(Build& build) {
+        std::call_once(once_, [&] {
+            build();
+            ready_.store(true, std::memory_order_release);
+        });
+    }
+
+    std::once_flag once_;
+    std::atomic<bool> ready_{false};
+};
+
 /// viewDirection(viewIdOf(p)) of every surface point p of {-n..n}^3, per n up to kTabledN,
 /// computed on the first lookup of that n: nearestLatticePoint compares up to 25 of them per
 /// call, and the error-budget planner calls it for each ladder level of each entity every frame
@@ -215,13 +240,7 @@ class SurfaceDirections {
     /// Level n's table, indexed by index(n, p); null past kTabledN.
     const glm::dvec3* table(int n) {
         if (n > kTabledN) return nullptr;
-        // call_once alone costs two thread-local lookups per call in this position-independent
-        // code, on a path the error-budget planner takes ~600,000 times a frame: a load first.
-        if (!ready_[std::size_t(n)].load(std::memory_order_acquire))
-            std::call_once(built_[std::size_t(n)], [&] {
-                build(n);
-                ready_[std::size_t(n)].store(true, std::memory_order_release);
-            });
+        built_[std::size_t(n)].ensure([&] { build(n); });
         return table_[std::size_t(n)].data();
     }
     /// viewIdOf(p) by the same index, once table(n) was asked for.
@@ -255,8 +274,7 @@ class SurfaceDirections {
                     }
     }
 
-    std::array<std::once_flag, kTabledN + 1> built_;
-    std::array<std::atomic<bool>, kTabledN + 1> ready_{};
+    std::array<BuiltOnce, kTabledN + 1> built_;
     std::array<std::vector<glm::dvec3>, kTabledN + 1> table_;
     std::array<std::vector<ViewId>, kTabledN + 1> ids_;
 };
@@ -311,11 +329,7 @@ class NearestCandidates {
 
     /// Level n's cells, n <= kGridN.
     const Level& level(int n, const glm::dvec3* directions) {
-        if (!ready_[std::size_t(n)].load(std::memory_order_acquire))
-            std::call_once(built_[std::size_t(n)], [&] {
-                build(n, directions);
-                ready_[std::size_t(n)].store(true, std::memory_order_release);
-            });
+        built_[std::size_t(n)].ensure([&] { build(n, directions); });
         return levels_[std::size_t(n)];
     }
     /// The cell of `onFace` (nearestSurfacePoint's projection, finite) on the face of `axis`.
@@ -400,8 +414,7 @@ class NearestCandidates {
         level.first.push_back(std::uint32_t(level.candidates.size()));
     }
 
-    std::array<std::once_flag, kGridN + 1> built_;
-    std::array<std::atomic<bool>, kGridN + 1> ready_{};
+    std::array<BuiltOnce, kGridN + 1> built_;
     std::array<Level, kGridN + 1> levels_;
 };
 
