@@ -524,7 +524,7 @@ SharedVector<EntityPlan> FrameRenderer::planEntities(RenderMode mode, FrameStats
     PlanStats ps;
     SharedVector<EntityPlan> plan =
         planner_.plan(sprites_.sprites(), sprites_.visibleIds(), scene_.selector, settings, ps,
-                      sprites_.reposed());
+                      sprites_.reposed(), sprites_.selectionInputs());
     st.plan = ps;
     return plan;
 }

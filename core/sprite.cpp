@@ -301,6 +301,19 @@ double cellSizePx(const SpriteSetup& sprite) {
     return radiusCells > 0.0 ? sprite.radiusPx / radiusCells : 0.0;
 }
 
+SpriteSelectionInputs selectionInputs(const SpriteSetup& sprite) {
+    SpriteSelectionInputs in;
+    in.distance = sprite.distance;
+    in.radiusPx = sprite.radiusPx;
+    in.visible = sprite.visible();
+    if (!in.visible) return in;
+    in.towardViewer = -sprite.lattice.dir;
+    in.displacement = DisplacementPredictor(glm::dvec3(sprite.lattice.dims) * 0.5,
+                                            sprite.lattice.sigma, in.towardViewer);
+    in.cellSizePx = cellSizePx(sprite);
+    return in;
+}
+
 std::vector<SpriteSetup> setupSprites(const Scene& scene, const CameraFrame& camera, double time) {
     std::vector<SpriteSetup> out(scene.entities.size());
     tbb::parallel_for(std::size_t(0), out.size(), [&](std::size_t i) {

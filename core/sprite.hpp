@@ -6,6 +6,7 @@
 #include "core/camera.hpp"
 #include "core/scene.hpp"
 #include "core/sprite_kernel.h"
+#include "core/view_set.hpp"
 
 #include <array>
 #include <cmath>
@@ -120,6 +121,25 @@ struct SpriteSetup {
 /// budget (lod/) and the frame error report (compose/) measure displacement in it.
 double cellSizePx(const SpriteSetup& sprite);
 
+/// What the LOD selection reads of a sprite (lod/: the selector's inputs, the nearest view, the
+/// predicted far displacement), in 88 bytes: the SpriteStore keeps it per entity beside the
+/// sprites, written where a sprite is set up, so that a plan over 100,000 moving entities reads
+/// these in entity order in place of three or four lines of each 640-byte sprite (on two cores the
+/// planner's reads of the sprites were most of its 5.5 ms). Every field equals what the planner
+/// computed from the sprite before, bit for bit (selectionInputs).
+struct SpriteSelectionInputs {
+    double distance = 0.0;        ///< SpriteSetup::distance
+    double radiusPx = 0.0;        ///< SpriteSetup::radiusPx
+    glm::dvec3 towardViewer{0.0}; ///< -lattice.dir (0 for a culled sprite)
+    /// The sprite's far displacement against any view (predictedDisplacementVpx of its half
+    /// extents, sigma and towardViewer); a culled sprite's predicts nothing and is never asked.
+    DisplacementPredictor displacement;
+    double cellSizePx = 0.0; ///< cellSizePx(sprite)
+    bool visible = false;    ///< SpriteSetup::visible()
+};
+/// The selection inputs of one sprite (a culled one: its distance and radius, the rest 0).
+SpriteSelectionInputs selectionInputs(const SpriteSetup& sprite);
+
 /// §3.7 face light factors (16.16) for the six entered-face codes, given the light in world
 /// space and the entity's rotation. Shared by the near kernel and the far blit.
 std::array<std::uint32_t, 6> faceLightFactors(const Light& light, const EntityPose& pose);
@@ -176,6 +196,10 @@ struct SpriteSetupJob {
     SpriteSetup* sprite = nullptr;
     const SpriteConstants* constants = nullptr;
     std::uint32_t entityId = 0;
+    /// Where to write selectionInputs of the sprite too (none: nullptr). The SIMD set-up derives
+    /// them on its lanes with the rest (on two cores, 100,000 of them derived one by one from the
+    /// sprites just set up cost 1.6 ms).
+    SpriteSelectionInputs* selection = nullptr;
 };
 /// setupSpriteInto for each job, the same bits, several sprites per SIMD instruction (the widest
 /// unit this CPU has; core/sprite_setup_simd.cpp). What the sprite store calls: with a moving

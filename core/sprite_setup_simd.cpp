@@ -113,7 +113,10 @@ enum Out : int {
     kCellRange,           // 4 floors
     kLo = kCellRange + 4, // 2
     kHi = kLo + 2,        // 2
-    kOutCount = kHi + 2,
+    kCellSizePx = kHi + 2,
+    kLineOfSight, // 3
+    kSigmaDepth = kLineOfSight + 3,
+    kOutCount,
 };
 /// What the scalar tail copies as floats (toGpuFloat, on the lanes), by field.
 enum OutFloat : int {
@@ -238,6 +241,17 @@ void SetupLanes(const CameraFrame& cam, const RenderParams& params, const double
     store(gV, kGV);
     store(iMin, kCellRange), store(iMax, kCellRange + 1);
     store(jMin, kCellRange + 2), store(jMax, kCellRange + 3);
+    // The selection inputs (selectionInputs of sprite.cpp): cellSizePx, the radius over the
+    // radius in cells; the displacement predictor's line of sight, -normalize(-dir), which is
+    // dir * (1 / length(dir)) to the bit (negation is exact), and sigma times the box's half depth
+    // along it.
+    const V radiusCells = hn::Mul(length(c), sigma);
+    store(hn::IfThenElseZero(hn::Gt(radiusCells, zero), hn::Div(radiusPx, radiusCells)),
+          kCellSizePx);
+    const V3 lineOfSight = normalize(dir);
+    store3(lineOfSight, kLineOfSight);
+    const V3 losAbs = {hn::Abs(lineOfSight.x), hn::Abs(lineOfSight.y), hn::Abs(lineOfSight.z)};
+    store(hn::Mul(sigma, dot(c, losAbs)), kSigmaDepth);
 
     // §3.4: the screen -> sprite mapping (the plane's basis back in world space).
     const V3 dW = R.times(dir), rW = R.times(right), uW = R.times(up);
@@ -328,6 +342,19 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
     };
     const SpriteConstants& k = *job.constants;
     SpriteSetup& S = *job.sprite;
+    // selectionInputs of the sprite, once its culling is known.
+    const auto writeSelection = [&] {
+        if (!job.selection) return;
+        SpriteSelectionInputs& in = *job.selection;
+        in = SpriteSelectionInputs{};
+        in.distance = S.distance;
+        in.radiusPx = S.radiusPx;
+        in.visible = S.visible();
+        if (!in.visible) return;
+        in.towardViewer = -S.lattice.dir;
+        in.displacement = DisplacementPredictor::fromParts(at3(kLineOfSight), at(kSigmaDepth));
+        in.cellSizePx = at(kCellSizePx);
+    };
     S.cull = CullReason::None;
     S.entityId = job.entityId;
     S.model = k.model;
@@ -340,7 +367,10 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
     const glm::ivec3 dims = k.dims;
     const CullReason early =
         cullBeforeLattice(at3(kEyeVoxel), dims, params.sigma, S.viewDepth, S.radiusPx, cam.zNear);
-    if (early != CullReason::None) return markCulled(S, early);
+    if (early != CullReason::None) {
+        markCulled(S, early);
+        return writeSelection();
+    }
 
     SpriteLattice& L = S.lattice;
     L.dir = at3(kDir);
@@ -382,6 +412,7 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
         S.quad[std::size_t(i)] = glm::vec4(atFloat(kFQuad + 3 * i), atFloat(kFQuad + 3 * i + 1),
                                            zNear, atFloat(kFQuad + 3 * i + 2));
     setScreenRect(S, {at(kLo), at(kLo + 1)}, {at(kHi), at(kHi + 1)}, cam);
+    writeSelection();
 }
 
 void SetupSprites(std::span<const SpriteSetupJob> jobs, const CameraFrame& cam,
@@ -421,8 +452,10 @@ const char* TargetName() {
 #else
 void SetupSprites(std::span<const SpriteSetupJob> jobs, const CameraFrame& cam,
                   const RenderParams& params) {
-    for (const SpriteSetupJob& job : jobs)
+    for (const SpriteSetupJob& job : jobs) {
         setupSpriteInto(*job.sprite, cam, *job.constants, job.entityId, params);
+        if (job.selection) *job.selection = selectionInputs(*job.sprite);
+    }
 }
 const char* TargetName() {
     return "scalar";

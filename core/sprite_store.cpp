@@ -83,6 +83,7 @@ void SpriteStore::clear() {
     reposed_.clear();
     visible_.clear();
     depths_.clear();
+    selection_.clear();
     visibleIds_.writable().clear();
     valid_ = false;
 }
@@ -101,6 +102,7 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
         reposed_.resize(n);
         visible_.resize(n);
         depths_.resize(n);
+        selection_.resize(n);
         valid_ = false;
     }
     // Constants depend on the light and the voxel size; sprites on those, sigma, the view mode
@@ -198,7 +200,8 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                     } else if (copyFrom && changedAt_[i] < now) {
                         sprites[i] = (*copyFrom)[i];
                     } else {
-                        jobs[queued++] = {&sprites[i], &constants_[i], std::uint32_t(i)};
+                        jobs[queued++] = {&sprites[i], &constants_[i], std::uint32_t(i),
+                                          &selection_[i]};
                         if (queued == jobs.size()) setUpQueued();
                     }
                 }

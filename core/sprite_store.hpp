@@ -118,6 +118,10 @@ class SpriteStore {
     /// reads neither has to refresh (the frame planner: a still crowd's animation step changes
     /// every sprite and no plan).
     std::span<const std::uint8_t> reposed() const { return reposed_; }
+    /// Per entity id, selectionInputs of the last update's sprite: what the LOD plan reads of it
+    /// (FramePlanner::plan), 88 bytes in place of three or four lines of the sprite. Rewritten
+    /// where the update reposed the sprite (reposed): nothing else it holds changes.
+    std::span<const SpriteSelectionInputs> selectionInputs() const { return selection_; }
     /// The last update's sprites with the updates that changed each (SpriteHistory): valid until
     /// the next update.
     SpriteHistory history() const;
@@ -168,7 +172,8 @@ class SpriteStore {
     std::vector<std::uint64_t> posedAt_;
     std::uint64_t allChangedAt_ = 0;
     std::vector<std::uint8_t> changed_, reposed_, visible_;
-    std::vector<float> depths_; ///< SpriteHistory::depths
+    std::vector<float> depths_;                    ///< SpriteHistory::depths
+    std::vector<SpriteSelectionInputs> selection_; ///< selectionInputs()
     SharedVectorOwner<std::uint32_t> visibleIds_;
     /// What every sprite of the last update was set up with.
     bool valid_ = false;

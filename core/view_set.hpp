@@ -90,11 +90,23 @@ double predictedDisplacementVpx(glm::dvec3 halfExtent, double sigma, glm::dvec3 
 class DisplacementPredictor {
   public:
     DisplacementPredictor(glm::dvec3 halfExtent, double sigma, glm::dvec3 towardViewer);
+    /// Predicts for no line of sight (SpriteSelectionInputs of a culled sprite, never asked).
+    DisplacementPredictor() = default;
+    /// From the two values the constructor derives (-normalize(towardViewer) and sigma times the
+    /// box's half depth along it), where they were computed elsewhere with the same operations
+    /// (the SIMD sprite set-up: SpriteSelectionInputs).
+    static DisplacementPredictor fromParts(glm::dvec3 lineOfSight, double sigmaDepth) {
+        DisplacementPredictor p;
+        p.d_ = lineOfSight, p.sigmaDepth_ = sigmaDepth;
+        return p;
+    }
+    glm::dvec3 lineOfSight() const { return d_; }
+    double sigmaDepth() const { return sigmaDepth_; }
     /// The prediction for the view whose unit vector (viewDirection) is `w`.
     double vpx(glm::dvec3 w) const;
 
   private:
-    glm::dvec3 d_;            ///< -normalize(towardViewer)
+    glm::dvec3 d_{0.0};       ///< -normalize(towardViewer)
     double sigmaDepth_ = 0.0; ///< sigma x the box's half depth along d
 };
 

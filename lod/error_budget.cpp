@@ -15,14 +15,15 @@ namespace voxtier {
 
 namespace {
 
-glm::dvec3 halfExtent(const SpriteSetup& s) {
-    return glm::dvec3(s.lattice.dims) * 0.5;
+/// Budget units per virtual pixel of a sprite whose virtual pixel spans `cellSizePx` pixels.
+double unitsPerVpx(double cellSizePx) {
+    return std::min(1.0, cellSizePx);
 }
 
 } // namespace
 
 double budgetUnitsPerVpx(const SpriteSetup& sprite) {
-    return std::min(1.0, cellSizePx(sprite));
+    return unitsPerVpx(cellSizePx(sprite));
 }
 
 namespace {
@@ -31,9 +32,11 @@ namespace {
 /// (DisplacementPredictor): the level scan predicts up to seven views per entity.
 class BudgetPredictor {
   public:
+    explicit BudgetPredictor(const SpriteSelectionInputs& in)
+        : displacement_(in.displacement), unitsPerVpx_(unitsPerVpx(in.cellSizePx)) {}
+    /// From the sprite itself: its selection inputs first, so that both give the same bits.
     explicit BudgetPredictor(const SpriteSetup& sprite)
-        : displacement_(halfExtent(sprite), sprite.lattice.sigma, -sprite.lattice.dir),
-          unitsPerVpx_(budgetUnitsPerVpx(sprite)) {}
+        : BudgetPredictor(selectionInputs(sprite)) {}
     /// The prediction for the view whose unit vector is `w`.
     double operator()(glm::dvec3 w) const { return displacement_.vpx(w) * unitsPerVpx_; }
 
@@ -45,12 +48,20 @@ class BudgetPredictor {
 } // namespace
 
 double predictedBudgetUnits(const SpriteSetup& sprite, ViewId view) {
+    return predictedBudgetUnits(selectionInputs(sprite), view);
+}
+
+double predictedBudgetUnits(const SpriteSelectionInputs& sprite, ViewId view) {
     return BudgetPredictor(sprite)(viewDirection(view));
 }
 
 double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config) {
+    return bestBudgetUnits(selectionInputs(sprite), config);
+}
+
+double bestBudgetUnits(const SpriteSelectionInputs& sprite, const SelectorConfig& config) {
     return BudgetPredictor(sprite)(
-        nearestDirectedLadderView(config.ladderCap, -sprite.lattice.dir).direction);
+        nearestDirectedLadderView(config.ladderCap, sprite.towardViewer).direction);
 }
 
 namespace {

@@ -26,9 +26,13 @@ namespace voxtier {
 double budgetUnitsPerVpx(const SpriteSetup& sprite);
 /// The predicted displacement of drawing `sprite` from the snapshot of `view`, in budget units.
 double predictedBudgetUnits(const SpriteSetup& sprite, ViewId view);
+/// The same from the sprite's selection inputs (SpriteSelectionInputs: what the store keeps).
+double predictedBudgetUnits(const SpriteSelectionInputs& sprite, ViewId view);
 /// The least predicted displacement (budget units) any view up to the ladder cap offers: the
 /// cap level's nearest view (the levels nest, so a finer level is never further away).
 double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config);
+/// The same from the sprite's selection inputs.
+double bestBudgetUnits(const SpriteSelectionInputs& sprite, const SelectorConfig& config);
 
 /// What the planner knows of the frame's costs (measured on earlier frames, or given by a test):
 /// a bake, drawing a sprite near per unit of its near cost (nearCostUnits: its cells where it

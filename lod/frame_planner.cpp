@@ -18,7 +18,8 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                                             std::span<const std::uint32_t> visible,
                                             const SelectorConfig& config,
                                             const PlanSettings& settings, PlanStats& st,
-                                            std::span<const std::uint8_t> changed) {
+                                            std::span<const std::uint8_t> changed,
+                                            std::span<const SpriteSelectionInputs> selection) {
     const std::size_t n = sprites.size();
     if (settings.mode == PlanMode::AllNear) {
         plan_.fresh().assign(n, EntityPlan{});
@@ -28,7 +29,6 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     }
     const ViewSet set = viewSetFromSize(config.viewSetSize);
     const auto& views = viewDirections(set);
-    auto towardViewer = [](const SpriteSetup& s) { return -s.lattice.dir; };
     const bool hybrid = settings.mode == PlanMode::Hybrid;
     const bool budget = config.metric == SelectorMetric::ErrorBudget && hybrid;
     if (selector_.size() == 0) budgetViews_.reset(); // a restarted selector restarts its views
@@ -53,19 +53,25 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
 
     // The selector sees distance, projected radius and the angle to the nearest snapshot view
     // (or, under the error budget, the best prediction over the budget).
+    // Each sprite's selection inputs: the caller's (a store keeps them, 88 bytes an entity read
+    // in order), or computed here first from the sprites.
+    const bool given = selection.size() == n;
+    if (!given) ownSelection_.resize(n);
+    const std::span<const SpriteSelectionInputs> in = given ? selection : ownSelection_;
     inputs_.resize(n);
     nearest_.resize(n);
     const auto input = [&](std::size_t i) {
-        const SpriteSetup& s = sprites[i];
+        if (!given) ownSelection_[i] = selectionInputs(sprites[i]);
+        const SpriteSelectionInputs& s = in[i];
         inputs_[i] = {s.distance, s.radiusPx, 0.0, 0.0};
-        if (!s.visible()) return;
+        if (!s.visible) return;
         if (budget) { // the error budget's metric; the view angle serves only error_px
             inputs_[i].budgetShare = bestBudgetUnits(s, config) / config.budgetVpx;
             return;
         }
-        nearest_[i] = nearestView(set, towardViewer(s));
+        nearest_[i] = nearestView(set, s.towardViewer);
         const glm::dvec3 w = views[std::size_t(nearest_[i])];
-        inputs_[i].viewCos = std::clamp(glm::dot(w, towardViewer(s)), -1.0, 1.0);
+        inputs_[i].viewCos = std::clamp(glm::dot(w, s.towardViewer), -1.0, 1.0);
     };
     // At most 128 entities a task: a few thousand still spread over 16 cores.
     const auto forEach = [&](auto&& f) {
@@ -104,9 +110,8 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         const EntityPlan& p = plan[i];
         // The plan first: a far view is only ever given to a visible sprite, and the sprites
         // drawn near (most of a hybrid frame) are then not read again.
-        predicted_[i] = p.drawsFar() && p.view && sprites[i].visible()
-                            ? predictedBudgetUnits(sprites[i], *p.view)
-                            : 0.0;
+        predicted_[i] =
+            p.drawsFar() && p.view && in[i].visible ? predictedBudgetUnits(in[i], *p.view) : 0.0;
     };
     if (budget) {
         // The budget's views share the frame's bake bound, given out in entity order; what
@@ -173,9 +178,9 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         // Every entity's tier, view and prediction on its own: in parallel.
         forEach([&](std::size_t i) {
             tierOf(i);
-            if (plan[i].drawsFar() && sprites[i].visible())
-                plan[i].view = viewIdOf(
-                    set, selector_.chooseView(i, towardViewer(sprites[i]), views, nearest_[i]));
+            if (plan[i].drawsFar() && in[i].visible)
+                plan[i].view =
+                    viewIdOf(set, selector_.chooseView(i, in[i].towardViewer, views, nearest_[i]));
             predict(i);
         });
         st.ms.views = lapMs(step);

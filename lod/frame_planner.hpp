@@ -152,10 +152,14 @@ class FramePlanner {
     /// skip rule (SpriteStore::reposed; SpriteStore::changed too): given it, a frame that follows a
     /// planned frame of the same mode and config plans only those entities and the ones inside a
     /// cross-fade, and keeps every other entity's plan (the same plan a whole frame gives).
+    /// `selection` (optional) is per entity id selectionInputs(sprites[id]), as a SpriteStore
+    /// keeps them (SpriteStore::selectionInputs): what the plan reads of each sprite, but for the
+    /// error budget's view choices; without it the plan computes them from the sprites.
     SharedVector<EntityPlan> plan(std::span<const SpriteSetup> sprites,
                                   std::span<const std::uint32_t> visible,
                                   const SelectorConfig& config, const PlanSettings& settings,
-                                  PlanStats& stats, std::span<const std::uint8_t> changed = {});
+                                  PlanStats& stats, std::span<const std::uint8_t> changed = {},
+                                  std::span<const SpriteSelectionInputs> selection = {});
     /// The same, for sprites without a list of the visible ones (found here).
     SharedVector<EntityPlan> plan(std::span<const SpriteSetup> sprites,
                                   const SelectorConfig& config, const PlanSettings& settings,
@@ -196,6 +200,8 @@ class FramePlanner {
     // the selector's inputs and each visible entity's nearest view.
     SharedVectorOwner<EntityPlan> plan_;
     std::vector<SelectorInput> inputs_;
+    /// selectionInputs of each sprite, where plan() was given none
+    std::vector<SpriteSelectionInputs> ownSelection_;
     std::vector<int> nearest_;
     std::vector<std::optional<ViewId>> drawnFrom_;
     std::vector<double> predicted_; ///< predictedBudgetUnits of each far-drawn visible entity

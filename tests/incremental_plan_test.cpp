@@ -32,8 +32,9 @@ struct Step {
     bool moveCamera = false;
 };
 
-/// Runs `steps` through two planners on the same sprites: `told` is given the store's changes,
-/// `whole` plans every entity. Returns the entities `told` planned, frame by frame; `steppedOnly`
+/// Runs `steps` through two planners on the same sprites: `told` is given the store's changes and
+/// its selection inputs (as FrameRenderer plans), `whole` plans every entity from the sprites
+/// alone. Returns the entities `told` planned, frame by frame; `steppedOnly`
 /// (optional) gets, frame by frame, the sprites that changed only by an animation step.
 std::vector<int> compare(Scene s, const std::vector<Step>& steps,
                          std::vector<int>* steppedOnly = nullptr) {
@@ -52,9 +53,13 @@ std::vector<int> compare(Scene s, const std::vector<Step>& steps,
         store.update(s, makeCameraFrame(s.cameraAt(cameraTime)), t);
         PlanSettings settings;
         settings.mode = steps[f].mode;
+        // Under the error budget: every snapshot cached but those of views whose x is a multiple
+        // of 3.
+        settings.inMemory = [](const SpriteSetup&, ViewId v) { return v.lattice.x % 3 != 0; };
         PlanStats a, b;
-        const SharedVector<EntityPlan> pa = told.plan(store.sprites(), store.visibleIds(),
-                                                      s.selector, settings, a, store.reposed());
+        const SharedVector<EntityPlan> pa =
+            told.plan(store.sprites(), store.visibleIds(), s.selector, settings, a, store.reposed(),
+                      store.selectionInputs());
         int stepped = 0;
         for (std::size_t i = 0; i < s.entities.size(); ++i)
             stepped += store.changed()[i] && !store.reposed()[i];
@@ -100,6 +105,17 @@ TEST(IncrementalPlan, ErrorPxViewsAndAllFarFramesEqualWholePlans) {
     std::vector<Step> far = hybridSteps(24);
     for (Step& st : far) st.mode = PlanMode::AllFar;
     EXPECT_LT(compare(crowd(SelectorMetric::Distance), far)[5], 800);
+}
+
+// The error budget plans every entity every frame (its views share a bake bound), from the
+// store's selection inputs where given: the same plans and figures as from the sprites.
+TEST(IncrementalPlan, ErrorBudgetFramesFromTheStoresSelectionInputsEqualWholePlans) {
+    Scene s = crowd(SelectorMetric::ErrorBudget);
+    // About 470-500 of the 800 entities far, from views of the first two ladder levels.
+    s.selector.budgetVpx = 0.5;
+    s.selector.ladderCap = 2;
+    const std::vector<int> planned = compare(s, hybridSteps(24));
+    EXPECT_EQ(planned[5], 800);
 }
 
 TEST(IncrementalPlan, AnotherModeOrANearFrameMakesTheNextFramePlanEverything) {

@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <bit>
+#include <cstdint>
 #include <cstring>
 
 namespace voxtier::test {
@@ -28,6 +31,35 @@ inline ::testing::AssertionResult sameSprite(const SpriteSetup& a, const SpriteS
     if (same) return ::testing::AssertionSuccess();
     return ::testing::AssertionFailure()
            << "entity " << a.entityId << " differs from entity " << b.entityId << "'s fresh set-up";
+}
+
+/// Two sprites' selection inputs, every double bit for bit (a sign of zero too: the planner's
+/// tests and sums read them).
+inline ::testing::AssertionResult sameSelection(const SpriteSelectionInputs& a,
+                                                const SpriteSelectionInputs& b) {
+    const auto bits = [](const SpriteSelectionInputs& s) {
+        const glm::dvec3 d = s.displacement.lineOfSight();
+        return std::array<std::uint64_t, 10>{
+            std::bit_cast<std::uint64_t>(s.distance),
+            std::bit_cast<std::uint64_t>(s.radiusPx),
+            std::bit_cast<std::uint64_t>(s.towardViewer.x),
+            std::bit_cast<std::uint64_t>(s.towardViewer.y),
+            std::bit_cast<std::uint64_t>(s.towardViewer.z),
+            std::bit_cast<std::uint64_t>(d.x),
+            std::bit_cast<std::uint64_t>(d.y),
+            std::bit_cast<std::uint64_t>(d.z),
+            std::bit_cast<std::uint64_t>(s.displacement.sigmaDepth()),
+            std::bit_cast<std::uint64_t>(s.cellSizePx)};
+    };
+    if (a.visible == b.visible && bits(a) == bits(b)) return ::testing::AssertionSuccess();
+    const auto ba = bits(a), bb = bits(b);
+    std::size_t k = 0;
+    while (k < ba.size() && ba[k] == bb[k]) ++k;
+    return ::testing::AssertionFailure()
+           << "field " << k << ": "
+           << "selection inputs differ: distance " << a.distance << " / " << b.distance
+           << ", cell size " << a.cellSizePx << " / " << b.cellSizePx << ", visible " << a.visible
+           << " / " << b.visible;
 }
 
 } // namespace voxtier::test

@@ -1,10 +1,10 @@
 // The SIMD sprite set-up (core/sprite_setup_simd.cpp) against the scalar setupSpriteInto, every
-// field bit for bit: the bench's tank army along its camera path, and entities placed for each
-// branch of the set-up (every cull reason, snapped and unsnapped view directions, quads that cross
-// the near plane), at three sigmas, in both view modes, in batches of every length around the SIMD
-// width. (The lattice's fallback up vector is not among them: a visible sprite's view direction
-// is never within 1e-6 of the camera's up, as that puts it at view depth ~0, behind the near
-// plane.)
+// field bit for bit, and the selection inputs it derives on its lanes against selectionInputs: the
+// bench's tank army along its camera path, and entities placed for each branch of the set-up (every
+// cull reason, snapped and unsnapped view directions, quads that cross the near plane), at three
+// sigmas, in both view modes, in batches of every length around the SIMD width. (The lattice's
+// fallback up vector is not among them: a visible sprite's view direction is never within 1e-6 of
+// the camera's up, as that puts it at view depth ~0, behind the near plane.)
 #include "core/scene_loader.hpp"
 #include "core/sprite.hpp"
 #include "source_tree.hpp"
@@ -20,21 +20,26 @@
 namespace voxtier {
 namespace {
 
+using test::sameSelection;
 using test::sameSprite;
 
 /// Sets every (entity, constants) pair up both ways and compares; counts each cull reason.
 void expectSameSetUps(const std::vector<SpriteConstants>& constants, const CameraFrame& cam,
                       const RenderParams& params, std::map<CullReason, int>* reasons = nullptr) {
     std::vector<SpriteSetup> scalar(constants.size()), simd(constants.size());
+    std::vector<SpriteSelectionInputs> selection(constants.size());
     std::vector<SpriteSetupJob> jobs;
     for (std::size_t i = 0; i < constants.size(); ++i) {
         setupSpriteInto(scalar[i], cam, constants[i], std::uint32_t(i), params);
-        jobs.push_back({&simd[i], &constants[i], std::uint32_t(i)});
+        jobs.push_back({&simd[i], &constants[i], std::uint32_t(i), &selection[i]});
     }
     setupSpritesInto(jobs, cam, params);
     for (std::size_t i = 0; i < constants.size(); ++i) {
         ASSERT_TRUE(sameSprite(simd[i], scalar[i]))
             << " (SIMD target " << spriteSetupSimdTarget() << ", sigma " << params.sigma << ")";
+        // The selection inputs the lanes derive beside the sprite.
+        ASSERT_TRUE(sameSelection(selection[i], selectionInputs(scalar[i])))
+            << " (entity " << i << ", SIMD target " << spriteSetupSimdTarget() << ")";
         if (reasons) ++(*reasons)[scalar[i].cull];
     }
 }

@@ -45,6 +45,11 @@ void expectFresh(const SpriteStore& store, const Scene& s, const CameraFrame& ca
                       std::bit_cast<std::uint32_t>(fresh[i].gpu.depth))
                 << "entity " << i << " at t " << t;
     }
+    // The selection inputs, which a plan reads in place of the sprites.
+    ASSERT_EQ(store.selectionInputs().size(), fresh.size());
+    for (std::size_t i = 0; i < fresh.size(); ++i)
+        ASSERT_TRUE(test::sameSelection(store.selectionInputs()[i], selectionInputs(fresh[i])))
+            << "entity " << i << " at t " << t;
 }
 
 /// The bench crowd: 800 entities, 40 of them animated (2 frames a second), a camera path.
