@@ -226,9 +226,16 @@ void ErrorBudgetViews::drop(std::size_t entity) {
 bool ErrorBudgetViews::viewFade(std::size_t entity, const SpriteSetup& sprite,
                                 const SelectorConfig& config, const IsCached& isCached,
                                 float* share, ViewId* from) {
+    return viewFade(entity, sprite, selectionInputs(sprite), config, isCached, share, from);
+}
+
+bool ErrorBudgetViews::viewFade(std::size_t entity, const SpriteSetup& sprite,
+                                const SpriteSelectionInputs& selection,
+                                const SelectorConfig& config, const IsCached& isCached,
+                                float* share, ViewId* from) {
     Fade& f = fades_.at(entity);
     if (f.left <= 0) return false;
-    if (predictedBudgetUnits(sprite, f.from) > config.budgetVpx || !isCached(sprite, f.from)) {
+    if (predictedBudgetUnits(selection, f.from) > config.budgetVpx || !isCached(sprite, f.from)) {
         f.left = 0;
         return false;
     }
@@ -255,7 +262,9 @@ namespace {
 /// (a scan that stops at a coarse level never looks up the finer ones), and each level is met
 /// once: the first target's levels are within the second's, so meeting them again in the same
 /// order changes neither the first cached view nor the first of the others.
-ErrorBudgetViews::LevelScan scanLevels(const SpriteSetup& sprite, const SelectorConfig& config,
+ErrorBudgetViews::LevelScan scanLevels(const SpriteSetup& sprite,
+                                       const SpriteSelectionInputs& selection,
+                                       const SelectorConfig& config,
                                        const ErrorBudgetViews::IsCached& isCached) {
     ErrorBudgetViews::LevelScan scan;
     const double budget = config.budgetVpx;
@@ -264,13 +273,13 @@ ErrorBudgetViews::LevelScan scanLevels(const SpriteSetup& sprite, const Selector
     std::array<std::optional<double>, kViewLadder.size()> predicted;
     std::array<ViewId, kViewLadder.size()> views;
     std::array<bool, kViewLadder.size()> met{};
-    const BudgetPredictor predict(sprite);
+    const BudgetPredictor predict(selection);
     const double targets[2] = {budget * std::min(1.0, config.farAt / config.nearAt), budget};
     for (const double target : targets)
         for (std::size_t k = 0; k < count; ++k) {
             if (!predicted[k]) {
                 const DirectedView v =
-                    nearestDirectedLadderView(kViewLadder[k], -sprite.lattice.dir);
+                    nearestDirectedLadderView(kViewLadder[k], selection.towardViewer);
                 views[k] = v.id;
                 predicted[k] = predict(v.direction);
             }
@@ -290,9 +299,16 @@ ErrorBudgetViews::LevelScan scanLevels(const SpriteSetup& sprite, const Selector
 ErrorBudgetViews::Prepared ErrorBudgetViews::prepare(std::size_t entity, const SpriteSetup& sprite,
                                                      const SelectorConfig& config,
                                                      const IsCached& isCached) const {
+    return prepare(entity, sprite, selectionInputs(sprite), config, isCached);
+}
+
+ErrorBudgetViews::Prepared ErrorBudgetViews::prepare(std::size_t entity, const SpriteSetup& sprite,
+                                                     const SpriteSelectionInputs& selection,
+                                                     const SelectorConfig& config,
+                                                     const IsCached& isCached) const {
     Prepared p;
     const std::optional<ViewId>& current = current_.at(entity);
-    p.currentUnits = current ? predictedBudgetUnits(sprite, *current) : 0.0;
+    p.currentUnits = current ? predictedBudgetUnits(selection, *current) : 0.0;
     p.currentWithin = current && p.currentUnits <= config.budgetVpx;
     p.currentCached = p.currentWithin && isCached(sprite, *current);
     // A current view within the budget and cached is kept: no scan. Else choose() reads the
@@ -301,7 +317,7 @@ ErrorBudgetViews::Prepared ErrorBudgetViews::prepare(std::size_t entity, const S
     // knows, so every such entity is scanned here, on every core (at 100,000 tanks under the
     // error budget ~5,000 entities a frame wait for a bake, and the serial pass scanned most of
     // them once the bound was spent).
-    if (!p.settled()) p.scan = scanLevels(sprite, config, isCached);
+    if (!p.settled()) p.scan = scanLevels(sprite, selection, config, isCached);
     return p;
 }
 

@@ -144,6 +144,11 @@ class ErrorBudgetViews {
     };
     Prepared prepare(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
                      const IsCached& isCached) const;
+    /// The same with the sprite's selection inputs (selectionInputs(sprite), as a SpriteStore
+    /// keeps them), which its predictions read in place of the sprite.
+    Prepared prepare(std::size_t entity, const SpriteSetup& sprite,
+                     const SpriteSelectionInputs& selection, const SelectorConfig& config,
+                     const IsCached& isCached) const;
     /// choose() given prepare()'s result for this entity, computed this frame before any
     /// choice and with the `isCached` choose() would be given: the same view. Once bakesLeft()
     /// is 0 no call adds a bake, and a call changes nothing another entity's reads: such calls
@@ -163,6 +168,10 @@ class ErrorBudgetViews {
     /// is instant (a cross-fade never shows a view past the budget, nor bakes one). Changes only
     /// this entity's state (may run in parallel over distinct entities).
     bool viewFade(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
+                  const IsCached& isCached, float* share, ViewId* from);
+    /// The same with the sprite's selection inputs (as prepare).
+    bool viewFade(std::size_t entity, const SpriteSetup& sprite,
+                  const SpriteSelectionInputs& selection, const SelectorConfig& config,
                   const IsCached& isCached, float* share, ViewId* from);
     /// Ends the frame's choices under the cost bound (CONTRACT.md §5): while the frame's bakes and
     /// planning cost more than the near time all its far sprites save, the bake that saves least

@@ -132,18 +132,18 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         forEach([&](std::size_t i) {
             tierOf(i);
             EntityPlan& p = plan[i];
-            if (!p.drawsFar() || !sprites[i].visible()) {
+            if (!p.drawsFar() || !in[i].visible) {
                 budgetViews_.drop(i);
                 budgetStep_[i] = BudgetStep::Near;
                 return;
             }
-            prepared_[i] = budgetViews_.prepare(i, sprites[i], config, asking.inMemory);
+            prepared_[i] = budgetViews_.prepare(i, sprites[i], in[i], config, asking.inMemory);
             if (!prepared_[i].settled()) {
                 budgetStep_[i] = BudgetStep::Choose;
                 return;
             }
             p.view = budgetViews_.keep(i);
-            fadeBudgetView(i, sprites[i], config, asking, p);
+            fadeBudgetView(i, sprites[i], in[i], config, asking, p);
             budgetStep_[i] = BudgetStep::Kept;
         });
         st.ms.views = lapMs(step);
@@ -156,11 +156,12 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         std::size_t next = 0;
         for (; next < n && budgetViews_.bakesLeft() > 0; ++next)
             if (budgetStep_[next] == BudgetStep::Choose)
-                planBudgetView(next, sprites[next], config, asking, prepared_[next], plan[next]);
+                planBudgetView(next, sprites[next], in[next], config, asking, prepared_[next],
+                               plan[next]);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(next, n, 128), [&](const auto& r) {
             for (std::size_t i = r.begin(); i != r.end(); ++i)
                 if (budgetStep_[i] == BudgetStep::Choose)
-                    planBudgetView(i, sprites[i], config, asking, prepared_[i], plan[i]);
+                    planBudgetView(i, sprites[i], in[i], config, asking, prepared_[i], plan[i]);
         });
         st.ms.choices = lapMs(step);
         st.cacheQuestions = int(cacheAnswers_.askedOfTheCache()); // no later step asks
@@ -251,6 +252,7 @@ void FramePlanner::beginCacheAnswers(const PlanSettings& settings) {
 }
 
 void FramePlanner::planBudgetView(std::size_t entity, const SpriteSetup& sprite,
+                                  const SpriteSelectionInputs& selection,
                                   const SelectorConfig& config, const PlanSettings& settings,
                                   const ErrorBudgetViews::Prepared& prepared, EntityPlan& p) {
     // In memory: preferred. On disk (--cache-dir): not a bake either, but never preferred, since
@@ -259,17 +261,18 @@ void FramePlanner::planBudgetView(std::size_t entity, const SpriteSetup& sprite,
     // No view within the budget without passing this frame's bake bound: near this frame (the
     // selector keeps its far state, so the entity goes far as soon as a view can be had).
     if (!p.view) p = EntityPlan{};
-    fadeBudgetView(entity, sprite, config, settings, p);
+    fadeBudgetView(entity, sprite, selection, config, settings, p);
 }
 
 void FramePlanner::fadeBudgetView(std::size_t entity, const SpriteSetup& sprite,
+                                  const SpriteSelectionInputs& selection,
                                   const SelectorConfig& config, const PlanSettings& settings,
                                   EntityPlan& p) {
     // A view switch cross-fades like a tier switch (not on top of one).
     float share = 0.0f;
     ViewId from;
     if (p.view && p.tier == Tier::Far && p.fade <= 0.0f &&
-        budgetViews_.viewFade(entity, sprite, config, settings.inMemory, &share, &from))
+        budgetViews_.viewFade(entity, sprite, selection, config, settings.inMemory, &share, &from))
         p.fade = share, p.fadeFrom = Tier::Far, p.fadeFromView = from;
 }
 

@@ -154,7 +154,8 @@ class FramePlanner {
     /// cross-fade, and keeps every other entity's plan (the same plan a whole frame gives).
     /// `selection` (optional) is per entity id selectionInputs(sprites[id]), as a SpriteStore
     /// keeps them (SpriteStore::selectionInputs): what the plan reads of each sprite, but for the
-    /// error budget's view choices; without it the plan computes them from the sprites.
+    /// model, frame and sigma that the error budget's questions to the cache name; without it the
+    /// plan computes them from the sprites.
     SharedVector<EntityPlan> plan(std::span<const SpriteSetup> sprites,
                                   std::span<const std::uint32_t> visible,
                                   const SelectorConfig& config, const PlanSettings& settings,
@@ -178,11 +179,13 @@ class FramePlanner {
     /// Metric error_budget, for a visible entity the selector draws far: the view within the
     /// budget (plan.view), or the entity drawn near. `prepared`: budgetViews_.prepare() for this
     /// entity, this frame. In entity order: the views share the frame's bake bound.
-    void planBudgetView(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
+    void planBudgetView(std::size_t entity, const SpriteSetup& sprite,
+                        const SpriteSelectionInputs& selection, const SelectorConfig& config,
                         const PlanSettings& settings, const ErrorBudgetViews::Prepared& prepared,
                         EntityPlan& plan);
     /// After the entity's view: the view switch's cross-fade, if it is inside one.
-    void fadeBudgetView(std::size_t entity, const SpriteSetup& sprite, const SelectorConfig& config,
+    void fadeBudgetView(std::size_t entity, const SpriteSetup& sprite,
+                        const SpriteSelectionInputs& selection, const SelectorConfig& config,
                         const PlanSettings& settings, EntityPlan& plan);
     /// Metric error_budget: starts the plan's shared answers of the cache, kept from the plan
     /// before where the settings tell what changed since.
