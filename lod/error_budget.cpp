@@ -52,7 +52,11 @@ double predictedBudgetUnits(const SpriteSetup& sprite, ViewId view) {
 }
 
 double predictedBudgetUnits(const SpriteSelectionInputs& sprite, ViewId view) {
-    return BudgetPredictor(sprite)(viewDirection(view));
+    return predictedBudgetUnits(sprite, viewDirection(view));
+}
+
+double predictedBudgetUnits(const SpriteSelectionInputs& sprite, glm::dvec3 direction) {
+    return BudgetPredictor(sprite)(direction);
 }
 
 double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config) {

@@ -28,6 +28,8 @@ double budgetUnitsPerVpx(const SpriteSetup& sprite);
 double predictedBudgetUnits(const SpriteSetup& sprite, ViewId view);
 /// The same from the sprite's selection inputs (SpriteSelectionInputs: what the store keeps).
 double predictedBudgetUnits(const SpriteSelectionInputs& sprite, ViewId view);
+/// The same for the view whose unit vector (viewDirection) is `direction`.
+double predictedBudgetUnits(const SpriteSelectionInputs& sprite, glm::dvec3 direction);
 /// The least predicted displacement (budget units) any view up to the ladder cap offers: the
 /// cap level's nearest view (the levels nest, so a finer level is never further away).
 double bestBudgetUnits(const SpriteSetup& sprite, const SelectorConfig& config);

@@ -179,10 +179,13 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         // Every entity's tier, view and prediction on its own: in parallel.
         forEach([&](std::size_t i) {
             tierOf(i);
-            if (plan[i].drawsFar() && in[i].visible)
-                plan[i].view =
-                    viewIdOf(set, selector_.chooseView(i, in[i].towardViewer, views, nearest_[i]));
-            predict(i);
+            predicted_[i] = 0.0;
+            if (!plan[i].drawsFar() || !in[i].visible) return;
+            const int v = selector_.chooseView(i, in[i].towardViewer, views, nearest_[i]);
+            plan[i].view = viewIdOf(set, v);
+            // predict(i), the view's unit vector read from the set's table (viewDirection of
+            // that id, to the bit) rather than normalised again.
+            predicted_[i] = predictedBudgetUnits(in[i], views[std::size_t(v)]);
         });
         st.ms.views = lapMs(step);
     }
