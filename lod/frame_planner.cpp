@@ -40,16 +40,17 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                              plan_.read().size() == n && settings.mode == lastMode_ &&
                              config == lastConfig_;
     chained_ = true, lastMode_ = settings.mode, lastConfig_ = config;
-    // A frame that plans every entity reads nothing of the last plan: not copied, were a frame
-    // in flight still holding it.
-    std::vector<EntityPlan>& plan = incremental ? plan_.writable() : plan_.fresh();
-    if (!incremental) plan.assign(n, EntityPlan{});
     predicted_.resize(n);
     work_.clear();
     if (incremental)
         for (std::size_t i = 0; i < n; ++i)
             if (changed[i] || !selector_.settled(i)) work_.push_back(std::uint32_t(i));
     st.planned = int(incremental ? work_.size() : n);
+    // A frame that plans every entity (a moved camera's too) reads nothing of the last plan and
+    // writes every entity's (tierOf, below): not copied, were a frame in flight still holding it,
+    // nor cleared first.
+    std::vector<EntityPlan>& plan =
+        incremental && work_.size() < n ? plan_.writable() : plan_.overwritable(n);
 
     // The selector sees distance, projected radius and the angle to the nearest snapshot view
     // (or, under the error budget, the best prediction over the budget).
