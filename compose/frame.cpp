@@ -397,7 +397,9 @@ FrameRenderer::PendingFrame FrameRenderer::submit(double time, RenderMode mode, 
     // 1. Camera and per-entity sprite set-up (CONTRACT.md §3: double precision, camera-relative),
     // kept from the frame before where neither the entity nor the camera changed.
     const CameraFrame cam = makeCameraFrame(scene_.cameraAt(time));
-    const SpriteStore::Update setup = sprites_.update(scene_, cam, time);
+    // Only a hybrid or far frame plans from the store's selection inputs.
+    const SpriteStore::Update setup =
+        sprites_.update(scene_, cam, time, mode == RenderMode::Hybrid || mode == RenderMode::Far);
     out.sprites = sprites_.shareSprites();
     pending->visible = sprites_.shareVisibleIds();
     st.entities = setup.entities;

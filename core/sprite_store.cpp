@@ -84,12 +84,13 @@ void SpriteStore::clear() {
     visible_.clear();
     depths_.clear();
     selection_.clear();
+    selectionCurrent_ = false;
     visibleIds_.writable().clear();
     valid_ = false;
 }
 
-SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& camera,
-                                        double time) {
+SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& camera, double time,
+                                        bool selection) {
     const std::size_t n = scene.entities.size();
     const std::uint64_t now = ++updates_;
     if (keys_.size() != n) {
@@ -201,7 +202,7 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                         sprites[i] = (*copyFrom)[i];
                     } else {
                         jobs[queued++] = {&sprites[i], &constants_[i], std::uint32_t(i),
-                                          &selection_[i]};
+                                          selection ? &selection_[i] : nullptr};
                         if (queued == jobs.size()) setUpQueued();
                     }
                 }
@@ -219,6 +220,10 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                     visible_[i] = sprites[i].visible();
                     depths_[i] = sprites[i].gpu.depth;
                 }
+                // After updates that kept no selection inputs, every entity's afresh (the set-up's
+                // jobs wrote the same values for theirs).
+                if (selection && !selectionCurrent_)
+                    selection_[i] = voxtier::selectionInputs(sprites[i]);
                 c.culled += !visible_[i];
             }
             return c;
@@ -233,6 +238,7 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
     for (std::size_t i = 0; i < n; ++i)
         if (visible_[i]) visibleIds.push_back(std::uint32_t(i));
     into.asOf = now;
+    selectionCurrent_ = selection;
     valid_ = true;
     camera_ = camera;
     params_ = scene.render;

@@ -98,7 +98,10 @@ class SpriteStore {
     };
 
     /// Brings every entity's sprite up to date for `camera` at `time` (animation frames).
-    Update update(const Scene& scene, const CameraFrame& camera, double time);
+    /// `selection`: keep selectionInputs() too (false where no frame plans from this update: a
+    /// near or reference frame spares writing 88 bytes an entity it does not read).
+    Update update(const Scene& scene, const CameraFrame& camera, double time,
+                  bool selection = true);
     /// Forgets everything: the next update sets every sprite up afresh.
     void clear();
 
@@ -120,8 +123,12 @@ class SpriteStore {
     std::span<const std::uint8_t> reposed() const { return reposed_; }
     /// Per entity id, selectionInputs of the last update's sprite: what the LOD plan reads of it
     /// (FramePlanner::plan), 88 bytes in place of three or four lines of the sprite. Rewritten
-    /// where the update reposed the sprite (reposed): nothing else it holds changes.
-    std::span<const SpriteSelectionInputs> selectionInputs() const { return selection_; }
+    /// where the update set the sprite up (nothing else it holds changes); empty after an update
+    /// told not to keep them.
+    std::span<const SpriteSelectionInputs> selectionInputs() const {
+        return selectionCurrent_ ? std::span<const SpriteSelectionInputs>(selection_)
+                                 : std::span<const SpriteSelectionInputs>();
+    }
     /// The last update's sprites with the updates that changed each (SpriteHistory): valid until
     /// the next update.
     SpriteHistory history() const;
@@ -174,6 +181,9 @@ class SpriteStore {
     std::vector<std::uint8_t> changed_, reposed_, visible_;
     std::vector<float> depths_;                    ///< SpriteHistory::depths
     std::vector<SpriteSelectionInputs> selection_; ///< selectionInputs()
+    /// selection_ holds every entity's inputs as of the last update (it was told to keep them,
+    /// and so was every update since the last that was not).
+    bool selectionCurrent_ = false;
     SharedVectorOwner<std::uint32_t> visibleIds_;
     /// What every sprite of the last update was set up with.
     bool valid_ = false;

@@ -124,6 +124,30 @@ TEST(SpriteStore, AStillCameraSetsUpOnlyTheEntitiesThatChangedFrame) {
     }
 }
 
+// Updates told to keep no selection inputs (near and reference frames) lend none; the next update
+// that keeps them has every entity's, those it set up and those it left as they were, moved
+// entities among them, whether the camera moved or not.
+TEST(SpriteStore, SelectionInputsAfterUpdatesThatKeptNoneAreEveryEntitys) {
+    Scene s = crowd();
+    SpriteStore store;
+    const CameraFrame still = makeCameraFrame(s.cameraAt(0.0));
+    store.update(s, still, 0.0);
+    expectFresh(store, s, still, 0.0);
+    store.update(s, makeCameraFrame(s.cameraAt(0.5)), 0.1, false);
+    EXPECT_TRUE(store.selectionInputs().empty());
+    s.entities[3].position.x += 2.0;
+    store.update(s, still, 0.2, false); // the camera back, an entity moved: all set up again
+    EXPECT_TRUE(store.selectionInputs().empty());
+    s.entities[5].position.x += 2.0;
+    const SpriteStore::Update u = store.update(s, still, 0.2); // one entity set up, and kept
+    EXPECT_EQ(u.entitiesChanged, 1);
+    expectFresh(store, s, still, 0.2);
+    const CameraFrame moved = makeCameraFrame(s.cameraAt(1.0));
+    store.update(s, moved, 0.3, false);
+    store.update(s, moved, 0.3); // nothing set up, and kept
+    expectFresh(store, s, moved, 0.3);
+}
+
 TEST(SpriteStore, AMovedEntityAndANewLightAreSetUpAfresh) {
     Scene s = crowd();
     const CameraFrame cam = makeCameraFrame(s.cameraAt(0.0));
