@@ -34,9 +34,6 @@ class BudgetPredictor {
   public:
     explicit BudgetPredictor(const SpriteSelectionInputs& in)
         : displacement_(in.displacement), unitsPerVpx_(unitsPerVpx(in.cellSizePx)) {}
-    /// From the sprite itself: its selection inputs first, so that both give the same bits.
-    explicit BudgetPredictor(const SpriteSetup& sprite)
-        : BudgetPredictor(selectionInputs(sprite)) {}
     /// The prediction for the view whose unit vector is `w`.
     double operator()(glm::dvec3 w) const { return displacement_.vpx(w) * unitsPerVpx_; }
 

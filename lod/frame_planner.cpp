@@ -52,13 +52,13 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     std::vector<EntityPlan>& plan =
         incremental && work_.size() < n ? plan_.writable() : plan_.overwritable(n);
 
-    // The selector sees distance, projected radius and the angle to the nearest snapshot view
-    // (or, under the error budget, the best prediction over the budget).
     // Each sprite's selection inputs: the caller's (a store keeps them, 88 bytes an entity read
-    // in order), or computed here first from the sprites.
+    // in order), or derived here first from the sprites.
     const bool given = selection.size() == n;
     if (!given) ownSelection_.resize(n);
     const std::span<const SpriteSelectionInputs> in = given ? selection : ownSelection_;
+    // The selector sees distance, projected radius and the angle to the nearest snapshot view
+    // (or, under the error budget, the best prediction over the budget).
     inputs_.resize(n);
     nearest_.resize(n);
     const auto input = [&](std::size_t i) {
