@@ -302,15 +302,24 @@ double cellSizePx(const SpriteSetup& sprite) {
 }
 
 SpriteSelectionInputs selectionInputs(const SpriteSetup& sprite) {
+    if (!sprite.visible()) return selectionInputs(sprite, {}, 0.0);
+    return selectionInputs(sprite,
+                           DisplacementPredictor(glm::dvec3(sprite.lattice.dims) * 0.5,
+                                                 sprite.lattice.sigma, -sprite.lattice.dir),
+                           cellSizePx(sprite));
+}
+
+SpriteSelectionInputs selectionInputs(const SpriteSetup& sprite,
+                                      const DisplacementPredictor& displacement,
+                                      double cellSizePx) {
     SpriteSelectionInputs in;
     in.distance = sprite.distance;
     in.radiusPx = sprite.radiusPx;
     in.visible = sprite.visible();
     if (!in.visible) return in;
     in.towardViewer = -sprite.lattice.dir;
-    in.displacement = DisplacementPredictor(glm::dvec3(sprite.lattice.dims) * 0.5,
-                                            sprite.lattice.sigma, in.towardViewer);
-    in.cellSizePx = cellSizePx(sprite);
+    in.displacement = displacement;
+    in.cellSizePx = cellSizePx;
     return in;
 }
 

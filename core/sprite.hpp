@@ -139,6 +139,11 @@ struct SpriteSelectionInputs {
 };
 /// The selection inputs of one sprite (a culled one: its distance and radius, the rest 0).
 SpriteSelectionInputs selectionInputs(const SpriteSetup& sprite);
+/// The same with its two derived parts given (a visible sprite's displacement predictor and
+/// cellSizePx, unread for a culled one): what the SIMD set-up calls with the parts its lanes
+/// computed.
+SpriteSelectionInputs selectionInputs(const SpriteSetup& sprite,
+                                      const DisplacementPredictor& displacement, double cellSizePx);
 
 /// §3.7 face light factors (16.16) for the six entered-face codes, given the light in world
 /// space and the entity's rotation. Shared by the near kernel and the far blit.

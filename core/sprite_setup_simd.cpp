@@ -342,18 +342,12 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
     };
     const SpriteConstants& k = *job.constants;
     SpriteSetup& S = *job.sprite;
-    // selectionInputs of the sprite, once its culling is known.
+    // selectionInputs of the sprite, once its culling is known, with the parts the lanes derived.
     const auto writeSelection = [&] {
-        if (!job.selection) return;
-        SpriteSelectionInputs& in = *job.selection;
-        in = SpriteSelectionInputs{};
-        in.distance = S.distance;
-        in.radiusPx = S.radiusPx;
-        in.visible = S.visible();
-        if (!in.visible) return;
-        in.towardViewer = -S.lattice.dir;
-        in.displacement = DisplacementPredictor::fromParts(at3(kLineOfSight), at(kSigmaDepth));
-        in.cellSizePx = at(kCellSizePx);
+        if (job.selection)
+            *job.selection = selectionInputs(
+                S, DisplacementPredictor::fromParts(at3(kLineOfSight), at(kSigmaDepth)),
+                at(kCellSizePx));
     };
     S.cull = CullReason::None;
     S.entityId = job.entityId;
