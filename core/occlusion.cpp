@@ -86,13 +86,6 @@ void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& 
     // greatest key and are cut from the end after the sort.
     constexpr std::uint64_t kHidden = std::numeric_limits<std::uint64_t>::max();
     const auto shown = [&](std::uint32_t i) { return sprites[i] && sprites[i]->visible(); };
-    // A sprite's entity in `history` where its arrays describe it (the store's current sprite),
-    // else kNoEntity: its visibility and depth then come from the sprite.
-    const bool arrays = history && history->hasDepths();
-    const auto entityOf = [&](std::uint32_t i) {
-        return arrays && sprites[i] ? SpriteHistory::entityIn(history, sprites[i])
-                                    : SpriteHistory::kNoEntity;
-    };
     std::vector<KeyIndex>& keyed = buffers.keyed;
     keyed.resize(sprites.size());
     // Whether the shown sprites' ids ascend with their index (a frame's sprites usually come in
@@ -103,17 +96,17 @@ void frontToBack(std::span<const SpriteSetup* const> sprites, DrawOrderBuffers& 
         tbb::blocked_range<std::uint32_t>(0, std::uint32_t(sprites.size()), 256), AscendingIds{},
         [&](const auto& r, AscendingIds seen) {
             for (std::uint32_t i = r.begin(); i != r.end(); ++i) {
-                const std::uint32_t e = entityOf(i);
-                if (e != SpriteHistory::kNoEntity ? !history->visible[e] : !shown(i)) {
+                const SpriteHistory::OrderInputs in =
+                    sprites[i] ? SpriteHistory::orderInputs(history, *sprites[i])
+                               : SpriteHistory::OrderInputs{};
+                if (!in.visible) {
                     keyed[i] = {kHidden, i};
                     continue;
                 }
-                const float depth =
-                    e != SpriteHistory::kNoEntity ? history->depths[e] : sprites[i]->gpu.depth;
-                const std::uint32_t id = e != SpriteHistory::kNoEntity ? e : sprites[i]->entityId;
-                const std::uint32_t depthBits = std::bit_cast<std::uint32_t>(std::max(depth, 0.0f));
-                keyed[i] = {(std::uint64_t(~depthBits) << 32) | id, i};
-                seen.add(id);
+                const std::uint32_t depthBits =
+                    std::bit_cast<std::uint32_t>(std::max(in.depth, 0.0f));
+                keyed[i] = {(std::uint64_t(~depthBits) << 32) | in.id, i};
+                seen.add(in.id);
                 seen.ascending = seen.ascending && depthBits != 0;
             }
             return seen;

@@ -69,6 +69,23 @@ struct SpriteHistory {
         return history ? history->entityOf(s).value_or(kNoEntity) : kNoEntity;
     }
 
+    /// What a draw order reads of sprite `s`, and the entity whose sprite it is through `history`
+    /// (kNoEntity: none, or a copy). For the store's own sprite, where the history keeps its
+    /// per-entity arrays, visibility, depth and id come from those (the sprite's lines are not
+    /// read); else from the sprite.
+    struct OrderInputs {
+        bool visible = false;
+        float depth = 0.0f;
+        std::uint32_t id = 0;
+        std::uint32_t entity = kNoEntity;
+    };
+    static OrderInputs orderInputs(const SpriteHistory* history, const SpriteSetup& s) {
+        const std::uint32_t e = entityIn(history, &s);
+        if (e != kNoEntity && history->hasDepths())
+            return {history->visible[e] != 0, history->depths[e], e, e};
+        return {s.visible(), s.gpu.depth, s.entityId, e};
+    }
+
     /// The entity whose sprite `s` is, when `s` points into `sprites` (not at a copy): its index
     /// there, which is its SpriteSetup::entityId.
     std::optional<std::uint32_t> entityOf(const SpriteSetup* s) const {

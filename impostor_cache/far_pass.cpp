@@ -278,7 +278,6 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         rects.resize(n);
         keys.resize(n);
         src.entities.resize(n);
-        const bool keptArrays = history && history->hasDepths();
         // Also whether the instances' ids ascend (they come in entity order): then the sort
         // spares the id's digits (sortKeyIndexPairs's tieBits), the order's pairs being a
         // subsequence of the instances.
@@ -286,19 +285,16 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
                                    AscendingIds seen) {
             for (std::size_t i = range.begin(); i != range.end(); ++i) {
                 const SpriteSetup& s = *batch.instances[i].sprite;
-                const std::uint32_t e = SpriteHistory::entityIn(history, &s);
                 // The store's own sprite: its visibility, depth and id from the history's
                 // per-entity arrays (the sprite's first line is not read); a copy from itself.
-                const bool fromHistory = e != kNoEntity && keptArrays;
-                const bool visible = fromHistory ? history->visible[e] != 0 : s.visible();
+                const SpriteHistory::OrderInputs in = SpriteHistory::orderInputs(history, s);
                 // The far blit's rectangle: the sprite's screen rectangle within the image.
-                rects[i] = visible ? glm::clamp(s.screenRect, glm::ivec4(0),
-                                                glm::ivec4(width, height, width, height))
-                                   : glm::ivec4(0);
-                const std::uint32_t id = fromHistory ? e : s.entityId;
-                keys[i] = farOrderKey(fromHistory ? history->depths[e] : s.gpu.depth, id);
-                seen.add(id);
-                src.entities[i] = e;
+                rects[i] = in.visible ? glm::clamp(s.screenRect, glm::ivec4(0),
+                                                   glm::ivec4(width, height, width, height))
+                                      : glm::ivec4(0);
+                keys[i] = farOrderKey(in.depth, in.id);
+                seen.add(in.id);
+                src.entities[i] = in.entity;
             }
             return seen;
         };
