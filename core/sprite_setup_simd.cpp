@@ -25,6 +25,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <new>
 
 HWY_BEFORE_NAMESPACE();
 namespace voxtier::sprite_setup_simd {
@@ -344,10 +345,13 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
     SpriteSetup& S = *job.sprite;
     // selectionInputs of the sprite, once its culling is known, with the parts the lanes derived.
     const auto writeSelection = [&] {
+        // Initialised in place from the prvalue (the callee writes the store's entry): assigned,
+        // the 88 bytes went through a stack temporary whose wide reloads waited on the callee's
+        // narrower stores (a store-forwarding stall, a third of this function's samples).
         if (job.selection)
-            *job.selection = selectionInputs(
+            new (job.selection) SpriteSelectionInputs(selectionInputs(
                 S, DisplacementPredictor::fromParts(at3(kLineOfSight), at(kSigmaDepth)),
-                at(kCellSizePx));
+                at(kCellSizePx)));
     };
     S.cull = CullReason::None;
     S.entityId = job.entityId;

@@ -178,6 +178,16 @@ class SpriteStore {
     /// The array the next update writes: one no share holds, the most recent such, or a new one.
     Sprites& writableSprites(std::size_t n);
 
+    /// Per model frame, what the per-entity checks read of it, asked once an update: its size and
+    /// the skip rule's answer (BrickOccupancy::worthSkipping). Frame f of model m is at
+    /// modelFrames_[modelFirstFrame_[m] + f].
+    struct ModelFrame {
+        glm::ivec3 dims{0};
+        std::uint32_t skipEmpty = 0;
+    };
+    std::vector<ModelFrame> modelFrames_;
+    std::vector<std::size_t> modelFirstFrame_;
+
     std::vector<EntityKey> keys_;
     std::vector<SpriteConstants> constants_;
     /// The arrays in turn (at most kSpriteArrays kept); current_ is the last update's.

@@ -164,7 +164,9 @@ VoxelModel::VoxelModel(std::string name, Palette palette, std::vector<VoxelGrid>
 
 int VoxelModel::wrapFrame(long long f) const {
     const long long n = std::max<long long>(1, frameCount());
-    return int(((f % n) + n) % n);
+    // One division where f is not negative (every frame of a forward animation): the sprite
+    // store asks this of every entity each update.
+    return int(f >= 0 ? f % n : ((f % n) + n) % n);
 }
 
 bool VoxelModel::setVoxel(int frame, glm::ivec3 p, std::uint8_t index) {
