@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <stdexcept>
+#include <string>
 
 namespace voxtier {
 
@@ -171,6 +173,11 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                 const Entity& e = scene.entities[i];
                 const VoxelModel& model = *scene.models.at(std::size_t(e.model));
                 const int frame = e.frameAt(model, time);
+                // A model of no frames (only a default-constructed one) has no frame 0.
+                if (frame >= model.frameCount())
+                    throw std::out_of_range("sprite store: entity " + std::to_string(i) +
+                                            "'s model " + std::to_string(e.model) +
+                                            " has no frames");
                 const ModelFrame& modelFrame =
                     modelFrames_[modelFirstFrame_[std::size_t(e.model)] + std::size_t(frame)];
                 const EntityKey key{model.uid(),
