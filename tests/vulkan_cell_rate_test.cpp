@@ -268,6 +268,63 @@ TEST_F(VulkanCellRate, Sigma16CrowdOf256CubedModelsFallsBackPastTheDefaultBudget
     EXPECT_GT(st.pixelsTraced, 0u);
 }
 
+// A crowd of 12,288 small sprites over the same pixels, in three blocks each front to back in
+// itself: in entity order (no early depth test) the host's ranking must sort them across the
+// blocks' seams (the least rank in a pixel is the nearest sprite); front to back it needs no sort.
+// Per pixel and at cell rate with the cell budget ample and running out part way (the rate plan's
+// fallback to per pixel), traced in compute and rasterised: the reference's image each time.
+TEST_F(VulkanCellRate, ACrowdOfTwelveThousandSpritesMatchesTheReferenceInEitherOrder) {
+    Scene scene;
+    scene.render.voxelSize = 0.05;
+    scene.models = {test::solidBox({4, 4, 4}, 1), test::solidBox({4, 3, 4}, 2)};
+    constexpr int kBlock = 4096, kBlocks = 3;
+    for (int b = 0; b < kBlocks; ++b)
+        for (int j = 0; j < kBlock; ++j) {
+            Entity e;
+            e.model = (j + b) % 2;
+            e.position = {double((j * 37) % 64) / 64.0 * 4.0 - 2.0 + 0.02 * b,
+                          double((j * 11) % 48) / 48.0 * 2.4 - 1.2, -3.0 - 0.001 * j};
+            scene.entities.push_back(e);
+        }
+    scene.camera.position = {0.0, 0.0, 0.0};
+    scene.camera.target = {0.0, 0.0, -10.0};
+    scene.camera.width = 192;
+    scene.camera.height = 108;
+    const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+    const std::vector<SpriteSetup> sprites = setupSprites(scene, cam, 0.0);
+    std::size_t visible = 0;
+    for (const SpriteSetup& sp : sprites) visible += sp.visible();
+    ASSERT_EQ(visible, sprites.size()) << "every sprite drawn";
+    Image reference(cam.width, cam.height, scene.render.background);
+    renderReference(scene.models, sprites, reference);
+    std::uint64_t cells = 0;
+    for (const SpriteSetup& sp : sprites) cells += cellCount(sp);
+    for (const bool earlyDepth : {true, false})
+        for (const NearRate rate : {NearRate::Fragment, NearRate::Cell})
+            for (const std::uint64_t budget :
+                 {kDefaultCellBudgetBytes, cells / 2 * kCellStoreBytesPerCell}) {
+                if (rate == NearRate::Fragment && budget != kDefaultCellBudgetBytes) continue;
+                for (const NearPixels pixels : {NearPixels::Compute, NearPixels::Raster}) {
+                    NearOptions options = test::gpuDefaults();
+                    options.earlyDepthTest = earlyDepth;
+                    options.rate = rate;
+                    options.cellBudgetBytes = budget;
+                    options.pixels = pixels;
+                    NearStats st;
+                    const Image drawn = nearRenderer().render(
+                        cam, scene.models, sprites, scene.render.background, options, &st);
+                    const std::string what =
+                        std::string(earlyDepth ? "front to back" : "entity order") + ", " +
+                        (rate == NearRate::Cell ? "cell rate" : "per pixel") + ", budget " +
+                        std::to_string(budget) + ", " +
+                        (pixels == NearPixels::Compute ? "compute" : "raster");
+                    EXPECT_EQ(test::describeDifference(drawn, reference), "") << what;
+                    if (rate == NearRate::Cell)
+                        EXPECT_EQ(st.cellOverBudget > 0, budget != kDefaultCellBudgetBytes) << what;
+                }
+            }
+}
+
 // Frames of different cell counts one after another reuse and grow the one cell store.
 TEST_F(VulkanCellRate, ConsecutiveFramesOfGrowingCellCountsStayIdentical) {
     for (int magnification : {1, 2, 6, 3})
