@@ -87,6 +87,8 @@ struct FrameFigureTable {
         {"host_record_ms",            [](const S& s) { return s.vulkan.hostRecordMs; },             Ms,    Mean},
         {"host_record_sprites_ms",    [](const S& s) { return s.vulkanNear.recordSpritesMs; },      Ms,    Mean},
         {"host_record_lists_ms",      [](const S& s) { return s.vulkanNear.recordListsMs; },        Ms,    Mean},
+        {"host_record_lists_build_ms",[](const S& s) { return s.vulkanNear.recordListsBuildMs; },   Ms,    Mean},
+        {"host_record_lists_upload_ms",[](const S& s) { return s.vulkanNear.recordListsUploadMs; }, Ms,    Mean},
         {"host_record_order_ms",      [](const S& s) { return s.vulkanNear.recordOrderMs; },        Ms,    Mean},
         {"host_record_residency_ms",  [](const S& s) { return s.vulkanNear.recordResidencyMs; },    Ms,    Mean},
         {"host_record_far_ms",        [](const S& s) { return s.vulkan.hostRecordFarMs; },         Ms,    Mean},

@@ -411,9 +411,10 @@ TEST_F(BenchSmoke, DeviceSplitHasTheHostPartAndEveryGpuPassOfEachModeOnVulkan) {
             name.starts_with("gpu_"))
             names.push_back(name), header += " " + name + " |";
     }
-    // record (its two near halves, the near records' order and residency, the far pass), wait,
-    // readback; the frame and seven passes (not the selection's parts: a step before the frame)
-    EXPECT_EQ(names.size(), 16u);
+    // record (its two near halves, the near records' order and residency, the lists' arithmetic
+    // and uploads, the far pass), wait, readback; the frame and seven passes (not the selection's
+    // parts: a step before the frame)
+    EXPECT_EQ(names.size(), 18u);
     const auto at = run().report.find(header + "\n");
     ASSERT_NE(at, std::string::npos) << header;
     const std::string table = run().report.substr(at, run().report.find("\n\n", at) - at);
@@ -437,6 +438,11 @@ TEST_F(BenchSmoke, DeviceSplitHasTheHostPartAndEveryGpuPassOfEachModeOnVulkan) {
     for (const char* part : {"host_record_sprites_ms", "host_record_lists_ms"}) {
         EXPECT_GT(num(nearVulkan, part), 0.0) << part;
         EXPECT_LE(num(nearVulkan, part), num(nearVulkan, "host_record_ms")) << part;
+    }
+    // The lists' host arithmetic and uploads are parts of the lists.
+    for (const char* part : {"host_record_lists_build_ms", "host_record_lists_upload_ms"}) {
+        EXPECT_GT(num(nearVulkan, part), 0.0) << part;
+        EXPECT_LE(num(nearVulkan, part), num(nearVulkan, "host_record_lists_ms")) << part;
     }
     // And the sprite records' draw order and residency are parts of those; all-near records no
     // far pass.

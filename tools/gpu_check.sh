@@ -385,7 +385,10 @@ else:
 if os.environ.get("GC_PROFILE") == "1":
     parts = [("frame_ms", "frame"), ("host_setup_ms", "set-up"), ("host_select_ms", "select"),
              ("host_record_ms", "record"), ("host_record_sprites_ms", "of which sprite records"),
-             ("host_record_lists_ms", "of which lists"), ("host_record_order_ms", "of which draw order"),
+             ("host_record_lists_ms", "of which lists"),
+             ("host_record_lists_build_ms", "of which lists' arithmetic"),
+             ("host_record_lists_upload_ms", "of which lists' uploads"),
+             ("host_record_order_ms", "of which draw order"),
              ("host_record_residency_ms", "of which residency"), ("host_record_far_ms", "of which far pass"),
              ("host_wait_ms", "wait"), ("host_readback_ms", "readback"),
              ("gpu_frame_ms", "GPU frame"), ("gpu_upload_ms", "GPU upload"), ("gpu_cells_ms", "GPU cells"),
@@ -512,6 +515,7 @@ if os.environ.get("GC_PROFILE") == "1":
     else:
         lines.append("No far-tiles rows: see logs/far_tiles.log.")
     cols = ("frame_ms", "host_record_ms", "host_record_sprites_ms", "host_record_lists_ms",
+            "host_record_lists_build_ms", "host_record_lists_upload_ms",
             "host_record_order_ms", "host_record_residency_ms", "gpu_upload_ms", "gpu_frame_ms")
     placed = army_table("placement", [(p, f"near_{p}", f"near_vulkan {p}") for p in ("direct", "staged")],
                         cols)
@@ -522,7 +526,8 @@ if os.environ.get("GC_PROFILE") == "1":
               f"it) and with `VOXTIER_FORCE_STAGING=1`; frames 6-23. Frame 23, direct against staged: {same}.", ""]
     if placed:
         lines += ["| uploads | frames | frame in flight | host record | of which sprite records | of which lists "
-                  "| of which draw order | of which residency | GPU upload | GPU frame |", "|---" * 10 + "|"]
+                  "| of which lists' arithmetic | of which lists' uploads "
+                  "| of which draw order | of which residency | GPU upload | GPU frame |", "|---" * 12 + "|"]
         for p, n, v in placed:
             lines.append(f"| {p} | {n} | " + " | ".join(fmt(x) for x in v) + " |")
     else:

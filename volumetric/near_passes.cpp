@@ -318,13 +318,15 @@ void NearPasses::Impl::writeProxies(GpuFrame& frame, Slot& slot, const CameraFra
 
 NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& slot,
                                                         const CellRatePlan& plan,
-                                                        std::uint64_t budgetBytes,
-                                                        bool tracePixels) {
+                                                        std::uint64_t budgetBytes, bool tracePixels,
+                                                        NearStats& stats) {
     const int width = frame.width(), height = frame.height();
     const auto upload = [&](VulkanBuffer& b, const auto& v) {
+        const auto t = std::chrono::steady_clock::now();
         const VkDeviceSize bytes = v.size() * sizeof(v[0]);
         ensure(b, std::max<VkDeviceSize>(bytes, 4));
         frame.hostCopy(b, v.data(), bytes);
+        stats.recordListsUploadMs += msSince(t);
     };
     upload(slot.cellBases, plan.cellBase);
     // The store is kept for the next frames and grows by doubling, never past the budget (the
@@ -340,7 +342,9 @@ NearPasses::Impl::CellWork NearPasses::Impl::writeCells(GpuFrame& frame, Slot& s
             VulkanBuffer(device, size, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::DeviceOnly);
     }
     if (!cells) ensure(cells, 4096, BufferClass::DeviceOnly);
+    const auto tBuild = std::chrono::steady_clock::now();
     const CellWork work = buildWorkLists(plan, tracePixels, width, height);
+    stats.recordListsBuildMs += msSince(tBuild);
     upload(slot.cellTiles, tiles);
     upload(slot.splatBlocks, blocks);
     upload(slot.rankSprites, byDepth);
@@ -717,14 +721,18 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
                           m.device.name() + " lacks");
     if (!tracePixels) m.writeProxies(frame, slot, cam, opt, stats);
     CellRatePlan& plan = m.ratePlan;
+    stats.recordListsUploadMs = 0.0; // summed over the lists' uploads (writeCells)
+    const auto tPlan = std::chrono::steady_clock::now();
     planCellRate(m.wishes, plan, opt.cellBudgetBytes);
+    stats.recordListsBuildMs = msSince(tPlan);
     stats.cellsTraced = plan.cells;
     stats.cellSprites = plan.cellSprites;
     stats.cellOverBudget = plan.overBudget;
     stats.pixelsTraced = plan.pixelsTraced;
     stats.pixelsLookedUp = plan.pixelsLookedUp;
     m.traceShape = nearTraceShape(m.device, tracePixels ? m.visible.size() - plan.cellSprites : 0);
-    const Impl::CellWork work = m.writeCells(frame, slot, plan, opt.cellBudgetBytes, tracePixels);
+    const Impl::CellWork work =
+        m.writeCells(frame, slot, plan, opt.cellBudgetBytes, tracePixels, stats);
     m.frameCells = std::uint32_t(plan.cells);
     m.writeDescriptors(frame, slot);
     stats.recordListsMs = msSince(tLists);

@@ -45,6 +45,13 @@ struct NearStats : CellRateCounts {
     /// The rest is the records' loop. Which of the three bounds a frame differs by host: a moving
     /// camera reorders every sprite, and the loop writes where the device reads.
     double recordOrderMs = 0.0, recordResidencyMs = 0.0;
+    /// Of recordListsMs: the host's arithmetic (the rate plan, the ranks, the cell tiles and the
+    /// splat, trace and resolve blocks, all in host memory), and those lists written where the
+    /// passes read them. The rest is the proxies (rasterised frames), the cell store's and pixel
+    /// words' buffers and the descriptors. On the H200's host the lists took 3 ms at 100,000
+    /// tanks against ~2 on two cores here, whose serial passes are ~0.3 ms: which part grows
+    /// there is what these tell.
+    double recordListsBuildMs = 0.0, recordListsUploadMs = 0.0;
     /// Sprite records left as the frame's slot last held them (unchanged since, in the same
     /// place: not written again), and whether the draw order was last frame's (no sprite set up
     /// anew since). Only where the sprites came with their history (NearPasses::record).

@@ -155,8 +155,10 @@ struct NearPasses::Impl {
                       NearStats& stats);
     /// The compute passes' work; with `tracePixels` the per-pixel sprites' blocks too, and every
     /// sprite ranked.
+    /// Its host arithmetic and its uploads are timed into stats (recordListsBuildMs,
+    /// recordListsUploadMs).
     CellWork writeCells(GpuFrame& frame, Slot& slot, const CellRatePlan& plan,
-                        std::uint64_t budgetBytes, bool tracePixels);
+                        std::uint64_t budgetBytes, bool tracePixels, NearStats& stats);
     /// byDepth and ranks: the ranked sprites (cell-rate, and with `tracePixels` all) in
     /// Image::writeIfNearer's order, and each one's place in it.
     void rankSprites(const CellRatePlan& plan, bool tracePixels);
