@@ -200,12 +200,12 @@ class FramePlanner {
     ErrorBudgetViews budgetViews_; ///< far views under metric error_budget
     CostModel costs_;
     // Per entity, kept between frames (resized only when the entity count changes): the plan,
-    // the selector's inputs and each visible entity's nearest view.
+    // and the selector's inputs (the error budget's: error_px steps each entity as it derives
+    // them).
     SharedVectorOwner<EntityPlan> plan_;
     std::vector<SelectorInput> inputs_;
     /// selectionInputs of each sprite, where plan() was given none
     std::vector<SpriteSelectionInputs> ownSelection_;
-    std::vector<int> nearest_;
     std::vector<std::optional<ViewId>> drawnFrom_;
     std::vector<double> predicted_; ///< predictedBudgetUnits of each far-drawn visible entity
     /// error_budget: what each far entity's view choice reads of no other entity, this frame

@@ -65,9 +65,7 @@ bool TierSelector::pastNear(const SelectorInput& in) const {
     return config_.metric == SelectorMetric::Distance ? side < 0 : side > 0;
 }
 
-namespace {
-
-SelectorStats add(SelectorStats a, const SelectorStats& b) {
+SelectorStats TierSelector::sum(SelectorStats a, const SelectorStats& b) {
     a.nearCount += b.nearCount;
     a.farCount += b.farCount;
     a.switchesToFar += b.switchesToFar;
@@ -76,7 +74,18 @@ SelectorStats add(SelectorStats a, const SelectorStats& b) {
     return a;
 }
 
-} // namespace
+bool TierSelector::beginFrame(std::size_t entities, bool partial) {
+    viewChangesThisFrame_.store(0, std::memory_order_relaxed);
+    if (partial) {
+        assert(initialised_ && entities == state_.size() && "a partial frame follows a whole one");
+        return false;
+    }
+    const bool first = !initialised_;
+    if (first) state_.assign(entities, State{});
+    assert(entities == state_.size() && "entity count changed: call reset()");
+    initialised_ = true;
+    return first;
+}
 
 void TierSelector::step(std::size_t i, const SelectorInput& in, bool first, SelectorStats& st) {
     State& s = state_[i];
@@ -106,11 +115,7 @@ void TierSelector::step(std::size_t i, const SelectorInput& in, bool first, Sele
 }
 
 SelectorStats TierSelector::update(std::span<const SelectorInput> inputs) {
-    viewChangesThisFrame_.store(0, std::memory_order_relaxed);
-    const bool first = !initialised_;
-    if (first) state_.assign(inputs.size(), State{});
-    assert(inputs.size() == state_.size() && "entity count changed: call reset()");
-    initialised_ = true;
+    const bool first = beginFrame(inputs.size());
     // Each entity's state moves on its own; only the counts are shared, summed per chunk.
     return tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, inputs.size(), 4096), SelectorStats{},
@@ -119,13 +124,12 @@ SelectorStats TierSelector::update(std::span<const SelectorInput> inputs) {
                 step(i, inputs[i], first, st);
             return st;
         },
-        add);
+        sum);
 }
 
 SelectorStats TierSelector::update(std::span<const SelectorInput> inputs,
                                    std::span<const std::uint32_t> ids) {
-    assert(initialised_ && inputs.size() == state_.size() && "a partial frame follows a whole one");
-    viewChangesThisFrame_.store(0, std::memory_order_relaxed);
+    beginFrame(inputs.size(), true);
     return tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, ids.size(), 4096), SelectorStats{},
         [&](const tbb::blocked_range<std::size_t>& range, SelectorStats st) {
@@ -133,7 +137,7 @@ SelectorStats TierSelector::update(std::span<const SelectorInput> inputs,
                 step(ids[k], inputs[ids[k]], false, st);
             return st;
         },
-        add);
+        sum);
 }
 
 bool TierSelector::fading(std::size_t entity, float* fraction, Tier* from) const {

@@ -75,6 +75,18 @@ class TierSelector {
     /// must be settled (settled()) with the input it had last frame, for which update() would
     /// change nothing. The counts are the listed entities' (nearCount, farCount included).
     SelectorStats update(std::span<const SelectorInput> inputs, std::span<const std::uint32_t> ids);
+    /// update() for a caller that steps the entities inside a pass of its own (the frame
+    /// planner's error_px plan derives each entity's inputs, steps it and chooses its far view
+    /// in one pass over the entities). beginFrame starts a frame of `entities` (`partial`: of
+    /// some of them, the rest settled, as update(inputs, ids)) and returns whether it is the
+    /// first, whose tiers come from the metric alone; then stepEntity once for each entity the
+    /// frame moves, concurrently for different entities, each thread summing its own stats.
+    bool beginFrame(std::size_t entities, bool partial = false);
+    void stepEntity(std::size_t i, const SelectorInput& in, bool first, SelectorStats& st) {
+        step(i, in, first, st);
+    }
+    /// SelectorStats summed (what a pass that steps the entities joins its threads' stats with).
+    static SelectorStats sum(SelectorStats a, const SelectorStats& b);
     void reset();
     /// Whether `entity` is outside a cross-fade: given last frame's input again, a frame changes
     /// nothing of its state (a switch needs a crossing, and near_at and far_at are apart).
