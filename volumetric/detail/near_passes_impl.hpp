@@ -154,9 +154,8 @@ struct NearPasses::Impl {
     void writeProxies(GpuFrame& frame, Slot& slot, const CameraFrame& cam, const NearOptions& opt,
                       NearStats& stats);
     /// The compute passes' work; with `tracePixels` the per-pixel sprites' blocks too, and every
-    /// sprite ranked.
-    /// Its host arithmetic and its uploads are timed into stats (recordListsBuildMs,
-    /// recordListsUploadMs).
+    /// sprite ranked. Its host arithmetic and its uploads are timed into `stats`
+    /// (recordListsBuildMs, recordListsUploadMs).
     CellWork writeCells(GpuFrame& frame, Slot& slot, const CellRatePlan& plan,
                         std::uint64_t budgetBytes, bool tracePixels, NearStats& stats);
     /// byDepth and ranks: the ranked sprites (cell-rate, and with `tracePixels` all) in
