@@ -27,6 +27,14 @@ using test::sourcePath;
 
 class VulkanCellRate : public test::VulkanTest {
   protected:
+    /// The scene's camera at `eye`, looking down -z, `width` x `height` pixels: its frame at t 0.
+    static CameraFrame lookDownMinusZ(Scene& scene, glm::dvec3 eye, int width, int height) {
+        scene.camera.position = eye;
+        scene.camera.target = {0.0, 0.0, -10.0};
+        scene.camera.width = width;
+        scene.camera.height = height;
+        return makeCameraFrame(scene.cameraAt(0.0));
+    }
     /// Vulkan at `rate` equals the reference, its per-pixel sprites traced in compute (a GPU's
     /// default) and rasterised (their pixels then composed with the cell-rate ones by the
     /// resolve against the drawn depth); returns the near stats of the first.
@@ -247,11 +255,7 @@ TEST_F(VulkanCellRate, Sigma16CrowdOf256CubedModelsFallsBackPastTheDefaultBudget
                       -4.0 - double(k / 100) * 6.0};
         scene.entities.push_back(e);
     }
-    scene.camera.position = {0.0, 0.0, 2.0};
-    scene.camera.target = {0.0, 0.0, -10.0};
-    scene.camera.width = 160;
-    scene.camera.height = 96;
-    const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+    const CameraFrame cam = lookDownMinusZ(scene, {0.0, 0.0, 2.0}, 160, 96);
     const auto sprites = setupSprites(scene, cam, 0.0);
     std::uint64_t bigVisible = 0;
     for (const SpriteSetup& sp : sprites)
@@ -286,11 +290,7 @@ TEST_F(VulkanCellRate, ACrowdOfTwelveThousandSpritesMatchesTheReferenceInEitherO
                           double((j * 11) % 48) / 48.0 * 2.4 - 1.2, -3.0 - 0.001 * j};
             scene.entities.push_back(e);
         }
-    scene.camera.position = {0.0, 0.0, 0.0};
-    scene.camera.target = {0.0, 0.0, -10.0};
-    scene.camera.width = 192;
-    scene.camera.height = 108;
-    const CameraFrame cam = makeCameraFrame(scene.cameraAt(0.0));
+    const CameraFrame cam = lookDownMinusZ(scene, {0.0, 0.0, 0.0}, 192, 108);
     const std::vector<SpriteSetup> sprites = setupSprites(scene, cam, 0.0);
     std::size_t visible = 0;
     for (const SpriteSetup& sp : sprites) visible += sp.visible();
