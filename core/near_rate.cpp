@@ -1,9 +1,12 @@
 #include "core/near_rate.hpp"
 
+#include "core/running_totals.hpp"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <utility>
 #include <vector>
 
 namespace voxtier {
@@ -47,6 +50,71 @@ CellRatePlan planCellRate(std::span<const SpriteSetup* const> sprites, NearRate 
     return planCellRate(wishes, budgetBytes, maxCellSprites);
 }
 
+namespace {
+
+/// planCellRate's plan where every wanted sprite fits the budget and the sprite cap, over the
+/// cores; false (the plan untouched but for cellBase's size) where they do not, or where the
+/// wishes are too few or the cores too few to spread them (runningTotalsInParallel).
+bool planAllWishesInParallel(std::span<const CellRateWish> wishes, CellRatePlan& plan,
+                             std::uint64_t budgetCells, std::uint64_t maxCellSprites) {
+    const std::size_t n = wishes.size();
+    if (!runningTotalsInParallel(n)) return false;
+    const std::size_t chunks = (n + kRunningTotalsChunk - 1) / kRunningTotalsChunk;
+    struct Sums {
+        std::uint64_t cells = 0, sprites = 0, pixelsLookedUp = 0, pixelsTraced = 0;
+    };
+    const auto cellRate = [&](std::size_t k) { return wishes[k].visible && wishes[k].wanted; };
+    const auto itemsOf = [&](std::size_t c) {
+        return std::pair(c * kRunningTotalsChunk, std::min(n, (c + 1) * kRunningTotalsChunk));
+    };
+    std::vector<Sums> sums(chunks + 1);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& r) {
+        for (std::size_t c = r.begin(); c != r.end(); ++c) {
+            const auto [first, end] = itemsOf(c);
+            Sums s;
+            for (std::size_t k = first; k != end; ++k) {
+                if (!wishes[k].visible) continue;
+                if (cellRate(k))
+                    s.cells += wishes[k].cells, ++s.sprites, s.pixelsLookedUp += wishes[k].pixels;
+                else
+                    s.pixelsTraced += wishes[k].pixels;
+            }
+            sums[c + 1] = s;
+        }
+    });
+    // The chunks' running totals: sums[c] is everything before chunk c.
+    for (std::size_t c = 0; c < chunks; ++c) {
+        sums[c + 1].cells += sums[c].cells;
+        sums[c + 1].sprites += sums[c].sprites;
+        sums[c + 1].pixelsLookedUp += sums[c].pixelsLookedUp;
+        sums[c + 1].pixelsTraced += sums[c].pixelsTraced;
+    }
+    const Sums& all = sums[chunks];
+    // Counts are not negative, so every running total fits where the last does.
+    if (all.cells > budgetCells || all.sprites > maxCellSprites) return false;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& r) {
+        for (std::size_t c = r.begin(); c != r.end(); ++c) {
+            const auto [first, end] = itemsOf(c);
+            std::uint64_t cells = sums[c].cells;
+            for (std::size_t k = first; k != end; ++k)
+                if (cellRate(k)) {
+                    plan.cellBase[k] = std::uint32_t(cells);
+                    cells += wishes[k].cells;
+                } else {
+                    plan.cellBase[k] = kNoCells;
+                }
+        }
+    });
+    plan.cells = all.cells;
+    plan.cellSprites = all.sprites;
+    plan.overBudget = 0;
+    plan.pixelsTraced = all.pixelsTraced;
+    plan.pixelsLookedUp = all.pixelsLookedUp;
+    return true;
+}
+
+} // namespace
+
 CellRatePlan planCellRate(std::span<const CellRateWish> wishes, std::uint64_t budgetBytes,
                           std::uint64_t maxCellSprites) {
     CellRatePlan plan;
@@ -59,13 +127,18 @@ void planCellRate(std::span<const CellRateWish> wishes, CellRatePlan& plan,
     std::vector<std::uint32_t> cellBase = std::move(plan.cellBase);
     plan = CellRatePlan{};
     plan.cellBase = std::move(cellBase);
-    plan.cellBase.assign(wishes.size(), kNoCells);
+    plan.cellBase.resize(wishes.size());
     // Offsets (up to twice the cell count: the outcomes follow the primaries) are uint32 on the
     // GPU; kNoCells stays out of reach.
     const std::uint64_t budgetCells =
         std::min<std::uint64_t>(budgetBytes / kCellStoreBytesPerCell, kNoCells / 2 - 1);
-    // The budget is given out in sprite order (a running total, so serial), over figures
+    // Where every wish fits (the usual frame), each cell-rate sprite's offset is the running
+    // total of the cells wished before it, found per chunk of sprites over the cores where there
+    // are enough of them: the same integers as the serial pass below (runningTotalsInParallel).
+    if (planAllWishesInParallel(wishes, plan, budgetCells, maxCellSprites)) return;
+    // Else the budget is given out in sprite order (a running total, so serial), over figures
     // already at hand.
+    std::fill(plan.cellBase.begin(), plan.cellBase.end(), kNoCells);
     for (std::size_t k = 0; k < wishes.size(); ++k) {
         if (!wishes[k].visible) continue;
         const std::uint64_t cells = wishes[k].cells, pixels = wishes[k].pixels;

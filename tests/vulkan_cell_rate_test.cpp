@@ -5,6 +5,7 @@
 // pixel for pixel (colour, depth bits, id), and the validation layer (synchronization
 // validation included) stays silent.
 #include "core/model_view.hpp"
+#include "core/running_totals.hpp"
 #include "core/scene_loader.hpp"
 #include "core/vox_reader.hpp"
 #include "hard_case_scenes.hpp"
@@ -15,6 +16,7 @@
 #include "vulkan_test_env.hpp"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <filesystem>
 
@@ -276,53 +278,68 @@ TEST_F(VulkanCellRate, Sigma16CrowdOf256CubedModelsFallsBackPastTheDefaultBudget
 // itself: in entity order (no early depth test) the host's ranking must sort them across the
 // blocks' seams (the least rank in a pixel is the nearest sprite); front to back it needs no sort.
 // Per pixel and at cell rate with the cell budget ample and running out part way (the rate plan's
-// fallback to per pixel), traced in compute and rasterised: the reference's image each time.
+// fallback to per pixel), traced in compute and rasterised, the lists built on one thread and in
+// chunks on eight (core/running_totals.hpp: each block is a chunk, so only the seams between
+// chunks are out of order): the reference's image each time. Then the blocks one behind the
+// other, each shuffled in itself: out of order within the chunks, in order at their seams.
 TEST_F(VulkanCellRate, ACrowdOfTwelveThousandSpritesMatchesTheReferenceInEitherOrder) {
-    Scene scene;
-    scene.render.voxelSize = 0.05;
-    scene.models = {test::solidBox({4, 4, 4}, 1), test::solidBox({4, 3, 4}, 2)};
-    constexpr int kBlock = 4096, kBlocks = 3;
-    for (int b = 0; b < kBlocks; ++b)
-        for (int j = 0; j < kBlock; ++j) {
-            Entity e;
-            e.model = (j + b) % 2;
-            e.position = {double((j * 37) % 64) / 64.0 * 4.0 - 2.0 + 0.02 * b,
-                          double((j * 11) % 48) / 48.0 * 2.4 - 1.2, -3.0 - 0.001 * j};
-            scene.entities.push_back(e);
-        }
-    const CameraFrame cam = lookDownMinusZ(scene, {0.0, 0.0, 0.0}, 192, 108);
-    const std::vector<SpriteSetup> sprites = setupSprites(scene, cam, 0.0);
-    std::size_t visible = 0;
-    for (const SpriteSetup& sp : sprites) visible += sp.visible();
-    ASSERT_EQ(visible, sprites.size()) << "every sprite drawn";
-    Image reference(cam.width, cam.height, scene.render.background);
-    renderReference(scene.models, sprites, reference);
-    std::uint64_t cells = 0;
-    for (const SpriteSetup& sp : sprites) cells += cellCount(sp);
-    for (const bool earlyDepth : {true, false})
-        for (const NearRate rate : {NearRate::Fragment, NearRate::Cell})
-            for (const std::uint64_t budget :
-                 {kDefaultCellBudgetBytes, cells / 2 * kCellStoreBytesPerCell}) {
-                if (rate == NearRate::Fragment && budget != kDefaultCellBudgetBytes) continue;
-                for (const NearPixels pixels : {NearPixels::Compute, NearPixels::Raster}) {
-                    NearOptions options = test::gpuDefaults();
-                    options.earlyDepthTest = earlyDepth;
-                    options.rate = rate;
-                    options.cellBudgetBytes = budget;
-                    options.pixels = pixels;
-                    NearStats st;
-                    const Image drawn = nearRenderer().render(
-                        cam, scene.models, sprites, scene.render.background, options, &st);
-                    const std::string what =
-                        std::string(earlyDepth ? "front to back" : "entity order") + ", " +
-                        (rate == NearRate::Cell ? "cell rate" : "per pixel") + ", budget " +
-                        std::to_string(budget) + ", " +
-                        (pixels == NearPixels::Compute ? "compute" : "raster");
-                    EXPECT_EQ(test::describeDifference(drawn, reference), "") << what;
-                    if (rate == NearRate::Cell)
-                        EXPECT_EQ(st.cellOverBudget > 0, budget != kDefaultCellBudgetBytes) << what;
-                }
+    for (const bool shuffled : {false, true}) {
+        Scene scene;
+        scene.render.voxelSize = 0.05;
+        scene.models = {test::solidBox({4, 4, 4}, 1), test::solidBox({4, 3, 4}, 2)};
+        constexpr int kBlock = int(kRunningTotalsChunk), kBlocks = 3;
+        for (int b = 0; b < kBlocks; ++b)
+            for (int j = 0; j < kBlock; ++j) {
+                Entity e;
+                e.model = (j + b) % 2;
+                e.position = {double((j * 37) % 64) / 64.0 * 4.0 - 2.0 + 0.02 * b,
+                              double((j * 11) % 48) / 48.0 * 2.4 - 1.2,
+                              shuffled ? -3.0 - 1.5 * b - 0.0003 * ((j * 7) % kBlock)
+                                       : -3.0 - 0.001 * j};
+                scene.entities.push_back(e);
             }
+        const CameraFrame cam = lookDownMinusZ(scene, {0.0, 0.0, 0.0}, 192, 108);
+        const std::vector<SpriteSetup> sprites = setupSprites(scene, cam, 0.0);
+        std::size_t visible = 0;
+        for (const SpriteSetup& sp : sprites) visible += sp.visible();
+        ASSERT_EQ(visible, sprites.size()) << "every sprite drawn";
+        Image reference(cam.width, cam.height, scene.render.background);
+        renderReference(scene.models, sprites, reference);
+        std::uint64_t cells = 0;
+        for (const SpriteSetup& sp : sprites) cells += cellCount(sp);
+        for (const bool earlyDepth : {true, false})
+            for (const NearRate rate : {NearRate::Fragment, NearRate::Cell})
+                for (const std::uint64_t budget :
+                     {kDefaultCellBudgetBytes, cells / 2 * kCellStoreBytesPerCell}) {
+                    if (rate == NearRate::Fragment && budget != kDefaultCellBudgetBytes) continue;
+                    for (const NearPixels pixels : {NearPixels::Compute, NearPixels::Raster})
+                        for (const int threads : {1, 8}) {
+                            NearOptions options = test::gpuDefaults();
+                            options.earlyDepthTest = earlyDepth;
+                            options.rate = rate;
+                            options.cellBudgetBytes = budget;
+                            options.pixels = pixels;
+                            NearStats st;
+                            Image drawn;
+                            tbb::task_arena(threads).execute([&] {
+                                drawn =
+                                    nearRenderer().render(cam, scene.models, sprites,
+                                                          scene.render.background, options, &st);
+                            });
+                            const std::string what =
+                                std::string(shuffled ? "shuffled blocks, " : "sorted blocks, ") +
+                                (earlyDepth ? "front to back" : "entity order") + ", " +
+                                (rate == NearRate::Cell ? "cell rate" : "per pixel") + ", budget " +
+                                std::to_string(budget) + ", " +
+                                (pixels == NearPixels::Compute ? "compute" : "raster") + ", " +
+                                std::to_string(threads) + " threads";
+                            EXPECT_EQ(test::describeDifference(drawn, reference), "") << what;
+                            if (rate == NearRate::Cell)
+                                EXPECT_EQ(st.cellOverBudget > 0, budget != kDefaultCellBudgetBytes)
+                                    << what;
+                        }
+                }
+    }
 }
 
 // Frames of different cell counts one after another reuse and grow the one cell store.

@@ -108,6 +108,10 @@ struct NearPasses::Impl {
     std::vector<std::uint64_t> tileStart, splatStart, traceStart;
     std::vector<std::uint32_t> byDepth, ranks;
     std::vector<std::uint8_t> touched;
+    /// Scratch of the lists' chunked passes (where runningTotalsInParallel): per chunk of
+    /// sprites a count or a running total, and whether its ranked sprites are in depth order.
+    std::vector<std::uint64_t> chunkSums;
+    std::vector<std::uint8_t> chunkSorted;
     std::uint32_t frameCells = 0;
 
     /// The compute passes' workgroups; the blocks buffer holds the splat's, then the trace's,
