@@ -42,7 +42,7 @@ TEST(RunningTotals, EqualASerialSumAroundTheChunkSizesOnOneThreadAndOnEight) {
 
 /// The plan as the contract gives it (core/near_rate.hpp): the budget handed out in sprite order.
 CellRatePlan servedInOrder(const std::vector<CellRateWish>& wishes, std::uint64_t budgetBytes,
-                          std::uint64_t maxCellSprites) {
+                           std::uint64_t maxCellSprites) {
     CellRatePlan plan;
     plan.cellBase.assign(wishes.size(), kNoCells);
     const std::uint64_t budgetCells = budgetBytes / kCellStoreBytesPerCell;
