@@ -370,7 +370,7 @@ void NearPasses::Impl::rankSprites(const CellRatePlan& plan, bool tracePixels) {
         sorted = std::is_sorted(byDepth.begin(), byDepth.end(), nearer);
     } else {
         // Gathered and checked for depth order per chunk over the cores (on the H200's host the
-        // serial gather, check and fill were 0.3 ms of the lists at 84,000 sprites, run 14).
+        // serial gather, check and fill were 0.3 ms of the lists at 84,000 sprites, run 14b).
         const std::size_t chunks = (n + kRunningTotalsChunk - 1) / kRunningTotalsChunk;
         const auto itemsOf = [&](std::size_t c) {
             return std::pair(c * kRunningTotalsChunk, std::min(n, (c + 1) * kRunningTotalsChunk));
