@@ -6,7 +6,6 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <utility>
 #include <vector>
 
 namespace voxtier {
@@ -59,28 +58,22 @@ bool planAllWishesInParallel(std::span<const CellRateWish> wishes, CellRatePlan&
                              std::uint64_t budgetCells, std::uint64_t maxCellSprites) {
     const std::size_t n = wishes.size();
     if (!runningTotalsInParallel(n)) return false;
-    const std::size_t chunks = (n + kRunningTotalsChunk - 1) / kRunningTotalsChunk;
+    const std::size_t chunks = chunkCount(n);
     struct Sums {
         std::uint64_t cells = 0, sprites = 0, pixelsLookedUp = 0, pixelsTraced = 0;
     };
     const auto cellRate = [&](std::size_t k) { return wishes[k].visible && wishes[k].wanted; };
-    const auto itemsOf = [&](std::size_t c) {
-        return std::pair(c * kRunningTotalsChunk, std::min(n, (c + 1) * kRunningTotalsChunk));
-    };
     std::vector<Sums> sums(chunks + 1);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& r) {
-        for (std::size_t c = r.begin(); c != r.end(); ++c) {
-            const auto [first, end] = itemsOf(c);
-            Sums s;
-            for (std::size_t k = first; k != end; ++k) {
-                if (!wishes[k].visible) continue;
-                if (cellRate(k))
-                    s.cells += wishes[k].cells, ++s.sprites, s.pixelsLookedUp += wishes[k].pixels;
-                else
-                    s.pixelsTraced += wishes[k].pixels;
-            }
-            sums[c + 1] = s;
+    forEachChunk(n, [&](std::size_t c, std::size_t first, std::size_t end) {
+        Sums s;
+        for (std::size_t k = first; k != end; ++k) {
+            if (!wishes[k].visible) continue;
+            if (cellRate(k))
+                s.cells += wishes[k].cells, ++s.sprites, s.pixelsLookedUp += wishes[k].pixels;
+            else
+                s.pixelsTraced += wishes[k].pixels;
         }
+        sums[c + 1] = s;
     });
     // The chunks' running totals: sums[c] is everything before chunk c.
     for (std::size_t c = 0; c < chunks; ++c) {
@@ -92,18 +85,15 @@ bool planAllWishesInParallel(std::span<const CellRateWish> wishes, CellRatePlan&
     const Sums& all = sums[chunks];
     // Counts are not negative, so every running total fits where the last does.
     if (all.cells > budgetCells || all.sprites > maxCellSprites) return false;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& r) {
-        for (std::size_t c = r.begin(); c != r.end(); ++c) {
-            const auto [first, end] = itemsOf(c);
-            std::uint64_t cells = sums[c].cells;
-            for (std::size_t k = first; k != end; ++k)
-                if (cellRate(k)) {
-                    plan.cellBase[k] = std::uint32_t(cells);
-                    cells += wishes[k].cells;
-                } else {
-                    plan.cellBase[k] = kNoCells;
-                }
-        }
+    forEachChunk(n, [&](std::size_t c, std::size_t first, std::size_t end) {
+        std::uint64_t cells = sums[c].cells;
+        for (std::size_t k = first; k != end; ++k)
+            if (cellRate(k)) {
+                plan.cellBase[k] = std::uint32_t(cells);
+                cells += wishes[k].cells;
+            } else {
+                plan.cellBase[k] = kNoCells;
+            }
     });
     plan.cells = all.cells;
     plan.cellSprites = all.sprites;

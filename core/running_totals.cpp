@@ -5,12 +5,20 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <utility>
 
 namespace voxtier {
 
 bool runningTotalsInParallel(std::size_t items) {
     return items >= 2 * kRunningTotalsChunk && tbb::this_task_arena::max_concurrency() >= 4;
+}
+
+void forEachChunk(
+    std::size_t items,
+    const std::function<void(std::size_t chunk, std::size_t first, std::size_t end)>& f) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunkCount(items), 1), [&](const auto& r) {
+        for (std::size_t c = r.begin(); c != r.end(); ++c)
+            f(c, c * kRunningTotalsChunk, std::min(items, (c + 1) * kRunningTotalsChunk));
+    });
 }
 
 void runningTotals(std::span<std::uint64_t> starts, std::vector<std::uint64_t>& chunkSums) {
@@ -23,18 +31,11 @@ void runningTotals(std::span<std::uint64_t> starts, std::vector<std::uint64_t>& 
     }
     // Each chunk's sum, then the chunks' running totals (a few dozen, serial), then each chunk's
     // items from its start.
-    const std::size_t chunks = (n + kRunningTotalsChunk - 1) / kRunningTotalsChunk;
-    chunkSums.resize(chunks);
-    const auto itemsOf = [&](std::size_t c) {
-        return std::pair(c * kRunningTotalsChunk, std::min(n, (c + 1) * kRunningTotalsChunk));
-    };
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& r) {
-        for (std::size_t c = r.begin(); c != r.end(); ++c) {
-            const auto [first, end] = itemsOf(c);
-            std::uint64_t sum = 0;
-            for (std::size_t k = first; k != end; ++k) sum += starts[k + 1];
-            chunkSums[c] = sum;
-        }
+    chunkSums.resize(chunkCount(n));
+    forEachChunk(n, [&](std::size_t c, std::size_t first, std::size_t end) {
+        std::uint64_t sum = 0;
+        for (std::size_t k = first; k != end; ++k) sum += starts[k + 1];
+        chunkSums[c] = sum;
     });
     std::uint64_t total = 0;
     for (std::uint64_t& s : chunkSums) {
@@ -42,12 +43,9 @@ void runningTotals(std::span<std::uint64_t> starts, std::vector<std::uint64_t>& 
         s = total;
         total += chunk;
     }
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& r) {
-        for (std::size_t c = r.begin(); c != r.end(); ++c) {
-            const auto [first, end] = itemsOf(c);
-            std::uint64_t running = chunkSums[c];
-            for (std::size_t k = first; k != end; ++k) starts[k + 1] = running += starts[k + 1];
-        }
+    forEachChunk(n, [&](std::size_t c, std::size_t first, std::size_t end) {
+        std::uint64_t running = chunkSums[c];
+        for (std::size_t k = first; k != end; ++k) starts[k + 1] = running += starts[k + 1];
     });
 }
 

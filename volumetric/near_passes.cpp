@@ -371,18 +371,9 @@ void NearPasses::Impl::rankSprites(const CellRatePlan& plan, bool tracePixels) {
     } else {
         // Gathered and checked for depth order per chunk over the cores (on the H200's host the
         // serial gather, check and fill were 0.3 ms of the lists at 84,000 sprites, run 14b).
-        const std::size_t chunks = (n + kRunningTotalsChunk - 1) / kRunningTotalsChunk;
-        const auto itemsOf = [&](std::size_t c) {
-            return std::pair(c * kRunningTotalsChunk, std::min(n, (c + 1) * kRunningTotalsChunk));
-        };
-        const auto overChunks = [&](auto&& f) {
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks, 1), [&](const auto& r) {
-                for (std::size_t c = r.begin(); c != r.end(); ++c) f(c);
-            });
-        };
+        const std::size_t chunks = chunkCount(n);
         chunkSums.assign(chunks + 1, 0);
-        overChunks([&](std::size_t c) {
-            const auto [first, end] = itemsOf(c);
+        forEachChunk(n, [&](std::size_t c, std::size_t first, std::size_t end) {
             std::uint64_t count = 0;
             for (std::size_t k = first; k != end; ++k) count += isRanked(k);
             chunkSums[c + 1] = count;
@@ -390,8 +381,7 @@ void NearPasses::Impl::rankSprites(const CellRatePlan& plan, bool tracePixels) {
         for (std::size_t c = 0; c < chunks; ++c) chunkSums[c + 1] += chunkSums[c];
         byDepth.resize(std::size_t(chunkSums[chunks]));
         chunkSorted.assign(chunks, 1);
-        overChunks([&](std::size_t c) {
-            const auto [first, end] = itemsOf(c);
+        forEachChunk(n, [&](std::size_t c, std::size_t first, std::size_t end) {
             const std::size_t from = std::size_t(chunkSums[c]);
             std::size_t at = from;
             for (std::size_t k = first; k != end; ++k)
