@@ -74,17 +74,26 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         x.viewCos = std::clamp(glm::dot(w, s.towardViewer), -1.0, 1.0);
         return x;
     };
-    // At most 128 entities a task: a few thousand still spread over 16 cores.
+    // f(entity, sum) for each entity this frame plans (the work list, or all), in parallel, each
+    // task summing into its own copy of `identity`, joined by `join`. At most 128 entities a
+    // task: a few thousand still spread over 16 cores.
+    const auto reduceEach = [&](auto identity, auto&& f, auto&& join) {
+        const auto over = [&](auto&& entityAt, std::size_t count) {
+            return tbb::parallel_reduce(
+                tbb::blocked_range<std::size_t>(0, count, 128), identity,
+                [&](const auto& r, auto sum) {
+                    for (std::size_t k = r.begin(); k != r.end(); ++k) f(entityAt(k), sum);
+                    return sum;
+                },
+                join);
+        };
+        return incremental
+                   ? over([&](std::size_t k) { return std::size_t(work_[k]); }, work_.size())
+                   : over([](std::size_t i) { return i; }, n);
+    };
     const auto forEach = [&](auto&& f) {
-        if (incremental)
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, work_.size(), 128),
-                              [&](const auto& r) {
-                                  for (std::size_t k = r.begin(); k != r.end(); ++k) f(work_[k]);
-                              });
-        else
-            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 128), [&](const auto& r) {
-                for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
-            });
+        reduceEach(
+            0, [&](std::size_t i, int) { f(i); }, [](int, int) { return 0; });
     };
     auto step = std::chrono::steady_clock::now();
     // The cross-fades counted and the worst prediction found (one core counted 100,000 plans,
@@ -105,7 +114,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     // error_px: each entity's inputs, hysteresis step, tier, far view and prediction in one pass
     // over the entities (below). The error budget's views need every entity's tier first.
     SelectorStats ss;
-    FadingWorst wholeFrameCounts; // error_px, a whole frame: its pass's
+    FadingWorst counts; // the frame's fades and worst prediction (error_px: its pass's)
     if (budget) {
         inputs_.resize(n);
         forEach([&](std::size_t i) {
@@ -223,53 +232,37 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
             }
             pass.counts.add(plan[i].fade, predicted_[i]);
         };
-        const auto join = [](Pass a, const Pass& b) {
+        const Pass pass = reduceEach(Pass{}, planOne, [](Pass a, const Pass& b) {
             return Pass{TierSelector::sum(a.selector, b.selector),
                         FadingWorst::sum(a.counts, b.counts)};
-        };
-        const auto over = [&](auto&& entityAt, std::size_t count) {
-            return tbb::parallel_reduce(
-                tbb::blocked_range<std::size_t>(0, count, 128), Pass{},
-                [&](const auto& r, Pass pass) {
-                    for (std::size_t k = r.begin(); k != r.end(); ++k) planOne(entityAt(k), pass);
-                    return pass;
-                },
-                join);
-        };
-        const Pass pass = incremental ? over([&](std::size_t k) { return work_[k]; }, work_.size())
-                                      : over([](std::size_t i) { return i; }, n);
+        });
         ss = pass.selector;
-        wholeFrameCounts = pass.counts;
+        counts = pass.counts;
         st.ms.inputs = lapMs(step);
     }
     st.switchesToFar = ss.switchesToFar;
     st.switchesToNear = ss.switchesToNear;
     st.viewChanges = selector_.viewChangesThisFrame() + budgetViews_.viewChangesThisFrame();
-    // A whole error_px frame counted them in its pass; the others count here, the worst over
-    // every entity (those outside the work list keep last frame's predictions), the fades over
-    // the ones planned (every other entity is settled, so none of them fades).
-    const FadingWorst fw =
-        !budget && !incremental
-            ? wholeFrameCounts
-            : tbb::parallel_reduce(
-                  tbb::blocked_range<std::size_t>(0, n, 4096), FadingWorst{},
-                  [&](const auto& r, FadingWorst acc) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                          acc.add(incremental ? 0.0f : plan[i].fade, predicted_[i]);
-                      return acc;
-                  },
-                  FadingWorst::sum);
-    st.fading += !incremental ? fw.fading
-                              : tbb::parallel_reduce(
-                                    tbb::blocked_range<std::size_t>(0, work_.size(), 4096), 0,
-                                    [&](const auto& r, int fading) {
-                                        for (std::size_t k = r.begin(); k != r.end(); ++k)
-                                            fading += plan[work_[k]].fade > 0.0f;
-                                        return fading;
-                                    },
-                                    std::plus<int>());
-    st.worstVpx = fw.worst;
-    st.farOverOneVpx = fw.overOne;
+    // error_px counted them in its pass over the entities it planned: the fades are all of them
+    // (every other entity is settled, so none of them fades), and on a whole frame the worst
+    // too. The worst of a partial frame is over every entity (those outside the work list keep
+    // last frame's predictions); the error budget counts everything here.
+    if (budget || incremental) {
+        const FadingWorst all = tbb::parallel_reduce(
+            tbb::blocked_range<std::size_t>(0, n, 4096), FadingWorst{},
+            [&](const auto& r, FadingWorst acc) {
+                for (std::size_t i = r.begin(); i != r.end(); ++i)
+                    acc.add(budget ? plan[i].fade : 0.0f, predicted_[i]);
+                return acc;
+            },
+            FadingWorst::sum);
+        if (budget) counts.fading = all.fading;
+        counts.worst = all.worst;
+        counts.overOne = all.overOne;
+    }
+    st.fading += counts.fading;
+    st.worstVpx = counts.worst;
+    st.farOverOneVpx = counts.overOne;
     st.ms.predictions = lapMs(step);
     return plan_.share();
 }

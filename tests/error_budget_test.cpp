@@ -846,7 +846,7 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
         selector.update(inputs);
         views.beginFrame(n, c.maxBakesPerFrame);
         double worst = 0.0;
-        int overOne = 0;
+        int overOne = 0, fading = 0;
         for (std::size_t i = 0; i < n; ++i) {
             const SpriteSetup& s = sprites[i];
             EntityPlan p;
@@ -871,6 +871,7 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
                     overOne += vpx > 1.0;
                 }
             }
+            fading += p.fade > 0.0f;
             if (!(got[i] == p)) { // the first difference, told apart, ends the walk
                 EXPECT_EQ(got[i].tier, p.tier) << "frame " << f << " entity " << i;
                 EXPECT_EQ(got[i].fade, p.fade) << "frame " << f << " entity " << i;
@@ -881,6 +882,7 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
         }
         EXPECT_EQ(st.worstVpx, worst) << "frame " << f;
         EXPECT_EQ(st.farOverOneVpx, overOne) << "frame " << f;
+        EXPECT_EQ(st.fading, fading) << "frame " << f;
         EXPECT_EQ(st.viewChanges, views.viewChangesThisFrame()) << "frame " << f;
         changes += st.viewChanges;
         // The far tier bakes what the frame draws.
