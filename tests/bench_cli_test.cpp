@@ -828,6 +828,56 @@ TEST_F(BenchSmoke, TimeSplitHasARowPerModeWhoseNearTierIsItsNearTime) {
         }
 }
 
+TEST_F(BenchSmoke, InMotionSplitAddsUpToTheMeanFrameInMotionAndIsInTheReport) {
+    // The split of the frames timed in motion: each time figure's mean over them, so the frame's
+    // own column is in_motion_mean_ms, and the tiers and the steps before them (each frame's
+    // parts of that frame) add up to at most the frame.
+    const auto at = run().report.find("## Where the time goes in motion");
+    ASSERT_NE(at, std::string::npos);
+    const auto end = run().report.find("\n## ", at + 1);
+    const std::string section = run().report.substr(at, end == std::string::npos ? end : end - at);
+    const auto headings = tableCells(lineWith(section, "| scene | mode | "));
+    ASSERT_FALSE(headings.empty());
+    ASSERT_EQ(headings.back(), "total");
+    std::size_t timedModes = 0;
+    for (const std::string& scene : kScenes)
+        for (const std::string& mode : kModes) {
+            const json& m = modeRow(scene, mode);
+            const std::string line = lineStarting(section, "| " + scene + " | " + mode + " | ");
+            if (num(m, "in_motion_ms") <= 0) { // a scene without a camera path
+                EXPECT_TRUE(line.empty()) << line;
+                continue;
+            }
+            ++timedModes;
+            const double frame = num(m, "in_motion_mean_frame_ms");
+            EXPECT_NEAR(frame, num(m, "in_motion_mean_ms"), 1e-9 * frame) << scene << " " << mode;
+            double steps = 0.0;
+            for (const char* step : {"host_setup_ms", "host_select_ms", "near_ms", "far_ms"})
+                steps += num(m, ("in_motion_mean_" + std::string(step)).c_str());
+            EXPECT_GT(steps, 0.0) << scene << " " << mode;
+            EXPECT_LE(steps, frame * (1.0 + 1e-9)) << scene << " " << mode;
+            EXPECT_LE(num(m, "in_motion_mean_far_lookup_bake_ms") +
+                          num(m, "in_motion_mean_far_blit_ms"),
+                      num(m, "in_motion_mean_far_ms") * (1.0 + 1e-9) + 1e-9)
+                << scene << " " << mode;
+            // The near tier's mean in motion was a column before this split: the same figure.
+            EXPECT_NEAR(num(m, "in_motion_mean_near_ms"), num(m, "in_motion_near_ms"),
+                        1e-9 * (1.0 + num(m, "in_motion_near_ms")))
+                << scene << " " << mode;
+            ASSERT_FALSE(line.empty()) << scene << " " << mode;
+            const auto cells = tableCells(line);
+            ASSERT_EQ(cells.size(), headings.size()) << line;
+            EXPECT_EQ(cells.back(), fixed(num(m, "in_motion_mean_ms"), 2)) << line;
+        }
+    EXPECT_EQ(timedModes, kModes.size()); // the tank army's every mode
+    // All-near on Vulkan in motion: the device's frame, under the wait for it.
+    const json& nearVulkan = modeRow("tank_army", "near_vulkan");
+    EXPECT_GT(num(nearVulkan, "in_motion_mean_host_wait_ms"), 0.0);
+    EXPECT_NE(lineStarting(section.substr(section.find("| scene | mode | host_record_ms")),
+                           "| tank_army | near_vulkan | "),
+              "");
+}
+
 TEST_F(BenchSmoke, GoalTableMarksEveryGoalOrSaysWhyASettingIsMissing) {
     for (const char* goal : {"| speed-up vs the fastest exact path ≥ 10× |",
                              "| mean footprint mismatch ≤ 2 % (coverage only) |",

@@ -34,6 +34,14 @@ grep -q "^## Where the time goes, pass by pass" "$work/out/report.md" || fail "r
 # gpu_draw_ms in the profile rows of near_vulkan.
 grep -q "^profile,tank_army (80 entities),near_vulkan gpu_draw_ms,[0-9.]*[1-9][0-9.]*,ms" \
     "$work/out/results.csv" || fail "results.csv lacks a timed near draw in the profile"
+# The bench's frames in motion split the same way (means per frame), the hybrid's far tier among
+# its parts.
+grep -q "^## Where the time goes in motion, pass by pass" "$work/out/report.md" ||
+    fail "report.md has no in-motion profile"
+grep -q "^profile_in_motion,street,hybrid far_ms,[0-9.]*[1-9][0-9.]*,ms" "$work/out/results.csv" ||
+    fail "results.csv lacks the hybrid's far tier in motion"
+grep -q "^profile_in_motion,street,near_vulkan host_wait_ms,[0-9.]*[1-9][0-9.]*,ms" \
+    "$work/out/results.csv" || fail "results.csv lacks all-near Vulkan's wait in motion"
 # The far pass's coarse and fine tiles and the pass cut by sprite, and direct writes against
 # staged uploads, on the curve's largest army: each drew the same last frame, and each has its rows.
 grep -q "^## The far pass: 80 tanks" "$work/out/report.md" || fail "report.md has no far-tiles table"

@@ -391,6 +391,8 @@ if os.environ.get("GC_PROFILE") == "1":
              ("host_record_order_ms", "of which draw order"),
              ("host_record_residency_ms", "of which residency"), ("host_record_far_ms", "of which far pass"),
              ("host_wait_ms", "wait"), ("host_readback_ms", "readback"),
+             ("far_ms", "far tier"), ("far_lookup_bake_ms", "of which lookups and bakes"),
+             ("far_blit_ms", "of which blit or far pass"),
              ("gpu_frame_ms", "GPU frame"), ("gpu_upload_ms", "GPU upload"), ("gpu_cells_ms", "GPU cells"),
              ("gpu_splat_ms", "GPU splat"), ("gpu_draw_ms", "GPU trace or draw"), ("gpu_resolve_ms", "GPU resolve"),
              ("gpu_far_ms", "GPU far"), ("gpu_copy_ms", "GPU copies")]
@@ -421,6 +423,32 @@ if os.environ.get("GC_PROFILE") == "1":
                 rows.append(("profile", scene, f"{mode} {c}", v, "ms"))
     else:
         lines.append("No profile rows: see logs/bench.log and logs/tank_curve.log.")
+    # The same parts for the bench's frames in motion: each part's mean per frame over the frames
+    # timed in motion (the in_motion_mean_* columns), which add up to the mean frame in motion,
+    # bakes and view changes included; the warm frame above has every snapshot it needs.
+    motion_rows = []
+    if os.path.exists(bench_csv):
+        with open(bench_csv) as f:
+            for r in csv.DictReader(f):
+                if r.get("group") != "modes" or not float(r.get("in_motion_ms") or 0):
+                    continue
+                scene = os.path.basename(r["scene"]).removesuffix(".json")
+                motion_rows.append((scene, r["mode"], r.get("in_motion_ms", ""),
+                                    [r.get("in_motion_mean_" + c, "") for c, _ in parts]))
+    lines += ["", "## Where the time goes in motion, pass by pass (ms per frame, means)", "",
+              "The bench's frames timed in motion, each part's mean per frame (`in_motion_mean_*` in "
+              "`bench/results.csv`): they add up to the mean frame in motion (the *frame* column), "
+              "its bakes, view changes and selection included; *median* is the in-motion figure the "
+              "speed-ups use.", ""]
+    if motion_rows:
+        lines += ["| scene | mode | median | " + " | ".join(n for _, n in parts) + " |",
+                  "|---|---|---|" + "---|" * len(parts)]
+        for scene, mode, median, values in motion_rows:
+            lines.append(f"| {scene} | {mode} | {fmt(median)} | " + " | ".join(fmt(v) for v in values) + " |")
+            for (c, _), v in zip(parts, values):
+                rows.append(("profile_in_motion", scene, f"{mode} {c}", v, "ms"))
+    else:
+        lines.append("No in-motion rows: see logs/bench.log.")
     # Frames in flight: the median frame of frames 6-47 of `render --frames 0:47` (the first six
     # are the cold start, as in the bench), beside the bench's figure, which draws one frame at a
     # time. A frame's time is its host part plus the wait and readback of its finish.

@@ -129,6 +129,12 @@ std::vector<Column> columns() {
         {"missing_entities", field(&M::error, &PathError::missingEntities), In::ErrorObject},
     };
     c.insert(c.end(), bench.begin(), bench.end());
+    // Where an in-motion frame's time goes: each time figure's mean over the timed frames in
+    // motion (InMotion::split), by its own name after "in_motion_mean_".
+    for (std::size_t i = 0; i < kFrameFigureCount; ++i)
+        if (kFrameFigures[i].unit == FigureUnit::Ms)
+            c.push_back({std::string("in_motion_mean_") + kFrameFigures[i].name,
+                         [i](const M& m) { return json(m.motion.split.values[i]); }});
     return c;
 }
 

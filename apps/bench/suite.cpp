@@ -291,6 +291,10 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Confi
         m.motion.farEntities += mf.stats.farDrawn;
         m.motion.differingShare += mf.differingShare;
     }
+    std::vector<Figures> timedFigures;
+    for (std::size_t f = std::size_t(plan.motionWarmup); f < c.motion.size(); ++f)
+        timedFigures.push_back(figuresOf(c.motion[f].stats));
+    m.motion.split = acrossFrames(timedFigures);
     m.motion.bakes /= timed, m.motion.bakeMs /= timed, m.motion.differingShare /= timed;
     m.motion.nearMs /= timed, m.motion.nearEntities /= timed, m.motion.farEntities /= timed;
     if (c.isTruth) m.motion.psnrMin = 0;

@@ -159,6 +159,14 @@ struct InMotion {
     double psnrMin = 0, psnrMinShare = 0, psnrMinDifferingPixels = 0, psnrMinFarEntities = 0;
     double differingShare = 0;    ///< of the frame's pixels, mean (colour, depth or id)
     double predictedWorstVpx = 0; ///< "far_predicted_worst_vpx", worst frame
+    /// The same timed frames' figures combined as kFrameFigures says (times: per frame, on
+    /// average): where an in-motion frame's time goes, its time steps, host parts and device
+    /// passes (results.csv's in_motion_mean_*_ms columns, the report's in-motion split). Means,
+    /// not medians: bakes come every few frames (an animation step), and the medians of bursty
+    /// parts do not add up to the frame; the means add up to in_motion_mean_ms. The warm frame's
+    /// split (Measurement::figures) is a frame whose snapshots are all there: under an error
+    /// budget its bakes, view changes and selection are not a moving frame's.
+    Figures split;
 };
 
 /// Cold: the warm-up pass, the first use of every snapshot.

@@ -59,27 +59,38 @@ json timeSplitHeadings() {
     return headings;
 }
 
+/// Which figures of a measurement a split reads: the warm frame's (Measurement::figures), or the
+/// means of its frames in motion (InMotion::split; none where it was not timed in motion).
+using SplitOf = const Figures* (*)(const Measurement&);
+const Figures* warmSplit(const Measurement& m) {
+    return &m.figures;
+}
+const Figures* motionSplit(const Measurement& m) {
+    return m.motion.ms > 0 ? &m.motion.split : nullptr;
+}
+
 /// Every mode's frame per scene, split by the time columns; "other" is the rest of frame_ms. Each
-/// figure is its own median over the passes, so the columns can add up to a little more than the
-/// total: "other" is then 0.
-json stepsContext(const SuiteResults& r) {
+/// figure of the warm frame is its own median over the passes, so the columns can add up to a
+/// little more than the total: "other" is then 0. In motion they are means, which add up.
+json stepsContext(const SuiteResults& r, SplitOf splitOf) {
     const std::vector<TimeColumn> cols = timeColumns();
     json rows = json::array();
     for (const std::string& scene : sceneNames(r))
         for (const BenchModeInfo& mode : kBenchModes) {
             const Measurement* m = find(r, kModesGroup, scene, mode.mode);
-            if (!m) continue;
+            const Figures* f = m ? splitOf(*m) : nullptr;
+            if (!f) continue;
             json steps = json::array();
-            double other = m->frameMs();
+            double other = (*f)["frame_ms"];
             for (const TimeColumn& c : cols) {
-                steps.push_back(num(m->figures.values[c.figure]));
-                if (!c.part) other -= m->figures.values[c.figure];
+                steps.push_back(num(f->values[c.figure]));
+                if (!c.part) other -= f->values[c.figure];
             }
             rows.push_back({{"scene", scene},
                             {"mode", mode.name},
                             {"steps", steps},
                             {"other", num(std::max(0.0, other))},
-                            {"total", num(m->frameMs())}});
+                            {"total", num((*f)["frame_ms"])}});
         }
     return rows;
 }
@@ -101,16 +112,16 @@ std::vector<std::size_t> deviceColumns() {
 }
 
 /// A row per mode of each scene that drew a tier on Vulkan, split by deviceColumns().
-json deviceContext(const SuiteResults& r) {
+json deviceContext(const SuiteResults& r, SplitOf splitOf) {
     const std::vector<std::size_t> cols = deviceColumns();
     json rows = json::array();
     for (const std::string& scene : sceneNames(r))
         for (const BenchModeInfo& mode : kBenchModes) {
             const Measurement* m = find(r, kModesGroup, scene, mode.mode);
-            if (!m || (m->figures["near_on_vulkan"] <= 0 && m->figures["far_on_vulkan"] <= 0))
-                continue;
+            const Figures* f = m ? splitOf(*m) : nullptr;
+            if (!f || ((*f)["near_on_vulkan"] <= 0 && (*f)["far_on_vulkan"] <= 0)) continue;
             json steps = json::array();
-            for (const std::size_t c : cols) steps.push_back(num(m->figures.values[c]));
+            for (const std::size_t c : cols) steps.push_back(num(f->values[c]));
             rows.push_back({{"scene", scene}, {"mode", mode.name}, {"steps", steps}});
         }
     return rows;
@@ -122,9 +133,11 @@ json timeSplitContext(const SuiteResults& r) {
     json deviceSteps = json::array();
     for (const std::size_t c : deviceColumns()) deviceSteps.push_back(kFrameFigures[c].name);
     return {{"time_steps", timeSplitHeadings()},
-            {"time_split", stepsContext(r)},
+            {"time_split", stepsContext(r, warmSplit)},
             {"device_steps", deviceSteps},
-            {"device_split", deviceContext(r)}};
+            {"device_split", deviceContext(r, warmSplit)},
+            {"motion_time_split", stepsContext(r, motionSplit)},
+            {"motion_device_split", deviceContext(r, motionSplit)}};
 }
 
 } // namespace voxtier::bench

@@ -8,8 +8,10 @@
 
 namespace voxtier::bench {
 
-/// The template's context of the two tables: "time_steps" and "time_split" (every mode of every
-/// scene), "device_steps" and "device_split" (the modes that drew a tier on Vulkan).
+/// The template's context of the tables: "time_steps" and "time_split" (every mode of every
+/// scene), "device_steps" and "device_split" (the modes that drew a tier on Vulkan), each of the
+/// warm frame; "motion_time_split" and "motion_device_split" the same columns for the frames in
+/// motion (means; the modes timed in motion).
 nlohmann::json timeSplitContext(const SuiteResults& results);
 
 } // namespace voxtier::bench
