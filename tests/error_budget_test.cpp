@@ -761,6 +761,9 @@ TEST(ErrorBudget, AViewSwitchCrossFadesBetweenTheTwoSnapshots) {
 /// What walkPlannerAgainstSerialWalk met.
 struct WalkCounts {
     int keptFar = 0, viewFades = 0, waiting = 0, changes = 0;
+    /// Entities a frame shows in a cross-fade (of a tier switch or a view switch), summed over
+    /// the frames: what the plans' fade counts (PlanStats::fading) were checked against.
+    int fading = 0;
     long plannerQuestions = 0;  ///< the planner's questions to the "cache"
     long reportedQuestions = 0; ///< what its plans reported of them (PlanStats::cacheQuestions)
 };
@@ -791,7 +794,7 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
     FramePlanner planner(c);
     TierSelector selector(c);
     ErrorBudgetViews views;
-    int keptFar = 0, viewFades = 0, waiting = 0, changes = 0;
+    int keptFar = 0, viewFades = 0, waiting = 0, changes = 0, fadingFrames = 0;
     long reportedQuestions = 0;
     for (int f = 0; f < frames; ++f) {
         if (evict && f > 0) { // evictions: every 7th snapshot, a different share each frame
@@ -815,6 +818,11 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
                 (0.05 + 0.08 * double(i % 16)) * (1.0 + 0.4 * std::sin(1.1 * f + i));
             SpriteSetup& s = sprites[i];
             s = syntheticSprite({std::cos(a), 0.5 * std::sin(double(i % 50)), std::sin(a)}, size);
+            if (i % 5 == 0) { // a larger model: its best view's displacement crosses the tier
+                // thresholds as it turns (switches between the tiers, each with a cross-fade)
+                s.lattice.dims = {160, 160, 80};
+                s.radiusPx = size * glm::length(glm::dvec3(s.lattice.dims) * 0.5);
+            }
             s.model = int(i % 4);
             s.frame = int((std::size_t(f / 6) + i) % 2);
             s.distance = 10.0 + double(i);
@@ -883,6 +891,7 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
         EXPECT_EQ(st.worstVpx, worst) << "frame " << f;
         EXPECT_EQ(st.farOverOneVpx, overOne) << "frame " << f;
         EXPECT_EQ(st.fading, fading) << "frame " << f;
+        fadingFrames += fading;
         EXPECT_EQ(st.viewChanges, views.viewChangesThisFrame()) << "frame " << f;
         changes += st.viewChanges;
         // The far tier bakes what the frame draws.
@@ -891,7 +900,8 @@ WalkCounts walkPlannerAgainstSerialWalk(std::size_t n, int frames, bool evict = 
                 baked.insert(keyOf(sprites[i], *got[i].view)).second)
                 log.push_back({sprites[i].model, sprites[i].frame, *got[i].view});
     }
-    return {keptFar, viewFades, waiting, changes, plannerQuestions.load(), reportedQuestions};
+    return {keptFar,          viewFades, waiting, changes, fadingFrames, plannerQuestions.load(),
+            reportedQuestions};
 }
 
 TEST(ErrorBudget, ThePlannersBudgetFramesEqualOneSerialWalkOfTheSelectorAndViews) {
@@ -903,9 +913,12 @@ TEST(ErrorBudget, ThePlannersBudgetFramesEqualOneSerialWalkOfTheSelectorAndViews
     EXPECT_GT(w.keptFar, 1000);
     EXPECT_GT(w.waiting, 10);
     EXPECT_GT(w.changes, 10);
+    // Tier switches with their cross-fades (the larger models), counted by the plans as the walk
+    // counts them: a plan that left them out of PlanStats::fading failed nothing before.
+    EXPECT_GT(w.fading, 100);
     std::printf("%d far entities kept a cached view, %d view cross-fades, %d waited for a bake, %d "
-                "view changes\n",
-                w.keptFar, w.viewFades, w.waiting, w.changes);
+                "view changes, %d fading\n",
+                w.keptFar, w.viewFades, w.waiting, w.changes, w.fading);
 }
 
 // The cache's answers kept from frame to frame (what the renderer does, told by the snapshot cache
@@ -919,6 +932,7 @@ TEST(ErrorBudget, AnswersKeptAcrossFramesGiveTheSerialWalksPlans) {
     EXPECT_GT(kept.keptFar, 1000);
     EXPECT_GT(kept.waiting, 10);
     EXPECT_GT(kept.changes, 10);
+    EXPECT_GT(kept.fading, 100);
     EXPECT_LT(kept.plannerQuestions * 3, fresh.plannerQuestions * 2); // 0.52 when written
     // Each plan reports the questions that reached the cache (the CSV's cache_questions).
     EXPECT_EQ(kept.reportedQuestions, kept.plannerQuestions);
@@ -936,6 +950,8 @@ TEST(ErrorBudget, ChoicesPastTheSpentBakeBoundOnEveryCoreEqualTheSerialWalk) {
     arena.execute([&] { w = walkPlannerAgainstSerialWalk(20000, 6); });
     EXPECT_GT(w.waiting, 2000);
     EXPECT_GT(w.changes, 10);
+    EXPECT_GT(w.fading, 100); // counted on every core as the walk counts them
+    std::printf("%d waited for a bake, %d fading\n", w.waiting, w.fading);
 }
 
 // The plan's steps are timed apart (PlanStats::ms, the CSV's host_select_* columns): under
