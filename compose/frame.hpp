@@ -42,6 +42,7 @@ struct VulkanFrameInFlight;
 class SnapshotCache;
 struct FarRequest;
 struct FarBatch;
+struct FarDraws;
 
 enum class RenderMode {
     Reference, ///< every entity through the CPU reference tracer (the executable spec)
@@ -336,6 +337,12 @@ class FrameRenderer {
     Image drawOnVulkan(const CameraFrame& camera, const std::vector<const SpriteSetup*>& sprites,
                        const FarBatch* far, bool colourOnly, FrameStats& stats,
                        Pending* pending = nullptr, const SpriteHistory* history = nullptr);
+    /// drawOnVulkan's first half: the frame recorded and submitted, not waited for. `readBack`:
+    /// whether it is read back (a CPU tier composes on it, or FrameOptions::readBack).
+    VulkanFrameInFlight submitOnVulkan(const CameraFrame& camera,
+                                       const std::vector<const SpriteSetup*>& sprites,
+                                       const FarBatch* far, bool colourOnly, bool readBack,
+                                       FrameStats& stats, const SpriteHistory* history);
     /// finish() of a Vulkan frame: read back, its figures into `stats`.
     Image finishOnVulkan(VulkanFrameInFlight&& frame, bool hasFar, FrameStats& stats);
     /// The near sprites by the CPU reference.
@@ -350,6 +357,8 @@ class FrameRenderer {
     NearRenderer& nearRenderer();
     FarPass& farPass();
     void drawFar(const std::vector<FarRequest>& requests, Image& image, FrameStats& stats);
+    /// drawFar's blit of snapshots fetched ahead (fetchFarSnapshots, while the device drew).
+    void blitFar(const FarDraws& draws, Image& image, FrameStats& stats);
     Image tierOverlay(const Image& image, std::span<const EntityPlan> plan) const;
 
     Scene& scene_;

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <tuple>
 #include <unordered_map>
 
@@ -103,9 +104,77 @@ class SnapshotNeeds {
 
 } // namespace
 
+namespace {
+
+/// The statistics of a far frame's blit and the sprites it drew, added to `stats`.
+void addBlit(FarFrameStats& stats, const FarBlitStats& blit) {
+    stats.blit.sprites += blit.sprites;
+    stats.blit.pixelsTested += blit.pixelsTested;
+    stats.blit.pixelsWritten += blit.pixelsWritten;
+    stats.blit.partsCulled += blit.partsCulled;
+    stats.blit.milliseconds += blit.milliseconds;
+}
+
+} // namespace
+
+FarDraws fetchFarSnapshots(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                           std::span<const FarRequest> requests, SnapshotCache& cache,
+                           ViewSet set) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const SnapshotCacheCounters before = cache.counters();
+    std::vector<const SpriteSetup*> sprites(requests.size());
+    for (std::size_t r = 0; r < requests.size(); ++r) sprites[r] = requests[r].sprite;
+    // drawFarSprites' order and lookups without culling: one run of every visible sprite.
+    const std::vector<std::uint32_t> order = drawOrder(sprites, false);
+    SnapshotNeeds needs(cache.snapshotScale());
+    std::vector<std::size_t> slots;
+    slots.reserve(order.size());
+    for (const std::uint32_t r : order) slots.push_back(needs.slotOf(requests[r], set));
+    needs.fetchNew(models, cache);
+    FarDraws draws;
+    draws.sprites.reserve(order.size());
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        const SpriteSetup* sp = sprites[order[k]];
+        draws.sprites.push_back(
+            {sp, needs.snapshot(slots[k]).get(), &models.at(std::size_t(sp->model))->palette()});
+    }
+    draws.held.reserve(needs.size());
+    for (std::size_t i = 0; i < needs.size(); ++i) draws.held.push_back(needs.snapshot(i));
+    draws.stats.sprites = draws.sprites.size();
+    draws.stats.snapshotsUsed = needs.size();
+    addCacheWork(draws.stats, before, cache.counters());
+    draws.stats.ensureMs = msSince(t0);
+    return draws;
+}
+
+void blitFarDraws(const FarDraws& draws, Image& target, FarFrameStats* stats,
+                  const FarBlitOptions& blitOptions) {
+    if (blitOptions.occlusionCull)
+        throw std::invalid_argument("blitFarDraws: occlusion culling draws in runs, a run at a "
+                                    "time (drawFarSprites)");
+    FarBlitStats blit;
+    blitFar(draws.sprites, target, &blit, blitOptions);
+    if (!stats) return;
+    const FarFrameStats& f = draws.stats;
+    stats->sprites += f.sprites;
+    stats->snapshotsUsed += f.snapshotsUsed;
+    stats->bakes += f.bakes;
+    stats->scenesBuilt += f.scenesBuilt;
+    stats->refreshes += f.refreshes;
+    stats->incrementalRefreshes += f.incrementalRefreshes;
+    stats->cellsRetraced += f.cellsRetraced;
+    stats->raysTraced += f.raysTraced;
+    stats->ensureMs += f.ensureMs;
+    addBlit(*stats, blit);
+}
+
 void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
                     Image& target, FarFrameStats* stats, const FarBlitOptions& blitOptions) {
+    if (!blitOptions.occlusionCull) {
+        blitFarDraws(fetchFarSnapshots(models, requests, cache, set), target, stats, blitOptions);
+        return;
+    }
     const SnapshotCacheCounters before = cache.counters();
     std::vector<const SpriteSetup*> sprites(requests.size());
     for (std::size_t r = 0; r < requests.size(); ++r) sprites[r] = requests[r].sprite;
@@ -145,11 +214,7 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
         stats->snapshotsUsed += needs.size();
         addCacheWork(*stats, before, cache.counters());
         stats->ensureMs += ensureMs;
-        stats->blit.sprites += blit.sprites;
-        stats->blit.pixelsTested += blit.pixelsTested;
-        stats->blit.pixelsWritten += blit.pixelsWritten;
-        stats->blit.partsCulled += blit.partsCulled;
-        stats->blit.milliseconds += blit.milliseconds;
+        addBlit(*stats, blit);
     }
 }
 

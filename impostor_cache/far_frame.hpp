@@ -30,6 +30,25 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
                     std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set,
                     Image& target, FarFrameStats* stats = nullptr, const FarBlitOptions& blit = {});
 
+/// drawFarSprites in its two halves, for a frame without occlusion culling (which interleaves
+/// them, a run at a time): the far sprites with their snapshots looked up or baked (in parallel
+/// over distinct snapshots) and held, not yet drawn. A frame whose near tier is on the device
+/// makes them while the device draws, and blits them once the near image, whose depth and ids
+/// the blit composes on, is read back (compose's FrameRenderer).
+struct FarDraws {
+    std::vector<FarSprite> sprites;                    ///< visible ones, drawFarSprites' order
+    std::vector<std::shared_ptr<const Snapshot>> held; ///< the distinct snapshots they show
+    FarFrameStats stats;                               ///< the lookups' and bakes' (blit: 0)
+};
+/// The first half: what drawFarSprites looks up and bakes without culling, the same snapshots.
+FarDraws fetchFarSnapshots(const std::vector<std::shared_ptr<VoxelModel>>& models,
+                           std::span<const FarRequest> requests, SnapshotCache& cache, ViewSet set);
+/// The second: blits `draws` into `target` (the same image as drawFarSprites of the same
+/// requests without culling), adding the lookups' and the blit's figures to `stats`.
+/// `blit.occlusionCull` must be off.
+void blitFarDraws(const FarDraws& draws, Image& target, FarFrameStats* stats = nullptr,
+                  const FarBlitOptions& blit = {});
+
 /// The far half of a frame for a GPU far pass (impostor_cache/far_batch.hpp): the same snapshots as
 /// drawFarSprites (looked up or baked, in parallel over distinct snapshots) and, per visible
 /// sprite, its snapshot cell map; nothing drawn (stats->blit stays 0). No occlusion culling.

@@ -361,6 +361,16 @@ TEST(HybridFrame, TierSharesOfThousandsOfEntitiesEqualTheSharesListedOneByOne) {
                                << d.firstY;
 }
 
+// Occlusion culling looks up and blits a run of sprites at a time against what the runs before
+// drew: snapshots fetched ahead of the near image cannot be culled, and say so.
+TEST(HybridFrame, FarDrawsFetchedAheadRefuseOcclusionCulling) {
+    Image target(8, 8, 0u);
+    FarBlitOptions culling;
+    culling.occlusionCull = true;
+    EXPECT_THROW(blitFarDraws(FarDraws{}, target, nullptr, culling), std::invalid_argument);
+    EXPECT_NO_THROW(blitFarDraws(FarDraws{}, target, nullptr, FarBlitOptions{}));
+}
+
 // The hybrid frame's far half comes from the cache: a second identical frame bakes nothing.
 TEST(HybridFrame, SecondFrameReusesSnapshots) {
     Scene s = corridor(10, 3.0, {key(0, {0, 1, 8}, {0, 0, -30})}, band(6, 9));

@@ -249,6 +249,48 @@ TEST_F(VulkanFar, NearSpritesOnTheCpuReferenceComposeWithTheVulkanFarImage) {
     }
 }
 
+// With the near tier on Vulkan and the far tier on the CPU, the far snapshots are looked up and
+// baked while the device draws, then blitted on the image read back (compose/frame.cpp): the same
+// image and figures as the near tier drawn by the CPU reference first (the far tier after it),
+// and as occlusion culling's runs, which look up and blit a run at a time on the near image.
+TEST_F(VulkanFar, SnapshotsBakedWhileTheDeviceDrawsBlitTheImageOfOneAfterTheOther) {
+    for (const char* file :
+         {"scenes/default.json", "scenes/golden/arrows.json", "scenes/golden/far_origin.json"}) {
+        Scene a = loadScene(sourcePath(file)), b = a, c = a;
+        FrameRenderer ahead(a, options(FarBackend::Cpu)),
+            after(b, options(FarBackend::Cpu, NearBackend::Reference));
+        FrameOptions runs = options(FarBackend::Cpu);
+        runs.occlusionCull = true;
+        FrameRenderer inRuns(c, runs);
+        const double fps = a.path ? a.path->fps : 30.0;
+        int bakedAhead = 0, frames = 0;
+        for (int f = 0; f < 4; ++f) {
+            const double t = f * 4 / fps;
+            const FrameResult ha = ahead.render(t, RenderMode::Hybrid, f);
+            const FrameResult hb = after.render(t, RenderMode::Hybrid, f);
+            const FrameResult hc = inRuns.render(t, RenderMode::Hybrid, f);
+            EXPECT_EQ(ha.plan, hb.plan) << file << " frame " << f;
+            EXPECT_EQ(describeDifference(ha.image, hb.image, "baked ahead", "one after the other"),
+                      "")
+                << file << " frame " << f;
+            EXPECT_EQ(describeDifference(ha.image, hc.image, "baked ahead", "culled in runs"), "")
+                << file << " frame " << f;
+            if (ha.stats.farDrawn == 0 || ha.stats.nearDrawn == 0) continue;
+            ++frames;
+            EXPECT_EQ(ha.stats.nearOnVulkan, 1) << file << " frame " << f;
+            // The same far work, counted as before: sprites, snapshots, bakes.
+            EXPECT_EQ(ha.stats.far.sprites, hb.stats.far.sprites) << file << " frame " << f;
+            EXPECT_EQ(ha.stats.far.snapshotsUsed, hb.stats.far.snapshotsUsed) << file;
+            EXPECT_EQ(ha.stats.far.bakes, hb.stats.far.bakes) << file << " frame " << f;
+            EXPECT_EQ(ha.stats.far.blit.pixelsTested, hb.stats.far.blit.pixelsTested) << file;
+            EXPECT_GE(ha.stats.farMs, ha.stats.far.ensureMs + ha.stats.far.blit.milliseconds);
+            bakedAhead += int(ha.stats.far.bakes);
+        }
+        EXPECT_GT(frames, 0) << file << ": no frame drew both tiers";
+        EXPECT_GT(bakedAhead, 0) << file << ": nothing was baked while the device drew";
+    }
+}
+
 TEST_F(VulkanFar, AColourOnlyFrameHasTheColourOfTheFullFrame) {
     // One plane read back instead of three: the same colour, with the ground plane and with a
     // transparent background filled in where no sprite drew (found by alpha, not by id).
