@@ -114,6 +114,7 @@ struct FrameFigureTable {
         {"near_kernel_fragments",     [](const S& s) { return double(s.vulkanNear.kernelFragments); }, Count, Mean},
         {"voxel_steps",               [](const S& s) { return double(s.reference.voxelFetches + s.vulkanNear.voxelFetches); },     Count, Mean},
         {"near_bytes_uploaded",       [](const S& s) { return double(s.vulkanNear.bytesUploaded); }, Bytes, Mean},
+        {"far_bytes_uploaded",        [](const S& s) { return double(s.vulkanFar.bytesUploaded); }, Bytes, Mean},
         {"blit_pixels",               [](const S& s) { return double(s.far.blit.pixelsTested); },   Count, Mean},
         {"blit_pixels_written",       [](const S& s) { return double(s.far.blit.pixelsWritten); },  Count, Mean},
         {"far_bakes",                 [](const S& s) { return double(s.far.bakes); },               Count, Mean},

@@ -2,7 +2,8 @@
 // Device residency of the far tier's snapshots (CONTRACT.md §6, the far pass on Vulkan): each
 // snapshot a GPU far pass draws is uploaded once, when first drawn, into one device storage
 // buffer (two bytes a cell, two cells a word), at a word offset found first-fit among the free
-// ranges; the buffer doubles when nothing fits. A resident snapshot is held by its owner
+// ranges; the buffer doubles when nothing fits, up to the device's storage buffer range, where
+// the snapshots the frame does not draw leave first. A resident snapshot is held by its owner
 // (FarSnapshotCells::owner), and freed at the next update once nobody else holds it (the
 // snapshot cache evicted it under its byte budget, or an edit's refresh replaced it): the device
 // holds what the cache holds, plus what frames still hold. A refreshed snapshot (the same

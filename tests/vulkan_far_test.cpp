@@ -717,5 +717,52 @@ TEST_F(VulkanFar, ResidencyFreesWhatNobodyHoldsAndKeepsWhatSomebodyDoes) {
     }
 }
 
+// An animated crowd draws each animation frame's snapshots in turn while the cache holds them
+// all: when nothing fits, the buffer grows (below the device's storage buffer range), and the
+// snapshots held but not drawn this frame stay resident, so that a frame coming back to them
+// uploads nothing. Each "animation frame" here is 64 snapshots of 64 x 64 cells (8 KiB each),
+// four of them 2 MiB, eight times the buffer's first 256 KiB.
+TEST_F(VulkanFar, ResidencyGrowsRatherThanDropWhatTheCacheStillHolds) {
+    FarResidency residency(nearRenderer().device());
+    const glm::ivec4 range{0, 63, 0, 63};
+    std::vector<std::vector<FarSnapshotCells>> steps(4); // held, as a cache holds them
+    std::uint64_t lineage = 100;
+    for (auto& step : steps)
+        for (int k = 0; k < 64; ++k) {
+            const auto bytes =
+                std::make_shared<std::vector<std::uint8_t>>(64 * 64 * 2, std::uint8_t(k));
+            step.push_back(FarSnapshotCells{bytes, ++lineage, bytes->data(), range});
+        }
+    const auto draw = [&](const std::vector<FarSnapshotCells>& snapshots) {
+        FarBatch batch;
+        batch.snapshots = snapshots;
+        FarResidencyStats st;
+        const std::vector<std::uint32_t> offsets = residency.update(batch, &st);
+        // Every snapshot of the batch in its own range.
+        std::set<std::uint32_t> distinct(offsets.begin(), offsets.end());
+        EXPECT_EQ(distinct.size(), offsets.size());
+        return st;
+    };
+    for (const auto& step : steps) {
+        const FarResidencyStats st = draw(step);
+        EXPECT_EQ(st.snapshotsUploaded, 64u);
+        EXPECT_EQ(st.snapshotsFreed, 0u);
+    }
+    EXPECT_EQ(residency.residentSnapshots(), 4u * 64u);
+    EXPECT_GT(residency.totals().growths, 0u);
+    // The second cycle: every snapshot resident, nothing uploaded or freed.
+    for (const auto& step : steps) {
+        const FarResidencyStats st = draw(step);
+        EXPECT_EQ(st.snapshotsUploaded, 0u);
+        EXPECT_EQ(st.bytesUploaded, 0u);
+        EXPECT_EQ(st.snapshotsFreed, 0u);
+    }
+    // Let go of by the cache: freed at the next update.
+    steps.resize(1);
+    const FarResidencyStats st = draw(steps[0]);
+    EXPECT_EQ(st.snapshotsFreed, 3u * 64u);
+    EXPECT_EQ(residency.residentSnapshots(), 64u);
+}
+
 } // namespace
 } // namespace voxtier
