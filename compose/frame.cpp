@@ -581,26 +581,35 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
     st.farDrawn = int(shares.far.size());
     const std::vector<const SpriteSetup*>& nearSprites = shares.nearSprites;
     if (!shares.far.empty() && farBackend() == FarBackend::Vulkan) {
-        // 4 before 3 on Vulkan: make sure every needed snapshot exists (lazy bakes, parallel
-        // over distinct snapshots), then one Vulkan frame draws the near sprites and, after
-        // them, the far ones into the same planes with the min-z/id rule. Near sprites drawn by
-        // the CPU reference are composed with the Vulkan far image by the same rule.
-        const auto t0 = Clock::now();
-        FarFrameStats fs;
+        // One Vulkan frame draws the near sprites and, after them, the far ones into the same
+        // planes with the min-z/id rule; every needed snapshot is made sure of first (lazy
+        // bakes, parallel over distinct snapshots). With the near sprites on Vulkan too, the near
+        // passes are submitted before that, and the host bakes while the device draws them
+        // (GpuFrame::submitSoFar); the far pass is recorded and submitted after. Near sprites
+        // drawn by the CPU reference are composed with the Vulkan far image by the same rule.
         FarBatch& batch = shares.farBatch;
-        prepareFarBatch(scene_.models, shares.farRequests, *cache_,
-                        viewSetFromSize(scene_.selector.viewSetSize), batch, shares.farScratch,
-                        &fs);
         // Nothing holds this frame's snapshots past it but the cache and the device's copies
         // (FarSnapshotCells::owner: a device copy goes once nobody else holds its snapshot).
         struct LetGo {
             FarBatch& batch;
             ~LetGo() { batch.snapshots.clear(); }
         } letGo{batch};
-        st.far = fs;
-        st.farMs += msSince(t0);
+        const auto prepare = [&]() -> const FarBatch* {
+            const auto t0 = Clock::now();
+            FarFrameStats fs;
+            prepareFarBatch(scene_.models, shares.farRequests, *cache_,
+                            viewSetFromSize(scene_.selector.viewSetSize), batch, shares.farScratch,
+                            &fs);
+            st.far = fs;
+            st.farMs += msSince(t0);
+            return &batch;
+        };
         st.farOnVulkan = 1;
-        if (nearSprites.empty() || resolved(nearBackend) == NearBackend::Vulkan)
+        if (!nearSprites.empty() && resolved(nearBackend) == NearBackend::Vulkan)
+            return drawOnVulkan(cam, nearSprites, nullptr, colourOnly(), st, pending, history,
+                                prepare);
+        prepare();
+        if (nearSprites.empty())
             return drawOnVulkan(cam, nearSprites, &batch, colourOnly(), st, pending, history);
         Image image = drawNearCpu(cam, nearSprites, st);
         const Image far = drawOnVulkan(cam, {}, &batch, false, st);
@@ -642,29 +651,31 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
 Image FrameRenderer::drawOnVulkan(const CameraFrame& cam,
                                   const std::vector<const SpriteSetup*>& sprites,
                                   const FarBatch* far, bool colourOnly, FrameStats& st,
-                                  Pending* pending, const SpriteHistory* history) {
+                                  Pending* pending, const SpriteHistory* history,
+                                  const std::function<const FarBatch*()>& farAfterNear) {
     // Only a frame drawn wholly on Vulkan may skip its readback: a CPU tier composes on it.
-    VulkanFrameInFlight inFlight =
-        submitOnVulkan(cam, sprites, far, colourOnly, options_.readBack || !pending, st, history);
+    VulkanFrameInFlight inFlight = submitOnVulkan(
+        cam, sprites, far, colourOnly, options_.readBack || !pending, st, history, farAfterNear);
+    const bool hasFar = far != nullptr || bool(farAfterNear);
     if (pending) {
         pending->gpu = std::move(inFlight);
-        pending->gpuHasFar = far != nullptr;
+        pending->gpuHasFar = hasFar;
         return Image();
     }
-    return finishOnVulkan(std::move(inFlight), far != nullptr, st);
+    return finishOnVulkan(std::move(inFlight), hasFar, st);
 }
 
-VulkanFrameInFlight FrameRenderer::submitOnVulkan(const CameraFrame& cam,
-                                                  const std::vector<const SpriteSetup*>& sprites,
-                                                  const FarBatch* far, bool colourOnly,
-                                                  bool readBack, FrameStats& st,
-                                                  const SpriteHistory* history) {
+VulkanFrameInFlight FrameRenderer::submitOnVulkan(
+    const CameraFrame& cam, const std::vector<const SpriteSetup*>& sprites, const FarBatch* far,
+    bool colourOnly, bool readBack, FrameStats& st, const SpriteHistory* history,
+    const std::function<const FarBatch*()>& farAfterNear) {
     VulkanFrameRequest request;
     request.camera = &cam;
     request.models = &scene_.models;
     request.nearSprites = sprites;
     request.history = history;
     request.far = far;
+    request.farAfterNear = farAfterNear;
     request.clear = scene_.render.background;
     request.near.countSteps = options_.nearCountSteps;
     request.near.rate = options_.nearRate;
@@ -681,7 +692,7 @@ VulkanFrameInFlight FrameRenderer::submitOnVulkan(const CameraFrame& cam,
         if (scene_.ground && channel(bg, 3) == 255) request.clear = bg & 0x00FFFFFFu;
     }
     st.nearOnVulkan = st.nearOnVulkan || !sprites.empty();
-    return submitVulkanFrame(nearRenderer(), far ? &farPass() : nullptr, request);
+    return submitVulkanFrame(nearRenderer(), far || farAfterNear ? &farPass() : nullptr, request);
 }
 
 Image FrameRenderer::finishOnVulkan(VulkanFrameInFlight&& inFlight, bool hasFar, FrameStats& st) {

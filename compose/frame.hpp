@@ -26,6 +26,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <initializer_list>
 #include <memory>
 #include <optional>
@@ -334,15 +335,19 @@ class FrameRenderer {
     NearBackend resolved(NearBackend b) { return b == NearBackend::Auto ? nearBackend() : b; }
     /// One Vulkan frame (compose/vulkan_frame.hpp): `sprites` by the near passes, then `far`
     /// (may be null) by the far pass; colour alone read back when `colourOnly`.
+    /// `farAfterNear` in place of `far`: the far sprites found while the device draws the near
+    /// ones (VulkanFrameRequest::farAfterNear).
     Image drawOnVulkan(const CameraFrame& camera, const std::vector<const SpriteSetup*>& sprites,
                        const FarBatch* far, bool colourOnly, FrameStats& stats,
-                       Pending* pending = nullptr, const SpriteHistory* history = nullptr);
+                       Pending* pending = nullptr, const SpriteHistory* history = nullptr,
+                       const std::function<const FarBatch*()>& farAfterNear = {});
     /// drawOnVulkan's first half: the frame recorded and submitted, not waited for. `readBack`:
     /// whether it is read back (a CPU tier composes on it, or FrameOptions::readBack).
     VulkanFrameInFlight submitOnVulkan(const CameraFrame& camera,
                                        const std::vector<const SpriteSetup*>& sprites,
                                        const FarBatch* far, bool colourOnly, bool readBack,
-                                       FrameStats& stats, const SpriteHistory* history);
+                                       FrameStats& stats, const SpriteHistory* history,
+                                       const std::function<const FarBatch*()>& farAfterNear = {});
     /// finish() of a Vulkan frame: read back, its figures into `stats`.
     Image finishOnVulkan(VulkanFrameInFlight&& frame, bool hasFar, FrameStats& stats);
     /// The near sprites by the CPU reference.

@@ -9,8 +9,10 @@ namespace voxtier {
 
 VulkanFrameInFlight submitVulkanFrame(NearRenderer& near, FarPass* farPass,
                                       const VulkanFrameRequest& request) {
-    if (request.far && !farPass)
+    if ((request.far || request.farAfterNear) && !farPass)
         throw std::logic_error("submitVulkanFrame: far sprites need a FarPass");
+    if (request.far && request.farAfterNear)
+        throw std::logic_error("submitVulkanFrame: far sprites given two ways");
     using Clock = std::chrono::steady_clock;
     const auto t0 = Clock::now();
     VulkanFrameInFlight out;
@@ -20,18 +22,27 @@ VulkanFrameInFlight submitVulkanFrame(NearRenderer& near, FarPass* farPass,
     out.frame = &frame;
     out.nearOptions = request.near;
     // The far pass composes by depth and id: the near planes need all three.
-    out.nearOptions.readDepthAndIds = request.depthAndIds || request.far;
+    out.nearOptions.readDepthAndIds =
+        request.depthAndIds || request.far || bool(request.farAfterNear);
     out.depthAndIds = request.depthAndIds;
     near.passes().record(frame, cam, *request.models, request.nearSprites, request.clear,
                          out.nearOptions, out.result.near, request.history);
-    if (request.far) {
+    const FarBatch* far = request.far;
+    double aside = 0.0; // the host's time in farAfterNear: not the frame's recording
+    if (request.farAfterNear) {
+        frame.submitSoFar();
+        const auto tAside = Clock::now();
+        far = request.farAfterNear();
+        aside = msSince(tAside);
+    }
+    if (far) {
         const auto tFar = Clock::now();
-        farPass->record(frame, *request.far, out.result.far, request.history);
+        farPass->record(frame, *far, out.result.far, request.history);
         out.result.farRecordMs = msSince(tFar);
     }
     if (request.readBack) frame.recordReadback(request.depthAndIds);
     frame.submit();
-    out.recordMs = msSince(t0);
+    out.recordMs = msSince(t0) - aside;
     return out;
 }
 

@@ -11,6 +11,7 @@
 #include "impostor_cache/far_pass.hpp"
 #include "volumetric/near_renderer.hpp"
 
+#include <functional>
 #include <memory>
 #include <span>
 #include <vector>
@@ -27,6 +28,11 @@ struct VulkanFrameRequest {
     const SpriteHistory* history = nullptr;
     /// Far sprites drawn by the far pass after the near ones (null: none). Needs a FarPass.
     const FarBatch* far = nullptr;
+    /// Instead of `far`: the far sprites found while the device draws the near ones. The near
+    /// passes are submitted first (GpuFrame::submitSoFar), then this is called (the far tier's
+    /// lookups and bakes, on the host), then the far pass records what it returns (null: none)
+    /// and the rest is submitted. Its time is not the frame's recording (recordMs).
+    std::function<const FarBatch*()> farAfterNear;
     Rgba8 clear = 0; ///< what the planes start as (the background, or a transparent one)
     NearOptions near;
     /// Read the planes back into FrameResult's image (false: draw and time the frame only).
@@ -55,8 +61,9 @@ struct VulkanFrameInFlight {
 };
 
 /// Records one Vulkan frame and submits it: the near passes for `request.nearSprites` (none: the
-/// planes are only cleared), then the far pass for `request.far` on `farPass`, then the
-/// readback's copy. Nothing of `request` is needed after it returns.
+/// planes are only cleared), then the far pass for `request.far` (or what `farAfterNear`
+/// returns, the near passes submitted before it is called) on `farPass`, then the readback's
+/// copy. Nothing of `request` is needed after it returns.
 VulkanFrameInFlight submitVulkanFrame(NearRenderer& near, FarPass* farPass,
                                       const VulkanFrameRequest& request);
 /// Waits for the frame and reads it back (frames finish in the order they were submitted).

@@ -46,22 +46,33 @@ constexpr VkBufferUsageFlags kPlanesUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
 GpuFrame::GpuFrame(GpuFrames& owner, int slot)
     : owner_(&owner), device_(&owner.device()), slot_(slot) {
     cb_ = device_->allocateCommandBuffer();
+    try {
+        cbRest_ = device_->allocateCommandBuffer();
+    } catch (...) {
+        device_->freeCommandBuffer(cb_);
+        throw;
+    }
     VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
     fci.flags = VK_FENCE_CREATE_SIGNALED_BIT; // a slot never used is free
     const VkResult r = vkCreateFence(device_->device(), &fci, nullptr, &fence_);
     if (r != VK_SUCCESS) {
         device_->freeCommandBuffer(cb_);
+        device_->freeCommandBuffer(cbRest_);
         VK_CHECK(r);
     }
     timer_ = std::make_unique<PassTimer>(*device_);
 }
 
 GpuFrame::~GpuFrame() {
+    // A part submitted without the fence, of a frame never submitted whole (an exception while
+    // recording the rest), may still run.
+    if (recording_ && partSubmitted_) vkQueueWaitIdle(device_->queue());
     if (fence_) {
         vkWaitForFences(device_->device(), 1, &fence_, VK_TRUE, UINT64_MAX);
         vkDestroyFence(device_->device(), fence_, nullptr);
     }
     device_->freeCommandBuffer(cb_);
+    device_->freeCommandBuffer(cbRest_);
 }
 
 StagingRing& GpuFrame::ring() {
@@ -148,6 +159,30 @@ void GpuFrame::recordReadback(bool depthAndIds) {
                   VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT,
                   VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
+}
+
+void GpuFrame::submitSoFar() {
+    if (!recording_) throw std::logic_error("GpuFrame::submitSoFar: not recording");
+    if (partSubmitted_) throw std::logic_error("GpuFrame::submitSoFar: once a frame");
+    owner_->ring_.flushPending();
+    for (VulkanBuffer* b : directFlushes_) b->flush();
+    directFlushes_.clear();
+    VK_CHECK(vkEndCommandBuffer(cb_));
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cb_;
+    // No fence: one queue runs the parts in order, and the rest's fence signals after both.
+    VK_CHECK(vkQueueSubmit(device_->queue(), 1, &si, VK_NULL_HANDLE));
+    partSubmitted_ = true;
+    std::swap(cb_, cbRest_);
+    // Idle: the slot's last frame, which used it if anyone did, has finished (begin() waited).
+    VK_CHECK(vkResetCommandBuffer(cb_, 0));
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    VK_CHECK(vkBeginCommandBuffer(cb_, &bi));
+    // What the first part wrote, available and visible to what the rest records (as the frame's
+    // start barrier is for the frame before).
+    fullBarrier(cb_);
 }
 
 void GpuFrame::submit() {
@@ -263,11 +298,14 @@ GpuFrame& GpuFrames::begin(int width, int height) {
     nextSlot_ = (std::size_t(f.slot_) + 1) % frames_.size();
     if (f.recording_) {
         // Begun and never submitted (an exception while recording): drop it, and its staging
-        // space once nothing earlier is in flight either.
+        // space once nothing earlier is in flight either (its part submitted without the fence,
+        // if any, included).
         f.recording_ = false; // vkResetCommandBuffer below resets it from the recording state
         waitAll();
+        if (f.partSubmitted_) VK_CHECK(vkQueueWaitIdle(device_.queue()));
         ring_.retire(f.serial_);
     }
+    f.partSubmitted_ = false;
     f.wait(); // the slot's previous frame
     f.keptAlive_.clear();
     ensureTargets(width, height);

@@ -23,6 +23,8 @@
 //   GpuFrame& f = frames.begin(width, height);      // recording starts
 //   ... tiers record: uploads (f.hostWrite / f.ring()), passes (f.timer()), the raster pass into
 //       f.color()/f.id()/f.depth() then f.recordTargetsToPlanes(), or f.recordClearPlanes() ...
+//   f.submitSoFar();                                 // optional: the device starts, recording
+//   ... more passes ...                               // goes on
 //   f.recordReadback(depthAndIds);                   // optional: only when someone reads it
 //   f.submit();
 //   f.wait();  Image img = f.read(depthAndIds);
@@ -97,6 +99,11 @@ class GpuFrame {
     /// Without it the frame is drawn and timed but not read: read() returns an empty Image.
     void recordReadback(bool depthAndIds);
 
+    /// Submits what is recorded so far, without the fence, and goes on recording into the
+    /// slot's second command buffer (after a full barrier): the device starts on the first part
+    /// while the host prepares the rest (a hybrid frame's far bakes while its near passes draw).
+    /// At most once a frame; submit() then submits the rest with the fence.
+    void submitSoFar();
     /// Ends recording and submits with the slot's fence.
     void submit();
     /// Blocks until the frame has executed (then timer().results() and read() are valid).
@@ -117,12 +124,16 @@ class GpuFrame {
     std::uint64_t serial_ = 0;
     int width_ = 0, height_ = 0;
     VkCommandBuffer cb_ = VK_NULL_HANDLE;
+    /// The slot's other command buffer: what submitSoFar() goes on recording into (the two take
+    /// turns: both are done once the slot's fence has signalled).
+    VkCommandBuffer cbRest_ = VK_NULL_HANDLE;
     VkFence fence_ = VK_NULL_HANDLE;
     std::unique_ptr<PassTimer> timer_;
     /// Host-cached memory the planes are copied into (or, where device-local, composed in).
     VulkanBuffer readback_;
     bool recording_ = false, submitted_ = false, readBack_ = false, readBackAll_ = false;
-    bool unread_ = false; ///< submitted with a readback that read() has not copied out yet
+    bool partSubmitted_ = false; ///< submitSoFar() ran this frame (its part has no fence)
+    bool unread_ = false;        ///< submitted with a readback that read() has not copied out yet
     std::vector<VulkanBuffer*> directFlushes_; ///< direct writes to flush before submit
     std::vector<VulkanBuffer> keptAlive_;      ///< released once the frame has executed
     GpuFrameHostTimes host_;

@@ -82,5 +82,41 @@ TEST_F(GpuFramesTest, AFrameWithoutReadbackFreesItsSlotOnceDone) {
     expectFilled(c.read(true), 8, 0x33333333u);
 }
 
+// A frame submitted in two parts (GpuFrame::submitSoFar: the device starts on the first while
+// the host prepares the rest): the second part sees what the first wrote, once a frame.
+TEST_F(GpuFramesTest, AFrameSubmittedInTwoPartsReadsWhatBothWrote) {
+    GpuFrame& f = frames_->begin(8, 8);
+    f.recordClearPlanes(0x11111111u, true);
+    f.submitSoFar();
+    EXPECT_THROW(f.submitSoFar(), std::logic_error);
+    // The first half of the colour plane overwritten by the second part, after the first's fill.
+    vkCmdFillBuffer(f.commandBuffer(), f.planes(), 0, f.planeBytes() / 2, 0x22222222u);
+    f.recordReadback(true);
+    f.submit();
+    const Image img = f.read(true);
+    ASSERT_EQ(img.pixelCount(), 64u);
+    for (std::size_t p = 0; p < img.pixelCount(); ++p)
+        ASSERT_EQ(std::uint32_t(img.color[p]), p < 32 ? 0x22222222u : 0x11111111u) << p;
+    // The slot's next frame, in one part again.
+    GpuFrame& g = submitFilled(8, 0x33333333u);
+    GpuFrame& h = submitFilled(8, 0x44444444u);
+    EXPECT_EQ(h.slot(), f.slot());
+    expectFilled(g.read(true), 8, 0x33333333u);
+    expectFilled(h.read(true), 8, 0x44444444u);
+}
+
+// A frame abandoned after its first part (an exception while the host prepared the rest): its
+// slot's next frame waits for that part and draws as any other.
+TEST_F(GpuFramesTest, AFrameAbandonedAfterItsFirstPartFreesItsSlot) {
+    GpuFrame& a = frames_->begin(8, 8);
+    a.recordClearPlanes(0x11111111u, true);
+    a.submitSoFar();
+    GpuFrame& b = submitFilled(8, 0x22222222u);
+    expectFilled(b.read(true), 8, 0x22222222u);
+    GpuFrame& c = submitFilled(8, 0x33333333u);
+    EXPECT_EQ(c.slot(), a.slot());
+    expectFilled(c.read(true), 8, 0x33333333u);
+}
+
 } // namespace
 } // namespace voxtier
