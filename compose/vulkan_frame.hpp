@@ -1,9 +1,10 @@
 #pragma once
 // Steps 3-5 of the frame recipe on Vulkan: one GpuFrame (device/gpu_frame.hpp) into which the
 // near tier records its passes (volumetric/near_passes.hpp) and, after them, the far tier its far
-// pass (impostor_cache/far_pass.hpp), submitted once and read back once. The far pass composes
-// into the near tier's planes by the same depth/id rule as the CPU blit into the near image, so
-// the image is the CPU tiers' bit for bit.
+// pass (impostor_cache/far_pass.hpp), submitted once (in two parts where the far sprites are
+// found while the device draws the near ones: farAfterNear) and read back once. The far pass
+// composes into the near tier's planes by the same depth/id rule as the CPU blit into the near
+// image, so the image is the CPU tiers' bit for bit.
 #include "core/camera.hpp"
 #include "core/image.hpp"
 #include "core/sprite.hpp"
