@@ -630,8 +630,14 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         VulkanFrameInFlight inFlight =
             submitOnVulkan(cam, nearSprites, nullptr, false, true, st, history);
         const auto t0 = Clock::now();
-        FarDraws draws = fetchFarSnapshots(scene_.models, shares.farRequests, *cache_,
-                                           viewSetFromSize(scene_.selector.viewSetSize));
+        FarDraws draws;
+        try {
+            draws = fetchFarSnapshots(scene_.models, shares.farRequests, *cache_,
+                                      viewSetFromSize(scene_.selector.viewSetSize));
+        } catch (...) { // a bake that failed: the frame in flight still holds its slot
+            (void)finishVulkanFrame(std::move(inFlight));
+            throw;
+        }
         st.farMs += msSince(t0) - draws.stats.ensureMs; // the rest of the fetch's own time
         Image image = finishOnVulkan(std::move(inFlight), false, st);
         blitFar(draws, image, st);

@@ -102,10 +102,6 @@ class SnapshotNeeds {
     std::vector<std::shared_ptr<const Snapshot>> snaps_;
 };
 
-} // namespace
-
-namespace {
-
 /// The statistics of a far frame's blit and the sprites it drew, added to `stats`.
 void addBlit(FarFrameStats& stats, const FarBlitStats& blit) {
     stats.blit.sprites += blit.sprites;
