@@ -409,19 +409,26 @@ if os.environ.get("GC_PROFILE") == "1":
                 scene = os.path.basename(r["scene"]).removesuffix(".json")
                 if group == "scaling_entities":
                     scene += f" ({float(r.get('param', 0) or 0):,.0f} entities)"
-                profile_rows.append((scene, r["mode"], [r.get(c, "") for c, _ in parts]))
-    lines += ["", "## Where the time goes, pass by pass (ms, medians)", "",
-              "Host: set-up, selection, recording the Vulkan frame (uploads written), waiting on its "
-              "fence, unpacking the readback. Device: the frame's named timestamps (0 where the frame "
-              "had no such pass). `bench/results.csv`, `tank_curve/results.csv`.", ""]
-    if profile_rows:
-        lines += ["| scene | mode | " + " | ".join(n for _, n in parts) + " |",
-                  "|---|---|" + "---|" * len(parts)]
-        for scene, mode, values in profile_rows:
-            lines.append(f"| {scene} | {mode} | " + " | ".join(fmt(v) for v in values) + " |")
+                profile_rows.append((scene, r["mode"], [], [r.get(c, "") for c, _ in parts]))
+    def part_table(heading, intro, table_rows, group, lead=()):
+        """A table of `parts` per (scene, mode, lead values, part values); each part value also a
+        results.csv row GROUP, scene, "mode column". False where there are no rows."""
+        lines.extend(["", heading, "", intro, ""])
+        if not table_rows:
+            return False
+        lines.extend(["| scene | mode | " + " | ".join(list(lead) + [n for _, n in parts]) + " |",
+                      "|---|---|" + "---|" * (len(lead) + len(parts))])
+        for scene, mode, lead_values, values in table_rows:
+            lines.append(f"| {scene} | {mode} | " +
+                         " | ".join(fmt(v) for v in list(lead_values) + list(values)) + " |")
             for (c, _), v in zip(parts, values):
-                rows.append(("profile", scene, f"{mode} {c}", v, "ms"))
-    else:
+                rows.append((group, scene, f"{mode} {c}", v, "ms"))
+        return True
+    if not part_table("## Where the time goes, pass by pass (ms, medians)",
+                      "Host: set-up, selection, recording the Vulkan frame (uploads written), waiting "
+                      "on its fence, unpacking the readback. Device: the frame's named timestamps (0 "
+                      "where the frame had no such pass). `bench/results.csv`, "
+                      "`tank_curve/results.csv`.", profile_rows, "profile"):
         lines.append("No profile rows: see logs/bench.log and logs/tank_curve.log.")
     # The same parts for the bench's frames in motion: each part's mean per frame over the frames
     # timed in motion (the in_motion_mean_* columns), which add up to the mean frame in motion,
@@ -433,21 +440,14 @@ if os.environ.get("GC_PROFILE") == "1":
                 if r.get("group") != "modes" or not float(r.get("in_motion_ms") or 0):
                     continue
                 scene = os.path.basename(r["scene"]).removesuffix(".json")
-                motion_rows.append((scene, r["mode"], r.get("in_motion_ms", ""),
+                motion_rows.append((scene, r["mode"], [r.get("in_motion_ms", "")],
                                     [r.get("in_motion_mean_" + c, "") for c, _ in parts]))
-    lines += ["", "## Where the time goes in motion, pass by pass (ms per frame, means)", "",
-              "The bench's frames timed in motion, each part's mean per frame (`in_motion_mean_*` in "
-              "`bench/results.csv`): they add up to the mean frame in motion (the *frame* column), "
-              "its bakes, view changes and selection included; *median* is the in-motion figure the "
-              "speed-ups use.", ""]
-    if motion_rows:
-        lines += ["| scene | mode | median | " + " | ".join(n for _, n in parts) + " |",
-                  "|---|---|---|" + "---|" * len(parts)]
-        for scene, mode, median, values in motion_rows:
-            lines.append(f"| {scene} | {mode} | {fmt(median)} | " + " | ".join(fmt(v) for v in values) + " |")
-            for (c, _), v in zip(parts, values):
-                rows.append(("profile_in_motion", scene, f"{mode} {c}", v, "ms"))
-    else:
+    if not part_table("## Where the time goes in motion, pass by pass (ms per frame, means)",
+                      "The bench's frames timed in motion, each part's mean per frame "
+                      "(`in_motion_mean_*` in `bench/results.csv`): they add up to the mean frame in "
+                      "motion (the *frame* column), its bakes, view changes and selection included; "
+                      "*median* is the in-motion figure the speed-ups use.", motion_rows,
+                      "profile_in_motion", lead=("median",)):
         lines.append("No in-motion rows: see logs/bench.log.")
     # Frames in flight: the median frame of frames 6-47 of `render --frames 0:47` (the first six
     # are the cold start, as in the bench), beside the bench's figure, which draws one frame at a
