@@ -92,8 +92,7 @@ void StagingRing::grow(VkDeviceSize atLeast) {
     ++growths_;
 }
 
-VkDeviceSize StagingRing::reserve(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset,
-                                  VkDeviceSize bytes) {
+VkDeviceSize StagingRing::space(VkDeviceSize bytes) {
     if (!frameOpen_) throw std::logic_error("StagingRing::upload outside beginFrame/retire");
     VkDeviceSize offset = 0;
     if (!allocate(bytes, offset)) {
@@ -101,6 +100,12 @@ VkDeviceSize StagingRing::reserve(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize
         if (!allocate(bytes, offset))
             throw std::logic_error("StagingRing: no space after growing"); // cannot happen
     }
+    return offset;
+}
+
+VkDeviceSize StagingRing::reserve(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset,
+                                  VkDeviceSize bytes) {
+    const VkDeviceSize offset = space(bytes);
     VkBufferCopy copy{offset, dstOffset, bytes};
     vkCmdCopyBuffer(cb, buffer_.handle(), dst, 1, &copy);
     uploadedThisFrame_ += bytes;
@@ -112,6 +117,24 @@ void StagingRing::upload(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffse
                          VkDeviceSize bytes) {
     if (bytes == 0) return;
     buffer_.write(reserve(cb, dst, dstOffset, bytes), data, bytes);
+}
+
+void StagingRing::uploadAll(VkCommandBuffer cb, VkBuffer dst, std::span<const StagedPiece> pieces) {
+    VkDeviceSize total = 0;
+    for (const StagedPiece& p : pieces) total += p.bytes;
+    if (total == 0) return;
+    VkDeviceSize at = space(total);
+    regionsOfAll_.clear();
+    for (const StagedPiece& p : pieces) {
+        if (p.bytes == 0) continue;
+        buffer_.write(at, p.data, p.bytes);
+        regionsOfAll_.push_back({at, p.dstOffset, p.bytes});
+        at += p.bytes;
+    }
+    vkCmdCopyBuffer(cb, buffer_.handle(), dst, std::uint32_t(regionsOfAll_.size()),
+                    regionsOfAll_.data());
+    uploadedThisFrame_ += total;
+    ++copiesThisFrame_;
 }
 
 void* StagingRing::uploadInPlace(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset,

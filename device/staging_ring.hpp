@@ -20,9 +20,17 @@
 #include <cstdint>
 #include <deque>
 #include <list>
+#include <span>
 #include <vector>
 
 namespace voxtier {
+
+/// One piece of StagingRing::uploadAll: `bytes` from `data` to `dstOffset` of the destination.
+struct StagedPiece {
+    const void* data = nullptr;
+    VkDeviceSize bytes = 0;
+    VkDeviceSize dstOffset = 0;
+};
 
 class StagingRing {
   public:
@@ -39,6 +47,11 @@ class StagingRing {
     /// bytes records nothing.
     void upload(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset, const void* data,
                 VkDeviceSize bytes);
+    /// upload() of every piece into the same `dst`: their bytes side by side in the ring and one
+    /// vkCmdCopyBuffer of as many regions recorded into `cb` (the far pass's first frames upload
+    /// ~1,000 snapshots of ~2 KB each: one copy command apiece cost the device more than the
+    /// bytes). Pieces of zero bytes are skipped; none at all records nothing.
+    void uploadAll(VkCommandBuffer cb, VkBuffer dst, std::span<const StagedPiece> pieces);
     /// upload() without a source: returns where to write the `bytes` (filled by the caller before
     /// the frame is submitted, then flushPending()), so large arrays are written once, straight
     /// into the ring. The copy to `dst` is recorded into `cb` now.
@@ -79,6 +92,8 @@ class StagingRing {
     /// it to `dst` recorded into `cb`; returns the space's offset in buffer_.
     VkDeviceSize reserve(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset,
                          VkDeviceSize bytes);
+    /// Space for `bytes` in this frame's region, growing the ring if need be; its offset.
+    VkDeviceSize space(VkDeviceSize bytes);
     /// Offset of `bytes` of free space, or false when it does not fit beside frames in flight.
     bool allocate(VkDeviceSize bytes, VkDeviceSize& offset);
     void grow(VkDeviceSize atLeast);
@@ -97,6 +112,7 @@ class StagingRing {
         VkDeviceSize offset, bytes;
     };
     std::vector<PendingFlush> pendingFlushes_;
+    std::vector<VkBufferCopy> regionsOfAll_; ///< uploadAll's, kept between calls
     VkDeviceSize uploadedThisFrame_ = 0;
     std::uint32_t copiesThisFrame_ = 0;
     std::uint32_t growths_ = 0;

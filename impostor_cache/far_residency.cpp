@@ -271,8 +271,10 @@ void FarResidency::recordUploads(GpuFrame& frame) {
         frame.keepUntilDone(std::move(retired_));
         retiredWords_ = 0;
     }
-    for (const Copy& c : copies_)
-        frame.ring().upload(cb, buffer_.handle(), c.deviceByte, c.from, c.bytes);
+    // One copy command of as many regions (a command each cost the device more than the bytes).
+    pieces_.clear();
+    for (const Copy& c : copies_) pieces_.push_back({c.from, c.bytes, c.deviceByte});
+    frame.ring().uploadAll(cb, buffer_.handle(), pieces_);
     copies_.clear();
     bufferBarrier(cb, buffer_.handle(), VK_PIPELINE_STAGE_TRANSFER_BIT,
                   VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,

@@ -79,6 +79,7 @@ class FarResidency {
         const std::uint8_t* from; ///< held by the entry's owner until recordUploads
         VkDeviceSize bytes, deviceByte;
     };
+    std::vector<StagedPiece> pieces_;              ///< recordUploads', kept between frames
     std::vector<Copy> copies_;                     ///< this update's, recorded by recordUploads
     std::vector<std::vector<const void*>> doomed_; ///< freeUnless's, per range of buckets
     std::uint64_t retiredWords_ = 0;               ///< words of retired_ to copy into buffer_ first

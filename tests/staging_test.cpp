@@ -209,6 +209,49 @@ TEST(Buffers, RingGrowsInsteadOfFailingAndKeepsEarlierUploadsValid) {
     EXPECT_EQ(log->count(), 0u) << log->joined();
 }
 
+// Many pieces for one buffer in one copy command (the far pass's snapshot uploads): side by side
+// in the ring, each where it belongs in the buffer, a piece of zero bytes skipped, the ring grown
+// where they do not fit together.
+TEST(Buffers, PiecesUploadedTogetherLandWhereEachBelongsInOneCopy) {
+    auto log = std::make_shared<VulkanMessageLog>();
+    {
+        VulkanDevice device(test::validatedDevice(true), log);
+        const VkDeviceSize n = 6000;
+        VulkanBuffer shaderData(device, n, kReadAndCopy, BufferClass::ShaderRead);
+        VulkanBuffer readback(device, n, 0, BufferClass::Readback);
+        StagingRing ring(device, 1024);
+        test::CommandRecorder rec(device);
+        const auto data = pattern(std::size_t(n), 23);
+        // Out of order and with a gap that stays as the first upload left it.
+        const auto first = pattern(std::size_t(n), 99);
+        ring.beginFrame(1);
+        ring.upload(rec.cb, shaderData.handle(), 0, first.data(), n);
+        ring.recordBarrier(rec.cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+        const StagedPiece pieces[] = {{data.data() + 4000, 2000, 4000},
+                                      {data.data() + 10, 0, 10},
+                                      {data.data(), 1500, 0},
+                                      {data.data() + 2500, 1000, 2500}};
+        ring.uploadAll(rec.cb, shaderData.handle(), pieces);
+        EXPECT_EQ(ring.copiesThisFrame(), 2u);
+        EXPECT_EQ(ring.bytesThisFrame(), n + 4500);
+        EXPECT_GE(ring.growths(), 1u);
+        ring.recordBarrier(rec.cb, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_READ_BIT);
+        recordCopyToReadback(rec.cb, shaderData, readback, n);
+        rec.submit();
+        ring.retire(1);
+        std::vector<std::uint8_t> expected = first;
+        for (const StagedPiece& p : pieces)
+            std::memcpy(expected.data() + p.dstOffset, p.data, std::size_t(p.bytes));
+        EXPECT_EQ(readBack(readback, n), expected);
+        // Nothing to upload records nothing.
+        ring.beginFrame(2);
+        ring.uploadAll(rec.cb, shaderData.handle(), {});
+        EXPECT_EQ(ring.copiesThisFrame(), 0u);
+        ring.retire(2);
+    }
+    EXPECT_EQ(log->count(), 0u) << log->joined();
+}
+
 TEST(Buffers, FrameIdsMustIncreaseAndUploadsNeedAFrame) {
     VulkanDeviceOptions o;
     o.echoMessages = false;
