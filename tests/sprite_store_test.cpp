@@ -40,10 +40,11 @@ void expectFresh(const SpriteStore& store, const Scene& s, const CameraFrame& ca
     for (std::size_t i = 0; i < fresh.size(); ++i) {
         ASSERT_EQ(h.visible[i] != 0, fresh[i].visible()) << "entity " << i << " at t " << t;
         EXPECT_EQ(fresh[i].entityId, i);
-        if (fresh[i].visible())
+        if (fresh[i].visible()) {
             ASSERT_EQ(std::bit_cast<std::uint32_t>(h.depths[i]),
                       std::bit_cast<std::uint32_t>(fresh[i].gpu.depth))
                 << "entity " << i << " at t " << t;
+        }
     }
     // The selection inputs, which a plan reads in place of the sprites.
     ASSERT_EQ(store.selectionInputs().size(), fresh.size());

@@ -334,9 +334,10 @@ TEST_F(VulkanCellRate, ACrowdOfTwelveThousandSpritesMatchesTheReferenceInEitherO
                                 (pixels == NearPixels::Compute ? "compute" : "raster") + ", " +
                                 std::to_string(threads) + " threads";
                             EXPECT_EQ(test::describeDifference(drawn, reference), "") << what;
-                            if (rate == NearRate::Cell)
+                            if (rate == NearRate::Cell) {
                                 EXPECT_EQ(st.cellOverBudget > 0, budget != kDefaultCellBudgetBytes)
                                     << what;
+                            }
                         }
                 }
     }
