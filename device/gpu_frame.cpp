@@ -164,6 +164,9 @@ void GpuFrame::recordReadback(bool depthAndIds) {
 void GpuFrame::submitSoFar() {
     if (!recording_) throw std::logic_error("GpuFrame::submitSoFar: not recording");
     if (partSubmitted_) throw std::logic_error("GpuFrame::submitSoFar: once a frame");
+    // The frame's device time in two spans, "frame" and "frame_rest": the device may wait for the
+    // rest between them, which is no work of the frame's.
+    timer_->end(cb_); // "frame" (or "frame_rest" after submitSoFar)
     owner_->ring_.flushPending();
     for (VulkanBuffer* b : directFlushes_) b->flush();
     directFlushes_.clear();
@@ -183,6 +186,7 @@ void GpuFrame::submitSoFar() {
     // What the first part wrote, available and visible to what the rest records (as the frame's
     // start barrier is for the frame before).
     fullBarrier(cb_);
+    timer_->begin(cb_, "frame_rest");
 }
 
 void GpuFrame::submit() {

@@ -102,7 +102,8 @@ class GpuFrame {
     /// Submits what is recorded so far, without the fence, and goes on recording into the
     /// slot's second command buffer (after a full barrier): the device starts on the first part
     /// while the host prepares the rest (a hybrid frame's far bakes while its near passes draw).
-    /// At most once a frame; submit() then submits the rest with the fence.
+    /// At most once a frame; submit() then submits the rest with the fence. The frame's device
+    /// time is then two passes of timer(), "frame" and "frame_rest" (the device may wait between).
     void submitSoFar();
     /// Ends recording and submits with the slot's fence.
     void submit();

@@ -97,6 +97,10 @@ TEST_F(GpuFramesTest, AFrameSubmittedInTwoPartsReadsWhatBothWrote) {
     ASSERT_EQ(img.pixelCount(), 64u);
     for (std::size_t p = 0; p < img.pixelCount(); ++p)
         ASSERT_EQ(std::uint32_t(img.color[p]), p < 32 ? 0x22222222u : 0x11111111u) << p;
+    // Its device time in two spans, not the gap between the parts (lavapipe has timestamps).
+    ASSERT_TRUE(f.timer().available());
+    EXPECT_TRUE(f.timer().ms("frame").has_value());
+    EXPECT_TRUE(f.timer().ms("frame_rest").has_value());
     // The slot's next frame, in one part again.
     GpuFrame& g = submitFilled(8, 0x33333333u);
     GpuFrame& h = submitFilled(8, 0x44444444u);
