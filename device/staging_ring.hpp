@@ -48,9 +48,9 @@ class StagingRing {
     void upload(VkCommandBuffer cb, VkBuffer dst, VkDeviceSize dstOffset, const void* data,
                 VkDeviceSize bytes);
     /// upload() of every piece into the same `dst`: their bytes side by side in the ring and one
-    /// vkCmdCopyBuffer of as many regions recorded into `cb` (the far pass's first frames upload
-    /// ~1,000 snapshots of ~2 KB each: one copy command apiece cost the device more than the
-    /// bytes). Pieces of zero bytes are skipped; none at all records nothing.
+    /// vkCmdCopyBuffer of as many regions recorded into `cb` (the far pass's first frames of the
+    /// 2,000-tank army under the error budget upload ~500 snapshots of ~2 KB a frame: one command,
+    /// not one each). Pieces of zero bytes are skipped; none at all records nothing.
     void uploadAll(VkCommandBuffer cb, VkBuffer dst, std::span<const StagedPiece> pieces);
     /// upload() without a source: returns where to write the `bytes` (filled by the caller before
     /// the frame is submitted, then flushPending()), so large arrays are written once, straight

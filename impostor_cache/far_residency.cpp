@@ -271,7 +271,7 @@ void FarResidency::recordUploads(GpuFrame& frame) {
         frame.keepUntilDone(std::move(retired_));
         retiredWords_ = 0;
     }
-    // One copy command of as many regions (a command each cost the device more than the bytes).
+    // One copy command of as many regions, not a command per snapshot (StagingRing::uploadAll).
     pieces_.clear();
     for (const Copy& c : copies_) pieces_.push_back({c.from, c.bytes, c.deviceByte});
     frame.ring().uploadAll(cb, buffer_.handle(), pieces_);
