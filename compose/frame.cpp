@@ -629,8 +629,7 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
         // sprites at a time against what the runs before drew, the near image included.
         VulkanFrameInFlight inFlight =
             submitOnVulkan(cam, nearSprites, nullptr, false, true, st, history);
-        const auto t0 = Clock::now();
-        FarDraws draws;
+        FarDraws draws; // its lookups' time counts in the far tier's (blitFar)
         try {
             draws = fetchFarSnapshots(scene_.models, shares.farRequests, *cache_,
                                       viewSetFromSize(scene_.selector.viewSetSize));
@@ -638,7 +637,6 @@ Image FrameRenderer::drawWith(NearBackend nearBackend, const CameraFrame& cam,
             (void)finishVulkanFrame(std::move(inFlight));
             throw;
         }
-        st.farMs += msSince(t0) - draws.stats.ensureMs; // the rest of the fetch's own time
         Image image = finishOnVulkan(std::move(inFlight), false, st);
         blitFar(draws, image, st);
         return image;

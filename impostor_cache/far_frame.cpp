@@ -117,7 +117,8 @@ FarDraws fetchFarSnapshots(const std::vector<std::shared_ptr<VoxelModel>>& model
                            std::span<const FarRequest> requests, SnapshotCache& cache,
                            ViewSet set) {
     const auto t0 = std::chrono::steady_clock::now();
-    const SnapshotCacheCounters before = cache.counters();
+    FarDraws draws;
+    draws.cacheBefore = cache.counters();
     std::vector<const SpriteSetup*> sprites(requests.size());
     for (std::size_t r = 0; r < requests.size(); ++r) sprites[r] = requests[r].sprite;
     // drawFarSprites' order and lookups without culling: one run of every visible sprite.
@@ -127,7 +128,6 @@ FarDraws fetchFarSnapshots(const std::vector<std::shared_ptr<VoxelModel>>& model
     slots.reserve(order.size());
     for (const std::uint32_t r : order) slots.push_back(needs.slotOf(requests[r], set));
     needs.fetchNew(models, cache);
-    FarDraws draws;
     draws.sprites.reserve(order.size());
     for (std::size_t k = 0; k < order.size(); ++k) {
         const SpriteSetup* sp = sprites[order[k]];
@@ -136,10 +136,8 @@ FarDraws fetchFarSnapshots(const std::vector<std::shared_ptr<VoxelModel>>& model
     }
     draws.held.reserve(needs.size());
     for (std::size_t i = 0; i < needs.size(); ++i) draws.held.push_back(needs.snapshot(i));
-    draws.stats.sprites = draws.sprites.size();
-    draws.stats.snapshotsUsed = needs.size();
-    addCacheWork(draws.stats, before, cache.counters());
-    draws.stats.ensureMs = msSince(t0);
+    draws.cacheAfter = cache.counters();
+    draws.ensureMs = msSince(t0);
     return draws;
 }
 
@@ -151,16 +149,11 @@ void blitFarDraws(const FarDraws& draws, Image& target, FarFrameStats* stats,
     FarBlitStats blit;
     blitFar(draws.sprites, target, &blit, blitOptions);
     if (!stats) return;
-    const FarFrameStats& f = draws.stats;
-    stats->sprites += f.sprites;
-    stats->snapshotsUsed += f.snapshotsUsed;
-    stats->bakes += f.bakes;
-    stats->scenesBuilt += f.scenesBuilt;
-    stats->refreshes += f.refreshes;
-    stats->incrementalRefreshes += f.incrementalRefreshes;
-    stats->cellsRetraced += f.cellsRetraced;
-    stats->raysTraced += f.raysTraced;
-    stats->ensureMs += f.ensureMs;
+    // As drawFarSprites counts a frame: its sprites, snapshots, the cache's work and both times.
+    stats->sprites += draws.sprites.size();
+    stats->snapshotsUsed += draws.held.size();
+    addCacheWork(*stats, draws.cacheBefore, draws.cacheAfter);
+    stats->ensureMs += draws.ensureMs;
     addBlit(*stats, blit);
 }
 

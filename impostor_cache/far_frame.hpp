@@ -38,7 +38,9 @@ void drawFarSprites(const std::vector<std::shared_ptr<VoxelModel>>& models,
 struct FarDraws {
     std::vector<FarSprite> sprites;                    ///< visible ones, drawFarSprites' order
     std::vector<std::shared_ptr<const Snapshot>> held; ///< the distinct snapshots they show
-    FarFrameStats stats;                               ///< the lookups' and bakes' (blit: 0)
+    /// The snapshot cache's counters around the lookups (what they baked) and their time.
+    SnapshotCacheCounters cacheBefore, cacheAfter;
+    double ensureMs = 0.0;
 };
 /// The first half: what drawFarSprites looks up and bakes without culling, the same snapshots.
 FarDraws fetchFarSnapshots(const std::vector<std::shared_ptr<VoxelModel>>& models,
