@@ -29,6 +29,16 @@ void fullBarrier(VkCommandBuffer cb) {
                          0, 1, &b, 0, nullptr, 0, nullptr);
 }
 
+/// Starts recording into `cb` (idle: what it held has executed), after everything submitted
+/// before it (fullBarrier): a frame's start, and the rest of a frame after submitSoFar.
+void beginRecording(VkCommandBuffer cb) {
+    VK_CHECK(vkResetCommandBuffer(cb, 0));
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    VK_CHECK(vkBeginCommandBuffer(cb, &bi));
+    fullBarrier(cb);
+}
+
 /// The planes of a width x height frame (colour, id, depth: one 32-bit word a pixel each), and
 /// how their buffers are used (written by compute passes and copies, copied out).
 VkDeviceSize planesBytesOf(int width, int height) {
@@ -161,12 +171,8 @@ void GpuFrame::recordReadback(bool depthAndIds) {
                   VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
 }
 
-void GpuFrame::submitSoFar() {
-    if (!recording_) throw std::logic_error("GpuFrame::submitSoFar: not recording");
-    if (partSubmitted_) throw std::logic_error("GpuFrame::submitSoFar: once a frame");
-    // The frame's device time in two spans, "frame" and "frame_rest": the device may wait for the
-    // rest between them, which is no work of the frame's.
-    timer_->end(cb_); // "frame" (or "frame_rest" after submitSoFar)
+void GpuFrame::submitRecorded(VkFence fence) {
+    timer_->end(cb_); // "frame", or "frame_rest" after submitSoFar
     owner_->ring_.flushPending();
     for (VulkanBuffer* b : directFlushes_) b->flush();
     directFlushes_.clear();
@@ -174,34 +180,29 @@ void GpuFrame::submitSoFar() {
     VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
     si.commandBufferCount = 1;
     si.pCommandBuffers = &cb_;
-    // No fence: one queue runs the parts in order, and the rest's fence signals after both.
-    VK_CHECK(vkQueueSubmit(device_->queue(), 1, &si, VK_NULL_HANDLE));
+    if (fence) VK_CHECK(vkResetFences(device_->device(), 1, &fence));
+    VK_CHECK(vkQueueSubmit(device_->queue(), 1, &si, fence));
+}
+
+void GpuFrame::submitSoFar() {
+    if (!recording_) throw std::logic_error("GpuFrame::submitSoFar: not recording");
+    if (partSubmitted_) throw std::logic_error("GpuFrame::submitSoFar: once a frame");
+    // The frame's device time in two spans, "frame" and "frame_rest": the device may wait for the
+    // rest between them, which is no work of the frame's. No fence: one queue runs the parts in
+    // order, and the rest's fence signals after both.
+    submitRecorded(VK_NULL_HANDLE);
     partSubmitted_ = true;
     std::swap(cb_, cbRest_);
-    // Idle: the slot's last frame, which used it if anyone did, has finished (begin() waited).
-    VK_CHECK(vkResetCommandBuffer(cb_, 0));
-    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    VK_CHECK(vkBeginCommandBuffer(cb_, &bi));
-    // What the first part wrote, available and visible to what the rest records (as the frame's
-    // start barrier is for the frame before).
-    fullBarrier(cb_);
+    // The slot's last frame, which used the other buffer if any did, has finished (begin() waited);
+    // what the first part wrote is available and visible to the rest (beginRecording's barrier).
+    beginRecording(cb_);
     timer_->begin(cb_, "frame_rest");
 }
 
 void GpuFrame::submit() {
     if (!recording_) throw std::logic_error("GpuFrame::submit: not recording");
-    timer_->end(cb_); // "frame"
-    owner_->ring_.flushPending();
-    for (VulkanBuffer* b : directFlushes_) b->flush();
-    directFlushes_.clear();
-    VK_CHECK(vkEndCommandBuffer(cb_));
+    submitRecorded(fence_);
     recording_ = false;
-    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-    si.commandBufferCount = 1;
-    si.pCommandBuffers = &cb_;
-    VK_CHECK(vkResetFences(device_->device(), 1, &fence_));
-    VK_CHECK(vkQueueSubmit(device_->queue(), 1, &si, fence_));
     submitted_ = true;
     unread_ = readBack_; // its slot is not handed out again until read() has copied it out
 }
@@ -323,13 +324,9 @@ GpuFrame& GpuFrames::begin(int width, int height) {
     f.height_ = height;
     f.readBack_ = f.readBackAll_ = false;
     f.host_ = {};
-    VK_CHECK(vkResetCommandBuffer(f.cb_, 0));
-    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    VK_CHECK(vkBeginCommandBuffer(f.cb_, &bi));
+    beginRecording(f.cb_);
     f.recording_ = true;
     ring_.beginFrame(f.serial_);
-    fullBarrier(f.cb_);
     f.timer_->reset(f.cb_);
     f.timer_->begin(f.cb_, "frame"); // the whole frame, closed by submit()
     return f;

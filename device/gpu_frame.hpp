@@ -117,6 +117,9 @@ class GpuFrame {
 
   private:
     friend class GpuFrames;
+    /// Closes the open frame span, flushes the host's writes and submits the command buffer
+    /// recorded so far with `fence` (reset first; VK_NULL_HANDLE: none).
+    void submitRecorded(VkFence fence);
     explicit GpuFrame(GpuFrames& owner, int slot);
 
     GpuFrames* owner_;
