@@ -269,6 +269,7 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Confi
         m.motion.speedupVsFastestExact = m.motion.fastestExactMs / m.motion.ms;
     m.motion.psnrMin = std::numeric_limits<double>::infinity();
     double timed = 0;
+    std::vector<Figures> timedFigures; // InMotion::split's
     for (std::size_t f = 0; f < c.motion.size(); ++f) {
         const Config::MotionFrame& mf = c.motion[f];
         m.motion.predictedWorstVpx = std::max(m.motion.predictedWorstVpx, mf.stats.plan.worstVpx);
@@ -284,6 +285,7 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Confi
             continue;
         }
         ++timed;
+        timedFigures.push_back(figuresOf(mf.stats));
         m.motion.bakes += double(mf.stats.far.bakes);
         m.motion.bakeMs += mf.stats.far.ensureMs;
         m.motion.nearMs += mf.stats.nearMs;
@@ -291,9 +293,6 @@ void addMotion(Measurement& m, const Config& c, const Config* truth, const Confi
         m.motion.farEntities += mf.stats.farDrawn;
         m.motion.differingShare += mf.differingShare;
     }
-    std::vector<Figures> timedFigures;
-    for (std::size_t f = std::size_t(plan.motionWarmup); f < c.motion.size(); ++f)
-        timedFigures.push_back(figuresOf(c.motion[f].stats));
     m.motion.split = acrossFrames(timedFigures);
     m.motion.bakes /= timed, m.motion.bakeMs /= timed, m.motion.differingShare /= timed;
     m.motion.nearMs /= timed, m.motion.nearEntities /= timed, m.motion.farEntities /= timed;
