@@ -146,16 +146,17 @@ struct FarPass::Impl {
                           const SpriteHistory* history, FarPassStats& stats);
     /// Every tile's list of the drawn instances over it, in draw order (`order`).
     void binTiles(int width, int height);
-    /// Dispatches of the tile pass that walk the longest list (FAR_LIST_STEP_*), and workgroups
-    /// of the pass cut by sprite that share the largest rectangle (FAR_SPLAT_STEPS).
+    /// Dispatches of the tile pass that walk the longest list (FAR_LIST_STEP_*).
     std::uint32_t listParts() const;
-    /// The pass cut by sprite: workgroups per instance (FAR_SPLAT_STEPS), and the rows of the
-    /// image its rectangles cover (from y0, whole rows of the resolve's workgroups, within the
-    /// image) and the columns from x0.
+    /// The pass cut by sprite: the rows of the image its rectangles cover (from y0, whole rows of
+    /// the resolve's workgroups, within the image) and the columns from x0.
     struct SplatShape {
-        std::uint32_t parts = 1, x0 = 0, y0 = 0, columns = 0, rows = 0;
+        std::uint32_t x0 = 0, y0 = 0, columns = 0, rows = 0;
     };
-    SplatShape splatShape(int width, int height) const;
+    /// The pass cut by sprite: its shape, and in `list` the chunks of the drawn rectangles past
+    /// each one's first (FAR_SPLAT_CHUNK), as the shader reads them: instance, chunk. One walk
+    /// over the drawn instances for both (a rectangle read is a jump through `order`).
+    SplatShape planSplat(int width, int height);
     /// The drawn instances' records, in draw order, into the slot's buffer (offsets: each
     /// snapshot's word offset on the device), but for those the buffer already holds.
     void writeInstances(GpuFrame& frame, Slot& slot, const FarBatch& batch,
@@ -368,8 +369,8 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         // so the order has one answer, whichever sort finds it.
         sortKeyIndexPairs(order, orderScratch, idsAscend ? 32 : 0);
         if (tiles == FarTiles::Sprites) {
-            tileRecords.clear(); // no tiles: a workgroup per drawn instance
-            list.clear();
+            tileRecords.clear(); // no tiles: a workgroup per chunk of each drawn rectangle
+            list.clear();        // the chunks, listed each frame (planSplat)
         } else {
             binTiles(width, height);
         }
@@ -451,18 +452,22 @@ std::uint32_t FarPass::Impl::listParts() const {
     return std::max(1u, (longest + step - 1) / step);
 }
 
-FarPass::Impl::SplatShape FarPass::Impl::splatShape(int width, int height) const {
-    std::uint64_t largest = 0;
+FarPass::Impl::SplatShape FarPass::Impl::planSplat(int width, int height) {
     glm::ivec4 bounds(width, height, 0, 0);
-    for (const auto& [key, i] : order) {
-        const glm::ivec4 r = rects[i];
-        largest = std::max(largest, std::uint64_t(r.z - r.x) * std::uint64_t(r.w - r.y));
+    // Most far rectangles are one chunk: under the 1 vpx budget 48 of the street's ~390 are more,
+    // ~620,000 pixels between them.
+    list.clear();
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        const glm::ivec4 r = rects[order[k].second];
         bounds = glm::ivec4(glm::min(glm::ivec2(bounds), glm::ivec2(r)),
                             glm::max(glm::ivec2(bounds.z, bounds.w), glm::ivec2(r.z, r.w)));
+        const std::uint64_t pixels = std::uint64_t(r.z - r.x) * std::uint64_t(r.w - r.y);
+        for (std::uint64_t c = 1; c * far_gpu::FAR_SPLAT_CHUNK < pixels; ++c) {
+            list.push_back(std::uint32_t(k));
+            list.push_back(std::uint32_t(c));
+        }
     }
-    const std::uint64_t perGroup = std::uint64_t(far_gpu::FAR_WORKGROUP) * far_gpu::FAR_SPLAT_STEPS;
     SplatShape shape;
-    shape.parts = std::uint32_t(std::max<std::uint64_t>(1, (largest + perGroup - 1) / perGroup));
     // Whole rows of the resolve's 8 x 8 workgroups from the rectangles' first row: every word
     // the resolve reads is filled this frame.
     shape.x0 = std::uint32_t(std::max(bounds.x, 0));
@@ -610,6 +615,12 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
     stats.sprites = m.order.size();
     stats.tiles = tileCount;
 
+    const bool bySprite = m.tiles == FarTiles::Sprites;
+    const std::uint32_t width = std::uint32_t(frame.width()),
+                        height = std::uint32_t(frame.height());
+    const Impl::SplatShape shape =
+        bySprite ? m.planSplat(int(width), int(height)) : Impl::SplatShape{};
+
     frame.timer().begin(cb, "far_upload");
     m.residency.recordUploads(frame);
     const auto upload = [&](VulkanBuffer& b, const auto& v) {
@@ -627,16 +638,14 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
     m.writeDescriptors(frame, slot);
     frame.ring().recordBarrier(cb, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT);
     frame.timer().end(cb);
-    const bool bySprite = m.tiles == FarTiles::Sprites;
-    // Workgroups: one per tile, or one per drawn instance.
-    const std::uint32_t groups = bySprite ? std::uint32_t(m.order.size()) : tileCount;
+    // Workgroups: one per tile, or one per chunk of each drawn instance's rectangle.
+    const std::uint32_t instances = std::uint32_t(m.order.size());
+    const std::uint32_t groups =
+        bySprite ? instances + std::uint32_t(m.list.size() / 2) : tileCount;
+    if (bySprite) stats.splatGroups = groups;
     if (!groups) return;
 
     frame.timer().begin(cb, "far_blit");
-    const std::uint32_t width = std::uint32_t(frame.width()),
-                        height = std::uint32_t(frame.height());
-    const Impl::SplatShape shape =
-        bySprite ? m.splatShape(int(width), int(height)) : Impl::SplatShape{};
     if (bySprite) {
         // Every pixel the resolve reads starts with no winner: the rows the rectangles cover, in
         // whole rows of its workgroups (after the last frame's resolve read this slot's).
@@ -658,17 +667,17 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
     vkCmdBindDescriptorSets(cb, VK_PIPELINE_BIND_POINT_COMPUTE, m.pipelineLayout, 0, 1, &slot.set,
                             0, nullptr);
     // No invocation loops past lavapipe's limit (far_shared.h): a tile's list is walked in parts,
-    // a dispatch each, and a large rectangle is split between workgroups.
-    const std::uint32_t parts = bySprite ? shape.parts : m.listParts();
-    for (std::uint32_t part = 0; part < (bySprite ? 1u : parts); ++part) {
+    // a dispatch each (a chunk of a rectangle is 16 steps).
+    const std::uint32_t parts = bySprite ? 1u : m.listParts();
+    for (std::uint32_t part = 0; part < parts; ++part) {
         if (part > 0) // the last part's writes to the planes before this part reads them
             bufferBarrier(cb, frame.planes(), VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                           VK_ACCESS_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                           VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-        const far_gpu::FarPush push{groups, width, height, part, 0u};
+        const far_gpu::FarPush push{groups, width, height, bySprite ? instances : part, 0u};
         vkCmdPushConstants(cb, m.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push,
                            &push);
-        vkCmdDispatch(cb, groupsX, (groups + groupsX - 1) / groupsX, bySprite ? parts : 1u);
+        vkCmdDispatch(cb, groupsX, (groups + groupsX - 1) / groupsX, 1u);
     }
     if (bySprite) {
         // The winners complete, and the planes read by the splat, before the resolve writes them.

@@ -42,6 +42,9 @@ struct FarPassStats {
     /// history); whether the draw order and tile lists were last frame's.
     std::uint64_t recordsKept = 0;
     bool orderKept = false;
+    /// Cut by sprite: the splat's workgroups, one per chunk of each drawn rectangle
+    /// (FAR_SPLAT_CHUNK pixels; 0 when cut by tiles).
+    std::uint64_t splatGroups = 0;
 };
 
 } // namespace voxtier

@@ -529,18 +529,54 @@ TEST_F(VulkanFar, CoincidentCrowdsStopInTheRulesOrder) {
     EXPECT_GT(expectSame(s, sprites, plan, "coincident crowds, middles near"), 200u);
 }
 
-// A far sprite of more pixels than one workgroup of the pass cut by sprite takes on lavapipe
-// (far_shared.h: FAR_WORKGROUP * FAR_SPLAT_STEPS): its rectangle is shared between workgroups.
+// A far sprite of two million pixels: the pass cut by sprite covers its rectangle in two thousand
+// chunks of FAR_SPLAT_CHUNK pixels, a workgroup each.
 TEST_F(VulkanFar, ASpriteLargerThanOneWorkgroupsShareEqualsTheCpuBlit) {
     const test::ViewSetup v =
         test::viewAlong(test::solidBox({40, 40, 40}), glm::dvec3(1, 1, 2), 1.0, 20);
     const CameraFrame cam = makeCameraFrame(v.scene.camera);
     const auto sprites = setupSprites(v.scene, cam, 0.0);
     const glm::ivec4 r = rectInImage(sprites[0], cam);
-    ASSERT_GT(std::int64_t(r.z - r.x) * (r.w - r.y),
-              std::int64_t(far_gpu::FAR_WORKGROUP) * far_gpu::FAR_SPLAT_STEPS)
-        << "the rectangle takes two workgroups";
+    ASSERT_GT(std::int64_t(r.z - r.x) * (r.w - r.y), 1000 * std::int64_t(far_gpu::FAR_SPLAT_CHUNK))
+        << "a thousand chunks";
     EXPECT_GT(expectSame(v.scene, sprites, allFar(1), "one large far sprite"), 500000u);
+}
+
+// Far sprites large on the image, overlapping one another at different depths and at equal
+// depths, some with near sprites among them: the chunks of one rectangle and of the others run
+// as separate workgroups in any order, and each pixel still goes to the sprite the depth-and-id
+// rule picks.
+TEST_F(VulkanFar, LargeRectanglesInChunksEqualTheCpuBlit) {
+    Scene s = heapOfKinds(12, 4242, {-0.6, -0.4, -2.2}, {0.6, 0.4, -1.4});
+    s.render.sigma = 2.0; // finer cells: more of each sprite's rectangle holds its voxels
+    s.camera.width = 480; // the heap's sprites each thousands of pixels
+    s.camera.height = 300;
+    const std::size_t single = s.entities.size();
+    for (std::size_t i = 0; i < single; i += 3) s.entities.push_back(s.entities[i]); // equal depths
+    const CameraFrame cam = makeCameraFrame(s.camera);
+    const auto sprites = setupSprites(s, cam, 0.0);
+    int large = 0;
+    for (const SpriteSetup& sp : sprites) {
+        const glm::ivec4 r = rectInImage(sp, cam);
+        large += std::int64_t(r.z - r.x) * (r.w - r.y) > 3 * std::int64_t(far_gpu::FAR_SPLAT_CHUNK);
+    }
+    std::string areas;
+    for (const SpriteSetup& sp : sprites) {
+        const glm::ivec4 r = rectInImage(sp, cam);
+        areas += std::to_string((r.z - r.x) * (r.w - r.y)) + " ";
+    }
+    ASSERT_GE(large, 8) << "rectangles of several chunks: " << areas;
+    std::vector<EntityPlan> plan = allFar(sprites.size());
+    EXPECT_GT(expectSame(s, sprites, plan, "large far sprites"), 5000u);
+    // The pass cut by sprite ran more workgroups than sprites: the chunks past the first.
+    std::vector<FarRequest> requests;
+    for (const SpriteSetup& sp : sprites) requests.push_back({&sp, std::nullopt});
+    const FarBatch batch = prepareFarBatch(s.models, requests, cache_, ViewSet::Cube26);
+    FarPassStats fs;
+    drawBoth(cam, s, {}, batch, &fs, s.render.background, FarTiles::Sprites);
+    EXPECT_GT(fs.splatGroups, fs.sprites + 3u * std::uint64_t(large));
+    for (std::size_t i = 1; i < plan.size(); i += 4) plan[i].tier = Tier::Near;
+    EXPECT_GT(expectSame(s, sprites, plan, "large far sprites, some near"), 5000u);
 }
 
 TEST_F(VulkanFar, AutoCutsThePassBySprite) {

@@ -26,9 +26,11 @@ VT_FAR_CONST uint FAR_BINDING_INSTANCES = 0u; // FarInstanceGpu[]: the frame's f
 VT_FAR_CONST uint FAR_BINDING_SNAPSHOTS = 1u; // uint[]: the device-resident snapshot cells
 VT_FAR_CONST uint FAR_BINDING_PALETTES = 2u;  // uint[]: the frame's far palettes
 VT_FAR_CONST uint FAR_BINDING_TILES = 3u;     // FarTile[]: the image tiles far sprites touch
-VT_FAR_CONST uint FAR_BINDING_TILE_LIST = 4u; // uint[]: per tile, the far sprites touching it
-VT_FAR_CONST uint FAR_BINDING_PLANES = 5u;    // uint[]: the frame's colour, id, depth planes
-VT_FAR_CONST uint FAR_BINDING_WINNERS = 6u;   // uint[]: per pixel, far_splat.comp's winner
+// uint[]: per tile, the far sprites touching it; cut by sprite, the chunks of the rectangles
+// past each one's first (FAR_SPLAT_CHUNK): the instance, then the chunk's index in its rectangle
+VT_FAR_CONST uint FAR_BINDING_TILE_LIST = 4u;
+VT_FAR_CONST uint FAR_BINDING_PLANES = 5u;  // uint[]: the frame's colour, id, depth planes
+VT_FAR_CONST uint FAR_BINDING_WINNERS = 6u; // uint[]: per pixel, far_splat.comp's winner
 // A pixel no far instance draws and wins (far_splat.comp).
 VT_FAR_CONST uint FAR_NO_WINNER = 0xFFFFFFFFu;
 // Pixels per side of a tile, one workgroup of FAR_WORKGROUP invocations each. Coarse: 32 x 2
@@ -45,12 +47,15 @@ VT_FAR_CONST uint FAR_WORKGROUP = 64u;
 // walks at most FAR_LIST_STEP_* entries of its list per dispatch (the host dispatches the tiles
 // again for the rest, FarPush::part; the pixels are read from the planes each time, and the rule
 // does not depend on order): coarse, an entry costs up to 33 iterations (the entry, 16 rows, 16
-// rows again for the weakest pixel); fine, up to 3 (and one per batch of 64). The pass cut by
-// sprite splits a rectangle of more than FAR_WORKGROUP * FAR_SPLAT_STEPS pixels between
-// workgroups (gl_WorkGroupID.z).
+// rows again for the weakest pixel); fine, up to 3 (and one per batch of 64).
 VT_FAR_CONST uint FAR_LIST_STEP_COARSE = 1024u;
 VT_FAR_CONST uint FAR_LIST_STEP_FINE = 8192u;
-VT_FAR_CONST uint FAR_SPLAT_STEPS = 16384u;
+// The pass cut by sprite covers a rectangle in chunks of this many pixels, a workgroup each
+// (16 steps of its FAR_WORKGROUP invocations): a rectangle in one workgroup was walked by one
+// multiprocessor while the others idled. On the H200 (run 15) the far pass of the street under
+// the 1 vpx budget took 1.48 ms of device time, all-near's whole frame 0.28: its largest far
+// sprite covers up to ~160,000 pixels, 2,500 steps of one workgroup's 64 invocations.
+VT_FAR_CONST uint FAR_SPLAT_CHUNK = 1024u;
 
 // What the far pass reads of a far sprite's SpriteGpu (vtPixelCell's map, range and dither,
 // vtFaceLight's factors), copied field for field: 96 bytes of its 208. The host writes one a
@@ -116,9 +121,11 @@ struct FarInstanceGpu {
     ivec4 extra; // first cell j, palette base, depth bits, entity id
 };
 
-// Push constants: the tiles (or instances) to run, the image size, which part of each tile's
-// list this dispatch walks (FAR_LIST_STEP_* entries from part * FAR_LIST_STEP_*), and the
-// resolve's first pixel (far_splat.comp: x low 16 bits, y high 16).
+// Push constants: the workgroups to run (tiles; cut by sprite, the instances and the chunks
+// past their first), the image size, which part of each tile's list this dispatch walks
+// (FAR_LIST_STEP_* entries from part * FAR_LIST_STEP_*; cut by sprite, the instance count: the
+// workgroups from there take their chunk from the list), and the resolve's first pixel
+// (far_splat.comp: x low 16 bits, y high 16).
 struct FarPush {
     uint count;
     uint width;

@@ -1,9 +1,11 @@
 #version 450
 // The far pass cut by sprite (FarTiles::Sprites; far_blit.comp cuts it by image tile): the same
 // image, found in two dispatches with no list of sprites per tile and no walk through one.
-// FAR_SPLAT=1: a workgroup per far instance covers its rectangle, FAR_WORKGROUP pixels at a time;
-// each pixel the instance would win against what the near tier left there (the depth-and-id rule)
-// and draws (farPixelColour) takes the instance's index by atomicMin into the pixel's winner word.
+// FAR_SPLAT=1: a workgroup per chunk of a far instance's rectangle (FAR_SPLAT_CHUNK pixels: the
+// first chunk of every instance, then the list of the others) covers it, FAR_WORKGROUP pixels at
+// a time; each pixel the instance would win against what the near tier left there (the
+// depth-and-id rule) and draws (farPixelColour) takes the instance's index by atomicMin into the
+// pixel's winner word.
 // The instances are in the rule's order (far_pass.cpp: nearer first, equal depths by ascending
 // id), so the least index among them is the one the rule picks whatever the atomics' order.
 // FAR_SPLAT=0: per pixel of the rectangles' bounds, its winner (if any) writes colour, id and
@@ -33,17 +35,25 @@ layout(std430, set = 0, binding = FAR_BINDING_WINNERS) coherent buffer Winners {
 
 #if FAR_SPLAT
 layout(local_size_x = FAR_WORKGROUP) in;
+// The chunks past each rectangle's first: instance, chunk index (far_shared.h).
+layout(std430, set = 0, binding = FAR_BINDING_TILE_LIST) readonly buffer Chunks {
+    uint vtChunks[];
+};
 
 void main() {
-    uint f = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
-    if (f >= vtPush.count) return;
+    uint g = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    if (g >= vtPush.count) return;
+    // Workgroup g < instances: instance g's first chunk; the rest, a chunk from the list.
+    uint f = g, chunk = 0u;
+    if (g >= vtPush.part) {
+        f = vtChunks[2u * (g - vtPush.part)];
+        chunk = vtChunks[2u * (g - vtPush.part) + 1u];
+    }
     ivec4 r = vtFar[f].rect;
     uint w = uint(r.z - r.x);
     uint pixels = w * uint(r.w - r.y);
-    // This workgroup's part of the rectangle (far_shared.h: lavapipe's loop limit).
-    uint share = (pixels + gl_NumWorkGroups.z - 1u) / gl_NumWorkGroups.z;
-    uint begin = gl_WorkGroupID.z * share;
-    uint end = min(pixels, begin + share);
+    uint begin = chunk * FAR_SPLAT_CHUNK;
+    uint end = min(pixels, begin + FAR_SPLAT_CHUNK);
     float d = intBitsToFloat(vtFar[f].extra.z);
     uint entity = uint(vtFar[f].extra.w);
     uint plane = vtPush.width * vtPush.height;
