@@ -251,19 +251,6 @@ void setupSpriteInto(SpriteSetup& S, const CameraFrame& cam, const SpriteConstan
     setScreenRect(S, lo, hi, cam);
 }
 
-CullReason cullBeforeLattice(glm::dvec3 eyeVoxel, glm::ivec3 dims, double sigma, double viewDepth,
-                             double radiusPx, double zNear) {
-    // The proxy box is the model bounds grown by one virtual pixel (§3.10).
-    const double margin = 1.0 / sigma;
-    if (eyeVoxel.x >= -margin && eyeVoxel.y >= -margin && eyeVoxel.z >= -margin &&
-        eyeVoxel.x <= dims.x + margin && eyeVoxel.y <= dims.y + margin &&
-        eyeVoxel.z <= dims.z + margin)
-        return CullReason::CameraInside;
-    if (!(viewDepth > zNear)) return CullReason::BehindCamera;
-    if (radiusPx < 0.5) return CullReason::SubPixel;
-    return CullReason::None;
-}
-
 void markCulled(SpriteSetup& S, CullReason why) {
     S.cull = why;
     S.lattice = SpriteLattice{};
@@ -278,21 +265,6 @@ void restepSprite(SpriteSetup& S, const SpriteConstants& constants) {
     // rectangle (setScreenRect comes last).
     if (S.cull == CullReason::None || S.cull == CullReason::OffScreen)
         S.gpu.skipEmpty = constants.skipEmpty;
-}
-
-void setScreenRect(SpriteSetup& S, glm::dvec2 lo, glm::dvec2 hi, const CameraFrame& cam) {
-    if (hi.x >= lo.x) {
-        // Clamp in double first: a huge quad must not overflow the int conversion.
-        const double W = cam.width, H = cam.height;
-        S.screenRect = {int(std::clamp(std::floor(lo.x) - 1.0, 0.0, W)),
-                        int(std::clamp(std::floor(lo.y) - 1.0, 0.0, H)),
-                        int(std::clamp(std::ceil(hi.x) + 1.0, 0.0, W)),
-                        int(std::clamp(std::ceil(hi.y) + 1.0, 0.0, H))};
-    } else {
-        S.screenRect = {0, 0, 0, 0}; // the whole quad is nearer than zNear
-    }
-    if (S.screenRect.x >= S.screenRect.z || S.screenRect.y >= S.screenRect.w)
-        S.cull = CullReason::OffScreen;
 }
 
 double cellSizePx(const SpriteSetup& sprite) {
