@@ -454,8 +454,8 @@ std::uint32_t FarPass::Impl::listParts() const {
 
 FarPass::Impl::SplatShape FarPass::Impl::planSplat(int width, int height) {
     glm::ivec4 bounds(width, height, 0, 0);
-    // Most far rectangles are one chunk: under the 1 vpx budget 48 of the street's ~390 are more,
-    // ~620,000 pixels between them.
+    // Most far rectangles are one chunk: under the 1 vpx budget 48 of the street's ~390 cover more
+    // than two, ~620,000 pixels between them.
     list.clear();
     for (std::size_t k = 0; k < order.size(); ++k) {
         const glm::ivec4 r = rects[order[k].second];
