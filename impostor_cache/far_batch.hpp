@@ -65,6 +65,11 @@ struct FarInstance {
 struct FarBatch {
     std::vector<FarSnapshotCells> snapshots; ///< distinct
     std::vector<FarInstance> instances;
+    /// The snapshot cache the snapshots came from (SnapshotCache::uid) and the snapshots it had
+    /// dropped by then (evicted or superseded): a device copy that only its residency still holds
+    /// can appear only after either changes (FarResidency::update). 0: unknown (a batch put
+    /// together by hand), as if both changed every frame.
+    std::uint64_t cacheUid = 0, cacheDrops = 0;
     bool empty() const { return instances.empty(); }
 };
 

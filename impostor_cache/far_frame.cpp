@@ -382,10 +382,13 @@ void prepareFarBatch(const std::vector<std::shared_ptr<VoxelModel>>& models,
                                        m.v0, m.vi, m.vj};
         }
     });
+    const SnapshotCacheCounters after = cache.counters();
+    batch.cacheUid = cache.uid();
+    batch.cacheDrops = after.evictions + after.staleDropped;
     if (stats) {
         stats->sprites += drawn;
         stats->snapshotsUsed += distinct;
-        addCacheWork(*stats, before, cache.counters());
+        addCacheWork(*stats, before, after);
         stats->ensureMs += msSince(t0);
     }
 }

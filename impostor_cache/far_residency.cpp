@@ -164,7 +164,25 @@ std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarReside
         if (const auto l = byLineage_.find(s.lineage); l != byLineage_.end())
             predecessors.insert(l->second);
     }
-    sweep(predecessors, st);
+    // The sweep reads every resident snapshot's owner count, a miss apiece over all the cache
+    // holds: half of the far pass's host recording on the 2,000-tank army under the budget
+    // (lavapipe, 2 cores). A snapshot only this residency holds appears only once the cache has
+    // dropped it, and once the frames that held it then have let go: so the updates sweep from a
+    // change of the batch's cache or of its drops until kSweepsAfterADrop updates later, and when
+    // a snapshot does not fit (below), as before every update.
+    if (batch.cacheUid == 0 || batch.cacheUid != sweptCache_ || batch.cacheDrops != sweptDrops_)
+        sweepsOwed_ = kSweepsAfterADrop;
+    sweptCache_ = batch.cacheUid;
+    sweptDrops_ = batch.cacheDrops;
+    bool swept = false;
+    const auto sweepOnce = [&] {
+        if (!swept) sweep(predecessors, st);
+        swept = true;
+    };
+    if (sweepsOwed_ > 0) {
+        --sweepsOwed_;
+        sweepOnce();
+    }
 
     for (std::size_t k = 0; k < count; ++k) {
         if (offsets[k] != kNew) continue;
@@ -216,6 +234,10 @@ std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarReside
         // lavapipe's 128 MiB) what this frame does not draw leaves the device first, and a later
         // frame uploads it again.
         bool placed = allocate(words, offset);
+        if (!placed) {
+            sweepOnce(); // what the cache dropped first
+            placed = allocate(words, offset);
+        }
         if (!placed && capacityWords_ * 4 < range) {
             grow(capacityWords_ + words);
             placed = allocate(words, offset);
@@ -238,8 +260,8 @@ std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarReside
         ++st.snapshotsUploaded;
     }
     // Predecessors no refresh took over (another cell range) go now. Nothing else can: every
-    // other entry only this object held went in the sweep above, and every one added since holds
-    // a snapshot of the batch.
+    // other entry only this object held went in a sweep above (or none could have appeared since
+    // the last), and every one added since holds a snapshot of the batch.
     for (const void* key : predecessors)
         if (const auto it = entries_.find(key);
             it != entries_.end() && it->second.cells.owner.use_count() <= 1)

@@ -83,6 +83,12 @@ class FarResidency {
     std::vector<Copy> copies_;                     ///< this update's, recorded by recordUploads
     std::vector<std::vector<const void*>> doomed_; ///< freeUnless's, per range of buckets
     std::uint64_t retiredWords_ = 0;               ///< words of retired_ to copy into buffer_ first
+    /// The cache and drop count of the last update's batch (FarBatch::cacheUid, cacheDrops), and
+    /// the updates still to sweep since they last changed: enough for the frames in flight
+    /// (GpuFrames' slots) that held a dropped snapshot to let it go.
+    std::uint64_t sweptCache_ = 0, sweptDrops_ = 0;
+    int sweepsOwed_ = 0;
+    static constexpr int kSweepsAfterADrop = 4;
     FarResidencyStats totals_;
 };
 

@@ -29,8 +29,15 @@ std::size_t SnapshotCache::FrameKeyHash::operator()(const FrameKey& k) const {
     return mix(std::hash<std::uint64_t>{}(k.modelUid), std::hash<int>{}(k.frame));
 }
 
+namespace {
+std::uint64_t newCacheUid() {
+    static std::atomic<std::uint64_t> last{0};
+    return ++last;
+}
+} // namespace
+
 SnapshotCache::SnapshotCache(SnapshotCacheConfig config)
-    : config_(config), snapshots_(LruBudget{config.budgetBytes}),
+    : uid_(newCacheUid()), config_(config), snapshots_(LruBudget{config.budgetBytes}),
       digests_(LruBudget{.entries = 256}),
       scenes_(LruBudget{.bytes = config.sceneBudgetBytes, .entries = config.maxScenes}) {}
 SnapshotCache::~SnapshotCache() = default;

@@ -145,6 +145,8 @@ class SnapshotCache {
 
     SnapshotCacheCounters counters() const;
     const SnapshotCacheConfig& config() const { return config_; }
+    /// Unique among the caches of this process (never 0): which cache a snapshot came from.
+    std::uint64_t uid() const { return uid_; }
     /// Far sprites of sigma s draw from this cache's snapshots at sigma s x this (its bakes'
     /// snapshot scale, SelectorConfig::snapshotScale): the far frame asks for that sigma.
     int snapshotScale() const { return config_.bake.snapshotScale; }
@@ -152,6 +154,7 @@ class SnapshotCache {
     void setBudget(std::size_t bytes);
 
   private:
+    std::uint64_t uid_;
     /// A snapshot key without its version: what stays the same across edits of the model.
     struct ViewKey {
         std::uint64_t modelUid;

@@ -800,5 +800,68 @@ TEST_F(VulkanFar, ResidencyGrowsRatherThanDropWhatTheCacheStillHolds) {
     EXPECT_EQ(residency.residentSnapshots(), 64u);
 }
 
+// A snapshot only the residency holds can appear only after the cache drops it (FarBatch's cache
+// and drop count), so the residency looks for such snapshots (an owner count read per resident
+// snapshot) only from a change of either until a few updates later: a snapshot let go of while
+// the cache says it dropped nothing stays resident; one the cache dropped goes at the next update,
+// or, held then by a frame still in flight, at an update after that frame lets go.
+TEST_F(VulkanFar, ResidencySweepsAfterTheCacheDropsSnapshots) {
+    FarResidency residency(nearRenderer().device());
+    const auto snapshots = [](int count, std::uint64_t firstLineage) {
+        std::vector<FarSnapshotCells> out;
+        for (int k = 0; k < count; ++k) {
+            const auto bytes = std::make_shared<std::vector<std::uint8_t>>(16 * 16 * 2, 3);
+            out.push_back(FarSnapshotCells{
+                bytes, firstLineage + std::uint64_t(k), bytes->data(), {0, 15, 0, 15}});
+        }
+        return out;
+    };
+    std::uint64_t drops = 0;
+    const auto update = [&](const std::vector<FarSnapshotCells>& drawn) {
+        FarBatch batch;
+        batch.snapshots = drawn;
+        batch.cacheUid = 7, batch.cacheDrops = drops;
+        FarResidencyStats st;
+        residency.update(batch, &st);
+        return st.snapshotsFreed;
+    };
+    const std::vector<FarSnapshotCells> kept = snapshots(4, 100);
+    std::vector<FarSnapshotCells> dropped = snapshots(4, 200), inFlight = snapshots(4, 300);
+    std::vector<FarSnapshotCells> all = kept;
+    all.insert(all.end(), dropped.begin(), dropped.end());
+    all.insert(all.end(), inFlight.begin(), inFlight.end());
+    update(all);
+    for (int k = 0; k < 6; ++k) EXPECT_EQ(update(kept), 0u); // past the sweeps a change owes
+    // Let go of without a drop the batches tell: no sweep looks.
+    dropped.clear();
+    all.clear();
+    EXPECT_EQ(update(kept), 0u);
+    EXPECT_EQ(residency.residentSnapshots(), 12u);
+    // The cache says it dropped them: freed at once; the ones a frame in flight still holds stay.
+    ++drops;
+    EXPECT_EQ(update(kept), 4u);
+    EXPECT_EQ(residency.residentSnapshots(), 8u);
+    // That frame lets go: freed by one of the next updates, though the drops are as they were.
+    inFlight.clear();
+    std::uint64_t freed = 0;
+    for (int k = 0; k < 2; ++k) freed += update(kept);
+    EXPECT_EQ(freed, 4u);
+    EXPECT_EQ(residency.residentSnapshots(), kept.size());
+
+    // A batch from the snapshot cache says which cache, and counts what it has dropped.
+    Scene s = test::hardCaseWorld(glm::dvec3(0.0));
+    const CameraFrame cam = makeCameraFrame(s.camera);
+    const auto sprites = setupSprites(s, cam, 0.0);
+    std::vector<FarRequest> requests;
+    for (const auto& sp : sprites) requests.push_back({&sp, std::nullopt});
+    SnapshotCache cache;
+    const FarBatch before = prepareFarBatch(s.models, requests, cache, ViewSet::Cube26);
+    EXPECT_EQ(before.cacheUid, cache.uid());
+    EXPECT_NE(SnapshotCache().uid(), cache.uid());
+    cache.setBudget(0); // evicts every snapshot
+    const FarBatch after = prepareFarBatch(s.models, requests, cache, ViewSet::Cube26);
+    EXPECT_GE(after.cacheDrops, before.cacheDrops + before.snapshots.size());
+}
+
 } // namespace
 } // namespace voxtier
