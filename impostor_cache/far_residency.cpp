@@ -169,7 +169,9 @@ std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarReside
     // (lavapipe, 2 cores). A snapshot only this residency holds appears only once the cache has
     // dropped it, and once the frames that held it then have let go: so the updates sweep from a
     // change of the batch's cache or of its drops until kSweepsAfterADrop updates later, and when
-    // a snapshot does not fit (below), as before every update.
+    // a snapshot does not fit (below), as before every update. (Whoever holds a dropped snapshot
+    // longer, not a renderer, leaves its device copy until the next drop or until space runs
+    // short.)
     if (batch.cacheUid == 0 || batch.cacheUid != sweptCache_ || batch.cacheDrops != sweptDrops_)
         sweepsOwed_ = kSweepsAfterADrop;
     sweptCache_ = batch.cacheUid;
@@ -260,8 +262,8 @@ std::vector<std::uint32_t> FarResidency::update(const FarBatch& batch, FarReside
         ++st.snapshotsUploaded;
     }
     // Predecessors no refresh took over (another cell range) go now. Nothing else can: every
-    // other entry only this object held went in a sweep above (or none could have appeared since
-    // the last), and every one added since holds a snapshot of the batch.
+    // other entry only this object held went in a sweep above or waits for the next one, and
+    // every one added since holds a snapshot of the batch.
     for (const void* key : predecessors)
         if (const auto it = entries_.find(key);
             it != entries_.end() && it->second.cells.owner.use_count() <= 1)

@@ -4,6 +4,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include <atomic>
 #include <chrono>
 #include <functional>
 #include <optional>
