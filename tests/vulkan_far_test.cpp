@@ -162,6 +162,22 @@ class VulkanFar : public test::VulkanTest {
         return farPixels;
     }
 
+    /// The hard-case world with a far request (the nearest view) for each of its sprites.
+    struct HardCaseRequests {
+        Scene scene;
+        CameraFrame cam;
+        std::vector<SpriteSetup> sprites;
+        std::vector<FarRequest> requests; ///< into `sprites`, whose storage a move keeps
+    };
+    static HardCaseRequests hardCaseRequests() {
+        HardCaseRequests h;
+        h.scene = test::hardCaseWorld(glm::dvec3(0.0));
+        h.cam = makeCameraFrame(h.scene.camera);
+        h.sprites = setupSprites(h.scene, h.cam, 0.0);
+        for (const auto& sp : h.sprites) h.requests.push_back({&sp, std::nullopt});
+        return h;
+    }
+
     static std::vector<EntityPlan> allFar(std::size_t n) {
         EntityPlan p;
         p.tier = Tier::Far;
@@ -628,11 +644,10 @@ TEST_F(VulkanFar, SnapshotsAreUploadedOnceAndFreedWhenTheCacheDropsThem) {
     // here).
     passes_[std::size_t(FarTiles::Fine)].reset();
     passes_[std::size_t(FarTiles::Sprites)].reset();
-    Scene s = test::hardCaseWorld(glm::dvec3(0.0));
-    const CameraFrame cam = makeCameraFrame(s.camera);
-    const auto sprites = setupSprites(s, cam, 0.0);
-    std::vector<FarRequest> requests;
-    for (const auto& sp : sprites) requests.push_back({&sp, std::nullopt});
+    HardCaseRequests hard = hardCaseRequests();
+    Scene& s = hard.scene;
+    const CameraFrame& cam = hard.cam;
+    const std::vector<FarRequest>& requests = hard.requests;
     SnapshotCache cache;
     FarPassStats first, second;
     std::set<const void*> firstOwners;
@@ -849,11 +864,9 @@ TEST_F(VulkanFar, ResidencySweepsAfterTheCacheDropsSnapshots) {
     EXPECT_EQ(residency.residentSnapshots(), kept.size());
 
     // A batch from the snapshot cache says which cache, and counts what it has dropped.
-    Scene s = test::hardCaseWorld(glm::dvec3(0.0));
-    const CameraFrame cam = makeCameraFrame(s.camera);
-    const auto sprites = setupSprites(s, cam, 0.0);
-    std::vector<FarRequest> requests;
-    for (const auto& sp : sprites) requests.push_back({&sp, std::nullopt});
+    const HardCaseRequests hard = hardCaseRequests();
+    const Scene& s = hard.scene;
+    const std::vector<FarRequest>& requests = hard.requests;
     SnapshotCache cache;
     const FarBatch before = prepareFarBatch(s.models, requests, cache, ViewSet::Cube26);
     EXPECT_EQ(before.cacheUid, cache.uid());
