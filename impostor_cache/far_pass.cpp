@@ -369,8 +369,7 @@ std::uint32_t FarPass::Impl::prepare(const FarBatch& batch, int width, int heigh
         // so the order has one answer, whichever sort finds it.
         sortKeyIndexPairs(order, orderScratch, idsAscend ? 32 : 0);
         if (tiles == FarTiles::Sprites) {
-            tileRecords.clear(); // no tiles: a workgroup per chunk of each drawn rectangle
-            list.clear();        // the chunks, listed each frame (planSplat)
+            tileRecords.clear(); // no tiles: the chunks' list is planSplat's, every frame
         } else {
             binTiles(width, height);
         }
