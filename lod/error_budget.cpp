@@ -164,9 +164,16 @@ bool SharedCacheAnswers::ask(const SpriteSetup& sprite, ViewId view,
     return isCached(sprite, view);
 }
 
+double BakeCosts::nearMs(const SpriteSetup& sprite) const {
+    return nearCostUnits(sprite, nearRate) * nearMsPerUnit;
+}
+
+double BakeCosts::farMs(const SpriteSetup& sprite) const {
+    return double(rectPixels(sprite)) * blitMsPerPx;
+}
+
 double BakeCosts::farSavingMs(const SpriteSetup& sprite) const {
-    return nearCostUnits(sprite, nearRate) * nearMsPerUnit -
-           double(rectPixels(sprite)) * blitMsPerPx;
+    return nearMs(sprite) - farMs(sprite);
 }
 
 std::size_t ErrorBudgetViews::BakeTable::hash(const BakeKey& key) {
@@ -377,25 +384,24 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
     std::span<const SpriteSetup> sprites, const std::vector<std::optional<ViewId>>& drawnFrom,
     const BakeCosts& costs, std::span<const std::uint8_t> mayUseABake) {
     std::vector<std::size_t> givenUp;
-    if (!costs.known() || baking_.empty()) return givenUp;
-    // What each bake's users save, and what every far sprite saves (cached views included: the
-    // sprites already far pay for the bakes of the frame, so the frame is never slower than
-    // drawing them all near, as far as the measured costs tell).
-    std::vector<double> saving(baking_.size(), 0.0);
-    std::vector<std::vector<std::size_t>> users(baking_.size());
-    // What each far sprite saves and which bake it uses, found in parallel (each sprite read is a
-    // cache miss: 4-5 ms of every frame at 100,000 tanks on one core), then summed in entity
-    // order as one walk would: the same sums, whatever the threads.
+    heldNearCount_ = 0;
+    // Nothing to weigh: no bake, and no blit measured for the far tier's own cost.
+    if (!costs.known() || (baking_.empty() && !(costs.blitMsPerPx > 0.0))) return givenUp;
+    // What each far sprite saves, costs far and which bake it uses, found in parallel (each
+    // sprite read is a cache miss: 4-5 ms of every frame at 100,000 tanks on one core), then
+    // summed in entity order as one walk would: the same sums, whatever the threads.
     const std::size_t n = std::min(sprites.size(), drawnFrom.size());
     savingOf_.resize(n);
+    farMsOf_.resize(n);
     bakeOf_.resize(n);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
             if (!drawnFrom[i]) continue;
-            savingOf_[i] = costs.farSavingMs(sprites[i]);
+            farMsOf_[i] = costs.farMs(sprites[i]);
+            savingOf_[i] = costs.nearMs(sprites[i]) - farMsOf_[i];
             // Most far entities keep a cached view: no hash lookup for them (under the error
             // budget at 100,000 tanks, ~50,000 of ~70,000 lookups a frame).
-            if (!mayUseABake.empty() && !mayUseABake[i]) {
+            if (baking_.empty() || (!mayUseABake.empty() && !mayUseABake[i])) {
                 bakeOf_[i] = kNoBake;
                 continue;
             }
@@ -403,14 +409,39 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
             bakeOf_[i] = b == BakeTable::kNone ? kNoBake : b;
         }
     });
-    double savedMs = 0.0;
+    // What each bake's users save, and what every far sprite saves (cached views included: the
+    // sprites already far pay for the bakes of the frame, so the frame is never slower than
+    // drawing them all near, as far as the measured costs tell).
+    std::vector<double> saving(baking_.size(), 0.0);
+    std::vector<std::vector<std::size_t>> users(baking_.size());
+    double savedMs = 0.0, farMs = 0.0;
     for (std::size_t i = 0; i < n; ++i) {
         if (!drawnFrom[i]) continue;
         savedMs += savingOf_[i];
+        farMs += farMsOf_[i];
         if (bakeOf_[i] == kNoBake) continue;
         saving[bakeOf_[i]] += savingOf_[i];
         users[bakeOf_[i]].push_back(i);
     }
+    // The far tier as a whole: the blit's measured rate holds its fixed part (a pass over the
+    // image, a dispatch), so a tier whose sprites each pay may still not pay together; the bakes
+    // below weigh sprites against the tier's rate, the tier weighs itself against near.
+    const double nearMs = savedMs + farMs;
+    farTierHeld_ = farTierHeld_ ? farMs >= kLetGoBelow * nearMs : farMs > kHoldNearAbove * nearMs;
+    if (farTierHeld_) {
+        std::vector<std::size_t> nearInstead;
+        for (std::size_t i = 0; i < n; ++i)
+            if (drawnFrom[i]) {
+                nearInstead.push_back(i);
+                if (bakeOf_[i] != kNoBake) drop(i); // a view to be baked: scanned afresh
+            }
+        heldNearCount_ = int(nearInstead.size());
+        bakesLeft_ += int(baking_.size());
+        baking_.clear();
+        bakingIndex_.clear();
+        return nearInstead;
+    }
+    if (baking_.empty()) return givenUp;
     std::vector<std::size_t> order(baking_.size());
     for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
     std::stable_sort(order.begin(), order.end(),

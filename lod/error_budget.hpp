@@ -51,8 +51,14 @@ struct BakeCosts {
     NearRate nearRate = NearRate::Auto;
     /// Both a bake and the near tier have been measured: the cost bound can apply.
     bool known() const { return msPerBake > 0.0 && nearMsPerUnit > 0.0; }
-    /// What drawing `sprite` far instead of near saves this frame (ms; negative if nothing).
+    /// What drawing `sprite` far instead of near saves this frame (ms; negative if nothing):
+    /// nearMs(sprite) - farMs(sprite).
     double farSavingMs(const SpriteSetup& sprite) const;
+    /// What drawing `sprite` near costs by these costs (ms): its near cost units at the near rate.
+    double nearMs(const SpriteSetup& sprite) const;
+    /// What drawing `sprite` far costs by these costs (ms): its screen rectangle at the blit's
+    /// rate.
+    double farMs(const SpriteSetup& sprite) const;
 };
 
 /// The snapshots a planner's question to the cache names: a model and animation frame of the
@@ -109,7 +115,7 @@ class ErrorBudgetViews {
     /// without a bake: cached in memory or on disk (SnapshotCache::availableWithoutBake).
     using IsCached = std::function<bool(const SpriteSetup&, ViewId)>;
 
-    void reset() { current_.clear(), fades_.clear(); }
+    void reset() { current_.clear(), fades_.clear(), farTierHeld_ = false; }
     /// Starts a frame: `bakes` snapshots may still be baked in it.
     void beginFrame(std::size_t entities, int bakes);
     /// The view `sprite` (entity `entity`) is drawn far from, or nullopt if no view within the
@@ -175,18 +181,31 @@ class ErrorBudgetViews {
     bool viewFade(std::size_t entity, const SpriteSetup& sprite,
                   const SpriteSelectionInputs& selection, const SelectorConfig& config,
                   const IsCached& isCached, float* share, ViewId* from);
-    /// Ends the frame's choices under the cost bound (CONTRACT.md §5): while the frame's bakes and
-    /// planning cost more than the near time all its far sprites save, the bake that saves least
-    /// (its users' farSavingMs, summed) is given up if it saves less than it costs, and its users
-    /// are drawn near this frame. `drawnFrom[i]` is the view entity i is drawn far from (nullopt:
-    /// near). `mayUseABake[i]`, where given, is 0 for an entity whose view is certainly no bake of
-    /// this frame (a view kept because it is cached: no entity asks to bake a view the frame's
-    /// cache answers hold cached), whose bake is then not looked up. Returns the entities given
-    /// up, in ascending order (their views are dropped).
+    /// Ends the frame's choices under the cost bound (CONTRACT.md §5). First the far tier as a
+    /// whole: where drawing its sprites far costs more than drawing them near (the sums of
+    /// BakeCosts::farMs and nearMs over them, with a hysteresis band: held near from far costing
+    /// kHoldNearAbove times near, let go below kLetGoBelow), every far sprite is drawn near this
+    /// frame and every bake is given up; the views of those drawn from a cached snapshot are kept
+    /// (while the costs say so the tier stays near without a scan, and goes back to the same
+    /// views when they change), the others dropped. Else, while the frame's bakes and planning
+    /// cost more than the near time the far sprites save, the bake that saves least (its users'
+    /// farSavingMs, summed) is given up if it saves less than it costs, and its users are drawn
+    /// near this frame. `drawnFrom[i]` is the view entity i is drawn far from (nullopt: near).
+    /// `mayUseABake[i]`, where given, is 0 for an entity whose view is certainly no bake of this
+    /// frame (a view kept because it is cached: no entity asks to bake a view the frame's cache
+    /// answers hold cached), whose bake is then not looked up. Returns the entities drawn near
+    /// instead, in ascending order (their views dropped unless the tier was held near).
     std::vector<std::size_t>
     keepAffordableBakes(std::span<const SpriteSetup> sprites,
                         const std::vector<std::optional<ViewId>>& drawnFrom, const BakeCosts& costs,
                         std::span<const std::uint8_t> mayUseABake = {});
+    /// Far above near by this factor, the far tier is held near (keepAffordableBakes); below
+    /// kLetGoBelow it is let go. Between, it stays as it was: costs learnt frame by frame wobble,
+    /// and a tier that went back and forth with them would pop every frame.
+    static constexpr double kHoldNearAbove = 1.25;
+    static constexpr double kLetGoBelow = 0.8;
+    /// Far sprites keepAffordableBakes held near this frame (the far tier's, or 0).
+    int heldNearThisFrame() const { return heldNearCount_; }
     int viewChangesThisFrame() const { return viewChanges_; }
     int bakesLeft() const { return bakesLeft_; }
     /// Views this frame asks to bake (after keepAffordableBakes: the ones it kept).
@@ -246,6 +265,11 @@ class ErrorBudgetViews {
     static constexpr std::size_t kNoBake = ~std::size_t(0);
     std::vector<double> savingOf_;
     std::vector<std::size_t> bakeOf_;
+    /// Per entity, what drawing its far sprite far costs (BakeCosts::farMs).
+    std::vector<double> farMsOf_;
+    /// Whether keepAffordableBakes holds the far tier near (its hysteresis state).
+    bool farTierHeld_ = false;
+    int heldNearCount_ = 0;
 };
 
 } // namespace voxtier

@@ -198,9 +198,11 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         st.ms.choices = lapMs(step);
         st.cacheQuestions = int(cacheAnswers_.askedOfTheCache()); // no later step asks
         st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
+        st.heldNear = settings.costAwareBakes ? budgetViews_.heldNearThisFrame() : 0;
         st.ms.costBound = lapMs(step);
-        // After the bakes given up, which send their entities near (never a kept one: its view
-        // is cached, so no bake is asked for it). A kept view's prediction is prepare()'s.
+        // After the bakes given up, which send their entities near (a kept one only with the
+        // whole far tier held near: its view is cached, so no bake is asked for it). A kept
+        // view's prediction is prepare()'s.
         forEach([&](std::size_t i) {
             if (budgetStep_[i] == BudgetStep::Kept && plan[i].drawsFar())
                 predicted_[i] = prepared_[i].currentUnits;

@@ -46,6 +46,9 @@ struct PlanStats {
     int switchesToFar = 0, switchesToNear = 0, viewChanges = 0;
     int fading = 0;       ///< entities drawn by both tiers (cross-fade)
     int bakesGivenUp = 0; ///< metric error_budget: bakes given up under the cost bound
+    /// Metric error_budget: far sprites drawn near because the far tier as a whole costs more far
+    /// than near by the cost bound's costs (ErrorBudgetViews::keepAffordableBakes).
+    int heldNear = 0;
     /// Metric error_budget: the plan's questions that reached the snapshot cache (the rest were
     /// answered by SharedCacheAnswers, this plan's or kept from the plans before).
     int cacheQuestions = 0;

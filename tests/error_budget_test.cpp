@@ -575,6 +575,61 @@ TEST(ErrorBudget, ABakeIsGivenUpWhenItsUsersSaveLessThanItCosts) {
     EXPECT_TRUE(givenUp.empty());
 }
 
+// The far tier as a whole (CONTRACT.md §5): where drawing its sprites far costs more than drawing
+// them near by kHoldNearAbove, every far sprite is drawn near and every bake given up; the views of
+// sprites drawn from cached snapshots are kept, a view that was to be baked is dropped. Inside the
+// hysteresis band the tier stays as it was; below kLetGoBelow it is let go.
+TEST(ErrorBudget, AFarTierThatCostsMoreThanNearIsHeldNearWithItsCachedViews) {
+    const SelectorConfig c = budgetSelector(1.0);
+    const glm::dvec3 along(0.3, 0.8, 0.52);
+    // Three sprites of a cached model (its snapshots are all there), one that needs a bake.
+    std::vector<SpriteSetup> sprites;
+    for (int model : {2, 2, 1, 2}) {
+        SpriteSetup sp = syntheticSprite(along, 1.0 / 8.0);
+        sp.model = model;
+        sp.screenRect = {0, 0, 8, 8};
+        sprites.push_back(sp);
+    }
+    const auto cached = [](const SpriteSetup& s, ViewId) { return s.model == 2; };
+    ErrorBudgetViews views;
+    // One frame at a blit cost `ratio` times the near cost per pixel (fragment rate: a sprite's
+    // near units are its pixels): the entities drawn near instead, and the views kept.
+    const auto frame = [&](double ratio) {
+        const BakeCosts costs{.msPerBake = 1e-6,
+                              .nearMsPerUnit = 0.01,
+                              .blitMsPerPx = 0.01 * ratio,
+                              .nearRate = NearRate::Fragment};
+        views.beginFrame(sprites.size(), 8);
+        std::vector<std::optional<ViewId>> drawn;
+        for (std::size_t i = 0; i < sprites.size(); ++i)
+            drawn.push_back(views.choose(i, sprites[i], c, cached));
+        EXPECT_EQ(views.bakesAsked(), 1u);
+        return views.keepAffordableBakes(sprites, drawn, costs);
+    };
+    const std::vector<std::size_t> all = {0, 1, 2, 3}, none = {};
+    // Inside the band a tier not held stays far: only the bake goes (its user saves nothing).
+    EXPECT_EQ(frame(1.1), (std::vector<std::size_t>{2}));
+    EXPECT_EQ(views.heldNearThisFrame(), 0);
+    EXPECT_EQ(frame(1.3), all);
+    EXPECT_EQ(views.heldNearThisFrame(), 4);
+    EXPECT_EQ(views.bakesAsked(), 0u) << "no far sprite left to draw from the bake";
+    EXPECT_EQ(views.bakesLeft(), 8);
+    // The cached views are kept: the next frame finds them settled (no scan); the view that was to
+    // be baked is not.
+    const auto settled = [&](std::size_t i) {
+        return views.prepare(i, sprites[i], c, cached).settled();
+    };
+    EXPECT_TRUE(settled(0) && settled(1) && settled(3));
+    EXPECT_FALSE(settled(2));
+    EXPECT_EQ(frame(1.0), all) << "inside the band, a held tier stays near";
+    EXPECT_EQ(frame(0.85), all);
+    EXPECT_EQ(frame(0.75), none) << "below the band, let go";
+    EXPECT_EQ(views.heldNearThisFrame(), 0);
+    EXPECT_EQ(views.bakesAsked(), 1u);
+    // No blit measured yet: nothing weighs the tier.
+    EXPECT_EQ(frame(0.0), none);
+}
+
 // A sprite drawn far saves what it would cost near at the near tier's rate: its cells where it
 // would be drawn cell-rate (a magnified sprite), its rectangle pixels where it would be traced
 // per pixel; less what blitting its rectangle costs.
@@ -669,6 +724,41 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
     EXPECT_GT(costedBakes, 0);
     EXPECT_GT(givenUp, 0); // the frame figure counts them
     EXPECT_EQ(farFrames, frames);
+}
+
+// Along the tank army's path with fixed costs: once blitting the far tier costs more than drawing
+// its sprites near, every frame is the all-near image pixel for pixel, though the far sprites'
+// views are cached (the bakes alone would keep them far); once it is cheap again, the tier goes
+// back far.
+TEST(ErrorBudget, AFarTierDearerThanNearIsDrawnNearUntilItPaysAgain) {
+    Scene s = benchScene("scenes/bench/tank_army.json", 60, 240, 136);
+    s.selector = budgetSelector(0.25);
+    ASSERT_GE(s.path->frameCount(), 10);
+    FrameOptions o = cpuNear();
+    o.costAwareBakes = true;
+    o.bakeCosts = BakeCosts{.msPerBake = 1e-12, .nearMsPerUnit = 1.0};
+    FrameRenderer r(s, o), allNear(s, cpuNear());
+    int f = 0;
+    for (; f < 4; ++f) { // free bakes, no blit measured: the snapshots are baked
+        const FrameResult fr = r.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
+        EXPECT_EQ(fr.stats.plan.heldNear, 0) << "frame " << f;
+    }
+    r.options().bakeCosts->blitMsPerPx = 10.0; // far: 10 ms a pixel, near 1 ms a unit
+    for (; f < 8; ++f) {
+        const FrameResult fr = r.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
+        EXPECT_GT(fr.stats.plan.heldNear, 10) << "frame " << f;
+        EXPECT_EQ(fr.stats.farDrawn, 0) << "frame " << f;
+        EXPECT_EQ(fr.stats.far.bakes, 0) << "frame " << f;
+        const Image near = allNear.render(s.timeOfFrame(f), RenderMode::Near, f).image;
+        EXPECT_EQ(test::describeDifference(near, fr.image, "all near", "far tier held"), "")
+            << "frame " << f;
+    }
+    r.options().bakeCosts->blitMsPerPx = 0.01;
+    for (; f < 10; ++f) {
+        const FrameResult fr = r.render(s.timeOfFrame(f), RenderMode::Hybrid, f);
+        EXPECT_EQ(fr.stats.plan.heldNear, 0) << "frame " << f;
+        EXPECT_GT(fr.stats.farDrawn, 10) << "frame " << f;
+    }
 }
 
 // A view switch cross-fades like a tier switch: frame k of N shows the new view on the pixels whose
