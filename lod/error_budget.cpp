@@ -380,6 +380,11 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
     return pick;
 }
 
+bool ErrorBudgetViews::weighFarTier(double farMs, double nearMs) {
+    farTierHeld_ = farTierHeld_ ? farMs >= kLetGoBelow * nearMs : farMs > kHoldNearAbove * nearMs;
+    return farTierHeld_;
+}
+
 std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
     std::span<const SpriteSetup> sprites, const std::vector<std::optional<ViewId>>& drawnFrom,
     const BakeCosts& costs, std::span<const std::uint8_t> mayUseABake) {
@@ -426,9 +431,7 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
     // The far tier as a whole: the blit's measured rate holds its fixed part (a pass over the
     // image, a dispatch), so a tier whose sprites each pay may still not pay together; the bakes
     // below weigh sprites against the tier's rate, the tier weighs itself against near.
-    const double nearMs = savedMs + farMs;
-    farTierHeld_ = farTierHeld_ ? farMs >= kLetGoBelow * nearMs : farMs > kHoldNearAbove * nearMs;
-    if (farTierHeld_) {
+    if (weighFarTier(farMs, savedMs + farMs)) {
         std::vector<std::size_t> nearInstead;
         for (std::size_t i = 0; i < n; ++i)
             if (drawnFrom[i]) {

@@ -206,6 +206,14 @@ class ErrorBudgetViews {
     static constexpr double kLetGoBelow = 0.8;
     /// Far sprites keepAffordableBakes held near this frame (the far tier's, or 0).
     int heldNearThisFrame() const { return heldNearCount_; }
+    /// Whether the far tier is held near (keepAffordableBakes's hysteresis state): a planner may
+    /// then weigh the tier before any view is chosen (weighFarTier) and, while it stays held,
+    /// choose none.
+    bool farTierHeld() const { return farTierHeld_; }
+    /// Weighs the far tier: its far sprites cost `farMs` drawn far and `nearMs` drawn near (sums of
+    /// BakeCosts::farMs and nearMs). Whether it is held near, with the hysteresis band; updates
+    /// farTierHeld().
+    bool weighFarTier(double farMs, double nearMs);
     int viewChangesThisFrame() const { return viewChanges_; }
     int bakesLeft() const { return bakesLeft_; }
     /// Views this frame asks to bake (after keepAffordableBakes: the ones it kept).

@@ -145,7 +145,11 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         predicted_[i] =
             p.drawsFar() && p.view && in[i].visible ? predictedBudgetUnits(in[i], *p.view) : 0.0;
     };
-    if (budget) {
+    if (budget && holdFarTier(sprites, in, settings, tierOf, forEach, plan, st)) {
+        // Held near: no view chosen, nothing baked, nothing drawn far, nothing predicted.
+        st.ms.costBound = lapMs(step);
+        std::fill(predicted_.begin(), predicted_.end(), 0.0);
+    } else if (budget) {
         // The budget's views share the frame's bake bound, given out in entity order; what
         // each far entity's choice reads of no other entity (its tier, its levels' views and
         // predictions, the cache's answers) is found first, in parallel. An entity whose current
@@ -319,6 +323,46 @@ void FramePlanner::fadeBudgetView(std::size_t entity, const SpriteSetup& sprite,
     if (p.view && p.tier == Tier::Far && p.fade <= 0.0f &&
         budgetViews_.viewFade(entity, sprite, selection, config, settings.inMemory, &share, &from))
         p.fade = share, p.fadeFrom = Tier::Far, p.fadeFromView = from;
+}
+
+template <class TierOf, class ForEach>
+bool FramePlanner::holdFarTier(std::span<const SpriteSetup> sprites,
+                               std::span<const SpriteSelectionInputs> in,
+                               const PlanSettings& settings, const TierOf& tierOf,
+                               const ForEach& forEach, std::vector<EntityPlan>& plan,
+                               PlanStats& st) {
+    const BakeCosts& costs = settings.bakeCosts ? *settings.bakeCosts : costs_.costs();
+    if (!settings.costAwareBakes || !budgetViews_.farTierHeld() || !costs.known()) return false;
+    // While the far tier is held near, no far sprite is drawn: the views it would be drawn from,
+    // the bakes and the cache's answers would all be given up again (on the H200 the bench's
+    // hybrids spent 0.8 ms of selection a frame on 2,000 tanks, the 100,000-tank one 9.4 ms).
+    // So the tier is weighed first, as the selector draws it: every visible entity it puts far,
+    // each one's far and near cost found in parallel and summed in entity order (the same sums
+    // whatever the threads). Let go, the frame plans as every other (whose weighing of the
+    // entities given views then holds the tier again only past the band's upper end).
+    tierFarMs_.resize(plan.size());
+    tierNearMs_.resize(plan.size());
+    forEach([&](std::size_t i) {
+        tierOf(i);
+        const bool far = plan[i].drawsFar() && in[i].visible;
+        tierFarMs_[i] = far ? costs.farMs(sprites[i]) : -1.0;
+        tierNearMs_[i] = far ? costs.nearMs(sprites[i]) : 0.0;
+    });
+    double farMs = 0.0, nearMs = 0.0;
+    int held = 0;
+    for (std::size_t i = 0; i < plan.size(); ++i)
+        if (tierFarMs_[i] >= 0.0) farMs += tierFarMs_[i], nearMs += tierNearMs_[i], ++held;
+    if (!budgetViews_.weighFarTier(farMs, nearMs)) return false;
+    // Near this frame, the views of the held entities kept (as keepAffordableBakes keeps a held
+    // tier's cached ones); an entity the selector draws near starts its view afresh, as below.
+    forEach([&](std::size_t i) {
+        if (tierFarMs_[i] >= 0.0)
+            plan[i] = EntityPlan{};
+        else if (!plan[i].drawsFar() || !in[i].visible)
+            budgetViews_.drop(i);
+    });
+    st.heldNear = held;
+    return true;
 }
 
 int FramePlanner::keepAffordableBakes(std::span<const SpriteSetup> sprites,

@@ -190,6 +190,14 @@ class FramePlanner {
     void fadeBudgetView(std::size_t entity, const SpriteSetup& sprite,
                         const SpriteSelectionInputs& selection, const SelectorConfig& config,
                         const PlanSettings& settings, EntityPlan& plan);
+    /// Metric error_budget, cost bound on: where the far tier was held near and still is, weighed
+    /// over the visible entities the selector draws far (their tiers set by `tierOf`), draws them
+    /// near and returns true: the frame then chooses no view.
+    template <class TierOf, class ForEach>
+    bool holdFarTier(std::span<const SpriteSetup> sprites,
+                     std::span<const SpriteSelectionInputs> in, const PlanSettings& settings,
+                     const TierOf& tierOf, const ForEach& forEach, std::vector<EntityPlan>& plan,
+                     PlanStats& st);
     /// Metric error_budget: starts the plan's shared answers of the cache, kept from the plan
     /// before where the settings tell what changed since.
     void beginCacheAnswers(const PlanSettings& settings);
@@ -213,6 +221,8 @@ class FramePlanner {
     std::vector<double> predicted_; ///< predictedBudgetUnits of each far-drawn visible entity
     /// error_budget: what each far entity's view choice reads of no other entity, this frame
     std::vector<ErrorBudgetViews::Prepared> prepared_;
+    /// holdFarTier: per entity, its far sprite's far and near cost (-1 far: not drawn far).
+    std::vector<double> tierFarMs_, tierNearMs_;
     SharedCacheAnswers cacheAnswers_; ///< error_budget: the cache's answers, kept across plans
     /// The count of the cache's changes the answers were kept through, and under which epoch
     /// (PlanSettings::inMemoryChangesSince); the views changed since, this plan.

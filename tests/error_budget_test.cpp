@@ -728,8 +728,8 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
 
 // Along the tank army's path with fixed costs: once blitting the far tier costs more than drawing
 // its sprites near, every frame is the all-near image pixel for pixel, though the far sprites'
-// views are cached (the bakes alone would keep them far); once it is cheap again, the tier goes
-// back far.
+// views are cached (the bakes alone would keep them far), and after the first such frame the
+// planner chooses no view; once it is cheap again, the tier goes back far.
 TEST(ErrorBudget, AFarTierDearerThanNearIsDrawnNearUntilItPaysAgain) {
     Scene s = benchScene("scenes/bench/tank_army.json", 60, 240, 136);
     s.selector = budgetSelector(0.25);
@@ -749,6 +749,12 @@ TEST(ErrorBudget, AFarTierDearerThanNearIsDrawnNearUntilItPaysAgain) {
         EXPECT_GT(fr.stats.plan.heldNear, 10) << "frame " << f;
         EXPECT_EQ(fr.stats.farDrawn, 0) << "frame " << f;
         EXPECT_EQ(fr.stats.far.bakes, 0) << "frame " << f;
+        // Once held, the tier is weighed before any view is chosen: none is, nor asked about.
+        if (f > 4) {
+            EXPECT_EQ(fr.stats.plan.ms.views, 0.0) << "frame " << f;
+            EXPECT_EQ(fr.stats.plan.ms.choices, 0.0) << "frame " << f;
+            EXPECT_EQ(fr.stats.plan.cacheQuestions, 0) << "frame " << f;
+        }
         const Image near = allNear.render(s.timeOfFrame(f), RenderMode::Near, f).image;
         EXPECT_EQ(test::describeDifference(near, fr.image, "all near", "far tier held"), "")
             << "frame " << f;
