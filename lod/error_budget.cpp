@@ -428,9 +428,9 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
         saving[bakeOf_[i]] += savingOf_[i];
         users[bakeOf_[i]].push_back(i);
     }
-    // The far tier as a whole: the blit's measured rate holds its fixed part (a pass over the
-    // image, a dispatch), so a tier whose sprites each pay may still not pay together; the bakes
-    // below weigh sprites against the tier's rate, the tier weighs itself against near.
+    // The far tier as a whole: the blit's measured rate holds the tier's fixed part (a pass over
+    // the image, a dispatch), so one sprite weighed alone looks dearer far than it is, the more so
+    // the fewer pixels the tier has; summed over the tier, the rate gives what the tier cost.
     if (weighFarTier(farMs, savedMs + farMs)) {
         std::vector<std::size_t> nearInstead;
         for (std::size_t i = 0; i < n; ++i)
