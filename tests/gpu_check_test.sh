@@ -24,6 +24,8 @@ grep -q "^| golden/equal_depth.json | 0.000 |.*| 0 | 0 | 0 | identical |" "$work
 grep -q "^- Vulkan device: \*\*.\+\*\*" "$work/out/report.md" || fail "report.md names no device"
 grep -q "^identity_near,golden/equal_depth.json,t=0.000 id_diffs,0,pixels" "$work/out/results.csv" ||
     fail "results.csv lacks the identity rows"
+grep -q "^bench,street,hybrid.* in_motion_far_entities,[0-9.]\+,count" "$work/out/results.csv" ||
+    fail "results.csv has no far sprites in motion for the street's hybrid"
 grep -q "^bench,street,hybrid.*in_motion_ms,[0-9.]\+,ms" "$work/out/results.csv" ||
     fail "results.csv lacks the hybrid's in-motion ms"
 # The all-near Vulkan frame timed on the device without its readback, beside the warm frame.

@@ -354,6 +354,8 @@ if os.path.exists(bench_csv):
             ("in_motion_all_near_reference_ms", "all-near CPU reference (ms)", "ms"),
             ("in_motion_speedup_vs_all_near_reference", "× vs all-near reference", "x"),
             ("near_backend", "near drawn by", ""), ("in_motion_psnr_min", "min PSNR (dB)", "dB"),
+            ("in_motion_far_entities", "far sprites in motion (0: all near, or the far tier held near)",
+             "count"),
             ("frame_ms", "warm frame (ms)", "ms"),
             ("device_frame_ms", "warm frame on the device, no readback (ms; 0: a CPU tier)", "ms")]
     lines += ["| scene | mode | " + " | ".join(c[1] for c in cols) + " |", "|---|---|" + "---|" * len(cols)]
