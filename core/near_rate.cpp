@@ -22,15 +22,22 @@ std::uint64_t rectPixels(const SpriteSetup& s) {
     return std::uint64_t(r.z - r.x) * std::uint64_t(r.w - r.y);
 }
 
-bool wantsCellRate(const SpriteSetup& s, NearRate rate) {
-    const std::uint64_t cells = cellCount(s);
+bool wantsCellRate(std::uint64_t cells, std::uint64_t pixels, NearRate rate) {
     return cells > 0 &&
            (rate == NearRate::Cell ||
-            (rate == NearRate::Auto && kCellRateCost * double(cells) < double(rectPixels(s))));
+            (rate == NearRate::Auto && kCellRateCost * double(cells) < double(pixels)));
+}
+
+bool wantsCellRate(const SpriteSetup& s, NearRate rate) {
+    return wantsCellRate(cellCount(s), rectPixels(s), rate);
+}
+
+double nearCostUnits(std::uint64_t cells, std::uint64_t pixels, NearRate rate) {
+    return wantsCellRate(cells, pixels, rate) ? kCellRateCost * double(cells) : double(pixels);
 }
 
 double nearCostUnits(const SpriteSetup& s, NearRate rate) {
-    return wantsCellRate(s, rate) ? kCellRateCost * double(cellCount(s)) : double(rectPixels(s));
+    return nearCostUnits(cellCount(s), rectPixels(s), rate);
 }
 
 CellRateWish cellRateWish(const SpriteSetup& s, NearRate rate) {

@@ -83,11 +83,15 @@ std::uint64_t cellCount(const SpriteSetup& sprite);
 std::uint64_t rectPixels(const SpriteSetup& sprite);
 /// Whether `rate` draws the (visible) sprite cell-rate, as long as the cell budget lasts.
 bool wantsCellRate(const SpriteSetup& sprite, NearRate rate);
+/// The same from the sprite's cellCount and rectPixels.
+bool wantsCellRate(std::uint64_t cells, std::uint64_t rectPixels, NearRate rate);
 /// What drawing the sprite near costs in the unit kCellRateCost is measured in (one pixel's
 /// fragment): kCellRateCost * cells where `rate` draws it cell-rate, else its rectangle pixels.
 /// The far tier's cost bound (CONTRACT.md §5) weighs each sprite by it: since cell-rate, a
 /// magnified sprite costs its cells, not its pixels.
 double nearCostUnits(const SpriteSetup& sprite, NearRate rate);
+/// The same from the sprite's cellCount and rectPixels (SpriteSelectionInputs keeps both).
+double nearCostUnits(std::uint64_t cells, std::uint64_t rectPixels, NearRate rate);
 
 /// What the rate plan reads of one sprite: its cells and rectangle pixels, whether it is
 /// visible, and whether `rate` draws it cell-rate (wantsCellRate).

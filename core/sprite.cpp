@@ -1,5 +1,7 @@
 #include "core/sprite.hpp"
 
+#include "core/near_rate.hpp"
+
 #include <glm/gtc/quaternion.hpp>
 #include <tbb/parallel_for.h>
 
@@ -292,6 +294,8 @@ SpriteSelectionInputs selectionInputs(const SpriteSetup& sprite,
     in.towardViewer = -sprite.lattice.dir;
     in.displacement = displacement;
     in.cellSizePx = cellSizePx;
+    in.cells = std::uint32_t(std::min<std::uint64_t>(cellCount(sprite), 0xFFFFFFFFu));
+    in.rectPixels = std::uint32_t(std::min<std::uint64_t>(rectPixels(sprite), 0xFFFFFFFFu));
     return in;
 }
 

@@ -346,7 +346,7 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
     // selectionInputs of the sprite, once its culling is known, with the parts the lanes derived.
     const auto writeSelection = [&] {
         // Initialised in place from the prvalue (the callee writes the store's entry): assigned,
-        // the 88 bytes went through a stack temporary whose wide reloads waited on the callee's
+        // the inputs went through a stack temporary whose wide reloads waited on the callee's
         // narrower stores (a store-forwarding stall, a third of this function's samples).
         if (job.selection)
             new (job.selection) SpriteSelectionInputs(selectionInputs(

@@ -116,7 +116,7 @@ class SpriteStore {
 
     /// Brings every entity's sprite up to date for `camera` at `time` (animation frames).
     /// `selection`: keep selectionInputs() too (false where no frame plans from this update: a
-    /// near or reference frame spares writing 88 bytes an entity it does not read).
+    /// near or reference frame spares writing 96 bytes an entity it does not read).
     Update update(const Scene& scene, const CameraFrame& camera, double time,
                   bool selection = true);
     /// Forgets everything: the next update sets every sprite up afresh.
@@ -139,7 +139,7 @@ class SpriteStore {
     /// every sprite and no plan).
     std::span<const std::uint8_t> reposed() const { return reposed_; }
     /// Per entity id, selectionInputs of the last update's sprite: what the LOD plan reads of it
-    /// (FramePlanner::plan), 88 bytes in place of three or four lines of the sprite. Rewritten
+    /// (FramePlanner::plan), 96 bytes in place of three or four lines of the sprite. Rewritten
     /// where the update set the sprite up (nothing else it holds changes); empty after an update
     /// told not to keep them.
     std::span<const SpriteSelectionInputs> selectionInputs() const {

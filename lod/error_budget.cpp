@@ -5,6 +5,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
@@ -170,6 +171,14 @@ double BakeCosts::nearMs(const SpriteSetup& sprite) const {
 
 double BakeCosts::farMs(const SpriteSetup& sprite) const {
     return double(rectPixels(sprite)) * blitMsPerPx;
+}
+
+double BakeCosts::nearMs(const SpriteSelectionInputs& sprite) const {
+    return nearCostUnits(sprite.cells, sprite.rectPixels, nearRate) * nearMsPerUnit;
+}
+
+double BakeCosts::farMs(const SpriteSelectionInputs& sprite) const {
+    return double(sprite.rectPixels) * blitMsPerPx;
 }
 
 double BakeCosts::farSavingMs(const SpriteSetup& sprite) const {
@@ -387,26 +396,56 @@ bool ErrorBudgetViews::weighFarTier(double farMs, double nearMs) {
 
 std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
     std::span<const SpriteSetup> sprites, const std::vector<std::optional<ViewId>>& drawnFrom,
-    const BakeCosts& costs, std::span<const std::uint8_t> mayUseABake) {
+    const BakeCosts& costs, std::span<const std::uint8_t> mayUseABake,
+    std::span<const SpriteSelectionInputs> selection) {
     std::vector<std::size_t> givenUp;
     heldNearCount_ = 0;
     // Nothing to weigh: no bake, and no blit measured for the far tier's own cost.
     if (!costs.known() || (baking_.empty() && !(costs.blitMsPerPx > 0.0))) return givenUp;
     // What each far sprite saves, costs far and which bake it uses, found in parallel (each
-    // sprite read is a cache miss: 4-5 ms of every frame at 100,000 tanks on one core), then
-    // summed in entity order as one walk would: the same sums, whatever the threads.
+    // sprite read is a cache miss: 4-5 ms of every frame at 100,000 tanks on one core; its sizes
+    // are read from its selection inputs where given, in order), then summed in entity order as
+    // one walk would: the same sums, whatever the threads.
     const std::size_t n = std::min(sprites.size(), drawnFrom.size());
+    const bool sized = selection.size() >= n;
+    const auto farMsOf = [&](std::size_t i) {
+        return sized ? costs.farMs(selection[i]) : costs.farMs(sprites[i]);
+    };
+    const auto nearMsOf = [&](std::size_t i) {
+        return sized ? costs.nearMs(selection[i]) : costs.nearMs(sprites[i]);
+    };
+    if (baking_.empty()) {
+        // No bake to weigh (a still camera's frames, once the cache holds their views): only the
+        // tier, its two sums on every core and nothing written per entity (the same sums whatever
+        // the threads). Every view drawn is cached, so a held tier keeps them all.
+        using Sums = std::pair<double, double>; // far ms, near ms
+        const Sums sums = tbb::parallel_deterministic_reduce(
+            tbb::blocked_range<std::size_t>(0, n, 1024), Sums{0.0, 0.0},
+            [&](const auto& r, Sums s) {
+                for (std::size_t i = r.begin(); i != r.end(); ++i)
+                    if (drawnFrom[i]) s.first += farMsOf(i), s.second += nearMsOf(i);
+                return s;
+            },
+            [](Sums a, const Sums& b) {
+                return Sums{a.first + b.first, a.second + b.second};
+            });
+        if (!weighFarTier(sums.first, sums.second)) return givenUp;
+        for (std::size_t i = 0; i < n; ++i)
+            if (drawnFrom[i]) givenUp.push_back(i);
+        heldNearCount_ = int(givenUp.size());
+        return givenUp;
+    }
     savingOf_.resize(n);
     farMsOf_.resize(n);
     bakeOf_.resize(n);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const auto& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
             if (!drawnFrom[i]) continue;
-            farMsOf_[i] = costs.farMs(sprites[i]);
-            savingOf_[i] = costs.nearMs(sprites[i]) - farMsOf_[i];
+            farMsOf_[i] = farMsOf(i);
+            savingOf_[i] = nearMsOf(i) - farMsOf_[i];
             // Most far entities keep a cached view: no hash lookup for them (under the error
             // budget at 100,000 tanks, ~50,000 of ~70,000 lookups a frame).
-            if (baking_.empty() || (!mayUseABake.empty() && !mayUseABake[i])) {
+            if (!mayUseABake.empty() && !mayUseABake[i]) {
                 bakeOf_[i] = kNoBake;
                 continue;
             }
@@ -444,7 +483,6 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
         bakingIndex_.clear();
         return nearInstead;
     }
-    if (baking_.empty()) return givenUp;
     std::vector<std::size_t> order(baking_.size());
     for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
     std::stable_sort(order.begin(), order.end(),

@@ -59,6 +59,10 @@ struct BakeCosts {
     /// What drawing `sprite` far costs by these costs (ms): its screen rectangle at the blit's
     /// rate.
     double farMs(const SpriteSetup& sprite) const;
+    /// The same two from the sprite's selection inputs (its sizes kept there): the same values
+    /// but for a sprite past 2^32 - 1 cells under a forced cell rate (SpriteSelectionInputs).
+    double nearMs(const SpriteSelectionInputs& sprite) const;
+    double farMs(const SpriteSelectionInputs& sprite) const;
 };
 
 /// The snapshots a planner's question to the cache names: a model and animation frame of the
@@ -193,12 +197,15 @@ class ErrorBudgetViews {
     /// near this frame. `drawnFrom[i]` is the view entity i is drawn far from (nullopt: near).
     /// `mayUseABake[i]`, where given, is 0 for an entity whose view is certainly no bake of this
     /// frame (a view kept because it is cached: no entity asks to bake a view the frame's cache
-    /// answers hold cached), whose bake is then not looked up. Returns the entities drawn near
-    /// instead, in ascending order (their views dropped unless the tier was held near).
+    /// answers hold cached), whose bake is then not looked up. `selection`, where given (one per
+    /// sprite), is the sprites' selection inputs, whose sizes are read in place of the sprites'.
+    /// Returns the entities drawn near instead, in ascending order (their views dropped unless
+    /// the tier was held near).
     std::vector<std::size_t>
     keepAffordableBakes(std::span<const SpriteSetup> sprites,
                         const std::vector<std::optional<ViewId>>& drawnFrom, const BakeCosts& costs,
-                        std::span<const std::uint8_t> mayUseABake = {});
+                        std::span<const std::uint8_t> mayUseABake = {},
+                        std::span<const SpriteSelectionInputs> selection = {});
     /// Far above near by this factor, the far tier is held near (keepAffordableBakes); below
     /// kLetGoBelow it is let go. Between, it stays as it was: costs learnt frame by frame wobble,
     /// and a tier that went back and forth with them would pop every frame.

@@ -52,7 +52,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
     std::vector<EntityPlan>& plan =
         incremental && work_.size() < n ? plan_.writable() : plan_.overwritable(n);
 
-    // Each sprite's selection inputs: the caller's (a store keeps them, 88 bytes an entity read
+    // Each sprite's selection inputs: the caller's (a store keeps them, 96 bytes an entity read
     // in order), or derived here first from the sprites.
     const bool given = selection.size() == n;
     if (!given) ownSelection_.resize(n);
@@ -145,7 +145,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         predicted_[i] =
             p.drawsFar() && p.view && in[i].visible ? predictedBudgetUnits(in[i], *p.view) : 0.0;
     };
-    if (budget && holdFarTier(sprites, in, settings, tierOf, forEach, plan, st)) {
+    if (budget && holdFarTier(in, settings, tierOf, forEach, plan, st)) {
         // Held near: no view chosen, nothing baked, nothing drawn far, nothing predicted.
         st.ms.costBound = lapMs(step);
         std::fill(predicted_.begin(), predicted_.end(), 0.0);
@@ -201,7 +201,7 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         });
         st.ms.choices = lapMs(step);
         st.cacheQuestions = int(cacheAnswers_.askedOfTheCache()); // no later step asks
-        st.bakesGivenUp = keepAffordableBakes(sprites, visible, settings, plan);
+        st.bakesGivenUp = keepAffordableBakes(sprites, in, visible, settings, plan);
         st.heldNear = settings.costAwareBakes ? budgetViews_.heldNearThisFrame() : 0;
         st.ms.costBound = lapMs(step);
         // After the bakes given up, which send their entities near (a kept one only with the
@@ -326,8 +326,7 @@ void FramePlanner::fadeBudgetView(std::size_t entity, const SpriteSetup& sprite,
 }
 
 template <class TierOf, class ForEach>
-bool FramePlanner::holdFarTier(std::span<const SpriteSetup> sprites,
-                               std::span<const SpriteSelectionInputs> in,
+bool FramePlanner::holdFarTier(std::span<const SpriteSelectionInputs> in,
                                const PlanSettings& settings, const TierOf& tierOf,
                                const ForEach& forEach, std::vector<EntityPlan>& plan,
                                PlanStats& st) {
@@ -345,8 +344,8 @@ bool FramePlanner::holdFarTier(std::span<const SpriteSetup> sprites,
     forEach([&](std::size_t i) {
         tierOf(i);
         const bool far = plan[i].drawsFar() && in[i].visible;
-        tierFarMs_[i] = far ? costs.farMs(sprites[i]) : -1.0;
-        tierNearMs_[i] = far ? costs.nearMs(sprites[i]) : 0.0;
+        tierFarMs_[i] = far ? costs.farMs(in[i]) : -1.0;
+        tierNearMs_[i] = far ? costs.nearMs(in[i]) : 0.0;
     });
     double farMs = 0.0, nearMs = 0.0;
     int held = 0;
@@ -366,6 +365,7 @@ bool FramePlanner::holdFarTier(std::span<const SpriteSetup> sprites,
 }
 
 int FramePlanner::keepAffordableBakes(std::span<const SpriteSetup> sprites,
+                                      std::span<const SpriteSelectionInputs> in,
                                       std::span<const std::uint32_t> visible,
                                       const PlanSettings& settings, std::vector<EntityPlan>& plan) {
     if (!settings.costAwareBakes) return 0;
@@ -388,7 +388,8 @@ int FramePlanner::keepAffordableBakes(std::span<const SpriteSetup> sprites,
     });
     const BakeCosts& costs = settings.bakeCosts ? *settings.bakeCosts : costs_.costs();
     // Given up: near this frame, as under the bake bound (the selector keeps its far state).
-    for (std::size_t i : budgetViews_.keepAffordableBakes(sprites, drawnFrom_, costs, mayUseABake_))
+    for (std::size_t i :
+         budgetViews_.keepAffordableBakes(sprites, drawnFrom_, costs, mayUseABake_, in))
         plan[i] = EntityPlan{};
     return int(asked - budgetViews_.bakesAsked());
 }

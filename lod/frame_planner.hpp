@@ -194,16 +194,16 @@ class FramePlanner {
     /// over the visible entities the selector draws far (their tiers set by `tierOf`), draws them
     /// near and returns true: the frame then chooses no view.
     template <class TierOf, class ForEach>
-    bool holdFarTier(std::span<const SpriteSetup> sprites,
-                     std::span<const SpriteSelectionInputs> in, const PlanSettings& settings,
+    bool holdFarTier(std::span<const SpriteSelectionInputs> in, const PlanSettings& settings,
                      const TierOf& tierOf, const ForEach& forEach, std::vector<EntityPlan>& plan,
                      PlanStats& st);
     /// Metric error_budget: starts the plan's shared answers of the cache, kept from the plan
     /// before where the settings tell what changed since.
     void beginCacheAnswers(const PlanSettings& settings);
-    /// Metric error_budget, after every entity's view: the bakes the frame can afford.
-    /// Returns the bakes given up.
+    /// Metric error_budget, after every entity's view: the bakes the frame can afford (`in`: the
+    /// sprites' selection inputs). Returns the bakes given up.
     int keepAffordableBakes(std::span<const SpriteSetup> sprites,
+                            std::span<const SpriteSelectionInputs> in,
                             std::span<const std::uint32_t> visible, const PlanSettings& settings,
                             std::vector<EntityPlan>& plan);
 

@@ -628,6 +628,28 @@ TEST(ErrorBudget, AFarTierThatCostsMoreThanNearIsHeldNearWithItsCachedViews) {
     EXPECT_EQ(views.bakesAsked(), 1u);
     // No blit measured yet: nothing weighs the tier.
     EXPECT_EQ(frame(0.0), none);
+    // A frame with no bake at all (every view cached) weighs the tier alone, the same way.
+    for (SpriteSetup& sp : sprites) sp.model = 2;
+    ErrorBudgetViews cachedOnly;
+    const auto noBakeFrame = [&](double ratio) {
+        const BakeCosts costs{.msPerBake = 1e-6,
+                              .nearMsPerUnit = 0.01,
+                              .blitMsPerPx = 0.01 * ratio,
+                              .nearRate = NearRate::Fragment};
+        cachedOnly.beginFrame(sprites.size(), 8);
+        std::vector<std::optional<ViewId>> drawn;
+        for (std::size_t i = 0; i < sprites.size(); ++i)
+            drawn.push_back(cachedOnly.choose(i, sprites[i], c, cached));
+        EXPECT_EQ(cachedOnly.bakesAsked(), 0u);
+        return cachedOnly.keepAffordableBakes(sprites, drawn, costs);
+    };
+    EXPECT_EQ(noBakeFrame(1.1), none);
+    EXPECT_EQ(noBakeFrame(1.3), all);
+    EXPECT_EQ(cachedOnly.heldNearThisFrame(), 4);
+    for (std::size_t i = 0; i < sprites.size(); ++i)
+        EXPECT_TRUE(cachedOnly.prepare(i, sprites[i], c, cached).settled()) << "entity " << i;
+    EXPECT_EQ(noBakeFrame(0.85), all);
+    EXPECT_EQ(noBakeFrame(0.75), none);
 }
 
 // A sprite drawn far saves what it would cost near at the near tier's rate: its cells where it

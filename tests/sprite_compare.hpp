@@ -39,7 +39,7 @@ inline ::testing::AssertionResult sameSelection(const SpriteSelectionInputs& a,
                                                 const SpriteSelectionInputs& b) {
     const auto bits = [](const SpriteSelectionInputs& s) {
         const glm::dvec3 d = s.displacement.lineOfSight();
-        return std::array<std::uint64_t, 10>{
+        return std::array<std::uint64_t, 12>{
             std::bit_cast<std::uint64_t>(s.distance),
             std::bit_cast<std::uint64_t>(s.radiusPx),
             std::bit_cast<std::uint64_t>(s.towardViewer.x),
@@ -49,7 +49,9 @@ inline ::testing::AssertionResult sameSelection(const SpriteSelectionInputs& a,
             std::bit_cast<std::uint64_t>(d.y),
             std::bit_cast<std::uint64_t>(d.z),
             std::bit_cast<std::uint64_t>(s.displacement.sigmaDepth()),
-            std::bit_cast<std::uint64_t>(s.cellSizePx)};
+            std::bit_cast<std::uint64_t>(s.cellSizePx),
+            s.cells,
+            s.rectPixels};
     };
     if (a.visible == b.visible && bits(a) == bits(b)) return ::testing::AssertionSuccess();
     const auto ba = bits(a), bb = bits(b);

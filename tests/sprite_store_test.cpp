@@ -3,6 +3,7 @@
 // still camera, the entities that stepped to another animation frame or moved, everything when
 // the camera or the light moves. A frame's share of the sprites stays as it was.
 #include "core/model_view.hpp"
+#include "core/near_rate.hpp"
 #include "core/occlusion.hpp"
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
@@ -46,11 +47,18 @@ void expectFresh(const SpriteStore& store, const Scene& s, const CameraFrame& ca
                 << "entity " << i << " at t " << t;
         }
     }
-    // The selection inputs, which a plan reads in place of the sprites.
+    // The selection inputs, which a plan reads in place of the sprites: the sizes the cost bound
+    // prices a sprite by too (a visible sprite's cells and rectangle as near_rate counts them).
     ASSERT_EQ(store.selectionInputs().size(), fresh.size());
-    for (std::size_t i = 0; i < fresh.size(); ++i)
-        ASSERT_TRUE(test::sameSelection(store.selectionInputs()[i], selectionInputs(fresh[i])))
+    for (std::size_t i = 0; i < fresh.size(); ++i) {
+        const SpriteSelectionInputs& in = store.selectionInputs()[i];
+        ASSERT_TRUE(test::sameSelection(in, selectionInputs(fresh[i])))
             << "entity " << i << " at t " << t;
+        if (fresh[i].visible()) {
+            ASSERT_EQ(in.cells, cellCount(fresh[i])) << "entity " << i << " at t " << t;
+            ASSERT_EQ(in.rectPixels, rectPixels(fresh[i])) << "entity " << i << " at t " << t;
+        }
+    }
 }
 
 /// The bench crowd: 800 entities, 40 of them animated (2 frames a second), a camera path.
