@@ -591,21 +591,22 @@ TEST(ErrorBudget, AFarTierThatCostsMoreThanNearIsHeldNearWithItsCachedViews) {
         sprites.push_back(sp);
     }
     const auto cached = [](const SpriteSetup& s, ViewId) { return s.model == 2; };
-    ErrorBudgetViews views;
-    // One frame at a blit cost `ratio` times the near cost per pixel (fragment rate: a sprite's
-    // near units are its pixels): the entities drawn near instead, and the views kept.
-    const auto frame = [&](double ratio) {
+    // One frame of `on` at a blit cost `ratio` times the near cost per pixel (fragment rate: a
+    // sprite's near units are its pixels), `bakes` asked: the entities drawn near instead.
+    const auto frameOf = [&](ErrorBudgetViews& on, double ratio, std::size_t bakes) {
         const BakeCosts costs{.msPerBake = 1e-6,
                               .nearMsPerUnit = 0.01,
                               .blitMsPerPx = 0.01 * ratio,
                               .nearRate = NearRate::Fragment};
-        views.beginFrame(sprites.size(), 8);
+        on.beginFrame(sprites.size(), 8);
         std::vector<std::optional<ViewId>> drawn;
         for (std::size_t i = 0; i < sprites.size(); ++i)
-            drawn.push_back(views.choose(i, sprites[i], c, cached));
-        EXPECT_EQ(views.bakesAsked(), 1u);
-        return views.keepAffordableBakes(sprites, drawn, costs);
+            drawn.push_back(on.choose(i, sprites[i], c, cached));
+        EXPECT_EQ(on.bakesAsked(), bakes);
+        return on.keepAffordableBakes(sprites, drawn, costs);
     };
+    ErrorBudgetViews views;
+    const auto frame = [&](double ratio) { return frameOf(views, ratio, 1); };
     const std::vector<std::size_t> all = {0, 1, 2, 3}, none = {};
     // Inside the band a tier not held stays far: only the bake goes (its user saves nothing).
     EXPECT_EQ(frame(1.1), (std::vector<std::size_t>{2}));
@@ -631,18 +632,7 @@ TEST(ErrorBudget, AFarTierThatCostsMoreThanNearIsHeldNearWithItsCachedViews) {
     // A frame with no bake at all (every view cached) weighs the tier alone, the same way.
     for (SpriteSetup& sp : sprites) sp.model = 2;
     ErrorBudgetViews cachedOnly;
-    const auto noBakeFrame = [&](double ratio) {
-        const BakeCosts costs{.msPerBake = 1e-6,
-                              .nearMsPerUnit = 0.01,
-                              .blitMsPerPx = 0.01 * ratio,
-                              .nearRate = NearRate::Fragment};
-        cachedOnly.beginFrame(sprites.size(), 8);
-        std::vector<std::optional<ViewId>> drawn;
-        for (std::size_t i = 0; i < sprites.size(); ++i)
-            drawn.push_back(cachedOnly.choose(i, sprites[i], c, cached));
-        EXPECT_EQ(cachedOnly.bakesAsked(), 0u);
-        return cachedOnly.keepAffordableBakes(sprites, drawn, costs);
-    };
+    const auto noBakeFrame = [&](double ratio) { return frameOf(cachedOnly, ratio, 0); };
     EXPECT_EQ(noBakeFrame(1.1), none);
     EXPECT_EQ(noBakeFrame(1.3), all);
     EXPECT_EQ(cachedOnly.heldNearThisFrame(), 4);
