@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <stdexcept>
 #include <string>
 
@@ -32,11 +31,6 @@ bool sameLight(const Light& a, const Light& b) {
 constexpr std::size_t kSpriteArrays = 3;
 
 } // namespace
-
-std::uint64_t SpriteStore::newStoreId() {
-    static std::atomic<std::uint64_t> last{0};
-    return ++last;
-}
 
 SpriteHistory SpriteStore::history() const {
     if (arrays_.empty() || !valid_) return {};

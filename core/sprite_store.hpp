@@ -22,6 +22,7 @@
 // set a sprite up, and sets the ones it must up several at a time on SIMD lanes (setupSpritesInto,
 // the same operations in the same order as the scalar setupSpriteInto).
 #include "core/camera.hpp"
+#include "core/process_uid.hpp"
 #include "core/scene.hpp"
 #include "core/shared_vector.hpp"
 #include "core/sprite.hpp"
@@ -195,8 +196,7 @@ class SpriteStore {
     std::size_t current_ = 0;
     std::uint64_t updates_ = 0; ///< updates so far: the stamp of the last one
     /// Which store this is, for SpriteHistory (a copy takes a new one).
-    std::uint64_t id_ = newStoreId();
-    static std::uint64_t newStoreId();
+    std::uint64_t id_ = newProcessUid();
     /// Per entity, the update that last changed its sprite; every sprite's, for the camera,
     /// sigma, view mode, light or entity count.
     std::vector<std::uint64_t> changedAt_;

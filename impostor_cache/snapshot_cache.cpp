@@ -1,10 +1,10 @@
 #include "impostor_cache/snapshot_cache.hpp"
 
+#include "core/process_uid.hpp"
 #include "core/stopwatch.hpp"
 
 #include <tbb/parallel_for.h>
 
-#include <atomic>
 #include <chrono>
 #include <functional>
 #include <optional>
@@ -30,15 +30,8 @@ std::size_t SnapshotCache::FrameKeyHash::operator()(const FrameKey& k) const {
     return mix(std::hash<std::uint64_t>{}(k.modelUid), std::hash<int>{}(k.frame));
 }
 
-namespace {
-std::uint64_t newCacheUid() {
-    static std::atomic<std::uint64_t> last{0};
-    return ++last;
-}
-} // namespace
-
 SnapshotCache::SnapshotCache(SnapshotCacheConfig config)
-    : uid_(newCacheUid()), config_(config), snapshots_(LruBudget{config.budgetBytes}),
+    : uid_(newProcessUid()), config_(config), snapshots_(LruBudget{config.budgetBytes}),
       digests_(LruBudget{.entries = 256}),
       scenes_(LruBudget{.bytes = config.sceneBudgetBytes, .entries = config.maxScenes}) {}
 SnapshotCache::~SnapshotCache() = default;
