@@ -5,7 +5,6 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
@@ -416,20 +415,12 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
     };
     if (baking_.empty()) {
         // No bake to weigh (a still camera's frames, once the cache holds their views): only the
-        // tier, its two sums on every core and nothing written per entity (the same sums whatever
-        // the threads). Every view drawn is cached, so a held tier keeps them all.
-        using Sums = std::pair<double, double>; // far ms, near ms
-        const Sums sums = tbb::parallel_deterministic_reduce(
-            tbb::blocked_range<std::size_t>(0, n, 1024), Sums{0.0, 0.0},
-            [&](const auto& r, Sums s) {
-                for (std::size_t i = r.begin(); i != r.end(); ++i)
-                    if (drawnFrom[i]) s.first += farMsOf(i), s.second += nearMsOf(i);
-                return s;
-            },
-            [](Sums a, const Sums& b) {
-                return Sums{a.first + b.first, a.second + b.second};
-            });
-        if (!weighFarTier(sums.first, sums.second)) return givenUp;
+        // tier, summed on every core with nothing written per entity. Every view drawn is
+        // cached, so a held tier keeps them all.
+        const TierMs tier = sumTierMs(n, [&](std::size_t i) {
+            return drawnFrom[i] ? TierMs{farMsOf(i), nearMsOf(i), 1} : TierMs{};
+        });
+        if (!weighFarTier(tier.far, tier.near)) return givenUp;
         for (std::size_t i = 0; i < n; ++i)
             if (drawnFrom[i]) givenUp.push_back(i);
         heldNearCount_ = int(givenUp.size());

@@ -10,6 +10,9 @@
 #include "core/sprite.hpp"
 #include "core/view_set.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
 #include <array>
 #include <atomic>
 #include <cstddef>
@@ -64,6 +67,29 @@ struct BakeCosts {
     double nearMs(const SpriteSelectionInputs& sprite) const;
     double farMs(const SpriteSelectionInputs& sprite) const;
 };
+
+/// What a far tier costs drawn far and drawn near (ms), and how many sprites it has.
+struct TierMs {
+    double far = 0.0, near = 0.0;
+    int sprites = 0;
+};
+/// The sum of `of(i)` (a TierMs: a far sprite's BakeCosts::farMs and nearMs and 1, or {} for an
+/// entity not in the tier) over the entities i < n, on every core and the same sums whatever the
+/// threads: what the cost bound weighs the far tier by (ErrorBudgetViews::weighFarTier).
+template <class Of> TierMs sumTierMs(std::size_t n, const Of& of) {
+    return tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<std::size_t>(0, n, 1024), TierMs{},
+        [&](const tbb::blocked_range<std::size_t>& r, TierMs s) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                const TierMs t = of(i);
+                s.far += t.far, s.near += t.near, s.sprites += t.sprites;
+            }
+            return s;
+        },
+        [](TierMs a, const TierMs& b) {
+            return TierMs{a.far + b.far, a.near + b.near, a.sprites + b.sprites};
+        });
+}
 
 /// The snapshots a planner's question to the cache names: a model and animation frame of the
 /// scene, and a view (at any sigma).

@@ -335,32 +335,25 @@ bool FramePlanner::holdFarTier(std::span<const SpriteSelectionInputs> in,
     // While the far tier is held near, no far sprite is drawn: the views it would be drawn from,
     // the bakes and the cache's answers would all be given up again (on the H200 the bench's
     // hybrids spent 0.8 ms of selection a frame on 2,000 tanks, the 100,000-tank one 9.4 ms).
-    // So the tier is weighed first, as the selector draws it: every visible entity it puts far,
-    // each one's far and near cost found in parallel and summed in entity order (the same sums
-    // whatever the threads). Let go, the frame plans as every other (whose weighing of the
-    // entities given views then holds the tier again only past the band's upper end).
-    tierFarMs_.resize(plan.size());
-    tierNearMs_.resize(plan.size());
-    forEach([&](std::size_t i) {
-        tierOf(i);
-        const bool far = plan[i].drawsFar() && in[i].visible;
-        tierFarMs_[i] = far ? costs.farMs(in[i]) : -1.0;
-        tierNearMs_[i] = far ? costs.nearMs(in[i]) : 0.0;
+    // So the tier is weighed first, as the selector draws it: every visible entity it puts far
+    // (sumTierMs, as keepAffordableBakes weighs a frame with no bake). Let go, the frame plans as
+    // every other (whose weighing of the entities given views then holds the tier again only
+    // past the band's upper end).
+    forEach(tierOf);
+    const auto far = [&](std::size_t i) { return plan[i].drawsFar() && in[i].visible; };
+    const TierMs tier = sumTierMs(plan.size(), [&](std::size_t i) {
+        return far(i) ? TierMs{costs.farMs(in[i]), costs.nearMs(in[i]), 1} : TierMs{};
     });
-    double farMs = 0.0, nearMs = 0.0;
-    int held = 0;
-    for (std::size_t i = 0; i < plan.size(); ++i)
-        if (tierFarMs_[i] >= 0.0) farMs += tierFarMs_[i], nearMs += tierNearMs_[i], ++held;
-    if (!budgetViews_.weighFarTier(farMs, nearMs)) return false;
+    if (!budgetViews_.weighFarTier(tier.far, tier.near)) return false;
     // Near this frame, the views of the held entities kept (as keepAffordableBakes keeps a held
     // tier's cached ones); an entity the selector draws near starts its view afresh, as below.
     forEach([&](std::size_t i) {
-        if (tierFarMs_[i] >= 0.0)
+        if (far(i))
             plan[i] = EntityPlan{};
-        else if (!plan[i].drawsFar() || !in[i].visible)
+        else
             budgetViews_.drop(i);
     });
-    st.heldNear = held;
+    st.heldNear = tier.sprites;
     return true;
 }
 

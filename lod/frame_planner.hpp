@@ -221,8 +221,6 @@ class FramePlanner {
     std::vector<double> predicted_; ///< predictedBudgetUnits of each far-drawn visible entity
     /// error_budget: what each far entity's view choice reads of no other entity, this frame
     std::vector<ErrorBudgetViews::Prepared> prepared_;
-    /// holdFarTier: per entity, its far sprite's far and near cost (-1 far: not drawn far).
-    std::vector<double> tierFarMs_, tierNearMs_;
     SharedCacheAnswers cacheAnswers_; ///< error_budget: the cache's answers, kept across plans
     /// The count of the cache's changes the answers were kept through, and under which epoch
     /// (PlanSettings::inMemoryChangesSince); the views changed since, this plan.
