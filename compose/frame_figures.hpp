@@ -120,6 +120,7 @@ struct FrameFigureTable {
         {"far_bakes",                 [](const S& s) { return double(s.far.bakes); },               Count, Mean},
         {"far_bakes_given_up",        [](const S& s) { return double(s.plan.bakesGivenUp); },       Count, Mean},
         {"far_held_near",             [](const S& s) { return double(s.plan.heldNear); },           Count, Mean},
+        {"far_paused_near",           [](const S& s) { return double(s.plan.pausedNear); },         Count, Mean},
         {"cache_questions",           [](const S& s) { return double(s.plan.cacheQuestions); },     Count, Mean},
         {"far_scenes_built",          [](const S& s) { return double(s.far.scenesBuilt); },         Count, Mean},
         {"far_refreshes",             [](const S& s) { return double(s.far.refreshes); },           Count, Mean},

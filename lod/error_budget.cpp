@@ -233,6 +233,7 @@ void ErrorBudgetViews::beginFrame(std::size_t entities, int bakes) {
     bakingIndex_.clear();
     bakesLeft_ = bakes;
     viewChanges_ = 0;
+    ++frame_;
 }
 
 void ErrorBudgetViews::drop(std::size_t entity) {
@@ -333,7 +334,7 @@ ErrorBudgetViews::Prepared ErrorBudgetViews::prepare(std::size_t entity, const S
     // knows, so every such entity is scanned here, on every core (at 100,000 tanks under the
     // error budget ~5,000 entities a frame wait for a bake, and the serial pass scanned most of
     // them once the bound was spent).
-    if (!p.settled()) p.scan = scanLevels(sprite, selection, config, isCached);
+    if (!p.settled() && !bakesPaused()) p.scan = scanLevels(sprite, selection, config, isCached);
     return p;
 }
 
@@ -342,6 +343,10 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
                                                const Prepared& prepared,
                                                const IsCached& withoutBake) {
     std::optional<ViewId>& current = current_.at(entity);
+    if (bakesPaused() && !prepared.settled()) { // near, unscanned (bakesPaused)
+        drop(entity);
+        return std::nullopt;
+    }
     const auto baking = [&](ViewId v) {
         return bakingIndex_.find(keyOf(sprite, v)) != BakeTable::kNone;
     };
@@ -399,6 +404,8 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
     std::span<const SpriteSelectionInputs> selection) {
     std::vector<std::size_t> givenUp;
     heldNearCount_ = 0;
+    // A frame that asks for no bake outside a pause ends a run of refusals (bakesPaused).
+    if (baking_.empty() && !bakesPaused()) refusedInARow_ = 0;
     // Nothing to weigh: no bake, and no blit measured for the far tier's own cost.
     if (!costs.known() || (baking_.empty() && !(costs.blitMsPerPx > 0.0))) return givenUp;
     // What each far sprite saves, costs far and which bake it uses, found in parallel (each
@@ -496,6 +503,15 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
             kept.push_back(baking_[k]);
             bakingIndex_.insert(kept.back(), kept.size() - 1);
         }
+    // Every bake given up: the next frames would ask for the same ones (bakesPaused).
+    if (kept.empty()) {
+        // 2^5 - 1 = kLongestBakePause frames at most
+        refusedInARow_ = std::min(refusedInARow_ + 1, 5);
+        askAgainAt_ = frame_ + (std::uint64_t(1) << refusedInARow_);
+    } else {
+        refusedInARow_ = 0;
+        askAgainAt_ = 0;
+    }
     baking_ = std::move(kept);
     std::sort(givenUp.begin(), givenUp.end());
     for (std::size_t i : givenUp) drop(i);

@@ -145,7 +145,10 @@ class ErrorBudgetViews {
     /// without a bake: cached in memory or on disk (SnapshotCache::availableWithoutBake).
     using IsCached = std::function<bool(const SpriteSetup&, ViewId)>;
 
-    void reset() { current_.clear(), fades_.clear(), farTierHeld_ = false; }
+    void reset() {
+        current_.clear(), fades_.clear(), farTierHeld_ = false;
+        refusedInARow_ = 0, askAgainAt_ = 0;
+    }
     /// Starts a frame: `bakes` snapshots may still be baked in it.
     void beginFrame(std::size_t entities, int bakes);
     /// The view `sprite` (entity `entity`) is drawn far from, or nullopt if no view within the
@@ -247,6 +250,16 @@ class ErrorBudgetViews {
     /// BakeCosts::farMs and nearMs). Whether it is held near, with the hysteresis band; updates
     /// farTierHeld().
     bool weighFarTier(double farMs, double nearMs);
+    /// Whether the cost bound pauses bakes this frame: the last frame that asked for bakes had
+    /// every one given up as saving less than it costs (not for a held tier). While paused, an
+    /// entity without a cached view within the budget is drawn near with its levels unscanned
+    /// (prepare() scans nothing; choose() returns nullopt and drops its view): its bake would be
+    /// given up again, and on a GPU, whose near tier makes no bake pay, the scans and the cost
+    /// bound's weighing of bakes it gives up were most of a 100,000-tank frame's selection. The
+    /// pause lasts 1 frame after the first such frame and doubles with each in a row, up to
+    /// kLongestBakePause; a frame that keeps a bake, or with no pause asks none, ends the run.
+    bool bakesPaused() const { return frame_ < askAgainAt_; }
+    static constexpr int kLongestBakePause = 31; ///< frames: 2^5 - 1 (five refusals in a row)
     int viewChangesThisFrame() const { return viewChanges_; }
     int bakesLeft() const { return bakesLeft_; }
     /// Views this frame asks to bake (after keepAffordableBakes: the ones it kept).
@@ -311,6 +324,10 @@ class ErrorBudgetViews {
     /// Whether keepAffordableBakes holds the far tier near (its hysteresis state).
     bool farTierHeld_ = false;
     int heldNearCount_ = 0;
+    /// beginFrame's count; bakes are paused before frame askAgainAt_ (bakesPaused), after
+    /// refusedInARow_ asking frames in a row whose bakes were all given up.
+    std::uint64_t frame_ = 0, askAgainAt_ = 0;
+    int refusedInARow_ = 0;
 };
 
 } // namespace voxtier

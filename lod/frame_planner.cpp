@@ -165,23 +165,35 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
         };
         prepared_.resize(n);
         budgetStep_.resize(n);
-        forEach([&](std::size_t i) {
-            tierOf(i);
-            EntityPlan& p = plan[i];
-            if (!p.drawsFar() || !in[i].visible) {
-                budgetViews_.drop(i);
-                budgetStep_[i] = BudgetStep::Near;
-                return;
-            }
-            prepared_[i] = budgetViews_.prepare(i, sprites[i], in[i], config, asking.inMemory);
-            if (!prepared_[i].settled()) {
-                budgetStep_[i] = BudgetStep::Choose;
-                return;
-            }
-            p.view = budgetViews_.keep(i);
-            fadeBudgetView(i, sprites[i], in[i], config, asking, p);
-            budgetStep_[i] = BudgetStep::Kept;
-        });
+        st.pausedNear = reduceEach(
+            0,
+            [&](std::size_t i, int& paused) {
+                tierOf(i);
+                EntityPlan& p = plan[i];
+                if (!p.drawsFar() || !in[i].visible) {
+                    budgetViews_.drop(i);
+                    budgetStep_[i] = BudgetStep::Near;
+                    return;
+                }
+                prepared_[i] = budgetViews_.prepare(i, sprites[i], in[i], config, asking.inMemory);
+                if (!prepared_[i].settled()) {
+                    if (budgetViews_.bakesPaused()) {
+                        // No view it could be drawn from without a bake, and the cost bound
+                        // would give the bake up: near, unscanned (as choose() would have it).
+                        budgetViews_.drop(i);
+                        p = EntityPlan{};
+                        budgetStep_[i] = BudgetStep::Near;
+                        ++paused;
+                        return;
+                    }
+                    budgetStep_[i] = BudgetStep::Choose;
+                    return;
+                }
+                p.view = budgetViews_.keep(i);
+                fadeBudgetView(i, sprites[i], in[i], config, asking, p);
+                budgetStep_[i] = BudgetStep::Kept;
+            },
+            [](int a, int b) { return a + b; });
         st.ms.views = lapMs(step);
         // The bake bound goes out in entity order, one entity after another while bakes are left.
         // Once it is spent, the views baking this frame are fixed, and an entity's choice reads

@@ -49,6 +49,9 @@ struct PlanStats {
     /// Metric error_budget: far sprites drawn near because the far tier as a whole costs more far
     /// than near by the cost bound's costs (ErrorBudgetViews::keepAffordableBakes).
     int heldNear = 0;
+    /// Metric error_budget: far entities drawn near unscanned while the cost bound pauses bakes
+    /// (ErrorBudgetViews::bakesPaused): none of them had a cached view within the budget.
+    int pausedNear = 0;
     /// Metric error_budget: the plan's questions that reached the snapshot cache (the rest were
     /// answered by SharedCacheAnswers, this plan's or kept from the plans before).
     int cacheQuestions = 0;

@@ -605,16 +605,19 @@ TEST(ErrorBudget, AFarTierThatCostsMoreThanNearIsHeldNearWithItsCachedViews) {
         EXPECT_EQ(on.bakesAsked(), bakes);
         return on.keepAffordableBakes(sprites, drawn, costs);
     };
+    const std::vector<std::size_t> all = {0, 1, 2, 3}, none = {};
+    // Inside the band a tier not held stays far: only the bake goes (its user saves nothing; that
+    // pauses bakes, which the next test follows).
+    ErrorBudgetViews notHeld;
+    EXPECT_EQ(frameOf(notHeld, 1.1, 1), (std::vector<std::size_t>{2}));
+    EXPECT_EQ(notHeld.heldNearThisFrame(), 0);
     ErrorBudgetViews views;
     const auto frame = [&](double ratio) { return frameOf(views, ratio, 1); };
-    const std::vector<std::size_t> all = {0, 1, 2, 3}, none = {};
-    // Inside the band a tier not held stays far: only the bake goes (its user saves nothing).
-    EXPECT_EQ(frame(1.1), (std::vector<std::size_t>{2}));
-    EXPECT_EQ(views.heldNearThisFrame(), 0);
     EXPECT_EQ(frame(1.3), all);
     EXPECT_EQ(views.heldNearThisFrame(), 4);
     EXPECT_EQ(views.bakesAsked(), 0u) << "no far sprite left to draw from the bake";
     EXPECT_EQ(views.bakesLeft(), 8);
+    EXPECT_FALSE(views.bakesPaused()) << "bakes given up with a held tier pause nothing";
     // The cached views are kept: the next frame finds them settled (no scan); the view that was to
     // be baked is not.
     const auto settled = [&](std::size_t i) {
@@ -640,6 +643,78 @@ TEST(ErrorBudget, AFarTierThatCostsMoreThanNearIsHeldNearWithItsCachedViews) {
         EXPECT_TRUE(cachedOnly.prepare(i, sprites[i], c, cached).settled()) << "entity " << i;
     EXPECT_EQ(noBakeFrame(0.85), all);
     EXPECT_EQ(noBakeFrame(0.75), none);
+}
+
+// A frame whose every bake is given up (CONTRACT.md §5) pauses bakes: the next frame, then 3, 7, 15
+// and at most 31 frames with each such frame in a row, an entity with no cached view within the
+// budget is drawn near with no level scanned (no question to the cache); one with a cached view
+// keeps it. A frame that keeps a bake ends the run, as does one outside a pause that asks none.
+TEST(ErrorBudget, BakesAllGivenUpArePausedTwiceAsLongEachTimeInARow) {
+    const SelectorConfig c = budgetSelector(1.0);
+    const glm::dvec3 along(0.3, 0.8, 0.52);
+    // Three sprites of models whose snapshots must be baked, one of a cached model.
+    std::vector<SpriteSetup> sprites;
+    for (int model : {0, 1, 1, 2}) {
+        SpriteSetup sp = syntheticSprite(along, 1.0 / 8.0);
+        sp.model = model;
+        sp.screenRect = {0, 0, 8, 8};
+        sprites.push_back(sp);
+    }
+    bool allCached = false;
+    std::atomic<int> questions = 0;
+    const ErrorBudgetViews::IsCached cached = [&](const SpriteSetup& s, ViewId) {
+        ++questions;
+        return allCached || s.model == 2;
+    };
+    BakeCosts costs{.msPerBake = 100.0, .nearMsPerUnit = 0.01, .nearRate = NearRate::Fragment};
+    ErrorBudgetViews views;
+    // One frame as the planner takes it: whether it asked for bakes (else it was paused).
+    const auto frame = [&] {
+        views.beginFrame(sprites.size(), 8);
+        const bool paused = views.bakesPaused();
+        questions = 0;
+        std::vector<std::optional<ViewId>> drawn;
+        for (std::size_t i = 0; i < sprites.size(); ++i)
+            drawn.push_back(
+                views.choose(i, sprites[i], c, views.prepare(i, sprites[i], c, cached)));
+        EXPECT_TRUE(drawn[3].has_value()) << "the cached sprite stays far";
+        if (paused) {
+            EXPECT_EQ(views.bakesAsked(), 0u);
+            EXPECT_FALSE(drawn[0] || drawn[1] || drawn[2]);
+            EXPECT_EQ(questions, 1) << "only the cached sprite's current view is asked about";
+        }
+        views.keepAffordableBakes(sprites, drawn, costs);
+        return !paused;
+    };
+    // Every bake costs more than its users save: asking frames 0, 2, 6, 14, 30, then every 32.
+    std::vector<int> asked;
+    for (int f = 0; f < 100; ++f)
+        if (frame()) asked.push_back(f);
+    EXPECT_EQ(asked, (std::vector<int>{0, 2, 6, 14, 30, 62, 94}));
+    // Bakes that pay: the next asking frame keeps them, and every frame after asks.
+    costs.msPerBake = 1e-6;
+    int f = 0;
+    while (!frame()) ++f;
+    EXPECT_EQ(f, 94 + 32 - 100) << "the pause runs out first";
+    EXPECT_FALSE(views.bakesPaused());
+    for (int k = 0; k < 3; ++k) EXPECT_TRUE(frame());
+    // Dear again: a run starts afresh (one frame paused). With every view cached the asking frame
+    // asks for none, which ends the run too.
+    costs.msPerBake = 100.0;
+    EXPECT_TRUE(frame());
+    EXPECT_FALSE(frame());
+    EXPECT_TRUE(frame());
+    EXPECT_FALSE(frame()) << "three frames after the second refusal in a row";
+    EXPECT_FALSE(frame());
+    EXPECT_FALSE(frame());
+    allCached = true;
+    EXPECT_TRUE(frame());
+    EXPECT_EQ(views.bakesAsked(), 0u);
+    allCached = false;
+    for (std::size_t i = 0; i < 3; ++i) views.drop(i);
+    EXPECT_TRUE(frame());
+    EXPECT_FALSE(frame());
+    EXPECT_TRUE(frame()) << "one frame paused: the run had ended";
 }
 
 // A sprite drawn far saves what it would cost near at the near tier's rate: its cells where it
@@ -711,6 +786,14 @@ TEST(ErrorBudget, NoFrameBakesForMoreThanItsFarSpritesSave) {
         EXPECT_EQ(dear[f].stats.farDrawn, 0) << "frame " << f;
         const Image near = allNear.render(s.timeOfFrame(f), RenderMode::Near, f).image;
         EXPECT_EQ(test::describeDifference(near, dear[f].image, "all near", "dear bakes"), "");
+        // Every bake given up pauses bakes (1 frame, then 3, then 7): a paused frame draws its
+        // far entities near unscanned, asking the cache nothing and giving up no bake.
+        const bool paused = f == 1 || (f >= 3 && f <= 5) || f >= 7;
+        EXPECT_EQ(dear[f].stats.plan.pausedNear > 0, paused) << "frame " << f;
+        EXPECT_EQ(dear[f].stats.plan.bakesGivenUp > 0, !paused) << "frame " << f;
+        if (paused) {
+            EXPECT_EQ(dear[f].stats.plan.cacheQuestions, 0) << "frame " << f;
+        }
     }
 
     // A bake costs what drawing 400 pixels near does.
