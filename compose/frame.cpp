@@ -454,6 +454,7 @@ FrameResult FrameRenderer::finish(PendingFrame pending) {
     sample.nearMs = st.nearMs;
     sample.nearUploadMs = st.vulkanNear.uploadMs;
     sample.blitMs = st.far.blit.milliseconds + st.vulkan.farPassMs;
+    sample.farSnapshotsMs = st.vulkan.farSnapshotsMs;
     sample.planMs = st.hostSelectMs;
     sample.planned =
         mode == RenderMode::Hybrid && scene_.selector.metric == SelectorMetric::ErrorBudget;
@@ -714,6 +715,8 @@ Image FrameRenderer::finishOnVulkan(VulkanFrameInFlight&& inFlight, bool hasFar,
     st.vulkanFar = r.far;
     st.vulkan = timesOf(r.report);
     st.vulkan.farPassMs = farShare;
+    st.vulkan.farSnapshotsMs =
+        hasFar ? r.far.snapshotUploadMs + r.report.ms("far_snapshots").value_or(0.0) : 0.0;
     st.vulkan.hostRecordFarMs = hasFar ? r.farRecordMs : 0.0;
     return std::move(r.image);
 }

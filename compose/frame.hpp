@@ -209,6 +209,9 @@ struct VulkanFrameTimes {
            gpuResolveMs = 0.0, gpuFarMs = 0.0, gpuCopyMs = 0.0;
     /// The far pass's share of the frame: its recording, its upload and its device time.
     double farPassMs = 0.0;
+    /// Of farPassMs, the snapshots' uploads: writing and recording them on the host
+    /// (FarPassStats::snapshotUploadMs) and copying them on the device ("far_snapshots").
+    double farSnapshotsMs = 0.0;
     /// Of hostRecordMs, the far pass's recording (its order, palettes, tiles and instances).
     double hostRecordFarMs = 0.0;
 };

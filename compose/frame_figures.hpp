@@ -110,6 +110,7 @@ struct FrameFigureTable {
         {"far_ms",                    [](const S& s) { return s.farMs; },                           Ms,    Mean},
         {"far_lookup_bake_ms",        [](const S& s) { return s.far.ensureMs; },                    Ms,    Mean, TimeStep},
         {"far_blit_ms",               [](const S& s) { return s.far.blit.milliseconds + s.vulkan.farPassMs; }, Ms, Mean, TimeStep},
+        {"far_snapshot_upload_ms",    [](const S& s) { return s.vulkan.farSnapshotsMs; },           Ms,    Mean},
         {"near_fragments",            [](const S& s) { return double(s.reference.pixelsTested + s.vulkanNear.fragmentInvocations); }, Count, Mean},
         {"near_kernel_fragments",     [](const S& s) { return double(s.vulkanNear.kernelFragments); }, Count, Mean},
         {"voxel_steps",               [](const S& s) { return double(s.reference.voxelFetches + s.vulkanNear.voxelFetches); },     Count, Mean},

@@ -2,6 +2,7 @@
 
 #include "core/key_sort.hpp"
 #include "core/sprite_kernel.h"
+#include "core/stopwatch.hpp"
 #include "impostor_cache/far_residency.hpp"
 #include "impostor_cache/shaders/far_shared.h"
 
@@ -621,7 +622,13 @@ void FarPass::record(GpuFrame& frame, const FarBatch& batch, FarPassStats& stats
         bySprite ? m.planSplat(int(width), int(height)) : Impl::SplatShape{};
 
     frame.timer().begin(cb, "far_upload");
+    // The snapshots' uploads timed apart (host and device): a snapshot is uploaded once, when
+    // first drawn, and the cost bound's blit rate leaves them out (CostModel::observe).
+    frame.timer().begin(cb, "far_snapshots");
+    const auto tSnapshots = std::chrono::steady_clock::now();
     m.residency.recordUploads(frame);
+    stats.snapshotUploadMs = msSince(tSnapshots);
+    frame.timer().end(cb);
     const auto upload = [&](VulkanBuffer& b, const auto& v) {
         const VkDeviceSize bytes = v.size() * sizeof(v[0]);
         m.ensure(b, std::max<VkDeviceSize>(bytes, 4));

@@ -45,6 +45,9 @@ struct FarPassStats {
     /// Cut by sprite: the splat's workgroups, one per chunk of each drawn rectangle
     /// (FAR_SPLAT_CHUNK pixels; 0 when cut by tiles).
     std::uint64_t splatGroups = 0;
+    /// Host ms writing this frame's snapshot uploads into the staging ring and recording their
+    /// copies (FarResidency::recordUploads); their device time is the far pass's "far_snapshots".
+    double snapshotUploadMs = 0.0;
 };
 
 } // namespace voxtier

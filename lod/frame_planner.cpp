@@ -410,7 +410,14 @@ void CostModel::observe(std::span<const SpriteSetup> sprites,
     // cores, outside every named part of it. In parallel, and deterministic: the same sums
     // whatever the threads, so that a plan depends on the frames' times alone.
     const bool wantNear = sample.planned && sample.nearMs > 0.0;
-    const bool wantFar = sample.blitMs > 0.0;
+    // The far tier's per-frame cost: without its snapshot uploads, which a snapshot pays once
+    // (as a model pays its voxel uploads once, below). Charged to the pixels, the first frames'
+    // uploads made the tier look dearer than it draws, and a tier held near on that rate is not
+    // measured again (ErrorBudgetViews::keepAffordableBakes). Never below 1 % of the far pass.
+    const double blitMs =
+        sample.blitMs > 0.0 ? std::max(sample.blitMs - sample.farSnapshotsMs, 0.01 * sample.blitMs)
+                            : 0.0;
+    const bool wantFar = blitMs > 0.0;
     using Sums = std::pair<double, double>; // near cost units, far rectangle pixels
     const Sums sums =
         !(wantNear || wantFar)
@@ -470,7 +477,7 @@ void CostModel::observe(std::span<const SpriteSetup> sprites,
             costs_.nearMsPerUnit = nearSums_.ms / nearSums_.units;
         }
     }
-    if (farPx > 0.0 && sample.blitMs > 0.0) blend(costs_.blitMsPerPx, sample.blitMs / farPx);
+    if (farPx > 0.0 && blitMs > 0.0) blend(costs_.blitMsPerPx, blitMs / farPx);
     if (sample.planned) blend(costs_.planMs, sample.planMs);
 }
 

@@ -114,6 +114,8 @@ struct FrameCostSample {
     /// builds with the on-disk store's reads and writes.
     double bakeWorkMs = 0.0, sceneAndStoreMs = 0.0;
     double nearMs = 0.0, nearUploadMs = 0.0, blitMs = 0.0;
+    /// Of blitMs, the far pass's snapshot uploads (each snapshot's once, when first drawn).
+    double farSnapshotsMs = 0.0;
     double planMs = 0.0; ///< the planner's own time (FrameStats::hostSelectMs)
     /// A hybrid frame under metric error_budget: the only frames whose near cost and planning
     /// time the cost bound reads.

@@ -1396,6 +1396,18 @@ TEST(CostModel, LearnsFromTheSumsOverTheVisibleSprites) {
     unplanned.observe(sprites, visible, plan, sample, NearRate::Fragment, fixed);
     EXPECT_EQ(unplanned.costs().nearMsPerUnit, BakeCosts{}.nearMsPerUnit);
     EXPECT_EQ(asked, 2);
+    // The far pass's snapshot uploads are no part of the blit's rate (each snapshot's once); an
+    // upload past the pass's time leaves 1 % of it.
+    FrameCostSample uploading = sample;
+    uploading.planned = true;
+    uploading.farSnapshotsMs = 2.0;
+    CostModel withUploads;
+    withUploads.observe(sprites, visible, plan, uploading, NearRate::Fragment, fixed);
+    EXPECT_NEAR(withUploads.costs().blitMsPerPx, 1.0 / farPx, 1e-12 / farPx);
+    uploading.farSnapshotsMs = 5.0;
+    CostModel allUploads;
+    allUploads.observe(sprites, visible, plan, uploading, NearRate::Fragment, fixed);
+    EXPECT_NEAR(allUploads.costs().blitMsPerPx, 0.03 / farPx, 1e-12 / farPx);
 }
 
 } // namespace

@@ -6,6 +6,7 @@
 // sprites cut by the image edge, equal-depth pairs with near sprites either way round, and 10^6 m
 // from the origin. Snapshots are uploaded to the device once and freed when the cache drops them.
 #include "compose/frame.hpp"
+#include "compose/frame_figures.hpp"
 #include "compose/vulkan_frame.hpp"
 #include "core/procedural.hpp"
 #include "core/scene_loader.hpp"
@@ -657,6 +658,7 @@ TEST_F(VulkanFar, SnapshotsAreUploadedOnceAndFreedWhenTheCacheDropsThem) {
         (void)drawBoth(cam, s, {}, batch, &second);
         EXPECT_EQ(first.snapshotsUploaded, batch.snapshots.size());
         EXPECT_GT(first.bytesUploaded, 0u);
+        EXPECT_GT(first.snapshotUploadMs, 0.0) << "the uploads' host time";
         EXPECT_EQ(second.snapshotsUploaded, 0u); // resident since the first frame
         EXPECT_EQ(second.bytesUploaded, 0u);
         for (const FarSnapshotCells& c : batch.snapshots) firstOwners.insert(c.owner.get());
@@ -698,6 +700,38 @@ TEST_F(VulkanFar, SnapshotsAreUploadedOnceAndFreedWhenTheCacheDropsThem) {
     const FarBatch one = prepareFarBatch(other.models, otherRequests, otherCache, ViewSet::Cube26);
     (void)drawBoth(oc, other, {}, one);
     EXPECT_EQ(farPass().residentSnapshots(), one.snapshots.size());
+}
+
+// The snapshots' uploads are timed apart from the rest of the far pass (the cost bound leaves them
+// out of the blit's rate): on the device a pass of their own inside the far pass's uploads, and in
+// a frame's figures their host and device time, within the far pass's share.
+TEST_F(VulkanFar, SnapshotUploadsAreTimedApartWithinTheFarPass) {
+    HardCaseRequests hard = hardCaseRequests();
+    SnapshotCache cache;
+    const FarBatch batch =
+        prepareFarBatch(hard.scene.models, hard.requests, cache, ViewSet::Cube26);
+    VulkanFrameRequest request;
+    request.camera = &hard.cam;
+    request.models = &hard.scene.models;
+    request.far = &batch;
+    const VulkanFrameResult r = drawVulkanFrame(nearRenderer(), &farPass(), request);
+    ASSERT_TRUE(r.report.ms("far_upload").has_value()) << "lavapipe has timestamps";
+    ASSERT_TRUE(r.report.ms("far_snapshots").has_value());
+    EXPECT_LE(*r.report.ms("far_snapshots"), *r.report.ms("far_upload"));
+
+    Scene s = hard.scene;
+    FrameRenderer renderer(s, options(FarBackend::Vulkan));
+    const FrameResult first = renderer.render(0.0, RenderMode::Far, 0);
+    const FrameStats& st = first.stats;
+    ASSERT_GT(st.vulkanFar.bytesUploaded, 0u);
+    EXPECT_GT(st.vulkanFar.snapshotUploadMs, 0.0);
+    // Host and device: the device's copies of the bytes uploaded take time too (lavapipe's
+    // timestamps are the host clock's nanoseconds).
+    EXPECT_GT(st.vulkan.farSnapshotsMs, st.vulkanFar.snapshotUploadMs);
+    EXPECT_LE(st.vulkan.farSnapshotsMs, st.vulkan.farPassMs);
+    EXPECT_EQ(figuresOf(st)["far_snapshot_upload_ms"], st.vulkan.farSnapshotsMs);
+    const FrameResult second = renderer.render(0.0, RenderMode::Far, 1);
+    EXPECT_EQ(second.stats.vulkanFar.bytesUploaded, 0u) << "resident since the first frame";
 }
 
 // The device copies follow the snapshots' owners (FarResidency): a new version of a snapshot
