@@ -505,8 +505,7 @@ std::vector<std::size_t> ErrorBudgetViews::keepAffordableBakes(
         }
     // Every bake given up: the next frames would ask for the same ones (bakesPaused).
     if (kept.empty()) {
-        // 2^5 - 1 = kLongestBakePause frames at most
-        refusedInARow_ = std::min(refusedInARow_ + 1, 5);
+        refusedInARow_ = std::min(refusedInARow_ + 1, kRefusalsCounted);
         askAgainAt_ = frame_ + (std::uint64_t(1) << refusedInARow_);
     } else {
         refusedInARow_ = 0;

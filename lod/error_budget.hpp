@@ -259,7 +259,9 @@ class ErrorBudgetViews {
     /// pause lasts 1 frame after the first such frame and doubles with each in a row, up to
     /// kLongestBakePause; a frame that keeps a bake, or with no pause asks none, ends the run.
     bool bakesPaused() const { return frame_ < askAgainAt_; }
-    static constexpr int kLongestBakePause = 31; ///< frames: 2^5 - 1 (five refusals in a row)
+    /// Refusals in a row counted (each doubles the pause), and the longest pause they give.
+    static constexpr int kRefusalsCounted = 5;
+    static constexpr int kLongestBakePause = (1 << kRefusalsCounted) - 1;
     int viewChangesThisFrame() const { return viewChanges_; }
     int bakesLeft() const { return bakesLeft_; }
     /// Views this frame asks to bake (after keepAffordableBakes: the ones it kept).

@@ -178,8 +178,9 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                 prepared_[i] = budgetViews_.prepare(i, sprites[i], in[i], config, asking.inMemory);
                 if (!prepared_[i].settled()) {
                     if (budgetViews_.bakesPaused()) {
-                        // No view it could be drawn from without a bake, and the cost bound
-                        // would give the bake up: near, unscanned (as choose() would have it).
+                        // Its current view is not both within the budget and cached, and the
+                        // bound gave up every bake the last time the frame asked: near,
+                        // unscanned (as choose() would have it).
                         budgetViews_.drop(i);
                         p = EntityPlan{};
                         budgetStep_[i] = BudgetStep::Near;

@@ -50,7 +50,8 @@ struct PlanStats {
     /// than near by the cost bound's costs (ErrorBudgetViews::keepAffordableBakes).
     int heldNear = 0;
     /// Metric error_budget: far entities drawn near unscanned while the cost bound pauses bakes
-    /// (ErrorBudgetViews::bakesPaused): none of them had a cached view within the budget.
+    /// (ErrorBudgetViews::bakesPaused): those whose current view was not both within the budget
+    /// and cached (a scan might have found them another cached one).
     int pausedNear = 0;
     /// Metric error_budget: the plan's questions that reached the snapshot cache (the rest were
     /// answered by SharedCacheAnswers, this plan's or kept from the plans before).
