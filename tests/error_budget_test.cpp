@@ -152,6 +152,19 @@ SpriteSetup syntheticSprite(glm::dvec3 towardViewer, double cellPx) {
     return s;
 }
 
+/// Hand-made visible sprites of the given models, one each, all seen along (0.3, 0.8, 0.52) with
+/// cells of 1/8 pixel and a rectangle of 8 x 8 pixels.
+std::vector<SpriteSetup> eightPixelSprites(std::initializer_list<int> models) {
+    std::vector<SpriteSetup> sprites;
+    for (int model : models) {
+        SpriteSetup sp = syntheticSprite({0.3, 0.8, 0.52}, 1.0 / 8.0);
+        sp.model = model;
+        sp.screenRect = {0, 0, 8, 8};
+        sprites.push_back(sp);
+    }
+    return sprites;
+}
+
 // Along the tank army's and the .vox crowd's paths, every entity the hybrid draws far is within
 // the budget by prediction, and measured within the prediction plus the quantisation allowance.
 TEST(ErrorBudget, EveryFarEntityStaysWithinTheBudgetAlongTheBenchPaths) {
@@ -581,15 +594,8 @@ TEST(ErrorBudget, ABakeIsGivenUpWhenItsUsersSaveLessThanItCosts) {
 // hysteresis band the tier stays as it was; below kLetGoBelow it is let go.
 TEST(ErrorBudget, AFarTierThatCostsMoreThanNearIsHeldNearWithItsCachedViews) {
     const SelectorConfig c = budgetSelector(1.0);
-    const glm::dvec3 along(0.3, 0.8, 0.52);
     // Three sprites of a cached model (its snapshots are all there), one that needs a bake.
-    std::vector<SpriteSetup> sprites;
-    for (int model : {2, 2, 1, 2}) {
-        SpriteSetup sp = syntheticSprite(along, 1.0 / 8.0);
-        sp.model = model;
-        sp.screenRect = {0, 0, 8, 8};
-        sprites.push_back(sp);
-    }
+    std::vector<SpriteSetup> sprites = eightPixelSprites({2, 2, 1, 2});
     const auto cached = [](const SpriteSetup& s, ViewId) { return s.model == 2; };
     // One frame of `on` at a blit cost `ratio` times the near cost per pixel (fragment rate: a
     // sprite's near units are its pixels), `bakes` asked: the entities drawn near instead.
@@ -651,15 +657,8 @@ TEST(ErrorBudget, AFarTierThatCostsMoreThanNearIsHeldNearWithItsCachedViews) {
 // keeps it. A frame that keeps a bake ends the run, as does one outside a pause that asks none.
 TEST(ErrorBudget, BakesAllGivenUpArePausedTwiceAsLongEachTimeInARow) {
     const SelectorConfig c = budgetSelector(1.0);
-    const glm::dvec3 along(0.3, 0.8, 0.52);
     // Three sprites of models whose snapshots must be baked, one of a cached model.
-    std::vector<SpriteSetup> sprites;
-    for (int model : {0, 1, 1, 2}) {
-        SpriteSetup sp = syntheticSprite(along, 1.0 / 8.0);
-        sp.model = model;
-        sp.screenRect = {0, 0, 8, 8};
-        sprites.push_back(sp);
-    }
+    const std::vector<SpriteSetup> sprites = eightPixelSprites({0, 1, 1, 2});
     bool allCached = false;
     std::atomic<int> questions = 0;
     const ErrorBudgetViews::IsCached cached = [&](const SpriteSetup& s, ViewId) {
