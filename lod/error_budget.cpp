@@ -343,10 +343,7 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
                                                const Prepared& prepared,
                                                const IsCached& withoutBake) {
     std::optional<ViewId>& current = current_.at(entity);
-    if (bakesPaused() && !prepared.settled()) { // near, unscanned (bakesPaused)
-        drop(entity);
-        return std::nullopt;
-    }
+    if (waitsOutThePause(entity, prepared)) return std::nullopt;
     const auto baking = [&](ViewId v) {
         return bakingIndex_.find(keyOf(sprite, v)) != BakeTable::kNone;
     };
@@ -391,6 +388,12 @@ std::optional<ViewId> ErrorBudgetViews::choose(std::size_t entity, const SpriteS
     }
     current = pick;
     return pick;
+}
+
+bool ErrorBudgetViews::waitsOutThePause(std::size_t entity, const Prepared& prepared) {
+    if (!bakesPaused() || prepared.settled()) return false;
+    drop(entity);
+    return true;
 }
 
 bool ErrorBudgetViews::weighFarTier(double farMs, double nearMs) {

@@ -259,6 +259,11 @@ class ErrorBudgetViews {
     /// pause lasts 1 frame after the first such frame and doubles with each in a row, up to
     /// kLongestBakePause; a frame that keeps a bake, or with no pause asks none, ends the run.
     bool bakesPaused() const { return frame_ < askAgainAt_; }
+    /// The pause's rule for an entity `prepared` this frame: where bakes are paused and its
+    /// current view is not both within the budget and cached, drops that view and returns true
+    /// (draw it near, unscanned). What choose() does first, and a planner that hands out no
+    /// choice to such entities asks instead.
+    bool waitsOutThePause(std::size_t entity, const Prepared& prepared);
     /// Refusals in a row counted (each doubles the pause), and the longest pause they give.
     static constexpr int kRefusalsCounted = 5;
     static constexpr int kLongestBakePause = (1 << kRefusalsCounted) - 1;

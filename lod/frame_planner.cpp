@@ -176,17 +176,14 @@ SharedVector<EntityPlan> FramePlanner::plan(std::span<const SpriteSetup> sprites
                     return;
                 }
                 prepared_[i] = budgetViews_.prepare(i, sprites[i], in[i], config, asking.inMemory);
+                if (budgetViews_.waitsOutThePause(i, prepared_[i])) {
+                    // Near, unscanned, as choose() would have it, without the serial walk.
+                    p = EntityPlan{};
+                    budgetStep_[i] = BudgetStep::Near;
+                    ++paused;
+                    return;
+                }
                 if (!prepared_[i].settled()) {
-                    if (budgetViews_.bakesPaused()) {
-                        // Its current view is not both within the budget and cached, and the
-                        // bound gave up every bake the last time the frame asked: near,
-                        // unscanned (as choose() would have it).
-                        budgetViews_.drop(i);
-                        p = EntityPlan{};
-                        budgetStep_[i] = BudgetStep::Near;
-                        ++paused;
-                        return;
-                    }
                     budgetStep_[i] = BudgetStep::Choose;
                     return;
                 }
