@@ -217,8 +217,12 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                     } else if (copyFrom && changedAt_[i] < now) {
                         sprites[i] = (*copyFrom)[i];
                     } else {
-                        jobs[queued++] = {&sprites[i], &constants_[i], std::uint32_t(i),
-                                          selection ? &selection_[i] : nullptr};
+                        jobs[queued++] = {.sprite = &sprites[i],
+                                          .constants = &constants_[i],
+                                          .entityId = std::uint32_t(i),
+                                          .selection = selection ? &selection_[i] : nullptr,
+                                          .visible = &visible_[i],
+                                          .depth = &depths_[i]};
                         if (queued == jobs.size()) setUpQueued();
                     }
                 }
@@ -229,13 +233,10 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
             }
             setUpQueued();
             for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                // A visibility and a depth change only with the pose or the camera (reposed):
-                // read from the sprite just set up, and left as they were for the rest (a still
-                // camera's update read a line of every sprite, 6.4 MB at 100,000).
-                if (reposed_[i]) {
-                    visible_[i] = sprites[i].visible();
-                    depths_[i] = sprites[i].gpu.depth;
-                }
+                // A visibility and a depth change only with the pose or the camera (reposed), and
+                // a reposed entity's sprite is always set up again (neither restepped nor
+                // copied): its job wrote both. The rest keep theirs (a still camera's update
+                // read a line of every sprite, 6.4 MB at 100,000).
                 // After updates that kept no selection inputs, every entity's afresh (the set-up's
                 // jobs wrote the same values for theirs).
                 if (selection && !selectionCurrent_)

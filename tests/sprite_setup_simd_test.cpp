@@ -14,6 +14,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <map>
 #include <random>
 
@@ -28,10 +29,14 @@ void expectSameSetUps(const std::vector<SpriteConstants>& constants, const Camer
                       const RenderParams& params, std::map<CullReason, int>* reasons = nullptr) {
     std::vector<SpriteSetup> scalar(constants.size()), simd(constants.size());
     std::vector<SpriteSelectionInputs> selection(constants.size());
+    // Filled with what no set-up writes, so that a job that leaves them shows.
+    std::vector<std::uint8_t> visible(constants.size(), 7);
+    std::vector<float> depth(constants.size(), -1.0f);
     std::vector<SpriteSetupJob> jobs;
     for (std::size_t i = 0; i < constants.size(); ++i) {
         setupSpriteInto(scalar[i], cam, constants[i], std::uint32_t(i), params);
-        jobs.push_back({&simd[i], &constants[i], std::uint32_t(i), &selection[i]});
+        jobs.push_back(
+            {&simd[i], &constants[i], std::uint32_t(i), &selection[i], &visible[i], &depth[i]});
     }
     setupSpritesInto(jobs, cam, params);
     for (std::size_t i = 0; i < constants.size(); ++i) {
@@ -40,6 +45,11 @@ void expectSameSetUps(const std::vector<SpriteConstants>& constants, const Camer
         // The selection inputs the lanes derive beside the sprite.
         ASSERT_TRUE(sameSelection(selection[i], selectionInputs(scalar[i])))
             << " (entity " << i << ", SIMD target " << spriteSetupSimdTarget() << ")";
+        // The visibility and depth the jobs write beside it (a store's per-entity copies).
+        ASSERT_EQ(visible[i], scalar[i].visible() ? 1 : 0) << " (entity " << i << ")";
+        ASSERT_EQ(std::bit_cast<std::uint32_t>(depth[i]),
+                  std::bit_cast<std::uint32_t>(scalar[i].gpu.depth))
+            << " (entity " << i << ")";
         if (reasons) ++(*reasons)[scalar[i].cull];
     }
 }
