@@ -239,10 +239,10 @@ struct SpriteSetupJob {
     /// them on its lanes with the rest (on two cores, 100,000 of them derived one by one from the
     /// sprites just set up cost 1.6 ms).
     SpriteSelectionInputs* selection = nullptr;
-    /// Where to write the sprite's visible() and GPU record's depth too (none: nullptr): a
-    /// store's per-entity copies, which a draw order reads in place of the sprites. Read back
-    /// from the sprites after a batch, those two lines of each were a seventh of a moving
-    /// 100,000-tank update's samples in the store's own loop on two cores.
+    /// Where to write the sprite's visible() and its GPU record's depth too (each: none where
+    /// nullptr): a store's per-entity copies, which a draw order reads in place of the sprites.
+    /// Read back from the sprites after a batch, those two lines of each were a seventh of a
+    /// moving 100,000-tank update's samples in the store's own loop on two cores.
     std::uint8_t* visible = nullptr;
     float* depth = nullptr;
 };

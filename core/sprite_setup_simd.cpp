@@ -345,7 +345,8 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
     SpriteSetup& S = *job.sprite;
     // selectionInputs of the sprite, once its culling is known, with the parts the lanes derived.
     const auto writeSelection = [&] {
-        if (job.visible) *job.visible = S.visible(), *job.depth = S.gpu.depth;
+        if (job.visible) *job.visible = S.visible();
+        if (job.depth) *job.depth = S.gpu.depth;
         // Initialised in place from the prvalue (the callee writes the store's entry): assigned,
         // the inputs went through a stack temporary whose wide reloads waited on the callee's
         // narrower stores (a store-forwarding stall, a third of this function's samples).
@@ -454,7 +455,8 @@ void SetupSprites(std::span<const SpriteSetupJob> jobs, const CameraFrame& cam,
     for (const SpriteSetupJob& job : jobs) {
         setupSpriteInto(*job.sprite, cam, *job.constants, job.entityId, params);
         if (job.selection) *job.selection = selectionInputs(*job.sprite);
-        if (job.visible) *job.visible = job.sprite->visible(), *job.depth = job.sprite->gpu.depth;
+        if (job.visible) *job.visible = job.sprite->visible();
+        if (job.depth) *job.depth = job.sprite->gpu.depth;
     }
 }
 const char* TargetName() {

@@ -217,6 +217,11 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
                     } else if (copyFrom && changedAt_[i] < now) {
                         sprites[i] = (*copyFrom)[i];
                     } else {
+                        // Its job writes the entity's visibility and depth too. Both change only
+                        // with the pose or the camera (reposed), and a reposed entity's sprite is
+                        // always set up here (neither restepped nor copied); the others keep
+                        // theirs (a still camera's update read a line of every sprite for them,
+                        // 6.4 MB at 100,000).
                         jobs[queued++] = {.sprite = &sprites[i],
                                           .constants = &constants_[i],
                                           .entityId = std::uint32_t(i),
@@ -233,10 +238,6 @@ SpriteStore::Update SpriteStore::update(const Scene& scene, const CameraFrame& c
             }
             setUpQueued();
             for (std::size_t i = range.begin(); i != range.end(); ++i) {
-                // A visibility and a depth change only with the pose or the camera (reposed), and
-                // a reposed entity's sprite is always set up again (neither restepped nor
-                // copied): its job wrote both. The rest keep theirs (a still camera's update
-                // read a line of every sprite, 6.4 MB at 100,000).
                 // After updates that kept no selection inputs, every entity's afresh (the set-up's
                 // jobs wrote the same values for theirs).
                 if (selection && !selectionCurrent_)
