@@ -343,8 +343,9 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
     };
     const SpriteConstants& k = *job.constants;
     SpriteSetup& S = *job.sprite;
-    // selectionInputs of the sprite, once its culling is known, with the parts the lanes derived.
-    const auto writeSelection = [&] {
+    // The job's outputs beside the sprite, once its culling is known: its visibility, its depth
+    // and its selectionInputs (with the parts the lanes derived).
+    const auto writeJobOutputs = [&] {
         if (job.visible) *job.visible = S.visible();
         if (job.depth) *job.depth = S.gpu.depth;
         // Initialised in place from the prvalue (the callee writes the store's entry): assigned,
@@ -369,7 +370,7 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
         cullBeforeLattice(at3(kEyeVoxel), dims, params.sigma, S.viewDepth, S.radiusPx, cam.zNear);
     if (early != CullReason::None) {
         markCulled(S, early);
-        return writeSelection();
+        return writeJobOutputs();
     }
 
     SpriteLattice& L = S.lattice;
@@ -412,7 +413,7 @@ void WriteLane(const double* out, const float* outFloat, std::size_t N, std::siz
         S.quad[std::size_t(i)] = glm::vec4(atFloat(kFQuad + 3 * i), atFloat(kFQuad + 3 * i + 1),
                                            zNear, atFloat(kFQuad + 3 * i + 2));
     setScreenRect(S, {at(kLo), at(kLo + 1)}, {at(kHi), at(kHi + 1)}, cam);
-    writeSelection();
+    writeJobOutputs();
 }
 
 void SetupSprites(std::span<const SpriteSetupJob> jobs, const CameraFrame& cam,
