@@ -22,9 +22,10 @@ case "$preset" in
 default) build_dir="${VOXTIER_BUILD_DIR:-build}" ;;
 asan)
     build_dir="build-asan"
-    # The preset links with --as-needed, which Debian's GCC passes by default but not under
-    # -fsanitize: without it every test executable loaded OpenImageIO and its ~250 libraries,
-    # ~1.5 s a test process under ASan, a third of the suite (docs/decisions/ci-time.md).
+    # The preset links with --as-needed, which Debian's GCC gives the linker by default but not
+    # under -fsanitize: without it 68 of 70 test executables loaded OpenImageIO and its ~250
+    # libraries, ~1.6 s a test process under ASan (the suite: 1,258 s, with it 802;
+    # docs/decisions/ci-time.md).
     # Mesa's lavapipe and the loader keep a few allocations alive until exit: report leaks
     # only where the stack touches our code (tools/lsan.supp lists the driver frames).
     export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1:check_initialization_order=1"
