@@ -57,8 +57,7 @@ std::string imageFormatRefusal(const std::filesystem::path& file) {
     const std::string ext = lowerExtension(file);
     if (ext == ".pam" || ext == ".gif" || imageLibraryAvailable()) return "";
     return "cannot write " + (ext.empty() ? std::string("a file without an extension") : ext) +
-           ": this voxtier is built without OpenImageIO (VOXTIER_IMAGE_FILES=OFF, the portable "
-           "build); write .pam or .gif";
+           ": " + detail::imageLibraryFailure() + "; write .pam or .gif";
 }
 
 namespace {

@@ -8,10 +8,13 @@
 //   write an image and two builds' renders can be compared byte for byte. GIF has its own encoder
 //   (image_files/detail/gif_encoder.hpp) because an image library's dithers: this one holds a
 //   frame of up to 256 colours exactly.
-// - Every other format (.png, .exr, .tif, .jpg) goes through OpenImageIO
-//   (image_files/oiio_files.cpp, the only file that includes it). A build configured with
-//   VOXTIER_IMAGE_FILES=OFF has no OpenImageIO: there those formats are refused with one
-//   InputError line naming the file, before anything is rendered where the CLI can tell.
+// - Every other format (.png, .exr, .tif, .jpg) goes through OpenImageIO, in a module of its own
+//   (libvoxtier_openimageio.so, image_files/openimageio_module.cpp, the only file that includes
+//   it) that the first write or read of such a format loads: a program that writes none of them
+//   never loads OpenImageIO's ~250 libraries (image_files/detail/image_library_module.hpp). A build
+//   configured with VOXTIER_IMAGE_FILES=OFF has no OpenImageIO: there those formats are refused
+//   with one InputError line naming the file, before anything is rendered where the CLI can tell;
+//   so are they where the module cannot be loaded, with the loader's reason.
 #include "core/image.hpp"
 
 #include <cstddef>
@@ -23,7 +26,8 @@
 namespace voxtier {
 
 /// Whether this build writes and reads the formats that need OpenImageIO (the CMake option
-/// VOXTIER_IMAGE_FILES). .pam is written either way.
+/// VOXTIER_IMAGE_FILES, and its module loaded: the first call loads it). .pam is written either
+/// way.
 bool imageLibraryAvailable();
 /// `file`'s extension in lower case (".png"), by which every format here is chosen.
 std::string lowerExtension(const std::filesystem::path& file);

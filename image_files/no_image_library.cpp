@@ -13,6 +13,11 @@ bool imageLibraryLinked() {
     return false;
 }
 
+std::string imageLibraryFailure() {
+    return "this voxtier is built without OpenImageIO (VOXTIER_IMAGE_FILES=OFF, the portable "
+           "build)";
+}
+
 void writeWithImageLibrary(const std::filesystem::path& file, const Image&, double, bool) {
     throw InputError(file.string(), "", imageFormatRefusal(file));
 }

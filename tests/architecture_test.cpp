@@ -1,8 +1,8 @@
 // ARCHITECTURE.md's module rules as a test: a module includes only modules to its left, Embree
 // appears only in impostor_cache, Vulkan headers only in device and volumetric,
-// OpenImageIO only in image_files/oiio_files.cpp (no module of the renderer, core to compose,
-// touches an image file format), and lod/ plans while compose/ draws. Reads the sources, so a
-// forbidden include fails here before it becomes a habit.
+// OpenImageIO only in image_files/openimageio_module.cpp (no module of the renderer, core to
+// compose, touches an image file format), and lod/ plans while compose/ draws. Reads the sources,
+// so a forbidden include fails here before it becomes a habit.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -83,12 +83,13 @@ TEST(Architecture, ThirdPartyLibrariesStayInTheirModules) {
                     }
                 }
         }
-    // OpenImageIO only in the one file that a build with VOXTIER_IMAGE_FILES=OFF leaves out.
+    // OpenImageIO only in the one file that is its module (loaded on first use) and that a build
+    // with VOXTIER_IMAGE_FILES=OFF leaves out.
     for (const fs::path& file : sourcesOf("image_files")) {
         std::ifstream in(file);
         const std::string text((std::istreambuf_iterator<char>(in)), {});
         if (text.find("#include <OpenImageIO/") != std::string::npos) {
-            EXPECT_EQ(file.filename().string(), "oiio_files.cpp") << file.string();
+            EXPECT_EQ(file.filename().string(), "openimageio_module.cpp") << file.string();
         }
     }
 }

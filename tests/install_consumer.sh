@@ -37,3 +37,36 @@ CXX_FLAGS="${3:-}" LINKER_FLAGS="${4:-}" configure "$prefix/share/doc/voxtier/ex
     "$work/examples"
 bash "$src/tests/example_test.sh" "$prefix/bin/voxtier" "$work/examples/render_scene" \
     "$prefix/share/voxtier/scenes"
+
+# OpenImageIO's module (image_files/detail/image_library_module.hpp) is the installed one for both
+# the installed CLI (found beside it) and the example built against the prefix (its run path),
+# not the build tree's, which the loader would also find.
+module="$(find "$prefix" -name libvoxtier_openimageio.so)"
+[[ -n "$module" ]] || { echo "install_consumer: no libvoxtier_openimageio.so installed" >&2; exit 1; }
+opened() { # LOG...: the module's paths, as the loader names it where it loads OpenImageIO for it
+    grep -ho 'needed by [^ ]*libvoxtier_openimageio\.so' "$@" | sed 's/^needed by //' | sort -u
+}
+LD_DEBUG=files LD_DEBUG_OUTPUT="$work/cli" "$prefix/bin/voxtier" render \
+    "$prefix/share/voxtier/scenes/default.json" -o "$work/m_cli.png" >/dev/null
+LD_DEBUG=files LD_DEBUG_OUTPUT="$work/example" "$work/examples/render_scene" \
+    "$prefix/share/voxtier/scenes/default.json" "$work/m_example.png"
+for who in cli example; do
+    got="$(opened "$work/$who".*)"
+    if [[ "$got" != "$module" ]]; then
+        echo "install_consumer: the $who loaded '${got//$'\n'/, }', not the installed $module" >&2
+        exit 1
+    fi
+done
+cmp "$work/m_cli.png" "$work/m_example.png"
+# A module that cannot be loaded: one line naming the output file and the loader's reason, exit
+# status 2, before anything is rendered, and no file written.
+echo "not a library" >"$module"
+rc=0
+msg="$("$prefix/bin/voxtier" render "$prefix/share/voxtier/scenes/default.json" \
+    -o "$work/broken.png" 2>&1)" || rc=$?
+if [[ $rc -ne 2 || $(printf '%s\n' "$msg" | wc -l) -ne 1 || "$msg" != *"$module"* ||
+    -e "$work/broken.png" ]]; then
+    echo "install_consumer: a broken module gave exit status $rc and: $msg" >&2
+    exit 1
+fi
+echo "install_consumer: the installed module loaded by the CLI and the example; a broken one: $msg"
