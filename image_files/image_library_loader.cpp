@@ -28,7 +28,10 @@ struct LoadedModule {
 /// Opens `path` and checks its entry; "" and `api` set on success.
 std::string openModule(const std::string& path, const detail::ImageLibraryModule*& api) {
     void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!handle) return dlerror();
+    if (!handle) {
+        const char* why = dlerror();
+        return why ? why : path + ": cannot be loaded";
+    }
     using Entry = const detail::ImageLibraryModule* (*)();
     const auto entry = reinterpret_cast<Entry>(dlsym(handle, detail::kImageLibraryEntry));
     if (!entry) return path + ": no " + detail::kImageLibraryEntry;
