@@ -46,7 +46,7 @@ void writeGif(const std::filesystem::path& file, const Image& img) {
 } // namespace
 
 bool imageLibraryAvailable() {
-    return detail::imageLibraryLinked();
+    return detail::imageLibraryLoaded();
 }
 
 bool canWriteImageFormat(const std::filesystem::path& file) {

@@ -109,7 +109,7 @@ void writeEncoded(const std::filesystem::path& file, const detail::EncodeRequest
 
 namespace detail {
 
-bool imageLibraryLinked() {
+bool imageLibraryLoaded() {
     return module().api != nullptr;
 }
 

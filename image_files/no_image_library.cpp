@@ -9,7 +9,7 @@ namespace voxtier {
 
 namespace detail {
 
-bool imageLibraryLinked() {
+bool imageLibraryLoaded() {
     return false;
 }
 

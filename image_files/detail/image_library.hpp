@@ -11,10 +11,10 @@ namespace voxtier::detail {
 
 /// True where OpenImageIO is at hand: built with it, and its module loaded (which the first call
 /// does).
-bool imageLibraryLinked();
+bool imageLibraryLoaded();
 /// Why not, in one line ("" where it is).
 std::string imageLibraryFailure();
-/// Writes a format other than .pam (the caller has checked that the library is linked).
+/// Writes a format other than .pam (the caller has checked that the library is loaded).
 /// `colorOnly`: the colour channels alone, also in an EXR (no Z, no id).
 void writeWithImageLibrary(const std::filesystem::path& file, const Image& image, double zNear,
                            bool colorOnly);
