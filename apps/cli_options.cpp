@@ -226,6 +226,10 @@ void addFrameFlags(CLI::App& cmd, FrameOptions& options, const FrameFlagHelp& he
                     "of their rectangles in a compute pass), raster (their proxies rasterised, "
                     "the kernel in the fragment shader) or auto (default: compute on a GPU, "
                     "raster on a CPU device such as lavapipe); same image");
+    addChoiceOption(cmd, "--near-records", options.nearRecords, kNearRecordsNames, "near records",
+                    "Where the Vulkan near tier lays its sprite records: drawn (default: in the "
+                    "draw order, gathered by the host) or given (in entity order, read by the "
+                    "host in sequence, found by the device through each draw place); same image");
     addChoiceOption(cmd, "--far-tiles", options.farTiles, kFarTilesNames, "far tiles",
                     "How the Vulkan far pass is cut into workgroups: coarse (a 32x32-pixel tile "
                     "a workgroup, its far sprites passed over its pixels one after another), "

@@ -116,6 +116,7 @@ struct FrameFlagHelp {
 /// - `--far-backend auto|vulkan|cpu` (FrameOptions::farBackend);
 /// - `--near-rate auto|fragment|cell` (nearRate, compose/frame.hpp kNearRateNames);
 /// - `--near-pixels auto|compute|raster` (nearPixels, kNearPixelsNames);
+/// - `--near-records drawn|given` (nearRecords, kNearRecordsNames);
 /// - `--far-tiles auto|coarse|fine|sprites` (farTiles, kFarTilesNames);
 /// - `--far-blit simd|scalar` (farBlit.kernel, kFarBlitNames);
 /// - the occlusion switches (CONTRACT.md §6, Occlusion): by default the near tier's early depth

@@ -107,6 +107,10 @@ const char* toString(NearPixels p) {
     return nameOf(kNearPixelsNames, p);
 }
 
+const char* toString(NearRecords r) {
+    return nameOf(kNearRecordsNames, r);
+}
+
 namespace {
 SnapshotCacheConfig cacheConfig(const FrameOptions& o, const SelectorConfig& selector) {
     SnapshotCacheConfig c;
@@ -546,6 +550,7 @@ double FrameRenderer::nearFixedMs(const CameraFrame& cam, NearBackend nearBacken
             NearOptions no;
             no.rate = options_.nearRate;
             no.pixels = options_.nearPixels;
+            no.records = options_.nearRecords;
             (void)near_->render(cam, scene_.models, std::span<const SpriteSetup* const>{},
                                 scene_.render.background, no, nullptr);
         } else {
@@ -685,6 +690,7 @@ VulkanFrameInFlight FrameRenderer::submitOnVulkan(
     request.near.countSteps = options_.nearCountSteps;
     request.near.rate = options_.nearRate;
     request.near.pixels = options_.nearPixels;
+    request.near.records = options_.nearRecords;
     request.near.earlyDepthTest = options_.earlyDepthTest;
     request.near.skipEmpty = options_.nearSkipEmpty;
     request.depthAndIds = !colourOnly;

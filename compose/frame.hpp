@@ -118,6 +118,13 @@ inline constexpr std::array<std::pair<const char*, NearPixels>, 3> kNearPixelsNa
 }};
 const char* toString(NearPixels p);
 
+/// The one table of names of where the Vulkan near tier lays its sprite records (NearRecords).
+inline constexpr std::array<std::pair<const char*, NearRecords>, 2> kNearRecordsNames{{
+    {"drawn", NearRecords::Drawn},
+    {"given", NearRecords::Given},
+}};
+const char* toString(NearRecords r);
+
 /// The one table of names of the ways the Vulkan far pass is cut (FarTiles).
 inline constexpr std::array<std::pair<const char*, FarTiles>, 4> kFarTilesNames{{
     {"auto", FarTiles::Auto},
@@ -133,6 +140,8 @@ struct FrameOptions {
     NearRate nearRate = NearRate::Auto;
     /// The Vulkan near tier's per-pixel sprites drawn or traced in compute (same image).
     NearPixels nearPixels = NearPixels::Auto;
+    /// Where the Vulkan near tier lays its sprite records (same image).
+    NearRecords nearRecords = NearRecords::Drawn;
     /// Of hybrid and far frames: the CPU blit or the Vulkan far pass (same image).
     FarBackend farBackend = FarBackend::Auto;
     /// The Vulkan far pass's tiles: 32 or 8 pixels a side (same image;

@@ -2,8 +2,8 @@
 # tools/gpu_check.sh --short --profile against this build: it must pass its identity check, name
 # the Vulkan device, and write report.md and results.csv with the identity rows (0 differing
 # pixels), the bench's rows and the profile's pass-by-pass rows (a small tank army curve here), and
-# the far pass cut three ways (hybrid and all far, moving and still), placement comparisons and
-# the error budget's hybrid on the curve's largest army.
+# the far pass cut three ways (hybrid and all far, moving and still), placement and records
+# comparisons and the error budget's hybrid on the curve's largest army.
 # Usage: gpu_check_test.sh VOXTIER SOURCE_DIR
 set -euo pipefail
 work="$(mktemp -d)"
@@ -68,6 +68,13 @@ grep -q "Frame 23, direct against staged: identical." "$work/out/report.md" ||
     fail "direct writes and staged uploads were not found identical"
 grep -q "^placement,tank_army_80,near_vulkan staged host_record_sprites_ms,[0-9.]*[1-9][0-9.]*,ms" \
     "$work/out/results.csv" || fail "results.csv lacks the staged run's sprite records"
+# The sprite records laid out both ways (--near-records): the same image, each its rows.
+grep -q "Frame 23, drawn against given: identical." "$work/out/report.md" ||
+    fail "the records in the draw order and in entity order were not found identical"
+for l in drawn given; do
+    grep -q "^records,tank_army_80,near_vulkan records $l host_record_sprites_ms,[0-9.]*[1-9][0-9.]*,ms" \
+        "$work/out/results.csv" || fail "results.csv lacks the sprite records laid out $l"
+done
 # The army under the error budget, hybrid, beside all-near: its rows and the ratio.
 grep -q "^## The error budget: 80 tanks, hybrid against all-near Vulkan" "$work/out/report.md" ||
     fail "report.md has no error-budget table"

@@ -18,6 +18,8 @@
 #include <gtest/gtest.h>
 
 #include <memory>
+#include <string>
+#include <utility>
 #include <vector>
 
 namespace voxtier {
@@ -27,11 +29,13 @@ const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new test::NearRende
 
 class NearRecordsKept : public test::VulkanTest {
   protected:
-    static FrameOptions options(NearPixels pixels, bool shared) {
+    static FrameOptions options(NearPixels pixels, bool shared,
+                                NearRecords records = NearRecords::Drawn) {
         FrameOptions o;
         if (shared) o.sharedNear = sharedNearRenderer();
         o.nearBackend = NearBackend::Vulkan;
         o.nearPixels = pixels;
+        o.nearRecords = records;
         o.farBackend = FarBackend::Cpu;
         o.costAwareBakes = false; // images must not depend on timing
         o.depthAndIds = true;     // compare every plane
@@ -40,15 +44,24 @@ class NearRecordsKept : public test::VulkanTest {
 };
 
 TEST_F(NearRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
-    for (const NearPixels pixels : {NearPixels::Compute, NearPixels::Raster}) {
-        SCOPED_TRACE(pixels == NearPixels::Compute ? "traced in compute" : "rasterised");
+    // The records at their places in the draw order, and in the order given (NearRecords), each
+    // way both ways of tracing; `everything` lays them out at their places.
+    for (const auto& [pixels, layout] : {std::pair{NearPixels::Compute, NearRecords::Drawn},
+                                         std::pair{NearPixels::Raster, NearRecords::Drawn},
+                                         std::pair{NearPixels::Compute, NearRecords::Given},
+                                         std::pair{NearPixels::Raster, NearRecords::Given}}) {
+        SCOPED_TRACE(
+            std::string(pixels == NearPixels::Compute ? "traced in compute" : "rasterised") +
+            ", records " + toString(layout));
         Scene s = test::stillSteppingArmy();
         Scene other = s; // its own entities and camera, the same models
-        FrameRenderer renderer(s, options(pixels, true));
+        FrameRenderer renderer(s, options(pixels, true, layout));
         FrameRenderer everything(s, options(pixels, false));
         // The same entities of the same models, on the same slots, 40 updates ahead of
-        // `renderer`'s store.
-        FrameRenderer intruder(other, options(pixels, true));
+        // `renderer`'s store (its records laid out the other way).
+        FrameRenderer intruder(
+            other, options(pixels, true,
+                           layout == NearRecords::Drawn ? NearRecords::Given : NearRecords::Drawn));
         // At time 0 (frame 0 alone resident, as for `renderer`'s first frame).
         for (int k = 0; k < 40; ++k) (void)intruder.render(0.0, RenderMode::Near, k);
 
@@ -59,6 +72,11 @@ TEST_F(NearRecordsKept, FramesThatKeepRecordsEqualFramesThatWriteEverything) {
             test::changeSteppingArmy(s, k);
             if (k == 16) (void)intruder.render(t + 0.4, RenderMode::Near, 16);
             const RenderMode mode = k >= 18 ? RenderMode::Hybrid : RenderMode::Near;
+            // Frame 2 lays its records out the other way, in a slot the next frames keep from:
+            // a record is kept where the same entity's sits at its index, whichever way.
+            renderer.options().nearRecords =
+                k != 2 ? layout
+                       : (layout == NearRecords::Drawn ? NearRecords::Given : NearRecords::Drawn);
             const FrameResult r = renderer.render(t, mode, k);
             FrameStats full;
             const Image expected =

@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <cstdlib>
 #include <filesystem>
 
 namespace voxtier {
@@ -52,6 +53,16 @@ class VulkanCellRate : public test::VulkanTest {
             nearRenderer().render(makeCameraFrame(scene.cameraAt(0.0)), scene.models, r.sprites,
                                   scene.render.background, options);
         EXPECT_EQ(test::describeDifference(drawn, r.reference), "") << what << ", raster";
+        // The records in the order the sprites are given (NearRecords::Given), given back to
+        // front: each place in the draw order finds its record through its own index.
+        options.pixels = NearPixels::Compute;
+        options.records = NearRecords::Given;
+        const std::vector<SpriteSetup> reversed(r.sprites.rbegin(), r.sprites.rend());
+        const Image given =
+            nearRenderer().render(makeCameraFrame(scene.cameraAt(0.0)), scene.models, reversed,
+                                  scene.render.background, options);
+        EXPECT_EQ(test::describeDifference(given, r.reference), "")
+            << what << ", compute, records in the order given (reversed)";
         return r.nearStats;
     }
     /// Cell, fragment and auto all equal the reference; cell really drew every sprite cell-rate.
@@ -313,15 +324,17 @@ TEST_F(VulkanCellRate, ACrowdOfTwelveThousandSpritesMatchesTheReferenceInEitherO
                      {kDefaultCellBudgetBytes, cells / 2 * kCellStoreBytesPerCell}) {
                     if (rate == NearRate::Fragment && budget != kDefaultCellBudgetBytes) continue;
                     for (const NearPixels pixels : {NearPixels::Compute, NearPixels::Raster})
-                        for (const int threads : {1, 8}) {
+                        for (const int threads : {1, 8, -8}) {
+                            // -8: eight threads, the records in the order given (NearRecords).
                             NearOptions options = test::gpuDefaults();
+                            if (threads < 0) options.records = NearRecords::Given;
                             options.earlyDepthTest = earlyDepth;
                             options.rate = rate;
                             options.cellBudgetBytes = budget;
                             options.pixels = pixels;
                             NearStats st;
                             Image drawn;
-                            tbb::task_arena(threads).execute([&] {
+                            tbb::task_arena(std::abs(threads)).execute([&] {
                                 drawn =
                                     nearRenderer().render(cam, scene.models, sprites,
                                                           scene.render.background, options, &st);
@@ -332,7 +345,8 @@ TEST_F(VulkanCellRate, ACrowdOfTwelveThousandSpritesMatchesTheReferenceInEitherO
                                 (rate == NearRate::Cell ? "cell rate" : "per pixel") + ", budget " +
                                 std::to_string(budget) + ", " +
                                 (pixels == NearPixels::Compute ? "compute" : "raster") + ", " +
-                                std::to_string(threads) + " threads";
+                                std::to_string(std::abs(threads)) + " threads" +
+                                (threads < 0 ? ", records in the order given" : "");
                             EXPECT_EQ(test::describeDifference(drawn, reference), "") << what;
                             if (rate == NearRate::Cell) {
                                 EXPECT_EQ(st.cellOverBudget > 0, budget != kDefaultCellBudgetBytes)

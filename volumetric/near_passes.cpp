@@ -102,11 +102,11 @@ bool NearPasses::Impl::orderSprites(std::span<const SpriteSetup* const> all, con
     // keeps every pixel the same (the depth test alone decides unequal depths, whatever their
     // order); else ascending entity id, so that depth GREATER resolves ties to the lower id.
     drawOrder(all, opt.earlyDepthTest, kept.buffers, kept.order, history);
-    gather();
     if (!opt.earlyDepthTest)
         std::stable_sort(
-            visible.begin(), visible.end(),
-            [](const SpriteSetup* a, const SpriteSetup* b) { return a->entityId < b->entityId; });
+            kept.order.begin(), kept.order.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return all[a]->entityId < all[b]->entityId; });
+    gather(); // visible[p] == all[kept.order[p]], which the records' places follow
     kept.store = history && opt.earlyDepthTest ? history->store : 0;
     kept.asOf = history ? history->now : 0;
     kept.entity.resize(all.size());
@@ -152,12 +152,14 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
     stats.uploadMs = up.milliseconds;
 
     const std::size_t n = visible.size();
-    depths.resize(n);
-    rects.resize(n);
-    wishes.resize(n);
-    const VkDeviceSize bytes = VkDeviceSize(n) * sizeof(kernel::SpriteGpu);
+    const bool byGiven = opt.records == NearRecords::Given;
+    // Record r's sprite: the r-th given (NearRecords::Given) or the r-th drawn.
+    const std::size_t records = byGiven ? all.size() : n;
+    const VkDeviceSize bytes = VkDeviceSize(records) * sizeof(kernel::SpriteGpu);
     ensure(slot.sprites, std::max<VkDeviceSize>(bytes, 4));
+    ensure(slot.recordOf, std::max<VkDeviceSize>(VkDeviceSize(n) * sizeof(std::uint32_t), 4));
     if (!n) {
+        placeDepths = {}, placeRects = {}, placeWishes = {};
         stats.recordResidencyMs = msSince(tResidency);
         return;
     }
@@ -166,9 +168,10 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
     // What the slot's buffer holds that is still current: a record stays where the same entity's
     // sprite sat when the slot was last written and has not changed since, in a buffer the host
     // writes in place (a staged buffer is copied whole from the staging ring), with the frames it
-    // placed where they were and the same rate. A still camera's frame then writes the sprites that
-    // changed, where it wrote and gathered every record (100,000 tanks: 18 MB of 208-byte records,
-    // each a cache miss).
+    // placed where they were and the same rate (whichever NearRecords laid it out: `kept.entity`
+    // says whose record each index holds). A still camera's frame then writes the sprites that
+    // changed, where it wrote and gathered every record (100,000 tanks: 18 MB of 208-byte
+    // records, each a cache miss).
     KeptRecords& kept = slot.kept;
     const bool direct = slot.sprites.placement().hostWrite == HostWrite::Direct;
     const bool keep = history && history->store != 0 && direct && kept.store == history->store &&
@@ -176,71 +179,77 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
                       placedAsBefore(kept.placements, placements);
     kept.store = 0; // until every record below is as `kept` says (an exception leaves it so)
     constexpr std::uint32_t kNoEntity = KeptRecords::kNoEntity;
-    kept.entity.resize(n, kNoEntity);
+    kept.entity.resize(records, kNoEntity);
+    kept.depths.resize(records);
+    kept.rects.resize(records);
+    kept.wishes.resize(records);
     auto* gpu = static_cast<kernel::SpriteGpu*>(frame.hostWrite(slot.sprites, 0, bytes));
     using Counts = std::pair<std::uint64_t, std::uint64_t>; // records kept, records patched
-    // What each place does with its record: written whole, patched (an animation step since
-    // the slot's write) or kept.
+    // What each record does: written whole, patched (an animation step since the slot's write)
+    // or kept.
     enum class Keeps { Nothing, AllButTheFrame, Everything };
-    const auto keeps = [&](std::size_t i, std::uint32_t e) {
-        if (!keep || e == kNoEntity || kept.entity[i] != e || history->spritePosedAt(e) > kept.asOf)
+    const auto keeps = [&](std::size_t r, std::uint32_t e) {
+        if (!keep || e == kNoEntity || kept.entity[r] != e || history->spritePosedAt(e) > kept.asOf)
             return Keeps::Nothing;
         return history->spriteChangedAt(e) <= kept.asOf ? Keeps::Everything : Keeps::AllButTheFrame;
     };
-    const auto entityAt = [&](std::size_t i) {
-        return SpriteHistory::entityIn(history, visible[i]);
-    };
+    const auto spriteOf = [&](std::size_t r) { return byGiven ? all[r] : visible[r]; };
     const Counts counts = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, n, kSpriteGrain), Counts{0, 0},
-        [&](const auto& r, Counts c) {
-            for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                // `visible` is in draw order, so each record read is a jump through the sprite
-                // store: the lines of a record to be written are asked for a few sprites ahead,
-                // while this one is copied (100,000 tanks on this 2-core host: the loop
-                // 10.5-12.7 -> 7.6-9.2 ms, medians).
-                if (const std::size_t a = i + kGatherAhead; a < n) {
+        tbb::blocked_range<std::size_t>(0, records, kSpriteGrain), Counts{0, 0},
+        [&](const auto& range, Counts c) {
+            for (std::size_t r = range.begin(); r != range.end(); ++r) {
+                const SpriteSetup* s = spriteOf(r);
+                if (byGiven) {
+                    // Not drawn (no place names it): its record is never read.
+                    if (!s || !s->visible()) {
+                        kept.entity[r] = kNoEntity;
+                        continue;
+                    }
+                } else if (const std::size_t a = r + kGatherAhead; a < n) {
+                    // In draw order each record read is a jump through the sprite store: the
+                    // lines of a record to be written are asked for a few sprites ahead, while
+                    // this one is copied (100,000 tanks on the 2-core host: the loop 10.5-12.7
+                    // -> 7.6-9.2 ms, medians).
                     const auto* ahead = reinterpret_cast<const char*>(&visible[a]->gpu);
-                    if (keeps(a, entityAt(a)) == Keeps::Nothing)
+                    if (keeps(a, SpriteHistory::entityIn(history, visible[a])) == Keeps::Nothing)
                         for (std::size_t b = 0; b < sizeof(kernel::SpriteGpu); b += 64)
                             __builtin_prefetch(ahead + b);
                 }
-                const std::uint32_t e = entityAt(i);
-                if (const Keeps k = keeps(i, e); k != Keeps::Nothing) {
+                const std::uint32_t e = SpriteHistory::entityIn(history, s);
+                if (const Keeps keeping = keeps(r, e); keeping != Keeps::Nothing) {
                     // The record holds this entity's sprite as it is now, or as it was before an
                     // animation step (restepSprite): then only the fields that follow the frame
                     // are written, the voxels' and occupancy's places and the skip rule (a crowd
                     // steps every sprite at once, a few times a second). The lists' figures
-                    // depend on neither, and the slot's arrays hold them (lent as depths...).
-                    if (k == Keeps::Everything) {
+                    // depend on neither, and the slot's arrays keep them.
+                    if (keeping == Keeps::Everything) {
                         ++c.first;
                         continue;
                     }
-                    const SpriteSetup& s = *visible[i];
                     const VoxelResidency::Placements::Frame& at =
-                        placements.at(std::size_t(s.model), s.frame);
-                    gpu[i].atlas = at.atlas;
-                    gpu[i].brickBase = at.brickBase;
-                    gpu[i].skipEmpty = s.gpu.skipEmpty;
+                        placements.at(std::size_t(s->model), s->frame);
+                    gpu[r].atlas = at.atlas;
+                    gpu[r].brickBase = at.brickBase;
+                    gpu[r].skipEmpty = s->gpu.skipEmpty;
                     ++c.second;
                     continue;
                 }
-                const SpriteSetup& s = *visible[i];
                 // The only fields the near tier adds to what core computed: where the voxels and
                 // their brick occupancy are. Composed here and stored once: the destination may
                 // be write-combined device memory (resizable BAR, written directly), where
                 // patching a record after storing it writes its lines twice across the bus.
-                kernel::SpriteGpu g = s.gpu;
+                kernel::SpriteGpu g = s->gpu;
                 const VoxelResidency::Placements::Frame& at =
-                    placements.at(std::size_t(s.model), s.frame);
+                    placements.at(std::size_t(s->model), s->frame);
                 g.atlas = at.atlas;
                 g.brickBase = at.brickBase;
-                gpu[i] = g;
-                // What the rate plan and the work lists read, gathered while the record is at
-                // hand (into the slot's arrays: the frames that keep the record keep these).
-                depths[i] = g.depth;
-                rects[i] = s.screenRect;
-                wishes[i] = cellRateWish(s, rate);
-                kept.entity[i] = e;
+                gpu[r] = g;
+                // What the rate plan and the work lists read, kept beside the record (the frames
+                // that keep the record keep these).
+                kept.depths[r] = g.depth;
+                kept.rects[r] = s->screenRect;
+                kept.wishes[r] = cellRateWish(*s, rate);
+                kept.entity[r] = e;
             }
             return c;
         },
@@ -254,6 +263,33 @@ void NearPasses::Impl::writeSprites(GpuFrame& frame, Slot& slot,
     kept.rate = rate;
     kept.buffer = slot.sprites.handle();
     kept.placements = placements;
+    // Each place's record, and what the ranking, the rate plan and the work lists read of it in
+    // the draw order: the slot's arrays themselves where the records lie there, else gathered
+    // from them (compact arrays, not the sprites).
+    auto* recordOf = static_cast<std::uint32_t*>(
+        frame.hostWrite(slot.recordOf, 0, VkDeviceSize(n) * sizeof(std::uint32_t)));
+    if (!byGiven) {
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
+            for (std::size_t p = range.begin(); p != range.end(); ++p)
+                recordOf[p] = std::uint32_t(p);
+        });
+        placeDepths = kept.depths, placeRects = kept.rects, placeWishes = kept.wishes;
+        return;
+    }
+    const std::vector<std::uint32_t>& order = keptOrder.order; // visible[p] == all[order[p]]
+    gatheredDepths.resize(n);
+    gatheredRects.resize(n);
+    gatheredWishes.resize(n);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& range) {
+        for (std::size_t p = range.begin(); p != range.end(); ++p) {
+            const std::uint32_t r = order[p];
+            recordOf[p] = r;
+            gatheredDepths[p] = kept.depths[r];
+            gatheredRects[p] = kept.rects[r];
+            gatheredWishes[p] = kept.wishes[r];
+        }
+    });
+    placeDepths = gatheredDepths, placeRects = gatheredRects, placeWishes = gatheredWishes;
 }
 
 void NearPasses::Impl::writeProxies(GpuFrame& frame, Slot& slot, const CameraFrame& cam,
@@ -361,7 +397,9 @@ void NearPasses::Impl::rankSprites(const CellRatePlan& plan, bool tracePixels) {
     const auto isRanked = [&](std::size_t k) {
         return tracePixels || plan.cellBase[k] != kNoCells;
     };
-    const auto nearer = [&](std::uint32_t a, std::uint32_t b) { return depths[a] > depths[b]; };
+    const auto nearer = [&](std::uint32_t a, std::uint32_t b) {
+        return placeDepths[a] > placeDepths[b];
+    };
     bool sorted = true;
     if (!runningTotalsInParallel(n)) {
         byDepth.clear();
@@ -428,7 +466,7 @@ NearPasses::Impl::CellWork NearPasses::Impl::buildWorkLists(const CellRatePlan& 
     const int tilesY = (height + int(NEAR_SPLAT_BLOCK) - 1) / int(NEAR_SPLAT_BLOCK);
     touched.assign(std::size_t(tilesX) * std::size_t(tilesY), 0);
     const auto rectOf = [&](std::size_t k) {
-        return glm::min(rects[k], glm::ivec4(width, height, width, height));
+        return glm::min(placeRects[k], glm::ivec4(width, height, width, height));
     };
     // A splat block is NEAR_SPLAT_BLOCK pixels a side, a trace block the trace's side.
     const auto sideOf = [&](bool cellRate) {
@@ -451,8 +489,8 @@ NearPasses::Impl::CellWork NearPasses::Impl::buildWorkLists(const CellRatePlan& 
             const bool cellRate = plan.cellBase[k] != kNoCells;
             const std::uint64_t nb = blockCount(k, sideOf(cellRate));
             if (cellRate) {
-                tileStart[k + 1] =
-                    (wishes[k].cells + near_gpu::NEAR_CELL_TILE - 1) / near_gpu::NEAR_CELL_TILE;
+                tileStart[k + 1] = (placeWishes[k].cells + near_gpu::NEAR_CELL_TILE - 1) /
+                                   near_gpu::NEAR_CELL_TILE;
                 splatStart[k + 1] = nb;
             } else {
                 traceStart[k + 1] = nb;
@@ -541,6 +579,7 @@ void NearPasses::Impl::writeDescriptors(GpuFrame& frame, Slot& slot) {
         {NEAR_BINDING_PIXEL_WORDS, pixelWords.handle()},
         {NEAR_BINDING_PLANES, frame.planes()},
         {NEAR_BINDING_BRICKS, residency.brickBuffer()},
+        {NEAR_BINDING_RECORD_OF, slot.recordOf.handle()},
     };
     constexpr std::size_t kBuffers = std::size(buffers);
     VkDescriptorBufferInfo infos[kBuffers];
@@ -731,18 +770,6 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
         3 * frame.planeBytes() <= m.device.properties().limits.maxStorageBufferRange;
     const NearRate rate = resolvable ? opt.rate : NearRate::Fragment;
     const auto tSprites = std::chrono::steady_clock::now();
-    // The per-sprite figures the lists read describe the slot's records: the slot's arrays are
-    // lent to this recording (a record kept keeps its figures in place), and taken back after.
-    const auto lend = [&m, &slot] {
-        m.depths.swap(slot.kept.depths);
-        m.rects.swap(slot.kept.rects);
-        m.wishes.swap(slot.kept.wishes);
-    };
-    lend();
-    struct TakeBack {
-        const decltype(lend)& give;
-        ~TakeBack() { give(); }
-    } takeBack{lend};
     m.writeSprites(frame, slot, models, sprites, opt, rate, stats, history);
     stats.recordSpritesMs = msSince(tSprites);
     const auto tLists = std::chrono::steady_clock::now();
@@ -762,7 +789,7 @@ void NearPasses::record(GpuFrame& frame, const CameraFrame& cam,
     CellRatePlan& plan = m.ratePlan;
     stats.recordListsUploadMs = 0.0; // summed over the lists' uploads (writeCells)
     const auto tPlan = std::chrono::steady_clock::now();
-    planCellRate(m.wishes, plan, opt.cellBudgetBytes);
+    planCellRate(m.placeWishes, plan, opt.cellBudgetBytes);
     stats.recordListsBuildMs = msSince(tPlan);
     stats.cellsTraced = plan.cells;
     stats.cellSprites = plan.cellSprites;

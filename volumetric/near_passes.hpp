@@ -77,6 +77,8 @@ struct NearOptions {
     /// llvmpipe the shaders that hold the box march ran the near tier 1.3-2x slower, skipping
     /// or not (docs/decisions/empty-space-skipping.md); a GPU's figure decides.
     bool skipEmpty = false;
+    /// Where the records lie (NearRecords).
+    NearRecords records = NearRecords::Drawn;
 };
 
 class VoxelResidency;

@@ -41,6 +41,7 @@ void NearPasses::Impl::createLayouts() {
         {NEAR_BINDING_PIXEL_WORDS, sb, 1, c, nullptr},
         {NEAR_BINDING_PLANES, sb, 1, c, nullptr},
         {NEAR_BINDING_BRICKS, sb, 1, f | c, nullptr},
+        {NEAR_BINDING_RECORD_OF, sb, 1, f | c, nullptr},
     };
     // The draw's pipelines share the layout; its push constants are the compute passes' alone.
     createPassLayouts(dev, bindings, sizeof(NearComputePush), setLayout, pipelineLayout);
@@ -122,7 +123,7 @@ void NearPasses::Impl::createSlot(Slot& s) {
                               VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, BufferClass::Readback);
     // Every binding has a buffer from the start (a binding never has size 0).
     for (VulkanBuffer* b : {&s.sprites, &s.boxes, &s.hulls, &s.cellBases, &s.cellTiles,
-                            &s.splatBlocks, &s.rankSprites})
+                            &s.splatBlocks, &s.rankSprites, &s.recordOf})
         ensure(*b, 4096);
 }
 

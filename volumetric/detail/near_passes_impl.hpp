@@ -12,6 +12,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <span>
 #include <utility>
 #include <vector>
 
@@ -49,9 +50,9 @@ struct NearPasses::Impl {
     VulkanBuffer cells, pixelWords;
 
     /// What a slot's sprite buffer holds, where it was written from a store's sprites: as of
-    /// which update of which store, with which rate and placements, and per place the entity
-    /// whose record it is (kNoEntity: a copy's, or unknown) with what the lists read of it (lent
-    /// to the recording of the slot's frames as Impl::depths, rects and wishes).
+    /// which update of which store, with which rate and placements, and per record the
+    /// entity whose record it is (kNoEntity: a copy's, not drawn, or unknown) with what the lists
+    /// read of it (Impl::placeDepths, placeRects and placeWishes in the draw order).
     struct KeptRecords {
         static constexpr std::uint32_t kNoEntity = SpriteHistory::kNoEntity;
         std::uint64_t store = 0, asOf = 0; ///< store 0: nothing kept
@@ -65,7 +66,9 @@ struct NearPasses::Impl {
     };
     /// Per frame in flight: what the host writes for a frame, its descriptor set and queries.
     struct Slot {
-        VulkanBuffer sprites, boxes, hulls, cellBases, cellTiles, splatBlocks, rankSprites;
+        /// sprites: the records, in the order given; recordOf: each draw place's record.
+        VulkanBuffer sprites, recordOf, boxes, hulls, cellBases, cellTiles, splatBlocks,
+            rankSprites;
         VulkanBuffer counters; ///< written by the counting shader, read by the host
         VkDescriptorSet set = VK_NULL_HANDLE;
         VkQueryPool statsPool = VK_NULL_HANDLE;
@@ -91,13 +94,17 @@ struct NearPasses::Impl {
     std::vector<std::uint32_t> places;
     /// Where each resident model frame lies, looked up once a frame (kept for its storage).
     VoxelResidency::Placements placements;
-    /// Per sprite of `visible`, gathered where the sprites are written (in parallel): its depth,
-    /// screen rectangle and rate wish. The ranking, the rate plan and the work lists read these
-    /// arrays and not each sprite's record again (at 100,000 sprites a record read is a cache
-    /// miss apiece, and each pass over them cost milliseconds).
-    std::vector<float> depths;
-    std::vector<glm::ivec4> rects;
-    std::vector<CellRateWish> wishes;
+    /// Per sprite of `visible`, its depth, screen rectangle and rate wish: the slot's kept arrays
+    /// where the records lie in the draw order, else gathered from them into the `gathered`
+    /// arrays after the records are written (in parallel). The ranking, the rate plan and the
+    /// work lists read these and not each sprite's record again (at 100,000 sprites a record read
+    /// is a cache miss apiece, and each pass over them cost milliseconds).
+    std::span<const float> placeDepths;
+    std::span<const glm::ivec4> placeRects;
+    std::span<const CellRateWish> placeWishes;
+    std::vector<float> gatheredDepths;
+    std::vector<glm::ivec4> gatheredRects;
+    std::vector<CellRateWish> gatheredWishes;
     /// This frame's cell-rate plan (kept for its storage).
     CellRatePlan ratePlan;
     std::vector<std::uint8_t> flat;

@@ -16,9 +16,7 @@
 #include "volumetric/shaders/near_voxels.h"
 #include "core/sprite_kernel.h"
 
-layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites {
-    SpriteGpu vtSprites[];
-};
+#include "volumetric/shaders/near_sprites.h"
 layout(std430, set = 0, binding = NEAR_BINDING_PALETTES) readonly buffer Palettes {
     uint vtPalettes[];
 };
@@ -28,7 +26,7 @@ layout(location = 0) out uint outColor;
 layout(location = 1) out uint outEntity;
 
 void main() {
-    SpriteGpu s = vtSprites[vInstance];
+    SpriteGpu s = vtSprites[vtRecordOf[vInstance]];
     vtAtlasBase = ivec3(s.atlas.xyz);
     vtBrickBase = s.brickBase;
     uint index;

@@ -13,9 +13,7 @@ layout(local_size_x = 64) in; // NEAR_CELL_TILE
 uint vtFetchVoxel(ivec3 cell);
 #include "core/sprite_kernel.h"
 
-layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites {
-    SpriteGpu vtSprites[];
-};
+#include "volumetric/shaders/near_sprites.h"
 layout(std430, set = 0, binding = NEAR_BINDING_CELL_BASES) readonly buffer CellBases {
     uint vtCellBases[];
 };
@@ -37,7 +35,7 @@ void main() {
     uint tile = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
     if (tile >= vtPush.count) return;
     uvec2 t = vtTiles[tile];
-    SpriteGpu s = vtSprites[t.x];
+    SpriteGpu s = vtSprites[vtRecordOf[t.x]];
     uint slot = t.y + gl_LocalInvocationID.x;
     uint rows = uint(s.cellRange.w - s.cellRange.z + 1);
     if (slot >= rows * vtCellRowLength(s)) return;

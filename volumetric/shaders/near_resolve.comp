@@ -15,9 +15,7 @@ layout(local_size_x = NEAR_SPLAT_BLOCK, local_size_y = 2) in;
 uint vtFetchVoxel(ivec3 cell);
 #include "core/sprite_kernel.h"
 
-layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites {
-    SpriteGpu vtSprites[];
-};
+#include "volumetric/shaders/near_sprites.h"
 layout(std430, set = 0, binding = NEAR_BINDING_PALETTES) readonly buffer Palettes {
     uint vtPalettes[];
 };
@@ -49,7 +47,7 @@ void main() {
         uint p = y * vtPush.width + x;
         uint word = vtPixelWords[p];
         if (word == NEAR_NO_RANK) continue;
-        uint sprite = vtRankSprites[word >> NEAR_RANK_SHIFT];
+        uint sprite = vtRecordOf[vtRankSprites[word >> NEAR_RANK_SHIFT]];
         float depth = vtSprites[sprite].depth;
         uint entity = vtSprites[sprite].dims.w;
         float drawnDepth = uintBitsToFloat(vtPlanes[2u * plane + p]);

@@ -19,7 +19,7 @@ using uint = std::uint32_t;
 
 // Descriptor set 0 of the near pipeline.
 VT_NEAR_CONST uint NEAR_BINDING_SPRITES =
-    0u; // SpriteGpu[]: one per drawn sprite, in draw order (near_renderer.hpp)
+    0u; // SpriteGpu[]: the drawn sprites' records, laid out by NearRecords (near_sprites.h)
 VT_NEAR_CONST uint NEAR_BINDING_ATLAS = 1u; // usampler3D: R8_UINT voxel atlas (palette indices)
 VT_NEAR_CONST uint NEAR_BINDING_PALETTES =
     2u; // uint[]: 256 packed RGBA8 colours per resident model
@@ -51,6 +51,8 @@ VT_NEAR_CONST uint NEAR_BINDING_PLANES = 12u;
 // uint[]: the brick occupancy words (core/sprite_kernel.h vtBrickIndex) of every resident model
 // frame, each frame's from its SpriteGpu::brickBase (volumetric/voxel_residency.hpp).
 VT_NEAR_CONST uint NEAR_BINDING_BRICKS = 13u;
+// uint[]: per place in the draw order, the index of its sprite's record (near_sprites.h).
+VT_NEAR_CONST uint NEAR_BINDING_RECORD_OF = 14u;
 VT_NEAR_CONST uint NEAR_NO_RANK = 0xFFFFFFFFu; // a pixel word no cell-rate sprite wrote
 VT_NEAR_CONST uint NEAR_SPLAT_BLOCK = 32u;     // pixels per side of a splat workgroup
 // A pixel word: depth rank << NEAR_RANK_SHIFT | kind | face << 2 | palette index << 5. The

@@ -19,9 +19,7 @@ layout(local_size_x = NEAR_SPLAT_BLOCK, local_size_y = 2) in;
 uint vtFetchVoxel(ivec3 cell);
 #include "core/sprite_kernel.h"
 
-layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites {
-    SpriteGpu vtSprites[];
-};
+#include "volumetric/shaders/near_sprites.h"
 layout(std430, set = 0, binding = NEAR_BINDING_CELL_BASES) readonly buffer CellBases {
     uint vtCellBases[];
 };
@@ -45,7 +43,7 @@ void main() {
     uint x = (b.origin & 0xFFFFu) + gl_LocalInvocationID.x;
     if (x >= (b.end & 0xFFFFu)) return;
     uint yEnd = min(b.end >> 16, (b.origin >> 16) + NEAR_SPLAT_BLOCK);
-    SpriteGpu s = vtSprites[b.sprite];
+    SpriteGpu s = vtSprites[vtRecordOf[b.sprite]];
     uint base = vtPush.cells + vtCellBases[b.sprite];
     for (uint y = (b.origin >> 16) + gl_LocalInvocationID.y; y < yEnd; y += 2u) {
         ivec2 cell;

@@ -26,9 +26,7 @@ layout(local_size_x_id = 1, local_size_y_id = 0) in;
 #include "volumetric/shaders/near_voxels.h"
 #include "core/sprite_kernel.h"
 
-layout(std430, set = 0, binding = NEAR_BINDING_SPRITES) readonly buffer Sprites {
-    SpriteGpu vtSprites[];
-};
+#include "volumetric/shaders/near_sprites.h"
 layout(std430, set = 0, binding = NEAR_BINDING_SPLAT_BLOCKS) readonly buffer SplatBlocks {
     NearSplatBlock vtBlocks[];
 };
@@ -46,7 +44,7 @@ void main() {
     uint x = (b.origin & 0xFFFFu) + gl_LocalInvocationID.x;
     if (x >= (b.end & 0xFFFFu)) return;
     uint yEnd = min(b.end >> 16, (b.origin >> 16) + gl_WorkGroupSize.x);
-    SpriteGpu s = vtSprites[b.sprite];
+    SpriteGpu s = vtSprites[vtRecordOf[b.sprite]];
     vtAtlasBase = ivec3(s.atlas.xyz);
     vtBrickBase = s.brickBase;
 #ifdef VT_COUNT_STEPS
