@@ -44,7 +44,7 @@ enum class NearRecords {
     Drawn,
     /// At the sprite's place in the order given (a store's: entity order): the host reads the
     /// sprites in sequence, the device each record through its place (100,000 moving tanks on
-    /// the 2-core host: the records' loop 1.1-1.4 ms shorter, llvmpipe's device frame 0-10 %
+    /// the 2-core host: the records' loop 1.0-1.6 ms shorter, llvmpipe's device frame 0-12 %
     /// longer). Meant for a GPU, whose caches take the scattered reads; its figures decide the
     /// default (docs/decisions/entity-scaling.md, stop 70).
     Given,

@@ -292,7 +292,7 @@ if ((profile)); then
     # in the draw order (the host gathers them from the sprites) or in entity order (the host reads
     # the sprites in sequence, the device finds each through its place). The default is `drawn`
     # until a GPU's figures say otherwise: on lavapipe `given` shortened the host's records by
-    # 1.1-1.4 ms at 100,000 tanks and lengthened the device's frame by 0-5 %.
+    # 1.0-1.6 ms at 100,000 tanks and lengthened the device's frame by 0-12 %.
     phase records
     for l in drawn given; do
         if ! "$bin" render "$army" --mode near --near-backend vulkan --near-records "$l" \
