@@ -66,7 +66,7 @@ struct NearPasses::Impl {
     };
     /// Per frame in flight: what the host writes for a frame, its descriptor set and queries.
     struct Slot {
-        /// sprites: the records, in the order given; recordOf: each draw place's record.
+        /// sprites: the records, laid out by NearRecords; recordOf: each draw place's record.
         VulkanBuffer sprites, recordOf, boxes, hulls, cellBases, cellTiles, splatBlocks,
             rankSprites;
         VulkanBuffer counters; ///< written by the counting shader, read by the host
