@@ -386,7 +386,8 @@ FrameResult FrameRenderer::render(double time, RenderMode mode, int frame) {
     return finish(submit(time, mode, frame));
 }
 
-FrameRenderer::PendingFrame FrameRenderer::submit(double time, RenderMode mode, int frame) {
+FrameRenderer::PendingFrame FrameRenderer::submit(double time, RenderMode mode, int frame,
+                                                  const std::function<void()>& selected) {
     // Auto's one-time probe of the Vulkan loader (lavapipe's instance alone takes ~0.1 s) is not
     // part of any frame's time: a hybrid frame decides before the clock starts.
     if (mode == RenderMode::Hybrid) (void)nearBackend();
@@ -414,6 +415,7 @@ FrameRenderer::PendingFrame FrameRenderer::submit(double time, RenderMode mode, 
     const auto t1 = Clock::now();
     out.plan = planEntities(mode, st);
     st.hostSelectMs = msSince(t1);
+    if (selected) selected();
 
     // 3-5. Near sprites, then far sprites (lazy bakes, blit), composed by min-z: drawn here, or,
     // wholly on Vulkan, submitted here and read back by finish().

@@ -290,7 +290,11 @@ class FrameRenderer {
     /// for it, reads it back and completes the frame (backdrop, overlay, pops, cost model). A
     /// frame with a CPU tier is drawn whole by submit(). Finish frames in the order submitted,
     /// at most two in flight.
-    PendingFrame submit(double time, RenderMode mode, int frame = 0);
+    /// `selected`, if given, runs once the frame is set up and selected, before it is drawn or
+    /// recorded: a caller's work that should share the cores with the drawing rather than with
+    /// the set-up and selection (the render command's writing of the frame before's files).
+    PendingFrame submit(double time, RenderMode mode, int frame = 0,
+                        const std::function<void()>& selected = {});
     FrameResult finish(PendingFrame frame);
 
     /// Draws `sprites` as `plan` says, with no selector involved: near sprites (and the near

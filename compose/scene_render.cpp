@@ -37,15 +37,17 @@ FrameResult SceneRenderer::renderAt(double time, RenderMode mode) {
     return frames_.finish(submitAt(time, mode));
 }
 
-FrameRenderer::PendingFrame SceneRenderer::submit(int frame, RenderMode mode) {
+FrameRenderer::PendingFrame SceneRenderer::submit(int frame, RenderMode mode,
+                                                  const std::function<void()>& selected) {
     frames_.applyEditsThrough(frame);
-    return frames_.submit(scene_.timeOfFrame(frame), mode, frame);
+    return frames_.submit(scene_.timeOfFrame(frame), mode, frame, selected);
 }
 
-FrameRenderer::PendingFrame SceneRenderer::submitAt(double time, RenderMode mode) {
+FrameRenderer::PendingFrame SceneRenderer::submitAt(double time, RenderMode mode,
+                                                    const std::function<void()>& selected) {
     const int frame = frameAtTime(scene_, time);
     frames_.applyEditsThrough(frame);
-    return frames_.submit(time, mode, frame);
+    return frames_.submit(time, mode, frame, selected);
 }
 
 FrameResult renderStill(const Scene& scene, const FrameOptions& options) {

@@ -8,6 +8,7 @@
 #include "core/scene.hpp"
 #include "core/view_set.hpp"
 
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -49,9 +50,11 @@ class SceneRenderer {
     /// `--time T`: the frame at time `time`, after the edits due by frameAtTime(scene(), time).
     FrameResult renderAt(double time, RenderMode mode = RenderMode::Hybrid);
     /// render() and renderAt() in two halves (FrameRenderer::submit, finished by
-    /// frames().finish()): a sequence keeps two frames in flight.
-    FrameRenderer::PendingFrame submit(int frame = 0, RenderMode mode = RenderMode::Hybrid);
-    FrameRenderer::PendingFrame submitAt(double time, RenderMode mode = RenderMode::Hybrid);
+    /// frames().finish()): a sequence keeps two frames in flight. `selected` as submit's.
+    FrameRenderer::PendingFrame submit(int frame = 0, RenderMode mode = RenderMode::Hybrid,
+                                       const std::function<void()>& selected = {});
+    FrameRenderer::PendingFrame submitAt(double time, RenderMode mode = RenderMode::Hybrid,
+                                         const std::function<void()>& selected = {});
 
     /// The scene as drawn: the camera rule applied, the edits applied so far.
     const Scene& scene() const { return scene_; }

@@ -384,5 +384,27 @@ TEST(HybridFrame, SecondFrameReusesSnapshots) {
     EXPECT_TRUE(diffImages(a.image, b.image).identical());
 }
 
+// submit()'s `selected` (what the render command starts its file writer from): once a frame, after
+// its set-up and selection and before its drawing, which bakes the far tier's snapshots.
+TEST(HybridFrame, SubmitCallsSelectedOnceBetweenSelectionAndDrawing) {
+    Scene s = corridor(10, 3.0, {key(0, {0, 1, 8}, {0, 0, -30})}, band(6, 9));
+    FrameRenderer r(s, cpuNear());
+    int calls = 0;
+    std::uint64_t bakesThen = ~std::uint64_t(0);
+    FrameRenderer::PendingFrame pending = r.submit(0.0, RenderMode::Hybrid, 0, [&] {
+        ++calls;
+        bakesThen = r.snapshotCache().counters().bakes;
+    });
+    EXPECT_EQ(calls, 1);
+    EXPECT_EQ(bakesThen, 0u) << "called after the far tier drew";
+    const FrameResult a = r.finish(std::move(pending));
+    EXPECT_GT(a.stats.far.bakes, 0); // the far tier drew after the call
+    EXPECT_GT(a.stats.farDrawn, 0);
+    EXPECT_EQ(calls, 1);
+    // Without one, the same frame.
+    FrameRenderer plain(s, cpuNear());
+    EXPECT_TRUE(diffImages(plain.render(0.0, RenderMode::Hybrid).image, a.image).identical());
+}
+
 } // namespace
 } // namespace voxtier
